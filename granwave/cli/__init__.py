@@ -1,0 +1,71 @@
+"""The ``granwave`` command: a click group whose stages load lazily.
+
+Each stage lives in its own small module under ``granwave.cli``; it is only
+imported when the stage runs, so ``granwave --help`` stays instant (no numba).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import click
+
+from .. import __version__
+
+
+class LazyGroup(click.Group):
+    """A click group whose subcommands are imported on first use."""
+
+    def __init__(self, *args, lazy_commands: dict[str, str] | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.lazy_commands = dict(lazy_commands or {})
+
+    def list_commands(self, ctx):
+        return sorted(set(super().list_commands(ctx)) | set(self.lazy_commands))
+
+    def get_command(self, ctx, name):
+        if name in self.lazy_commands:
+            module_name, attr = self.lazy_commands[name].split(":")
+            return getattr(importlib.import_module(module_name), attr)
+        return super().get_command(ctx, name)
+
+    def format_commands(self, ctx, formatter):
+        # Short help without importing every stage: the first docstring line of each.
+        rows = []
+        for name in self.list_commands(ctx):
+            try:
+                cmd = self.get_command(ctx, name)
+            except ImportError as exc:  # a stage whose module is missing: say so, keep --help usable
+                rows.append((name, f"(unavailable: {exc})"))
+                continue
+            if cmd is not None and not cmd.hidden:
+                rows.append((name, cmd.get_short_help_str(limit=70)))
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+
+STAGES = {
+    "prepare-packing": "granwave.cli.prepare:prepare_packing",
+    "lattice": "granwave.cli.systems:lattice",
+    "chain": "granwave.cli.systems:chain",
+    "linearize": "granwave.cli.linear:linearize",
+    "eigensolve": "granwave.cli.linear:eigensolve",
+    "propagate": "granwave.cli.propagate:propagate",
+    "analyze": "granwave.cli.analyze:analyze",
+    "pressure-sweep": "granwave.cli.sweep:pressure_sweep",
+    "plot": "granwave.cli.plot:plot",
+    "report": "granwave.cli.report:report",
+}
+
+
+@click.group(cls=LazyGroup, lazy_commands=STAGES,
+             context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="granwave")
+def main():
+    """granwave: sound in granular packings, from DEM packings to coherent fronts.
+
+    Stages exchange HDF5 files: prepare-packing (or lattice / chain) ->
+    linearize -> eigensolve -> propagate -> analyze. Units: mean grain
+    diameter, grain density and E* = E/(1-nu^2) are 1 (see docs/units.md).
+    """

@@ -1,0 +1,19 @@
+"""``granwave analyze ...``: the analysis subcommands (each in its own module)."""
+
+import click
+
+from . import LazyGroup
+
+ANALYSES = {
+    "statics": "granwave.cli.analyze_statics:statics",
+    "front": "granwave.cli.analyze_front:front",
+    "moduli": "granwave.cli.analyze_moduli:moduli",
+    "heights": "granwave.cli.analyze_heights:heights",
+    "ensemble": "granwave.cli.analyze_ensemble:ensemble",
+    "spectrum": "granwave.cli.analyze_spectrum:spectrum",
+}
+
+
+@click.group(cls=LazyGroup, lazy_commands=ANALYSES)
+def analyze():
+    """Measure packings, signals and spectra (SPEC §4, §6, §7, §9)."""

@@ -1,0 +1,177 @@
+"""The Hertz–Mindlin contact law with Coulomb friction and viscous damping (SPEC §2).
+
+This is the one place the law is written: the DEM engine and the
+linearization both call these functions. All are scalar ``numba`` kernels
+(plus two tiny in-place vector helpers) so that the engine's loops inline them.
+
+Units (SPEC §1): lengths in mean diameters, E* = E/(1-nu^2) = 1 per grain,
+density 1. A wall is rigid and flat: pass ``inv_radius = 0`` and
+``wall = True`` so that R12 = R_grain, E*12 = E*_grain, G*12 = G*_grain.
+
+Unloading rule (SPEC §2 asks us to state it)
+--------------------------------------------
+The tangential force F_t is contact history, updated incrementally:
+
+1. when the overlap *decreases* from n_old to n_new, F_t is first scaled by
+   k_t(n_new)/k_t(n_old) = sqrt(n_new/n_old) (as LAMMPS' ``mindlin/rescale``);
+   when it increases, F_t is left as it is;
+2. then ΔF_t = k_t(n_new) Δs is added;
+3. then F_t is put back on the Coulomb cone |F_t| <= mu F_n if it left it.
+
+Why this creates no energy: take W_t = |F_t|^2 / (2 k_t) as the energy stored
+in the tangential spring. Step 2 changes W_t by exactly the work F_t·Δs done
+on the contact (to second order in the step). Step 1 on unloading multiplies
+W_t by sqrt(n_new/n_old) < 1; on loading k_t grows with F_t fixed, so W_t
+falls. Step 3 only lowers |F_t|. Hence over any path the work done on the
+tangential spring is >= W_t(end) - W_t(start) >= -W_t(start): a closed loop of
+loading and unloading can dissipate but never deliver more energy than the
+spring held (tested in tests/test_contact.py). Without step 1, the classic
+loop "shear at small n, load, shear back, unload" ends with a nonzero force
+at zero displacement and can pump energy out (Elata & Berryman 1996).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+FOUR_THIRDS = 4.0 / 3.0
+
+# Grain material: E* = 1 for every grain (SPEC §1).
+YOUNG_STAR = 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def shear_modulus_star(poisson: float) -> float:
+    """Per-grain G* = E*(1-nu)/(4-2nu) in units of E* (SPEC §2)."""
+    return YOUNG_STAR * (1.0 - poisson) / (4.0 - 2.0 * poisson)
+
+
+@numba.njit(cache=True, inline="always")
+def stiffness_ratio(poisson: float) -> float:
+    """eta = k_t/k_n = 2(1-nu)/(2-nu): 1 for nu = 0, 2/3 for nu = 0.5."""
+    return 2.0 * (1.0 - poisson) / (2.0 - poisson)
+
+
+@numba.njit(cache=True, inline="always")
+def effective_radius(inv_radius_i: float, inv_radius_j: float) -> float:
+    """R12 = (1/R_i + 1/R_j)^-1; a wall has inv_radius 0."""
+    return 1.0 / (inv_radius_i + inv_radius_j)
+
+
+@numba.njit(cache=True, inline="always")
+def effective_young(wall: bool) -> float:
+    """E*12: 1/2 between two grains of the same material, E* against a rigid wall."""
+    return YOUNG_STAR if wall else 0.5 * YOUNG_STAR
+
+
+@numba.njit(cache=True, inline="always")
+def effective_shear(poisson: float, wall: bool) -> float:
+    """G*12: half the per-grain G* between grains, the full G* against a rigid wall."""
+    g = shear_modulus_star(poisson)
+    return g if wall else 0.5 * g
+
+
+@numba.njit(cache=True, inline="always")
+def normal_force(overlap: float, r12: float, e12: float) -> float:
+    """Hertz force F_n = (4/3) sqrt(R12) E*12 n^(3/2); zero without overlap."""
+    if overlap <= 0.0:
+        return 0.0
+    return FOUR_THIRDS * math.sqrt(r12) * e12 * overlap * math.sqrt(overlap)
+
+
+@numba.njit(cache=True, inline="always")
+def normal_energy(overlap: float, r12: float, e12: float) -> float:
+    """Hertz elastic energy (8/15) sqrt(R12) E*12 n^(5/2), whose derivative is F_n."""
+    if overlap <= 0.0:
+        return 0.0
+    return 0.5333333333333333 * math.sqrt(r12) * e12 * overlap * overlap * math.sqrt(overlap)
+
+
+@numba.njit(cache=True, inline="always")
+def normal_stiffness(overlap: float, r12: float, e12: float) -> float:
+    """k_n = dF_n/dn = 2 sqrt(R12) E*12 n^(1/2)."""
+    if overlap <= 0.0:
+        return 0.0
+    return 2.0 * math.sqrt(r12) * e12 * math.sqrt(overlap)
+
+
+@numba.njit(cache=True, inline="always")
+def tangential_stiffness(overlap: float, r12: float, g12: float) -> float:
+    """Mindlin k_t = 8 G*12 sqrt(R12 n)."""
+    if overlap <= 0.0:
+        return 0.0
+    return 8.0 * g12 * math.sqrt(r12 * overlap)
+
+
+@numba.njit(cache=True, inline="always")
+def damping_coefficient(zeta: float, reduced_mass: float, stiffness: float) -> float:
+    """Viscous coefficient c = 2 zeta sqrt(m_eff k): a fraction zeta of critical."""
+    return 2.0 * zeta * math.sqrt(reduced_mass * stiffness)
+
+
+@numba.njit(cache=True, inline="always")
+def reduced_mass(mass_i: float, mass_j: float, wall: bool) -> float:
+    """m_eff = m_i m_j / (m_i + m_j); the grain's own mass against a wall."""
+    if wall:
+        return mass_i
+    return mass_i * mass_j / (mass_i + mass_j)
+
+
+@numba.njit(cache=True, inline="always")
+def total_normal_force(elastic: float, viscous: float) -> float:
+    """Elastic plus viscous normal force (repulsive positive), never attractive."""
+    f = elastic + viscous
+    return f if f > 0.0 else 0.0
+
+
+@numba.njit(cache=True)
+def project_tangential(ft: np.ndarray, normal: np.ndarray) -> None:
+    """Carry F_t into the tangent plane of a rotated contact frame, in place.
+
+    The normal component is removed and the magnitude restored, so the frame
+    rotation neither creates nor destroys tangential force.
+    """
+    dot = 0.0
+    old2 = 0.0
+    for a in range(ft.shape[0]):
+        dot += ft[a] * normal[a]
+        old2 += ft[a] * ft[a]
+    new2 = 0.0
+    for a in range(ft.shape[0]):
+        ft[a] -= dot * normal[a]
+        new2 += ft[a] * ft[a]
+    if new2 > 0.0:
+        scale = math.sqrt(old2 / new2)
+        for a in range(ft.shape[0]):
+            ft[a] *= scale
+
+
+@numba.njit(cache=True)
+def update_tangential(ft: np.ndarray, slip: np.ndarray, overlap_old: float, overlap_new: float,
+                      kt_new: float, fn: float, friction: float) -> bool:
+    """Incremental Mindlin update of the tangential force ``ft`` in place.
+
+    ``slip`` is the increment Δs of relative tangential displacement of the
+    surfaces at the contact point (of j relative to i, so that the force on i
+    grows along it), ``fn`` the elastic normal force magnitude. Applies the
+    unloading rescale, the increment k_t Δs and the Coulomb cap (module
+    docstring). Returns True when the contact slides.
+    """
+    if overlap_new < overlap_old and overlap_old > 0.0:
+        scale = math.sqrt(overlap_new / overlap_old) if overlap_new > 0.0 else 0.0
+        for a in range(ft.shape[0]):
+            ft[a] *= scale
+    f2 = 0.0
+    for a in range(ft.shape[0]):
+        ft[a] += kt_new * slip[a]
+        f2 += ft[a] * ft[a]
+    cap = friction * fn
+    if f2 > cap * cap:
+        scale = cap / math.sqrt(f2) if f2 > 0.0 else 0.0
+        for a in range(ft.shape[0]):
+            ft[a] *= scale
+        return True
+    return False

@@ -1,0 +1,165 @@
+"""The HDF5 layout of every granwave file: the one place names live.
+
+Every file carries root attributes ``schema`` (one of the names below) and
+``schema_version`` ("MAJOR.MINOR"). Readers refuse another schema or another
+major version; changes within a major version only add names.
+
+Trees (dataset: shape, units)::
+
+    granwave.packing                       (prepare-packing, lattice, chain)
+    ├── grains/position          (N, dim)   d
+    ├── grains/radius            (N,)       d
+    ├── grains/mass              (N,)       rho d^3
+    ├── grains/inertia           (N,)       rho d^5
+    ├── box/size                 (dim,)     d   periodic lengths; last = wall-to-piston distance
+    └── contacts/                (M rows, force-carrying contacts only)
+        ├── i, j                 (M,)       int; j = -1 bottom wall, -2 top wall/piston
+        ├── normal               (M, dim)   unit vector from i towards j
+        ├── overlap              (M,)       d
+        ├── force_normal         (M,)       E* d^2  magnitude; force on i is -force_normal*normal
+        ├── force_tangential     (M, dim)   E* d^2  tangential force on i from j
+        ├── stiffness_normal     (M,)       E* d
+        └── stiffness_tangential (M,)       E* d
+
+    granwave.linear                        (linearize)
+    ├── matrix/data, matrix/indices, matrix/indptr    CSR of D (n, n)   E* d (per dof units)
+    ├── mass                     (n,)       rho d^3 (translation) / rho d^5 (rotation)
+    ├── dof/grain                (n,)       int, grain index in the packing
+    ├── dof/axis                 (n,)       int, 0..dim-1 translation, dim.. rotation
+    ├── source/velocity          (n,)       initial velocity of IC A
+    ├── source/displacement      (n,)       initial displacement of IC B
+    └── detector                 (n,)       F_sig = detector . u   (E* d)
+
+    granwave.modes                         (eigensolve)
+    ├── omega2                   (n,)       1/t^2, ascending
+    ├── amplitude_A, amplitude_B (n,)       a_n for IC A / B (mass-normalized modes)
+    ├── coupling                 (n,)       b_n = detector . phi_n
+    └── vectors                  (n, n)     optional, columns phi_n (M-orthonormal)
+
+    granwave.signal                        (propagate)
+    ├── signal/time              (T,)       t
+    ├── signal/force             (T,)       E* d^2
+    ├── snapshots/time           (S,)       optional
+    ├── snapshots/displacement   (S, n)     optional
+    ├── snapshots/dof_grain, snapshots/dof_axis (n,)  optional
+    └── snapshots/position       (N, dim)   optional, reference positions
+
+    granwave.ensemble                      (analyze ensemble)
+    ├── ensemble/time, ensemble/mean, ensemble/rms   (T,)
+
+The tables below (``DATASETS``) give units and a description of each name;
+``docs/formats.md`` is generated from them by ``python -m granwave.io.schema``.
+"""
+
+from __future__ import annotations
+
+PACKING = "granwave.packing"
+LINEAR = "granwave.linear"
+MODES = "granwave.modes"
+SIGNAL = "granwave.signal"
+ENSEMBLE = "granwave.ensemble"
+SWEEP = "granwave.sweep"
+
+VERSIONS = {
+    PACKING: "1.0",
+    LINEAR: "1.0",
+    MODES: "1.0",
+    SIGNAL: "1.0",
+    ENSEMBLE: "1.0",
+    SWEEP: "1.0",
+}
+
+# Wall indices in contacts/j.
+BOTTOM_WALL = -1
+TOP_WALL = -2
+
+# name -> (units, description), per schema.
+DATASETS: dict[str, dict[str, tuple[str, str]]] = {
+    PACKING: {
+        "grains/position": ("d", "grain centres (N, dim); bottom wall at 0 along the last axis"),
+        "grains/radius": ("d", "grain radii (N,)"),
+        "grains/mass": ("rho d^3", "grain masses rho*pi*d^3/6 (N,)"),
+        "grains/inertia": ("rho d^5", "moments of inertia m d^2/10 (N,)"),
+        "box/size": ("d", "periodic lengths, then the bottom-wall-to-piston distance (dim,)"),
+        "contacts/i": ("1", "first grain of a contact (M,)"),
+        "contacts/j": ("1", "second grain, or -1 bottom wall, -2 top wall (M,)"),
+        "contacts/normal": ("1", "unit vector from i towards j (M, dim)"),
+        "contacts/overlap": ("d", "overlap R_i + R_j - r_ij (M,)"),
+        "contacts/force_normal": ("E* d^2", "normal force magnitude; force on i is -f n (M,)"),
+        "contacts/force_tangential": ("E* d^2", "tangential force on i from j (M, dim)"),
+        "contacts/stiffness_normal": ("E* d", "k_n = dF_n/dn (M,)"),
+        "contacts/stiffness_tangential": ("E* d", "k_t (Mindlin) (M,)"),
+    },
+    LINEAR: {
+        "matrix/data": ("E* d", "CSR data of the stiffness matrix D"),
+        "matrix/indices": ("1", "CSR column indices"),
+        "matrix/indptr": ("1", "CSR row pointers"),
+        "mass": ("rho d^3 | rho d^5", "diagonal of M (mass or moment of inertia) (n,)"),
+        "dof/grain": ("1", "grain index of each degree of freedom (n,)"),
+        "dof/axis": ("1", "0..dim-1 translation axis, dim.. rotation axis (n,)"),
+        "source/velocity": ("sqrt(E*/rho)", "initial velocity vector of initial condition A (n,)"),
+        "source/displacement": ("d", "initial displacement vector of initial condition B (n,)"),
+        "detector": ("E* d", "F_sig = detector . u (n,)"),
+    },
+    MODES: {
+        "omega2": ("E*/(rho d^2)", "eigenvalues omega^2 of D phi = omega^2 M phi, ascending (n,)"),
+        "amplitude_A": ("d", "a_n for initial condition A: u = sum a_n phi_n sin(w_n t) (n,)"),
+        "amplitude_B": ("d", "a_n for initial condition B: u = sum a_n phi_n cos(w_n t) (n,)"),
+        "coupling": ("E* d / sqrt(rho d^3)", "b_n = detector . phi_n (n,)"),
+        "vectors": ("1/sqrt(rho d^3)", "M-orthonormal eigenvectors as columns (n, n), optional"),
+    },
+    SIGNAL: {
+        "signal/time": ("d/sqrt(E*/rho)", "sample times (T,)"),
+        "signal/force": ("E* d^2", "extra vertical force on the top wall (T,)"),
+        "snapshots/time": ("d/sqrt(E*/rho)", "snapshot times (S,)"),
+        "snapshots/displacement": ("d", "displacement field at the snapshot times (S, n)"),
+        "snapshots/dof_grain": ("1", "grain index of each dof (n,)"),
+        "snapshots/dof_axis": ("1", "axis of each dof (n,)"),
+        "snapshots/position": ("d", "equilibrium grain positions (N, dim)"),
+    },
+    ENSEMBLE: {
+        "ensemble/time": ("d/sqrt(E*/rho)", "common time grid (T,)"),
+        "ensemble/mean": ("E* d^2", "average signal (T,)"),
+        "ensemble/rms": ("E* d^2", "root-mean-square deviation from the average (T,)"),
+    },
+    SWEEP: {},
+}
+
+# Root attributes every file of a schema must carry (beyond schema, schema_version,
+# granwave_version, git_revision, command_line).
+REQUIRED_ATTRS: dict[str, tuple[str, ...]] = {
+    PACKING: ("dim", "pressure", "friction", "poisson", "seed", "converged", "max_acceleration", "kind"),
+    LINEAR: ("dim", "pressure", "friction", "height", "prestress"),
+    MODES: ("dim", "pressure", "height", "n_zero_modes"),
+    SIGNAL: ("ic", "method", "height"),
+    ENSEMBLE: ("n_signals",),
+    SWEEP: (),
+}
+
+
+def formats_markdown() -> str:
+    """The docs/formats.md text, generated from the tables above."""
+    lines = [
+        "# granwave file formats",
+        "",
+        "Generated by `python -m granwave.io.schema > docs/formats.md`; do not edit by hand.",
+        "",
+        "Every file is HDF5 with root attributes `schema`, `schema_version`, `granwave_version`,",
+        "`git_revision`, `command_line`, the run's parameters, and a `units` attribute on every",
+        "dataset. Readers refuse another schema or another major version.",
+        "Wall indices in `contacts/j`: bottom wall = -1, top wall / piston = -2.",
+        "",
+    ]
+    for schema, table in DATASETS.items():
+        lines += [f"## `{schema}` (version {VERSIONS[schema]})", ""]
+        req = ", ".join(f"`{a}`" for a in REQUIRED_ATTRS[schema]) or "none beyond provenance"
+        lines += [f"Required root attributes: {req}.", ""]
+        if table:
+            lines += ["| dataset | units | meaning |", "|---|---|---|"]
+            lines += [f"| `{name}` | {units} | {desc} |" for name, (units, desc) in table.items()]
+            lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(formats_markdown())
