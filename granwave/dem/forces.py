@@ -1,0 +1,208 @@
+"""Contact tables and forces with frozen contact history (docs/conventions.md).
+
+:func:`frozen_history_forces` is the contract between the DEM engine and the
+linearization: forces after a small displacement and rotation of the grains
+from the stored packing, with the stored contact list and tangential forces
+as history, no unloading rescale and no Coulomb cap. It calls the engine's own
+per-contact routine :func:`granwave.dem.kernels.contact_force` (with dt = 1
+and the displacement in place of the velocity), so the two cannot diverge.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .. import contact as C
+from ..geometry import nearest_image
+from ..model import Contacts, Packing
+from . import kernels as K
+
+
+@numba.njit(cache=True)
+def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, force, torque):
+    n_grains, d = pos.shape
+    r = rot.shape[1]
+    e_pair = C.effective_young(False)
+    e_wall = C.effective_young(True)
+    g_pair = C.effective_shear(poisson, False)
+    g_wall = C.effective_shear(poisson, True)
+    nv = np.zeros(d)
+    du = np.zeros(d)
+    slip = np.zeros(d)
+    fvec = np.zeros(d)
+    ft = np.zeros(d)
+    force[:, :] = 0.0
+    torque[:, :] = 0.0
+    for c in range(ci.shape[0]):
+        i = ci[c]
+        j = cj[c]
+        R = rad[i]
+        if j >= 0:
+            r2 = 0.0
+            for a in range(d):
+                x = (pos[j, a] + disp[j, a]) - (pos[i, a] + disp[i, a])
+                if a < d - 1:
+                    x = nearest_image(x, lateral[a])
+                nv[a] = x
+                r2 += x * x
+            dist = math.sqrt(r2)
+            delta = R + rad[j] - dist
+            for a in range(d):
+                nv[a] /= dist
+                du[a] = disp[j, a] - disp[i, a]
+            ai = R - 0.5 * delta
+            aj = rad[j] - 0.5 * delta
+            r12 = C.effective_radius(1.0 / R, 1.0 / rad[j])
+            e12 = e_pair
+            g12 = g_pair
+        else:
+            y = pos[i, d - 1] + disp[i, d - 1]
+            delta = R - y if j == -1 else R - (h - y)
+            for a in range(d):
+                nv[a] = 0.0
+                du[a] = -disp[i, a]
+            nv[d - 1] = -1.0 if j == -1 else 1.0
+            ai = R - delta
+            aj = 0.0
+            r12 = R
+            e12 = e_wall
+            g12 = g_wall
+        if delta <= 0.0:  # the contact opened: no force, history gone
+            continue
+        if r > 0:
+            K.rotation_velocity(du, nv, rot, i, j, ai, aj)
+        for a in range(d):
+            ft[a] = ft_stored[c, a]
+        # overlap_old = delta: no unloading rescale; mu = inf (or 0): no Coulomb cap
+        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, slip, fvec)
+        for a in range(d):
+            force[i, a] += fvec[a]
+        if r > 0:
+            K.add_torque(torque, i, ai, nv, fvec)
+        if j >= 0:
+            for a in range(d):
+                force[j, a] -= fvec[a]
+            if r > 0:
+                K.add_torque(torque, j, aj, nv, fvec)
+
+
+def n_rotations(dim: int, friction: float) -> int:
+    """Rotational dof per grain: 0 without friction, 1 in 2D, 3 in 3D."""
+    return 0 if friction == 0.0 else (1 if dim == 2 else 3)
+
+
+def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
+    """Total force (N, dim) and torque (N, n_rot) on every grain after displacing
+    the grains by ``displacement`` (N, dim) and rotating them by ``rotation``
+    (N, n_rot) from the stored state (docs/conventions.md).
+
+    Normal force: Hertz at the new overlap along the new normal. Tangential:
+    stored F_t carried into the new tangent plane (contact.project_tangential)
+    plus k_t(new overlap) times the tangential relative displacement of the
+    contact point (rotation x arm included); no unloading rescale, no Coulomb
+    cap. Walls fixed; only the stored contacts act (a contact whose overlap
+    becomes <= 0 gives nothing). Units: E* d^2 and E* d^3.
+    """
+    n, d = packing.position.shape
+    friction = packing.friction
+    r = n_rotations(d, friction)
+    disp = np.zeros((n, d)) if displacement is None else np.ascontiguousarray(displacement, dtype=float)
+    rot = np.zeros((n, r)) if rotation is None or r == 0 else np.ascontiguousarray(
+        np.asarray(rotation, dtype=float).reshape(n, r))
+    if disp.shape != (n, d):
+        raise ValueError(f"displacement must have shape {(n, d)}, got {disp.shape}")
+    c = packing.contacts
+    force = np.zeros((n, d))
+    torque = np.zeros((n, r))
+    _frozen_kernel(np.ascontiguousarray(packing.position, dtype=float),
+                   np.ascontiguousarray(packing.radius, dtype=float),
+                   np.ascontiguousarray(packing.box[:-1], dtype=float), float(packing.box[-1]),
+                   np.ascontiguousarray(c.i, dtype=np.int64), np.ascontiguousarray(c.j, dtype=np.int64),
+                   np.ascontiguousarray(c.force_tangential, dtype=float).reshape(len(c), d), disp, rot,
+                   float(packing.attrs.get("poisson", 0.0)), math.inf if friction > 0.0 else 0.0,
+                   force, torque)
+    return force, torque
+
+
+def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wall_ft, *, friction,
+                  poisson) -> Contacts:
+    """Force-carrying contacts (overlap > 0) of a state, elastic forces only.
+
+    Pairs (sorted by i, j) first, then bottom-wall (j = -1) and top-wall (j = -2)
+    contacts by grain. F_t is the history carried into the current tangent
+    plane; k_t is reported as 0 for frictionless systems (no tangential spring).
+    """
+    n, d = position.shape
+    dx = position[pair_j] - position[pair_i]
+    for a in range(d - 1):
+        dx[:, a] -= lateral[a] * np.round(dx[:, a] / lateral[a])
+    dist = np.sqrt(np.sum(dx * dx, axis=1))
+    delta = radius[pair_i] + radius[pair_j] - dist
+    keep = delta > 0.0
+    ci = [pair_i[keep]]
+    cj = [pair_j[keep]]
+    normal = [dx[keep] / dist[keep, None]]
+    overlap = [delta[keep]]
+    ft = [pair_ft[keep]]
+    y = position[:, d - 1]
+    for k, (j_wall, dlt) in enumerate(((-1, radius - y), (-2, radius - (height - y)))):
+        on = np.nonzero(dlt > 0.0)[0]
+        ci.append(on)
+        cj.append(np.full(len(on), j_wall, np.int64))
+        nrm = np.zeros((len(on), d))
+        nrm[:, d - 1] = -1.0 if j_wall == -1 else 1.0
+        normal.append(nrm)
+        overlap.append(dlt[on])
+        ft.append(wall_ft[2 * on + k])
+    ci = np.concatenate(ci).astype(np.int64)
+    cj = np.concatenate(cj).astype(np.int64)
+    normal = np.concatenate(normal)
+    overlap = np.concatenate(overlap)
+    ft = np.array(np.concatenate(ft), dtype=float)
+    m = len(ci)
+    fn = np.zeros(m)
+    kn = np.zeros(m)
+    kt = np.zeros(m)
+    for k in range(m):
+        wall = bool(cj[k] < 0)
+        r12 = C.effective_radius(1.0 / radius[ci[k]], 0.0 if wall else 1.0 / radius[cj[k]])
+        e12 = C.effective_young(wall)
+        fn[k] = C.normal_force(overlap[k], r12, e12)
+        kn[k] = C.normal_stiffness(overlap[k], r12, e12)
+        if friction > 0.0:
+            kt[k] = C.tangential_stiffness(overlap[k], r12, C.effective_shear(poisson, wall))
+            C.project_tangential(ft[k], normal[k])
+        else:
+            ft[k] = 0.0
+    return Contacts(i=ci, j=cj, normal=normal, overlap=overlap, force_normal=fn, force_tangential=ft,
+                    stiffness_normal=kn, stiffness_tangential=kt)
+
+
+def contacts_of_engine(engine) -> Contacts:
+    """The force-carrying contacts of an :class:`~granwave.dem.integrator.Engine` now."""
+    m = engine.n_pairs
+    return contact_table(engine.position, engine.radius, engine.lateral, engine.height,
+                         engine.pair_i[:m], engine.pair_j[:m], engine.pair_ft[:m], engine.wall_ft,
+                         friction=engine.friction, poisson=float(engine.fpar[K.F_POISSON]))
+
+
+def static_residual(packing: Packing, piston_mass: float | None = None, piston_force: float | None = None):
+    """Largest |F|/m, |tau|/I over the grains and |F_top - p A|/M of the piston, from the stored
+    contacts alone (no velocities): the equilibrium test of a packing.
+
+    Returns (max translational, max rotational, piston) accelerations; the piston entry is the
+    relative imbalance |F_top / (p A) - 1| when ``piston_mass`` is None.
+    """
+    force, torque = frozen_history_forces(packing)
+    a = np.sqrt(np.sum(force**2, axis=1)) / packing.mass
+    al = np.sqrt(np.sum(torque**2, axis=1)) / packing.inertia if torque.shape[1] else np.zeros(1)
+    c = packing.contacts
+    ftop = float(np.sum(c.force_normal[c.j == -2]))
+    if piston_force is None:
+        from ..geometry import wall_area
+        piston_force = packing.pressure * wall_area(packing.box[:-1])
+    ap = abs(ftop - piston_force) / piston_mass if piston_mass else abs(ftop / piston_force - 1.0)
+    return float(a.max(initial=0.0)), float(al.max(initial=0.0)), float(ap)

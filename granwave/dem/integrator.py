@@ -1,0 +1,212 @@
+"""The DEM engine: state of a run and velocity-Verlet time stepping.
+
+:class:`Engine` holds the arrays (positions, velocities, angular velocities,
+pair list with tangential history, wall-contact history, piston) and calls
+the numba kernels of :mod:`granwave.dem.kernels` in chunks of steps, so
+progress reporting stays in Python while the time stepping runs compiled.
+
+Time integration: velocity Verlet (symplectic for the conservative part),
+translations and rotations alike (spheres: orientation never enters the
+forces, only angular velocities are kept). Velocity-dependent forces
+(contact damping, background damping) and the slip increment use the
+half-step velocity v(t + dt/2), whose product with dt is exactly the step's
+displacement. Time step: dt = safety * 2 pi sqrt(m_min / k_max), with k_max
+the normal stiffness (contact.normal_stiffness) of a wall contact of the
+largest grain at the larger of the current largest overlap and an overlap
+floor; with ``adaptive`` it is recomputed every ``check_every`` steps.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import contact as C
+from ..errors import InputError
+from . import kernels as K
+from .neighbours import rebuild
+
+
+class Engine:
+    """A DEM system: grains between a bottom wall and a top wall (piston).
+
+    Parameters (units of SPEC §1): ``position`` (N, dim) centres, ``radius``
+    (N,), ``lateral`` periodic lengths (dim-1,), ``height`` initial top-wall
+    position; ``friction`` mu (0: no rotational dof at all), ``poisson`` nu,
+    ``damping`` zeta (fraction of critical, per contact), ``background_damping``
+    gamma (a rate, 1/time: force -gamma m v and torque -gamma I w),
+    ``piston_mass`` (``inf``: the top wall is fixed), ``piston_force`` the
+    constant downward force on the piston (p A). ``dt`` fixes the time step;
+    otherwise it follows :func:`kernels.stable_dt` with ``safety`` and
+    ``overlap_floor``. ``skin``: Verlet-list skin in d. ``tol_acceleration``,
+    ``tol_velocity`` and ``check_every`` drive the convergence candidate test
+    of :meth:`run`.
+    """
+
+    def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
+                 background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
+                 overlap_floor=1e-3, skin=0.2, velocity=None, angular_velocity=None,
+                 tol_acceleration=0.0, tol_velocity=0.0, check_every=0):
+        self.position = np.array(position, dtype=np.float64, order="C")
+        n, d = self.position.shape
+        if d not in (2, 3):
+            raise InputError(f"positions must be 2D or 3D, got {d} columns")
+        self.radius = np.ascontiguousarray(radius, dtype=np.float64)
+        self.lateral = np.ascontiguousarray(np.atleast_1d(lateral), dtype=np.float64)
+        if self.lateral.shape != (d - 1,):
+            raise InputError(f"need {d - 1} lateral lengths, got {self.lateral.shape}")
+        reach = 2.0 * (2.0 * self.radius.max() + skin)
+        if np.any(self.lateral <= reach):
+            raise InputError(f"periodic length {self.lateral.min():g} too small: must exceed {reach:g} "
+                             "(twice the largest diameter plus skin) for unique nearest images")
+        self.mass = np.pi * (2.0 * self.radius) ** 3 / 6.0
+        self.inertia = self.mass * (2.0 * self.radius) ** 2 / 10.0
+        self.dim = d
+        self.friction = float(friction)
+        n_rot = 0 if self.friction == 0.0 else (1 if d == 2 else 3)
+        self.velocity = np.zeros((n, d)) if velocity is None else np.array(velocity, dtype=np.float64)
+        self.angular_velocity = (np.zeros((n, n_rot)) if angular_velocity is None or n_rot == 0
+                                 else np.array(angular_velocity, dtype=np.float64).reshape(n, n_rot))
+        self.acceleration = np.zeros((n, d))
+        self.angular_acceleration = np.zeros((n, n_rot))
+        self.pos0 = self.position.copy()
+        cap = max(64, (12 if d == 2 else 24) * n)
+        self.pair_i = np.zeros(cap, np.int64)
+        self.pair_j = np.zeros(cap, np.int64)
+        self.pair_ft = np.zeros((cap, d))
+        self.pair_ov = np.zeros(cap)
+        self.wall_ft = np.zeros((2 * n, d))
+        self.wall_ov = np.zeros(2 * n)
+        self.piston = np.zeros(K.N_PISTON)
+        self.piston[K.P_H] = height
+        self.piston[K.P_MASS] = piston_mass if piston_mass is not None else math.inf
+        self.piston[K.P_FEXT] = piston_force
+        self.fpar = np.zeros(K.N_FPAR)
+        self.fpar[K.F_ZETA] = damping
+        self.fpar[K.F_MU] = self.friction
+        self.fpar[K.F_POISSON] = poisson
+        self.fpar[K.F_GAMMA] = background_damping
+        self.fpar[K.F_SKIN] = skin
+        self.fpar[K.F_SAFETY] = safety
+        self.fpar[K.F_DFLOOR] = overlap_floor
+        self.fpar[K.F_TOLA] = tol_acceleration
+        self.fpar[K.F_TOLV] = tol_velocity
+        self.fpar[K.F_RMAX] = self.radius.max()
+        self.fpar[K.F_MMIN] = self.mass.min()
+        self.fpar[K.F_DT] = 0.0
+        self.ipar = np.zeros(K.N_IPAR, np.int64)
+        self.ipar[K.I_ADAPTIVE] = dt is None
+        self.ipar[K.I_CHECK] = check_every
+        self.out = np.zeros(K.N_OUT)
+        self._rebuild()
+        # initial forces: dt = 0 so that no history is created by the evaluation itself
+        self._forces()
+        self.fpar[K.F_DT] = dt if dt is not None else K.stable_dt_at(self.fpar, self.out[K.O_DMAX])
+
+    # ------------------------------------------------------------------ internals
+    def _grow(self, needed: int) -> None:
+        cap = int(needed * 1.5) + 64
+        d = self.dim
+        for name, shape, dtype in (("pair_i", (cap,), np.int64), ("pair_j", (cap,), np.int64),
+                                   ("pair_ft", (cap, d), np.float64), ("pair_ov", (cap,), np.float64)):
+            old = getattr(self, name)
+            new = np.zeros(shape, dtype)
+            new[: len(old)] = old
+            setattr(self, name, new)
+
+    def _rebuild(self) -> None:
+        while True:
+            m = rebuild(self.position, self.radius, self.lateral, self.piston[K.P_H], self.fpar[K.F_SKIN],
+                        self.pair_i, self.pair_j, self.pair_ft, self.pair_ov, self.ipar[K.I_NPAIRS])
+            if m >= 0:
+                break
+            self._grow(-m)
+        self.ipar[K.I_NPAIRS] = m
+        self.pos0[:] = self.position
+
+    def _forces(self) -> None:
+        K.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius, self.mass,
+                         self.inertia, self.lateral, self.pair_i, self.pair_j, self.ipar[K.I_NPAIRS],
+                         self.pair_ft, self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
+                         self.acceleration, self.angular_acceleration, self.out)
+        K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
+        self.piston[K.P_A] = K.piston_acceleration(self.piston, self.fpar[K.F_GAMMA])
+
+    # ------------------------------------------------------------------ public
+    def run(self, n_steps: int) -> int:
+        """Advance up to ``n_steps`` steps; return 1 if the convergence candidate
+        test passed (see :func:`kernels.run_chunk`), else 0."""
+        target = self.steps + int(n_steps)
+        while self.steps < target:
+            self.ipar[K.I_NSTEPS] = target - self.steps
+            status = K.run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
+                                 self.angular_acceleration, self.radius, self.mass, self.inertia,
+                                 self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
+                                 self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
+                                 self.ipar, self.out)
+            if status == 2:
+                self._grow(int(self.ipar[K.I_NEEDED]))
+                continue
+            if status == 1:
+                return 1
+        return 0
+
+    def measure(self) -> dict:
+        """Largest accelerations and speeds, kinetic energy (piston included)."""
+        K.measure(self.velocity, self.acceleration, self.angular_velocity, self.angular_acceleration,
+                  self.mass, self.inertia, self.radius, self.piston, self.fpar[K.F_GAMMA], self.out)
+        o = self.out
+        return dict(max_acceleration=o[K.O_AMAX], max_angular_acceleration=o[K.O_ALPHAMAX],
+                    piston_acceleration=o[K.O_APISTON], max_speed=o[K.O_VMAX],
+                    max_rotation_speed=o[K.O_WMAX], kinetic_energy=o[K.O_KIN],
+                    top_contacts=int(o[K.O_NTOP]), max_overlap=o[K.O_DMAX], contacts=int(o[K.O_NCONTACT]))
+
+    def elastic_energy(self) -> float:
+        """Hertz energy of all contacts plus |F_t|^2 / (2 k_t) of the tangential springs."""
+        return elastic_energy_kernel(self)
+
+    def total_energy(self) -> float:
+        """Kinetic + elastic + piston potential (p A h) energy."""
+        kin = self.measure()["kinetic_energy"]
+        pot = self.piston[K.P_FEXT] * self.piston[K.P_H] if self.piston[K.P_MASS] < math.inf else 0.0
+        return kin + self.elastic_energy() + pot
+
+    @property
+    def dt(self) -> float:
+        return float(self.fpar[K.F_DT])
+
+    @property
+    def steps(self) -> int:
+        return int(self.ipar[K.I_STEPS])
+
+    @property
+    def rebuilds(self) -> int:
+        return int(self.ipar[K.I_REBUILDS])
+
+    @property
+    def height(self) -> float:
+        return float(self.piston[K.P_H])
+
+    @property
+    def n_pairs(self) -> int:
+        return int(self.ipar[K.I_NPAIRS])
+
+
+def elastic_energy_kernel(engine: Engine) -> float:
+    """Elastic energy stored in the contacts of ``engine`` (Python loop over contacts)."""
+    from .forces import contacts_of_engine  # local: forces imports this module
+
+    c = contacts_of_engine(engine)
+    poisson = engine.fpar[K.F_POISSON]
+    wall = c.j < 0
+    ri = engine.radius[c.i]
+    rj = np.where(wall, np.inf, engine.radius[np.maximum(c.j, 0)])
+    e = 0.0
+    for k in range(len(c)):
+        r12 = C.effective_radius(1.0 / ri[k], 1.0 / rj[k])
+        e += C.normal_energy(c.overlap[k], r12, C.effective_young(bool(wall[k])))
+        kt = C.tangential_stiffness(c.overlap[k], r12, C.effective_shear(poisson, bool(wall[k])))
+        if engine.friction > 0.0 and kt > 0.0:
+            e += float(np.dot(c.force_tangential[k], c.force_tangential[k])) / (2.0 * kt)
+    return e
