@@ -1,0 +1,49 @@
+# The linear pipeline of every sample: linearize -> eigensolve -> propagate (modal).
+
+
+rule linearize:
+    input:
+        f"{R}/packing/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+    output:
+        f"{R}/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+    log:
+        f"{R}/logs/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    resources:
+        mem_mb=1000,
+        runtime=5,
+    shell:
+        "granwave linearize {input} -o {output} > {log} 2>&1"
+
+
+rule eigensolve:
+    input:
+        f"{R}/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+    output:
+        f"{R}/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+    log:
+        f"{R}/logs/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    threads: 1
+    resources:
+        mem_mb=4000,
+        runtime=30,
+    shell:
+        "granwave eigensolve {input} -o {output} > {log} 2>&1"
+
+
+rule propagate:
+    input:
+        f"{R}/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+    output:
+        f"{R}/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+    log:
+        f"{R}/logs/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    params:
+        ic=lambda w: ic_of(w.scene),
+        t_max=t_max,
+        samples=config["samples"],
+    resources:
+        mem_mb=1000,
+        runtime=10,
+    shell:
+        "granwave propagate {input} --method modal --ic {params.ic} --t-max {params.t_max:.6g} "
+        "--samples {params.samples} -o {output} > {log} 2>&1"
