@@ -1,0 +1,112 @@
+"""Shared fitting helpers: straight lines, power laws, local exponents.
+
+All fits are ordinary least squares (``scipy.stats.linregress``); a power law
+``y = a x^b`` is fitted as a straight line in log-log coordinates, so every
+point carries the same *relative* weight. Uncertainties are one standard
+error of the fitted parameter from the scatter of the points about the line;
+with exactly two points the line passes through both and the uncertainty is
+undetermined: it is reported as NaN (``null`` in JSON), never as 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import stats
+
+from ..errors import InputError
+
+
+@dataclass(frozen=True)
+class LinearFit:
+    """y = intercept + slope x, with one-standard-error uncertainties."""
+
+    slope: float
+    slope_err: float
+    intercept: float
+    intercept_err: float
+    n: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class PowerLawFit:
+    """y = prefactor x^exponent, fitted in log-log coordinates."""
+
+    exponent: float
+    exponent_err: float
+    prefactor: float
+    prefactor_err: float
+    n: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def _clean(x, y, what: str, *, positive: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    if x.shape != y.shape:
+        raise InputError(f"{what}: x and y differ in length ({x.size} vs {y.size})")
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise InputError(f"{what}: NaN or infinite values")
+    if positive and (np.any(x <= 0) or np.any(y <= 0)):
+        raise InputError(f"{what}: a power-law fit needs positive values")
+    if x.size < 2 or np.unique(x).size < 2:
+        raise InputError(f"{what}: need at least two distinct abscissae")
+    return x, y
+
+
+def linear_fit(x, y, *, what: str = "linear fit") -> LinearFit:
+    """Least-squares straight line through (x, y); needs two distinct x."""
+    x, y = _clean(x, y, what)
+    r = stats.linregress(x, y)
+    undetermined = x.size <= 2
+    return LinearFit(
+        slope=float(r.slope),
+        slope_err=math.nan if undetermined else float(r.stderr),
+        intercept=float(r.intercept),
+        intercept_err=math.nan if undetermined else float(r.intercept_stderr),
+        n=int(x.size),
+    )
+
+
+def power_law_fit(x, y, *, what: str = "power-law fit") -> PowerLawFit:
+    """Fit y = a x^b by a straight line through (log x, log y); x, y > 0.
+
+    ``prefactor_err`` is propagated from the intercept's error (a e^i δi).
+    """
+    x, y = _clean(x, y, what, positive=True)
+    lf = linear_fit(np.log(x), np.log(y), what=what)
+    a = math.exp(lf.intercept)
+    return PowerLawFit(exponent=lf.slope, exponent_err=lf.slope_err, prefactor=a,
+                       prefactor_err=a * lf.intercept_err, n=lf.n)
+
+
+def inverse_slope(fit: LinearFit) -> tuple[float, float]:
+    """A speed from an arrival-time-versus-distance slope: c = 1/s, δc = δs/s²."""
+    s = fit.slope
+    if s == 0:
+        return math.inf, math.nan
+    return 1.0 / s, fit.slope_err / s**2
+
+
+def local_exponents(x, y) -> tuple[np.ndarray, np.ndarray]:
+    """Effective exponents d log y / d log x between consecutive points.
+
+    ``x`` must be strictly increasing and x, y > 0 (use |y| for signed data).
+    Returns (x_mid, exponent), x_mid the geometric mean of each pair; both have
+    length len(x) - 1.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if np.any(np.diff(x) <= 0):
+        raise InputError("local exponents need strictly increasing abscissae")
+    if np.any(x <= 0) or np.any(y <= 0):
+        raise InputError("local exponents need positive values")
+    lx, ly = np.log(x), np.log(y)
+    return np.sqrt(x[1:] * x[:-1]), np.diff(ly) / np.diff(lx)
