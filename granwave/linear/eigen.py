@@ -45,6 +45,9 @@ from .assemble import ZERO_MODE_THRESHOLD, asymmetry, omega2_max, symmetric_part
 DENSE_MAX_DOF = 20000
 
 
+_FILE_KEYS = ("schema", "schema_version", "granwave_version", "git_revision", "command_line")
+
+
 class NegativeModesWarning(RuntimeWarning):
     """D has eigenvalues clearly below zero: the state is not a stable equilibrium of the model."""
 
@@ -114,7 +117,8 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
                       f"(lowest omega^2 = {w[0]:.3g}, omega^2_max = {w2max:.3g}): D is not "
                       "positive semi-definite; modal propagation will refuse these modes",
                       NegativeModesWarning, stacklevel=2)
-    attrs = dict(system.attrs)
+    # The file-level keys belong to the file being written, not to this object.
+    attrs = {k: v for k, v in system.attrs.items() if k not in _FILE_KEYS}
     attrs.update(
         n_dof=n, n_modes=int(len(w)), partial=partial, solver=solver,
         n_zero_modes=int(zero.sum()), n_negative_modes=n_neg,

@@ -111,8 +111,12 @@ def modal_displacement(modes: Modes, *, ic: str, times: np.ndarray) -> np.ndarra
 
 
 def modal_propagate(modes: Modes, *, ic: str, t_max: float, samples: int = 2001,
-                    snapshots=None) -> Signal:
-    """The modal signal (and optional snapshots) as a :class:`Signal`."""
+                    snapshots=None, dof_grain=None, dof_axis=None) -> Signal:
+    """The modal signal (and optional snapshots) as a :class:`Signal`.
+
+    Snapshots need the eigenvectors in ``modes`` and the dof map
+    (``dof_grain``, ``dof_axis`` of the linear system) to be stored.
+    """
     ic = _check_ic(ic)
     times = sample_times(t_max, samples)
     force = modal_signal(modes, ic=ic, times=times)
@@ -123,9 +127,12 @@ def modal_propagate(modes: Modes, *, ic: str, t_max: float, samples: int = 2001,
                  zero_mode_drift=float(modes.attrs.get("zero_mode_drift_A", 0.0)) if ic == "A" else 0.0)
     sig = Signal(time=times, force=force, attrs=attrs)
     if snapshots is not None and len(snapshots):
+        if dof_grain is None or dof_axis is None:
+            raise InputError("snapshots need the dof map of the linear system (dof_grain, dof_axis)")
         st = _check_snapshots(snapshots, t_max)
         sig.snapshot_time = st
         sig.snapshot_displacement = modal_displacement(modes, ic=ic, times=st)
+        sig.dof_grain, sig.dof_axis = np.asarray(dof_grain), np.asarray(dof_axis)
     return sig
 
 
@@ -249,4 +256,5 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     if snap_t is not None:
         sig.snapshot_time = snap_t
         sig.snapshot_displacement = snap_u
+        sig.dof_grain, sig.dof_axis = system.dof_grain, system.dof_axis
     return sig
