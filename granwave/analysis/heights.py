@@ -173,17 +173,13 @@ def height_series_from_features(heights, features: Sequence[dict], *,
 
 def height_series(signals: Sequence[Signal], *, labels: Sequence[str] | None = None,
                   edge_heights: tuple[float, float] = DEFAULT_EDGE_HEIGHTS,
-                  group_rtol: float = DEFAULT_GROUP_RTOL, window: float | None = None,
-                  **front_kw) -> dict:
+                  group_rtol: float = DEFAULT_GROUP_RTOL, **front_kw) -> dict:
     """Height-series analysis of signals (SPEC §9); see the module docstring.
 
     ``labels`` name the signals in error messages (file names in the CLI).
-    ``window`` (time per unit height, 1/sqrt(E*/rho)): if given, each signal's
-    first-pulse reference amplitude is taken over t <= window × L (the
-    ``t_window`` of :func:`granwave.analysis.front.front_features`), which keeps
-    a larger late tail from deciding which lobe is the first pulse; set it a
-    little above 1/c. Other ``front_kw`` (peak_fraction, lead_fraction) go to
-    :func:`~granwave.analysis.front.front_features` unchanged.
+    ``front_kw`` (peak_fraction, lead_fraction, ...) go to
+    :func:`granwave.analysis.front.front_features` unchanged (its defaults
+    otherwise), so every signal is analysed by the same rule.
     Refuses (InputError) an empty list, signals at different pressures or
     with different initial conditions, fewer than two nominal heights, and a
     signal whose first pulse is not complete in the record.
@@ -194,20 +190,15 @@ def height_series(signals: Sequence[Signal], *, labels: Sequence[str] | None = N
     labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
     pressure = _same_attr(signals, labels, "pressure", rtol=1e-9)
     ic = _same_attr(signals, labels, "ic")
-    if window is not None and not (math.isfinite(window) and window > 0):
-        raise InputError(f"window must be a positive time per unit height, got {window}")
     features = []
     for s, lab in zip(signals, labels):
-        kw = dict(front_kw)
-        if window is not None:
-            kw["t_window"] = window * s.height
         try:
-            features.append(front_features(s.time, s.force, **kw).as_dict())
+            features.append(front_features(s.time, s.force, **front_kw).as_dict())
         except InputError as exc:
             raise InputError(f"{lab}: {exc}") from None
     out = height_series_from_features([s.height for s in signals], features,
                                       edge_heights=edge_heights, group_rtol=group_rtol)
-    out = {"pressure": pressure, "ic": ic, "window": window, **front_kw, **out}
+    out = {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out}
     for i, lab in enumerate(labels):
         out["samples"][i]["source"] = str(lab)
     return out

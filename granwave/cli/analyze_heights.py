@@ -35,16 +35,12 @@ class HeightPair(click.ParamType):
 @click.option("--group-tolerance", type=FiniteFloat(min=0.0, max=1.0, max_open=True), default=0.05,
               show_default=True,
               help="Heights within this relative gap of each other form one nominal height.")
-@click.option("--window", type=FiniteFloat(min=0.0, min_open=True), default=None,
-              help="Take each signal's first-pulse reference over t <= WINDOW x L "
-                   "(time per unit height, d/sqrt(E*/rho) per d; set a little above 1/c). "
-                   "Default: the whole record.")
-@click.option("--peak-fraction", type=FiniteFloat(min=0.0, max=1.0, min_open=True), default=0.5,
-              show_default=True, help="First pulse: first lobe reaching this fraction of the "
-                                      "largest |F| (see `granwave analyze front --help`).")
+@click.option("--peak-fraction", type=FiniteFloat(min=0.0, max=1.0, min_open=True), default=None,
+              help="First-pulse rule parameter of `granwave analyze front` (default: its "
+                   "default); the same rule is applied to every signal.")
 @json_option
 @stage
-def heights(signals, edge_heights, group_tolerance, window, peak_fraction, as_json):
+def heights(signals, edge_heights, group_tolerance, peak_fraction, as_json):
     """Arrival times, speeds and exponents over a container-height series (SPEC §9).
 
     SIGNALS are signal files (from `granwave propagate`) of containers of
@@ -69,13 +65,15 @@ def heights(signals, edge_heights, group_tolerance, window, peak_fraction, as_js
     if not signals:
         raise InputError("no signal files given")
     sigs = [read_signal(p) for p in signals]
+    front_kw = {} if peak_fraction is None else {"peak_fraction": peak_fraction}
     res = height_series(sigs, labels=list(signals), edge_heights=edge_heights,
-                        group_rtol=group_tolerance, window=window, peak_fraction=peak_fraction)
+                        group_rtol=group_tolerance, **front_kw)
     if as_json:
         echo_json(res)
         return
     scalars = {k: v for k, v in res.items()
-               if k not in ("per_height", "samples", "heights_local", "gamma_local", "alpha_local")}
+               if k not in ("per_height", "samples", "heights_local", "gamma_local", "alpha_local",
+                            "front_options")}
     echo_table(scalars, title=f"height series: {res['n_signals']} signals, {res['n_heights']} heights")
     ph = res["per_height"]
     click.echo("  per nominal height (means):")
