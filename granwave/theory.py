@@ -1,0 +1,186 @@
+"""Exact references of SPEC §12: the 1D chain and the triangular lattice.
+
+The chain
+---------
+N identical balls (mass m) on a line, neighbours and both end walls joined by
+N + 1 linear springs of stiffness K, equilibrium spacing ℓ. With u_0 = u_{N+1}
+= 0 (walls), m ü_j = K (u_{j+1} - 2 u_j + u_{j-1}). The modes are
+
+    φ_n(j) = sqrt(2/(N+1)) sin(j θ_n),   θ_n = k_n ℓ = nπ/(N+1),
+    ω_n = 2 ω_0 sin(θ_n/2),   ω_0 = sqrt(K/m),   c = ℓ ω_0,
+
+(Euclidean-orthonormal). The force on the far wall is F = K u_N. Because
+φ_n(1) φ_n(N) = (2/(N+1)) (-1)^{n+1} sin²θ_n,
+
+    (A) u̇_1(0) = c:  F_A(t) = K c (2/(N+1)) Σ_n (-1)^{n+1} sin²θ_n sin(ω_n t)/ω_n,
+    (B) u_1(0) = ℓ:  F_B(t) = K ℓ (2/(N+1)) Σ_n (-1)^{n+1} sin²θ_n cos(ω_n t)
+                            = (ℓ/c) dF_A/dt.
+
+Airy asymptotics (derivation)
+-----------------------------
+The front is carried by the long waves, where the group velocity ω'(θ) =
+ω_0 cos(θ/2) is largest; ω(θ) = ω_0 (θ - θ³/24 + O(θ⁵)) has its inflection
+at θ = 0, so stationary phase degenerates there and gives an Airy function.
+For θ → 0: sin²θ ≈ θ², sin²θ/ω ≈ θ/ω_0. Poisson summation of the
+alternating sum (g even, g(0) = g(π) = 0, so Σ_{n=1}^{N} is half the sum
+over a period) keeps the two slowest images e^{±i(N+1)θ}:
+Σ_n (-1)^n g(θ_n) ≈ (2(N+1)/π) ∫_0^π g(θ) cos((N+1)θ) dθ; the other images
+carry phases e^{±i(2m+1)(N+1)θ} that are stationary only at the echoes
+t ≈ (2m+1) t0. So (2/(N+1)) Σ_n (-1)^{n+1} → -(4/π) ∫_0^∞ dθ cos((N+1)θ). Writing M = ω_0 t and keeping the slowly
+varying part of -cos((N+1)θ) sin(Mθ - Mθ³/24), i.e.
+-½ sin((M - N - 1)θ - Mθ³/24):
+
+    F_A/(Kℓ) ≈ -(2/π) ∫_0^∞ θ sin((M - N - 1)θ - Mθ³/24) dθ.
+
+With θ = λ s, λ = (8/M)^{1/3} = 2 M^{-1/3} (so that Mθ³/24 = s³/3), and
+Ai'(x) = -(1/π) ∫_0^∞ s sin(s³/3 + x s) ds:
+
+    F_A(t) ≈ -8 K ℓ M^{-2/3} Ai'(x),     x = (N + 1 - M) λ = -2 (cτ/ℓ) M^{-1/3},
+
+with τ = t - t0, t0 = (N+1) ℓ/c (wall to wall) and M = ω_0 t = N + 1 + cτ/ℓ.
+The same steps with sin²θ ≈ θ², cos instead of sin, and
+Ai''(x) = -(1/π) ∫_0^∞ s² cos(s³/3 + x s) ds give
+
+    F_B(t) ≈ 16 K ℓ M^{-1} Ai''(x).
+
+The factors 8 and 16 contain the doubling of the force by the reflection at
+the far wall. The neglected terms (θ⁵ in ω, θ² corrections of the amplitude,
+the fast phases) are of relative order M^{-2/3} in the front region. At
+τ = 0: F_A ≈ -8 Ai'(0) K ℓ (N+1)^{-2/3} = 2.07 K ℓ (N+1)^{-2/3} and the front width grows as
+M^{1/3}; for (B) the amplitude falls as 1/N; Ai'' = x Ai(x) gives a small
+positive precursor (x > 0, ahead of the front) and a larger negative main lobe.
+
+The triangular lattice (SPEC §12)
+---------------------------------
+Identical Hertzian balls (diameter 1, E* = 1, ρ = 1), rows parallel to the
+walls, under vertical stress p. Rows map to a chain with spacing √3/2, mass
+π/6 per ball and per-ball row stiffness (3/2) k_n (1 + η/3) at the contact
+force p/√3, which gives c = 3^{19/12} / (2^{3/2} π^{1/2}) p^{1/6}
+(× sqrt(1 + η/3) with friction), to leading order in p (the overlaps shorten
+the spacing by a relative O(p^{2/3})).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import special
+
+from . import contact
+from .errors import InputError
+
+# Memory bound of the modal sums: at most this many (time x mode) elements at once.
+_CHUNK_ELEMENTS = 1 << 21
+
+
+def _check_chain(n_balls: int, stiffness: float, mass: float, spacing: float) -> None:
+    if int(n_balls) != n_balls or n_balls < 1:
+        raise InputError(f"n_balls must be a positive integer, got {n_balls}")
+    for name, v in (("stiffness", stiffness), ("mass", mass), ("spacing", spacing)):
+        if not (np.isfinite(v) and v > 0):
+            raise InputError(f"{name} must be a positive finite number, got {v}")
+
+
+def chain_speed(*, stiffness: float = 1.0, mass: float = 1.0, spacing: float = 1.0) -> float:
+    """Long-wavelength sound speed c = ℓ sqrt(K/m) (spacing / time)."""
+    return spacing * np.sqrt(stiffness / mass)
+
+
+def chain_travel_time(n_balls: int, *, stiffness: float = 1.0, mass: float = 1.0,
+                      spacing: float = 1.0) -> float:
+    """Wall-to-wall travel time t0 = (N+1) ℓ / c (not N ℓ / c, SPEC §12)."""
+    return (n_balls + 1) * spacing / chain_speed(stiffness=stiffness, mass=mass, spacing=spacing)
+
+
+def chain_modes(n_balls: int, *, stiffness: float = 1.0, mass: float = 1.0,
+                spacing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Wavenumbers k_n = nπ/((N+1)ℓ) (1/length) and frequencies ω_n = 2 sqrt(K/m) sin(k_n ℓ/2)
+    (1/time), n = 1..N, of the chain tied to two walls."""
+    _check_chain(n_balls, stiffness, mass, spacing)
+    n = np.arange(1, int(n_balls) + 1)
+    k = n * np.pi / ((n_balls + 1) * spacing)
+    return k, 2.0 * np.sqrt(stiffness / mass) * np.sin(k * spacing / 2.0)
+
+
+def chain_wall_force(t, n_balls: int, *, ic: str = "A", stiffness: float = 1.0,
+                     mass: float = 1.0, spacing: float = 1.0) -> np.ndarray:
+    """Exact force on the far wall, F(t) = K u_N(t), from the modal sum (module docstring).
+
+    ``ic="A"``: the first ball starts with velocity c = ℓ sqrt(K/m); ``ic="B"``:
+    it starts displaced by ℓ at rest. ``t`` is any array of times (units of
+    ℓ / c × ...: those of sqrt(m/K)); the result (units K ℓ) has its shape.
+    Evaluated in chunks of times and modes, so memory stays bounded for long
+    records and N up to 10^4 and more; the cost is O(len(t) × N).
+    """
+    ic = str(ic).upper()
+    if ic not in ("A", "B"):
+        raise InputError(f"initial condition must be 'A' or 'B', got {ic!r}")
+    _check_chain(n_balls, stiffness, mass, spacing)
+    t = np.asarray(t, dtype=float)
+    flat = t.ravel()
+    k, omega = chain_modes(n_balls, stiffness=stiffness, mass=mass, spacing=spacing)
+    n = np.arange(1, int(n_balls) + 1)
+    theta = k * spacing
+    sign = np.where(n % 2 == 1, 1.0, -1.0)  # (-1)^{n+1}
+    weight = sign * np.sin(theta) ** 2 * (2.0 / (n_balls + 1))
+    if ic == "A":
+        weight = weight * stiffness * chain_speed(stiffness=stiffness, mass=mass, spacing=spacing) / omega
+        phase = np.sin
+    else:
+        weight = weight * stiffness * spacing
+        phase = np.cos
+    out = np.zeros(flat.size)
+    mode_chunk = max(1, min(omega.size, _CHUNK_ELEMENTS // max(1, min(flat.size, 4096))))
+    time_chunk = max(1, _CHUNK_ELEMENTS // mode_chunk)
+    for a in range(0, flat.size, time_chunk):
+        tt = flat[a:a + time_chunk]
+        acc = np.zeros(tt.size)
+        for b in range(0, omega.size, mode_chunk):
+            acc += phase(np.outer(tt, omega[b:b + mode_chunk])) @ weight[b:b + mode_chunk]
+        out[a:a + time_chunk] = acc
+    return out.reshape(t.shape)
+
+
+def chain_wall_force_airy(t, n_balls: int, *, ic: str = "A", stiffness: float = 1.0,
+                          mass: float = 1.0, spacing: float = 1.0) -> np.ndarray:
+    """Large-N Airy form of :func:`chain_wall_force` near the front (derivation: module docstring).
+
+    (A): F ≈ -8 K ℓ M^{-2/3} Ai'(x);  (B): F ≈ 16 K ℓ M^{-1} Ai''(x),
+    with M = ω_0 t = N + 1 + cτ/ℓ, x = -2 (cτ/ℓ) M^{-1/3}, τ = t - (N+1)ℓ/c.
+    Valid for t > 0 near the arrival (|cτ/ℓ| ≲ a few M^{1/3}); relative error O(M^{-2/3}).
+    """
+    ic = str(ic).upper()
+    if ic not in ("A", "B"):
+        raise InputError(f"initial condition must be 'A' or 'B', got {ic!r}")
+    _check_chain(n_balls, stiffness, mass, spacing)
+    t = np.asarray(t, dtype=float)
+    if np.any(t <= 0):
+        raise InputError("the Airy form needs times t > 0")
+    w0 = np.sqrt(stiffness / mass)
+    big_m = w0 * t
+    x = -2.0 * (big_m - (n_balls + 1)) * big_m ** (-1.0 / 3.0)
+    ai, aip, _, _ = special.airy(x)
+    if ic == "A":
+        return -8.0 * stiffness * spacing * big_m ** (-2.0 / 3.0) * aip
+    return 16.0 * stiffness * spacing * x * ai / big_m  # Ai''(x) = x Ai(x)
+
+
+# ---------------------------------------------------------------- triangular lattice
+LATTICE_PREFACTOR = 3.0 ** (19.0 / 12.0) / (2.0 ** 1.5 * np.sqrt(np.pi))
+
+
+def lattice_speed(pressure, *, friction: bool = False, poisson: float = 0.0):
+    """Longitudinal speed across the rows of a triangular lattice (SPEC §12), units sqrt(E*/ρ).
+
+    c = 3^{19/12} / (2^{3/2} π^{1/2}) (p/E*)^{1/6}, times sqrt(1 + η/3) with
+    friction, η = k_t/k_n = :func:`granwave.contact.stiffness_ratio` (ν).
+    ``pressure`` in E* (scalar or array). Leading order in p.
+    """
+    p = np.asarray(pressure, dtype=float)
+    if np.any(~np.isfinite(p)) or np.any(p <= 0):
+        raise InputError("pressure must be positive and finite")
+    if not 0.0 <= poisson < 1.0:
+        raise InputError(f"poisson must be in [0, 1), got {poisson}")
+    c = LATTICE_PREFACTOR * p ** (1.0 / 6.0)
+    if friction:
+        c = c * np.sqrt(1.0 + contact.stiffness_ratio(poisson) / 3.0)
+    return c if c.ndim else float(c)
