@@ -63,7 +63,7 @@ def group_heights(heights, rtol: float = DEFAULT_GROUP_RTOL) -> np.ndarray:
     return groups
 
 
-def _same_attr(signals: Sequence[Signal], labels: Sequence[str], key: str, *, rtol: float = 0.0):
+def common_attr(signals: Sequence[Signal], labels: Sequence[str], key: str, *, rtol: float = 0.0):
     """The common value of attribute ``key`` (None if no signal has it); refuse a mix."""
     values = [s.attrs.get(key) for s in signals]
     have = [v is not None for v in values]
@@ -188,8 +188,8 @@ def height_series(signals: Sequence[Signal], *, labels: Sequence[str] | None = N
     if not signals:
         raise InputError("no signals given")
     labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
-    pressure = _same_attr(signals, labels, "pressure", rtol=1e-9)
-    ic = _same_attr(signals, labels, "ic")
+    pressure = common_attr(signals, labels, "pressure", rtol=1e-9)
+    ic = common_attr(signals, labels, "ic")
     features = []
     for s, lab in zip(signals, labels):
         try:
