@@ -1,0 +1,157 @@
+"""linearize (SPEC §5): matrix entries, prestress = FD of frozen-history forces, zero modes, errors."""
+
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from granwave.cli import main
+from granwave.errors import InputError
+from granwave.io import files
+from granwave.linear import assemble
+from granwave.linear.assemble import expected_zero_modes, linearize
+from granwave.linear.check import (finite_difference_stiffness, reference_chain,
+                                   reference_frozen_forces, reference_lattice)
+
+
+@pytest.fixture(scope="module")
+def dem_packing_2d():
+    from granwave.dem.params import PrepareParams
+    from granwave.dem.protocol import prepare_packing
+
+    return prepare_packing(PrepareParams(dim=2, grains=40, pressure=1e-4, friction=0.5, seed=1))
+
+
+@pytest.fixture(scope="module")
+def dem_packing_3d():
+    from granwave.dem.params import PrepareParams
+    from granwave.dem.protocol import prepare_packing
+
+    return prepare_packing(PrepareParams(dim=3, grains=40, pressure=1e-4, friction=0.5, seed=2,
+                                         aspect=0.8))
+
+
+def test_chain_matrix_is_the_spring_chain():
+    K, n = 2.5, 7
+    s = linearize(reference_chain(n, stiffness=K, pressure=1e-3))
+    expected = K * (2 * np.eye(n) - np.eye(n, k=1) - np.eye(n, k=-1))
+    np.testing.assert_allclose(s.stiffness.toarray(), expected, rtol=0, atol=1e-14 * K)
+    m = math.pi / 6
+    np.testing.assert_allclose(s.mass, m, rtol=1e-15)
+    # conventions: IC A velocity k_wall/m on the first ball; IC B displacement 1; detector K on the last
+    np.testing.assert_allclose(s.source_velocity, np.eye(n)[0] * K / m, rtol=1e-15)
+    np.testing.assert_allclose(s.source_displacement, np.eye(n)[0], rtol=1e-15)
+    np.testing.assert_allclose(s.detector, np.eye(n)[-1] * K, rtol=1e-15)
+    assert s.attrs["n_zero_modes"] == 0 and s.attrs["n_negative_modes"] == 0
+    assert s.attrs["kind"] == "chain" and s.attrs["dim"] == 1 and s.attrs["prestress"] is False
+
+
+def _relative_max(a, b):
+    return np.abs(a - b).max() / np.abs(b).max()
+
+
+@pytest.mark.parametrize("which", ["2d", "3d"])
+def test_prestress_is_finite_difference_of_frozen_history_forces(which, request):
+    """D(prestress) = -Jacobian of granwave.dem.forces.frozen_history_forces, to 1e-6 relative.
+
+    Central differences with eps = 1e-7 d have a truncation error ~(eps/delta)^2 ~ 1e-8 here.
+    The packings are DEM-prepared with friction, so F_t != 0 on grain and wall contacts.
+    """
+    from granwave.dem.forces import frozen_history_forces
+
+    p = request.getfixturevalue(f"dem_packing_{which}")
+    assert np.abs(p.contacts.force_tangential).max() > 0.05 * p.contacts.force_normal.mean()
+    fd = None
+    for prestress in (True, False):
+        s = linearize(p, prestress=prestress)
+        if fd is None:
+            fd = finite_difference_stiffness(s, lambda u, t: frozen_history_forces(p, u, t),
+                                             p.n_grains, eps=1e-7)
+        err = _relative_max(s.stiffness.toarray(), fd)
+        if prestress:
+            assert err < 1e-6
+            assert s.attrs["asymmetry"] > 1e-6  # F_t != 0: the frozen-history Jacobian is not symmetric
+        else:
+            assert err > 1e-4  # the prestress terms are not negligible: material-only D differs
+            assert s.attrs["asymmetry"] < 1e-14
+
+
+def test_prestress_matches_independent_reference_forces_on_lattice_with_tangential_forces():
+    """Same check against the plain-numpy reference of docs/conventions.md (lattice, random F_t)."""
+    lat = reference_lattice(3, 4, pressure=1e-4, friction=0.5)
+    c = lat.contacts
+    t = np.random.default_rng(1).standard_normal((len(c), 2))
+    t -= (t * c.normal).sum(1)[:, None] * c.normal
+    c.force_tangential[:] = 0.3 * c.force_normal[:, None] * t
+    s = linearize(lat, prestress=True)
+    fd = finite_difference_stiffness(s, lambda u, r: reference_frozen_forces(lat, u, r),
+                                     lat.n_grains, eps=1e-7)
+    assert _relative_max(s.stiffness.toarray(), fd) < 1e-6
+
+
+def test_rattlers_are_removed(dem_packing_2d):
+    p = dem_packing_2d
+    s = linearize(p)
+    c = p.contacts
+    touched = np.unique(np.concatenate([c.i[c.force_normal > 0], c.j[(c.force_normal > 0) & (c.j >= 0)]]))
+    assert s.attrs["n_rattlers"] == p.n_grains - len(touched)
+    assert set(np.unique(s.dof_grain)) == set(touched)
+    assert s.n_dof == 3 * len(touched)  # x, y, theta per grain with friction
+    assert s.attrs["seed"] == 1 and s.attrs["friction"] == 0.5 and s.attrs["height"] == p.box[-1]
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.5])
+def test_zero_modes_of_lattices(friction):
+    """Frictionless: one zero mode (rigid sliding along the frictionless walls, x periodic);
+    frictional: none (tangential wall springs pin it). Rotations only with friction."""
+    s = linearize(reference_lattice(6, 5, pressure=1e-5, friction=friction))
+    assert s.attrs["n_rotations"] == (1 if friction else 0)
+    assert s.attrs["n_zero_modes"] == expected_zero_modes(2, friction) == (0 if friction else 1)
+    assert s.attrs["n_negative_modes"] == 0
+    assert s.attrs["lowest_nonzero_omega2"] > 1e3 * s.attrs["zero_mode_threshold"] * s.attrs["omega2_max"]
+
+
+def test_sparse_check_agrees_with_dense(monkeypatch):
+    lat = reference_lattice(6, 5, pressure=1e-5, friction=0.0)
+    dense = linearize(lat).attrs
+    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", 10)
+    sparse = linearize(lat).attrs
+    assert sparse["psd_check"].startswith("eigsh")
+    assert sparse["n_zero_modes"] == dense["n_zero_modes"] == 1
+    assert sparse["n_zero_modes_exact"]
+    assert sparse["lowest_nonzero_omega2"] == pytest.approx(dense["lowest_nonzero_omega2"], rel=1e-8)
+
+
+def test_frictionless_dem_packing_zero_modes_at_least_expected():
+    from granwave.dem.params import PrepareParams
+    from granwave.dem.protocol import prepare_packing
+
+    p = prepare_packing(PrepareParams(dim=2, grains=40, pressure=1e-4, friction=0.0, seed=3))
+    s = linearize(p)
+    assert s.attrs["n_rotations"] == 0 and s.n_dof == 2 * (p.n_grains - s.attrs["n_rattlers"])
+    assert s.attrs["n_zero_modes"] >= 1 and s.attrs["n_negative_modes"] == 0
+
+
+def test_unconverged_and_nan_packings_are_refused():
+    lat = reference_lattice(3, 4, pressure=1e-4)
+    lat.attrs["converged"] = False
+    with pytest.raises(InputError, match="not converged"):
+        linearize(lat)
+    assert linearize(lat, force=True).attrs["forced_unconverged"] is True
+    lat.attrs["converged"] = True
+    lat.contacts.stiffness_normal[2] = np.nan
+    with pytest.raises(InputError, match="NaN"):
+        linearize(lat)
+
+
+def test_cli_linearize(tmp_path):
+    files.write_packing(tmp_path / "p.h5", reference_lattice(4, 4, pressure=1e-4, friction=0.5))
+    r = CliRunner().invoke(main, ["linearize", str(tmp_path / "p.h5"), "-o", str(tmp_path / "l.h5"),
+                                 "--prestress", "--json"])
+    assert r.exit_code == 0, r.output
+    s = files.read_linear(tmp_path / "l.h5")
+    assert s.attrs["prestress"] and s.attrs["kind"] == "lattice" and s.attrs["pressure"] == 1e-4
+    assert s.attrs["packing_source"] == str(tmp_path / "p.h5")
+    np.testing.assert_array_equal(
+        s.stiffness.toarray(), linearize(files.read_packing(tmp_path / "p.h5"), prestress=True).stiffness.toarray())
