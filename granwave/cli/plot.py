@@ -1,0 +1,363 @@
+"""``granwave plot <figure> INPUTS... -o FIG.png``: the study's figures (granwave.plots).
+
+Thin wrappers: read the inputs, call one function of :mod:`granwave.plots`.
+matplotlib is imported only inside the commands, so ``granwave --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from .common import POSITIVE, stage
+
+fig_output = click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
+                          help="Output figure (.png, .pdf or .svg), written atomically.")
+pdf_option = click.option("--pdf", is_flag=True, help="Also write a PDF beside the PNG.")
+
+
+def _plots():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from .. import io  # noqa: F401  (import io before model: breaks the model <-> io import cycle)
+    from .. import plots
+
+    return plots
+
+
+def _done(paths) -> None:
+    for p in paths:
+        click.echo(f"wrote {p}", err=True)
+
+
+def _load_json(path):
+    from ..errors import InputError
+
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
+
+
+def read_ensemble(path) -> dict:
+    """An ``analyze ensemble`` file as a dict (time, mean, rms, n, attrs)."""
+    from ..io import schema as S
+    from ..io.files import open_checked, read_attrs
+
+    from ..errors import InputError
+
+    with open_checked(path, S.ENSEMBLE) as f:
+        for name in ("ensemble/time", "ensemble/mean", "ensemble/rms"):
+            if name not in f:
+                raise InputError(f"{path}: missing dataset {name}")
+        attrs = read_attrs(f)
+        return {"time": f["ensemble/time"][()], "mean": f["ensemble/mean"][()],
+                "rms": f["ensemble/rms"][()], "n": attrs.get("n_signals"), "attrs": attrs,
+                "height": attrs.get("height")}
+
+
+def _signal_or_ensemble(path) -> dict:
+    """A coherent-signal series entry from an ensemble file or a single signal file."""
+    from ..errors import InputError
+    from ..io import schema as S
+    from ..io.files import file_schema, read_signal
+
+    kind = file_schema(path)
+    if kind == S.ENSEMBLE:
+        e = read_ensemble(path)
+        if e["height"] is None:
+            raise InputError(f"{path}: the ensemble file has no 'height' attribute")
+        return e
+    s = read_signal(path)
+    return {"time": s.time, "mean": s.force, "rms": None, "n": 1, "height": s.height}
+
+
+@click.group()
+def plot():
+    """Draw the study's figures (one subcommand per figure; see docs/figures.md).
+
+    Every subcommand writes one figure with -o FILE.png (add --pdf for a PDF
+    twin). Units: d̄, E*, time d̄/sqrt(E*/ρ) (SPEC §1).
+    """
+
+
+@plot.command()
+@click.argument("packing", type=click.Path(dir_okay=False))
+@fig_output
+@pdf_option
+@click.option("--walls", is_flag=True, help="Include wall contacts in the histograms.")
+@stage
+def network(packing, output, pdf, walls):
+    """Force and stiffness networks of a packing, with their histograms."""
+    plots = _plots()
+    from ..io.files import read_packing
+
+    plots.output_paths(output, pdf)
+    _done(plots.force_network(read_packing(packing), output, pdf=pdf, walls=walls))
+
+
+@plot.command()
+@click.argument("packing", type=click.Path(dir_okay=False))
+@fig_output
+@pdf_option
+@click.option("--walls", is_flag=True, help="Include wall contacts.")
+@click.option("--bins", type=click.IntRange(4, 360), default=36, show_default=True)
+@stage
+def roses(packing, output, pdf, walls, bins):
+    """Contact-direction roses: all, strong and weak contacts."""
+    plots = _plots()
+    from ..io.files import read_packing
+
+    plots.output_paths(output, pdf)
+    _done(plots.contact_roses(read_packing(packing), output, pdf=pdf, walls=walls, bins=bins))
+
+
+@plot.command()
+@click.argument("signal", type=click.Path(dir_okay=False))
+@click.option("--packing", type=click.Path(dir_okay=False),
+              help="Packing file (positions, radii) if the signal stores no positions.")
+@click.option("--index", "index", type=int, multiple=True,
+              help="Snapshot index (repeatable; default: up to four spread over the record).")
+@fig_output
+@pdf_option
+@stage
+def snapshot(signal, packing, index, output, pdf):
+    """Displacement-field snapshots of a signal file as arrows."""
+    plots = _plots()
+    from ..io.files import read_packing, read_signal
+
+    plots.output_paths(output, pdf)
+    pk = read_packing(packing) if packing else None
+    _done(plots.displacement_snapshot(read_signal(signal), output, packing=pk,
+                                      index=list(index) or None, pdf=pdf))
+
+
+@plot.command()
+@click.argument("signals", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--ensemble", type=click.Path(dir_okay=False),
+              help="Ensemble file (analyze ensemble) for the average ± rms panel; default: "
+                   "the average of the given signals.")
+@click.option("--max-traces", type=click.IntRange(1), default=30, show_default=True)
+@fig_output
+@pdf_option
+@stage
+def signals(signals, ensemble, max_traces, output, pdf):
+    """Signals of several packings overlaid, and the ensemble average ± rms."""
+    plots = _plots()
+    from ..io.files import read_signal
+
+    plots.output_paths(output, pdf)
+    sigs = [read_signal(s) for s in signals]
+    ens = read_ensemble(ensemble) if ensemble else None
+    _done(plots.signals_overlay(sigs, output, ensemble=ens, max_traces=max_traces, pdf=pdf))
+
+
+@plot.command()
+@click.argument("signals", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--label", "labels", multiple=True, help="Label per signal (default: from attributes).")
+@click.option("--speed", "speeds", type=POSITIVE, multiple=True,
+              help="Speed per signal: time axis t c/L (give one per signal, or none for raw time).")
+@fig_output
+@pdf_option
+@stage
+def compare(signals, labels, speeds, output, pdf):
+    """Signals of different systems (frictional 2D, frictionless 2D, 3D) in one panel."""
+    plots = _plots()
+    from ..errors import InputError
+    from ..io.files import read_signal
+
+    plots.output_paths(output, pdf)
+    if labels and len(labels) != len(signals):
+        raise InputError(f"give one --label per signal ({len(signals)}), or none")
+    if speeds and len(speeds) != len(signals):
+        raise InputError(f"give one --speed per signal ({len(signals)}), or none")
+    sigs = [read_signal(s) for s in signals]
+    _done(plots.signal_comparison(sigs, output, labels=list(labels) or None,
+                                  speeds=list(speeds) or None, pdf=pdf))
+
+
+@plot.command()
+@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@fig_output
+@pdf_option
+@stage
+def coherent(files, output, pdf):
+    """Coherent part at several heights (ensemble files with a height, or signal files)."""
+    plots = _plots()
+    plots.output_paths(output, pdf)
+    _done(plots.coherent_heights([_signal_or_ensemble(f) for f in files], output, pdf=pdf))
+
+
+@plot.command()
+@click.argument("heights_json", type=click.Path(dir_okay=False))
+@fig_output
+@pdf_option
+@stage
+def arrivals(heights_json, output, pdf):
+    """Arrival times of the three characteristic points against L (analyze heights --json)."""
+    plots = _plots()
+    from ..report import heights_arrays
+
+    plots.output_paths(output, pdf)
+    data = heights_arrays(_load_json(heights_json), source=heights_json)
+    _done(plots.arrival_times(data, output, pdf=pdf))
+
+
+@plot.command()
+@click.argument("heights_json", nargs=-1, type=click.Path(dir_okay=False))
+@click.option("--label", "labels", multiple=True, help="Label per file (default: from the path).")
+@click.option("--chain", "chain", default="", metavar="N1,N2,...",
+              help="Add the exact identical-ball chain (theory) at these N, e.g. 50,100,200,400.")
+@click.option("--ic", type=click.Choice(["A", "B"]), default="A", show_default=True,
+              help="Initial condition of the --chain series.")
+@fig_output
+@pdf_option
+@stage
+def exponents(heights_json, labels, chain, ic, output, pdf):
+    """A(L) and W(L) log-log with effective exponents, several series."""
+    plots = _plots()
+    from ..errors import InputError
+    from ..report import chain_series, heights_arrays, label_from_path
+
+    plots.output_paths(output, pdf)
+    if labels and len(labels) != len(heights_json):
+        raise InputError(f"give one --label per file ({len(heights_json)}), or none")
+    series = {}
+    for k, path in enumerate(heights_json):
+        lab = labels[k] if labels else label_from_path(path)
+        series[lab] = heights_arrays(_load_json(path), source=path)
+    if chain:
+        try:
+            ns = [int(x) for x in chain.split(",") if x.strip()]
+        except ValueError:
+            raise InputError(f"--chain: {chain!r} is not a list of integers") from None
+        series[f"chain (exact, {ic})"] = chain_series(ns, ic=ic)
+    if not series:
+        raise InputError("give heights JSON files and/or --chain")
+    refs = {"gamma": 2 / 3 if ic == "A" else 1.0, "alpha": 1 / 3}
+    _done(plots.amplitude_width(series, output, references=refs, pdf=pdf))
+
+
+@plot.command()
+@click.argument("sweep_json", type=click.Path(dir_okay=False))
+@click.option("--lattice", "lattice", multiple=True, type=click.Path(dir_okay=False),
+              help="Heights JSON of a frictionless lattice (repeatable): markers.")
+@click.option("--lattice-frictional", "lattice_fr", multiple=True, type=click.Path(dir_okay=False),
+              help="Heights JSON of a frictional lattice (repeatable): markers.")
+@click.option("--lattice-speed", type=click.Choice(["tof", "peak", "zero"]), default="tof",
+              show_default=True, help="Which lattice speed to draw.")
+@click.option("--poisson", type=click.FloatRange(0, 1, max_open=True), default=0.0, show_default=True,
+              help="Poisson ratio for the frictional lattice theory.")
+@fig_output
+@pdf_option
+@stage
+def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf):
+    """Speeds against pressure (pressure-sweep --json) with the lattice theory."""
+    plots = _plots()
+    from ..report import sweep_speeds
+
+    plots.output_paths(output, pdf)
+    data = sweep_speeds(_load_json(sweep_json), source=sweep_json)
+    points = []
+    key = {"tof": "c_tof", "peak": "c_peak", "zero": "c_zero"}[lattice_speed]
+    for files, fr in ((lattice, 0.0), (lattice_fr, 1.0)):
+        for path in files:
+            h = _load_json(path)
+            if h.get(key) is not None and h.get("pressure") is not None:
+                points.append({"pressure": h["pressure"], "speed": h[key], "friction": fr,
+                               "label": f"lattice simulation ({key}), "
+                                        + ("frictional" if fr else "frictionless")})
+    _done(plots.speeds_vs_pressure(data, output, lattice_points=points, poisson=poisson, pdf=pdf))
+
+
+@plot.command()
+@click.argument("modes", type=click.Path(dir_okay=False))
+@click.option("--ic", type=click.Choice(["A", "B"]), default="A", show_default=True)
+@click.option("--bins", type=click.IntRange(5), default=60, show_default=True)
+@fig_output
+@pdf_option
+@stage
+def spectrum(modes, ic, bins, output, pdf):
+    """Eigen-spectrum (density of ω) and the weights a_n b_n."""
+    plots = _plots()
+    from ..io.files import read_modes
+
+    plots.output_paths(output, pdf)
+    _done(plots.spectrum(read_modes(modes), output, ic=ic, bins=bins, pdf=pdf))
+
+
+@plot.command()
+@click.argument("modes", type=click.Path(dir_okay=False))
+@click.argument("linear", type=click.Path(dir_okay=False))
+@click.argument("packing", type=click.Path(dir_okay=False))
+@click.option("--mode", "mode_index", type=click.IntRange(0), multiple=True,
+              help="Mode index (repeatable; default: lowest nonzero, strongest a_n b_n, most localized).")
+@click.option("--ic", type=click.Choice(["A", "B"]), default="A", show_default=True)
+@fig_output
+@pdf_option
+@stage
+def modes(modes, linear, packing, mode_index, ic, output, pdf):
+    """Selected mode shapes as arrows (needs eigensolve --vectors)."""
+    plots = _plots()
+    import numpy as np
+
+    from ..errors import InputError
+    from ..io.files import read_linear, read_modes, read_packing
+
+    plots.output_paths(output, pdf)
+    m = read_modes(modes, vectors=True)
+    lin = read_linear(linear)
+    pk = read_packing(packing)
+    if m.vectors.shape[0] != lin.n_dof:
+        raise InputError(f"{modes} and {linear} differ in the number of dofs")
+    if mode_index:
+        n = m.vectors.shape[1]
+        bad = [i for i in mode_index if i >= n]
+        if bad:
+            raise InputError(f"mode index {bad[0]} out of range (the file has {n} modes)")
+        chosen = {f"mode {i}": i for i in mode_index}
+    else:
+        chosen = plots.select_modes(m, dof_grain=lin.dof_grain, ic=ic)
+    idx = list(chosen.values())
+    labels = [f"{name} (n = {i})" if not name.startswith("mode") else name
+              for name, i in chosen.items()]
+    _done(plots.mode_shapes(m.vectors[:, idx], lin.dof_grain, lin.dof_axis, pk.position, output,
+                            omega=np.sqrt(np.maximum(m.omega2[idx], 0)), labels=labels,
+                            radius=pk.radius, box=pk.box, pdf=pdf))
+
+
+@plot.command()
+@click.argument("signals", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--reference", type=click.Path(dir_okay=False),
+              help="A reference signal (e.g. the linear model) drawn dashed in every panel.")
+@fig_output
+@pdf_option
+@stage
+def damping(signals, reference, output, pdf):
+    """Signals of one packing for several contact dampings ζ (attribute 'damping')."""
+    plots = _plots()
+    from ..io.files import read_signal
+
+    plots.output_paths(output, pdf)
+    ref = read_signal(reference) if reference else None
+    _done(plots.damping_series([read_signal(s) for s in signals], output, reference=ref, pdf=pdf))
+
+
+@plot.command()
+@click.option("--n", "n_balls", type=click.IntRange(2), multiple=True,
+              help="Chain length N (repeatable; default 25 50 100 200).")
+@click.option("--ic", type=click.Choice(["A", "B"]), default="A", show_default=True)
+@fig_output
+@pdf_option
+@stage
+def airy(n_balls, ic, output, pdf):
+    """Chain wall force (exact modal sum) against the Airy asymptote, co-moving frame."""
+    plots = _plots()
+    plots.output_paths(output, pdf)
+    _done(plots.chain_airy(output, n_balls=list(n_balls) or (25, 50, 100, 200), ic=ic, pdf=pdf))

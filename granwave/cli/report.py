@@ -1,0 +1,58 @@
+"""``granwave report``: the study's report (results/report/index.md + index.html)."""
+
+from __future__ import annotations
+
+import click
+
+from .common import stage
+
+
+@click.command()
+@click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
+              help="The Markdown report (.md); the HTML twin is written beside it (.html).")
+@click.option("--config", "config", type=click.Path(dir_okay=False),
+              help="Workflow config (YAML): its name, and the kind/friction of each scene.")
+@click.option("--summaries", multiple=True, type=click.Path(),
+              help="Per-sample summary JSON files or folders (searched recursively), e.g. "
+                   "results/summary. The first folder level below a given folder is the scene.")
+@click.option("--heights", multiple=True, type=click.Path(),
+              help="`analyze heights --json` files or folders, e.g. results/heights "
+                   "(results/heights/<scene>/p<p>.json).")
+@click.option("--sweep", "sweeps", multiple=True, type=click.Path(dir_okay=False),
+              help="`pressure-sweep --json` files (their scalar fits are listed).")
+@click.option("--figures", multiple=True, type=click.Path(),
+              help="Figure files or folders (every .png inside, linked relative to the report; "
+                   "named <plot subcommand>[_suffix].png for a caption).")
+@click.option("--title", default="granwave report", show_default=True)
+@stage
+def report(output, config, summaries, heights, sweeps, figures, title):
+    """Write the study's report: tables, fits and figures, every number computed
+    from the inputs.
+
+    \b
+    Example (the workflow's last rule):
+      granwave report --config config/config.yaml --summaries results/summary \\
+        --heights results/heights --sweep results/sweep/frictional2d.json \\
+        --figures results/figures -o results/report/index.md
+
+    Contents: static and moduli tables per scene and pressure (mean ± std, number of
+    packings); c_tof, c_peak, c_zero, c_l, c_t against p with fitted exponents and
+    c_tof/c_l; gamma and alpha of every height series against the chain's exact
+    values; lattice speeds against the formula of SPEC §12; the sweep fits; every
+    figure; the config name and the granwave version and git revision.
+    """
+    from .. import io  # noqa: F401  (import io before model: breaks the model <-> io import cycle)
+    from ..errors import InputError
+    from ..report import build_report, collect_json, find_figures, load_config, write_report
+    from pathlib import Path
+
+    out = Path(output)
+    if out.suffix.lower() != ".md":
+        raise InputError(f"{out}: the report must be a .md file")
+    cfg = load_config(config) if config else None
+    md = build_report(summaries=collect_json(summaries), heights=collect_json(heights),
+                      sweeps=collect_json(sweeps), figures=find_figures(figures),
+                      out_dir=out.parent.resolve() if str(out.parent) else Path(".").resolve(),
+                      config=cfg, config_path=config, title=title)
+    for p in write_report(out, md, title=title):
+        click.echo(f"wrote {p}", err=True)
