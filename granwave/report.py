@@ -244,7 +244,7 @@ def fmt(x, err=None, digits: int = 4) -> str:
     s = f"{x:.{digits}g}"
     e = _num(err)
     if err is not None and math.isfinite(e):
-        s += f" ± {e:.2g}"
+        s += " ± 0" if abs(e) <= 1e-12 * abs(x) else f" ± {e:.2g}"
     return s
 
 
@@ -531,6 +531,7 @@ def _exponents_section(hts, scenes: Scenes) -> list[str]:
                  [[f"initial condition {ic}", fmt(e["gamma"]), fmt(e["alpha"])] for ic, e in exact.items()])
     if not hts:
         return md + ["No height series among the inputs.", ""]
+    hts = [h for h in hts if h.get("gamma") is not None or h.get("alpha") is not None]
     rows = []
     for h in sorted(hts, key=lambda h: (scenes.kind_of(h["_scene"]), h["_scene"], _num(h.get("pressure")))):
         ic = scenes.ic_of(h["_scene"], h)
