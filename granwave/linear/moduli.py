@@ -1,0 +1,576 @@
+"""Elastic moduli of a confined packing, global and scale dependent (SPEC §6).
+
+Everything here is a static response of the linear model of SPEC §5: the
+grains relax non-affinely (``D u = f``) under an imposed global strain, an
+imposed body force or imposed displacements, and the stress change or the
+elastic energy gives a modulus. The full derivation and the choices made
+where SPEC is silent are in ``docs/moduli.md``; in short:
+
+Cell, strain and stress conventions
+-----------------------------------
+Axes as in docs/conventions.md: lateral axes periodic, the last axis
+vertical, bottom wall fixed at 0, top wall at ``box[-1]``. Cell volume
+``V = L1 x L2 x 1`` (one diameter thick) in 2D, ``L1 L2 L3`` in 3D.
+Compressive stress and shrinking strain count positive: a global strain is
+the affine field ``u(x) = -G x`` with the displacement gradient ``G``
+(``G = eps e_a e_a`` for a normal strain, ``G = 2 eps e_a e_b`` for a shear:
+simple shear, the lateral displacement grows along ``b``), so that
+``eps_11 > 0`` shrinks the periodic width, ``eps_22 > 0`` moves the top wall
+down and ``eps_12`` moves the top wall along x by ``-2 eps_12 L2``.
+The stress is SPEC §4's ``sigma_ab = (1/V) sum_c F^a b^b`` with ``F`` the
+force exerted *by* grain i *on* its partner (minus the force on i) and ``b``
+the branch vector from the centre of i to the centre of j (nearest image)
+or, for a wall contact, to the contact point on the wall plane
+(``b = a_i n``, ``a_i = R_i - delta``). Then ``sigma_22 = p`` for a packing
+pressed by the piston, and in 2D
+``sigma_11 = C11 eps_11 + C12 eps_22``, ``sigma_22 = C12 eps_11 + C22 eps_22``,
+``sigma_12 = 2 C33 eps_12``. In 3D the Voigt matrix (order 11, 22, 33, 23,
+13, 12; z vertical; ``sigma_4 = C_4j eps_j`` with engineering shear strains
+``eps_4 = 2 eps_23`` ...) is reported; its vertical components are C33 (normal)
+and C44, C55 (shear).
+
+How a strain is imposed
+-----------------------
+Every force-carrying contact sees the affine relative displacement of its
+contact point ``-G b`` (grain pairs across the periodic boundary through
+their nearest-image branch vector; wall contacts through the motion of the
+wall: the top wall moves with the affine field, the bottom wall at 0 does not
+move). The grains then relax: ``D u' = f`` with ``f`` the generalized force of
+the affine contact displacements; ``u'`` holds translations and, with
+friction, rotations. The relaxed contact forces give the stress change;
+because the model is linear the moduli do not depend on the amplitude.
+With ``prestress=True`` the blocks contain the geometric terms of SPEC §5,
+and the stress change also contains the change of the branch vectors and of
+the volume (``F dB`` and ``-sigma dV/V``): the Cauchy stress increment.
+
+Frictionless walls cannot drag a packing sideways: a shear that moves the
+top wall parallel to itself would then relax completely. For the shear
+loadings (global shear with the vertical, body force along a lateral axis)
+the lateral degrees of freedom of the grains touching a wall are therefore
+held at their affine value ("no-slip wall grains", ``grip`` below) when the
+packing is frictionless; with friction the tangential wall springs do it.
+
+Zero modes
+----------
+Without friction rigid lateral translations are zero modes of D. The
+systems ``D u = f`` are consistent (f is orthogonal to every zero mode: a
+zero mode does not stretch any spring), and the contact forces are the same
+for every solution. We solve with a sparse LU factorization of D augmented
+by one Lagrange constraint per lateral axis (the mean lateral displacement is
+zero), used only when no degree of freedom along that axis is held fixed. If
+the factorization fails or the residual is not small (floppy grains of a
+disordered packing), we fall back to the minimum-norm least-squares solution
+(dense LAPACK ``gelsd`` up to ``DENSE_MAX_DOF`` free dofs, LSQR above). The
+solver used is reported in ``attrs``-like keys of the result.
+
+Scale-dependent moduli (``local=True``)
+---------------------------------------
+(a) Body force: every non-rattler grain i receives the force
+``f0 sin(n pi y_i / L2) V_i / Phi3*`` along x (shear type) or y (normal
+type), ``V_i`` the grain's volume; ``sum_i V_i / Phi3* = V``, so ``f0`` is a
+force per unit volume. Walls fixed. The continuum solution of
+``C u'' = -f0 sin(n pi y/L2)`` with ``u(0) = u(L2) = 0`` stores
+``W = L1 L2^3 f0^2 / (4 n^2 pi^2 C)`` (2D, thickness 1; in 3D ``L1 L2 L3^3``),
+so the apparent modulus is ``C = L1 L2^3 f0^2 / (4 n^2 pi^2 W)``, with
+``W = u^T D u / 2`` of the relaxed linear model. n = 1, 2.
+(b) Lines: n + 2 equally spaced horizontal lines ``y_k = k L2/(n+1)``,
+k = 0..n+1 (the outer two are the wall planes); the grains crossed by line k
+(``|y_i - y_k| < R_i``) have their displacement along x (shear type) or y
+(normal type) imposed: 0 for even k, ``+u0`` for k = 1, 5, ...,
+``-u0`` for k = 3, 7, ...; every other degree of freedom (including
+rotations) relaxes. A continuum with piecewise-linear displacement stores
+``W = (n+1)^2 L1 C u0^2 / (2 L2)`` (3D: ``L1 L2``), which defines C. n = 1, 3.
+Both are reported as ratios to the global normal (C22; 3D C33) and shear
+(C33; 3D C55) moduli.
+
+Phi3* (the mass density entering the sound speeds) is measured here over the
+whole cell: volume of the non-rattler spheres / V. It is the density that
+matches the global moduli (also measured over the whole cell) and the
+body-force normalization.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
+from ..errors import InputError
+from ..model import Packing
+from .assemble import contact_blocks, dof_map, n_rotations
+
+#: Up to this many free dofs the least-squares fallback is a dense LAPACK solve.
+DENSE_MAX_DOF = 6000
+
+#: Relative residual ||D u - f|| / (||D|| ||u|| + ||f||) accepted from the sparse solve.
+RESIDUAL_TOL = 1e-10
+
+#: Default strain (and body-force / displacement) amplitude. The model is linear:
+#: the moduli do not depend on it (tested).
+DEFAULT_AMPLITUDE = 1e-6
+
+
+# ----------------------------------------------------------------------------- cell data
+@dataclass
+class _Cell:
+    """Per-contact data of a packing in the form the moduli need."""
+
+    dim: int
+    n_rot: int
+    p: int  # dofs per grain
+    box: np.ndarray
+    volume: float
+    friction: float
+    prestress: bool
+    ii: np.ndarray  # (M,) grain i
+    jj: np.ndarray  # (M,) grain j (0 for walls)
+    wall: np.ndarray  # (M,) bool
+    normal: np.ndarray  # (M, dim)
+    branch: np.ndarray  # (M, dim) centre of i -> centre of j (wall: -> contact point)
+    force_i: np.ndarray  # (M, dim) stored force on i
+    blocks: np.ndarray  # (M, 2p, 2p)
+    first: np.ndarray  # (N,) first dof of each grain, -1 for rattlers
+    dof_grain: np.ndarray
+    dof_axis: np.ndarray
+    stiffness: sp.csr_matrix  # D assembled from the same blocks
+    idx: np.ndarray  # (M, 2p) dof index of each block row, -1 for wall halves
+    grain_volume: np.ndarray  # (N,)
+    active: np.ndarray  # (N,) bool, non-rattler
+    position: np.ndarray  # (N, dim)
+    radius: np.ndarray  # (N,)
+    touches_wall: np.ndarray  # (N,) bool
+    solvers: dict = field(default_factory=dict)
+
+    @property
+    def n_dof(self) -> int:
+        return len(self.dof_grain)
+
+    @property
+    def phi3_star(self) -> float:
+        return float(self.grain_volume[self.active].sum() / self.volume)
+
+
+def _check_packing(packing: Packing) -> None:
+    if packing.dim not in (2, 3):
+        raise InputError(f"elastic moduli need a 2D or 3D packing (got dim = {packing.dim})")
+    for name in ("position", "radius", "box"):
+        if not np.all(np.isfinite(getattr(packing, name))):
+            raise InputError(f"packing {name} contains NaN or infinite values")
+    c = packing.contacts
+    for name in ("normal", "overlap", "force_normal", "force_tangential",
+                 "stiffness_normal", "stiffness_tangential"):
+        if not np.all(np.isfinite(getattr(c, name))):
+            raise InputError(f"packing contacts/{name} contains NaN or infinite values")
+    if np.any(packing.box <= 0):
+        raise InputError("packing box sizes must be positive")
+    keep = c.force_normal > 0
+    if not np.any(keep & (c.j == -1)) or not np.any(keep & (c.j == -2)):
+        raise InputError("the packing does not touch both walls: no strain can be imposed")
+
+
+def _cell(packing: Packing, prestress: bool) -> _Cell:
+    _check_packing(packing)
+    dim = packing.dim
+    friction = float(packing.attrs.get("friction", 0.0))
+    n_rot = n_rotations(dim, friction)
+    p = dim + n_rot
+    keep, blocks = contact_blocks(packing, prestress=prestress, n_rot=n_rot)
+    c = packing.contacts
+    wall = c.j[keep] < 0
+    ii = c.i[keep]
+    jj = np.where(wall, 0, c.j[keep])
+    n = np.asarray(c.normal[keep], float).reshape(len(keep), dim)
+    delta = c.overlap[keep]
+    R = packing.radius
+    # Branch vector: centre-to-centre (R_i + R_j - delta) n, wall: a_i n with a_i = R_i - delta.
+    length = np.where(wall, R[ii] - delta, R[ii] + R[jj] - delta)
+    branch = length[:, None] * n
+    force_i = (-c.force_normal[keep][:, None] * n
+               + np.asarray(c.force_tangential[keep], float).reshape(len(keep), dim))
+    first, dof_grain, dof_axis = dof_map(packing, n_rot)
+    loc = np.arange(p)
+    idx_i = first[ii][:, None] + loc
+    idx_j = np.where(wall[:, None], -1, first[jj][:, None] + loc)
+    idx = np.concatenate([idx_i, idx_j], axis=1)
+    n_dof = len(dof_grain)
+    rows = np.broadcast_to(idx[:, :, None], blocks.shape).ravel()
+    cols = np.broadcast_to(idx[:, None, :], blocks.shape).ravel()
+    vals = blocks.ravel()
+    ok = (rows >= 0) & (cols >= 0) & (vals != 0.0)
+    D = sp.coo_matrix((vals[ok], (rows[ok], cols[ok])), shape=(n_dof, n_dof)).tocsr()
+    D.sum_duplicates()
+    volume = float(np.prod(packing.box))  # 2D: L1 x L2 x one diameter
+    active = first >= 0
+    touches = np.zeros(packing.n_grains, bool)
+    touches[ii[wall]] = True
+    return _Cell(dim=dim, n_rot=n_rot, p=p, box=np.asarray(packing.box, float), volume=volume,
+                 friction=friction, prestress=prestress, ii=ii, jj=jj, wall=wall, normal=n,
+                 branch=branch, force_i=force_i, blocks=blocks, first=first,
+                 dof_grain=dof_grain, dof_axis=dof_axis, stiffness=D, idx=idx,
+                 grain_volume=4.0 / 3.0 * np.pi * R**3, active=active,
+                 position=np.asarray(packing.position, float), radius=np.asarray(R, float),
+                 touches_wall=touches)
+
+
+# ----------------------------------------------------------------------------- linear algebra
+class _Solver:
+    """Solves D u = f on the free dofs with the others held at given values.
+
+    Lagrange constraints (zero mean displacement) remove the rigid lateral
+    translations when the packing is frictionless and nothing along that axis
+    is held. Falls back to minimum-norm least squares (module docstring).
+    """
+
+    def __init__(self, cell: _Cell, fixed: np.ndarray):
+        self.cell = cell
+        self.fixed = fixed
+        self.free = np.flatnonzero(~fixed)
+        D = cell.stiffness
+        self.D_ff = D[self.free][:, self.free].tocsc()
+        self.D_fc = D[self.free][:, np.flatnonzero(fixed)].tocsc()
+        cons = []
+        if cell.friction <= 0.0:
+            for a in range(cell.dim - 1):
+                if not np.any(fixed & (cell.dof_axis == a)):
+                    cons.append((cell.dof_axis[self.free] == a).astype(float))
+        self.n_cons = len(cons)
+        self.method = None
+        self._lu = None
+        nf = len(self.free)
+        if nf == 0:
+            return
+        if cons:
+            C = sp.csc_matrix(np.array(cons).T)
+            A = sp.bmat([[self.D_ff, C], [C.T, None]], format="csc")
+        else:
+            A = self.D_ff
+        try:
+            self._lu = spla.splu(A.tocsc())
+        except RuntimeError:  # exactly singular
+            self._lu = None
+
+    def solve(self, rhs_free: np.ndarray, held: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+        """Full dof vector u with u[fixed] = held and D_ff u_f = rhs_free - D_fc held."""
+        cell = self.cell
+        u = np.zeros(cell.n_dof)
+        if held is not None and np.any(self.fixed):
+            u[self.fixed] = held
+            rhs = rhs_free - self.D_fc @ held
+        else:
+            rhs = np.array(rhs_free, float)
+        nf = len(self.free)
+        if nf == 0:
+            return u, "none"
+        method = "sparse LU" + (" + zero-mean constraint" if self.n_cons else "")
+        x = None
+        if self._lu is not None:
+            sol = self._lu.solve(np.concatenate([rhs, np.zeros(self.n_cons)]))
+            x = sol[:nf]
+            if not self._good(x, rhs):
+                x = None
+        if x is None:
+            if nf <= DENSE_MAX_DOF:
+                x = scipy.linalg.lstsq(self.D_ff.toarray(), rhs, cond=1e-13,
+                                       lapack_driver="gelsd", check_finite=False)[0]
+                method = "dense minimum-norm least squares (gelsd)"
+            else:
+                x = spla.lsqr(self.D_ff, rhs, atol=1e-14, btol=1e-14, iter_lim=20 * nf)[0]
+                method = "LSQR minimum-norm least squares"
+            if not self._good(x, rhs, tol=1e-7):
+                raise InputError("the linear system D u = f could not be solved accurately "
+                                 "(inconsistent: a load acts on a floppy mode?)")
+        u[self.free] = x
+        return u, method
+
+    def _good(self, x, rhs, tol=RESIDUAL_TOL) -> bool:
+        if not np.all(np.isfinite(x)):
+            return False
+        r = np.linalg.norm(self.D_ff @ x - rhs)
+        scale = abs(self.D_ff).max() * np.linalg.norm(x) + np.linalg.norm(rhs)
+        return bool(r <= tol * scale) if scale > 0 else True
+
+
+def _solver(cell: _Cell, fixed: np.ndarray) -> _Solver:
+    key = fixed.tobytes()
+    if key not in cell.solvers:
+        cell.solvers[key] = _Solver(cell, fixed)
+    return cell.solvers[key]
+
+
+def _gather(cell: _Cell, u: np.ndarray) -> np.ndarray:
+    """(M, 2p) block vectors q = (u_i, theta_i, u_j, theta_j) from a dof vector (walls: 0)."""
+    ext = np.concatenate([u, [0.0]])
+    return ext[np.where(cell.idx >= 0, cell.idx, len(u))]
+
+
+def _scatter(cell: _Cell, g: np.ndarray) -> np.ndarray:
+    """Dof vector summing per-contact generalized forces g (M, 2p) (wall halves dropped)."""
+    out = np.zeros(cell.n_dof)
+    ok = cell.idx >= 0
+    np.add.at(out, cell.idx[ok], g[ok])
+    return out
+
+
+# ----------------------------------------------------------------------------- global moduli
+def _strain_components(dim: int):
+    """Voigt order: (a, b) pairs; normal first, then shears (vertical ones first in 3D)."""
+    if dim == 2:
+        return [(0, 0), (1, 1), (0, 1)]
+    return [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]
+
+
+def _gradient(dim: int, a: int, b: int) -> np.ndarray:
+    """Displacement gradient G of u = -G x for a unit strain eps_ab (shrinking positive).
+
+    Normal: G = e_a e_a. Shear (a < b): simple shear G = 2 e_a e_b, the
+    displacement along a growing along b (b vertical for the wall shears).
+    """
+    G = np.zeros((dim, dim))
+    G[a, b] = 1.0 if a == b else 2.0
+    return G
+
+
+def _affine_q(cell: _Cell, G: np.ndarray) -> np.ndarray:
+    """Per-contact q (M, 2p) carrying the affine relative displacement -G b.
+
+    Only relative displacements matter (every block annihilates a common
+    translation of i and j): grain pairs get it on the j half, wall contacts
+    (relative displacement = -u_i) as +G b on the i half.
+    """
+    dim, p = cell.dim, cell.p
+    d = cell.branch @ G.T  # G b per contact
+    q = np.zeros((len(cell.ii), 2 * p))
+    q[~cell.wall, p:p + dim] = -d[~cell.wall]
+    q[cell.wall, :dim] = d[cell.wall]
+    return q
+
+
+def _relative_translation(cell: _Cell, q: np.ndarray) -> np.ndarray:
+    """Relative translation of j (or of the wall) with respect to i, per contact."""
+    dim, p = cell.dim, cell.p
+    return np.where(cell.wall[:, None], -q[:, :dim], q[:, p:p + dim] - q[:, :dim])
+
+
+def static_stress(cell: _Cell) -> np.ndarray:
+    """sigma_ab = (1/V) sum_c (-f_i)^a b^b over force-carrying contacts (compression > 0)."""
+    return -(cell.force_i.T @ cell.branch) / cell.volume
+
+
+def _stress_change(cell: _Cell, q: np.ndarray, dlog_volume: float) -> np.ndarray:
+    """Stress increment for the total per-contact displacement q (M, 2p)."""
+    gen = -np.einsum("mkl,ml->mk", cell.blocks, q)
+    df_i = gen[:, :cell.dim]
+    ds = -(df_i.T @ cell.branch) / cell.volume
+    if cell.prestress:
+        rel = _relative_translation(cell, q)
+        dbranch = np.where(cell.wall[:, None],
+                           np.sum(rel * cell.normal, axis=1)[:, None] * cell.normal, rel)
+        ds = ds - (cell.force_i.T @ dbranch) / cell.volume - static_stress(cell) * dlog_volume
+    return ds
+
+
+def _grip_mask(cell: _Cell) -> np.ndarray:
+    """Lateral translation dofs of grains touching a wall (the no-slip wall grains)."""
+    g = cell.touches_wall[cell.dof_grain]
+    return g & (cell.dof_axis < cell.dim - 1)
+
+
+def _use_grip(cell: _Cell, grip: bool | None) -> bool:
+    return (cell.friction <= 0.0) if grip is None else bool(grip)
+
+
+def _respond(cell: _Cell, G: np.ndarray, amplitude: float, fixed: np.ndarray):
+    """Relax under the affine strain amplitude * G; returns (stress change / amplitude, u', method)."""
+    q_aff = amplitude * _affine_q(cell, G)
+    f = _scatter(cell, -np.einsum("mkl,ml->mk", cell.blocks, q_aff))
+    solver = _solver(cell, fixed)
+    u, method = solver.solve(f[solver.free], np.zeros(int(fixed.sum())))
+    q = q_aff + _gather(cell, u)
+    dlogv = -amplitude * float(np.trace(G)) if np.allclose(G, np.diag(np.diag(G))) else 0.0
+    ds = _stress_change(cell, q, dlogv) + _grip_virial(cell, fixed, cell.stiffness @ u - f)
+    return ds / amplitude, u, method
+
+
+def _grip_virial(cell: _Cell, fixed: np.ndarray, reaction: np.ndarray) -> np.ndarray:
+    """Virial of the forces that hold the no-slip wall grains (like wall contacts).
+
+    The holding force on a held dof is ``D u' - f`` there; it acts as if
+    transmitted by the nearer wall at the foot of the perpendicular from the
+    grain's centre, branch vector ``(0, .., -y_i)`` (bottom) or
+    ``(0, .., H - y_i)`` (top).
+    """
+    out = np.zeros((cell.dim, cell.dim))
+    dofs = np.flatnonzero(fixed)
+    if not len(dofs):
+        return out
+    vertical = cell.dim - 1
+    H = cell.box[vertical]
+    g = cell.dof_grain[dofs]
+    a = cell.dof_axis[dofs]
+    y = cell.position[g, vertical]
+    b_vert = np.where(y < 0.5 * H, -y, H - y)
+    lateral = a < cell.dim
+    np.add.at(out, (a[lateral], np.full(int(lateral.sum()), vertical)),
+              -reaction[dofs][lateral] * b_vert[lateral] / cell.volume)
+    return out
+
+
+def _voigt_pairs(dim: int):
+    return _strain_components(dim)
+
+
+def global_response(cell: _Cell, *, amplitude: float = DEFAULT_AMPLITUDE,
+                    grip: bool | None = None) -> tuple[np.ndarray, list[str]]:
+    """Voigt stiffness matrix C (3x3 in 2D, 6x6 in 3D) and the solver used per strain."""
+    dim = cell.dim
+    pairs = _strain_components(dim)
+    nv = len(pairs)
+    C = np.zeros((nv, nv))
+    methods = []
+    vertical = dim - 1
+    for col, (a, b) in enumerate(pairs):
+        G = _gradient(dim, a, b)
+        fixed = np.zeros(cell.n_dof, bool)
+        if a != b and b == vertical and _use_grip(cell, grip):
+            fixed = _grip_mask(cell)
+        ds, _, method = _respond(cell, G, amplitude, fixed)
+        methods.append(method)
+        # sigma_cd with F along c and b along d (d vertical for the wall shears): the
+        # traction on planes normal to d, energy-conjugate to the simple shear G_cd.
+        for row, (c_, d_) in enumerate(pairs):
+            C[row, col] = ds[c_, d_]
+        if a != b:
+            C[:, col] *= 0.5  # engineering shear strain 2 eps_ab
+    return C, methods
+
+
+# ----------------------------------------------------------------------------- local moduli
+def _energy(cell: _Cell, u: np.ndarray) -> float:
+    D = cell.stiffness
+    return 0.5 * float(u @ (D @ u) if not cell.prestress else u @ (0.5 * (D + D.T) @ u))
+
+
+def body_force_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE,
+                       grip: bool | None = None) -> float:
+    """Apparent modulus from a sinusoidal body force along ``axis`` (SPEC §6 (a))."""
+    dim = cell.dim
+    vertical = dim - 1
+    H = cell.box[vertical]
+    area = float(np.prod(cell.box[:-1]))  # L1 (x one diameter) in 2D
+    phi = cell.phi3_star
+    y = cell.position[:, vertical]
+    f_grain = amplitude * np.sin(n * np.pi * y / H) * cell.grain_volume / phi
+    f = np.zeros(cell.n_dof)
+    sel = cell.dof_axis == axis
+    f[sel] = f_grain[cell.dof_grain[sel]]
+    fixed = np.zeros(cell.n_dof, bool)
+    if axis != vertical and _use_grip(cell, grip):
+        fixed = _grip_mask(cell)
+        f[fixed] = 0.0
+    solver = _solver(cell, fixed)
+    u, _ = solver.solve(f[solver.free], np.zeros(int(fixed.sum())))
+    W = _energy(cell, u)
+    return area * H**3 * amplitude**2 / (4.0 * n**2 * np.pi**2 * W) if W > 0 else float("inf")
+
+
+def line_grains(cell: _Cell, n: int) -> list[np.ndarray]:
+    """Non-rattler grains crossed by each of the n + 2 lines y_k = k H / (n + 1)."""
+    vertical = cell.dim - 1
+    H = cell.box[vertical]
+    y = cell.position[:, vertical]
+    out = []
+    for k in range(n + 2):
+        yk = k * H / (n + 1)
+        out.append(np.flatnonzero(cell.active & (np.abs(y - yk) < cell.radius)))
+    return out
+
+
+def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE) -> float:
+    """Apparent modulus from displacements imposed on n + 2 horizontal lines (SPEC §6 (b))."""
+    dim = cell.dim
+    vertical = dim - 1
+    H = cell.box[vertical]
+    area = float(np.prod(cell.box[:-1]))
+    lines = line_grains(cell, n)
+    value = np.zeros(cell.n_dof)
+    fixed = np.zeros(cell.n_dof, bool)
+    for k, grains in enumerate(lines):
+        s = 0.0 if k % 2 == 0 else (1.0 if (k // 2) % 2 == 0 else -1.0)
+        dofs = cell.first[grains] + axis
+        if np.any(fixed[dofs]):
+            raise InputError(f"lines for n = {n} are closer than a grain: the cell is too low")
+        fixed[dofs] = True
+        value[dofs] = s * amplitude
+    solver = _solver(cell, fixed)
+    u, _ = solver.solve(np.zeros(len(solver.free)), value[fixed])
+    W = _energy(cell, u)
+    return 2.0 * H * W / ((n + 1) ** 2 * area * amplitude**2)
+
+
+# ----------------------------------------------------------------------------- entry point
+def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
+           amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None) -> dict:
+    """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (SPEC §6).
+
+    Parameters
+    ----------
+    packing : a 2D or 3D packing in equilibrium (stored contact stiffnesses and forces).
+    local : also compute the body-force (n = 1, 2) and line (n = 1, 3) moduli.
+    prestress : include the geometric (prestress) terms in D and in the stress change.
+    amplitude : strain (and body-force density / line displacement) amplitude; the
+        results do not depend on it (linear model).
+    grip : hold the lateral dofs of wall-touching grains in the shear loadings;
+        default (None): only for frictionless packings (docs/moduli.md).
+
+    Returns
+    -------
+    dict with, in 2D, ``C11, C12, C22, C33`` (E*), in 3D ``C11 C22 C33 C12 C13 C23 C44 C55
+    C66`` (Voigt, z vertical), ``voigt`` (the full matrix), ``c_l``, ``c_t``
+    (sqrt(E*/rho)), ``phi3_star`` (whole cell), ``static_stress``, the solver used,
+    and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``).
+    """
+    if not (math.isfinite(amplitude) and amplitude > 0):
+        raise InputError(f"amplitude must be a positive finite number (got {amplitude!r})")
+    cell = _cell(packing, prestress)
+    dim = cell.dim
+    C, methods = global_response(cell, amplitude=amplitude, grip=grip)
+    phi = cell.phi3_star
+    out: dict = {"dim": dim}
+    if dim == 2:
+        out.update(C11=C[0, 0], C12=0.5 * (C[0, 1] + C[1, 0]), C22=C[1, 1], C33=C[2, 2])
+        normal_key, shear_key = "C22", "C33"
+        c_normal, c_shear = C[1, 1], C[2, 2]
+    else:
+        out.update(C11=C[0, 0], C22=C[1, 1], C33=C[2, 2],
+                   C12=0.5 * (C[0, 1] + C[1, 0]), C13=0.5 * (C[0, 2] + C[2, 0]),
+                   C23=0.5 * (C[1, 2] + C[2, 1]), C44=C[3, 3], C55=C[4, 4], C66=C[5, 5])
+        normal_key, shear_key = "C33", "C55"
+        c_normal, c_shear = C[2, 2], 0.5 * (C[3, 3] + C[4, 4])
+    out["c_l"] = math.sqrt(c_normal / phi) if c_normal > 0 else float("nan")
+    out["c_t"] = math.sqrt(c_shear / phi) if c_shear > 0 else float("nan")
+    out["phi3_star"] = phi
+    out["phi3_star_region"] = "whole cell"
+    out["voigt"] = C
+    out["static_stress"] = static_stress(cell)
+    out["prestress"] = bool(prestress)
+    out["grip_wall_grains"] = _use_grip(cell, grip)
+    out["solver"] = sorted(set(methods))
+    out["n_dof"] = cell.n_dof
+    if local:
+        vertical = dim - 1
+        for kind, axis, ref_key, ref in (("normal", vertical, normal_key, c_normal),
+                                         ("shear", 0, shear_key, c_shear)):
+            for n in (1, 2):
+                Cb = body_force_modulus(cell, axis=axis, n=n, amplitude=amplitude, grip=grip)
+                out[f"{ref_key}_body_n{n}"] = Cb
+                out[f"{ref_key}_body_n{n}_ratio"] = Cb / ref if ref > 0 else float("nan")
+            for n in (1, 3):
+                Cl = line_modulus(cell, axis=axis, n=n, amplitude=amplitude)
+                out[f"{ref_key}_lines_n{n}"] = Cl
+                out[f"{ref_key}_lines_n{n}_ratio"] = Cl / ref if ref > 0 else float("nan")
+    return out
