@@ -395,20 +395,11 @@ def mode_shapes(vectors: np.ndarray, dof_grain, dof_axis, position, path, *,
     return save_figure(fig, path, pdf=pdf)
 
 
-def participation_ratio(vectors: np.ndarray, dof_grain) -> np.ndarray:
-    """Grain participation ratio of each mode (1/N_grains: localized; ~1: extended)."""
-    vectors = np.asarray(vectors, float)
-    g = np.asarray(dof_grain, int)
-    grains, inv = np.unique(g, return_inverse=True)
-    w = np.zeros((grains.size, vectors.shape[1]))
-    np.add.at(w, inv, vectors ** 2)
-    return w.sum(0) ** 2 / np.maximum((w ** 2).sum(0), 1e-300) / grains.size
-
-
-def select_modes(modes: Modes, *, dof_grain=None, ic: str = "A",
-                 zero_tol: float = 1e-9) -> dict[str, int]:
+def select_modes(modes: Modes, *, dof_grain=None, dof_axis=None, dim: int | None = None,
+                 ic: str = "A", zero_tol: float = 1e-9) -> dict[str, int]:
     """Lowest nonzero mode, the mode contributing most (|a_n b_n|) and the most
-    localized one (smallest participation ratio; needs the vectors)."""
+    localized one (smallest participation ratio over grains,
+    :func:`granwave.analysis.spectrum.participation_ratio`; needs the vectors)."""
     omega2 = np.asarray(modes.omega2, float)
     nz = np.flatnonzero(omega2 > zero_tol * max(omega2.max(), 1e-300))
     _need(nz.size > 0, "no nonzero modes")
@@ -416,8 +407,11 @@ def select_modes(modes: Modes, *, dof_grain=None, ic: str = "A",
     contrib = np.abs(np.asarray(a) * np.asarray(modes.coupling))
     out = {"lowest nonzero": int(nz[0]), "strongest |a_n b_n|": int(nz[np.argmax(contrib[nz])])}
     if modes.vectors is not None and dof_grain is not None:
-        pr = participation_ratio(np.asarray(modes.vectors)[:, nz], dof_grain)
-        out["most localized"] = int(nz[np.argmin(pr)])
+        from .analysis.spectrum import participation_ratio
+
+        pr = participation_ratio(np.asarray(modes.vectors)[:, nz], dof_grain=dof_grain,
+                                 dof_axis=dof_axis, dim=dim)
+        out["most localized"] = int(nz[np.nanargmin(pr)])
     return out
 
 

@@ -99,8 +99,8 @@ def test_segments_wrap_periodic_contacts(packing):
 
 
 def test_network_and_roses(tmp_path, packing):
-    out = plots.force_network(packing, tmp_path / "network.png", pdf=True)
-    assert [p.name for p in out] == ["network.png", "network.pdf"]
+    out = plots.force_network(packing, tmp_path / "network.png")
+    assert [p.name for p in out] == ["network.png"]
     check_png(out[0], (12, 10))
     out = plots.contact_roses(packing, tmp_path / "roses.png")
     check_png(out[0], (13, 4.8))
@@ -179,3 +179,96 @@ def test_bad_output_name(tmp_path, packing):
 def test_caption_for():
     assert plots.caption_for("figures/speeds.png").startswith("Sound speeds")
     assert "p1e-4" in plots.caption_for("network_p1e-4.png")
+
+
+# ---------------------------------------------------------------- CLI
+@pytest.fixture(scope="module")
+def files(tmp_path_factory, packing):
+    """Small input files for every `granwave plot` subcommand."""
+    import scipy.sparse as sp
+
+    from granwave.analysis.ensemble import Ensemble, write_ensemble
+    from granwave.model import LinearSystem
+
+    d = tmp_path_factory.mktemp("plotin")
+    gio.write_packing(d / "packing.h5", packing)
+    n = packing.n_grains
+    sig = synthetic_signal(snapshots=True, n=n)
+    gio.write_signal(d / "signal.h5", sig)
+    for k in range(3):
+        gio.write_signal(d / f"s{k}.h5", synthetic_signal(seed=k + 1))
+        gio.write_signal(d / f"damp{k}.h5", synthetic_signal(seed=k, damping=0.1 * k))
+    gio.write_signal(d / "tall.h5", synthetic_signal(height=20.0))
+    s = synthetic_signal()
+    write_ensemble(d / "ens.h5", Ensemble(s.time, s.force, 0.1 * np.abs(s.force),
+                                          {"n_signals": 3, "height_mean": 10.0}))
+    ndof = 3 * n
+    rng = np.random.default_rng(2)
+    omega2 = np.sort(rng.uniform(0.01, 1, ndof))
+    vecs = np.linalg.qr(rng.standard_normal((ndof, ndof)))[0]
+    gio.write_modes(d / "modes.h5", Modes(omega2, rng.standard_normal(ndof), rng.standard_normal(ndof),
+                                          rng.standard_normal(ndof), vectors=vecs,
+                                          attrs={"dim": 2, "pressure": 1e-4, "height": 6.0,
+                                                 "n_zero_modes": 0}))
+    lin = LinearSystem(sp.identity(ndof, format="csr"), np.ones(ndof), sig.dof_grain, sig.dof_axis,
+                       np.zeros(ndof), np.zeros(ndof), np.zeros(ndof),
+                       {"dim": 2, "pressure": 1e-4, "friction": 0.5, "height": 6.0, "prestress": False})
+    gio.write_linear(d / "linear.h5", lin)
+    h = heights_data()
+    h_json = {"pressure": 1e-4, "ic": "A", "gamma": 0.6, "c_tof": 0.1,
+              "samples": [{k: float(v[i]) for k, v in h.items()} for i in range(h["height"].size)]}
+    (d / "heights.json").write_text(json.dumps(h_json))
+    (d / "lat.json").write_text(json.dumps({"pressure": 1e-5, "c_tof": 0.2, "c_peak": 0.19}))
+    p = [1e-7, 1e-6, 1e-5, 1e-4]
+    (d / "sweep.json").write_text(json.dumps({"pressures": [
+        {"pressure": q, "c_tof": 0.5 * q ** 0.22, "c_l": {"mean": 0.55 * q ** 0.2, "std": 0.001},
+         "c_t": 0.3 * q ** 0.24} for q in p]}))
+    return d
+
+
+CLI_CASES = [
+    ("network", ["packing.h5"], (12, 10)),
+    ("roses", ["packing.h5"], (13, 4.8)),
+    ("snapshot", ["signal.h5", "--packing", "packing.h5", "--index", "1"], (5.0, 5.5)),
+    ("signals", ["s0.h5", "s1.h5", "s2.h5"], (12, 4.8)),
+    ("signals", ["s0.h5", "s1.h5", "--ensemble", "ens.h5"], (12, 4.8)),
+    ("compare", ["s0.h5", "tall.h5", "--speed", "0.1", "--speed", "0.1"], (8, 5)),
+    ("coherent", ["ens.h5", "tall.h5"], (12, 4.8)),
+    ("arrivals", ["heights.json"], (8, 5.5)),
+    ("exponents", ["heights.json", "--chain", "20,40"], (12, 8.5)),
+    ("speeds", ["sweep.json", "--lattice-frictional", "lat.json"], (8, 6)),
+    ("spectrum", ["modes.h5"], (9, 7)),
+    ("modes", ["modes.h5", "linear.h5", "packing.h5"], (4.2 * 3 + 0.8, 5.5)),
+    ("damping", ["damp0.h5", "damp1.h5", "damp2.h5", "--reference", "s0.h5"], (3.6 * 3 + 0.5, 3.6)),
+    ("airy", ["--n", "10", "--n", "20", "--ic", "B"], (12, 5)),
+]
+
+
+@pytest.mark.parametrize("name,args,size", CLI_CASES, ids=[c[0] for c in CLI_CASES])
+def test_cli_plot(files, tmp_path, name, args, size):
+    from granwave.cli import main
+
+    args = [str(files / a) if a.endswith((".h5", ".json")) else a for a in args]
+    out = tmp_path / f"{name}.png"
+    pdf = name in ("snapshot", "speeds")  # PDFs are slow: two cases check the --pdf twin
+    res = CliRunner().invoke(main, ["plot", name, *args, "-o", str(out)] + (["--pdf"] if pdf else []))
+    assert res.exit_code == 0, res.output
+    check_png(out, size)
+    assert out.with_suffix(".pdf").exists() == pdf
+    if pdf:
+        assert out.with_suffix(".pdf").stat().st_size > 1000
+
+
+def test_cli_plot_bad_input(files, tmp_path):
+    from granwave.cli import main
+
+    out = tmp_path / "x.png"
+    for args in (["network", str(files / "signal.h5")],          # a signal, not a packing
+                 ["damping", str(files / "s0.h5")],               # no damping attribute
+                 ["snapshot", str(files / "s0.h5")],              # no snapshots
+                 ["arrivals", str(files / "packing.h5")],         # not JSON
+                 ["compare", str(files / "s0.h5"), "--speed", "0.1", "--speed", "0.2"]):
+        res = CliRunner().invoke(main, ["plot", *args, "-o", str(out)])
+        assert res.exit_code != 0, args
+        assert res.output.strip().count("\n") <= 2 and "Traceback" not in res.output, res.output
+        assert not out.exists()

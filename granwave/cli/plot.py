@@ -46,20 +46,12 @@ def _load_json(path):
 
 
 def read_ensemble(path) -> dict:
-    """An ``analyze ensemble`` file as a dict (time, mean, rms, n, attrs)."""
-    from ..io import schema as S
-    from ..io.files import open_checked, read_attrs
+    """An ``analyze ensemble`` file as a dict (time, mean, rms, n, height, attrs)."""
+    from ..analysis.ensemble import read_ensemble as _read
 
-    from ..errors import InputError
-
-    with open_checked(path, S.ENSEMBLE) as f:
-        for name in ("ensemble/time", "ensemble/mean", "ensemble/rms"):
-            if name not in f:
-                raise InputError(f"{path}: missing dataset {name}")
-        attrs = read_attrs(f)
-        return {"time": f["ensemble/time"][()], "mean": f["ensemble/mean"][()],
-                "rms": f["ensemble/rms"][()], "n": attrs.get("n_signals"), "attrs": attrs,
-                "height": attrs.get("height")}
+    e = _read(path)
+    return {"time": e.time, "mean": e.mean, "rms": e.rms, "n": e.attrs.get("n_signals"),
+            "height": e.attrs.get("height", e.attrs.get("height_mean")), "attrs": e.attrs}
 
 
 def _signal_or_ensemble(path) -> dict:
@@ -323,7 +315,8 @@ def modes(modes, linear, packing, mode_index, ic, output, pdf):
             raise InputError(f"mode index {bad[0]} out of range (the file has {n} modes)")
         chosen = {f"mode {i}": i for i in mode_index}
     else:
-        chosen = plots.select_modes(m, dof_grain=lin.dof_grain, ic=ic)
+        chosen = plots.select_modes(m, dof_grain=lin.dof_grain, dof_axis=lin.dof_axis, dim=pk.dim,
+                                    ic=ic)
     idx = list(chosen.values())
     labels = [f"{name} (n = {i})" if not name.startswith("mode") else name
               for name, i in chosen.items()]
