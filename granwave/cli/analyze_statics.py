@@ -1,0 +1,41 @@
+"""``granwave analyze statics``: static characterization of a packing (SPEC §4)."""
+
+from __future__ import annotations
+
+import click
+
+from .common import NON_NEGATIVE, echo_json, echo_table, json_option, stage
+
+
+@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("packing", type=click.Path(dir_okay=False))
+@click.option("--layer", type=NON_NEGATIVE, default=3.0, show_default=True,
+              help="Thickness l (mean diameters) excluded next to the bottom wall and the piston "
+                   "from the bulk measurements.")
+@click.option("--min-contacts", type=click.IntRange(min=1), default=2, show_default=True,
+              help="Rattler rule: grains with fewer force-carrying contacts are rattlers "
+                   "(applied iteratively; 1 = literally no force-carrying contact).")
+@json_option
+@stage
+def statics(packing, layer, min_contacts, as_json):
+    """Solid fractions, coordination, force statistics, fabric and stress of a packing.
+
+    Bulk quantities use the slab l <= y <= H - l (grains cut exactly by its
+    planes for the solid fractions; contacts of bulk non-rattler grains for
+    the statistics). Keys: phi2 (disk area fraction, 2D), phi3, phi3_star
+    (sphere volume fraction of a one-diameter layer, without rattlers),
+    z_star, rattler_fraction, mean_force_over_p (<N>/p, d^2), Z2, Z3
+    (<N^a>/<N>^a), F2, F2_strong (<n_y^2> over all / strong contacts),
+    stress (whole cell, walls included, compression positive, units E*),
+    stress_ratio (sigma11/sigma22), max_force_residual (worst grain force or
+    torque / p d^2), piston_balance (top-wall force / (p x wall area) - 1).
+    Rattler rule and other choices: granwave.analysis.statics docstring.
+    """
+    from ..analysis.statics import statics as compute
+    from ..io.files import read_packing
+
+    result = compute(read_packing(packing), layer=layer, min_contacts=min_contacts)
+    if as_json:
+        echo_json(result)
+    else:
+        echo_table(result, title=f"statics of {packing} (layer {layer:g})")
