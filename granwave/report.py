@@ -383,13 +383,14 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     from . import __version__
     from .provenance import git_revision
 
+    from .analysis.sweep import validate_summary
+
     sums = []
     for path, obj, guess in summaries:
-        if not isinstance(obj, Mapping):
-            raise InputError(f"{path}: a summary must be a JSON object")
-        if obj.get("pressure") is None:
-            raise InputError(f"{path}: summary has no 'pressure'")
-        sums.append({**obj, "_scene": _scene_of(path, obj, guess), "_path": str(path)})
+        items = obj if isinstance(obj, list) else [obj]  # a file holds one summary or a list
+        for k, item in enumerate(items):
+            validate_summary(item, f"{path}" + (f"[{k}]" if isinstance(obj, list) else ""))
+            sums.append({**item, "_scene": _scene_of(path, item, guess), "_path": str(path)})
     hts = []
     for path, obj, guess in heights:
         if not isinstance(obj, Mapping):
@@ -448,15 +449,11 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     # ---- pressure sweeps as given
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
-               "The scalar results of each sweep file, as computed by `pressure-sweep`.", ""]
+               "The fitted exponents c ∝ p^α of each sweep file, as computed by `pressure-sweep` "
+               "(through the per-pressure means of the summaries).", ""]
         for path, obj, guess in sweeps:
-            scal = _scalars(obj) if isinstance(obj, Mapping) else {}
-            md += [f"### {_scene_of(Path(path), obj, guess) if guess else Path(path).stem}", ""]
-            if scal:
-                md += _table(["quantity", "value"], [[k, fmt(v, digits=5)] for k, v in scal.items()])
-            else:
-                md += ["(no scalar results)", ""]
-
+            name = obj.get("scene") if isinstance(obj, Mapping) and obj.get("scene") else Path(path).stem
+            md += [f"### {name}", ""] + _sweep_table(obj)
     # ---- figures
     md += ["## Figures", ""]
     if not figures:
@@ -471,6 +468,22 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         if twin.exists() and twin != Path(f):
             md += [f"[PDF]({Path(os.path.relpath(twin, out_dir)).as_posix()})", ""]
     return "\n".join(md).rstrip() + "\n"
+
+
+def _sweep_table(obj) -> list[str]:
+    if not isinstance(obj, Mapping):
+        return ["(not a sweep object)", ""]
+    alphas = [k for k in obj if k.startswith("alpha_") and not k.endswith(("_err", "_n"))]
+    if alphas:
+        rows = [[k, fmt(obj[k], obj.get(k + "_err")),
+                 str(obj.get(k + "_n", "")) if obj.get(k + "_n") is not None else ""] for k in alphas]
+        if obj.get("expected_exponent") is not None:
+            rows.append(["expected (fixed Hertzian network)", fmt(obj["expected_exponent"]), ""])
+        return _table(["exponent", "value", "pressures"], rows)
+    scal = _scalars(obj)
+    if not scal:
+        return ["(no scalar results)", ""]
+    return _table(["quantity", "value"], [[k, fmt(v, digits=5)] for k, v in scal.items()])
 
 
 def _speeds_section(by_scene, h_by_scene, scenes: Scenes) -> list[str]:

@@ -66,7 +66,15 @@ def inputs(tmp_path_factory):
         (hd / scene / f"p{p:g}.json").write_text(json.dumps(obj))
     sweep = root / "sweep" / "frictional2d.json"
     sweep.parent.mkdir()
-    sweep.write_text(json.dumps({"alpha_tof": 0.2468, "alpha_tof_err": 0.0135, "scene": "frictional2d"}))
+    from granwave.analysis.sweep import pressure_sweep
+    from granwave.cli.common import _jsonable
+
+    sums = [summary(p, s) for p in PRESSURES for s in range(3)]
+    for s in sums:  # a height series per pressure, copied into its samples' summaries
+        s["tof"] = {"c_tof": 0.2345 if s["pressure"] < 1e-5 else 0.4811}
+    res = pressure_sweep(sums)
+    res["alpha_tof"], res["alpha_tof_err"] = 0.2468, 0.0135  # stands out in the report
+    sweep.write_text(json.dumps(_jsonable(res)))
     figs = root / "figures"
     figs.mkdir()
     from granwave import plots
@@ -124,7 +132,8 @@ def test_report_contents(inputs, tmp_path):
     c = lattice_speed(1e-5, friction=True)
     assert R.fmt(c) in md and R.fmt(0.4321 / c) in md
     # the sweep's numbers as given
-    assert "0.2468" in md
+    assert "### frictional2d\n\n| exponent | value | pressures |\n|---|---|---|\n" \
+           "| alpha_tof | 0.2468 ± 0.013 | 2 |" in md
     # figures: relative links, captions, PDF twin
     assert "![Chain signals against the Airy shape" in md
     assert "](../" in md and "figures/airy_A.png)" in md and "figures/exponents.png)" in md
@@ -133,6 +142,12 @@ def test_report_contents(inputs, tmp_path):
     n_tables = sum(line.startswith("|---") for line in md.splitlines())
     assert n_tables >= 8 and html.count("<table>") == n_tables and "<img src=" in html
     assert "0.8123 ± 0.021" in html
+
+
+def test_sweep_speeds_reads_pressure_sweep(inputs):
+    d = R.sweep_speeds(json.loads((inputs / "sweep" / "frictional2d.json").read_text()))
+    assert np.allclose(d["pressure"], PRESSURES) and np.allclose(d["c_tof"], [0.2345, 0.4811])
+    assert np.all(d["c_l"] > 0) and np.all(d["c_t"] > 0)
 
 
 def test_report_bad_input(inputs, tmp_path):
