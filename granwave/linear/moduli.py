@@ -101,7 +101,7 @@ import scipy.sparse.linalg as spla
 
 from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..errors import InputError
-from ..model import Packing
+from ..model import LinearSystem, Packing
 from .assemble import contact_blocks, dof_map, n_rotations
 
 #: Up to this many free dofs the least-squares fallback is a dense LAPACK solve.
@@ -491,7 +491,10 @@ def line_grains(cell: _Cell, n: int) -> list[np.ndarray]:
 
 
 def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE) -> float:
-    """Apparent modulus from displacements imposed on n + 2 horizontal lines (SPEC §6 (b))."""
+    """Apparent modulus from displacements imposed on n + 2 horizontal lines (SPEC §6 (b)).
+
+    NaN when two lines cross the same grain (a cell lower than about n + 1 diameters).
+    """
     dim = cell.dim
     vertical = dim - 1
     H = cell.box[vertical]
@@ -502,8 +505,8 @@ def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_A
     for k, grains in enumerate(lines):
         s = 0.0 if k % 2 == 0 else (1.0 if (k // 2) % 2 == 0 else -1.0)
         dofs = cell.first[grains] + axis
-        if np.any(fixed[dofs]):
-            raise InputError(f"lines for n = {n} are closer than a grain: the cell is too low")
+        if np.any(fixed[dofs]):  # a grain crossed by two lines: the cell is too low
+            return float("nan")
         fixed[dofs] = True
         value[dofs] = s * amplitude
     solver = _solver(cell, fixed)
@@ -513,8 +516,21 @@ def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_A
 
 
 # ----------------------------------------------------------------------------- entry point
+def check_matches(cell: _Cell, system: LinearSystem) -> None:
+    """Refuse a linear system that was not built from this packing (same dofs and D)."""
+    if (system.n_dof != cell.n_dof or not np.array_equal(system.dof_grain, cell.dof_grain)
+            or not np.array_equal(system.dof_axis, cell.dof_axis)):
+        raise InputError("the linear file does not belong to this packing (different dofs)")
+    ref = sp.linalg.norm(cell.stiffness)
+    diff = sp.linalg.norm(sp.csr_matrix(system.stiffness) - cell.stiffness)
+    if not diff <= 1e-9 * ref:
+        raise InputError("the linear file's stiffness matrix does not match this packing "
+                         f"(relative difference {diff / ref:.2g})")
+
+
 def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
-           amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None) -> dict:
+           amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None,
+           system: LinearSystem | None = None, force: bool = False) -> dict:
     """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (SPEC §6).
 
     Parameters
@@ -526,6 +542,11 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
         results do not depend on it (linear model).
     grip : hold the lateral dofs of wall-touching grains in the shear loadings;
         default (None): only for frictionless packings (docs/moduli.md).
+    system : optional linear system of this packing (``granwave linearize`` output);
+        it is checked against the packing (same dofs, same D) and its
+        ``attrs['prestress']`` is used. The contact geometry always comes from
+        the packing (a linear file does not hold it).
+    force : accept a packing whose ``attrs['converged']`` is False.
 
     Returns
     -------
@@ -536,7 +557,15 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     """
     if not (math.isfinite(amplitude) and amplitude > 0):
         raise InputError(f"amplitude must be a positive finite number (got {amplitude!r})")
+    attrs = packing.attrs
+    if "converged" in attrs and not bool(attrs["converged"]) and not force:
+        raise InputError("the packing is not converged (attrs converged = False); "
+                         "use force=True / --force to measure it anyway")
+    if system is not None:
+        prestress = bool(system.attrs.get("prestress", False))
     cell = _cell(packing, prestress)
+    if system is not None:
+        check_matches(cell, system)
     dim = cell.dim
     C, methods = global_response(cell, amplitude=amplitude, grip=grip)
     phi = cell.phi3_star
