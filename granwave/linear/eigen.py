@@ -12,6 +12,9 @@ lattice (this machine, 2 shared cores): evd 0.7 s, scipy's default ("evr")
 5-13 s, "ev" 6.3 s, numpy.linalg.eigh 7.8 s — evd is 7-18x faster, as the
 issue reported. Memory: about 3 n^2 doubles (A, the vectors, workspace).
 
+A tridiagonal A (a chain in its natural order) goes to LAPACK ``stemr``
+(``scipy.linalg.eigh_tridiagonal``), O(n^2).
+
 Partial solver (``k`` given): the k lowest modes by shift-invert Lanczos
 (``scipy.sparse.linalg.eigsh``, sigma slightly below zero so that A - sigma I
 is positive definite and factorizable); the signal from them is a low-pass
@@ -62,6 +65,11 @@ def mass_weighted(system: LinearSystem) -> tuple[sp.csr_matrix, float]:
     return (sp.diags(s) @ D @ sp.diags(s)).tocsr(), asym
 
 
+def _is_tridiagonal(A: sp.csr_matrix) -> bool:
+    coo = A.tocoo()
+    return A.shape[0] > 2 and bool(np.all(np.abs(coo.row - coo.col) <= 1))
+
+
 def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = None,
                threshold: float = ZERO_MODE_THRESHOLD, dense_max_dof: int = DENSE_MAX_DOF) -> Modes:
     """Spectrum and signal projections of a linear system.
@@ -87,9 +95,16 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
         if n > dense_max_dof:
             raise InputError(f"{n} dofs is too many for a dense eigensolve (limit {dense_max_dof}; "
                              f"memory ~{3 * n * n * 8 / 1e9:.0f} GB): use --lowest K or the time domain")
-        w, V = scipy.linalg.eigh(A.toarray(), driver="evd", overwrite_a=True, check_finite=False)
+        if _is_tridiagonal(A):
+            # Chains: MRRR on the tridiagonal matrix, O(n^2) instead of O(n^3)
+            # (measured 6400 dof: 5.8 s vs ~30 s for dense syevd).
+            w, V = scipy.linalg.eigh_tridiagonal(A.diagonal(), A.diagonal(1), lapack_driver="stemr",
+                                                 check_finite=False)
+            solver = "tridiagonal LAPACK stemr (scipy.linalg.eigh_tridiagonal)"
+        else:
+            w, V = scipy.linalg.eigh(A.toarray(), driver="evd", overwrite_a=True, check_finite=False)
+            solver = "dense LAPACK syevd (scipy.linalg.eigh driver=evd)"
         w2max = float(max(abs(w[0]), abs(w[-1])))
-        solver = "dense LAPACK syevd (scipy.linalg.eigh driver=evd)"
         partial = False
     else:
         if k < 1:
