@@ -11,7 +11,7 @@ from click.testing import CliRunner
 from granwave.io import files
 from granwave import theory
 from granwave.analysis.sweep import (flatten, load_summaries, merge_summary, pressure_sweep,
-                                     read_sweep, write_summary)
+                                     read_sweep, update_summary_file, write_summary)
 from granwave.cli.sweep import pressure_sweep as sweep_cmd
 from granwave.errors import InputError
 from granwave.model import Signal
@@ -89,21 +89,48 @@ def test_fit_uses_per_pressure_means_with_uncertainty():
     assert math.isnan(res["alpha_tof"]) and any("alpha_tof" in n for n in res["fit_notes"])
 
 
-def test_merge_summary_builds_a_file(tmp_path):
+def test_merge_summary_from_attrs_and_sections(tmp_path):
+    attrs = dict(pressure=1e-5, seed=4, kind="disordered", height=24.9, ic="A", method="modal",
+                 schema="granwave.signal", friction="none")
+    (tmp_path / "front.json").write_text(json.dumps({"t_peak": 80.0, "amplitude": 0.1}))
+    s = merge_summary(attrs=attrs, scene="main", statics={"phi2": 0.84}, front=tmp_path / "front.json")
+    assert s["pressure"] == 1e-5 and s["seed"] == 4 and s["scene"] == "main" and s["ic"] == "A"
+    assert s["friction"] is None and "schema" not in s  # HDF5's "none" is null; file keys stay out
+    assert s["front"] == {"t_peak": 80.0, "amplitude": 0.1} and s["statics"]["phi2"] == 0.84
+    with pytest.raises(InputError, match="missing seed"):
+        merge_summary(attrs={"pressure": 1e-5, "kind": "k", "height": 3.0})
+
+
+def test_update_summary_file_in_any_order(tmp_path):
     target = tmp_path / "s.json"
     (tmp_path / "statics.json").write_text(json.dumps({"phi2": 0.84, "z_star": 3.7}))
-    merge_summary(target, section="statics", data=tmp_path / "statics.json")  # incomplete: fine
-    merge_summary(target, pressure=1e-5, seed=2, kind="disordered", height=24.9)
-    merge_summary(target, section="moduli", data={"c_l": 0.3, "C22": 0.05})
-    merge_summary(target, section="statics", data={"phi2": 0.85})
+    update_summary_file(target, section="statics", data=tmp_path / "statics.json")  # incomplete: fine
+    update_summary_file(target, pressure=1e-5, seed=2, kind="disordered", height=24.9)
+    update_summary_file(target, section="moduli", data={"c_l": 0.3, "C22": 0.05})
+    update_summary_file(target, section="statics", data={"phi2": 0.85})
     (s,) = load_summaries([target])
     assert s["statics"] == {"phi2": 0.85, "z_star": 3.7} and s["moduli"]["c_l"] == 0.3
     assert s["pressure"] == 1e-5 and s["seed"] == 2
     with pytest.raises(InputError, match="pressure"):
-        merge_summary(target, pressure=-1.0)
+        update_summary_file(target, pressure=-1.0)
     with pytest.raises(InputError, match="section"):
-        merge_summary(target, section="nonsense", data={})
-    assert load_summaries([target])[0]["pressure"] == 1e-5  # the refused merge left the file alone
+        update_summary_file(target, section="nonsense", data={})
+    assert load_summaries([target])[0]["pressure"] == 1e-5  # the refused update left the file alone
+
+
+def test_height_series_define_tof_at_their_pressure():
+    sums = synthetic()
+    series = [{"pressure": p, "c_tof": 3.0 * p ** 0.2, "c_tof_err": 0.02, "c_peak": 2.0 * p ** 0.2,
+               "per_height": {"height": [8.0, 25.0]}, "gamma": 0.6} for p in PRESSURES]
+    res = pressure_sweep(sums, height_series=series)
+    assert res["alpha_tof"] == pytest.approx(0.2, abs=1e-10)  # the summaries' tof (1/6) is replaced
+    assert res["alpha_peak"] == pytest.approx(0.2, abs=1e-10)
+    assert res["alpha_l"] == pytest.approx(1 / 6, abs=1e-10)
+    row = res["per_pressure"][0]
+    assert row["c_tof_err"] == 0.02 and row["n_height_series"] == 1 and row["count"] == 3
+    assert row["stats"]["tof.gamma"]["count"] == 1
+    with pytest.raises(InputError, match="pressure"):
+        pressure_sweep(sums, height_series=[{**series[0], "pressure": None}])
 
 
 def write_all(tmp_path, sums):
@@ -150,6 +177,17 @@ def test_cli_writes_sweep_and_tables(tmp_path):
     r = CliRunner().invoke(sweep_cmd, [*paths, "-o", str(tmp_path / "two.h5")])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "two_moduli.md").exists() and "alpha_l" in r.output
+    # height-series files, by option or among the summaries; a new tables folder is created
+    for i, p in enumerate(PRESSURES[:2]):
+        (tmp_path / f"h{i}.json").write_text(json.dumps(
+            {"pressure": p, "c_tof": 3.0 * p ** 0.2, "c_tof_err": 0.02, "per_height": {}}))
+    r = CliRunner().invoke(sweep_cmd, [*paths, "--heights", str(tmp_path / "h0.json"), str(tmp_path / "h1.json"),
+                                       "-o", str(tmp_path / "three.h5"), "--tables", str(tmp_path / "new"),
+                                       "--json"])
+    assert r.exit_code == 0, r.output
+    res = json.loads(r.output)
+    assert res["n_height_series"] == 2 and res["alpha_tof"] == pytest.approx(0.2, abs=1e-10)
+    assert (tmp_path / "new" / "three_speeds.csv").exists()
 
 
 def _fails(tmp_path, args, match):
@@ -173,4 +211,5 @@ def test_cli_bad_input(tmp_path):
     _fails(tmp_path, [good[0], str(tmp_path / "nokeys.json")], "not a granwave summary")
     (tmp_path / "empty.json").write_text("[]")
     _fails(tmp_path, [str(tmp_path / "empty.json")], "empty list")
-    _fails(tmp_path, [*good, "--tables", str(tmp_path / "nowhere")], "does not exist")
+    _fails(tmp_path, [*good, "--tables", str(tmp_path / "no" / "where")], "parent folder does not exist")
+

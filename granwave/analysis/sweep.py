@@ -12,8 +12,15 @@ A *summary* is one JSON object per sample (layout: ``docs/summaries.md``)::
 as lattices), ``kind`` and ``height`` are required; the four sections are
 optional; any other top-level key (``scene``, ``friction``, ``poisson`` ...)
 is kept. A summary file holds one such object, or a JSON list of them.
-:func:`merge_summary` builds a summary file step by step from the outputs of
-the analyze commands.
+:func:`merge_summary` builds a summary object from a signal's (or
+packing's) attributes and the JSON outputs of the analyze commands;
+:func:`update_summary_file` adds pieces to a summary file in any order.
+
+Height series (``granwave analyze heights --json``) belong to a pressure,
+not to a sample: pass them to :func:`pressure_sweep` as ``height_series``.
+At a pressure that has height series, their values (``tof.c_tof``, ...)
+replace any ``tof`` sections of the summaries; their statistics are over
+the height series of that pressure.
 
 The sweep (choices)
 -------------------
@@ -122,16 +129,41 @@ def _read_json(path) -> object:
 
 def load_summaries(paths: Iterable) -> list[dict]:
     """Read summary files (each one object or a list of objects), validated."""
-    out = []
+    summaries, series = load_inputs(paths)
+    if series:
+        raise InputError("a height series is not a sample summary (pass it as height_series)")
+    return summaries
+
+
+def is_height_series(obj) -> bool:
+    """True for the JSON object of ``granwave analyze heights --json``."""
+    return isinstance(obj, dict) and "c_tof" in obj and "per_height" in obj
+
+
+def validate_height_series(obj, source: str = "height series") -> dict:
+    if not is_height_series(obj):
+        raise InputError(f"{source}: not the output of `granwave analyze heights --json`")
+    p = obj.get("pressure")
+    if not _is_number(p) or not math.isfinite(p) or p <= 0:
+        raise InputError(f"{source}: a height series needs its signals' pressure, got {p!r}")
+    return obj
+
+
+def load_inputs(paths: Iterable) -> tuple[list[dict], list[dict]]:
+    """Read JSON files that hold summaries (objects or lists) or height series; (summaries, series)."""
+    summaries, series = [], []
     for path in paths:
         obj = _read_json(path)
+        if is_height_series(obj):
+            series.append(validate_height_series(obj, str(path)))
+            continue
         items = obj if isinstance(obj, list) else [obj]
         if not items:
             raise InputError(f"{path}: an empty list of summaries")
         for i, item in enumerate(items):
             src = f"{path}" if not isinstance(obj, list) else f"{path}[{i}]"
-            out.append(validate_summary(item, src))
-    return out
+            summaries.append(validate_summary(item, src))
+    return summaries, series
 
 
 def _atomic_text(path, text: str) -> None:
@@ -173,7 +205,52 @@ def write_summary(path, summary) -> None:
     _atomic_text(path, json.dumps(_jsonable(summary), indent=1) + "\n")
 
 
-def merge_summary(path, *, section: str | None = None, data=None, **fields) -> dict:
+#: Attributes of a signal / packing file copied into a summary by :func:`merge_summary`.
+CARRIED_ATTRS = ("pressure", "seed", "kind", "height", "friction", "poisson", "dim", "ic", "method",
+                 "n_grains")
+
+
+def _section_data(name: str, data):
+    if data is None:
+        return None
+    if isinstance(data, dict):
+        return data
+    obj = _read_json(data)
+    if not isinstance(obj, dict):
+        raise InputError(f"{data}: the {name} section must be one JSON object")
+    return obj
+
+
+def merge_summary(*, attrs: dict | None = None, base: dict | None = None, statics=None, moduli=None,
+                  front=None, tof=None, validate: bool = True, **fields) -> dict:
+    """One sample's summary object from its pieces (layout: module docstring).
+
+    ``attrs``: root attributes of the sample's signal (or packing) file; the
+    keys in :data:`CARRIED_ATTRS` are copied (the string "none" that HDF5
+    stores for a missing value becomes null). ``base``: an existing summary
+    to extend. ``fields`` (scene, seed, ...) set top-level keys last.
+    Sections: dicts or paths of JSON files printed by ``analyze statics /
+    moduli / front / heights --json``; they are merged key by key into the
+    base's sections. With ``validate`` the result must be a complete summary.
+    Returns a new JSON-ready dict; nothing is written.
+    """
+    summary = dict(base or {})
+    for key in CARRIED_ATTRS:
+        if attrs and key in attrs:
+            v = attrs[key]
+            summary[key] = None if isinstance(v, str) and v == "none" else v
+    summary.update(fields)
+    for name, data in (("statics", statics), ("moduli", moduli), ("front", front), ("tof", tof)):
+        data = _section_data(name, data)
+        if data is not None:
+            summary[name] = {**(summary.get(name) or {}), **data}
+    summary = _jsonable(summary)
+    if validate:
+        validate_summary(summary, "merged summary")
+    return summary
+
+
+def update_summary_file(path, *, section: str | None = None, data=None, **fields) -> dict:
     """Add to the summary file at ``path`` (created if missing) and return the result.
 
     ``fields`` set top-level keys (pressure, seed, kind, height, scene, ...);
@@ -184,22 +261,15 @@ def merge_summary(path, *, section: str | None = None, data=None, **fields) -> d
     in any order. The file is written atomically.
     """
     path = Path(path)
-    summary = _read_json(path) if path.exists() else {}
-    if not isinstance(summary, dict):
-        raise InputError(f"{path}: merge_summary works on a file holding one summary object")
-    summary.update(fields)
-    if data is not None:
-        if section not in SECTIONS:
-            raise InputError(f"section must be one of {', '.join(SECTIONS)}, got {section!r}")
-        if not isinstance(data, dict):
-            src = data
-            data = _read_json(data)
-            if not isinstance(data, dict):
-                raise InputError(f"{src}: expected one JSON object")
-        summary[section] = {**(summary.get(section) or {}), **data}
-    elif section is not None:
-        raise InputError("a section needs data")
-    summary = _jsonable(summary)
+    base = _read_json(path) if path.exists() else {}
+    if not isinstance(base, dict):
+        raise InputError(f"{path}: update_summary_file works on a file holding one summary object")
+    if (section is None) != (data is None):
+        raise InputError("a section and its data go together")
+    if section is not None and section not in SECTIONS:
+        raise InputError(f"section must be one of {', '.join(SECTIONS)}, got {section!r}")
+    sections = {section: data} if section is not None else {}
+    summary = merge_summary(base=base, validate=False, **sections, **fields)
     if all(k in summary for k in REQUIRED):
         validate_summary(summary, str(path))
     from ..io.files import check_writable
@@ -246,7 +316,8 @@ def _speed_with_error(stats: dict, flat_rows: list[dict], quantity: str) -> tupl
     return st["mean"], float(np.mean(errs)) if errs else math.nan
 
 
-def pressure_sweep(summaries: Sequence[dict], *, poisson: float = 0.0) -> dict:
+def pressure_sweep(summaries: Sequence[dict], *, height_series: Sequence[dict] = (),
+                   poisson: float = 0.0) -> dict:
     """Group summaries by pressure and fit the speeds (SPEC §10); rules in the module docstring.
 
     Returns a JSON-ready dict: ``pressures``, ``quantities`` (names), ``per_pressure`` (one
@@ -257,22 +328,33 @@ def pressure_sweep(summaries: Sequence[dict], *, poisson: float = 0.0) -> dict:
     from .. import theory
 
     summaries = [validate_summary(s, f"summary {i}") for i, s in enumerate(summaries)]
-    if not summaries:
+    height_series = [validate_height_series(h, f"height series {i}") for i, h in enumerate(height_series)]
+    if not summaries and not height_series:
         raise InputError("no summaries given")
     if not 0.0 <= poisson < 1.0:
         raise InputError(f"poisson must be in [0, 1), got {poisson}")
     groups: dict[float, list[dict]] = {}
     for s in summaries:
         groups.setdefault(_pressure_key(s["pressure"]), []).append(s)
-    pressures = sorted(groups)
-    flat = {p: [flatten(s) for s in groups[p]] for p in pressures}
+    hgroups: dict[float, list[dict]] = {}
+    for h in height_series:
+        hgroups.setdefault(_pressure_key(h["pressure"]), []).append(h)
+    pressures = sorted(set(groups) | set(hgroups))
+    flat = {}
+    for p in pressures:
+        rows_p = [flatten(s) for s in groups.get(p, [])]
+        if p in hgroups:  # the height series define the tof quantities of this pressure
+            rows_p = [{k: v for k, v in r.items() if not k.startswith("tof.")} for r in rows_p]
+            rows_p += [flatten({"tof": h}) for h in hgroups[p]]
+        flat[p] = rows_p
     quantities = sorted({k for p in pressures for r in flat[p] for k in r})
     rows = []
     for p in pressures:
         stats = {q: describe([r.get(q, math.nan) for r in flat[p]]) for q in quantities}
-        row = {"pressure": p, "count": len(groups[p]),
-               "kinds": sorted({s["kind"] for s in groups[p]}),
-               "mean_height": float(np.mean([s["height"] for s in groups[p]]))}
+        mine = groups.get(p, [])
+        row = {"pressure": p, "count": len(mine), "n_height_series": len(hgroups.get(p, [])),
+               "kinds": sorted({s["kind"] for s in mine}),
+               "mean_height": float(np.mean([s["height"] for s in mine])) if mine else math.nan}
         for name, (q, _) in SPEEDS.items():
             row[name], row[name + "_err"] = _speed_with_error(stats, flat[p], q)
         r = row["c_tof"] / row["c_l"] if row["c_l"] else math.nan
@@ -285,7 +367,8 @@ def pressure_sweep(summaries: Sequence[dict], *, poisson: float = 0.0) -> dict:
         row["stats"] = stats
         rows.append(row)
 
-    out = {"n_summaries": len(summaries), "pressures": pressures, "poisson": float(poisson),
+    out = {"n_summaries": len(summaries), "n_height_series": len(height_series),
+           "pressures": pressures, "poisson": float(poisson),
            "expected_exponent": EXPECTED_EXPONENT, "quantities": quantities}
     notes = []
     for name, (_, alpha) in SPEEDS.items():

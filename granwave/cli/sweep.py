@@ -10,18 +10,25 @@ from .common import FiniteFloat, echo_json, echo_table, json_option, output_opti
 @click.command("pressure-sweep")
 @click.argument("summaries", nargs=-1, type=click.Path(dir_okay=False))
 @output_option
+@click.option("--heights", "heights_files", multiple=True, type=click.Path(dir_okay=False),
+              help="A height-series JSON (`granwave analyze heights --json`) giving c_tof, "
+                   "c_peak, c_zero at its pressure; repeatable. Such files are also recognised "
+                   "among SUMMARIES.")
 @click.option("--tables", "tables_dir", type=click.Path(file_okay=False), default=None,
-              help="Folder for the Markdown and CSV tables (default: beside the output).")
+              help="Folder for the Markdown and CSV tables (created if missing; default: "
+                   "beside the output).")
 @click.option("--poisson", type=FiniteFloat(min=0.0, max=1.0, max_open=True), default=0.0,
               show_default=True, help="Poisson ratio for the frictional lattice formula "
                                       "(eta = k_t/k_n = 2(1-nu)/(2-nu)).")
 @json_option
 @stage
-def pressure_sweep(summaries, output, tables_dir, poisson, as_json):
+def pressure_sweep(summaries, heights_files, output, tables_dir, poisson, as_json):
     """Pressure dependence of the speeds and of the statics (SPEC §10).
 
     SUMMARIES are per-sample summary JSON files (layout: docs/summaries.md;
-    a file may also hold a list of summaries). Samples are grouped by
+    a file may also hold a list of summaries); height-series JSON files
+    (--heights) supply c_tof, c_peak, c_zero at their pressure, replacing
+    any `tof` section of the summaries there. Samples are grouped by
     pressure; every numeric quantity gets mean, std, standard error and
     count per pressure. c_tof (analyze heights), c_l and c_t (analyze
     moduli), in sqrt(E*/rho), are fitted as c ~ p^alpha through the
@@ -35,19 +42,21 @@ def pressure_sweep(summaries, output, tables_dir, poisson, as_json):
     """
     from pathlib import Path
 
-    from ..analysis.sweep import load_summaries, pressure_sweep as run, write_sweep, write_tables
+    from ..analysis.sweep import load_inputs, pressure_sweep as run, write_sweep, write_tables
     from ..errors import InputError
     from ..io.files import check_writable
 
-    if not summaries:
+    if not summaries and not heights_files:
         raise InputError("no summary files given")
     out = check_writable(output)
     folder = Path(tables_dir) if tables_dir is not None else (out.parent if str(out.parent) else Path("."))
-    if not folder.is_dir():
-        raise InputError(f"tables folder {folder} does not exist")
-    res = run(load_summaries(summaries), poisson=poisson)
+    if not folder.is_dir() and not folder.parent.is_dir():
+        raise InputError(f"tables folder {folder}: its parent folder does not exist")
+    sums, series = load_inputs([*summaries, *heights_files])
+    res = run(sums, height_series=series, poisson=poisson)
+    folder.mkdir(exist_ok=True)  # only now that the inputs are known to be good
     written = write_tables(res, folder, prefix=out.stem)
-    write_sweep(out, res, {"sources": "\n".join(summaries), "poisson": poisson})
+    write_sweep(out, res, {"sources": "\n".join([*summaries, *heights_files]), "poisson": poisson})
     res["output"], res["tables"] = str(out), written
     if as_json:
         echo_json(res)
@@ -55,6 +64,7 @@ def pressure_sweep(summaries, output, tables_dir, poisson, as_json):
     head = {k: v for k, v in res.items()
             if k not in ("per_pressure", "quantities", "pressures", "fit_notes", "tables")}
     echo_table(head, title=f"pressure sweep: {res['n_summaries']} summaries, "
+                           f"{res['n_height_series']} height series, "
                            f"{len(res['pressures'])} pressures -> {out}")
     for note in res["fit_notes"]:
         click.echo(f"  note: {note}")
