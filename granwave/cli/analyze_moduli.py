@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import POSITIVE, echo_json, echo_table, json_option, stage
+from .common import NON_NEGATIVE, POSITIVE, echo_json, echo_table, json_option, stage
 
 
 @click.command(context_settings={"help_option_names": ["-h", "--help"]})
@@ -22,10 +22,12 @@ from .common import POSITIVE, echo_json, echo_table, json_option, stage
 @click.option("--grip/--no-grip", default=None,
               help="Hold the lateral motion of wall-touching grains in the shear loadings "
                    "[default: only for frictionless packings, whose walls cannot drag].")
+@click.option("--layer", type=NON_NEGATIVE, default=3.0, show_default=True,
+              help="Layer next to each wall left out of the bulk phi3_star (SPEC §4).")
 @click.option("--force", is_flag=True, help="Accept a packing marked as not converged.")
 @json_option
 @stage
-def moduli(source, packing_path, local, prestress, amplitude, grip, force, as_json):
+def moduli(source, packing_path, local, prestress, amplitude, grip, layer, force, as_json):
     """Elastic moduli of a packing by imposed strain and linear relaxation.
 
     LINEAR|PACKING is a granwave.packing file (linearized here) or a
@@ -35,7 +37,8 @@ def moduli(source, packing_path, local, prestress, amplitude, grip, force, as_js
     Global moduli (2D): C11, C12, C22, C33 with sigma11 = C11 e11 + C12 e22,
     sigma22 = C12 e11 + C22 e22, sigma12 = 2 C33 e12 (compression and
     shrinking positive; 2 = vertical), c_l = sqrt(C22/phi3_star),
-    c_t = sqrt(C33/phi3_star), phi3_star over the whole cell. 3D: Voigt
+    c_t = sqrt(C33/phi3_star), phi3_star the bulk value of `analyze statics`
+    (whole cell, phi3_star_cell, when there is no bulk). 3D: Voigt
     C11 C22 C33 C12 C13 C23 C44 C55 C66 with z vertical, c_l from C33, c_t
     from (C44+C55)/2. Units E* and sqrt(E*/rho). See docs/moduli.md.
     """
@@ -44,6 +47,10 @@ def moduli(source, packing_path, local, prestress, amplitude, grip, force, as_js
     from ..io.schema import LINEAR, PACKING
     from ..linear.moduli import moduli as compute
 
+    from pathlib import Path
+
+    if not Path(source).is_file():
+        raise InputError(f"{source}: no such file")
     kind = file_schema(source)
     system = None
     if kind == PACKING:
@@ -61,7 +68,7 @@ def moduli(source, packing_path, local, prestress, amplitude, grip, force, as_js
         raise InputError(f"{source}: expected a granwave.packing or granwave.linear file, "
                          f"found schema {kind!r}")
     res = compute(packing, local=local, prestress=prestress, amplitude=amplitude, grip=grip,
-                  system=system, force=force)
+                  system=system, force=force, layer=layer)
     if as_json:
         echo_json(res)
     else:

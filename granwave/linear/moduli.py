@@ -83,10 +83,13 @@ rotations) relaxes. A continuum with piecewise-linear displacement stores
 Both are reported as ratios to the global normal (C22; 3D C33) and shear
 (C33; 3D C55) moduli.
 
-Phi3* (the mass density entering the sound speeds) is measured here over the
-whole cell: volume of the non-rattler spheres / V. It is the density that
-matches the global moduli (also measured over the whole cell) and the
-body-force normalization.
+Phi3* (the mass density entering the sound speeds c_l = sqrt(C22/Phi3*),
+c_t = sqrt(C33/Phi3*)) is SPEC §4's bulk value from
+:func:`granwave.analysis.statics.statics` (slab excluding ``layer`` next to each
+wall, its rattler rule); when the cell has no bulk slab, the whole-cell value.
+The body force is normalized with the whole-cell value ``phi3_star_cell``
+(volume of the non-rattler spheres / V, rattlers = grains without a
+force-carrying contact, as in D), so that ``sum_i V_i / Phi3* = V`` exactly.
 """
 
 from __future__ import annotations
@@ -528,9 +531,23 @@ def check_matches(cell: _Cell, system: LinearSystem) -> None:
                          f"(relative difference {diff / ref:.2g})")
 
 
+def _phi3_star(packing: Packing, cell: _Cell, layer: float) -> tuple[float, str]:
+    """Phi3* for the sound speeds: SPEC §4's bulk value (granwave.analysis.statics,
+    slab ``layer`` <= y <= H - ``layer``), or the whole cell when there is no bulk."""
+    try:
+        from ..analysis.statics import statics
+        value = float(statics(packing, layer=layer)["phi3_star"])
+        if math.isfinite(value) and value > 0:
+            return value, f"bulk (statics, layer {layer:g})"
+    except (ImportError, InputError):
+        pass
+    return cell.phi3_star, "whole cell (no bulk slab)"
+
+
 def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
            amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None,
-           system: LinearSystem | None = None, force: bool = False) -> dict:
+           system: LinearSystem | None = None, force: bool = False,
+           layer: float = 3.0) -> dict:
     """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (SPEC §6).
 
     Parameters
@@ -547,12 +564,15 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
         ``attrs['prestress']`` is used. The contact geometry always comes from
         the packing (a linear file does not hold it).
     force : accept a packing whose ``attrs['converged']`` is False.
+    layer : thickness next to each wall left out of the bulk Phi3* (SPEC §4).
 
     Returns
     -------
     dict with, in 2D, ``C11, C12, C22, C33`` (E*), in 3D ``C11 C22 C33 C12 C13 C23 C44 C55
     C66`` (Voigt, z vertical), ``voigt`` (the full matrix), ``c_l``, ``c_t``
-    (sqrt(E*/rho)), ``phi3_star`` (whole cell), ``static_stress``, the solver used,
+    (sqrt(E*/rho)) from ``phi3_star`` (bulk, as granwave.analysis.statics; whole
+    cell when the cell has no bulk: ``phi3_star_region`` says which),
+    ``phi3_star_cell`` (whole cell, normalizes the body force), ``static_stress``, the solver used,
     and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``).
     """
     if not (math.isfinite(amplitude) and amplitude > 0):
@@ -568,7 +588,7 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
         check_matches(cell, system)
     dim = cell.dim
     C, methods = global_response(cell, amplitude=amplitude, grip=grip)
-    phi = cell.phi3_star
+    phi, region = _phi3_star(packing, cell, layer)
     out: dict = {"dim": dim}
     if dim == 2:
         out.update(C11=C[0, 0], C12=0.5 * (C[0, 1] + C[1, 0]), C22=C[1, 1], C33=C[2, 2])
@@ -583,7 +603,8 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     out["c_l"] = math.sqrt(c_normal / phi) if c_normal > 0 else float("nan")
     out["c_t"] = math.sqrt(c_shear / phi) if c_shear > 0 else float("nan")
     out["phi3_star"] = phi
-    out["phi3_star_region"] = "whole cell"
+    out["phi3_star_region"] = region
+    out["phi3_star_cell"] = cell.phi3_star
     out["voigt"] = C
     out["static_stress"] = static_stress(cell)
     out["prestress"] = bool(prestress)
