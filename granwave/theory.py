@@ -158,7 +158,8 @@ def chain_wall_force_airy(t, n_balls: int, *, ic: str = "A", stiffness: float = 
     w0 = np.sqrt(stiffness / mass)
     big_m = w0 * t
     x = -2.0 * (big_m - (n_balls + 1)) * big_m ** (-1.0 / 3.0)
-    ai, aip, _, _ = special.airy(x)
+    # far ahead of the front Ai underflows to 0; scipy returns NaN beyond x ~ 1e6, so clip
+    ai, aip, _, _ = special.airy(np.minimum(x, 200.0))
     if ic == "A":
         return -8.0 * stiffness * spacing * big_m ** (-2.0 / 3.0) * aip
     return 16.0 * stiffness * spacing * x * ai / big_m  # Ai''(x) = x Ai(x)

@@ -108,6 +108,11 @@ def test_airy_scalings_at_arrival():
     assert fb_min * (n + 1) == pytest.approx(16 * np.min(x * special.airy(x)[0]), rel=8 * n ** (-2 / 3))
 
 
+def test_airy_form_is_finite_far_ahead_of_the_front():
+    f = theory.chain_wall_force_airy(np.array([1e-9, 1e-3, 1.0]), 1000, ic="A")
+    assert np.all(np.isfinite(f)) and np.all(np.abs(f) < 1e-300)
+
+
 def test_chain_input_errors():
     with pytest.raises(InputError):
         theory.chain_wall_force([1.0], 10, ic="C")
