@@ -754,7 +754,7 @@ def spectrum(modes: Modes, path, *, ic: str = "A", bins: int = 60, zero_tol: flo
     ax1 = fig.add_subplot(2, 1, 1)
     ax2 = fig.add_subplot(2, 1, 2, sharex=ax1)
     ax1.hist(omega, bins=bins, density=True, color="C0", alpha=0.7)
-    ax1.set_ylabel(r"density of states $g(\omega)$")
+    ax1.set_ylabel(r"density of states $g(\omega)$  [$\bar d/\sqrt{E^*/\rho}$]")
     ax1.set_title(f"{omega.size} modes, {int((~nz).sum())} zero modes left out")
     ml, sl, bl = ax2.stem(omega, w, markerfmt=".", basefmt="k-")
     sl.set_linewidth(0.6)
