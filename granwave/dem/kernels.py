@@ -28,6 +28,11 @@ from .. import contact as C
 from ..geometry import nearest_image
 from . import neighbours
 
+# The two vector routines of contact.py, compiled inline into the force loops
+# (the same Python code as contact.py's; only the compilation differs).
+project_tangential = numba.njit(cache=True, inline="always")(C.project_tangential.py_func)
+update_tangential = numba.njit(cache=True, inline="always")(C.update_tangential.py_func)
+
 # fpar indices
 F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
     F_VMAX = range(13)
@@ -43,7 +48,7 @@ O_AMAX, O_ALPHAMAX, O_APISTON, O_VMAX, O_WMAX, O_KIN, O_NTOP, O_DMAX, O_NCONTACT
 N_OUT = 9
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def rotation_velocity(vrel, n, omega, i, j, ai, aj):
     """Subtract (a_i w_i + a_j w_j) x n from ``vrel`` (j < 0: a wall, no rotation).
 
@@ -72,7 +77,7 @@ def rotation_velocity(vrel, n, omega, i, j, ai, aj):
         vrel[2] -= w0 * n[1] - w1 * n[0]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def add_torque(torque, k, arm, n, f):
     """torque[k] += (arm n) x f (only the tangential part of f contributes)."""
     r = torque.shape[1]
@@ -84,7 +89,7 @@ def add_torque(torque, k, arm, n, f):
         torque[k, 2] += arm * (n[0] * f[1] - n[1] * f[0])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, slip, fvec):
     """Force on i from one contact (Hertz-Mindlin, SPEC §2), written into ``fvec``.
 
@@ -108,11 +113,11 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
     if mu > 0.0:
-        C.project_tangential(ft, n)
+        project_tangential(ft, n)
         kt = C.tangential_stiffness(delta, r12, g12)
         for a in range(d):
             slip[a] = (vrel[a] - vn * n[a]) * dt
-        slid = C.update_tangential(ft, slip, overlap_old, delta, kt, fel, mu)
+        slid = update_tangential(ft, slip, overlap_old, delta, kt, fel, mu)
         ct = 0.0
         if zeta > 0.0 and not slid:
             ct = C.damping_coefficient(zeta, meff, kt)
@@ -148,11 +153,14 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     g_wall = C.effective_shear(poisson, True)
     h = piston[P_H]
     vp = piston[P_V]
-    nv = np.zeros(d)
-    vrel = np.zeros(d)
-    slip = np.zeros(d)
-    fvec = np.zeros(d)
-    dx = np.zeros(d)
+    # 3-vectors even in 2D (third component 0: same arithmetic, fixed-length loops
+    # that the compiler unrolls); ftv: scratch copy of a history row (no views)
+    nv = np.zeros(3)
+    vrel = np.zeros(3)
+    slip = np.zeros(3)
+    fvec = np.zeros(3)
+    dx = np.zeros(3)
+    ftv = np.zeros(3)
     force[:, :] = 0.0
     torque[:, :] = 0.0
     dmax = 0.0
@@ -185,8 +193,13 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
             rotation_velocity(vrel, nv, omega, i, j, ai, aj)
         r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
         meff = C.reduced_mass(mass[i], mass[j], False)
-        contact_force(nv, delta, r12, e_pair, g_pair, meff, vrel, pair_ft[p], pair_ov[p], dt, zeta, mu,
-                      slip, fvec)
+        if mu > 0.0:
+            for a in range(d):
+                ftv[a] = pair_ft[p, a]
+        contact_force(nv, delta, r12, e_pair, g_pair, meff, vrel, ftv, pair_ov[p], dt, zeta, mu, slip, fvec)
+        if mu > 0.0:
+            for a in range(d):
+                pair_ft[p, a] = ftv[a]
         pair_ov[p] = delta
         for a in range(d):
             force[i, a] += fvec[a]
@@ -221,8 +234,14 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
             ai = R - delta
             if r > 0:
                 rotation_velocity(vrel, nv, omega, i, -1, ai, 0.0)
-            contact_force(nv, delta, R, e_wall, g_wall, mass[i], vrel, wall_ft[w], wall_ov[w], dt, zeta,
-                          mu, slip, fvec)
+            if mu > 0.0:
+                for a in range(d):
+                    ftv[a] = wall_ft[w, a]
+            contact_force(nv, delta, R, e_wall, g_wall, mass[i], vrel, ftv, wall_ov[w], dt, zeta, mu, slip,
+                          fvec)
+            if mu > 0.0:
+                for a in range(d):
+                    wall_ft[w, a] = ftv[a]
             wall_ov[w] = delta
             for a in range(d):
                 force[i, a] += fvec[a]

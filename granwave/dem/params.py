@@ -22,14 +22,16 @@ class PrepareParams:
     polydispersity  W in [0, 1): diameters uniform in [1-W, 1+W].
     aspect          expected final height / width (> 0); sets the periodic width.
     damping         zeta, contact damping as a fraction of critical, in [0, 1].
-    background_damping  b >= 0, the background viscous rate in units of 1/t_p,
-                    t_p = sqrt(m_mean / k_p) the contact time scale at the target
-                    pressure (k_p: k_n of a grain pair carrying p d^2); the rate is
-                    gamma = b / t_p (force -gamma m v on grains and piston).
+    background_damping  b >= 0, the background viscous rate in units of 1/t_i,
+                    t_i = sqrt(m_mean / (p d)) the inertial time at the target
+                    pressure; the rate is gamma = b / t_i (force -gamma m v,
+                    torque -gamma I w on grains, -gamma M v on the piston). It sets
+                    the compaction speed (inertial number), hence density and
+                    coordination: keep it fixed within a study.
     piston_mass     M in rho d^3; None: the mass of one layer of grains
                     (mean grain mass x L1 in 2D, x L1 L2 in 3D).
     gas_density     initial solid fraction of the gas (area fraction in 2D, volume
-                    fraction in 3D); None: 0.45 (2D) or 0.30 (3D).
+                    fraction in 3D); None: 0.50 (2D) or 0.30 (3D).
     tol             convergence threshold on every acceleration (E*/(rho d)), > 0.
     max_steps       step budget; not converged by then is an error.
     seed            random seed (>= 0): same seed, same packing bit for bit.
@@ -46,7 +48,7 @@ class PrepareParams:
     polydispersity: float = 0.2
     aspect: float = 1.0
     damping: float = 0.5
-    background_damping: float = 0.1
+    background_damping: float = 0.3
     piston_mass: float | None = None
     gas_density: float | None = None
     tol: float = 1e-10
