@@ -127,7 +127,9 @@ def front_statistics(signals: Sequence["Signal"], *, labels: Sequence[str] | Non
             rows.append(front_features(s.time, s.force, **front_kw).as_dict())
         except InputError as exc:
             raise InputError(f"{lab}: {exc}") from None
-    keys = [k for k, v in rows[0].items() if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    # Measured quantities only: the rule's own parameters (peak_fraction, ...) are not statistics.
+    keys = [k for k, v in rows[0].items() if isinstance(v, (int, float)) and not isinstance(v, bool)
+            and not k.endswith("_fraction") and k not in ("t_window", "refine")]
     return {k: describe([r[k] for r in rows]) for k in keys}
 
 
