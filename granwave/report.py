@@ -23,7 +23,9 @@ Every number on the page is computed here from the inputs:
   ``<subcommand>[_suffix].png``, see docs/figures.md).
 
 Scenes: a file's scene is its ``scene`` key, else the first folder below the
-input folder given (``summary/<scene>/...``), else its parent folder's name.
+input folder given (``summary/<scene>/...``), else the folder before the
+``p<pressure>`` part of the workflow layout (``summary/<scene>/p<p>/<size>/s<seed>.json``,
+``heights/<scene>/p<p>.json``), else its parent folder's name.
 The scene's kind (disordered / lattices / chains) and its friction come from
 the workflow config when given, else from the summaries (``kind``,
 ``friction``) or the scene name (``lattice*``, ``chain*``).
@@ -91,10 +93,22 @@ def collect_json(paths: Iterable) -> list[tuple[Path, object, str | None]]:
     return out
 
 
+_PRESSURE_DIR = re.compile(r"p[0-9][0-9.eE+-]*")
+
+
 def _scene_of(path: Path, obj, guess: str | None) -> str:
+    """The ``scene`` key, else the folder given's first level, else the folder before
+    ``p<pressure>`` in the workflow layout (``<stage>/<scene>/p<p>/...``), else the parent."""
     if isinstance(obj, Mapping) and obj.get("scene"):
         return str(obj["scene"])
-    return guess or path.parent.name or "all"
+    if guess:
+        return guess
+    parts = Path(path).parts
+    for k in range(len(parts) - 1, 0, -1):
+        stem = Path(parts[k]).stem if k == len(parts) - 1 else parts[k]
+        if _PRESSURE_DIR.fullmatch(stem):
+            return parts[k - 1]
+    return Path(path).parent.name or "all"
 
 
 def label_from_path(path) -> str:

@@ -168,3 +168,20 @@ def test_markdown_to_html():
                            "![cap](f.png)\n")
     assert "<h1>T</h1>" in h and "<li>a <strong>b</strong></li>" in h
     assert "<td>1 &lt; 2</td>" in h and "<code>c</code>" in h and '<img src="f.png" alt="cap">' in h
+
+
+def test_report_from_single_files(inputs, tmp_path):
+    """As the workflow calls it: one flag per file; scenes from the path layout."""
+    args = ["report", "--config", str(inputs / "config.yaml")]
+    for f in sorted((inputs / "summary").rglob("*.json")):
+        args += ["--summaries", str(f)]
+    for f in sorted((inputs / "heights").rglob("*.json")):
+        args += ["--heights", str(f)]
+    for f in sorted((inputs / "figures").glob("*.png")):
+        args += ["--figures", str(f)]
+    out = tmp_path / "index.md"
+    res = CliRunner().invoke(main, args + ["-o", str(out)])
+    assert res.exit_code == 0, res.output
+    md = out.read_text()
+    assert "### frictional2d" in md and "| lattice_frictional | 0.5 | 1e-05 |" in md
+    assert "| packings | 3 | 3 |" in md and "(exponents.png)" in md
