@@ -184,4 +184,4 @@ def test_report_from_single_files(inputs, tmp_path):
     assert res.exit_code == 0, res.output
     md = out.read_text()
     assert "### frictional2d" in md and "| lattice_frictional | 0.5 | 1e-05 |" in md
-    assert "| packings | 3 | 3 |" in md and "(exponents.png)" in md
+    assert "| packings | 3 | 3 |" in md and "figures/exponents.png)" in md
