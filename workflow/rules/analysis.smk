@@ -132,5 +132,5 @@ rule pressure_sweep:
     resources:
         runtime=5,
     shell:
-        "granwave pressure-sweep {input.summaries} --heights {input.heights} -o {output.h5} "
+        "granwave pressure-sweep {input.summaries} {input.heights} -o {output.h5} "
         "--tables {output.tables} --json > {output.json} 2> {log}"
