@@ -376,8 +376,8 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
     )
 
 
-def omega2_max(A: sp.spmatrix) -> float:
-    """Largest eigenvalue of the symmetric mass-weighted matrix A (Lanczos, ~1e-6 relative).
+def omega2_max(A: sp.spmatrix, *, tol: float = 1e-6) -> float:
+    """Largest eigenvalue of the symmetric mass-weighted matrix A (Lanczos to relative ``tol``).
 
     Falls back to the Gershgorin bound max_i sum_j |A_ij| if Lanczos fails.
     """
@@ -386,7 +386,7 @@ def omega2_max(A: sp.spmatrix) -> float:
     if n < 3:
         return float(np.max(np.linalg.eigvalsh(A.toarray()))) if n else 0.0
     try:
-        w = spla.eigsh(A, k=1, which="LA", return_eigenvectors=False, tol=1e-6,
+        w = spla.eigsh(A, k=1, which="LA", return_eigenvectors=False, tol=tol,
                        maxiter=max(1000, 20 * n),
                        v0=np.random.default_rng(0).standard_normal(n))
         return float(w[0])
