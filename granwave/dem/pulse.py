@@ -1,0 +1,448 @@
+"""Nonlinear pulse propagation with contact damping in the DEM engine (SPEC §8, §11).
+
+The stored packing is kicked at the bottom wall and integrated with the full
+Hertz–Mindlin law (:mod:`granwave.contact`, through the engine's own kernels):
+the signal is the extra force on the fixed top wall. At zero damping and
+small amplitude it must equal the linear signal (``granwave.linear``) of the
+same packing; docs/damping.md records the agreement measured.
+
+Set-up
+------
+- State at t = 0⁻: the stored positions, zero velocities, the stored contact
+  list **with its tangential forces as history** (``contacts.force_tangential``,
+  keyed by (i, j); walls by grain). The engine (:class:`~granwave.dem.integrator.Engine`)
+  has no argument for an initial history, so it is written into its history
+  arrays after construction (:func:`engine_from_packing`).
+- Walls: bottom wall and top wall (piston) both fixed; no piston dynamics,
+  no background damping. Contact damping ζ (SPEC §2: c = 2 ζ sqrt(m_eff k)
+  with the current k_n and k_t, normal and tangential, the total normal force
+  never attractive) acts during the pulse when ``damping`` > 0.
+- Source (docs/conventions.md), times a global scale s:
+  (A) v_i = s k_wall,i / m_i (vertical, upward) for every grain with a
+  force-carrying bottom-wall contact; (B) u_i = s k_wall,i / ⟨k_wall⟩,
+  imposed as one kinematic increment (so the tangential springs of the
+  displaced grains load by k_t Δs exactly as in the linear model), zero
+  velocity.
+- Amplitude EPS (``amplitude``): s is chosen so that the *single-contact
+  estimate* of the largest grain displacement equals EPS × δ̄, with δ̄ the
+  mean overlap of the packing's force-carrying contacts (grain–grain and
+  wall). For (A) the estimate for grain i is its velocity times its wall
+  contact's time scale, v_i sqrt(m_i / k_wall,i) (the largest excursion of a
+  grain of mass m_i launched at v_i against a spring k_wall,i), so
+  s = EPS δ̄ / max_i sqrt(k_wall,i / m_i). For (B) it is the imposed
+  displacement itself, s = EPS δ̄ / max_i (k_wall,i / ⟨k_wall⟩). The largest
+  displacement actually reached, over grains and the whole record, is
+  measured and written as ``max_displacement_over_overlap`` (it is smaller:
+  the grain is held by its neighbours too).
+- Signal: F_sig(t) = [F_top(t) − F_top(0⁻)] / s, F_top the total normal force
+  (elastic plus viscous) of the top-wall contacts and F_top(0⁻) the sum of the
+  stored top-wall normal forces. Dividing by s makes it directly comparable
+  with — in the linear limit equal to — the linear signal of the same packing
+  with the docs/conventions.md normalization (E* d²).
+- Time step: velocity Verlet (the engine's) with dt = ``dt_safety`` × 2π
+  sqrt(m_min / k_max), k_max the largest stored k_n (the period of the
+  stiffest single contact on the lightest grain), shortened so that an
+  integer number of steps fits between two output samples (uniform grid of
+  ``samples`` times from 0 to t_max, as the linear signals).
+
+Counted during the run (after every step; :mod:`granwave.dem.pulse_kernels`):
+``n_opened`` contacts of t = 0 that lose their overlap at some step;
+``n_formed`` contacts absent at t = 0 that gain an overlap at some step;
+``n_sliding`` contacts whose tangential force is on the Coulomb cone after
+some step (``n_sliding_new`` of them were not on the cone at t = 0;
+``n_at_cone_initial`` were fully mobilized in the stored state). Walls
+count like grains.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
+from ..errors import InputError
+from ..model import Packing, Signal
+from . import kernels as K
+from . import pulse_kernels as PK
+from .integrator import Engine
+
+#: Default time step as a fraction of the shortest single-contact period 2π sqrt(m_min/k_max).
+DEFAULT_DT_SAFETY = 0.01
+#: Default amplitude EPS (linear regime; docs/damping.md).
+DEFAULT_AMPLITUDE = 1e-3
+#: Default number of output samples.
+DEFAULT_SAMPLES = 2001
+
+AMPLITUDE_DEFINITION = {
+    "A": "s = EPS * mean_overlap / max_i sqrt(k_wall_i / m_i): the largest single-contact "
+         "excursion v_i sqrt(m_i / k_wall_i) of a kicked grain is EPS mean overlaps",
+    "B": "s = EPS * mean_overlap / max_i (k_wall_i / <k_wall>): the largest imposed "
+         "displacement is EPS mean overlaps",
+}
+
+#: Attributes carried from the packing into the signal.
+CARRIED_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson", "grains",
+                 "polydispersity")
+
+
+# ---------------------------------------------------------------- set-up
+def _check_ic(ic: str) -> str:
+    ic = str(ic).upper()
+    if ic not in ("A", "B"):
+        raise InputError(f"initial condition must be A or B (got {ic!r})")
+    return ic
+
+
+def source(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
+    """(grain indices, k_wall) of the force-carrying bottom-wall contacts (the source)."""
+    c = packing.contacts
+    on = (c.j == -1) & (c.force_normal > 0.0)
+    if not np.any(on):
+        raise InputError("the packing has no force-carrying bottom-wall contact: no source")
+    if not np.any((c.j == -2) & (c.force_normal > 0.0)):
+        raise InputError("the packing has no force-carrying top-wall contact: no detector")
+    return c.i[on].astype(np.int64), c.stiffness_normal[on].astype(float)
+
+
+def mean_overlap(packing: Packing) -> float:
+    """δ̄: mean overlap of the force-carrying contacts (grain–grain and wall)."""
+    c = packing.contacts
+    carrying = c.force_normal > 0.0
+    if not np.any(carrying):
+        raise InputError("the packing has no force-carrying contact")
+    return float(np.mean(c.overlap[carrying]))
+
+
+def amplitude_scale(packing: Packing, ic: str, amplitude: float) -> float:
+    """The global scale s of the source for amplitude EPS (module docstring)."""
+    ic = _check_ic(ic)
+    grains, kw = source(packing)
+    dbar = mean_overlap(packing)
+    if ic == "A":
+        return amplitude * dbar / float(np.max(np.sqrt(kw / packing.mass[grains])))
+    return amplitude * dbar / float(np.max(kw / kw.mean()))
+
+
+def default_time_step(packing: Packing, dt_safety: float = DEFAULT_DT_SAFETY) -> float:
+    """dt_safety × 2π sqrt(m_min / k_max), k_max the largest stored normal stiffness."""
+    if not 0.0 < dt_safety <= 0.2:
+        raise InputError(f"dt_safety must be in (0, 0.2], got {dt_safety:g}")
+    kmax = float(np.max(packing.contacts.stiffness_normal, initial=0.0))
+    if not kmax > 0.0:
+        raise InputError("the packing has no contact stiffness: no time scale")
+    return dt_safety * 2.0 * math.pi * math.sqrt(float(packing.mass.min()) / kmax)
+
+
+def _forces_now(engine: Engine, dt: float = 0.0) -> None:
+    """Forces and accelerations of the current state with step ``dt`` for the slip
+    (0: the history is evaluated, not advanced), as the engine does at construction."""
+    keep = engine.fpar[K.F_DT]
+    engine.fpar[K.F_DT] = dt
+    K.compute_forces(engine.position, engine.velocity, engine.angular_velocity, engine.radius,
+                     engine.mass, engine.inertia, engine.lateral, engine.pair_i, engine.pair_j,
+                     engine.ipar[K.I_NPAIRS], engine.pair_ft, engine.pair_ov, engine.wall_ft,
+                     engine.wall_ov, engine.piston, engine.fpar, engine.acceleration,
+                     engine.angular_acceleration, engine.out)
+    K.to_accelerations(engine.acceleration, engine.angular_acceleration, engine.mass, engine.inertia)
+    engine.fpar[K.F_DT] = keep
+
+
+def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, skin: float = 0.2) -> Engine:
+    """A DEM engine in the stored state: fixed walls, the stored tangential forces as history.
+
+    The engine builds its pair list from the positions; every stored contact
+    must be found there overlapping (else InputError). Stored F_t is the
+    force on i from j, so a pair stored with i > j enters the engine's (i < j)
+    slot with the opposite sign. Forces and accelerations are then evaluated
+    (slip 0) so that the state is ready for velocity Verlet.
+    """
+    if packing.dim not in (2, 3):
+        raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
+    radius = np.asarray(packing.radius, float)
+    engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
+                    friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),
+                    damping=float(damping), background_damping=0.0, piston_mass=math.inf,
+                    piston_force=0.0, dt=dt, skin=skin)
+    if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
+        raise InputError("the packing's grain masses are not rho pi d^3 / 6 (SPEC §1): "
+                         "the DEM engine cannot represent them")
+    c = packing.contacts
+    n = packing.n_grains
+    m = engine.n_pairs
+    keys = engine.pair_i[:m] * n + engine.pair_j[:m]
+    carrying = c.overlap > 0.0
+    pair = (c.j >= 0) & carrying
+    ci, cj = c.i[pair], c.j[pair]
+    want = np.minimum(ci, cj) * n + np.maximum(ci, cj)
+    slot = np.searchsorted(keys, want)
+    slot_ok = slot < m
+    found = np.zeros(len(want), bool)
+    found[slot_ok] = keys[slot[slot_ok]] == want[slot_ok]
+    found[slot_ok] &= engine.pair_ov[slot[slot_ok]] > 0.0
+    if not np.all(found):
+        k = int(np.flatnonzero(~found)[0])
+        raise InputError(f"stored contact ({ci[k]}, {cj[k]}) has no overlap at the stored positions: "
+                         "the packing's contact list does not match its geometry")
+    if packing.friction > 0.0:
+        sign = np.where(ci < cj, 1.0, -1.0)
+        engine.pair_ft[slot] = sign[:, None] * c.force_tangential[pair]
+        for jw, k in ((-1, 0), (-2, 1)):
+            on = (c.j == jw) & carrying
+            slots = 2 * c.i[on] + k
+            if np.any(engine.wall_ov[slots] <= 0.0):
+                raise InputError("a stored wall contact has no overlap at the stored positions")
+            engine.wall_ft[slots] = c.force_tangential[on]
+    _forces_now(engine)
+    return engine
+
+
+# ---------------------------------------------------------------- the run
+def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT_AMPLITUDE,
+                  damping: float = 0.0, t_max: float, samples: int = DEFAULT_SAMPLES,
+                  dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = 0.2,
+                  baseline: bool = True, progress: Callable[[str], None] | None = None,
+                  progress_interval: float = 10.0) -> Signal:
+    """Kick the packing at the bottom wall in the nonlinear DEM; the top-wall signal.
+
+    Parameters
+    ----------
+    packing : a converged packing (2D or 3D) with its contact list and F_t.
+    ic : "A" (impulse) or "B" (displacement) on the bottom-wall grains.
+    amplitude : EPS > 0, the largest single-contact displacement estimate in
+        units of the mean overlap (module docstring); default 1e-3 (linear
+        regime: docs/damping.md).
+    damping : contact damping ζ in [0, 1], fraction of critical (SPEC §2).
+    t_max, samples : output grid of ``samples`` times from 0 to t_max (d/sqrt(E*/rho)).
+    dt_safety : dt = dt_safety × 2π sqrt(m_min/k_max) (default 0.01); ``dt``
+        overrides it. Either is shortened to divide the sample interval.
+    skin : Verlet skin of the engine's pair list (d).
+    baseline : subtract the top-wall force of the same run without the kick
+        (default) instead of the constant stored static force. A packing
+        converged to a residual acceleration a_r drifts by ~ a_r t^2 / 2,
+        which at EPS ~ 1e-3 is a percent of the pulse's displacements; the
+        baseline run removes that drift (and doubles the cost).
+    progress : called with a one-line message about every ``progress_interval`` s.
+
+    Returns
+    -------
+    Signal with ``force`` = [F_top(t) − F_top,unkicked(t)] / s in E* d² (the
+    linear normalization) and attrs: ic, method="dem", height, amplitude,
+    damping, scale s, mean_overlap, amplitude_definition, dt, n_steps, the
+    counts n_opened, n_formed, n_sliding (n_sliding_new, n_at_cone_initial),
+    max_displacement_over_overlap and the packing's attributes.
+    """
+    ic = _check_ic(ic)
+    if not (amplitude > 0.0 and math.isfinite(amplitude)):
+        raise InputError(f"amplitude must be a positive number (got {amplitude})")
+    if not 0.0 <= damping <= 1.0:
+        raise InputError(f"damping zeta must be in [0, 1] (got {damping})")
+    if not (t_max > 0.0 and math.isfinite(t_max)):
+        raise InputError(f"t_max must be a positive finite time (got {t_max})")
+    if int(samples) != samples or samples < 2:
+        raise InputError(f"need at least 2 samples (got {samples})")
+    samples = int(samples)
+    if str(packing.attrs.get("converged", True)) in ("False", "false", "0"):
+        raise InputError("the packing is not converged (attrs converged = False)")
+    times = np.linspace(0.0, float(t_max), samples)
+    h = float(times[1] - times[0])
+    step = default_time_step(packing, dt_safety) if dt is None else float(dt)
+    if not (step > 0.0 and math.isfinite(step)):
+        raise InputError(f"time step must be positive (got {dt})")
+    sub = max(1, int(math.ceil(h / step * (1.0 - 1e-12))))
+    step = h / sub
+
+    grains, kw = source(packing)
+    dbar = mean_overlap(packing)
+    scale = amplitude_scale(packing, ic, amplitude)
+    c = packing.contacts
+    f_static = float(np.sum(c.force_normal[c.j == -2]))
+    run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
+               progress=progress, progress_interval=progress_interval)
+    t_wall0 = _time.perf_counter()
+    # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains)
+    values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
+    kicked = _run(packing, ic=ic, kick=(grains, values), **run)
+    base = None
+    if baseline:
+        base = _run(packing, ic=ic, kick=None, **run)
+    wall_time = _time.perf_counter() - t_wall0
+    reference = base["top"] if base is not None else np.full(samples, f_static)
+    force = (kicked["top"] - reference) / scale
+    attrs = {key: packing.attrs[key] for key in CARRIED_ATTRS if key in packing.attrs}
+    attrs.update(
+        ic=ic, method="dem", height=packing.height, amplitude=float(amplitude), damping=float(damping),
+        scale=float(scale), mean_overlap=dbar, amplitude_definition=AMPLITUDE_DEFINITION[ic],
+        t_max=float(t_max), samples=samples, dt=float(step),
+        dt_safety=float(dt_safety) if dt is None else float("nan"), n_steps=int(sub * (samples - 1)),
+        integrator="velocity Verlet (DEM engine)",
+        contact_law="Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history "
+                    "from the packing",
+        top_wall="fixed", bottom_wall="fixed", background_damping=0.0,
+        baseline_subtracted=bool(baseline),
+        signal_definition=("(F_top(t) - F_top_unkicked(t)) / scale, F_top_unkicked from the same run "
+                           "without the kick" if baseline else "(F_top(t) - F_top(0-)) / scale"),
+        static_top_force=f_static, static_top_force_engine=kicked["f_static_engine"],
+        static_residual_acceleration=kicked["residual"],
+        baseline_drift_over_signal=(float(np.max(np.abs(base["top"] - f_static)) / scale
+                                          / max(np.max(np.abs(force)), 1e-300))
+                                    if base is not None else float("nan")),
+        n_source_grains=int(len(grains)), n_contacts_initial=kicked["n_contacts_initial"],
+        n_opened=kicked["n_opened"], n_formed=kicked["n_formed"], n_sliding=kicked["n_sliding"],
+        n_sliding_new=kicked["n_sliding_new"], n_at_cone_initial=kicked["n_at_cone_initial"],
+        max_displacement=kicked["max_displacement"],
+        max_displacement_over_overlap=kicked["max_displacement"] / dbar,
+        energy_input=kicked["energy_input"], neighbour_rebuilds=kicked["rebuilds"],
+        wall_time=float(wall_time),
+    )
+    return Signal(time=times, force=force, attrs=attrs)
+
+
+def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
+         skin: float, times: np.ndarray, progress, progress_interval: float) -> dict:
+    """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
+    values are the initial velocities (A) or imposed displacements (B), vertical.
+
+    Returns the top-wall force at the output times, the contact counts, the
+    largest displacement, the kick's energy and the static checks.
+    """
+    engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin)
+    d = packing.dim
+    residual = float(np.max(np.linalg.norm(engine.acceleration, axis=1), initial=0.0))
+    f_static_engine = float(engine.piston[K.P_FCON])
+    pos_ref = engine.position.copy()
+    pair_state = np.zeros(engine.pair_i.shape[0], np.int8)
+    wall_state = np.zeros(engine.wall_ov.shape[0], np.int8)
+    PK.classify(engine.radius, engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ft,
+                engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.friction, pair_state, wall_state,
+                True)
+    energy_input = 0.0
+    if kick is not None:
+        grains, values = kick
+        if ic == "A":
+            engine.velocity[grains, d - 1] += values
+            energy_input = float(0.5 * np.sum(packing.mass[grains] * values**2))
+            _forces_now(engine)
+        else:
+            e0 = engine.elastic_energy()
+            u0 = np.zeros_like(engine.position)
+            u0[grains, d - 1] = values
+            zeta = engine.fpar[K.F_ZETA]
+            engine.fpar[K.F_ZETA] = 0.0
+            engine.position += u0
+            engine.velocity[:] = u0  # one kinematic increment: slip = tangential u_rel (dt = 1)
+            _forces_now(engine, dt=1.0)
+            engine.velocity[:] = 0.0
+            engine.fpar[K.F_ZETA] = zeta
+            _forces_now(engine)
+            energy_input = float(engine.elastic_energy() - e0)
+
+    top = np.empty(samples)
+    top[0] = engine.piston[K.P_FCON]
+    stats = np.zeros(2)
+    stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)
+    k = 1
+    chunk = max(1, min(samples - 1, 20_000 // sub))
+    t_wall0 = t_last = _time.perf_counter()
+    n_total = sub * (samples - 1)
+    while k < samples:
+        k_stop = min(samples, k + chunk)
+        t0 = _time.perf_counter()
+        r = PK.pulse_samples(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+                             engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
+                             engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
+                             engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                             engine.fpar, engine.ipar, engine.out, pair_state, wall_state, k, k_stop, sub,
+                             top, stats)
+        if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
+            k = -r
+            _grow(engine, int(engine.ipar[K.I_NEEDED]))
+            grown = np.zeros(engine.pair_i.shape[0], np.int8)
+            grown[: len(pair_state)] = pair_state
+            pair_state = grown
+            continue
+        k = r
+        elapsed = _time.perf_counter() - t0
+        if elapsed > 0:  # about one call per second
+            chunk = int(max(1, min(samples, chunk * min(4.0, 1.0 / max(elapsed, 1e-3)))))
+        now = _time.perf_counter()
+        if progress is not None and now - t_last >= progress_interval:
+            t_last = now
+            rate = engine.steps / (now - t_wall0)
+            what = "dem pulse" if kick is not None else "dem baseline (no kick)"
+            progress(f"{what}: t = {times[k - 1]:.4g} / {times[-1]:.4g}, step {engine.steps}/{n_total}, "
+                     f"{rate:.0f} steps/s, ~{(n_total - engine.steps) / rate:.0f} s left")
+    m = engine.n_pairs
+    states = np.concatenate([pair_state[:m], wall_state])
+    count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
+    return dict(top=top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
+                n_contacts_initial=count(PK.INITIAL), n_opened=count(PK.OPENED), n_formed=count(PK.FORMED),
+                n_sliding=count(PK.SLID),
+                n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.CONE0))),
+                n_at_cone_initial=count(PK.CONE0), max_displacement=float(stats[0]),
+                rebuilds=int(engine.rebuilds))
+
+
+def _grow(engine: Engine, needed: int) -> None:
+    """Room for ``needed`` pairs in the engine's pair arrays (contents kept)."""
+    cap = int(needed * 1.5) + 64
+    for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
+        old = getattr(engine, name)
+        new = np.zeros((cap, *old.shape[1:]), old.dtype)
+        new[: len(old)] = old
+        setattr(engine, name, new)
+
+
+# ---------------------------------------------------------------- damping series
+def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None) -> list[dict]:
+    """Coherent amplitude and tail rms of each signal of a damping series, by ζ.
+
+    For every signal (sorted by ``attrs['damping']``): the front features of
+    :func:`granwave.analysis.front.front_features` (``amplitude``, ``t_peak``,
+    ``t_zero``, ``width``; NaN and ``front_error`` when the rule finds no
+    complete first pulse) and ``tail_rms``, the root mean square of the
+    signal over t >= ``tail_start`` to the end of the record. By default
+    ``tail_start`` = t_zero + width of the *least damped* signal (its first
+    pulse's zero crossing plus one pulse width), the same window for every ζ
+    so that a damped, broader pulse does not move the window. Also
+    ``tail_rms_over_amplitude`` and the counts of the DEM run.
+    """
+    from ..analysis.front import front_features
+
+    if not len(signals):
+        raise InputError("no signals")
+    missing = [k for k, s in enumerate(signals) if "damping" not in s.attrs]
+    if missing:
+        raise InputError(f"signal(s) {missing} have no 'damping' attribute")
+    order = sorted(signals, key=lambda s: float(s.attrs["damping"]))
+    feats = []
+    for s in order:
+        try:
+            feats.append(front_features(s.time, s.force))
+        except InputError as exc:
+            feats.append(exc)
+    if tail_start is None:
+        f0 = feats[0]
+        if isinstance(f0, InputError):
+            raise InputError(f"the least damped signal has no complete first pulse ({f0}); "
+                             "give tail_start")
+        tail_start = f0.t_zero + f0.width
+    rows = []
+    for s, f in zip(order, feats):
+        tail = s.force[s.time >= tail_start]
+        rms = float(np.sqrt(np.mean(tail**2))) if tail.size else float("nan")
+        row = dict(damping=float(s.attrs["damping"]), amplitude=float("nan"), t_peak=float("nan"),
+                   t_zero=float("nan"), width=float("nan"), tail_start=float(tail_start),
+                   tail_rms=rms)
+        if isinstance(f, InputError):
+            row["front_error"] = str(f)
+        else:
+            row.update(amplitude=f.amplitude, t_peak=f.t_peak, t_zero=f.t_zero, width=f.width)
+        row["tail_rms_over_amplitude"] = rms / row["amplitude"] if row["amplitude"] > 0 else float("nan")
+        for key in ("n_opened", "n_formed", "n_sliding", "max_displacement_over_overlap", "amplitude"):
+            if key in s.attrs:
+                row[f"run_{key}" if key == "amplitude" else key] = s.attrs[key]
+        rows.append(row)
+    return rows

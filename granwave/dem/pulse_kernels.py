@@ -1,0 +1,185 @@
+"""Numba loop of a nonlinear pulse run: the engine's own steps plus contact bookkeeping.
+
+One velocity-Verlet step is :func:`granwave.dem.kernels.run_chunk` with one
+step (the engine's integrator, neighbour-list rebuild and force kernel, so
+the contact law stays in :mod:`granwave.contact` and the step in
+:mod:`granwave.dem.kernels`). After every step this loop only *reads* the
+state to
+
+- record the top-wall contact force (``piston[P_FCON]``) at the output times,
+- flag every contact (pair slot or wall slot) that opens, forms, or slides,
+- track the largest displacement of any grain from its starting position.
+
+Contact state flags (``int8`` bit field, one per pair slot and per wall slot):
+``INITIAL`` in contact at t = 0; ``OPENED`` an initial contact found without
+overlap after some step; ``FORMED`` a contact not present at t = 0 found with
+overlap after some step; ``SLID`` the tangential force found on the Coulomb
+cone, ``|F_t| >= (1 - CONE_TOL) mu F_n`` (``contact.update_tangential`` puts
+a sliding contact exactly on the cone, a sticking one stays inside), after
+some step; ``CONE0`` on the cone at t = 0 already (fully mobilized in the
+stored state).
+
+The pair list can be rebuilt by the engine during a step (grains moved more
+than skin/2); the flags are then carried to the new list by the pair key
+i*N + j, as the engine carries the contact history.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .. import contact as C
+from ..geometry import nearest_image
+from . import kernels as K
+
+INITIAL, OPENED, FORMED, SLID, CONE0 = 1, 2, 4, 8, 16
+#: Relative tolerance of the "on the Coulomb cone" test.
+CONE_TOL = 1e-9
+
+
+@numba.njit(cache=True, inline="always")
+def _on_cone(ft, k, d, fel, mu):
+    f2 = 0.0
+    for a in range(d):
+        f2 += ft[k, a] * ft[k, a]
+    cap = mu * fel * (1.0 - CONE_TOL)
+    return fel > 0.0 and f2 >= cap * cap
+
+
+@numba.njit(cache=True)
+def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state,
+             wall_state, initial):
+    """Update the contact flags from the current history arrays (after a force evaluation).
+
+    ``initial``: set INITIAL / CONE0 from the current state instead of the run flags.
+    """
+    d = pair_ft.shape[1]
+    e_pair = C.effective_young(False)
+    e_wall = C.effective_young(True)
+    for p in range(npairs):
+        ov = pair_ov[p]
+        s = pair_state[p]
+        if ov > 0.0:
+            fel = 0.0
+            if mu > 0.0:
+                i = pair_i[p]
+                j = pair_j[p]
+                r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
+                fel = C.normal_force(ov, r12, e_pair)
+            cone = mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu)
+            if initial:
+                s |= INITIAL
+                if cone:
+                    s |= CONE0
+            else:
+                if not (s & INITIAL):
+                    s |= FORMED
+                if cone:
+                    s |= SLID
+        elif (s & INITIAL) and not initial:
+            s |= OPENED
+        pair_state[p] = s
+    for w in range(wall_ov.shape[0]):
+        ov = wall_ov[w]
+        s = wall_state[w]
+        if ov > 0.0:
+            fel = 0.0
+            if mu > 0.0:
+                fel = C.normal_force(ov, rad[w // 2], e_wall)
+            cone = mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu)
+            if initial:
+                s |= INITIAL
+                if cone:
+                    s |= CONE0
+            else:
+                if not (s & INITIAL):
+                    s |= FORMED
+                if cone:
+                    s |= SLID
+        elif (s & INITIAL) and not initial:
+            s |= OPENED
+        wall_state[w] = s
+
+
+@numba.njit(cache=True)
+def carry_flags(n_grains, old_i, old_j, old_state, n_old, pair_i, pair_j, npairs, pair_state):
+    """Flags of a rebuilt (sorted) pair list from the old one, merged by the key i*N + j."""
+    q = 0
+    for p in range(npairs):
+        key = pair_i[p] * n_grains + pair_j[p]
+        while q < n_old and old_i[q] * n_grains + old_j[q] < key:
+            q += 1
+        if q < n_old and old_i[q] * n_grains + old_j[q] == key:
+            pair_state[p] = old_state[q]
+        else:
+            pair_state[p] = 0
+
+
+@numba.njit(cache=True)
+def max_displacement(pos, pos_ref, lateral):
+    """Largest |r_i - r_i(0)| over the grains (nearest periodic image)."""
+    n, d = pos.shape
+    best = 0.0
+    for i in range(n):
+        s = 0.0
+        for a in range(d):
+            x = pos[i, a] - pos_ref[i, a]
+            if a < d - 1:
+                x = nearest_image(x, lateral[a])
+            s += x * x
+        if s > best:
+            best = s
+    return math.sqrt(best)
+
+
+@numba.njit(cache=True)
+def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
+                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, pair_state,
+                  wall_state, k_start, k_stop, sub, force_out, stats):
+    """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample.
+
+    ``force_out[k]`` receives the top-wall contact force (elastic + viscous
+    normal forces of the top-wall contacts) at sample k. ``stats[0]`` holds
+    the largest grain displacement so far. Returns the next sample to run
+    (``k_stop`` when done), or minus it when the pair list needs more room
+    (``ipar[I_NEEDED]`` pairs; the state is then between steps of that
+    sample, which the caller resumes after growing the arrays: the steps
+    already done inside the sample are kept in ``stats[1]``).
+    """
+    n = pos.shape[0]
+    mu = fpar[K.F_MU]
+    ipar[K.I_NSTEPS] = 1
+    old_i = np.empty(0, np.int64)
+    old_j = np.empty(0, np.int64)
+    old_state = np.empty(0, np.int8)
+    for k in range(k_start, k_stop):
+        done = int(stats[1])
+        for _ in range(done, sub):
+            rebuilds = ipar[K.I_REBUILDS]
+            npairs = ipar[K.I_NPAIRS]
+            if old_i.shape[0] < npairs:
+                old_i = np.empty(pair_i.shape[0], np.int64)
+                old_j = np.empty(pair_i.shape[0], np.int64)
+                old_state = np.empty(pair_i.shape[0], np.int8)
+            old_i[:npairs] = pair_i[:npairs]
+            old_j[:npairs] = pair_j[:npairs]
+            old_state[:npairs] = pair_state[:npairs]
+            status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out)
+            if status == 2:
+                return -k
+            if ipar[K.I_REBUILDS] != rebuilds:
+                carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar[K.I_NPAIRS],
+                            pair_state)
+            classify(rad, pair_i, pair_j, ipar[K.I_NPAIRS], pair_ft, pair_ov, wall_ft, wall_ov, mu,
+                     pair_state, wall_state, False)
+            u = max_displacement(pos, pos_ref, lateral)
+            if u > stats[0]:
+                stats[0] = u
+            stats[1] += 1.0
+        stats[1] = 0.0
+        force_out[k] = piston[K.P_FCON]
+    return k_stop
