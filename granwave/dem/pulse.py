@@ -294,6 +294,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         n_sliding_new=kicked["n_sliding_new"], n_at_cone_initial=kicked["n_at_cone_initial"],
         max_displacement=kicked["max_displacement"],
         max_displacement_over_overlap=kicked["max_displacement"] / dbar,
+        baseline_max_displacement_over_overlap=(base["max_displacement"] / dbar if base is not None
+                                                else float("nan")),
         energy_input=kicked["energy_input"], neighbour_rebuilds=kicked["rebuilds"],
         wall_time=float(wall_time),
     )

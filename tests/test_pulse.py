@@ -1,0 +1,224 @@
+"""Nonlinear DEM pulse (SPEC §8, §11): agreement with the linear model, nonlinearity, damping, CLI.
+
+Reference: the modal signal of the same packing (linearize -> eigensolve ->
+modal_signal), exact in time; the DEM signal is compared over the first
+pulse (t <= its zero crossing), errors relative to the first-pulse amplitude.
+Measured numbers are in docs/damping.md.
+"""
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from granwave.analysis.front import front_features
+from granwave.cli import main
+from granwave.dem import pulse as P
+from granwave.dem import pulse_kernels as PK
+from granwave.dem.params import PrepareParams
+from granwave.dem.protocol import prepare_packing
+from granwave.errors import InputError
+from granwave.io import files
+from granwave.linear.assemble import linearize
+from granwave.linear.eigen import eigensolve
+from granwave.linear.propagate import modal_signal
+from granwave.systems import triangular_lattice
+
+T_MAX, SAMPLES = 50.0, 251
+
+
+@pytest.fixture(scope="module")
+def frictional():
+    return prepare_packing(PrepareParams(grains=60, seed=3, pressure=1e-4, friction=0.5))
+
+
+@pytest.fixture(scope="module")
+def frictionless():
+    return prepare_packing(PrepareParams(grains=60, seed=3, pressure=1e-4, friction=0.0))
+
+
+@pytest.fixture(scope="module")
+def lattice():
+    return triangular_lattice(rows=8, width=6, pressure=1e-4, friction=0.5)
+
+
+def linear(packing, ic, prestress, t_max=T_MAX, samples=SAMPLES):
+    t = np.linspace(0.0, t_max, samples)
+    return modal_signal(eigensolve(linearize(packing, prestress=prestress)), ic=ic, times=t)
+
+
+def first_pulse_error(sig, ref):
+    """max |F_dem - F_lin| over t <= t_zero of the first pulse, / its amplitude."""
+    f = front_features(sig.time, ref)
+    win = sig.time <= f.t_zero
+    return float(np.abs(sig.force - ref)[win].max() / f.amplitude)
+
+
+# ------------------------------------------------------------------ set-up
+def test_engine_takes_the_stored_history(frictional):
+    """With the stored F_t as history the engine starts in equilibrium (packing tol 1e-10)
+    and the top-wall force is exactly the stored one; without it the grains are not."""
+    engine = P.engine_from_packing(frictional, dt=0.01)
+    acc = np.linalg.norm(engine.acceleration, axis=1).max()
+    assert acc < 1e-9
+    c = frictional.contacts
+    assert engine.piston[P.K.P_FCON] == pytest.approx(c.force_normal[c.j == -2].sum(), rel=1e-14)
+    assert np.abs(engine.pair_ft).max() > 0
+    bare = frictional.contacts.force_tangential
+    frictional.contacts.force_tangential = np.zeros_like(bare)
+    try:
+        engine0 = P.engine_from_packing(frictional, dt=0.01)
+    finally:
+        frictional.contacts.force_tangential = bare
+    assert np.linalg.norm(engine0.acceleration, axis=1).max() > 1e3 * acc
+
+
+def test_amplitude_definition(frictional):
+    """A: max_i v_i sqrt(m_i/k_wall,i) = EPS mean overlap; B: max imposed displacement = EPS mean overlap."""
+    grains, kw = P.source(frictional)
+    dbar = P.mean_overlap(frictional)
+    m = frictional.mass[grains]
+    s = P.amplitude_scale(frictional, "A", 1e-3)
+    assert np.max(s * kw / m * np.sqrt(m / kw)) == pytest.approx(1e-3 * dbar, rel=1e-12)
+    s = P.amplitude_scale(frictional, "B", 1e-3)
+    assert np.max(s * kw / kw.mean()) == pytest.approx(1e-3 * dbar, rel=1e-12)
+
+
+# ------------------------------------------------------------------ linear limit
+@pytest.mark.parametrize("ic", ["A", "B"])
+def test_lattice_agrees_with_linear_model(lattice, ic):
+    """Frictional lattice (no stored F_t): < 0.2% with prestress, and prestress agrees better."""
+    sig = P.propagate_dem(lattice, ic=ic, amplitude=1e-3, t_max=T_MAX, samples=SAMPLES)
+    e_pre = first_pulse_error(sig, linear(lattice, ic, True))
+    e_bare = first_pulse_error(sig, linear(lattice, ic, False))
+    assert e_pre < 2e-3, (e_pre, e_bare)
+    assert e_bare < 1e-2
+    assert e_pre < e_bare
+    assert sig.attrs["n_opened"] == sig.attrs["n_formed"] == sig.attrs["n_sliding"] == 0
+
+
+def test_frictionless_packing_error_scales_with_amplitude_and_dt(frictionless):
+    """Disordered frictionless packing, IC A, vs the prestressed linear model: the error
+    falls ~ EPS (1e-2 -> 1e-3) down to the Verlet floor, which falls ~ dt^2."""
+    ref = linear(frictionless, "A", True)
+    err = {}
+    for eps, safety in ((1e-2, 0.005), (1e-3, 0.005), (1e-4, 0.01), (1e-4, 0.005)):
+        sig = P.propagate_dem(frictionless, ic="A", amplitude=eps, dt_safety=safety, t_max=T_MAX,
+                              samples=SAMPLES)
+        err[eps, safety] = first_pulse_error(sig, ref)
+    assert err[1e-3, 0.005] < 1e-3  # the 1% of the issue, with a factor 10 to spare
+    assert 5.0 < err[1e-2, 0.005] / err[1e-3, 0.005] < 12.0, err  # nonlinear error ~ EPS
+    assert err[1e-4, 0.01] / err[1e-4, 0.005] > 3.0, err  # dt^2 floor
+    bare = first_pulse_error(sig, linear(frictionless, "A", False))
+    assert bare > 5 * err[1e-4, 0.005]  # the geometric (prestress) terms are resolved
+
+
+def test_frictional_packing_is_homogeneous_in_amplitude(frictional):
+    """Frictional disordered packing: signal / scale independent of EPS (1e-3 vs 1e-4) to 0.1%,
+    no contact opens, forms or slides at the default amplitude."""
+    a = P.propagate_dem(frictional, ic="A", t_max=T_MAX, samples=SAMPLES)
+    b = P.propagate_dem(frictional, ic="A", amplitude=1e-4, t_max=T_MAX, samples=SAMPLES)
+    f = front_features(b.time, b.force)
+    win = b.time <= f.t_zero
+    assert np.abs(a.force - b.force)[win].max() < 1e-3 * f.amplitude
+    assert a.attrs["n_opened"] == a.attrs["n_formed"] == a.attrs["n_sliding"] == 0
+    assert a.attrs["max_displacement_over_overlap"] < 3e-3
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "contact.update_tangential rescales F_t by sqrt(n_new/n_old) on unloading: a first-order "
+    "(amplitude-independent) one-sided term F_t dn/(2n) that the linear model does not have; "
+    "measured 16% (A) / 51% (B) of the first-pulse amplitude on this packing (docs/damping.md)"))
+@pytest.mark.parametrize("ic", ["A", "B"])
+def test_frictional_packing_agrees_with_linear_model(frictional, ic):
+    sig = P.propagate_dem(frictional, ic=ic, amplitude=1e-4, t_max=T_MAX, samples=SAMPLES)
+    assert first_pulse_error(sig, linear(frictional, ic, True)) < 1e-2
+
+
+# ------------------------------------------------------------------ nonlinearity
+def test_large_amplitude_opens_and_slides(frictional):
+    """EPS = 0.3: contacts slide (and open / form); the signal departs from the linear limit."""
+    small = P.propagate_dem(frictional, amplitude=1e-3, t_max=T_MAX, samples=SAMPLES)
+    big = P.propagate_dem(frictional, amplitude=0.3, t_max=T_MAX, samples=SAMPLES)
+    assert big.attrs["n_sliding"] > 0 and big.attrs["n_sliding_new"] > 0
+    assert big.attrs["n_opened"] + big.attrs["n_formed"] > 0
+    assert big.attrs["max_displacement_over_overlap"] > 0.1
+    f = front_features(small.time, small.force)
+    assert np.abs(big.force - small.force).max() > 0.05 * f.amplitude
+
+
+def test_carry_flags_by_pair_key():
+    old_i = np.array([0, 0, 1, 2]); old_j = np.array([1, 3, 2, 3])
+    state = np.array([1, 3, 9, 16], np.int8)
+    new_i = np.array([0, 1, 1, 2]); new_j = np.array([1, 2, 3, 3])
+    out = np.full(4, -1, np.int8)
+    PK.carry_flags(4, old_i, old_j, state, 4, new_i, new_j, 4, out)
+    np.testing.assert_array_equal(out, [1, 9, 0, 16])
+
+
+# ------------------------------------------------------------------ damping
+def test_damping_series(frictional):
+    """Coherent amplitude falls monotonically with zeta, and so does the tail rms."""
+    sigs = [P.propagate_dem(frictional, damping=z, t_max=120.0, samples=481)
+            for z in (0.3, 0.0, 0.03, 1.0, 0.1)]
+    rows = P.damping_table(sigs)
+    assert [r["damping"] for r in rows] == [0.0, 0.03, 0.1, 0.3, 1.0]
+    amp = [r["amplitude"] for r in rows]
+    tail = [r["tail_rms"] for r in rows]
+    assert all(np.diff(amp) < 0), amp
+    assert all(np.diff(tail) < 0), tail
+    assert len({r["tail_start"] for r in rows}) == 1
+    f0 = front_features(sigs[1].time, sigs[1].force)
+    assert rows[0]["tail_start"] == pytest.approx(f0.t_zero + f0.width)
+
+
+# ------------------------------------------------------------------ bad input
+def test_bad_input(frictional):
+    with pytest.raises(InputError):
+        P.propagate_dem(frictional, amplitude=0.0, t_max=10.0)
+    with pytest.raises(InputError):
+        P.propagate_dem(frictional, damping=1.5, t_max=10.0)
+    with pytest.raises(InputError):
+        P.propagate_dem(frictional, ic="C", t_max=10.0)
+    with pytest.raises(InputError):
+        P.propagate_dem(frictional, t_max=-1.0)
+    from granwave.systems import chain
+    with pytest.raises(InputError, match="2D or 3D"):
+        P.propagate_dem(chain(n_balls=10, pressure=1e-4), t_max=10.0)
+    with pytest.raises(InputError):
+        P.damping_table([])
+
+
+# ------------------------------------------------------------------ CLI
+def test_cli_dem(frictional, tmp_path):
+    pk = tmp_path / "packing.h5"
+    files.write_packing(pk, frictional)
+    out = tmp_path / "s.h5"
+    runner = CliRunner()
+    r = runner.invoke(main, ["propagate", str(pk), "--method", "dem", "-o", str(out), "--ic", "B",
+                             "--amplitude", "1e-3", "--damping", "0.1", "--t-max", "50",
+                             "--samples", "251", "--quiet"])
+    assert r.exit_code == 0, r.output
+    sig = files.read_signal(out)
+    for key in ("ic", "method", "height", "amplitude", "damping", "pressure", "seed", "friction", "kind",
+                "dim", "n_opened", "n_formed", "n_sliding", "max_displacement_over_overlap"):
+        assert key in sig.attrs, key
+    assert sig.attrs["method"] == "dem" and sig.attrs["ic"] == "B" and sig.attrs["damping"] == 0.1
+    lib = P.propagate_dem(frictional, ic="B", damping=0.1, t_max=50.0, samples=251)
+    np.testing.assert_allclose(sig.force, lib.force, rtol=0, atol=1e-12 * np.abs(lib.force).max())
+    r = runner.invoke(main, ["analyze", "front", str(out)])
+    assert r.exit_code == 0, r.output
+    png = tmp_path / "damping.png"
+    r = runner.invoke(main, ["plot", "damping", str(out), "-o", str(png)])
+    assert r.exit_code == 0 and png.is_file(), r.output
+    # bad input: one line, exit != 0, no file
+    bad = tmp_path / "bad.h5"
+    for args in (["--method", "time", "--damping", "0.1"], ["--method", "dem", "--damping", "2"],
+                 ["--method", "dem", "--snapshots", "1,2"]):
+        r = runner.invoke(main, ["propagate", str(pk), "-o", str(bad), "--t-max", "10", *args])
+        assert r.exit_code != 0 and not bad.exists(), (args, r.output)
+        assert "Traceback" not in r.output
+    with h5py.File(out) as f:
+        assert f.attrs["schema"] == "granwave.signal"
