@@ -90,6 +90,10 @@ def ic_of(scene):
     return spec.get("ic", config["ic"])
 
 
+def solver_of(scene):
+    return scene_spec(scene).get("solver", "modal")
+
+
 def t_max(wildcards):
     """Record length: t_max_factor crossings at the perfect-lattice speed (SPEC §12), which is
     faster than the disordered front, so the first arrival is always inside the record."""
@@ -104,3 +108,4 @@ wildcard_constraints:
     size=r"[hrn][0-9.]+",
     seed=r"\d+",
     scene=r"[A-Za-z0-9_]+",
+    zeta=r"[0-9.e+-]+",

@@ -30,20 +30,27 @@ rule eigensolve:
         "granwave eigensolve {input} -o {output} > {log} 2>&1"
 
 
+def propagate_input(wildcards):
+    """Modes for the modal sum; the linear system itself for time-domain scenes."""
+    stage = "linear" if solver_of(wildcards.scene) == "time" else "modes"
+    return f"{R}/{stage}/{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}.h5"
+
+
 rule propagate:
     input:
-        f"{R}/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
+        propagate_input,
     output:
         f"{R}/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     log:
         f"{R}/logs/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
     params:
         ic=lambda w: ic_of(w.scene),
+        method=lambda w: solver_of(w.scene),
         t_max=t_max,
         samples=config["samples"],
     resources:
         mem_mb=1000,
         runtime=10,
     shell:
-        "granwave propagate {input} --method modal --ic {params.ic} --t-max {params.t_max:.6g} "
+        "granwave propagate {input} --method {params.method} --ic {params.ic} --t-max {params.t_max:.6g} "
         "--samples {params.samples} -o {output} > {log} 2>&1"

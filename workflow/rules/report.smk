@@ -267,3 +267,50 @@ rule report:
                                         flags("--figures", input.figures)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
+
+
+def damping_packing():
+    d = config["damping"]
+    return f"{R}/packing/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
+
+
+rule damping_signal:
+    input:
+        lambda w: damping_packing(),
+    output:
+        f"{R}/damping/zeta{{zeta}}.h5",
+    log:
+        f"{R}/logs/damping/zeta{{zeta}}.log",
+    params:
+        t_max=lambda w: config["t_max_factor"] * crossing_time_of_damping(),
+        amplitude=config["damping"]["amplitude"],
+        samples=config["samples"],
+    resources:
+        runtime=60,
+    shell:
+        "granwave propagate {input} --method dem --ic {config[ic]} --damping {wildcards.zeta} "
+        "--amplitude {params.amplitude} --t-max {params.t_max:.6g} --samples {params.samples} "
+        "-o {output} > {log} 2>&1"
+
+
+def crossing_time_of_damping():
+    from granwave.workflow_support import crossing_time
+    d = config["damping"]
+    return crossing_time("disordered", scene_spec(d["scene"]), d["pressure"], f"h{d['height']:g}")
+
+
+def damping_linear_reference():
+    d = config["damping"]
+    return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
+
+
+rule figure_damping:
+    input:
+        signals=[f"{R}/damping/zeta{z:g}.h5" for z in config["damping"]["zetas"]],
+        reference=lambda w: damping_linear_reference(),
+    output:
+        f"{F}/damping.png",
+    log:
+        f"{R}/logs/figures/damping.log",
+    shell:
+        "granwave plot damping {input.signals} --reference {input.reference} -o {output} > {log} 2>&1"
