@@ -152,29 +152,26 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     n = pos.shape[0]
     mu = fpar[K.F_MU]
     ipar[K.I_NSTEPS] = 1
-    old_i = np.empty(0, np.int64)
-    old_j = np.empty(0, np.int64)
-    old_state = np.empty(0, np.int8)
+    # the pair keys of the current list, refreshed only after a rebuild
+    npairs = ipar[K.I_NPAIRS]
+    old_i = pair_i[:npairs].copy()
+    old_j = pair_j[:npairs].copy()
     for k in range(k_start, k_stop):
         done = int(stats[1])
         for _ in range(done, sub):
             rebuilds = ipar[K.I_REBUILDS]
-            npairs = ipar[K.I_NPAIRS]
-            if old_i.shape[0] < npairs:
-                old_i = np.empty(pair_i.shape[0], np.int64)
-                old_j = np.empty(pair_i.shape[0], np.int64)
-                old_state = np.empty(pair_i.shape[0], np.int8)
-            old_i[:npairs] = pair_i[:npairs]
-            old_j[:npairs] = pair_j[:npairs]
-            old_state[:npairs] = pair_state[:npairs]
             status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
                                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out)
             if status == 2:
                 return -k
             if ipar[K.I_REBUILDS] != rebuilds:
+                old_state = pair_state[:npairs].copy()
                 carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar[K.I_NPAIRS],
                             pair_state)
-            classify(rad, pair_i, pair_j, ipar[K.I_NPAIRS], pair_ft, pair_ov, wall_ft, wall_ov, mu,
+                npairs = ipar[K.I_NPAIRS]
+                old_i = pair_i[:npairs].copy()
+                old_j = pair_j[:npairs].copy()
+            classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu,
                      pair_state, wall_state, False)
             u = max_displacement(pos, pos_ref, lateral)
             if u > stats[0]:
