@@ -358,18 +358,17 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     gamma = fpar[F_GAMMA]
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
+    disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
+    for i in range(n):
+        s = 0.0
+        for a in range(d):
+            x = pos[i, a] - pos0[i, a]
+            s += x * x
+        disp2 = max(disp2, s)
     for step in range(ipar[I_NSTEPS]):
         dt = fpar[F_DT]
         # rebuild when a grain may come within reach of a pair not in the list
         # before the next rebuild check (factor 2: the speed may grow in a step)
-        disp2 = 0.0
-        for i in range(n):
-            s = 0.0
-            for a in range(d):
-                x = pos[i, a] - pos0[i, a]
-                s += x * x
-            if s > disp2:
-                disp2 = s
         if math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt > half_skin:
             np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
                                         pair_ft, pair_ov, ipar[I_NPAIRS])
@@ -379,16 +378,21 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             ipar[I_NPAIRS] = np_new
             ipar[I_REBUILDS] += 1
             pos0[:, :] = pos
+            disp2 = 0.0
         # half kick, drift
         vmax2 = 0.0
+        disp2 = 0.0
         for i in range(n):
             v2 = 0.0
+            s = 0.0
             for a in range(d):
                 vel[i, a] += 0.5 * dt * acc[i, a]
                 pos[i, a] += dt * vel[i, a]
                 v2 += vel[i, a] * vel[i, a]
-            if v2 > vmax2:
-                vmax2 = v2
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            vmax2 = max(vmax2, v2)
+            disp2 = max(disp2, s)
             for a in range(r):
                 omega[i, a] += 0.5 * dt * alpha[i, a]
         fpar[F_VMAX] = math.sqrt(vmax2)

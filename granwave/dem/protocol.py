@@ -168,7 +168,7 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
                     progress(f"converged after {engine.steps} steps: static residual {max(res):.3e}")
                 return packing
         now = time.perf_counter()
-        if progress is not None and (now - last > 1.0 or status == 1):
+        if progress is not None and now - last > 1.0:
             m = engine.measure()
             rate = (engine.steps - last_steps) * p.grains / (now - last)
             progress(f"step {engine.steps:>9d}  max|a| {max(m['max_acceleration'], m['max_angular_acceleration'], m['piston_acceleration']):.3e}"
