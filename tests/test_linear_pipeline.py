@@ -182,7 +182,8 @@ def test_bad_input_is_refused(tmp_path):
     _assert_refused(["linearize", tmp_path / "text.h5"], out, "not an HDF5 file")
     _assert_refused(["propagate", tmp_path / "text.h5", "--t-max", 1], out, "not an HDF5 file")
     _assert_refused(["propagate", tmp_path / "missing.h5", "--t-max", 1], out, "no such file")
-    _assert_refused(["propagate", tmp_path / "p.h5", "--t-max", 1], out, "granwave.packing")
+    _assert_refused(["propagate", tmp_path / "p.h5", "--t-max", 1, "--method", "time"], out,
+                    "granwave.packing")
     # wrong schema version
     files.write_packing(tmp_path / "v2.h5", good)
     with h5py.File(tmp_path / "v2.h5", "a") as f:

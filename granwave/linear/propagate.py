@@ -8,8 +8,9 @@ Two methods that must agree:
   stays bounded (about ``chunk_elements`` doubles at a time).
 - :func:`time_domain_signal`: velocity Verlet (symplectic, second order)
   integration of M u'' = -D u with the sparse D, no eigendecomposition.
-  Time step rule: dt <= ``safety`` x 2/omega_max, omega_max from Lanczos on
-  M^-1/2 D M^-1/2 (:func:`granwave.linear.assemble.omega2_max`), default
+  Time step rule: dt <= ``safety`` x 2/omega_max, omega_max^2 = 1.02 x a loose
+  Lanczos estimate (tol 1e-2, an upper bound) on M^-1/2 D M^-1/2
+  (:func:`granwave.linear.assemble.omega2_max`), default
   safety 0.1 (omega_max dt <= 0.2: well inside the stability limit 2, and a
   phase error (omega dt)^2/24 <= 0.17% even for the highest mode). The
   step is then shortened so that an integer number of steps fits between
@@ -175,9 +176,11 @@ def stable_time_step(system: LinearSystem, *, safety: float = DEFAULT_SAFETY) ->
     if asymmetry(D) > 0:
         D = symmetric_part(D)
     s = 1.0 / np.sqrt(system.mass)
-    # 1e-4 is plenty: the Ritz value is within ~tol of omega^2_max and the safety
-    # factor (0.1 by default) dwarfs that.
-    wmax = math.sqrt(omega2_max((sp.diags(s) @ D @ sp.diags(s)).tocsr(), tol=1e-4))
+    # A loose Lanczos (tol 1e-2) is enough: the Ritz value lies within ~tol below
+    # omega^2_max, so 1.02 x it bounds omega^2_max from above. Measured on a 3e5-dof
+    # lattice: tol 1e-2 takes 1.5 s and is 0.3% low; tol 1e-4 takes 88 s; the
+    # Gershgorin bound is instant but 40% high (a 20% smaller step).
+    wmax = math.sqrt(1.02 * omega2_max((sp.diags(s) @ D @ sp.diags(s)).tocsr(), tol=1e-2))
     return safety * 2.0 / wmax, wmax
 
 
