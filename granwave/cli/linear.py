@@ -21,9 +21,12 @@ def _summary(attrs: dict, keys) -> dict:
                    "frozen-history contact forces (off by default).")
 @click.option("--force", "force_unconverged", is_flag=True,
               help="Linearize even a packing whose preparation did not converge.")
+@click.option("--check/--no-check", default=True, show_default=True,
+              help="Check symmetry and positive semi-definiteness and count zero modes (dense "
+                   "eigenvalues up to 3000 dofs, else the 12 lowest by shift-invert Lanczos).")
 @json_option
 @stage
-def linearize(packing, output, prestress, force_unconverged, as_json):
+def linearize(packing, output, prestress, force_unconverged, check, as_json):
     """Build the stiffness matrix D and mass matrix M of PACKING (SPEC §5).
 
     Dofs per non-rattler grain: translations, plus rotations when the packing
@@ -38,7 +41,7 @@ def linearize(packing, output, prestress, force_unconverged, as_json):
     files.check_writable(output)
     pk = files.read_packing(packing)
     pk.attrs["source_file"] = str(packing)
-    system = build(pk, prestress=prestress, force=force_unconverged)
+    system = build(pk, prestress=prestress, force=force_unconverged, check=check)
     files.write_linear(output, system)
     rows = _summary(system.attrs, ("n_dof", "n_rattlers", "n_contacts", "prestress", "asymmetry",
                                    "n_zero_modes", "expected_zero_modes", "n_negative_modes",
