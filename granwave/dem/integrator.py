@@ -47,7 +47,7 @@ class Engine:
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
                  background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
                  overlap_floor=1e-3, skin=0.2, velocity=None, angular_velocity=None,
-                 tol_acceleration=0.0, tol_velocity=0.0, check_every=0):
+                 tol_acceleration=0.0, tol_velocity=0.0, check_every=20):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
