@@ -2,6 +2,15 @@
 # height series (c_tof, gamma, alpha), ensembles, spectra and the pressure sweep.
 
 
+STATICS_LAYER = 3.0
+
+
+def sample_height(scene, size):
+    """Nominal container height of a sample (rows of a lattice are sqrt(3)/2 apart)."""
+    value = float(size[1:])
+    return value * math.sqrt(3.0) / 2.0 if size[0] == "r" else value
+
+
 rule statics:
     input:
         f"{R}/packing/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
@@ -12,7 +21,7 @@ rule statics:
     resources:
         runtime=5,
     shell:
-        "granwave analyze statics {input} --json > {output} 2> {log}"
+        "granwave analyze statics {input} --layer {STATICS_LAYER} --json > {output} 2> {log}"
 
 
 rule front:
@@ -47,7 +56,9 @@ def summary_inputs(wildcards):
     tail = f"{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}"
     inputs = {"front": f"{R}/front/{tail}.json"}
     if kind in ("disordered", "lattices"):
-        inputs["statics"] = f"{R}/statics/{tail}.json"
+        # Bulk statics exclude 3 d at each wall (SPEC §4): only containers with a bulk have them.
+        if sample_height(wildcards.scene, wildcards.size) > 2 * STATICS_LAYER + 1:
+            inputs["statics"] = f"{R}/statics/{tail}.json"
         if scene_spec(wildcards.scene).get("moduli", True):
             inputs["moduli"] = f"{R}/moduli/{tail}.json"
     return inputs
