@@ -90,48 +90,116 @@ def add_torque(torque, k, arm, n, f):
 
 
 @numba.njit(cache=True, inline="always")
-def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, slip, fvec):
-    """Force on i from one contact (Hertz-Mindlin, SPEC §2), written into ``fvec``.
+def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overlap_old, dt, zeta, mu, nrm,
+                   slip):
+    """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, SPEC §2); returns it and
+    the elastic normal force. The single per-contact routine (scalar form).
 
-    ``n`` unit normal i -> j, ``delta`` > 0 the overlap, ``vrel`` the contact-point
-    velocity of j relative to i, ``ft`` the tangential history (updated in place),
-    ``overlap_old`` the overlap when ``ft`` was last updated. Normal: Hertz plus
-    viscous c_n = 2 zeta sqrt(m_eff k_n) on the normal velocity, total never
-    attractive. Tangential (mu > 0): ``ft`` carried into the new tangent plane,
-    then contact.update_tangential with slip = tangential vrel * dt; a viscous
-    part c_t v_t is added to the force (not to the history) while the contact
-    sticks. Returns the elastic normal force.
+    Three components always (2D: the third is 0, and adding zeros leaves the 2D
+    arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
+    (vx, vy, vz) the contact-point velocity of j relative to i, ``ft`` the tangential
+    history (length 3, updated in place), ``overlap_old`` the overlap when ``ft`` was last
+    updated; ``nrm`` and ``slip`` are length-3 scratch arrays handed to the two vector
+    routines of contact.py. Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
+    the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
+    the new tangent plane (contact.project_tangential), then contact.update_tangential
+    with slip = tangential velocity * dt; a viscous part c_t v_t is added to the force
+    (not to the history) while the contact sticks.
     """
-    d = n.shape[0]
     fel = C.normal_force(delta, r12, e12)
-    vn = 0.0
-    for a in range(d):
-        vn += vrel[a] * n[a]
+    vn = vx * nx + vy * ny + vz * nz
     fn = fel
     if zeta > 0.0:
         kn = C.normal_stiffness(delta, r12, e12)
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
     if mu > 0.0:
-        project_tangential(ft, n)
+        three = ft.shape[0] == 3
+        tx = vx - vn * nx
+        ty = vy - vn * ny
+        tz = vz - vn * nz
+        nrm[0] = nx
+        nrm[1] = ny
+        slip[0] = tx * dt
+        slip[1] = ty * dt
+        if three:
+            nrm[2] = nz
+            slip[2] = tz * dt
+        project_tangential(ft, nrm)
         kt = C.tangential_stiffness(delta, r12, g12)
-        for a in range(d):
-            slip[a] = (vrel[a] - vn * n[a]) * dt
         slid = update_tangential(ft, slip, overlap_old, delta, kt, fel, mu)
         ct = 0.0
         if zeta > 0.0 and not slid:
             ct = C.damping_coefficient(zeta, meff, kt)
-        for a in range(d):
-            fvec[a] = -fn * n[a] + ft[a] + ct * (vrel[a] - vn * n[a])
-    else:
-        for a in range(d):
-            fvec[a] = -fn * n[a]
+        fz = -fn * nz + ft[2] + ct * tz if three else 0.0
+        return -fn * nx + ft[0] + ct * tx, -fn * ny + ft[1] + ct * ty, fz, fel
+    return -fn * nx, -fn * ny, -fn * nz, fel
+
+
+@numba.njit(cache=True)
+def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, slip, fvec):
+    """Array form of :func:`contact_force3` (tests, frozen-history forces).
+
+    ``n``, ``vrel``, ``ft``, ``slip``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
+    in place, the force on i is written into ``fvec``, the elastic normal force returned.
+    """
+    d = n.shape[0]
+    nrm = np.empty(d)
+    fx, fy, fz, fel = contact_force3(n[0], n[1], n[2] if d == 3 else 0.0, delta, r12, e12, g12, meff,
+                                     vrel[0], vrel[1], vrel[2] if d == 3 else 0.0, ft, overlap_old, dt,
+                                     zeta, mu, nrm, slip)
+    fvec[0] = fx
+    fvec[1] = fy
+    if d == 3:
+        fvec[2] = fz
     return fel
+
+
+@numba.njit(cache=True, inline="always")
+def _pair_geometry(pos, lateral, i, j):
+    """(dx, dy, dz): nearest-image separation r_j - r_i (dz = 0 in 2D)."""
+    d = pos.shape[1]
+    dx = nearest_image(pos[j, 0] - pos[i, 0], lateral[0])
+    if d == 2:
+        return dx, pos[j, 1] - pos[i, 1], 0.0
+    return dx, nearest_image(pos[j, 1] - pos[i, 1], lateral[1]), pos[j, 2] - pos[i, 2]
+
+
+@numba.njit(cache=True, inline="always")
+def _spin(omega, k, arm):
+    """arm * w_k as (wx, wy, wz) (2D: only wz; frictionless: zeros)."""
+    r = omega.shape[1]
+    if r == 1:
+        return 0.0, 0.0, arm * omega[k, 0]
+    if r == 3:
+        return arm * omega[k, 0], arm * omega[k, 1], arm * omega[k, 2]
+    return 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
+    """torque[k] += (arm n) x f (only the tangential part of f contributes)."""
+    r = torque.shape[1]
+    if r == 1:
+        torque[k, 0] += arm * (nx * fy - ny * fx)
+    elif r == 3:
+        torque[k, 0] += arm * (ny * fz - nz * fy)
+        torque[k, 1] += arm * (nz * fx - nx * fz)
+        torque[k, 2] += arm * (nx * fy - ny * fx)
 
 
 @numba.njit(cache=True)
 def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
                    pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
+    """Total force and torque on every grain; see :func:`_force_loop`."""
+    scratch = np.zeros((3, pos.shape[1]))
+    _force_loop(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov,
+                wall_ft, wall_ov, piston, fpar, force, torque, out, scratch[0], scratch[1], scratch[2])
+
+
+@numba.njit(cache=True, _nrt=False)
+def _force_loop(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft, nrm, slip):
     """Total force and torque on every grain and the contact force on the piston.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
@@ -139,6 +207,11 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     displacement of the step). Also adds the background damping -gamma m v,
     -gamma I w. Statistics into ``out``: largest overlap, number of
     top-wall contacts and of contacts.
+
+    Written with scalars (three components, the third 0 in 2D) so that nothing
+    is allocated per contact and the compiler keeps the contact in registers;
+    the only arrays in the contact loop are the three length-3 scratch vectors
+    handed to contact.project_tangential / update_tangential.
     """
     n_grains, d = pos.shape
     r = omega.shape[1]
@@ -153,14 +226,6 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     g_wall = C.effective_shear(poisson, True)
     h = piston[P_H]
     vp = piston[P_V]
-    # 3-vectors even in 2D (third component 0: same arithmetic, fixed-length loops
-    # that the compiler unrolls); ftv: scratch copy of a history row (no views)
-    nv = np.zeros(3)
-    vrel = np.zeros(3)
-    slip = np.zeros(3)
-    fvec = np.zeros(3)
-    dx = np.zeros(3)
-    ftv = np.zeros(3)
     force[:, :] = 0.0
     torque[:, :] = 0.0
     dmax = 0.0
@@ -168,14 +233,11 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     for p in range(npairs):
         i = pair_i[p]
         j = pair_j[p]
-        r2 = 0.0
-        for a in range(d):
-            x = pos[j, a] - pos[i, a]
-            if a < d - 1:
-                x = nearest_image(x, lateral[a])
-            dx[a] = x
-            r2 += x * x
-        rs = rad[i] + rad[j]
+        dx, dy, dz = _pair_geometry(pos, lateral, i, j)
+        r2 = dx * dx + dy * dy + dz * dz
+        ri = rad[i]
+        rj = rad[j]
+        rs = ri + rj
         if r2 >= rs * rs:
             if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
                 pair_ov[p] = 0.0
@@ -184,29 +246,45 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
             continue
         dist = math.sqrt(r2)
         delta = rs - dist
-        for a in range(d):
-            nv[a] = dx[a] / dist
-            vrel[a] = vel[j, a] - vel[i, a]
-        ai = rad[i] - 0.5 * delta
-        aj = rad[j] - 0.5 * delta
+        nx = dx / dist
+        ny = dy / dist
+        nz = dz / dist
+        vx = vel[j, 0] - vel[i, 0]
+        vy = vel[j, 1] - vel[i, 1]
+        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+        ai = ri - 0.5 * delta
+        aj = rj - 0.5 * delta
         if r > 0:
-            rotation_velocity(vrel, nv, omega, i, j, ai, aj)
-        r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
+            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
+            wx, wy, wz = _spin(omega, i, ai)
+            ux, uy, uz = _spin(omega, j, aj)
+            wx += ux
+            wy += uy
+            wz += uz
+            vx -= wy * nz - wz * ny
+            vy -= wz * nx - wx * nz
+            vz -= wx * ny - wy * nx
+        r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
         meff = C.reduced_mass(mass[i], mass[j], False)
         if mu > 0.0:
             for a in range(d):
-                ftv[a] = pair_ft[p, a]
-        contact_force(nv, delta, r12, e_pair, g_pair, meff, vrel, ftv, pair_ov[p], dt, zeta, mu, slip, fvec)
+                ft[a] = pair_ft[p, a]
+        fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff, vx, vy, vz, ft,
+                                         pair_ov[p], dt, zeta, mu, nrm, slip)
         if mu > 0.0:
             for a in range(d):
-                pair_ft[p, a] = ftv[a]
+                pair_ft[p, a] = ft[a]
         pair_ov[p] = delta
-        for a in range(d):
-            force[i, a] += fvec[a]
-            force[j, a] -= fvec[a]
+        force[i, 0] += fx
+        force[i, 1] += fy
+        force[j, 0] -= fx
+        force[j, 1] -= fy
+        if d == 3:
+            force[i, 2] += fz
+            force[j, 2] -= fz
         if r > 0:
-            add_torque(torque, i, ai, nv, fvec)
-            add_torque(torque, j, aj, nv, fvec)
+            _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
+            _add_torque3(torque, j, aj, nx, ny, nz, fx, fy, fz)
         if delta > dmax:
             dmax = delta
         ncontact += 1
@@ -225,30 +303,39 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
                     for a in range(d):
                         wall_ft[w, a] = 0.0
                 continue
-            for a in range(d):
-                nv[a] = 0.0
-                vrel[a] = -vel[i, a]
-            nv[d - 1] = -1.0 if k == 0 else 1.0
-            if k == 1:
-                vrel[d - 1] += vp
+            sgn = -1.0 if k == 0 else 1.0
+            vx = -vel[i, 0]
+            if d == 2:
+                nx, ny, nz = 0.0, sgn, 0.0
+                vy = -vel[i, 1] + (vp if k == 1 else 0.0)
+                vz = 0.0
+            else:
+                nx, ny, nz = 0.0, 0.0, sgn
+                vy = -vel[i, 1]
+                vz = -vel[i, 2] + (vp if k == 1 else 0.0)
             ai = R - delta
             if r > 0:
-                rotation_velocity(vrel, nv, omega, i, -1, ai, 0.0)
+                wx, wy, wz = _spin(omega, i, ai)
+                vx -= wy * nz - wz * ny
+                vy -= wz * nx - wx * nz
+                vz -= wx * ny - wy * nx
             if mu > 0.0:
                 for a in range(d):
-                    ftv[a] = wall_ft[w, a]
-            contact_force(nv, delta, R, e_wall, g_wall, mass[i], vrel, ftv, wall_ov[w], dt, zeta, mu, slip,
-                          fvec)
+                    ft[a] = wall_ft[w, a]
+            fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i], vx, vy, vz, ft,
+                                             wall_ov[w], dt, zeta, mu, nrm, slip)
             if mu > 0.0:
                 for a in range(d):
-                    wall_ft[w, a] = ftv[a]
+                    wall_ft[w, a] = ft[a]
             wall_ov[w] = delta
-            for a in range(d):
-                force[i, a] += fvec[a]
+            force[i, 0] += fx
+            force[i, 1] += fy
+            if d == 3:
+                force[i, 2] += fz
             if r > 0:
-                add_torque(torque, i, ai, nv, fvec)
+                _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
             if k == 1:
-                fpiston -= fvec[d - 1]
+                fpiston -= fz if d == 3 else fy
                 ntop += 1
             if delta > dmax:
                 dmax = delta
