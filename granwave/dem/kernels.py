@@ -193,12 +193,13 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
                    pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
     """Total force and torque on every grain; see :func:`_force_loop`."""
     scratch = np.zeros((3, pos.shape[1]))
-    _force_loop(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov,
-                wall_ft, wall_ov, piston, fpar, force, torque, out, scratch[0], scratch[1], scratch[2])
+    inv_rad = 1.0 / rad
+    _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, scratch[0], scratch[1], scratch[2])
 
 
 @numba.njit(cache=True, _nrt=False)
-def _force_loop(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
+def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
                 pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft, nrm, slip):
     """Total force and torque on every grain and the contact force on the piston.
 
@@ -248,7 +249,7 @@ def _force_loop(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, np
         delta = rs - dist
         nx = dx / dist
         ny = dy / dist
-        nz = dz / dist
+        nz = dz / dist if d == 3 else 0.0
         vx = vel[j, 0] - vel[i, 0]
         vy = vel[j, 1] - vel[i, 1]
         vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
@@ -264,7 +265,7 @@ def _force_loop(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, np
             vx -= wy * nz - wz * ny
             vy -= wz * nx - wx * nz
             vz -= wx * ny - wy * nx
-        r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
+        r12 = C.effective_radius(inv_rad[i], inv_rad[j])
         meff = C.reduced_mass(mass[i], mass[j], False)
         if mu > 0.0:
             for a in range(d):
@@ -488,13 +489,16 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             piston[P_H] += dt * piston[P_V]
         compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
                        pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out)
-        to_accelerations(acc, alpha, mass, inertia)
         piston[P_A] = piston_acceleration(piston, gamma)
-        # second half kick
+        # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):
+            inv = 1.0 / mass[i]
             for a in range(d):
+                acc[i, a] *= inv
                 vel[i, a] += 0.5 * dt * acc[i, a]
+            inv = 1.0 / inertia[i]
             for a in range(r):
+                alpha[i, a] *= inv
                 omega[i, a] += 0.5 * dt * alpha[i, a]
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]
