@@ -465,7 +465,9 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                 return 2
             ipar[I_NPAIRS] = np_new
             ipar[I_REBUILDS] += 1
-            pos0[:, :] = pos
+            for i in range(n):
+                for a in range(d):
+                    pos0[i, a] = pos[i, a]
             disp2 = 0.0
         # half kick, drift
         vmax2 = 0.0

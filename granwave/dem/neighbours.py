@@ -22,7 +22,8 @@ from ..geometry import nearest_image
 def _push(keys, m, key):
     if m == keys.shape[0]:
         bigger = np.empty(2 * keys.shape[0], np.int64)
-        bigger[:m] = keys[:m]
+        for k in range(m):  # an explicit loop: slice assignment compiles shape-check machinery
+            bigger[k] = keys[k]
         keys = bigger
     keys[m] = key
     return keys
@@ -63,7 +64,7 @@ def candidate_keys(pos, rad, lateral, h, skin):
                 if r2 < lim * lim:
                     keys = _push(keys, m, i * n + j)
                     m += 1
-        return np.sort(keys[:m])
+        return keys[:m]
     ncell = 1
     for a in range(d):
         ncell *= nc[a]
@@ -82,7 +83,11 @@ def candidate_keys(pos, rad, lateral, h, skin):
         head[idx] = i
     n_off = 3**d
     cc = np.empty(d, np.int64)
+    # the partners j > i of one grain i, sorted by insertion (a handful): the keys then come
+    # out sorted without a global sort (np.sort costs seconds of compilation)
+    mine = np.empty(n, np.int64)
     for i in range(n):
+        cnt = 0
         for o in range(n_off):
             rest = o
             idx = 0
@@ -110,10 +115,17 @@ def candidate_keys(pos, rad, lateral, h, skin):
                         r2 += x * x
                     lim = rad[i] + rad[j] + skin
                     if r2 < lim * lim:
-                        keys = _push(keys, m, i * n + j)
-                        m += 1
+                        q = cnt
+                        while q > 0 and mine[q - 1] > j:
+                            mine[q] = mine[q - 1]
+                            q -= 1
+                        mine[q] = j
+                        cnt += 1
                 j = nxt[j]
-    return np.sort(keys[:m])
+        for q in range(cnt):
+            keys = _push(keys, m, i * n + mine[q])
+            m += 1
+    return keys[:m]
 
 
 @numba.njit(cache=True)
