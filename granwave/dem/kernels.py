@@ -5,10 +5,14 @@ Pure functions over float64 arrays (int64 indices); one code path for 2D and
 rotation arrays then have zero columns), so each kernel compiles once.
 
 Every piece of the contact law is called from :mod:`granwave.contact`; the
-geometry follows docs/conventions.md. :func:`contact_force` is the single
-per-contact routine: the engine calls it with velocities and the real Coulomb
-law, :func:`granwave.dem.forces.frozen_history_forces` with displacements
-(``dt = 1``), no unloading rescale and no Coulomb cap.
+geometry follows docs/conventions.md. :func:`contact_force3` is the single
+per-contact routine (scalars in and out): the engine's force loop calls it with
+velocities and the real Coulomb law; :func:`granwave.dem.forces.frozen_history_forces`
+calls its array form :func:`contact_force` with displacements (``dt = 1``), no
+unloading rescale and no Coulomb cap. The force loop :func:`_force_loop` is
+compiled without NRT reference counting (``_nrt=False``): inlined helpers with
+array arguments otherwise cost an atomic incref/decref pair per contact and
+argument, which was most of the per-contact time (docs/dem.md).
 
 Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
@@ -28,7 +32,7 @@ from .. import contact as C
 from ..geometry import nearest_image
 from . import neighbours
 
-# The two vector routines of contact.py, compiled inline into the force loops
+# The two vector routines of contact.py, compiled inline into the force loop
 # (the same Python code as contact.py's; only the compilation differs).
 project_tangential = numba.njit(cache=True, inline="always")(C.project_tangential.py_func)
 update_tangential = numba.njit(cache=True, inline="always")(C.update_tangential.py_func)
