@@ -67,3 +67,14 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
 def test_unwritable_output_is_refused_early(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         files.check_writable(tmp_path / "missing" / "out.h5")
+
+
+def test_attrs_copied_from_another_file_cannot_relabel_it(tmp_path):
+    from granwave.model import Signal
+    sig = Signal(time=np.arange(3.0), force=np.zeros(3),
+                 attrs={"schema": schema.LINEAR, "schema_version": "9.9", "ic": "A",
+                        "method": "modal", "height": 1.0})
+    files.write_signal(tmp_path / "s.h5", sig)
+    back = files.read_signal(tmp_path / "s.h5")
+    assert back.attrs["schema"] == schema.SIGNAL
+    assert back.attrs["schema_version"] == schema.VERSIONS[schema.SIGNAL]

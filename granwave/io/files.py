@@ -25,6 +25,11 @@ from . import schema as S
 
 
 # ---------------------------------------------------------------- generic layer
+#: Root attributes that describe the file itself, never copied from a caller's attrs.
+RESERVED_ATTRS = frozenset({"schema", "schema_version", "granwave_version", "git_revision",
+                            "command_line"})
+
+
 def check_writable(path: str | os.PathLike) -> Path:
     """Fail early (before any computation) if ``path`` cannot be written."""
     path = Path(path)
@@ -46,10 +51,15 @@ def atomic_h5(path: str | os.PathLike, schema: str, attrs: dict) -> Iterator[h5p
     os.close(fd)
     try:
         with h5py.File(tmp, "w") as f:
+            # Attributes copied from an input file may carry that file's schema name and
+            # provenance: this file's own are written last so they always win.
+            for key, value in attrs.items():
+                if key not in RESERVED_ATTRS:
+                    _set_attr(f, key, value)
+            for key, value in provenance_attrs().items():
+                _set_attr(f, key, value)
             f.attrs["schema"] = schema
             f.attrs["schema_version"] = S.VERSIONS[schema]
-            for key, value in {**provenance_attrs(), **attrs}.items():
-                _set_attr(f, key, value)
             yield f
         os.replace(tmp, path)
     except BaseException:

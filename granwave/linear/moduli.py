@@ -630,15 +630,30 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     out["n_dof"] = cell.n_dof
     if local:
         vertical = dim - 1
+        # A local measurement whose loaded sub-problem is floppy (e.g. a few rows of a
+        # frictionless lattice between imposed lines) has no modulus: NaN and the reason,
+        # instead of losing the global moduli and the other local ones.
+        failures = {}
+
+        def measured(key, compute):
+            try:
+                return compute()
+            except InputError as exc:
+                failures[key] = str(exc)
+                return float("nan")
+
         for kind, axis, ref_key, ref in (("normal", vertical, normal_key, c_normal),
                                          ("shear", 0, shear_key, c_shear)):
             for n in (1, 2):
-                Cb = body_force_modulus(cell, axis=axis, n=n, amplitude=amplitude, grip=grip)
+                Cb = measured(f"{ref_key}_body_n{n}", lambda: body_force_modulus(
+                    cell, axis=axis, n=n, amplitude=amplitude, grip=grip))
                 out[f"{ref_key}_body_n{n}"] = Cb
                 out[f"{ref_key}_body_n{n}_ratio"] = Cb / ref if ref > 0 else float("nan")
             out["body_force_unbalanced"] = cell.unbalanced
             for n in (1, 3):
-                Cl = line_modulus(cell, axis=axis, n=n, amplitude=amplitude)
+                Cl = measured(f"{ref_key}_lines_n{n}", lambda: line_modulus(
+                    cell, axis=axis, n=n, amplitude=amplitude))
                 out[f"{ref_key}_lines_n{n}"] = Cl
                 out[f"{ref_key}_lines_n{n}_ratio"] = Cl / ref if ref > 0 else float("nan")
+        out["local_failures"] = failures
     return out

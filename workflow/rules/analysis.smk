@@ -1,17 +1,9 @@
 # Per-sample measurements, their one-file summaries, and the per-scene analyses:
 # height series (c_tof, gamma, alpha), ensembles, spectra and the pressure sweep.
 
-
-STATICS_LAYER = 3.0
-
-
-def sample_height(scene, size):
-    """Nominal container height of a sample (rows of a lattice are sqrt(3)/2 apart)."""
-    value = float(size[1:])
-    return value * math.sqrt(3.0) / 2.0 if size[0] == "r" else value
-
-
 rule statics:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/packing/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -20,11 +12,15 @@ rule statics:
         f"{R}/logs/statics/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
     resources:
         runtime=5,
+    params:
+        layer=STATICS_LAYER,
     shell:
-        "granwave analyze statics {input} --layer {STATICS_LAYER} --json > {output} 2> {log}"
+        "granwave analyze statics {input} --layer {params.layer} --json > {output} 2> {log}"
 
 
 rule front:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -38,6 +34,8 @@ rule front:
 
 
 rule moduli:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/packing/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -51,20 +49,9 @@ rule moduli:
         "granwave analyze moduli {input} --local --json > {output} 2> {log}"
 
 
-def summary_inputs(wildcards):
-    kind = scene_kind(wildcards.scene)
-    tail = f"{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}"
-    inputs = {"front": f"{R}/front/{tail}.json"}
-    if kind in ("disordered", "lattices"):
-        # Bulk statics exclude 3 d at each wall (SPEC §4): only containers with a bulk have them.
-        if sample_height(wildcards.scene, wildcards.size) > 2 * STATICS_LAYER + 1:
-            inputs["statics"] = f"{R}/statics/{tail}.json"
-        if scene_spec(wildcards.scene).get("moduli", True):
-            inputs["moduli"] = f"{R}/moduli/{tail}.json"
-    return inputs
-
-
 rule summary:
+    conda:
+        "../envs/granwave.yaml"
     input:
         unpack(summary_inputs),
         signal=f"{R}/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
@@ -78,11 +65,9 @@ rule summary:
         "../scripts/merge_summary.py"
 
 
-def height_signals(wildcards):
-    return sample_paths("signal", wildcards.scene, pressure=wildcards.pressure)
-
-
 rule heights:
+    conda:
+        "../envs/granwave.yaml"
     input:
         height_signals,
     output:
@@ -98,6 +83,8 @@ rule heights:
 
 
 rule ensemble:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: sample_paths("signal", w.scene, pressure=w.pressure, size=w.size),
     output:
@@ -112,6 +99,8 @@ rule ensemble:
 
 
 rule spectrum:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -124,14 +113,9 @@ rule spectrum:
         "granwave analyze spectrum {input} --json > {output} 2> {log}"
 
 
-def sweep_inputs(wildcards):
-    inputs = {"summaries": sample_paths("summary", wildcards.scene, ext="json")}
-    inputs["heights"] = [f"{R}/heights/{wildcards.scene}/p{p}.json"
-                         for p in pressures(wildcards.scene) if len(sizes(wildcards.scene, p)) >= 2]
-    return inputs
-
-
 rule pressure_sweep:
+    conda:
+        "../envs/granwave.yaml"
     input:
         unpack(sweep_inputs),
     output:

@@ -1,13 +1,18 @@
 # Configuration: validation against the schema (with defaults), the sample
 # lists of every scene, and the helpers that turn wildcards into CLI options.
 import math
+import os
 
 from snakemake.utils import min_version, validate
 
 min_version("8.0")
 
 
-configfile: "config/config.yaml"
+# The quick default, unless config files are given on the command line: those replace it
+# (snakemake would otherwise merge them into the default and keep its scenes).
+if not workflow.overwrite_configfiles:
+
+    configfile: os.path.join(workflow.basedir, "..", "config", "config.yaml")
 
 
 validate(config, "../schemas/config.schema.yaml")
@@ -109,3 +114,163 @@ wildcard_constraints:
     seed=r"\d+",
     scene=r"[A-Za-z0-9_]+",
     zeta=r"[0-9.e+-]+",
+
+
+# ---- helpers of rules/packings.smk
+# Samples: DEM packings (prepare-packing), perfect lattices and chains.
+
+
+def prepare_args(wildcards):
+    """prepare-packing options for one sample: the grain count sets the height at fixed width."""
+    spec = scene_spec(wildcards.scene)
+    height = float(wildcards.height)
+    n = grain_count(spec, height)
+    return (f"--dim {spec['dim']} --grains {n} --aspect {height / spec['width']:.6g} "
+            f"--pressure {wildcards.pressure} --friction {spec['friction']} "
+            f"--poisson {spec['poisson']} --polydispersity {spec['polydispersity']} "
+            f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}")
+
+
+# ---- helpers of rules/linear.smk
+def propagate_input(wildcards):
+    """Modes for the modal sum; the linear system itself for time-domain scenes."""
+    stage = "linear" if solver_of(wildcards.scene) == "time" else "modes"
+    return f"{R}/{stage}/{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}.h5"
+
+
+# ---- helpers of rules/analysis.smk
+# Per-sample measurements, their one-file summaries, and the per-scene analyses:
+# height series (c_tof, gamma, alpha), ensembles, spectra and the pressure sweep.
+
+
+STATICS_LAYER = 3.0
+
+
+def sample_height(scene, size):
+    """Nominal container height of a sample (rows of a lattice are sqrt(3)/2 apart)."""
+    value = float(size[1:])
+    return value * math.sqrt(3.0) / 2.0 if size[0] == "r" else value
+
+
+def summary_inputs(wildcards):
+    kind = scene_kind(wildcards.scene)
+    tail = f"{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}"
+    inputs = {"front": f"{R}/front/{tail}.json"}
+    if kind in ("disordered", "lattices"):
+        # Bulk statics exclude 3 d at each wall (SPEC §4): only containers with a bulk have them.
+        if sample_height(wildcards.scene, wildcards.size) > 2 * STATICS_LAYER + 1:
+            inputs["statics"] = f"{R}/statics/{tail}.json"
+        if scene_spec(wildcards.scene).get("moduli", True):
+            inputs["moduli"] = f"{R}/moduli/{tail}.json"
+    return inputs
+
+
+def height_signals(wildcards):
+    return sample_paths("signal", wildcards.scene, pressure=wildcards.pressure)
+
+
+def sweep_inputs(wildcards):
+    inputs = {"summaries": sample_paths("summary", wildcards.scene, ext="json")}
+    inputs["heights"] = [f"{R}/heights/{wildcards.scene}/p{p}.json"
+                         for p in pressures(wildcards.scene) if len(sizes(wildcards.scene, p)) >= 2]
+    return inputs
+
+
+# ---- helpers of rules/report.smk
+# Figures of the study and the final report (results/report/index.md).
+
+F = f"{R}/figures"
+
+
+def main_sample():
+    """The reference sample of the figures: the first disordered scene, highest pressure,
+    tallest container, seed 0 (None when the config has no disordered scene)."""
+    for scene in scenes("disordered"):
+        p = pressures(scene)[-1]
+        return scene, p, sizes(scene, p)[-1]
+    return None
+
+
+def first_sample_path(stage, scene, ext="h5"):
+    p = pressures(scene)[-1]
+    return sample_paths(stage, scene, ext=ext, pressure=p, size=sizes(scene, p)[-1])[0]
+
+
+def height_series_paths(scene):
+    return [f"{R}/heights/{scene}/p{p}.json" for p in pressures(scene) if len(sizes(scene, p)) >= 2]
+
+
+def lattice_flags(input):
+    return " ".join([flags("--lattice", input.frictionless),
+                     flags("--lattice-frictional", input.frictional)])
+
+
+def flags(flag, paths):
+    return " ".join(f"{flag} {p}" for p in paths)
+
+
+def figure_targets():
+    figs = [f"{F}/airy.png"]
+    if main_sample():
+        figs += [f"{F}/network.png", f"{F}/roses.png", f"{F}/signals.png", f"{F}/coherent.png",
+                 f"{F}/compare.png", f"{F}/modes.png", f"{F}/snapshot.png"]
+        scene, p, _ = main_sample()
+        if len(sizes(scene, p)) >= 2:
+            figs.append(f"{F}/arrivals.png")
+        if len(pressures(scene)) >= 2:
+            figs.append(f"{F}/speeds.png")
+        if scene_spec(scene).get("spectrum"):
+            figs.append(f"{F}/spectrum.png")
+    if any(height_series_paths(s) for s in scenes("disordered") + scenes("chains")):
+        figs.append(f"{F}/exponents.png")
+    if config["damping"]["enabled"]:
+        figs.append(f"{F}/damping.png")
+    return figs
+
+
+def report_inputs():
+    inputs = [f"{R}/report/index.md"]
+    return inputs
+
+
+def exponent_series():
+    series = []
+    for scene in scenes("disordered"):
+        series += [(scene, path) for path in height_series_paths(scene)[-1:]]
+    for scene in scenes("chains"):
+        series += [(scene, path) for path in height_series_paths(scene)]
+    return series
+
+
+def lattice_heights(frictional):
+    return [path for scene in scenes("lattices")
+            if (scene_spec(scene)["friction"] > 0) == frictional
+            for path in height_series_paths(scene)]
+
+
+def sweep_paths():
+    return [f"{R}/sweep/{scene}.json" for scene in scenes("disordered")]
+
+
+def all_height_series():
+    return [path for scene in scenes() for path in height_series_paths(scene)]
+
+
+def all_summaries():
+    return [path for scene in scenes() for path in sample_paths("summary", scene, ext="json")]
+
+
+def damping_packing():
+    d = config["damping"]
+    return f"{R}/packing/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
+
+
+def crossing_time_of_damping():
+    from granwave.workflow_support import crossing_time
+    d = config["damping"]
+    return crossing_time("disordered", scene_spec(d["scene"]), d["pressure"], f"h{d['height']:g}")
+
+
+def damping_linear_reference():
+    d = config["damping"]
+    return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"

@@ -2,6 +2,8 @@
 
 
 rule linearize:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/packing/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -16,6 +18,8 @@ rule linearize:
 
 
 rule eigensolve:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -30,13 +34,9 @@ rule eigensolve:
         "granwave eigensolve {input} -o {output} > {log} 2>&1"
 
 
-def propagate_input(wildcards):
-    """Modes for the modal sum; the linear system itself for time-domain scenes."""
-    stage = "linear" if solver_of(wildcards.scene) == "time" else "modes"
-    return f"{R}/{stage}/{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}.h5"
-
-
 rule propagate:
+    conda:
+        "../envs/granwave.yaml"
     input:
         propagate_input,
     output:

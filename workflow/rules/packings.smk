@@ -1,18 +1,8 @@
 # Samples: DEM packings (prepare-packing), perfect lattices and chains.
 
-
-def prepare_args(wildcards):
-    """prepare-packing options for one sample: the grain count sets the height at fixed width."""
-    spec = scene_spec(wildcards.scene)
-    height = float(wildcards.height)
-    n = grain_count(spec, height)
-    return (f"--dim {spec['dim']} --grains {n} --aspect {height / spec['width']:.6g} "
-            f"--pressure {wildcards.pressure} --friction {spec['friction']} "
-            f"--poisson {spec['poisson']} --polydispersity {spec['polydispersity']} "
-            f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}")
-
-
 rule prepare_packing:
+    conda:
+        "../envs/granwave.yaml"
     output:
         f"{R}/packing/{{scene}}/p{{pressure}}/h{{height}}/s{{seed}}.h5",
     log:
@@ -28,6 +18,8 @@ rule prepare_packing:
 
 
 rule make_lattice:
+    conda:
+        "../envs/granwave.yaml"
     output:
         f"{R}/packing/{{scene}}/p{{pressure}}/r{{rows}}/s0.h5",
     log:
@@ -44,6 +36,8 @@ rule make_lattice:
 
 
 rule make_chain:
+    conda:
+        "../envs/granwave.yaml"
     output:
         f"{R}/packing/{{scene}}/p{{pressure}}/n{{balls}}/s{{seed}}.h5",
     log:

@@ -1,55 +1,8 @@
 # Figures of the study and the final report (results/report/index.md).
 
-F = f"{R}/figures"
-
-
-def main_sample():
-    """The reference sample of the figures: the first disordered scene, highest pressure,
-    tallest container, seed 0 (None when the config has no disordered scene)."""
-    for scene in scenes("disordered"):
-        p = pressures(scene)[-1]
-        return scene, p, sizes(scene, p)[-1]
-    return None
-
-
-def first_sample_path(stage, scene, ext="h5"):
-    p = pressures(scene)[-1]
-    return sample_paths(stage, scene, ext=ext, pressure=p, size=sizes(scene, p)[-1])[0]
-
-
-def height_series_paths(scene):
-    return [f"{R}/heights/{scene}/p{p}.json" for p in pressures(scene) if len(sizes(scene, p)) >= 2]
-
-
-def flags(flag, paths):
-    return " ".join(f"{flag} {p}" for p in paths)
-
-
-def figure_targets():
-    figs = [f"{F}/airy.png"]
-    if main_sample():
-        figs += [f"{F}/network.png", f"{F}/roses.png", f"{F}/signals.png", f"{F}/coherent.png",
-                 f"{F}/compare.png", f"{F}/modes.png", f"{F}/snapshot.png"]
-        scene, p, _ = main_sample()
-        if len(sizes(scene, p)) >= 2:
-            figs.append(f"{F}/arrivals.png")
-        if len(pressures(scene)) >= 2:
-            figs.append(f"{F}/speeds.png")
-        if scene_spec(scene).get("spectrum"):
-            figs.append(f"{F}/spectrum.png")
-    if any(height_series_paths(s) for s in scenes("disordered") + scenes("chains")):
-        figs.append(f"{F}/exponents.png")
-    if config["damping"]["enabled"]:
-        figs.append(f"{F}/damping.png")
-    return figs
-
-
-def report_inputs():
-    inputs = [f"{R}/report/index.md"]
-    return inputs
-
-
 rule figure_network:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: first_sample_path("packing", main_sample()[0]),
     output:
@@ -63,6 +16,8 @@ rule figure_network:
 
 
 rule figure_signals:
+    conda:
+        "../envs/granwave.yaml"
     input:
         signals=lambda w: sample_paths("signal", main_sample()[0], pressure=main_sample()[1],
                                        size=main_sample()[2]),
@@ -76,6 +31,8 @@ rule figure_signals:
 
 
 rule figure_coherent:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: [f"{R}/ensemble/{main_sample()[0]}/p{main_sample()[1]}/{sz}.h5"
                    for sz in sizes(main_sample()[0], main_sample()[1])],
@@ -88,6 +45,8 @@ rule figure_coherent:
 
 
 rule figure_compare:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: [first_sample_path("signal", s) for s in scenes("disordered")],
     output:
@@ -101,6 +60,8 @@ rule figure_compare:
 
 
 rule figure_arrivals:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: f"{R}/heights/{main_sample()[0]}/p{main_sample()[1]}.json",
     output:
@@ -111,16 +72,9 @@ rule figure_arrivals:
         "granwave plot arrivals {input} -o {output} > {log} 2>&1"
 
 
-def exponent_series():
-    series = []
-    for scene in scenes("disordered"):
-        series += [(scene, path) for path in height_series_paths(scene)[-1:]]
-    for scene in scenes("chains"):
-        series += [(scene, path) for path in height_series_paths(scene)]
-    return series
-
-
 rule figure_exponents:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: [path for _, path in exponent_series()],
     output:
@@ -133,13 +87,9 @@ rule figure_exponents:
         "granwave plot exponents {input} {params.labels} -o {output} > {log} 2>&1"
 
 
-def lattice_heights(frictional):
-    return [path for scene in scenes("lattices")
-            if (scene_spec(scene)["friction"] > 0) == frictional
-            for path in height_series_paths(scene)]
-
-
 rule figure_speeds:
+    conda:
+        "../envs/granwave.yaml"
     input:
         sweep=lambda w: f"{R}/sweep/{main_sample()[0]}.json",
         frictionless=lambda w: lattice_heights(False),
@@ -149,13 +99,14 @@ rule figure_speeds:
     log:
         f"{R}/logs/figures/speeds.log",
     params:
-        lattices=lambda w, input: flags("--lattice", input.frictionless)
-        + " " + flags("--lattice-frictional", input.frictional),
+        lattices=lambda w, input: lattice_flags(input),
     shell:
         "granwave plot speeds {input.sweep} {params.lattices} -o {output} > {log} 2>&1"
 
 
 rule figure_spectrum:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: first_sample_path("modes", main_sample()[0]),
     output:
@@ -167,6 +118,8 @@ rule figure_spectrum:
 
 
 rule eigensolve_vectors:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -181,6 +134,8 @@ rule eigensolve_vectors:
 
 
 rule figure_modes:
+    conda:
+        "../envs/granwave.yaml"
     input:
         modes=lambda w: first_sample_path("modes_vectors", main_sample()[0]),
         linear=lambda w: first_sample_path("linear", main_sample()[0]),
@@ -194,6 +149,8 @@ rule figure_modes:
 
 
 rule snapshot_signal:
+    conda:
+        "../envs/granwave.yaml"
     input:
         f"{R}/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     output:
@@ -201,17 +158,20 @@ rule snapshot_signal:
     log:
         f"{R}/logs/snapshots/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
     params:
+        ic=config["ic"],
         t_max=t_max,
         times=lambda w: ",".join(f"{t_max(w) * f / config['t_max_factor']:.6g}"
                                  for f in (0.25, 0.5, 0.75, 1.0)),
     resources:
         runtime=10,
     shell:
-        "granwave propagate {input} --method time --ic {config[ic]} --t-max {params.t_max:.6g} "
+        "granwave propagate {input} --method time --ic {params.ic} --t-max {params.t_max:.6g} "
         "--snapshots {params.times} -o {output} > {log} 2>&1"
 
 
 rule figure_snapshot:
+    conda:
+        "../envs/granwave.yaml"
     input:
         signal=lambda w: first_sample_path("snapshots", main_sample()[0]),
         packing=lambda w: first_sample_path("packing", main_sample()[0]),
@@ -224,6 +184,8 @@ rule figure_snapshot:
 
 
 rule figure_airy:
+    conda:
+        "../envs/granwave.yaml"
     output:
         f"{F}/airy.png",
     log:
@@ -232,19 +194,9 @@ rule figure_airy:
         "granwave plot airy --n 100 --n 400 --n 1600 -o {output} > {log} 2>&1"
 
 
-def sweep_paths():
-    return [f"{R}/sweep/{scene}.json" for scene in scenes("disordered")]
-
-
-def all_height_series():
-    return [path for scene in scenes() for path in height_series_paths(scene)]
-
-
-def all_summaries():
-    return [path for scene in scenes() for path in sample_paths("summary", scene, ext="json")]
-
-
 rule report:
+    conda:
+        "../envs/granwave.yaml"
     input:
         summaries=all_summaries(),
         heights=all_height_series(),
@@ -269,12 +221,9 @@ rule report:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
 
 
-def damping_packing():
-    d = config["damping"]
-    return f"{R}/packing/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
-
-
 rule damping_signal:
+    conda:
+        "../envs/granwave.yaml"
     input:
         lambda w: damping_packing(),
     output:
@@ -283,28 +232,20 @@ rule damping_signal:
         f"{R}/logs/damping/zeta{{zeta}}.log",
     params:
         t_max=lambda w: config["t_max_factor"] * crossing_time_of_damping(),
+        ic=config["ic"],
         amplitude=config["damping"]["amplitude"],
         samples=config["samples"],
     resources:
         runtime=60,
     shell:
-        "granwave propagate {input} --method dem --ic {config[ic]} --damping {wildcards.zeta} "
+        "granwave propagate {input} --method dem --ic {params.ic} --damping {wildcards.zeta} "
         "--amplitude {params.amplitude} --t-max {params.t_max:.6g} --samples {params.samples} "
         "-o {output} > {log} 2>&1"
 
 
-def crossing_time_of_damping():
-    from granwave.workflow_support import crossing_time
-    d = config["damping"]
-    return crossing_time("disordered", scene_spec(d["scene"]), d["pressure"], f"h{d['height']:g}")
-
-
-def damping_linear_reference():
-    d = config["damping"]
-    return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
-
-
 rule figure_damping:
+    conda:
+        "../envs/granwave.yaml"
     input:
         signals=[f"{R}/damping/zeta{z:g}.h5" for z in config["damping"]["zetas"]],
         reference=lambda w: damping_linear_reference(),
