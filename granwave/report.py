@@ -392,8 +392,11 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
                  sweeps: Sequence[tuple[Path, object, str | None]] = (),
                  figures: Sequence[Path] = (), out_dir: Path = Path("."),
                  config: Mapping | None = None, config_path: str | None = None,
-                 title: str = "granwave report") -> str:
-    """The report as Markdown (see the module docstring for every source)."""
+                 title: str = "granwave report", damping: Sequence[Mapping] = ()) -> str:
+    """The report as Markdown (see the module docstring for every source).
+
+    ``damping``: rows of `granwave analyze damping --json` (one per contact damping ζ).
+    """
     from . import __version__
     from .provenance import git_revision
 
@@ -460,6 +463,10 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     # ---- lattices against the formula
     md += _lattice_section(h_by_scene, scenes)
 
+    # ---- damping series (SPEC §11)
+    if damping:
+        md += _damping_section(damping)
+
     # ---- pressure sweeps as given
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
@@ -482,6 +489,18 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         if twin.exists() and twin != Path(f):
             md += [f"[PDF]({Path(os.path.relpath(twin, out_dir)).as_posix()})", ""]
     return "\n".join(md).rstrip() + "\n"
+
+
+def _damping_section(rows: Sequence[Mapping]) -> list[str]:
+    """Coherent amplitude and tail rms against the contact damping ζ (nonlinear DEM kicks)."""
+    md = ["## Damping series (nonlinear DEM, SPEC §11)", "",
+          "One packing kicked in the Hertz–Mindlin DEM with contact damping ζ (fraction of "
+          "critical). Amplitude: first-pulse peak; tail rms: rms of the signal after the least "
+          "damped signal's first zero crossing plus one pulse width (`granwave analyze damping`).", ""]
+    body = [[fmt(r.get("damping")), fmt(r.get("amplitude")), fmt(r.get("width")),
+             fmt(r.get("tail_rms")), fmt(r.get("tail_rms_over_amplitude"))]
+            for r in sorted(rows, key=lambda r: float(r.get("damping", 0.0)))]
+    return md + _table(["ζ", "amplitude A", "width W", "tail rms", "tail rms / A"], body) + [""]
 
 
 def _sweep_table(obj) -> list[str]:

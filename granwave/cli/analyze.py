@@ -11,6 +11,7 @@ ANALYSES = {
     "heights": "granwave.cli.analyze_heights:heights",
     "ensemble": "granwave.cli.analyze_ensemble:ensemble",
     "spectrum": "granwave.cli.analyze_spectrum:spectrum",
+    "damping": "granwave.cli.analyze_damping:damping",
 }
 
 

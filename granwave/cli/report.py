@@ -23,9 +23,11 @@ from .common import stage
 @click.option("--figures", multiple=True, type=click.Path(),
               help="Figure files or folders (every .png inside, linked relative to the report; "
                    "named <plot subcommand>[_suffix].png for a caption).")
+@click.option("--damping", "damping_json", type=click.Path(dir_okay=False),
+              help="`analyze damping --json` output: the damping-series table.")
 @click.option("--title", default="granwave report", show_default=True)
 @stage
-def report(output, config, summaries, heights, sweeps, figures, title):
+def report(output, config, summaries, heights, sweeps, figures, damping_json, title):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
 
@@ -50,9 +52,14 @@ def report(output, config, summaries, heights, sweeps, figures, title):
     if out.suffix.lower() != ".md":
         raise InputError(f"{out}: the report must be a .md file")
     cfg = load_config(config) if config else None
+    damping = []
+    if damping_json:
+        damping = collect_json([damping_json])[0][1]
+        if not isinstance(damping, list):
+            raise InputError(f"{damping_json}: expected the list printed by `analyze damping --json`")
     md = build_report(summaries=collect_json(summaries), heights=collect_json(heights),
                       sweeps=collect_json(sweeps), figures=find_figures(figures),
                       out_dir=out.parent.resolve() if str(out.parent) else Path(".").resolve(),
-                      config=cfg, config_path=config, title=title)
+                      config=cfg, config_path=config, title=title, damping=damping)
     for p in write_report(out, md, title=title):
         click.echo(f"wrote {p}", err=True)

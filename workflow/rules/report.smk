@@ -206,6 +206,7 @@ rule report:
                    for p in pressures(s) for sz in sizes(s, p)],
         spectra=[first_sample_path("spectrum", s, ext="json") for s in scenes("disordered")
                  if scene_spec(s).get("spectrum")],
+        damping=[f"{R}/damping/table.json"] if config["damping"]["enabled"] else [],
     output:
         md=f"{R}/report/index.md",
         html=f"{R}/report/index.html",
@@ -216,7 +217,8 @@ rule report:
         args=lambda w, input: " ".join([flags("--summaries", input.summaries),
                                         flags("--heights", input.heights),
                                         flags("--sweep", input.sweeps),
-                                        flags("--figures", input.figures)]),
+                                        flags("--figures", input.figures),
+                                        flags("--damping", input.damping)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
 
@@ -241,6 +243,19 @@ rule damping_signal:
         "granwave propagate {input} --method dem --ic {params.ic} --damping {wildcards.zeta} "
         "--amplitude {params.amplitude} --t-max {params.t_max:.6g} --samples {params.samples} "
         "-o {output} > {log} 2>&1"
+
+
+rule damping_table:
+    conda:
+        "../envs/granwave.yaml"
+    input:
+        [f"{R}/damping/zeta{z:g}.h5" for z in config["damping"]["zetas"]],
+    output:
+        f"{R}/damping/table.json",
+    log:
+        f"{R}/logs/damping/table.log",
+    shell:
+        "granwave analyze damping {input} --json > {output} 2> {log}"
 
 
 rule figure_damping:
