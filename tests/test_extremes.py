@@ -215,22 +215,18 @@ def test_one_or_two_grains_refused_with_a_clear_message(grains):
         prepare_packing(PrepareParams(grains=grains, max_steps=1000))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "granwave/dem/protocol.py granular_gas: for grains=5 (seed 0) nrow = int(height // dmax) "
-    "rounds ceil(n/per_layer)*dmax // dmax down to 4, rng.choice(4, size=5, replace=False) raises a "
-    "raw numpy ValueError ('Cannot take a larger sample than population') - a traceback in the CLI"))
 def test_five_grains_refused_with_a_clear_message():
-    with pytest.raises(InputError):
+    # formerly a raw numpy ValueError from protocol.granular_gas (the row count rounded down)
+    with pytest.raises(InputError, match="periodic length"):
         prepare_packing(PrepareParams(grains=5, max_steps=1000))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "same bug as grains=5 on an ordinary packing: grains=96, aspect=0.67, seed=1 (also seeds 2, 3, "
-    "5, 10; grains=192 aspect=1.33 seeds 2, 5, 10) dies in protocol.granular_gas with a raw "
-    "numpy ValueError because int(height // dmax) rounds the needed row count down"))
-def test_ordinary_packing_is_prepared_for_every_seed():
+@pytest.mark.parametrize("kw", [dict(grains=96, aspect=0.67, seed=1), dict(dim=3, grains=60, seed=2)])
+def test_ordinary_packing_is_prepared_for_every_seed(kw):
+    """Formerly a raw numpy ValueError in protocol.granular_gas: int(height // dmax) rounded the
+    needed row count down ((9 dmax) // dmax == 8), leaving fewer cells than grains."""
     with pytest.raises(ConvergenceError):  # gets past the gas and into the bounded run
-        prepare_packing(PrepareParams(grains=96, aspect=0.67, seed=1, max_steps=1))
+        prepare_packing(PrepareParams(max_steps=1, **kw))
 
 
 def test_single_row_packing():
@@ -368,7 +364,5 @@ def test_cli_step_budget(tmp_path):
     assert "did not converge" in _one_line_error(["--grains", "40", "--max-steps", "10"], tmp_path)
 
 
-@pytest.mark.xfail(strict=True, reason="grains=5: raw ValueError from protocol.granular_gas (see above) "
-                   "escapes the CLI's error handler as a traceback")
 def test_cli_five_grains(tmp_path):
     _one_line_error(["--grains", "5"], tmp_path)

@@ -41,7 +41,7 @@ import time
 import numpy as np
 
 from .. import contact as C
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InputError
 from ..geometry import grain_inertia, grain_mass, grain_measure, lateral_size, wall_area, wrap
 from ..model import Packing
 from .forces import contacts_of_engine, static_residual
@@ -84,16 +84,26 @@ def granular_gas(radius: np.ndarray, lateral: np.ndarray, gas_density: float, rn
     n = len(radius)
     dim = len(lateral) + 1
     dmax = 2.0 * radius.max()
+    if np.any(np.asarray(lateral) < dmax):
+        raise InputError(f"periodic length {float(np.min(lateral)):g} too small for the granular gas: "
+                         f"must be at least the largest diameter {dmax:g} (use more grains or a "
+                         "smaller aspect)")
     ncol = [max(1, int(length // dmax)) for length in lateral]
     per_layer = int(np.prod(ncol))
     height = float(np.sum(grain_measure(radius, dim))) / (gas_density * float(np.prod(lateral)))
-    height = max(height, math.ceil(n / per_layer) * dmax)
+    # rows: as many as fit in the density height, and never fewer than N grains need. The
+    # row count is an integer computed directly, not recovered from a height by floor
+    # division ((9 dmax) // dmax can be 8 in floating point, which left fewer cells than grains).
     nrow = int(height // dmax)
+    if nrow * per_layer < n:
+        nrow = -(-n // per_layer)
+        height = max(height, nrow * dmax)
     shape = (*ncol, nrow)
     cells = np.sort(rng.choice(per_layer * nrow, size=n, replace=False))
     idx = np.array(np.unravel_index(cells, shape)).T  # (n, dim)
     size = np.array([*(lateral[a] / ncol[a] for a in range(dim - 1)), height / nrow])
-    room = 0.5 * size[None, :] - radius[:, None]  # >= 0 by construction
+    # >= 0 by construction up to rounding (a cell is >= dmax wide); clamp the last ulp
+    room = np.maximum(0.5 * size[None, :] - radius[:, None], 0.0)
     jitter = rng.uniform(-1.0, 1.0, size=(n, dim)) * room
     pos = (idx + 0.5) * size[None, :] + jitter
     return pos, height
