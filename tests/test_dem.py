@@ -195,3 +195,52 @@ def test_cell_list_pairs_equal_brute_force_and_are_sorted(dim):
                 want.append(i * n + j)
     assert len(want) > n  # a dense enough gas
     np.testing.assert_array_equal(keys, np.array(want, np.int64))
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.3, 1.0, 1.87])
+def test_verlet_limit_is_the_schemes_stability_limit(zeta):
+    """The engine's step on x'' = -w^2 x - 2 zeta w v (damping on the half-step velocity):
+    the amplification matrix has spectral radius <= 1 just below kernels.verlet_limit and > 1
+    just above it."""
+    w = 1.0
+
+    def radius(h):
+        m = np.zeros((3, 3))
+        for k, (x, v, a) in enumerate(np.eye(3)):
+            vh = v + 0.5 * h * a
+            x2 = x + h * vh
+            a2 = -w * w * x2 - 2 * zeta * w * vh
+            m[:, k] = [x2, vh + 0.5 * h * a2, a2]
+        return np.abs(np.linalg.eigvals(m)).max()
+
+    lim = K.verlet_limit(w, zeta)
+    assert radius(0.999 * lim) <= 1.0 + 1e-9
+    assert radius(1.001 * lim) > 1.0 + 1e-6
+
+
+def test_time_step_includes_damping_and_rotation():
+    """stable_dt: frictionless undamped 2/w_n x safety/0.1; friction adds the rotational mode
+    (w_t^2 = 3.5 k_t/m) and damping shrinks both."""
+    eng = gas_engine(None, friction=0.0)
+    f = eng.fpar.copy()
+    k = C.normal_stiffness(f[K.F_DFLOOR], f[K.F_RMAX], 1.0)
+    w = math.sqrt(k / f[K.F_MMIN])
+    scale = f[K.F_SAFETY] / K.SAFETY_AT_LIMIT
+    assert K.stable_dt(f) == pytest.approx(scale * 2.0 / w, rel=1e-14)
+    f[K.F_MU] = 0.5
+    assert K.stable_dt(f) == pytest.approx(scale * 2.0 / (w * math.sqrt(3.5)), rel=1e-14)
+    f[K.F_ZETA] = 1.0
+    z = math.sqrt(3.5)
+    assert K.stable_dt(f) == pytest.approx(scale * 2.0 * (math.sqrt(1 + z * z) - z) / (w * z), rel=1e-14)
+
+
+def test_blow_up_is_reported_not_a_memory_error():
+    """A step far beyond the limit: run() stops with status 3 (unstable) instead of feeding
+    non-finite positions to the neighbour list."""
+    eng = gas_engine(5.0, friction=0.5, zeta=0.5)
+    status = 0
+    for _ in range(200):
+        status = eng.run(100)
+        if status:
+            break
+    assert status == 3

@@ -151,14 +151,10 @@ def test_no_damping_at_all_fails_cleanly():
         small(damping=0.0, background_damping=0.0, max_steps=20_000)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "DEM time step ignores contact damping and the rotational inertia of the tangential "
-    "spring (granwave/dem/integrator.py / kernels.stable_dt: dt = safety 2 pi sqrt(m_min/k_max)): "
-    "frictional 40-grain packing with zeta >= 0.7 at the default safety 0.05 never converges "
-    "(max|a| stays ~2e-2, 'raise --max-steps' cannot help); zeta = 1 converges at safety 0.02"))
 def test_critical_contact_damping_converges():
+    """Formerly never converged (the step ignored damping and rotations)."""
     pk = small(damping=1.0, max_steps=100_000)
-    assert pk.attrs["converged"]
+    assert pk.attrs["converged"] and pk.attrs["max_acceleration"] < TOL
 
 
 def test_critical_contact_damping_frictionless_converges():
@@ -166,13 +162,21 @@ def test_critical_contact_damping_frictionless_converges():
     assert pk.attrs["converged"] and pk.attrs["max_acceleration"] < TOL
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "PrepareParams accepts safety up to 0.2 but a frictional packing (zeta 0.5) never "
-    "converges for safety >= 0.07: the explicit step is unstable (max|a| ~1e-2 after 1e5 steps; "
-    "200 grains at safety 0.2 ran 2e6 steps / 300 s before the error)"))
 def test_time_step_safety_inside_the_allowed_range_converges():
-    pk = small(safety=0.1, max_steps=100_000)
-    assert pk.attrs["converged"]
+    """dt = safety/0.1 of the estimated stability limit (kernels.stable_dt): 0.1 would be at the
+    limit and is refused with a clear message; the largest accepted value converges at zeta 1."""
+    with pytest.raises(InputError, match="stability limit"):
+        PrepareParams(safety=0.1)
+    pk = small(safety=0.06, damping=1.0, max_steps=100_000)
+    assert pk.attrs["converged"] and pk.attrs["max_acceleration"] < TOL
+
+
+def test_stalled_run_says_so():
+    """Without any damping max |a| never falls: the error says it stalled and suggests damping,
+    not more steps."""
+    with pytest.raises(ConvergenceError, match="stalled") as err:
+        small(damping=0.0, background_damping=0.0, max_steps=20_000)
+    assert "raise --max-steps" not in str(err.value) and "damping" in str(err.value)
 
 
 # --------------------------------------------------------------------------- tall containers

@@ -10,10 +10,13 @@ translations and rotations alike (spheres: orientation never enters the
 forces, only angular velocities are kept). Velocity-dependent forces
 (contact damping, background damping) and the slip increment use the
 half-step velocity v(t + dt/2), whose product with dt is exactly the step's
-displacement. Time step: dt = safety * 2 pi sqrt(m_min / k_max), with k_max
-the normal stiffness (contact.normal_stiffness) of a wall contact of the
-largest grain at the larger of the current largest overlap and an overlap
-floor; with ``adaptive`` it is recomputed every ``check_every`` steps.
+displacement. Time step (:func:`kernels.stable_dt`): dt = (safety / 0.1) x the
+estimated stability limit of this scheme, the smaller of 2 (sqrt(1 + z^2) - z) / w
+over two modes of the stiffest contact (a wall contact of the largest grain on
+the lightest grain, at the larger of the current largest overlap and an overlap
+floor): the normal one (w_n^2 = k_n / m_min, z = zeta) and, with friction, the
+grain turning about its contact (w_t^2 = 3.5 k_t / m_min, z = zeta sqrt(3.5)).
+Recomputed every ``check_every`` steps when no ``dt`` is given.
 """
 
 from __future__ import annotations
@@ -136,7 +139,8 @@ class Engine:
     # ------------------------------------------------------------------ public
     def run(self, n_steps: int) -> int:
         """Advance up to ``n_steps`` steps; return 1 if the convergence candidate
-        test passed (see :func:`kernels.run_chunk`), else 0."""
+        test passed, 3 if the state blew up (unstable time step; see
+        :func:`kernels.run_chunk`), else 0."""
         target = self.steps + int(n_steps)
         while self.steps < target:
             self.ipar[K.I_NSTEPS] = target - self.steps
@@ -148,8 +152,8 @@ class Engine:
             if status == 2:
                 self._grow(int(self.ipar[K.I_NEEDED]))
                 continue
-            if status == 1:
-                return 1
+            if status in (1, 3):
+                return status
         return 0
 
     def measure(self) -> dict:

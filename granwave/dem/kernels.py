@@ -380,17 +380,47 @@ def to_accelerations(force, torque, mass, inertia):
             torque[i, a] *= inv
 
 
+#: ``safety`` at which :func:`stable_dt` would step exactly at the estimated stability limit:
+#: dt = (safety / SAFETY_AT_LIMIT) x dt_limit (default safety 0.05: half the limit).
+SAFETY_AT_LIMIT = 0.1
+#: 1 + m a^2 / I for a sphere turning about its contact point (arm a <= R, I = m (2R)^2 / 10):
+#: the tangential spring acts on a mode of mass m / 3.5 (translation plus rotation).
+ROTATION_FACTOR = 3.5
+
+
+@numba.njit(cache=True, inline="always")
+def verlet_limit(omega, zeta):
+    """Largest stable dt of the engine's velocity Verlet for one damped oscillator
+    x'' = -omega^2 x - 2 zeta omega v with the damping on the half-step velocity:
+    omega dt < 2 (sqrt(1 + zeta^2) - zeta) (2 at zeta = 0, 0.83 at zeta = 1; the
+    amplification matrix of the scheme, tests/test_dem.py)."""
+    return 2.0 * (math.sqrt(1.0 + zeta * zeta) - zeta) / omega
+
+
 @numba.njit(cache=True)
 def stable_dt(fpar):
-    """dt = safety * 2 pi sqrt(m_min / k_max), the stiffest possible normal spring.
+    """dt = (safety / SAFETY_AT_LIMIT) x the estimated stability limit of the explicit step.
 
-    k_max = contact.normal_stiffness at the larger of the largest current
-    overlap and the overlap floor (that of a contact carrying p d^2), for a
-    wall contact of the largest grain (R12 = R_max, E*12 = 1: the stiffest
-    kind). 2 pi sqrt(m/k) is that spring's oscillation period.
+    The stiffest spring is a wall contact of the largest grain (R12 = R_max, E*12 = 1)
+    at the larger of the largest current overlap and the overlap floor (that of a
+    contact carrying p d^2), acting on the lightest grain: k_n, omega_n^2 = k_n / m_min.
+    Two modes of that contact bound the step (:func:`verlet_limit`):
+    - normal: omega_n, damping ratio zeta;
+    - tangential (mu > 0): the grain turning about its contact, mode mass m / 3.5
+      (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n) and, since
+      c_t = 2 zeta sqrt(m k_t) uses the translational mass (SPEC §2), damping ratio
+      zeta sqrt(3.5).
+    Measured on 40-grain packings (docs/dem.md) the true limit is 0.8-1.0 of this estimate
+    for zeta in [0, 1], with and without friction; hence ``safety`` <= 0.06 (params).
     """
     k = C.normal_stiffness(fpar[F_DFLOOR], fpar[F_RMAX], C.effective_young(True))
-    return fpar[F_SAFETY] * 2.0 * math.pi * math.sqrt(fpar[F_MMIN] / k)
+    omega = math.sqrt(k / fpar[F_MMIN])
+    zeta = fpar[F_ZETA]
+    limit = verlet_limit(omega, zeta)
+    if fpar[F_MU] > 0.0:
+        omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar[F_POISSON]))
+        limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
+    return fpar[F_SAFETY] / SAFETY_AT_LIMIT * limit
 
 
 @numba.njit(cache=True)
@@ -441,7 +471,9 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     convergence candidate test passed at a check (every ``ipar[I_CHECK]``
     steps: piston touching grains, every |a|, |alpha| and |a_piston| below
     F_TOLA, every |v|, |w| R and |v_piston| below F_TOLV), 2 when the pair list
-    needs more room (``ipar[I_NEEDED]`` pairs; the state is between steps).
+    needs more room (``ipar[I_NEEDED]`` pairs; the state is between steps), 3 when the
+    state blew up (an overlap larger than the largest radius or non-finite motion at a
+    check, or non-finite positions before a rebuild): the time step is unstable.
     With ``ipar[I_ADAPTIVE]`` the time step is reset at every check from
     :func:`stable_dt`.
     """
@@ -461,7 +493,10 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         dt = fpar[F_DT]
         # rebuild when a grain may come within reach of a pair not in the list
         # before the next rebuild check (factor 2: the speed may grow in a step)
-        if math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt > half_skin:
+        reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
+        if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
+            return 3
+        if reach > half_skin:
             np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
                                         pair_ft, pair_ov, ipar[I_NPAIRS])
             if np_new < 0:
@@ -511,6 +546,8 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         ipar[I_STEPS] += 1
         if check > 0 and ipar[I_STEPS] % check == 0:
             measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
+            if not (out[O_DMAX] < fpar[F_RMAX] and math.isfinite(out[O_KIN])):
+                return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable
             if ipar[I_ADAPTIVE]:
                 fpar[F_DT] = stable_dt_at(fpar, out[O_DMAX])
             tol_a = fpar[F_TOLA]

@@ -7,6 +7,10 @@ from dataclasses import asdict, dataclass
 
 from ..errors import InputError
 
+#: Largest accepted time-step safety: 0.6 of the estimated stability limit
+#: (granwave.dem.kernels.stable_dt), measured limits being 0.8-1.0 of the estimate.
+MAX_SAFETY = 0.06
+
 
 @dataclass(frozen=True, kw_only=True)
 class PrepareParams:
@@ -35,7 +39,10 @@ class PrepareParams:
     tol             convergence threshold on every acceleration (E*/(rho d)), > 0.
     max_steps       step budget; not converged by then is an error.
     seed            random seed (>= 0): same seed, same packing bit for bit.
-    safety          time-step safety factor: dt = safety 2 pi sqrt(m_min / k_max).
+    safety          time-step safety factor, (0, MAX_SAFETY]: dt = (safety / 0.1) x the
+                    estimated stability limit of the explicit step, contact damping
+                    and the rotation of the tangential spring included
+                    (granwave.dem.kernels.stable_dt); 0.05 is half the limit.
     skin            Verlet skin in d.
     check_every     steps between convergence checks (and time-step updates).
     """
@@ -92,8 +99,10 @@ class PrepareParams:
             raise InputError(f"max_steps must be >= 1, got {self.max_steps}")
         if self.seed < 0:
             raise InputError(f"seed must be >= 0, got {self.seed}")
-        if not 0.0 < self.safety <= 0.2:
-            raise InputError(f"safety must be in (0, 0.2], got {self.safety:g}")
+        if not 0.0 < self.safety <= MAX_SAFETY:
+            raise InputError(f"safety must be in (0, {MAX_SAFETY:g}], got {self.safety:g}: dt is "
+                             f"safety/0.1 of the estimated stability limit of the explicit step, and "
+                             f"the true limit is as low as 0.8 of the estimate (docs/dem.md)")
         if not 0.0 < self.skin <= 1.0:
             raise InputError(f"skin must be in (0, 1], got {self.skin:g}")
         if self.check_every < 1:

@@ -16,7 +16,10 @@ Protocol
    under the Hertz scaling of pressure (time ~ p^-1/6, overlaps ~ p^2/3): the
    same b gives statistically the same packing at every p.
 4. Velocity Verlet with the adaptive time step of
-   :mod:`granwave.dem.integrator` (safety 0.05 by default), until converged.
+   :mod:`granwave.dem.integrator` (safety 0.05 by default: half the estimated
+   stability limit, contact damping and rotations included), until converged.
+   A run that blows up (unstable step) or whose max |a| stalls far above tol
+   stops with a ConvergenceError saying what was observed and what may help.
 
 Convergence test (stated in the output attribute ``convergence_test``): every
 ``check_every`` steps, candidate when (a) the piston touches grains, (b) every
@@ -48,6 +51,9 @@ from .forces import contacts_of_engine, static_residual
 from .integrator import Engine
 from .params import PrepareParams
 
+DT_RULE = ("(safety/0.1) * min over the normal and (friction) rotational mode of the stiffest contact "
+           "of 2(sqrt(1+z^2)-z)/w: w_n^2 = k_max/m_min, z = zeta; w_t^2 = 3.5 eta k_max/m_min, "
+           "z = zeta sqrt(3.5); adaptive")
 CONVERGENCE_TEST = ("piston touches grains; max |a|, |alpha| of grains and |a| of piston < tol; "
                     "max |v|, |w| R of grains and |v| of piston < velocity_tol (Hertz impact at tol); "
                     "static residual from stored contacts < tol")
@@ -149,7 +155,7 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
             polydispersity=p.polydispersity, aspect=p.aspect, damping=p.damping,
             background_damping=p.background_damping, background_damping_rate=gamma,
             piston_mass=piston_mass, gas_density=actual_gas_density, gas_height=height,
-            dt=engine.dt, dt_safety=p.safety, dt_rule="safety*2*pi*sqrt(m_min/k_max), adaptive",
+            dt=engine.dt, dt_safety=p.safety, dt_rule=DT_RULE,
             tol=p.tol, velocity_tol=tol_v, time_scale=t_p, inertial_time=t_i, steps=engine.steps,
             rebuilds=engine.rebuilds, skin=p.skin, check_every=p.check_every,
             convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps,
@@ -162,9 +168,17 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     chunk = 2000
     last = time.perf_counter()
     last_steps = 0
+    history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
     while engine.steps < p.max_steps:
         t0 = time.perf_counter()
         status = engine.run(min(chunk, p.max_steps - engine.steps))
+        if status == 3:
+            raise ConvergenceError(
+                f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
+                f"non-finite motion) at dt {engine.dt:.3g}: the explicit step is unstable for "
+                f"safety {p.safety:g}, damping {p.damping:g}, friction {p.friction:g}; use a smaller "
+                "--safety")
+        history.append((engine.steps, _max_acceleration(engine.measure())))
         elapsed = time.perf_counter() - t0
         # about one progress line per second
         if elapsed > 0:
@@ -186,6 +200,32 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
                      f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s")
             last, last_steps = now, engine.steps
     m = engine.measure()
-    raise ConvergenceError(
-        f"{p.max_steps} steps did not converge (max |a| {max(m['max_acceleration'], m['max_angular_acceleration'], m['piston_acceleration']):.3e}, "
-        f"max |v| {m['max_speed']:.3e}, tol {p.tol:g}); raise --max-steps")
+    raise ConvergenceError(f"{p.max_steps} steps did not converge: " + non_convergence_hint(history, m, p, engine.dt))
+
+
+def _max_acceleration(m: dict) -> float:
+    return max(m["max_acceleration"], m["max_angular_acceleration"], m["piston_acceleration"])
+
+
+def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float) -> str:
+    """What was observed at the end of a run that did not converge, and what could help.
+
+    ``history``: (steps, max |a|) after every chunk. The run *stalled* when max |a| is still
+    far above tol (> 1e3 tol) and its lowest value over the second half of the run is not
+    even 10x below its lowest value over the first half: more steps will not help; an
+    unstable step (safety too large for the damping) or a system that cannot come to rest
+    (no damping) will not converge. Otherwise max |a| was still falling: more steps can help.
+    """
+    a_now = _max_acceleration(m)
+    seen = f"max |a| {a_now:.3e} (tol {p.tol:g}), max |v| {m['max_speed']:.3e}"
+    half = [a for s, a in history if s > p.max_steps / 2]
+    first = [a for s, a in history if s <= p.max_steps / 2]
+    if half and first and a_now > 1e3 * p.tol and min(half) > 0.1 * min(first):
+        return (f"{seen}; max |a| stalled (lowest {min(first):.2e} in the first half of the run, "
+                f"{min(half):.2e} in the second), so more steps will not help. At dt {dt:.3g} "
+                f"(safety {p.safety:g}, damping {p.damping:g}, background damping "
+                f"{p.background_damping:g}) the explicit step may be unstable: try a smaller "
+                "--safety, or different damping (some contact or background damping is needed "
+                "to come to rest)")
+    trend = f" (from {first[0]:.2e} early on)" if first else ""
+    return f"{seen}{trend}; max |a| was still falling: raise --max-steps"
