@@ -84,6 +84,18 @@ class Packing:
     def pressure(self) -> float:
         return float(self.attrs["pressure"])
 
+    def require_finite(self) -> None:
+        """Raise InputError naming the first array with NaN or infinite values."""
+        from .errors import InputError
+
+        for name in ("position", "radius", "mass", "inertia", "box"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise InputError(f"packing {name} contains NaN or infinite values")
+        for name in ("normal", "overlap", "force_normal", "force_tangential",
+                     "stiffness_normal", "stiffness_tangential"):
+            if not np.all(np.isfinite(getattr(self.contacts, name))):
+                raise InputError(f"packing contacts/{name} contains NaN or infinite values")
+
     @property
     def friction(self) -> float:
         return float(self.attrs["friction"])

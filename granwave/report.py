@@ -37,13 +37,11 @@ uncertainty is one standard error (undetermined with two pressures).
 
 from __future__ import annotations
 
-import contextlib
 import html
 import json
 import math
 import os
 import re
-import tempfile
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -51,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .io.files import atomic_text, load_json
 
 # Preferred order of the static and moduli quantities (any other scalar follows).
 STATICS_KEYS = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p",
@@ -66,16 +65,6 @@ LABELS = {
 
 
 # ====================================================================== reading
-def load_json(path) -> object:
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
-
-
 def collect_json(paths: Iterable) -> list[tuple[Path, object, str | None]]:
     """(path, object, scene guess) for JSON files and folders (searched recursively)."""
     out = []
@@ -685,18 +674,6 @@ def markdown_to_html(md: str, title: str = "granwave report") -> str:
 
 
 # ====================================================================== writing
-def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 def write_report(path, markdown: str, *, title: str = "granwave report") -> list[Path]:
     """Write ``path`` (Markdown) and the HTML twin beside it (same stem, .html), atomically."""
     path = Path(path)
@@ -704,8 +681,8 @@ def write_report(path, markdown: str, *, title: str = "granwave report") -> list
         raise InputError(f"{path}: the report must be a .md file")
     path.parent.mkdir(parents=True, exist_ok=True)
     html_path = path.with_suffix(".html")
-    _atomic_text(path, markdown)
-    _atomic_text(html_path, markdown_to_html(markdown, title))
+    atomic_text(path, markdown)
+    atomic_text(html_path, markdown_to_html(markdown, title))
     return [path, html_path]
 
 

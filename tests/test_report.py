@@ -158,7 +158,7 @@ def test_report_bad_input(inputs, tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
     res = CliRunner().invoke(main, ["report", "--heights", str(bad), "-o", str(out)])
-    assert res.exit_code != 0 and "not JSON" in res.output and not out.exists()
+    assert res.exit_code != 0 and "not a JSON file" in res.output and not out.exists()
     res = CliRunner().invoke(main, ["report", "-o", str(tmp_path / "index.txt")])
     assert res.exit_code != 0 and ".md" in res.output
 

@@ -40,7 +40,7 @@ from ..errors import InputError
 from .fits import inverse_slope, linear_fit, local_exponents, power_law_fit
 from .front import front_features
 
-if TYPE_CHECKING:  # granwave.model imported first hits an import cycle in granwave.io
+if TYPE_CHECKING:  # annotations only
     from ..model import Signal
 
 DEFAULT_EDGE_HEIGHTS = (8.0, 25.0)

@@ -54,19 +54,17 @@ Units: pressures and moduli E*, speeds sqrt(E*/rho), lengths d.
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
 
 from ..errors import InputError
+from ..io.files import atomic_text, load_json
 from .ensemble import describe
 from .fits import power_law_fit
 
@@ -116,17 +114,6 @@ def validate_summary(obj, source: str = "summary") -> dict:
     return obj
 
 
-def _read_json(path) -> object:
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not a JSON file ({exc.__class__.__name__})") from None
-
-
 def load_summaries(paths: Iterable) -> list[dict]:
     """Read summary files (each one object or a list of objects), validated."""
     summaries, series = load_inputs(paths)
@@ -153,7 +140,7 @@ def load_inputs(paths: Iterable) -> tuple[list[dict], list[dict]]:
     """Read JSON files that hold summaries (objects or lists) or height series; (summaries, series)."""
     summaries, series = [], []
     for path in paths:
-        obj = _read_json(path)
+        obj = load_json(path)
         if is_height_series(obj):
             series.append(validate_height_series(obj, str(path)))
             continue
@@ -164,20 +151,6 @@ def load_inputs(paths: Iterable) -> tuple[list[dict], list[dict]]:
             src = f"{path}" if not isinstance(obj, list) else f"{path}[{i}]"
             summaries.append(validate_summary(item, src))
     return summaries, series
-
-
-def _atomic_text(path, text: str) -> None:
-    """Write a text file atomically (temporary file in the same folder, then rename)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
 def _jsonable(x):
@@ -202,7 +175,7 @@ def write_summary(path, summary) -> None:
     items = summary if isinstance(summary, list) else [summary]
     for i, s in enumerate(items):
         validate_summary(_jsonable(s), f"summary {i}")
-    _atomic_text(path, json.dumps(_jsonable(summary), indent=1) + "\n")
+    atomic_text(path, json.dumps(_jsonable(summary), indent=1) + "\n")
 
 
 #: Attributes of a signal / packing file copied into a summary by :func:`merge_summary`.
@@ -215,7 +188,7 @@ def _section_data(name: str, data):
         return None
     if isinstance(data, dict):
         return data
-    obj = _read_json(data)
+    obj = load_json(data)
     if not isinstance(obj, dict):
         raise InputError(f"{data}: the {name} section must be one JSON object")
     return obj
@@ -261,7 +234,7 @@ def update_summary_file(path, *, section: str | None = None, data=None, **fields
     in any order. The file is written atomically.
     """
     path = Path(path)
-    base = _read_json(path) if path.exists() else {}
+    base = load_json(path) if path.exists() else {}
     if not isinstance(base, dict):
         raise InputError(f"{path}: update_summary_file works on a file holding one summary object")
     if (section is None) != (data is None):
@@ -275,7 +248,7 @@ def update_summary_file(path, *, section: str | None = None, data=None, **fields
     from ..io.files import check_writable
 
     check_writable(path)
-    _atomic_text(path, json.dumps(summary, indent=1) + "\n")
+    atomic_text(path, json.dumps(summary, indent=1) + "\n")
     return summary
 
 
@@ -510,7 +483,7 @@ def write_tables(result: dict, folder, prefix: str = "sweep") -> list[str]:
               "speeds": f"Speeds per pressure (SPEC §10); fits c ∝ p^α: {fits}; expected 1/6"}
     for name, (md, text) in tables(result).items():
         md_path, csv_path = folder / f"{prefix}_{name}.md", folder / f"{prefix}_{name}.csv"
-        _atomic_text(md_path, f"# {titles[name]}\n\n{md}")
-        _atomic_text(csv_path, text)
+        atomic_text(md_path, f"# {titles[name]}\n\n{md}")
+        atomic_text(csv_path, text)
         written += [str(md_path), str(csv_path)]
     return written

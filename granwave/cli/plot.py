@@ -6,12 +6,17 @@ matplotlib is imported only inside the commands, so ``granwave --help`` stays fa
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
 
 import click
 
 from .common import POSITIVE, stage
+
+
+def load_json(path):
+    """granwave.io.files.load_json, imported on use so that `granwave --help` stays fast."""
+    from ..io.files import load_json as load
+
+    return load(path)
 
 fig_output = click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
                           help="Output figure (.png, .pdf or .svg), written atomically.")
@@ -22,7 +27,6 @@ def _plots():
     import matplotlib
 
     matplotlib.use("Agg")
-    from .. import io  # noqa: F401  (import io before model: breaks the model <-> io import cycle)
     from .. import plots
 
     return plots
@@ -31,18 +35,6 @@ def _plots():
 def _done(paths) -> None:
     for p in paths:
         click.echo(f"wrote {p}", err=True)
-
-
-def _load_json(path):
-    from ..errors import InputError
-
-    try:
-        with open(path) as f:
-            return json.load(f)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{path}: not JSON ({exc.msg}, line {exc.lineno})") from None
 
 
 def read_ensemble(path) -> dict:
@@ -197,7 +189,7 @@ def arrivals(heights_json, output, pdf):
     from ..report import heights_arrays
 
     plots.output_paths(output, pdf)
-    data = heights_arrays(_load_json(heights_json), source=heights_json)
+    data = heights_arrays(load_json(heights_json), source=heights_json)
     _done(plots.arrival_times(data, output, pdf=pdf))
 
 
@@ -223,7 +215,7 @@ def exponents(heights_json, labels, chain, ic, output, pdf):
     series = {}
     for k, path in enumerate(heights_json):
         lab = labels[k] if labels else label_from_path(path)
-        series[lab] = heights_arrays(_load_json(path), source=path)
+        series[lab] = heights_arrays(load_json(path), source=path)
     if chain:
         try:
             ns = [int(x) for x in chain.split(",") if x.strip()]
@@ -255,12 +247,12 @@ def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf)
     from ..report import sweep_speeds
 
     plots.output_paths(output, pdf)
-    data = sweep_speeds(_load_json(sweep_json), source=sweep_json)
+    data = sweep_speeds(load_json(sweep_json), source=sweep_json)
     points = []
     key = {"tof": "c_tof", "peak": "c_peak", "zero": "c_zero"}[lattice_speed]
     for files, fr in ((lattice, 0.0), (lattice_fr, 1.0)):
         for path in files:
-            h = _load_json(path)
+            h = load_json(path)
             if h.get(key) is not None and h.get("pressure") is not None:
                 points.append({"pressure": h["pressure"], "speed": h[key], "friction": fr,
                                "label": f"lattice simulation ({key}), "

@@ -43,7 +43,6 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, ti
     values; lattice speeds against the formula of SPEC §12; the sweep fits; every
     figure; the config name and the granwave version and git revision.
     """
-    from .. import io  # noqa: F401  (import io before model: breaks the model <-> io import cycle)
     from ..errors import InputError
     from ..report import build_report, collect_json, find_figures, load_config, write_report
     from pathlib import Path

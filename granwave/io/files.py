@@ -9,6 +9,7 @@ major version and refuse anything else with an :class:`InputError`.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import tempfile
 from pathlib import Path
@@ -66,6 +67,33 @@ def atomic_h5(path: str | os.PathLike, schema: str, attrs: dict) -> Iterator[h5p
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def atomic_text(path: str | os.PathLike, text: str) -> None:
+    """Write a text file (JSON, Markdown, CSV) atomically: temporary file, then rename."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def load_json(path: str | os.PathLike) -> object:
+    """Read a JSON file; an unreadable or malformed file is an InputError naming it."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{path}: not a JSON file ({exc.msg}, line {exc.lineno})") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a JSON file (not UTF-8 text)") from None
 
 
 def _set_attr(f: h5py.File, key: str, value) -> None:

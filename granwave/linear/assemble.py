@@ -47,7 +47,6 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
-from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..model import LinearSystem, Packing
 
 #: Relative threshold on omega^2 / omega^2_max below which a mode counts as a zero mode.
@@ -249,14 +248,8 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     if "converged" in attrs and not bool(attrs["converged"]) and not force:
         raise InputError("the packing is not converged (attrs converged = False); "
                          "use force=True / --force to linearize it anyway")
-    for name in ("position", "radius", "mass", "inertia", "box"):
-        if not np.all(np.isfinite(getattr(packing, name))):
-            raise InputError(f"packing {name} contains NaN or infinite values")
+    packing.require_finite()
     c = packing.contacts
-    for name in ("normal", "overlap", "force_normal", "force_tangential",
-                 "stiffness_normal", "stiffness_tangential"):
-        if not np.all(np.isfinite(getattr(c, name))):
-            raise InputError(f"packing contacts/{name} contains NaN or infinite values")
     dim = packing.dim
     friction = float(attrs.get("friction", 0.0))
     n_rot = n_rotations(dim, friction)

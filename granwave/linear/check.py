@@ -20,7 +20,6 @@ import math
 import numpy as np
 
 from .. import contact as law
-from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..model import Contacts, Packing
 
 BALL_MASS = math.pi / 6.0

@@ -39,7 +39,6 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..errors import InputError
 from ..model import LinearSystem, Modes
 from .assemble import ZERO_MODE_THRESHOLD, asymmetry, omega2_max, symmetric_part

@@ -102,7 +102,6 @@ import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..errors import InputError
 from ..model import LinearSystem, Packing
 from .assemble import contact_blocks, dof_map, n_rotations
@@ -162,14 +161,8 @@ class _Cell:
 def _check_packing(packing: Packing) -> None:
     if packing.dim not in (2, 3):
         raise InputError(f"elastic moduli need a 2D or 3D packing (got dim = {packing.dim})")
-    for name in ("position", "radius", "box"):
-        if not np.all(np.isfinite(getattr(packing, name))):
-            raise InputError(f"packing {name} contains NaN or infinite values")
+    packing.require_finite()
     c = packing.contacts
-    for name in ("normal", "overlap", "force_normal", "force_tangential",
-                 "stiffness_normal", "stiffness_tangential"):
-        if not np.all(np.isfinite(getattr(c, name))):
-            raise InputError(f"packing contacts/{name} contains NaN or infinite values")
     if np.any(packing.box <= 0):
         raise InputError("packing box sizes must be positive")
     keep = c.force_normal > 0

@@ -34,7 +34,6 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..errors import InputError
 from ..model import LinearSystem, Modes, Signal
 from .assemble import asymmetry, omega2_max, symmetric_part
