@@ -42,6 +42,8 @@ rule moduli:
         f"{R}/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.json",
     log:
         f"{R}/logs/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    benchmark:
+        f"{R}/benchmarks/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
     resources:
         mem_mb=2000,
         runtime=10,

@@ -10,6 +10,8 @@ rule linearize:
         f"{R}/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     log:
         f"{R}/logs/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    benchmark:
+        f"{R}/benchmarks/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
     resources:
         mem_mb=1000,
         runtime=5,
@@ -26,6 +28,8 @@ rule eigensolve:
         f"{R}/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     log:
         f"{R}/logs/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    benchmark:
+        f"{R}/benchmarks/modes/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
     threads: 1
     resources:
         mem_mb=4000,
@@ -43,6 +47,8 @@ rule propagate:
         f"{R}/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.h5",
     log:
         f"{R}/logs/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
+    benchmark:
+        f"{R}/benchmarks/signal/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
     params:
         ic=lambda w: ic_of(w.scene),
         method=lambda w: solver_of(w.scene),

@@ -7,6 +7,8 @@ rule prepare_packing:
         f"{R}/packing/{{scene}}/p{{pressure}}/h{{height}}/s{{seed}}.h5",
     log:
         f"{R}/logs/packing/{{scene}}/p{{pressure}}/h{{height}}/s{{seed}}.log",
+    benchmark:
+        f"{R}/benchmarks/packing/{{scene}}/p{{pressure}}/h{{height}}/s{{seed}}.tsv"
     params:
         args=prepare_args,
     threads: 1

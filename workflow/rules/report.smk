@@ -232,6 +232,8 @@ rule damping_signal:
         f"{R}/damping/zeta{{zeta}}.h5",
     log:
         f"{R}/logs/damping/zeta{{zeta}}.log",
+    benchmark:
+        f"{R}/benchmarks/damping/zeta{{zeta}}.tsv"
     params:
         t_max=lambda w: config["t_max_factor"] * crossing_time_of_damping(),
         ic=config["ic"],
