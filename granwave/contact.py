@@ -28,6 +28,32 @@ loading and unloading can dissipate but never deliver more energy than the
 spring held (tested in tests/test_contact.py). Without step 1, the classic
 loop "shear at small n, load, shear back, unload" ends with a nonzero force
 at zero displacement and can pump energy out (Elata & Berryman 1996).
+
+Two unloading rules: ``rescale_on_unloading``
+----------------------------------------------
+Step 1 is an option of :func:`update_tangential` (engine option ``unloading``:
+``"rescale"`` or ``"incremental"``).
+
+- ``rescale`` (True, the default; used to **prepare** packings): as above, energy-safe
+  for loops of any size.
+- ``incremental`` (False; the default of the **nonlinear pulses**,
+  :func:`granwave.dem.pulse.propagate_dem`): the plain incremental Mindlin law, steps
+  2 and 3 only. Why: for a prestressed contact (stored F_t != 0) the rescale is a
+  *first-order*, one-sided term ΔF_t = -F_t dn / (2 n) on unloading only, i.e. a
+  stiffness of size up to (mu/3) k_n that the linearization around equilibrium
+  (SPEC §5, frozen history: ``granwave.dem.forces.frozen_history_forces``, ``linearize``)
+  does not have and cannot have (it is not differentiable). SPEC §11 requires the
+  ζ = 0, small-amplitude DEM pulse to agree with the linear model; with the rescale
+  a frictional packing's pulse was 16-96 % off at any amplitude (docs/damping.md),
+  with the incremental law it converges to ``linearize(prestress=True)``.
+  Energy: without step 1 a closed loop of amplitude a in (n, s) can deliver energy,
+  but only at third order: the loop above delivers (k_t(n1) - k_t(n0)) s1^2 / 2
+  ~ k_t' Δn Δs² / 2, i.e. C a^3 k_t n^2 for a loop of relative size a (measured
+  0.25 a^3 from a prestressed contact, halving a divides it by 8; tests/test_contact.py)
+  and leaves F_t shifted by k_t' Δn Δs (second order). For a pulse at EPS ~ 1e-3 of
+  the overlap this is ~1e-10 of k_t n^2 per cycle: negligible, and far smaller than
+  the first-order error the rescale makes. Preparation, where contacts load and
+  unload by whole overlaps many times, keeps the energy-safe rescale.
 """
 
 from __future__ import annotations
@@ -151,16 +177,18 @@ def project_tangential(ft: np.ndarray, normal: np.ndarray) -> None:
 
 @numba.njit(cache=True)
 def update_tangential(ft: np.ndarray, slip: np.ndarray, overlap_old: float, overlap_new: float,
-                      kt_new: float, fn: float, friction: float) -> bool:
+                      kt_new: float, fn: float, friction: float, rescale_on_unloading: bool = True) -> bool:
     """Incremental Mindlin update of the tangential force ``ft`` in place.
 
     ``slip`` is the increment Δs of relative tangential displacement of the
     surfaces at the contact point (of j relative to i, so that the force on i
     grows along it), ``fn`` the elastic normal force magnitude. Applies the
-    unloading rescale, the increment k_t Δs and the Coulomb cap (module
-    docstring). Returns True when the contact slides.
+    unloading rescale (only with ``rescale_on_unloading``, the default: the
+    preparation law; False is the plain incremental law of the pulses), the
+    increment k_t Δs and the Coulomb cap (module docstring). Returns True when
+    the contact slides.
     """
-    if overlap_new < overlap_old and overlap_old > 0.0:
+    if rescale_on_unloading and overlap_new < overlap_old and overlap_old > 0.0:
         scale = math.sqrt(overlap_new / overlap_old) if overlap_new > 0.0 else 0.0
         for a in range(ft.shape[0]):
             ft[a] *= scale

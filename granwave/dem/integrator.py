@@ -30,6 +30,9 @@ from ..errors import InputError
 from . import kernels as K
 from .neighbours import rebuild
 
+#: Tangential unloading rules (contact.update_tangential's ``rescale_on_unloading`` True / False).
+UNLOADING_RULES = ("rescale", "incremental")
+
 
 class Engine:
     """A DEM system: grains between a bottom wall and a top wall (piston).
@@ -44,13 +47,16 @@ class Engine:
     otherwise it follows :func:`kernels.stable_dt` with ``safety`` and
     ``overlap_floor``. ``skin``: Verlet-list skin in d. ``tol_acceleration``,
     ``tol_velocity`` and ``check_every`` drive the convergence candidate test
-    of :meth:`run`.
+    of :meth:`run`. ``unloading``: the tangential unloading rule of
+    contact.update_tangential, ``"rescale"`` (default, preparation: F_t scaled by
+    sqrt(n_new/n_old) when the overlap falls) or ``"incremental"`` (plain incremental
+    Mindlin law, the pulses'; contact.py docstring).
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
                  background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
                  overlap_floor=1e-3, skin=0.2, velocity=None, angular_velocity=None,
-                 tol_acceleration=0.0, tol_velocity=0.0, check_every=20):
+                 tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale"):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
@@ -98,6 +104,10 @@ class Engine:
         self.fpar[K.F_RMAX] = self.radius.max()
         self.fpar[K.F_MMIN] = self.mass.min()
         self.fpar[K.F_DT] = 0.0
+        if unloading not in UNLOADING_RULES:
+            raise InputError(f"unloading must be one of {UNLOADING_RULES}, got {unloading!r}")
+        self.unloading = unloading
+        self.fpar[K.F_RESCALE] = 1.0 if unloading == "rescale" else 0.0
         self.ipar = np.zeros(K.N_IPAR, np.int64)
         self.ipar[K.I_ADAPTIVE] = dt is None
         self.ipar[K.I_CHECK] = check_every

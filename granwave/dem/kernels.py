@@ -17,7 +17,8 @@ argument, which was most of the per-contact time (docs/dem.md).
 Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
 overlap floor for the time step, acceleration tol, velocity tol, largest
-radius, smallest mass, last max speed; ``piston``: height, velocity,
+radius, smallest mass, last max speed, unloading rule (1: rescale F_t on
+unloading, 0: plain incremental; contact.update_tangential); ``piston``: height, velocity,
 acceleration, mass (inf = fixed wall), downward force p*A, contact force.
 """
 
@@ -39,8 +40,8 @@ update_tangential = numba.njit(cache=True, inline="always")(C.update_tangential.
 
 # fpar indices
 F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
-    F_VMAX = range(13)
-N_FPAR = 13
+    F_VMAX, F_RESCALE = range(14)
+N_FPAR = 14
 # piston indices
 P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
 N_PISTON = 6
@@ -95,7 +96,7 @@ def add_torque(torque, k, arm, n, f):
 
 @numba.njit(cache=True, inline="always")
 def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overlap_old, dt, zeta, mu, nrm,
-                   slip):
+                   slip, rescale):
     """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, SPEC §2); returns it and
     the elastic normal force. The single per-contact routine (scalar form).
 
@@ -107,7 +108,8 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overl
     routines of contact.py. Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
     the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
     the new tangent plane (contact.project_tangential), then contact.update_tangential
-    with slip = tangential velocity * dt; a viscous part c_t v_t is added to the force
+    with slip = tangential velocity * dt and its unloading rescale when ``rescale``
+    (contact.py docstring: preparation True, pulses False); a viscous part c_t v_t is added to the force
     (not to the history) while the contact sticks.
     """
     fel = C.normal_force(delta, r12, e12)
@@ -131,7 +133,7 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overl
             slip[2] = tz * dt
         project_tangential(ft, nrm)
         kt = C.tangential_stiffness(delta, r12, g12)
-        slid = update_tangential(ft, slip, overlap_old, delta, kt, fel, mu)
+        slid = update_tangential(ft, slip, overlap_old, delta, kt, fel, mu, rescale)
         ct = 0.0
         if zeta > 0.0 and not slid:
             ct = C.damping_coefficient(zeta, meff, kt)
@@ -141,7 +143,8 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overl
 
 
 @numba.njit(cache=True)
-def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, slip, fvec):
+def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, slip, fvec,
+                  rescale=True):
     """Array form of :func:`contact_force3` (tests, frozen-history forces).
 
     ``n``, ``vrel``, ``ft``, ``slip``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
@@ -151,7 +154,7 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     nrm = np.empty(d)
     fx, fy, fz, fel = contact_force3(n[0], n[1], n[2] if d == 3 else 0.0, delta, r12, e12, g12, meff,
                                      vrel[0], vrel[1], vrel[2] if d == 3 else 0.0, ft, overlap_old, dt,
-                                     zeta, mu, nrm, slip)
+                                     zeta, mu, nrm, slip, rescale)
     fvec[0] = fx
     fvec[1] = fy
     if d == 3:
@@ -225,6 +228,7 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
     mu = fpar[F_MU]
     poisson = fpar[F_POISSON]
     gamma = fpar[F_GAMMA]
+    rescale = fpar[F_RESCALE] != 0.0
     e_pair = C.effective_young(False)
     e_wall = C.effective_young(True)
     g_pair = C.effective_shear(poisson, False)
@@ -275,7 +279,7 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
             for a in range(d):
                 ft[a] = pair_ft[p, a]
         fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff, vx, vy, vz, ft,
-                                         pair_ov[p], dt, zeta, mu, nrm, slip)
+                                         pair_ov[p], dt, zeta, mu, nrm, slip, rescale)
         if mu > 0.0:
             for a in range(d):
                 pair_ft[p, a] = ft[a]
@@ -328,7 +332,7 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
                 for a in range(d):
                     ft[a] = wall_ft[w, a]
             fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i], vx, vy, vz, ft,
-                                             wall_ov[w], dt, zeta, mu, nrm, slip)
+                                             wall_ov[w], dt, zeta, mu, nrm, slip, rescale)
             if mu > 0.0:
                 for a in range(d):
                     wall_ft[w, a] = ft[a]

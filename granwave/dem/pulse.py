@@ -73,6 +73,9 @@ from .integrator import Engine
 DEFAULT_DT_SAFETY = 0.01
 #: Default amplitude EPS (linear regime; docs/damping.md).
 DEFAULT_AMPLITUDE = 1e-3
+#: Default tangential unloading rule of the pulses: the plain incremental Mindlin law, the one
+#: the linear model (frozen history) linearizes (granwave/contact.py docstring, docs/damping.md).
+DEFAULT_UNLOADING = "incremental"
 #: Default number of output samples.
 DEFAULT_SAMPLES = 2001
 
@@ -150,14 +153,16 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     engine.fpar[K.F_DT] = keep
 
 
-def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, skin: float = 0.2) -> Engine:
+def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, skin: float = 0.2,
+                        unloading: str = "incremental") -> Engine:
     """A DEM engine in the stored state: fixed walls, the stored tangential forces as history.
 
     The engine builds its pair list from the positions; every stored contact
     must be found there overlapping (else InputError). Stored F_t is the
     force on i from j, so a pair stored with i > j enters the engine's (i < j)
     slot with the opposite sign. Forces and accelerations are then evaluated
-    (slip 0) so that the state is ready for velocity Verlet.
+    (slip 0) so that the state is ready for velocity Verlet. ``unloading``: the
+    tangential unloading rule (:data:`DEFAULT_UNLOADING`; contact.py docstring).
     """
     if packing.dim not in (2, 3):
         raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
@@ -165,7 +170,8 @@ def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, sk
     engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
                     friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),
                     damping=float(damping), background_damping=0.0, piston_mass=math.inf,
-                    piston_force=0.0, dt=dt, skin=skin, check_every=0)  # fixed dt, no convergence test
+                    piston_force=0.0, dt=dt, skin=skin, check_every=0,  # fixed dt, no convergence test
+                    unloading=unloading)
     if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
         raise InputError("the packing's grain masses are not rho pi d^3 / 6 (SPEC §1): "
                          "the DEM engine cannot represent them")
@@ -204,7 +210,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
                   damping: float = 0.0, t_max: float, samples: int = DEFAULT_SAMPLES,
                   dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = 0.2,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
-                  progress_interval: float = 10.0) -> Signal:
+                  progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING) -> Signal:
     """Kick the packing at the bottom wall in the nonlinear DEM; the top-wall signal.
 
     Parameters
@@ -225,6 +231,11 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         which at EPS ~ 1e-3 is a percent of the pulse's displacements; the
         baseline run removes that drift (and doubles the cost).
     progress : called with a one-line message about every ``progress_interval`` s.
+    unloading : tangential unloading rule, "incremental" (default: plain incremental
+        Mindlin law, which the linear model linearizes, so that at ζ = 0 and small
+        amplitude the signal converges to ``linearize(prestress=True)``) or "rescale"
+        (F_t scaled by sqrt(n_new/n_old) on unloading, as in preparation: a first-order
+        one-sided term for prestressed contacts; granwave/contact.py docstring).
 
     Returns
     -------
@@ -235,6 +246,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     max_displacement_over_overlap and the packing's attributes.
     """
     ic = _check_ic(ic)
+    if unloading not in ("incremental", "rescale"):
+        raise InputError(f"unloading must be 'incremental' or 'rescale' (got {unloading!r})")
     if not (amplitude > 0.0 and math.isfinite(amplitude)):
         raise InputError(f"amplitude must be a positive number (got {amplitude})")
     if not 0.0 <= damping <= 1.0:
@@ -260,7 +273,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     c = packing.contacts
     f_static = float(np.sum(c.force_normal[c.j == -2]))
     run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
-               progress=progress, progress_interval=progress_interval)
+               progress=progress, progress_interval=progress_interval, unloading=unloading)
     t_wall0 = _time.perf_counter()
     # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains)
     values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
@@ -280,6 +293,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         integrator="velocity Verlet (DEM engine)",
         contact_law="Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history "
                     "from the packing",
+        unloading=unloading,
         top_wall="fixed", bottom_wall="fixed", background_damping=0.0,
         baseline_subtracted=bool(baseline),
         signal_definition=("(F_top(t) - F_top_unkicked(t)) / scale, F_top_unkicked from the same run "
@@ -303,14 +317,14 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
 
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
-         skin: float, times: np.ndarray, progress, progress_interval: float) -> dict:
+         skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str) -> dict:
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
     values are the initial velocities (A) or imposed displacements (B), vertical.
 
     Returns the top-wall force at the output times, the contact counts, the
     largest displacement, the kick's energy and the static checks.
     """
-    engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin)
+    engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin, unloading=unloading)
     d = packing.dim
     residual = float(np.max(np.linalg.norm(engine.acceleration, axis=1), initial=0.0))
     f_static_engine = float(engine.piston[K.P_FCON])

@@ -31,6 +31,9 @@ import math
 import numba
 import numpy as np
 
+# numba's cache=True keys a function's cache on *this* file only: pulse_samples inlines
+# kernels.run_chunk / compute_forces, so after editing kernels.py or contact.py delete
+# granwave/dem/__pycache__/pulse_kernels.* (or touch this file), or stale code runs.
 from .. import contact as C
 from ..geometry import nearest_image
 from . import kernels as K
