@@ -35,8 +35,10 @@ from .common import NON_NEGATIVE, POSITIVE, FiniteFloat, output_option, progress
               help="Convergence threshold on every acceleration (E*/(rho d)); velocities are tested too.")
 @click.option("--max-steps", type=click.IntRange(min=1), default=2_000_000, show_default=True,
               help="Step budget; not converged by then: error, no output file.")
-@click.option("--safety", type=FiniteFloat(min=0.0, max=0.2, min_open=True), default=0.05, show_default=True,
-              help="Time-step factor: dt = safety * 2 pi sqrt(m_min / k_max).")
+@click.option("--safety", type=FiniteFloat(min=0.0, min_open=True), default=0.05, show_default=True,
+              help="Time-step factor: dt = (safety/0.1) x the stability limit of the stiffest contact "
+                   "(normal and rotational modes, contact damping included; docs/dem.md). "
+                   "At most 0.06.")
 @seed_option
 @output_option
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
