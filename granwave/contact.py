@@ -153,53 +153,83 @@ def total_normal_force(elastic: float, viscous: float) -> float:
     return f if f > 0.0 else 0.0
 
 
-@numba.njit(cache=True)
-def project_tangential(ft: np.ndarray, normal: np.ndarray) -> None:
-    """Carry F_t into the tangent plane of a rotated contact frame, in place.
+@numba.njit(cache=True, inline="always")
+def project_tangential3(fx: float, fy: float, fz: float, nx: float, ny: float, nz: float):
+    """Carry F_t = (fx, fy, fz) into the tangent plane of the unit normal n; returns it.
 
     The normal component is removed and the magnitude restored, so the frame
-    rotation neither creates nor destroys tangential force.
+    rotation neither creates nor destroys tangential force. Scalar form (the DEM
+    force loop keeps everything in registers); 2D passes fz = nz = 0, which leaves
+    the 2D arithmetic unchanged.
     """
-    dot = 0.0
-    old2 = 0.0
-    for a in range(ft.shape[0]):
-        dot += ft[a] * normal[a]
-        old2 += ft[a] * ft[a]
-    new2 = 0.0
-    for a in range(ft.shape[0]):
-        ft[a] -= dot * normal[a]
-        new2 += ft[a] * ft[a]
+    dot = fx * nx + fy * ny + fz * nz
+    old2 = fx * fx + fy * fy + fz * fz
+    fx -= dot * nx
+    fy -= dot * ny
+    fz -= dot * nz
+    new2 = fx * fx + fy * fy + fz * fz
     if new2 > 0.0:
         scale = math.sqrt(old2 / new2)
-        for a in range(ft.shape[0]):
-            ft[a] *= scale
+        fx *= scale
+        fy *= scale
+        fz *= scale
+    return fx, fy, fz
+
+
+@numba.njit(cache=True, inline="always")
+def update_tangential3(fx: float, fy: float, fz: float, sx: float, sy: float, sz: float,
+                       overlap_old: float, overlap_new: float, kt_new: float, fn: float,
+                       friction: float, rescale_on_unloading: bool):
+    """Incremental Mindlin update of the tangential force (fx, fy, fz); returns (fx, fy, fz, slid).
+
+    (sx, sy, sz) is the increment Δs of relative tangential displacement of the
+    surfaces at the contact point (of j relative to i, so that the force on i
+    grows along it), ``fn`` the elastic normal force magnitude. Applies the
+    unloading rescale (only with ``rescale_on_unloading``: the preparation law;
+    False is the plain incremental law of the pulses), the increment k_t Δs and
+    the Coulomb cap (module docstring). ``slid`` is True when the contact slides.
+    """
+    if rescale_on_unloading and overlap_new < overlap_old and overlap_old > 0.0:
+        scale = math.sqrt(overlap_new / overlap_old) if overlap_new > 0.0 else 0.0
+        fx *= scale
+        fy *= scale
+        fz *= scale
+    fx += kt_new * sx
+    fy += kt_new * sy
+    fz += kt_new * sz
+    f2 = fx * fx + fy * fy + fz * fz
+    cap = friction * fn
+    if f2 > cap * cap:
+        scale = cap / math.sqrt(f2) if f2 > 0.0 else 0.0
+        return fx * scale, fy * scale, fz * scale, True
+    return fx, fy, fz, False
+
+
+@numba.njit(cache=True)
+def project_tangential(ft: np.ndarray, normal: np.ndarray) -> None:
+    """Array form of :func:`project_tangential3` (d = 2 or 3), in place."""
+    three = ft.shape[0] == 3
+    fx, fy, fz = project_tangential3(ft[0], ft[1], ft[2] if three else 0.0,
+                                     normal[0], normal[1], normal[2] if three else 0.0)
+    ft[0] = fx
+    ft[1] = fy
+    if three:
+        ft[2] = fz
 
 
 @numba.njit(cache=True)
 def update_tangential(ft: np.ndarray, slip: np.ndarray, overlap_old: float, overlap_new: float,
                       kt_new: float, fn: float, friction: float, rescale_on_unloading: bool = True) -> bool:
-    """Incremental Mindlin update of the tangential force ``ft`` in place.
-
-    ``slip`` is the increment Δs of relative tangential displacement of the
-    surfaces at the contact point (of j relative to i, so that the force on i
-    grows along it), ``fn`` the elastic normal force magnitude. Applies the
-    unloading rescale (only with ``rescale_on_unloading``, the default: the
-    preparation law; False is the plain incremental law of the pulses), the
-    increment k_t Δs and the Coulomb cap (module docstring). Returns True when
-    the contact slides.
-    """
-    if rescale_on_unloading and overlap_new < overlap_old and overlap_old > 0.0:
-        scale = math.sqrt(overlap_new / overlap_old) if overlap_new > 0.0 else 0.0
-        for a in range(ft.shape[0]):
-            ft[a] *= scale
-    f2 = 0.0
-    for a in range(ft.shape[0]):
-        ft[a] += kt_new * slip[a]
-        f2 += ft[a] * ft[a]
-    cap = friction * fn
-    if f2 > cap * cap:
-        scale = cap / math.sqrt(f2) if f2 > 0.0 else 0.0
-        for a in range(ft.shape[0]):
-            ft[a] *= scale
-        return True
-    return False
+    """Array form of :func:`update_tangential3` (d = 2 or 3): ``ft`` updated in place;
+    returns True when the contact slides. ``rescale_on_unloading`` defaults to the
+    preparation law."""
+    three = ft.shape[0] == 3
+    fx, fy, fz, slid = update_tangential3(ft[0], ft[1], ft[2] if three else 0.0,
+                                          slip[0], slip[1], slip[2] if three else 0.0,
+                                          overlap_old, overlap_new, kt_new, fn, friction,
+                                          rescale_on_unloading)
+    ft[0] = fx
+    ft[1] = fy
+    if three:
+        ft[2] = fz
+    return slid

@@ -31,7 +31,6 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
     g_wall = C.effective_shear(poisson, True)
     nv = np.zeros(d)
     du = np.zeros(d)
-    slip = np.zeros(d)
     fvec = np.zeros(d)
     ft = np.zeros(d)
     force[:, :] = 0.0
@@ -77,7 +76,7 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
         for a in range(d):
             ft[a] = ft_stored[c, a]
         # overlap_old = delta: no unloading rescale; mu = inf (or 0): no Coulomb cap
-        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, slip, fvec, False)
+        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, fvec, False)
         for a in range(d):
             force[i, a] += fvec[a]
         if r > 0:

@@ -33,10 +33,6 @@ from .. import contact as C
 from ..geometry import nearest_image
 from . import neighbours
 
-# The two vector routines of contact.py, compiled inline into the force loop
-# (the same Python code as contact.py's; only the compilation differs).
-project_tangential = numba.njit(cache=True, inline="always")(C.project_tangential.py_func)
-update_tangential = numba.njit(cache=True, inline="always")(C.update_tangential.py_func)
 
 # fpar indices
 F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
@@ -95,8 +91,8 @@ def add_torque(torque, k, arm, n, f):
 
 
 @numba.njit(cache=True, inline="always")
-def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overlap_old, dt, zeta, mu, nrm,
-                   slip, rescale):
+def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overlap_old, dt, zeta, mu,
+                   rescale):
     """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, SPEC §2); returns it and
     the elastic normal force. The single per-contact routine (scalar form).
 
@@ -104,8 +100,7 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overl
     arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
     (vx, vy, vz) the contact-point velocity of j relative to i, ``ft`` the tangential
     history (length 3, updated in place), ``overlap_old`` the overlap when ``ft`` was last
-    updated; ``nrm`` and ``slip`` are length-3 scratch arrays handed to the two vector
-    routines of contact.py. Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
+    updated. Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
     the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
     the new tangent plane (contact.project_tangential), then contact.update_tangential
     with slip = tangential velocity * dt and its unloading rescale when ``rescale``
@@ -124,37 +119,35 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overl
         tx = vx - vn * nx
         ty = vy - vn * ny
         tz = vz - vn * nz
-        nrm[0] = nx
-        nrm[1] = ny
-        slip[0] = tx * dt
-        slip[1] = ty * dt
-        if three:
-            nrm[2] = nz
-            slip[2] = tz * dt
-        project_tangential(ft, nrm)
+        # Scalar forms of the law (contact.py): the history stays in registers.
+        gx, gy, gz = C.project_tangential3(ft[0], ft[1], ft[2] if three else 0.0, nx, ny, nz)
         kt = C.tangential_stiffness(delta, r12, g12)
-        slid = update_tangential(ft, slip, overlap_old, delta, kt, fel, mu, rescale)
+        gx, gy, gz, slid = C.update_tangential3(gx, gy, gz, tx * dt, ty * dt, tz * dt,
+                                                overlap_old, delta, kt, fel, mu, rescale)
+        ft[0] = gx
+        ft[1] = gy
+        if three:
+            ft[2] = gz
         ct = 0.0
         if zeta > 0.0 and not slid:
             ct = C.damping_coefficient(zeta, meff, kt)
-        fz = -fn * nz + ft[2] + ct * tz if three else 0.0
-        return -fn * nx + ft[0] + ct * tx, -fn * ny + ft[1] + ct * ty, fz, fel
+        fz = -fn * nz + gz + ct * tz if three else 0.0
+        return -fn * nx + gx + ct * tx, -fn * ny + gy + ct * ty, fz, fel
     return -fn * nx, -fn * ny, -fn * nz, fel
 
 
 @numba.njit(cache=True)
-def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, slip, fvec,
+def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, fvec,
                   rescale=True):
     """Array form of :func:`contact_force3` (tests, frozen-history forces).
 
-    ``n``, ``vrel``, ``ft``, ``slip``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
+    ``n``, ``vrel``, ``ft``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
     in place, the force on i is written into ``fvec``, the elastic normal force returned.
     """
     d = n.shape[0]
-    nrm = np.empty(d)
     fx, fy, fz, fel = contact_force3(n[0], n[1], n[2] if d == 3 else 0.0, delta, r12, e12, g12, meff,
                                      vrel[0], vrel[1], vrel[2] if d == 3 else 0.0, ft, overlap_old, dt,
-                                     zeta, mu, nrm, slip, rescale)
+                                     zeta, mu, rescale)
     fvec[0] = fx
     fvec[1] = fy
     if d == 3:
@@ -199,15 +192,15 @@ def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
 def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
                    pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
     """Total force and torque on every grain; see :func:`_force_loop`."""
-    scratch = np.zeros((3, pos.shape[1]))
+    ft = np.zeros(pos.shape[1])  # one contact's tangential history, reused (no allocation per contact)
     inv_rad = 1.0 / rad
     _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, scratch[0], scratch[1], scratch[2])
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft)
 
 
 @numba.njit(cache=True, _nrt=False)
 def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft, nrm, slip):
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft):
     """Total force and torque on every grain and the contact force on the piston.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
@@ -279,7 +272,7 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
             for a in range(d):
                 ft[a] = pair_ft[p, a]
         fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff, vx, vy, vz, ft,
-                                         pair_ov[p], dt, zeta, mu, nrm, slip, rescale)
+                                         pair_ov[p], dt, zeta, mu, rescale)
         if mu > 0.0:
             for a in range(d):
                 pair_ft[p, a] = ft[a]
@@ -332,7 +325,7 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
                 for a in range(d):
                     ft[a] = wall_ft[w, a]
             fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i], vx, vy, vz, ft,
-                                             wall_ov[w], dt, zeta, mu, nrm, slip, rescale)
+                                             wall_ov[w], dt, zeta, mu, rescale)
             if mu > 0.0:
                 for a in range(d):
                     wall_ft[w, a] = ft[a]
