@@ -68,3 +68,27 @@ def test_tiny_workflow_end_to_end(tmp_path):
     again = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)
     assert again.returncode == 0
     assert "Nothing to be done" in again.stdout + again.stderr
+
+
+@pytest.mark.slow
+def test_interrupted_workflow_finishes_on_rerun(tmp_path):
+    """SIGTERM (what a scheduler or `kill` sends) mid-run, then the same command finishes the rest."""
+    import os
+    import signal
+    import time
+
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(SNAKEFILE), "--cores", "2",
+           "--configfile", str(TINY)]
+    first = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             text=True, start_new_session=True)
+    time.sleep(12)
+    os.killpg(first.pid, signal.SIGTERM)
+    log = first.communicate(timeout=300)[0]
+    done = [int(m) for m in re.findall(r"(\d+) of \d+ steps", log)]
+    total = int(re.search(r"of (\d+) steps", log).group(1)) if done else None
+    assert first.returncode != 0 and done and done[-1] < total, log[-2000:]
+    rerun = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=1200)
+    assert rerun.returncode == 0, (rerun.stdout + rerun.stderr)[-3000:]
+    assert (tmp_path / "results" / "report" / "index.md").is_file()
+    # no temporary file of an interrupted atomic write is left looking like an output
+    assert not [p for p in (tmp_path / "results").rglob("*") if p.name.endswith(".tmp")]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import math
+import signal
 import sys
 
 import click
@@ -51,11 +52,20 @@ seed_option = click.option("--seed", type=click.IntRange(min=0), default=0, show
                            help="Random seed; the same seed gives the same result bit for bit.")
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def stage(func):
-    """Turn user errors into a one-line message and a non-zero exit (no traceback)."""
+    """Turn user errors into a one-line message and a non-zero exit (no traceback).
+
+    SIGTERM (a scheduler's time limit, Snakemake stopping its jobs) is handled like
+    Ctrl-C, so that an interrupted atomic write removes its temporary file.
+    """
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
+        signal.signal(signal.SIGTERM, _interrupt)
         try:
             return func(*args, **kwargs)
         except InputError as exc:
