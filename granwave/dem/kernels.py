@@ -91,16 +91,16 @@ def add_torque(torque, k, arm, n, f):
 
 
 @numba.njit(cache=True, inline="always")
-def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overlap_old, dt, zeta, mu,
-                   rescale):
+def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt, zeta,
+                   mu, rescale):
     """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, SPEC §2); returns it and
     the elastic normal force. The single per-contact routine (scalar form).
 
     Three components always (2D: the third is 0, and adding zeros leaves the 2D
     arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
-    (vx, vy, vz) the contact-point velocity of j relative to i, ``ft`` the tangential
-    history (length 3, updated in place), ``overlap_old`` the overlap when ``ft`` was last
-    updated. Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
+    (vx, vy, vz) the contact-point velocity of j relative to i, (hx, hy, hz) the
+    tangential history F_t, ``overlap_old`` the overlap when it was last updated.
+    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
     the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
     the new tangent plane (contact.project_tangential), then contact.update_tangential
     with slip = tangential velocity * dt and its unloading rescale when ``rescale``
@@ -115,25 +115,20 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, ft, overl
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
     if mu > 0.0:
-        three = ft.shape[0] == 3
         tx = vx - vn * nx
         ty = vy - vn * ny
         tz = vz - vn * nz
         # Scalar forms of the law (contact.py): the history stays in registers.
-        gx, gy, gz = C.project_tangential3(ft[0], ft[1], ft[2] if three else 0.0, nx, ny, nz)
+        gx, gy, gz = C.project_tangential3(hx, hy, hz, nx, ny, nz)
         kt = C.tangential_stiffness(delta, r12, g12)
         gx, gy, gz, slid = C.update_tangential3(gx, gy, gz, tx * dt, ty * dt, tz * dt,
                                                 overlap_old, delta, kt, fel, mu, rescale)
-        ft[0] = gx
-        ft[1] = gy
-        if three:
-            ft[2] = gz
         ct = 0.0
         if zeta > 0.0 and not slid:
             ct = C.damping_coefficient(zeta, meff, kt)
-        fz = -fn * nz + gz + ct * tz if three else 0.0
-        return -fn * nx + gx + ct * tx, -fn * ny + gy + ct * ty, fz, fel
-    return -fn * nx, -fn * ny, -fn * nz, fel
+        return (-fn * nx + gx + ct * tx, -fn * ny + gy + ct * ty, -fn * nz + gz + ct * tz, fel,
+                gx, gy, gz)
+    return -fn * nx, -fn * ny, -fn * nz, fel, hx, hy, hz
 
 
 @numba.njit(cache=True)
@@ -145,9 +140,15 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     in place, the force on i is written into ``fvec``, the elastic normal force returned.
     """
     d = n.shape[0]
-    fx, fy, fz, fel = contact_force3(n[0], n[1], n[2] if d == 3 else 0.0, delta, r12, e12, g12, meff,
-                                     vrel[0], vrel[1], vrel[2] if d == 3 else 0.0, ft, overlap_old, dt,
-                                     zeta, mu, rescale)
+    three = d == 3
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(
+        n[0], n[1], n[2] if three else 0.0, delta, r12, e12, g12, meff,
+        vrel[0], vrel[1], vrel[2] if three else 0.0, ft[0], ft[1], ft[2] if three else 0.0,
+        overlap_old, dt, zeta, mu, rescale)
+    ft[0] = hx
+    ft[1] = hy
+    if three:
+        ft[2] = hz
     fvec[0] = fx
     fvec[1] = fy
     if d == 3:
@@ -192,15 +193,14 @@ def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
 def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
                    pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
     """Total force and torque on every grain; see :func:`_force_loop`."""
-    ft = np.zeros(pos.shape[1])  # one contact's tangential history, reused (no allocation per contact)
     inv_rad = 1.0 / rad
     _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft)
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out)
 
 
 @numba.njit(cache=True, _nrt=False)
 def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, ft):
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
     """Total force and torque on every grain and the contact force on the piston.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
@@ -210,9 +210,8 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
     top-wall contacts and of contacts.
 
     Written with scalars (three components, the third 0 in 2D) so that nothing
-    is allocated per contact and the compiler keeps the contact in registers;
-    the only arrays in the contact loop are the three length-3 scratch vectors
-    handed to contact.project_tangential / update_tangential.
+    is allocated per contact and the compiler keeps the contact, its tangential
+    history included, in registers (contact.py's scalar forms of the law).
     """
     n_grains, d = pos.shape
     r = omega.shape[1]
@@ -268,14 +267,20 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
             vz -= wx * ny - wy * nx
         r12 = C.effective_radius(inv_rad[i], inv_rad[j])
         meff = C.reduced_mass(mass[i], mass[j], False)
+        hx = hy = hz = 0.0
         if mu > 0.0:
-            for a in range(d):
-                ft[a] = pair_ft[p, a]
-        fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff, vx, vy, vz, ft,
-                                         pair_ov[p], dt, zeta, mu, rescale)
+            hx = pair_ft[p, 0]
+            hy = pair_ft[p, 1]
+            if d == 3:
+                hz = pair_ft[p, 2]
+        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
+                                                     vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
+                                                     mu, rescale)
         if mu > 0.0:
-            for a in range(d):
-                pair_ft[p, a] = ft[a]
+            pair_ft[p, 0] = hx
+            pair_ft[p, 1] = hy
+            if d == 3:
+                pair_ft[p, 2] = hz
         pair_ov[p] = delta
         force[i, 0] += fx
         force[i, 1] += fy
@@ -321,14 +326,20 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
                 vx -= wy * nz - wz * ny
                 vy -= wz * nx - wx * nz
                 vz -= wx * ny - wy * nx
+            hx = hy = hz = 0.0
             if mu > 0.0:
-                for a in range(d):
-                    ft[a] = wall_ft[w, a]
-            fx, fy, fz, fel = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i], vx, vy, vz, ft,
-                                             wall_ov[w], dt, zeta, mu, rescale)
+                hx = wall_ft[w, 0]
+                hy = wall_ft[w, 1]
+                if d == 3:
+                    hz = wall_ft[w, 2]
+            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i],
+                                                         vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta,
+                                                         mu, rescale)
             if mu > 0.0:
-                for a in range(d):
-                    wall_ft[w, a] = ft[a]
+                wall_ft[w, 0] = hx
+                wall_ft[w, 1] = hy
+                if d == 3:
+                    wall_ft[w, 2] = hz
             wall_ov[w] = delta
             force[i, 0] += fx
             force[i, 1] += fy
