@@ -370,3 +370,12 @@ def test_cli_step_budget(tmp_path):
 
 def test_cli_five_grains(tmp_path):
     _one_line_error(["--grains", "5"], tmp_path)
+
+
+def test_creeping_single_row_fails_with_a_specific_hint():
+    """8 grains in one row (aspect 0.1) never settle: max |a| reaches ~1e-15 while the row keeps
+    sliding at a steady ~2e-7 (Coulomb contacts against the background damping). The error must
+    say so instead of suggesting more steps."""
+    with pytest.raises(ConvergenceError, match="creeps") as info:
+        prepare_packing(PrepareParams(grains=8, aspect=0.1, max_steps=60_000))
+    assert "raise --max-steps" not in str(info.value)

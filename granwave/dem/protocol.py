@@ -227,5 +227,12 @@ def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float) -> str:
                 f"{p.background_damping:g}) the explicit step may be unstable: try a smaller "
                 "--safety, or different damping (some contact or background damping is needed "
                 "to come to rest)")
+    if a_now < p.tol:
+        # Forces balance but grains keep moving at a steady speed: a creeping configuration
+        # (contacts sliding at the Coulomb limit against the background damping), e.g. a
+        # layer too thin or too few grains to carry the piston. More steps do not help.
+        return (f"{seen}; accelerations are below tol but the grains still move at a steady "
+                "speed: the packing creeps (sliding contacts) instead of settling, so more steps "
+                "will not help; try more grains or a taller container (--aspect)")
     trend = f" (from {first[0]:.2e} early on)" if first else ""
     return f"{seen}{trend}; max |a| was still falling: raise --max-steps"

@@ -62,7 +62,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .. import io as _io  # noqa: F401  (import order: granwave.model alone is circular)
 from ..errors import InputError
 from ..model import Packing, Signal
 from . import kernels as K
