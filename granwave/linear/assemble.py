@@ -122,6 +122,31 @@ def _cross_vec(a: np.ndarray, b: np.ndarray, n_rot: int) -> np.ndarray:
     return np.cross(a, b)
 
 
+def contact_dofs(first: np.ndarray, i: np.ndarray, j: np.ndarray, p: int) -> np.ndarray:
+    """(M, 2p) global dof indices of each contact's (u_i, theta_i, u_j, theta_j); -1 for a wall.
+
+    ``first`` is the first dof of every grain (:func:`dof_map`), p = dim + n_rot.
+    """
+    wall = j < 0
+    loc = np.arange(p)
+    idx_i = first[i][:, None] + loc
+    idx_j = np.where(wall[:, None], -1, first[np.where(wall, 0, j)][:, None] + loc)
+    return np.concatenate([idx_i, idx_j], axis=1)
+
+
+def scatter_blocks(blocks: np.ndarray, idx: np.ndarray, n_dof: int) -> sp.csr_matrix:
+    """Sum per-contact (2p x 2p) blocks into the sparse (n_dof x n_dof) matrix; wall halves
+    (index -1) and exact zeros are dropped."""
+    rows = np.broadcast_to(idx[:, :, None], blocks.shape).ravel()
+    cols = np.broadcast_to(idx[:, None, :], blocks.shape).ravel()
+    vals = blocks.ravel()
+    ok = (rows >= 0) & (cols >= 0) & (vals != 0.0)
+    D = sp.coo_matrix((vals[ok], (rows[ok], cols[ok])), shape=(n_dof, n_dof)).tocsr()
+    D.sum_duplicates()
+    D.eliminate_zeros()
+    return D
+
+
 def contact_blocks(packing: Packing, *, prestress: bool = False, n_rot: int | None = None):
     """Per-contact stiffness blocks (force-carrying contacts only).
 
@@ -260,18 +285,7 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
         raise InputError("the packing has no force-carrying contact: nothing to linearize")
 
     keep, blocks = contact_blocks(packing, prestress=prestress, n_rot=n_rot)
-    wall = c.j[keep] < 0
-    loc = np.arange(p)
-    idx_i = first[c.i[keep]][:, None] + loc
-    idx_j = np.where(wall[:, None], -1, first[np.where(wall, 0, c.j[keep])][:, None] + loc)
-    idx = np.concatenate([idx_i, idx_j], axis=1)  # (m, 2p)
-    rows = np.broadcast_to(idx[:, :, None], blocks.shape).ravel()
-    cols = np.broadcast_to(idx[:, None, :], blocks.shape).ravel()
-    vals = blocks.ravel()
-    ok = (rows >= 0) & (cols >= 0) & (vals != 0.0)
-    D = sp.coo_matrix((vals[ok], (rows[ok], cols[ok])), shape=(n_dof, n_dof)).tocsr()
-    D.sum_duplicates()
-    D.eliminate_zeros()
+    D = scatter_blocks(blocks, contact_dofs(first, c.i[keep], c.j[keep], p), n_dof)
 
     # Mass: translations m, rotations I.
     mass = np.where(dof_axis < dim, packing.mass[dof_grain], packing.inertia[dof_grain])

@@ -104,7 +104,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import LinearSystem, Packing
-from .assemble import contact_blocks, dof_map, n_rotations
+from .assemble import contact_blocks, contact_dofs, dof_map, n_rotations, scatter_blocks
 
 #: Up to this many free dofs the least-squares fallback is a dense LAPACK solve.
 DENSE_MAX_DOF = 6000
@@ -190,17 +190,8 @@ def _cell(packing: Packing, prestress: bool) -> _Cell:
     force_i = (-c.force_normal[keep][:, None] * n
                + np.asarray(c.force_tangential[keep], float).reshape(len(keep), dim))
     first, dof_grain, dof_axis = dof_map(packing, n_rot)
-    loc = np.arange(p)
-    idx_i = first[ii][:, None] + loc
-    idx_j = np.where(wall[:, None], -1, first[jj][:, None] + loc)
-    idx = np.concatenate([idx_i, idx_j], axis=1)
-    n_dof = len(dof_grain)
-    rows = np.broadcast_to(idx[:, :, None], blocks.shape).ravel()
-    cols = np.broadcast_to(idx[:, None, :], blocks.shape).ravel()
-    vals = blocks.ravel()
-    ok = (rows >= 0) & (cols >= 0) & (vals != 0.0)
-    D = sp.coo_matrix((vals[ok], (rows[ok], cols[ok])), shape=(n_dof, n_dof)).tocsr()
-    D.sum_duplicates()
+    idx = contact_dofs(first, ii, np.where(wall, -1, jj), p)
+    D = scatter_blocks(blocks, idx, len(dof_grain))
     volume = float(np.prod(packing.box))  # 2D: L1 x L2 x one diameter
     active = first >= 0
     touches = np.zeros(packing.n_grains, bool)
