@@ -52,6 +52,22 @@ def _on_cone(ft, k, d, fel, mu):
     return fel > 0.0 and f2 >= cap * cap
 
 
+@numba.njit(cache=True, inline="always")
+def _touching_state(s, cone, initial):
+    """Flags of a contact that touches now: INITIAL / CONE0 when recording the initial state,
+    else FORMED (it did not touch initially) and SLID (it is on the Coulomb cone)."""
+    if initial:
+        s |= INITIAL
+        if cone:
+            s |= CONE0
+    else:
+        if not (s & INITIAL):
+            s |= FORMED
+        if cone:
+            s |= SLID
+    return s
+
+
 @numba.njit(cache=True)
 def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state,
              wall_state, initial):
@@ -72,16 +88,7 @@ def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu
                 j = pair_j[p]
                 r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
                 fel = C.normal_force(ov, r12, e_pair)
-            cone = mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu)
-            if initial:
-                s |= INITIAL
-                if cone:
-                    s |= CONE0
-            else:
-                if not (s & INITIAL):
-                    s |= FORMED
-                if cone:
-                    s |= SLID
+            s = _touching_state(s, mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu), initial)
         elif (s & INITIAL) and not initial:
             s |= OPENED
         pair_state[p] = s
@@ -92,16 +99,7 @@ def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu
             fel = 0.0
             if mu > 0.0:
                 fel = C.normal_force(ov, rad[w // 2], e_wall)
-            cone = mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu)
-            if initial:
-                s |= INITIAL
-                if cone:
-                    s |= CONE0
-            else:
-                if not (s & INITIAL):
-                    s |= FORMED
-                if cone:
-                    s |= SLID
+            s = _touching_state(s, mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu), initial)
         elif (s & INITIAL) and not initial:
             s |= OPENED
         wall_state[w] = s
