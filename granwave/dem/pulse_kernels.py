@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 
 # numba's cache=True keys a function's cache on *this* file only: pulse_samples inlines
 # kernels.run_chunk / compute_forces, so after editing kernels.py or contact.py delete
