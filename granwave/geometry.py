@@ -40,6 +40,19 @@ def nearest_image(x: float, length: float) -> float:
     return x
 
 
+@numba.njit(cache=True, inline="always")
+def periodic_distance2(a: np.ndarray, ia: int, b: np.ndarray, ib: int, lateral: np.ndarray) -> float:
+    """|a[ia] - b[ib]|^2 with every lateral component folded to its nearest periodic image."""
+    d = a.shape[1]
+    r2 = 0.0
+    for k in range(d):
+        x = a[ia, k] - b[ib, k]
+        if k < d - 1:
+            x = nearest_image(x, lateral[k])
+        r2 += x * x
+    return r2
+
+
 def wrap(position: np.ndarray, lateral: np.ndarray) -> np.ndarray:
     """Positions with every lateral coordinate folded into [0, L) (a copy)."""
     out = np.array(position, dtype=float, copy=True)

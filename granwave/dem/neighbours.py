@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from ..geometry import nearest_image
+from ..geometry import periodic_distance2
 
 
 @numba.njit(cache=True)
@@ -54,12 +54,7 @@ def candidate_keys(pos, rad, lateral, h, skin):
     if brute:
         for i in range(n):
             for j in range(i + 1, n):
-                r2 = 0.0
-                for a in range(d):
-                    x = pos[j, a] - pos[i, a]
-                    if a < d - 1:
-                        x = nearest_image(x, lateral[a])
-                    r2 += x * x
+                r2 = periodic_distance2(pos, j, pos, i, lateral)
                 lim = rad[i] + rad[j] + skin
                 if r2 < lim * lim:
                     keys = _push(keys, m, i * n + j)
@@ -107,12 +102,7 @@ def candidate_keys(pos, rad, lateral, h, skin):
             j = head[idx]
             while j >= 0:
                 if j > i:
-                    r2 = 0.0
-                    for a in range(d):
-                        x = pos[j, a] - pos[i, a]
-                        if a < d - 1:
-                            x = nearest_image(x, lateral[a])
-                        r2 += x * x
+                    r2 = periodic_distance2(pos, j, pos, i, lateral)
                     lim = rad[i] + rad[j] + skin
                     if r2 < lim * lim:
                         q = cnt

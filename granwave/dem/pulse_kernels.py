@@ -34,7 +34,7 @@ import numba
 # kernels.run_chunk / compute_forces, so after editing kernels.py or contact.py delete
 # granwave/dem/__pycache__/pulse_kernels.* (or touch this file), or stale code runs.
 from .. import contact as C
-from ..geometry import nearest_image
+from ..geometry import periodic_distance2
 from . import kernels as K
 
 INITIAL, OPENED, FORMED, SLID, CONE0 = 1, 2, 4, 8, 16
@@ -124,12 +124,7 @@ def max_displacement(pos, pos_ref, lateral):
     n, d = pos.shape
     best = 0.0
     for i in range(n):
-        s = 0.0
-        for a in range(d):
-            x = pos[i, a] - pos_ref[i, a]
-            if a < d - 1:
-                x = nearest_image(x, lateral[a])
-            s += x * x
+        s = periodic_distance2(pos, i, pos_ref, i, lateral)
         if s > best:
             best = s
     return math.sqrt(best)
