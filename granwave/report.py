@@ -425,23 +425,9 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     md += ["## Statics per pressure", "",
            "Mean ± standard deviation over the packings (first row: their number; "
            "`(n=…)` where a quantity is missing in some).", ""]
-    any_table = False
-    for scene in sorted(by_scene):
-        t = _section_table(by_scene[scene], "statics", STATICS_KEYS)
-        if t:
-            md += [f"### {scene}", ""] + t
-            any_table = True
-    if not any_table:
-        md += ["No static measurements among the inputs.", ""]
+    md += _per_scene_tables(by_scene, "statics", STATICS_KEYS, "No static measurements among the inputs.")
     md += ["## Elastic moduli per pressure", ""]
-    any_table = False
-    for scene in sorted(by_scene):
-        t = _section_table(by_scene[scene], "moduli", MODULI_KEYS)
-        if t:
-            md += [f"### {scene}", ""] + t
-            any_table = True
-    if not any_table:
-        md += ["No moduli among the inputs.", ""]
+    md += _per_scene_tables(by_scene, "moduli", MODULI_KEYS, "No moduli among the inputs.")
 
     # ---- speeds against pressure
     md += _speeds_section(by_scene, h_by_scene, scenes)
@@ -478,6 +464,16 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         if twin.exists() and twin != Path(f):
             md += [f"[PDF]({Path(os.path.relpath(twin, out_dir)).as_posix()})", ""]
     return "\n".join(md).rstrip() + "\n"
+
+
+def _per_scene_tables(by_scene, section: str, keys, if_none: str) -> list[str]:
+    """One mean ± std table of a summary section per scene, or ``if_none``."""
+    md = []
+    for scene in sorted(by_scene):
+        t = _section_table(by_scene[scene], section, keys)
+        if t:
+            md += [f"### {scene}", ""] + t
+    return md or [if_none, ""]
 
 
 def _damping_section(rows: Sequence[Mapping]) -> list[str]:

@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import InputError
 from ..io import files as F
 from ..io import schema as S
-from .front import front_features
+from .front import features_of_signals, front_features
 from .heights import common_attr
 
 if TYPE_CHECKING:
@@ -121,12 +121,7 @@ def front_statistics(signals: Sequence["Signal"], *, labels: Sequence[str] | Non
     """
     signals = list(signals)
     labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
-    rows = []
-    for s, lab in zip(signals, labels):
-        try:
-            rows.append(front_features(s.time, s.force, **front_kw).as_dict())
-        except InputError as exc:
-            raise InputError(f"{lab}: {exc}") from None
+    rows = features_of_signals(signals, labels, **front_kw)
     # Measured quantities only: the rule's own parameters (peak_fraction, ...) are not statistics.
     keys = [k for k, v in rows[0].items() if isinstance(v, (int, float)) and not isinstance(v, bool)
             and not k.endswith("_fraction") and k not in ("t_window", "refine")]

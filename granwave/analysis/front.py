@@ -202,3 +202,15 @@ def front_features(time, force, *, peak_fraction: float = DEFAULT_PEAK_FRACTION,
         peak_fraction=float(peak_fraction), lead_fraction=float(lead_fraction),
         noise_fraction=float(noise_fraction), refine=bool(refine),
     )
+
+
+def features_of_signals(signals, labels, **front_kw) -> list[dict]:
+    """:func:`front_features` of several signals as dicts; a signal whose first pulse is
+    incomplete raises InputError naming its label."""
+    rows = []
+    for s, lab in zip(signals, labels):
+        try:
+            rows.append(front_features(s.time, s.force, **front_kw).as_dict())
+        except InputError as exc:
+            raise InputError(f"{lab}: {exc}") from None
+    return rows

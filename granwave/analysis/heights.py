@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import InputError
 from .fits import inverse_slope, linear_fit, local_exponents, power_law_fit
-from .front import front_features
+from .front import features_of_signals
 
 if TYPE_CHECKING:  # annotations only
     from ..model import Signal
@@ -190,12 +190,7 @@ def height_series(signals: Sequence[Signal], *, labels: Sequence[str] | None = N
     labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
     pressure = common_attr(signals, labels, "pressure", rtol=1e-9)
     ic = common_attr(signals, labels, "ic")
-    features = []
-    for s, lab in zip(signals, labels):
-        try:
-            features.append(front_features(s.time, s.force, **front_kw).as_dict())
-        except InputError as exc:
-            raise InputError(f"{lab}: {exc}") from None
+    features = features_of_signals(signals, labels, **front_kw)
     out = height_series_from_features([s.height for s in signals], features,
                                       edge_heights=edge_heights, group_rtol=group_rtol)
     out = {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out}
