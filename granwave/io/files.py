@@ -69,6 +69,26 @@ def atomic_h5(path: str | os.PathLike, schema: str, attrs: dict) -> Iterator[h5p
         raise
 
 
+@contextlib.contextmanager
+def atomic_file(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; it is renamed to ``path`` only on success.
+
+    For writers that want a file name rather than a handle (matplotlib's savefig,
+    h5py): the one home of the temporary-then-rename rule. ``suffix`` keeps the
+    extension a writer may look at (".png").
+    """
+    path = check_writable(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f"{suffix}.tmp", dir=path.parent or ".")
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
 def atomic_text(path: str | os.PathLike, text: str) -> None:
     """Write a text file (JSON, Markdown, CSV) atomically: temporary file, then rename."""
     path = Path(path)
