@@ -7,7 +7,8 @@ configuration files, and every Markdown file of the repository. Two rules:
 
 - a cited repository path (``docs/method.md``, ``config/paper.yaml``,
   ``granwave/contact.py``, ``workflow/rules/*.smk``, ...) must exist;
-- the reference for definitions is ``docs/method.md``: no text cites "SPEC".
+- the reference for definitions is ``docs/method.md``: no text cites "SPEC", and
+  every ``docs/method.md §N`` names one of its fourteen sections.
 
 Failures list every offending ``file:line`` so the fix can be checked line by
 line. The CLI loads its stages lazily, so walking ``--help`` imports no numba.
@@ -203,6 +204,34 @@ def test_help_texts_do_not_cite_spec(helps):
 def test_sources_and_docs_do_not_cite_spec(sources):
     bad = spec_citations(sources)
     assert not bad, (f"{len(bad)} lines cite SPEC; cite docs/method.md §N instead:\n" + "\n".join(bad))
+
+
+METHOD_CITATION = re.compile(r"docs/method\.md`?((?:\s*(?:§\d+(?:\s*\([a-z]\))?|,|/|and))+)")
+
+
+def method_sections() -> set[int]:
+    text = (ROOT / "docs/method.md").read_text(encoding="utf-8")
+    return {int(n) for n in re.findall(r"^## (\d+)\. ", text, flags=re.M)}
+
+
+def test_method_page_has_the_fourteen_sections_in_order():
+    text = (ROOT / "docs/method.md").read_text(encoding="utf-8")
+    numbers = [int(n) for n in re.findall(r"^## (\d+)\. ", text, flags=re.M)]
+    assert numbers == list(range(1, 15))
+
+
+def test_method_citations_name_existing_sections(sources, helps):
+    sections = method_sections()
+    bad = []
+    for where, text in [*sources, *helps]:
+        for match in METHOD_CITATION.finditer(text):
+            for n in re.findall(r"§(\d+)", match.group(1)):
+                if int(n) not in sections:
+                    bad.append(f"{where}: §{n}")
+    assert not bad, "citations of docs/method.md sections that do not exist:\n" + "\n".join(bad)
+    demo = [("x:1", "see docs/method.md §4, §6 (b) and §15")]
+    assert [n for _, t in demo for m in METHOD_CITATION.finditer(t)
+            for n in re.findall(r"§(\d+)", m.group(1))] == ["4", "6", "15"]
 
 
 def test_granwave_help_points_to_the_units_page(helps):
