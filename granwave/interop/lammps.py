@@ -84,6 +84,17 @@ def lammps_coefficients(friction: float, poisson: float, damping: float) -> dict
                 xgammat=math.sqrt(C.stiffness_ratio(poisson)), mu=friction)
 
 
+def granular_model(friction: float, poisson: float, damping: float, *, wall: bool) -> str:
+    """The granular model words of ``pair_coeff * *`` (grain pairs) or of ``fix wall/gran
+    granular`` (``wall``): granwave's contact law in LAMMPS (module docstring)."""
+    k = lammps_coefficients(friction, poisson, damping)
+    side = "wall" if wall else "pair"
+    tangential = (f"tangential mindlin_rescale {k['kt_' + side]:.17g} {k['xgammat']:.17g} {friction:.17g}"
+                  if friction > 0 else "tangential linear_nohistory 0 0")
+    return (f"hertz {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
+            "damping coeff_restitution limit_damping")
+
+
 # ---------------------------------------------------------------- export
 def _box(packing: Packing, margin: float) -> list[tuple[float, float]]:
     """LAMMPS box: periodic lengths from 0, the vertical from the wall (0) to above the piston."""
@@ -135,18 +146,13 @@ def deck_text(packing: Packing, *, piston_mass: float, steps: int, damping: floa
     d = packing.dim
     mu = packing.friction
     poisson = float(packing.attrs.get("poisson", 0.0))
-    k = lammps_coefficients(mu, poisson, damping)
     vert = "yz"[d - 2]
     load = packing.pressure * wall_area(packing.box[:-1])
-    tangential = (f"tangential mindlin_rescale {{kt}} {k['xgammat']:.17g} {mu:.17g}" if mu > 0
-                  else "tangential linear_nohistory 0 0")
-    pair_model = (f"hertz {k['kn_pair']:.17g} {k['restitution']:.17g} "
-                  + tangential.format(kt=f"{k['kt_pair']:.17g}") + " damping coeff_restitution limit_damping")
-    wall_model = (f"hertz {k['kn_wall']:.17g} {k['restitution']:.17g} "
-                  + tangential.format(kt=f"{k['kt_wall']:.17g}") + " damping coeff_restitution limit_damping")
+    pair_model = granular_model(mu, poisson, damping, wall=False)
+    wall_model = granular_model(mu, poisson, damping, wall=True)
     plane = {2: "0 ${h0} 0 0 -1 0", 3: "0 0 ${h0} 0 0 -1"}[d]
     move = {2: "NULL v_dh NULL", 3: "NULL NULL v_dh"}[d]
-    force_col = d + 1  # contacts output: column 1 the partner id, then fx fy fz
+    force_col = d + 1  # contacts output: column 1 a contact flag, then fx fy fz (force on the grain)
     free = {2: "0.0 NULL 0.0", 3: "0.0 0.0 NULL"}[d]
     lines = [
         "# granwave packing continued in LAMMPS (granwave export lammps).",
