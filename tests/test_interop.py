@@ -174,11 +174,15 @@ def test_not_relaxed_within_budget_exit_2_no_output(packing, tmp_path):
     assert not out.exists()
 
 
-def test_export_lammps_bad_input_exit_2(tmp_path):
+def test_export_lammps_bad_input_exit_2(packing, tmp_path):
     (tmp_path / "x.h5").write_text("not hdf5")
     r = run(["export", "lammps", tmp_path / "x.h5", "-o", tmp_path / "deck"])
     assert r.exit_code == 2 and "not an HDF5 file" in r.output
     assert not (tmp_path / "deck").exists()
+    files.write_packing(tmp_path / "p.h5", packing)
+    r = run(["export", "lammps", tmp_path / "p.h5", "-o", tmp_path / "deck", "--damping", 0.95])
+    assert r.exit_code == 2 and "coeff_restitution" in r.output
+    assert len(r.output.strip().splitlines()) == 1 and not (tmp_path / "deck").exists()
 
 
 # ---------------------------------------------------------------- LAMMPS for real
@@ -208,9 +212,11 @@ def test_lammps_round_trip(packing, tmp_path, lammps):
     continued = LM.run_deck(deck, lammps)
     out = tmp_path / "back.h5"
     r = run(["import", "lammps", continued, "-o", out, "--pressure", 1e-4, "--friction", 0,
-             "--tol", TIGHT, "--piston-mass", packing.attrs["piston_mass"], "-q"])
+             "--tol", TIGHT, "-q"])
     assert r.exit_code == 0, r.output
     back = files.read_packing(out)
+    # from the piston atom (write_data prints 16 digits)
+    assert back.attrs["piston_mass"] == pytest.approx(packing.attrs["piston_mass"], rel=1e-15)
     assert max_shift(back.position, packing.position, packing.box[:-1]) < 1e-6
     assert abs(back.height - packing.height) < 1e-6
     assert contact_set(back) == contact_set(packing)

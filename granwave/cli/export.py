@@ -52,18 +52,13 @@ def export_lammps_cmd(packing, output, steps, damping, quiet):
     lammps` reads back. LAMMPS starts every contact without tangential force (a data
     file cannot carry contact history): frictional packings re-settle slightly.
     """
-    from ..errors import InputError
     from ..interop.lammps import export_lammps
     from ..io.files import read_packing
 
-    out = Path(output)
-    if not out.parent.is_dir():
-        raise InputError(f"cannot write {out}: folder {out.parent} does not exist")
-    pk = read_packing(packing)
-    out.mkdir(exist_ok=True)
-    info = export_lammps(pk, out, steps=steps, damping=damping)
+    info = export_lammps(read_packing(packing), Path(output), steps=steps, damping=damping)
+    pk_grains = info["grains"]
     if not quiet:
-        click.echo(f"wrote {info['data']} and {info['deck']}: {pk.n_grains} grains, piston mass "
+        click.echo(f"wrote {info['data']} and {info['deck']}: {pk_grains} grains, piston mass "
                    f"{info['piston_mass']:.6g}", err=True)
 
 

@@ -26,7 +26,8 @@ def import_group():
 @click.option("--background-damping", type=NON_NEGATIVE, default=0.3, show_default=True,
               help="Background damping rate in units of 1/t_i, t_i = sqrt(m/(p d)).")
 @click.option("--piston-mass", type=POSITIVE, default=None,
-              help="Piston mass in rho d^3  [default: one layer of grains].")
+              help="Piston mass in rho d^3  [default: the file's piston atom's (files from "
+                   "`granwave export lammps`), else one layer of grains].")
 @click.option("--tol", type=POSITIVE, default=1e-10, show_default=True,
               help="Convergence threshold on every acceleration (as prepare-packing).")
 @click.option("--max-steps", type=click.IntRange(min=1), default=2_000_000, show_default=True,
@@ -62,7 +63,8 @@ def import_lammps_cmd(source, output, pressure, friction, poisson, damping, back
     g = grains_of_state(state, None if dim == "auto" else int(dim), length_scale=length_scale)
     params = PrepareParams(dim=g["dim"], grains=len(g["radius"]), pressure=pressure, friction=friction,
                            poisson=poisson, damping=damping, background_damping=background_damping,
-                           piston_mass=piston_mass, tol=tol, max_steps=max_steps, safety=safety)
+                           piston_mass=piston_mass if piston_mass is not None else state.piston_mass,
+                           tol=tol, max_steps=max_steps, safety=safety)
     attrs = {**state.source, "source_length_scale": length_scale,
              "source_velocities": g["velocity"] is not None}
     packing = relax_grains(g["position"], g["radius"], g["lateral"], params, piston_height=g["piston_height"],

@@ -213,7 +213,8 @@ def deck_text(packing: Packing, *, piston_mass: float, steps: int, damping: floa
 
 def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | None = None,
                   background_damping: float | None = None) -> dict:
-    """Write ``folder/packing.data`` and ``folder/in.granwave`` (atomically, each).
+    """Write ``folder/packing.data`` and ``folder/in.granwave`` (atomically, each; the
+    folder is made when missing, its parent must exist).
 
     ``steps``: the deck's ``run`` length (0: set up, evaluate the forces, write the
     continued data file). ``damping`` (zeta) and ``background_damping`` (the rate gamma,
@@ -221,8 +222,10 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     paths and the LAMMPS coefficients used.
     """
     folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"{folder}: no such folder")
+    if not folder.parent.is_dir():
+        raise InputError(f"cannot write {folder}: folder {folder.parent} does not exist")
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"cannot write into {folder}: it is a file")
     if packing.n_grains == 0:
         raise InputError("the packing has no grains")
     attrs = packing.attrs
@@ -237,10 +240,11 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     data = data_text(packing, piston_mass=piston_mass, margin=margin)
     deck = deck_text(packing, piston_mass=piston_mass, steps=int(steps), damping=zeta,
                      background_damping_rate=gamma, dt=_dt(packing), margin=margin)
+    folder.mkdir(exist_ok=True)  # only now: bad input leaves nothing behind
     atomic_text(folder / DATA_NAME, data)
     atomic_text(folder / DECK_NAME, deck)
     return dict(data=folder / DATA_NAME, deck=folder / DECK_NAME, piston_mass=piston_mass,
-                **coefficients)
+                grains=packing.n_grains, **coefficients)
 
 
 # ---------------------------------------------------------------- import
@@ -254,7 +258,8 @@ class LammpsState:
     box_hi: np.ndarray  # (3,)
     velocity: np.ndarray | None = None  # (N, 3)
     angular_velocity: np.ndarray | None = None  # (N, 3)
-    piston: float | None = None  # the piston atom's vertical coordinate, when present
+    piston: np.ndarray | None = None  # the piston atom's position (3,), when present
+    piston_mass: float | None = None  # its mass (data files from export_lammps)
     source: dict = field(default_factory=dict)
 
 
@@ -333,6 +338,7 @@ def read_data(path) -> LammpsState:
                         source=dict(source_format="lammps data (atom_style sphere)"))
     if piston_rows.sum() == 1:
         state.piston = table[piston_rows, 4:7][0]
+        state.piston_mass = float(table[piston_rows, 3][0])  # diameter 0: the density column is the mass
     if "Velocities" in sections:
         vrows = sections["Velocities"][1]
         if len(vrows) != n or any(len(r) < 7 for r in vrows):
