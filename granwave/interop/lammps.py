@@ -18,7 +18,7 @@ Out: :func:`export_lammps` writes ``DIR/packing.data`` (``atom_style sphere``) a
 - the bottom wall: ``fix wall/gran`` at 0 along the vertical axis (rigid: k_n and k_t
   of a wall contact, E*12 = E*, G*12 = G*);
 - the piston: a flat rigid wall that moves. LAMMPS has no force-controlled granular
-  wall, so the deck carries the piston as one extra massless-size atom (type 2,
+  wall, so the deck carries the piston as one extra point atom (type 2,
   diameter 0, mass M, no pair interaction) whose height drives a
   ``fix wall/gran/region`` plane; the wall's reaction on the grains (its per-atom
   ``contacts`` output, summed) plus the constant load -p A act on that atom, which
@@ -130,8 +130,8 @@ def data_text(packing: Packing, *, piston_mass: float, margin: float) -> str:
 
 
 def _dt(packing: Packing) -> float:
-    """Time step: the packing's own when it records one, else 0.05 x 2 / omega of the
-    stiffest wall contact on the lightest grain (a conservative explicit step)."""
+    """Time step: the packing's own when it records one, else 0.1 sqrt(m_min / (2 k_max)),
+    k_max the stiffest stored contact (a conservative explicit step)."""
     dt = packing.attrs.get("dt")
     if isinstance(dt, (int, float)) and dt > 0:
         return float(dt)
@@ -228,6 +228,8 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
         raise InputError(f"cannot write into {folder}: it is a file")
     if packing.n_grains == 0:
         raise InputError("the packing has no grains")
+    if packing.dim not in (2, 3):
+        raise InputError(f"LAMMPS runs 2D and 3D systems; this packing has dim {packing.dim}")
     attrs = packing.attrs
     zeta = float(attrs.get("damping", 0.0)) if damping is None else float(damping)
     gamma = (float(attrs.get("background_damping_rate", 0.0)) if background_damping is None

@@ -281,6 +281,8 @@ def formats_markdown() -> str:
         "x, y (, z). Dimensions without a coordinate (`grain`, `contact`, `mode`, `dof`, ...)",
         "are plain netCDF dimensions. The linear file's degree-of-freedom dimension is",
         "`dof_index`, since `dof` is the name of its group of per-dof tables.",
+        "Files written before version 1.1 have no dimension scales: open them with",
+        '`xr.open_datatree(path, engine="h5netcdf", phony_dims="sort")`.',
         "",
         "## Units",
         "",
