@@ -296,7 +296,7 @@ def read_data(path) -> LammpsState:
             continue
         words = text.split()
         if words[0][0].isalpha():  # a section: its rows follow after a blank line
-            name = words[0] if words[0] != "Atoms" else "Atoms"
+            name = words[0]
             rows = []
             while k < len(lines) and not lines[k].strip():
                 k += 1
@@ -317,7 +317,7 @@ def read_data(path) -> LammpsState:
     if style and style.split()[0] != "sphere":
         _fail(path, f"unknown atom style {style.split()[0]!r}: granwave reads atom_style sphere "
                     "(id type diameter density x y z)")
-    n = int(float(header["atoms"][0]))
+    n = int(_floats(path, header["atoms"][:1], "atoms count")[0]) if header["atoms"] else -1
     if len(rows) != n:
         _fail(path, f"the Atoms section has {len(rows)} rows, the header says {n} atoms")
     short = [r for r in rows if len(r) < 7]
