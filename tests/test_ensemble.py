@@ -93,7 +93,7 @@ def test_file_round_trip(tmp_path):
     assert back.n_signals == 2 and back.attrs["ic"] == "A"
     with h5py.File(tmp_path / "e.h5") as f:
         assert f.attrs["schema"] == schema.ENSEMBLE
-        assert f["ensemble/rms"].attrs["units"] == "E* d^2"
+        assert f["ensemble/rms"].attrs["units"] == "E_star * d_bar**2"
     files.write_signal(tmp_path / "s.h5", chain())
     with pytest.raises(InputError, match="expected a granwave.ensemble file"):
         read_ensemble(tmp_path / "s.h5")

@@ -32,7 +32,7 @@ def test_packing_round_trip(tmp_path):
     assert q.attrs["seed"] == 3 and q.attrs["kind"] == "test" and q.dim == 2
     with h5py.File(tmp_path / "p.h5") as f:
         assert f.attrs["schema"] == schema.PACKING
-        assert f["contacts/overlap"].attrs["units"] == "d"
+        assert f["contacts/overlap"].attrs["units"] == "d_bar"
         assert "granwave_version" in f.attrs
 
 

@@ -56,6 +56,8 @@ STAGES = {
     "pressure-sweep": "granwave.cli.sweep:pressure_sweep",
     "plot": "granwave.cli.plot:plot",
     "report": "granwave.cli.report:report",
+    "export": "granwave.cli.export:export",
+    "import": "granwave.cli.import_:import_group",
 }
 
 

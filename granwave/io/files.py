@@ -125,10 +125,57 @@ def _set_attr(f: h5py.File, key: str, value) -> None:
 
 
 def put(f: h5py.File, schema: str, name: str, data) -> None:
-    """Write one dataset with its ``units`` attribute from the schema table."""
+    """Write one dataset with its ``units`` attribute from the schema table, its
+    extra attributes (:data:`schema.EXTRA_ATTRS`) and its named dimensions."""
     units, _ = S.DATASETS[schema][name]
     ds = f.create_dataset(name, data=np.asarray(data))
     ds.attrs["units"] = units
+    extra = S.EXTRA_ATTRS.get(schema, {}).get(name, {})
+    if "units_rotation" in extra:
+        ds.attrs["units_translation"] = units
+    for key, value in extra.items():
+        ds.attrs[key] = value
+    _name_dimensions(f, ds, S.DIMS.get(schema, {}).get(name, ()))
+
+
+#: The NAME of a dimension scale that is not a variable (netCDF-4's convention; h5netcdf
+#: and netCDF-C read such a dataset as a bare dimension).
+_BARE_DIMENSION = b"This is a netCDF dimension but not a netCDF variable."
+
+
+def _name_dimensions(f: h5py.File, ds: h5py.Dataset, dims: tuple[str, ...]) -> None:
+    """Attach HDF5 dimension scales named ``dims`` to the axes of ``ds``.
+
+    A 1D dataset named like its dimension becomes that dimension's scale (a coordinate).
+    Otherwise the scale is looked up in the dataset's group and its ancestors, and made
+    at the root when missing: the labels x, y, z for "axis", a bare dimension otherwise.
+    """
+    if len(dims) != ds.ndim:
+        return
+    base = ds.name.rsplit("/", 1)[-1]
+    if ds.ndim == 1 and base == dims[0]:
+        ds.make_scale(dims[0])
+        return
+    for axis, dim in enumerate(dims):
+        ds.dims[axis].attach_scale(_scale(f, ds.parent, dim, ds.shape[axis]))
+
+
+def _scale(f: h5py.File, group: h5py.Group, dim: str, size: int) -> h5py.Dataset:
+    while True:
+        obj = group.get(dim)
+        if isinstance(obj, h5py.Dataset) and obj.is_scale:
+            return obj
+        if group.name == "/":
+            break
+        group = group.parent
+    if dim == "axis":
+        scale = f.create_dataset(dim, data=np.array(S.AXIS_LABELS[:size], dtype=h5py.string_dtype()))
+        scale.make_scale(dim)
+        scale.attrs["units"] = "1"
+        return scale
+    scale = f.create_dataset(dim, shape=(size,), dtype=">f4")  # never written: no storage
+    scale.make_scale(_BARE_DIMENSION + f"{size:10}".encode())
+    return scale
 
 
 def _attr_value(v):

@@ -47,11 +47,21 @@ Trees (dataset: shape, units)::
     granwave.ensemble                      (analyze ensemble)
     ├── ensemble/time, ensemble/mean, ensemble/rms   (T,)
 
-The tables below (``DATASETS``) give units and a description of each name;
-``docs/formats.md`` is generated from them by ``python -m granwave.io.schema``.
+The tables below (``DATASETS``) give units and a description of each name
+(units in pint's grammar over granwave's reduced units, :mod:`granwave.units`;
+the tree above abbreviates them), ``DIMS`` the dimension names of each axis
+(HDF5 dimension scales: the files open in xarray with named dimensions, since
+version 1.1) and ``EXTRA_ATTRS`` the attributes that link contacts to grains and
+tell rotations from translations; ``docs/formats.md`` is generated from them by
+``python -m granwave.io.schema``.
 """
 
 from __future__ import annotations
+
+from .. import units as U
+
+# a_n of u = sum_n a_n phi_n with M-orthonormal phi_n in (rho d^3)^-1/2: a_n b_n is a force
+AMPLITUDE = "d_bar * (rho * d_bar**3)**0.5"
 
 PACKING = "granwave.packing"
 LINEAR = "granwave.linear"
@@ -61,12 +71,12 @@ ENSEMBLE = "granwave.ensemble"
 SWEEP = "granwave.sweep"
 
 VERSIONS = {
-    PACKING: "1.0",
-    LINEAR: "1.0",
-    MODES: "1.0",
-    SIGNAL: "1.0",
-    ENSEMBLE: "1.0",
-    SWEEP: "1.0",
+    PACKING: "1.1",
+    LINEAR: "1.1",
+    MODES: "1.1",
+    SIGNAL: "1.1",
+    ENSEMBLE: "1.1",
+    SWEEP: "1.1",
 }
 
 # Wall indices in contacts/j.
@@ -76,71 +86,158 @@ TOP_WALL = -2
 # name -> (units, description), per schema.
 DATASETS: dict[str, dict[str, tuple[str, str]]] = {
     PACKING: {
-        "grains/position": ("d", "grain centres (N, dim); bottom wall at 0 along the last axis"),
-        "grains/radius": ("d", "grain radii (N,)"),
-        "grains/mass": ("rho d^3", "grain masses rho*pi*d^3/6 (N,)"),
-        "grains/inertia": ("rho d^5", "moments of inertia m d^2/10 (N,)"),
-        "box/size": ("d", "periodic lengths, then the bottom-wall-to-piston distance (dim,)"),
-        "contacts/i": ("1", "first grain of a contact (M,)"),
-        "contacts/j": ("1", "second grain, or -1 bottom wall, -2 top wall (M,)"),
-        "contacts/normal": ("1", "unit vector from i towards j (M, dim)"),
-        "contacts/overlap": ("d", "overlap R_i + R_j - r_ij (M,)"),
-        "contacts/force_normal": ("E* d^2", "normal force magnitude; force on i is -f n (M,)"),
-        "contacts/force_tangential": ("E* d^2", "tangential force on i from j (M, dim)"),
-        "contacts/stiffness_normal": ("E* d", "k_n = dF_n/dn (M,)"),
-        "contacts/stiffness_tangential": ("E* d", "k_t (Mindlin) (M,)"),
+        "grains/position": (U.LENGTH, "grain centres (N, dim); bottom wall at 0 along the last axis"),
+        "grains/radius": (U.LENGTH, "grain radii (N,)"),
+        "grains/mass": (U.MASS, "grain masses rho*pi*d^3/6 (N,)"),
+        "grains/inertia": (U.INERTIA, "moments of inertia m d^2/10 (N,)"),
+        "box/size": (U.LENGTH, "periodic lengths, then the bottom-wall-to-piston distance (dim,)"),
+        "contacts/i": (U.DIMENSIONLESS, "first grain of a contact (M,)"),
+        "contacts/j": (U.DIMENSIONLESS, "second grain, or -1 bottom wall, -2 top wall (M,)"),
+        "contacts/normal": (U.DIMENSIONLESS, "unit vector from i towards j (M, dim)"),
+        "contacts/overlap": (U.LENGTH, "overlap R_i + R_j - r_ij (M,)"),
+        "contacts/force_normal": (U.FORCE, "normal force magnitude; force on i is -f n (M,)"),
+        "contacts/force_tangential": (U.FORCE, "tangential force on i from j (M, dim)"),
+        "contacts/stiffness_normal": (U.STIFFNESS, "k_n = dF_n/dn (M,)"),
+        "contacts/stiffness_tangential": (U.STIFFNESS, "k_t (Mindlin) (M,)"),
     },
     LINEAR: {
-        "matrix/data": ("E* d", "CSR data of the stiffness matrix D"),
-        "matrix/indices": ("1", "CSR column indices"),
-        "matrix/indptr": ("1", "CSR row pointers"),
-        "mass": ("rho d^3 | rho d^5", "diagonal of M (mass or moment of inertia) (n,)"),
-        "dof/grain": ("1", "grain index of each degree of freedom (n,)"),
-        "dof/axis": ("1", "0..dim-1 translation axis, dim.. rotation axis (n,)"),
-        "source/velocity": ("sqrt(E*/rho)", "initial velocity vector of initial condition A (n,)"),
-        "source/displacement": ("d", "initial displacement vector of initial condition B (n,)"),
-        "detector": ("E* d", "F_sig = detector . u (n,)"),
+        "matrix/data": (U.STIFFNESS, "CSR data of the stiffness matrix D"),
+        "matrix/indices": (U.DIMENSIONLESS, "CSR column indices"),
+        "matrix/indptr": (U.DIMENSIONLESS, "CSR row pointers"),
+        "mass": (U.MASS, "diagonal of M (mass or moment of inertia) (n,)"),
+        "dof/grain": (U.DIMENSIONLESS, "grain index of each degree of freedom (n,)"),
+        "dof/axis": (U.DIMENSIONLESS, "0..dim-1 translation axis, dim.. rotation axis (n,)"),
+        "source/velocity": (U.SPEED, "initial velocity vector of initial condition A (n,)"),
+        "source/displacement": (U.LENGTH, "initial displacement vector of initial condition B (n,)"),
+        "detector": (U.STIFFNESS, "F_sig = detector . u (n,)"),
     },
     MODES: {
-        "omega2": ("E*/(rho d^2)", "eigenvalues omega^2 of D phi = omega^2 M phi, ascending (n,)"),
-        "amplitude_A": ("d", "a_n for initial condition A: u = sum a_n phi_n sin(w_n t) (n,)"),
-        "amplitude_B": ("d", "a_n for initial condition B: u = sum a_n phi_n cos(w_n t) (n,)"),
-        "coupling": ("E* d / sqrt(rho d^3)", "b_n = detector . phi_n (n,)"),
-        "vectors": ("1/sqrt(rho d^3)", "M-orthonormal eigenvectors as columns (n, n), optional"),
+        "omega2": (U.OMEGA2, "eigenvalues omega^2 of D phi = omega^2 M phi, ascending (n,)"),
+        "amplitude_A": (AMPLITUDE, "a_n for initial condition A: u = sum a_n phi_n sin(w_n t) (n,)"),
+        "amplitude_B": (AMPLITUDE, "a_n for initial condition B: u = sum a_n phi_n cos(w_n t) (n,)"),
+        "coupling": (U.STIFFNESS + " / (rho * d_bar**3)**0.5", "b_n = detector . phi_n (n,)"),
+        "vectors": ("(rho * d_bar**3)**-0.5", "M-orthonormal eigenvectors as columns (n, n), optional"),
     },
     SIGNAL: {
-        "signal/time": ("d/sqrt(E*/rho)", "sample times (T,)"),
-        "signal/force": ("E* d^2", "extra vertical force on the top wall (T,)"),
-        "snapshots/time": ("d/sqrt(E*/rho)", "snapshot times (S,)"),
-        "snapshots/displacement": ("d", "displacement field at the snapshot times (S, n)"),
-        "snapshots/dof_grain": ("1", "grain index of each dof (n,)"),
-        "snapshots/dof_axis": ("1", "axis of each dof (n,)"),
-        "snapshots/position": ("d", "equilibrium grain positions (N, dim)"),
+        "signal/time": (U.TIME, "sample times (T,)"),
+        "signal/force": (U.FORCE, "extra vertical force on the top wall (T,)"),
+        "snapshots/time": (U.TIME, "snapshot times (S,)"),
+        "snapshots/displacement": (U.LENGTH, "displacement field at the snapshot times (S, n)"),
+        "snapshots/dof_grain": (U.DIMENSIONLESS, "grain index of each dof (n,)"),
+        "snapshots/dof_axis": (U.DIMENSIONLESS, "axis of each dof (n,)"),
+        "snapshots/position": (U.LENGTH, "equilibrium grain positions (N, dim)"),
     },
     ENSEMBLE: {
-        "ensemble/time": ("d/sqrt(E*/rho)", "common time grid (T,)"),
-        "ensemble/mean": ("E* d^2", "average signal (T,)"),
-        "ensemble/rms": ("E* d^2", "root-mean-square deviation from the average (T,)"),
+        "ensemble/time": (U.TIME, "common time grid (T,)"),
+        "ensemble/mean": (U.FORCE, "average signal (T,)"),
+        "ensemble/rms": (U.FORCE, "root-mean-square deviation from the average (T,)"),
     },
     SWEEP: {
-        "sweep/pressure": ("E*", "the pressures of the sweep, ascending (P,)"),
-        "sweep/n_samples": ("1", "number of sample summaries per pressure (P,)"),
-        "sweep/quantity": ("1", "names of the summarized quantities, 'section.key' (Q,) bytes"),
-        "sweep/mean": ("per quantity", "mean over the samples of each pressure (P, Q); NaN if none"),
-        "sweep/std": ("per quantity", "sample standard deviation (1/(n-1)) (P, Q); NaN if n < 2"),
-        "sweep/count": ("1", "number of samples with a finite value (P, Q)"),
-        "sweep/c_tof": ("sqrt(E*/rho)", "time-of-flight speed (10% edge) per pressure (P,)"),
-        "sweep/c_tof_err": ("sqrt(E*/rho)", "its uncertainty (P,)"),
-        "sweep/c_l": ("sqrt(E*/rho)", "continuum longitudinal speed sqrt(C22/phi3*) (P,)"),
-        "sweep/c_l_err": ("sqrt(E*/rho)", "its uncertainty (standard error of the mean) (P,)"),
-        "sweep/c_t": ("sqrt(E*/rho)", "continuum transverse speed sqrt(C33/phi3*) (P,)"),
-        "sweep/c_t_err": ("sqrt(E*/rho)", "its uncertainty (standard error of the mean) (P,)"),
-        "sweep/c_tof_over_c_l": ("1", "c_tof / c_l per pressure (P,)"),
-        "sweep/c_tof_over_c_l_err": ("1", "its propagated uncertainty (P,)"),
-        "sweep/lattice_frictionless": ("sqrt(E*/rho)", "triangular-lattice speed, no friction (P,)"),
-        "sweep/lattice_frictional": ("sqrt(E*/rho)", "triangular-lattice speed with friction (P,)"),
+        "sweep/pressure": (U.PRESSURE, "the pressures of the sweep, ascending (P,)"),
+        "sweep/n_samples": (U.DIMENSIONLESS, "number of sample summaries per pressure (P,)"),
+        "sweep/quantity": (U.DIMENSIONLESS, "names of the summarized quantities, 'section.key' (Q,) bytes"),
+        "sweep/mean": (U.DIMENSIONLESS, "mean over the samples of each pressure (P, Q); NaN if none"),
+        "sweep/std": (U.DIMENSIONLESS, "sample standard deviation (1/(n-1)) (P, Q); NaN if n < 2"),
+        "sweep/count": (U.DIMENSIONLESS, "number of samples with a finite value (P, Q)"),
+        "sweep/c_tof": (U.SPEED, "time-of-flight speed (10% edge) per pressure (P,)"),
+        "sweep/c_tof_err": (U.SPEED, "its uncertainty (P,)"),
+        "sweep/c_l": (U.SPEED, "continuum longitudinal speed sqrt(C22/phi3*) (P,)"),
+        "sweep/c_l_err": (U.SPEED, "its uncertainty (standard error of the mean) (P,)"),
+        "sweep/c_t": (U.SPEED, "continuum transverse speed sqrt(C33/phi3*) (P,)"),
+        "sweep/c_t_err": (U.SPEED, "its uncertainty (standard error of the mean) (P,)"),
+        "sweep/c_tof_over_c_l": (U.DIMENSIONLESS, "c_tof / c_l per pressure (P,)"),
+        "sweep/c_tof_over_c_l_err": (U.DIMENSIONLESS, "its propagated uncertainty (P,)"),
+        "sweep/lattice_frictionless": (U.SPEED, "triangular-lattice speed, no friction (P,)"),
+        "sweep/lattice_frictional": (U.SPEED, "triangular-lattice speed with friction (P,)"),
     },
 }
+
+# ---------------------------------------------------------------- named dimensions
+# Every dataset's axes are named (HDF5 dimension scales, so that xarray, netCDF and
+# other HDF5 tools see them): name -> dimension names, per schema. A dimension
+# whose name is also a dataset of the same group (signal/time, sweep/pressure) has
+# that dataset as its coordinate; the others are plain dimensions stored at the
+# root ("axis" with the labels x, y[, z]). The linear file names its degree-of-
+# freedom dimension ``dof_index`` because ``dof`` is already the name of its group
+# of per-dof tables (HDF5 allows one object per name).
+AXIS_LABELS = ("x", "y", "z")
+_P = ("grain",)
+_C = ("contact",)
+DIMS: dict[str, dict[str, tuple[str, ...]]] = {
+    PACKING: {
+        "grains/position": ("grain", "axis"), "grains/radius": _P, "grains/mass": _P,
+        "grains/inertia": _P, "box/size": ("axis",),
+        "contacts/i": _C, "contacts/j": _C, "contacts/normal": ("contact", "axis"),
+        "contacts/overlap": _C, "contacts/force_normal": _C,
+        "contacts/force_tangential": ("contact", "axis"), "contacts/stiffness_normal": _C,
+        "contacts/stiffness_tangential": _C,
+    },
+    LINEAR: {
+        "matrix/data": ("nonzero",), "matrix/indices": ("nonzero",), "matrix/indptr": ("row_pointer",),
+        "mass": ("dof_index",), "dof/grain": ("dof_index",), "dof/axis": ("dof_index",),
+        "source/velocity": ("dof_index",), "source/displacement": ("dof_index",),
+        "detector": ("dof_index",),
+    },
+    MODES: {
+        "omega2": ("mode",), "amplitude_A": ("mode",), "amplitude_B": ("mode",),
+        "coupling": ("mode",), "vectors": ("dof", "mode"),
+    },
+    SIGNAL: {
+        "signal/time": ("time",), "signal/force": ("time",),
+        "snapshots/time": ("time",), "snapshots/displacement": ("time", "dof"),
+        "snapshots/dof_grain": ("dof",), "snapshots/dof_axis": ("dof",),
+        "snapshots/position": ("grain", "axis"),
+    },
+    ENSEMBLE: {"ensemble/time": ("time",), "ensemble/mean": ("time",), "ensemble/rms": ("time",)},
+    SWEEP: {name: (("pressure", "quantity") if name in ("sweep/mean", "sweep/std", "sweep/count")
+                   else ("quantity",) if name == "sweep/quantity" else ("pressure",))
+            for name in DATASETS[SWEEP]},
+}
+
+# Extra attributes of some datasets. Contacts name their grains through CF's
+# ``coordinates`` (xarray makes contacts/i and contacts/j coordinates of every
+# contact variable). Datasets along the degrees of freedom mix translations and
+# rotations: ``units`` holds the translations' units, ``units_rotation`` the
+# rotations', and ``units_rule`` says how to tell the rows apart.
+_ROT_RULE = ("rows with {axis} < dim (root attribute) are translations, in units; rows with "
+             "{axis} >= dim are rotations (radians), in units_rotation")
+_CONTACT_COORDS = {"coordinates": "i j"}
+EXTRA_ATTRS: dict[str, dict[str, dict[str, str]]] = {
+    PACKING: {
+        **{name: _CONTACT_COORDS for name in DATASETS[PACKING]
+           if name.startswith("contacts/") and name not in ("contacts/i", "contacts/j")},
+        "contacts/i": {"refers_to": "grains (index along the grain dimension)"},
+        "contacts/j": {"refers_to": "grains (index along the grain dimension); -1 bottom wall, "
+                                     "-2 top wall / piston"},
+    },
+    LINEAR: {
+        "mass": {"units_rotation": U.INERTIA, "units_rule": _ROT_RULE.format(axis="dof/axis")},
+        "source/velocity": {"units_rotation": U.ANGULAR_SPEED,
+                            "units_rule": _ROT_RULE.format(axis="dof/axis")},
+        "source/displacement": {"units_rotation": U.DIMENSIONLESS,
+                                "units_rule": _ROT_RULE.format(axis="dof/axis")},
+        "detector": {"units_rotation": U.FORCE, "units_rule": _ROT_RULE.format(axis="dof/axis")},
+        "matrix/data": {"units_translation_rotation": U.FORCE, "units_rotation": U.TORQUE,
+                        "units_rule": "entry (r, c) of D is in units when r and c are translations "
+                                      "(dof/axis < dim), units_translation_rotation when one is a "
+                                      "rotation, units_rotation when both are"},
+        "dof/grain": {"refers_to": "grains of the packing this was linearized from"},
+    },
+    MODES: {
+        "vectors": {"units_rotation": "(rho * d_bar**5)**-0.5",
+                    "units_rule": _ROT_RULE.format(axis="dof/axis of the linear file")},
+    },
+    SIGNAL: {
+        "snapshots/displacement": {"units_rotation": U.DIMENSIONLESS,
+                                   "units_rule": _ROT_RULE.format(axis="snapshots/dof_axis")},
+    },
+    ENSEMBLE: {},
+    SWEEP: {
+        name: {"units_rule": "per column: the units of the summary quantity named in sweep/quantity"}
+        for name in ("sweep/mean", "sweep/std")
+    },
+}
+
 
 # Root attributes every file of a schema must carry (beyond schema, schema_version,
 # granwave_version, git_revision, command_line).
@@ -166,14 +263,63 @@ def formats_markdown() -> str:
         "dataset. Readers refuse another schema or another major version.",
         "Wall indices in `contacts/j`: bottom wall = -1, top wall / piston = -2.",
         "",
+        "## Opening a file in xarray",
+        "",
+        "Every axis of every dataset is a named dimension (HDF5 dimension scales, which",
+        "netCDF-4, h5netcdf and other HDF5 tools read too), so any granwave file opens as",
+        "a tree of labelled arrays:",
+        "",
+        "```python",
+        "import xarray as xr",
+        'tree = xr.open_datatree("signal.h5", engine="h5netcdf")',
+        'tree["signal"].dataset["force"].sel(time=10.0, method="nearest")',
+        "```",
+        "",
+        "Coordinates: `signal/force` is indexed by `signal/time` (likewise `snapshots/time`,",
+        "`ensemble/time`, `sweep/pressure`, `sweep/quantity`); every `contacts/*` variable",
+        "carries the grains `i` and `j` of its contact as coordinates; `axis` is labelled",
+        "x, y (, z). Dimensions without a coordinate (`grain`, `contact`, `mode`, `dof`, ...)",
+        "are plain netCDF dimensions. The linear file's degree-of-freedom dimension is",
+        "`dof_index`, since `dof` is the name of its group of per-dof tables.",
+        "Files written before version 1.1 have no dimension scales: open them with",
+        '`xr.open_datatree(path, engine="h5netcdf", phony_dims="sort")`.',
+        "",
+        "## Units",
+        "",
+        "`units` attributes are written for the [pint](https://pint.readthedocs.io) units",
+        "library in granwave's reduced units (docs/method.md §1): `d_bar` (mean grain",
+        "diameter), `rho` (grain density), `E_star` (grain modulus E/(1-nu^2)); time is",
+        "`d_bar * (rho / E_star)**0.5`. They are defined once, in `granwave.units`:",
+        "",
+        "```python",
+        "from granwave.units import registry",
+        "ureg = registry()                                   # reduced units",
+        'ureg = registry(diameter="1 mm", density="2500 kg/m^3", modulus="70 GPa")  # to SI',
+        'ureg.parse_units(tree["signal"].dataset["time"].attrs["units"])',
+        "```",
+        "",
+        "Datasets along the degrees of freedom mix translations and rotations (the linear",
+        "file's `mass` holds masses, rho d^3, and moments of inertia, rho d^5): there `units`",
+        "(= `units_translation`) holds the translations' units, `units_rotation` the",
+        "rotations' (rotations in radians), and `units_rule` says which rows are which",
+        "(`dof/axis` >= `dim`: a rotation). `matrix/data` has a third kind,",
+        "`units_translation_rotation`, for entries coupling a translation to a rotation.",
+        "",
     ]
     for schema, table in DATASETS.items():
         lines += [f"## `{schema}` (version {VERSIONS[schema]})", ""]
         req = ", ".join(f"`{a}`" for a in REQUIRED_ATTRS[schema]) or "none beyond provenance"
         lines += [f"Required root attributes: {req}.", ""]
         if table:
-            lines += ["| dataset | units | meaning |", "|---|---|---|"]
-            lines += [f"| `{name}` | {units} | {desc} |" for name, (units, desc) in table.items()]
+            dims = DIMS.get(schema, {})
+            extra = EXTRA_ATTRS.get(schema, {})
+            lines += ["| dataset | dimensions | units | meaning |", "|---|---|---|---|"]
+            for name, (units, desc) in table.items():
+                dim = ", ".join(dims.get(name, ()))
+                unit = f"`{units}`"
+                if "units_rotation" in extra.get(name, {}):
+                    unit += f"; rotations `{extra[name]['units_rotation']}`"
+                lines.append(f"| `{name}` | ({dim}) | {unit} | {desc} |")
             lines.append("")
     return "\n".join(lines)
 
