@@ -71,19 +71,15 @@ def _paths(value) -> list[str]:
 
 def _check_outputs(kwargs: dict) -> None:
     """Refuse, before computing, an output that is '-', not a regular file, or an input."""
-    from ..io.files import check_writable, same_file_as
-
-    outputs = [(k, v) for k, v in kwargs.items() if (k == "output" or k.endswith("_output")) and v]
+    outputs = [v for k, v in kwargs.items() if (k == "output" or k.endswith("_output")) and v]
     if not outputs:
         return
+    from ..io.files import check_target
+
     inputs = [p for k, v in kwargs.items() if k != "output" and not k.endswith("_output")
               for p in _paths(v)]
-    for _, out in outputs:
-        check_writable(out)
-        same = same_file_as(out, inputs)
-        if same is not None:
-            raise InputError(f"cannot write {out}: it is the input file {same}; "
-                             "choose another output name")
+    for out in outputs:
+        check_target(out, inputs)
 
 
 def stage(func):

@@ -81,36 +81,44 @@ def same_file_as(path: str | os.PathLike, candidates) -> str | None:
     return None
 
 
-def check_writable(path: str | os.PathLike, *, replace_input: bool = False) -> Path:
-    """Fail early (before any computation) if ``path`` cannot or must not be written.
+def check_target(path: str | os.PathLike, inputs=None) -> None:
+    """Refuse a target whose replacement would destroy something.
 
-    Refused: ``-`` (no stage writing through here writes to standard output), a
-    missing or read-only folder, an existing target that is not a regular file,
-    and (unless ``replace_input``: a stage that updates a file in place) a target
-    that is the same file as one read in this process.
+    Refused: ``-`` (no stage writing through here writes to standard output), an
+    existing target that is not a regular file (a folder, a device such as
+    /dev/null, a FIFO), and a target that is the same file as one of ``inputs``
+    (default: every file read in this process; ``()``: none).
     """
     if str(path) == "-":
         raise InputError("cannot write to '-' (standard output): this output must be a file name")
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return  # absent (or a dangling link, which the rename replaces)
+    if not stat.S_ISREG(mode):
+        kind = ("a folder" if stat.S_ISDIR(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "not a regular file")
+        raise InputError(f"cannot write {path}: it is {kind}, not a regular file")
+    same = same_file_as(path, _INPUTS if inputs is None else inputs)
+    if same is not None:
+        raise InputError(f"cannot write {path}: it is the input file {same}; "
+                         "choose another output name")
+
+
+def check_writable(path: str | os.PathLike, *, replace_input: bool = False) -> Path:
+    """Fail early (before any computation) if ``path`` cannot or must not be written.
+
+    Besides :func:`check_target` (``replace_input``: a stage that updates a file in
+    place may replace a file it read), the folder must exist and be writable.
+    """
+    check_target(path, () if replace_input else None)
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"cannot write {path}: folder {folder} does not exist")
     if not os.access(folder, os.W_OK):
         raise InputError(f"cannot write {path}: folder {folder} is not writable")
-    try:
-        mode = os.stat(path).st_mode
-    except OSError:
-        mode = None  # absent (or a dangling link, which the rename replaces)
-    if mode is not None and not stat.S_ISREG(mode):
-        kind = ("a folder" if stat.S_ISDIR(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-                else "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
-                else "not a regular file")
-        raise InputError(f"cannot write {path}: it is {kind}, not a regular file")
-    if not replace_input:
-        same = same_file_as(path, _INPUTS)
-        if same is not None:
-            raise InputError(f"cannot write {path}: it is the input file {same}; "
-                             "choose another output name")
     return path
 
 
