@@ -341,3 +341,11 @@ def test_limits_are_the_parameter_ranges():
     PrepareParams(poisson=validate.POISSON_MIN)
     with pytest.raises(InputError):
         PrepareParams(poisson=validate.POISSON_MAX)
+
+
+def test_layout_covers_every_documented_dataset():
+    from granwave.io import schema as S
+
+    for name, table in S.DATASETS.items():
+        assert set(S.LAYOUT[name]) == set(table), name
+        assert S.OPTIONAL[name] <= set(table), name

@@ -247,14 +247,30 @@ def formats_markdown() -> str:
         "dataset. Readers refuse another schema or another major version.",
         "Wall indices in `contacts/j`: bottom wall = -1, top wall / piston = -2.",
         "",
+        "Every reader validates a file before any stage uses it (`granwave/io/validate.py`):",
+        "presence, dtype and shape of every dataset as in the tables below (a symbol such as",
+        "N stands for the same size throughout one file; `dim` is the root attribute), index",
+        "ranges (CSR `indptr` from 0 to nnz and non-decreasing, `indices` and contact indices",
+        "in range), finite values, and the physical invariants: radii, masses, moments of",
+        "inertia and box lengths > 0; centres between the walls; overlaps >= 0 and at most a",
+        "quarter of the smaller radius; no two centres closer than the radii and the stored",
+        "overlap allow; friction >= 0, 0 <= Poisson ratio < 0.5, pressure >= 0, height > 0.",
+        "A failure is one line naming the file, the dataset and what is wrong.",
+        "",
     ]
     for schema, table in DATASETS.items():
         lines += [f"## `{schema}` (version {VERSIONS[schema]})", ""]
         req = ", ".join(f"`{a}`" for a in REQUIRED_ATTRS[schema]) or "none beyond provenance"
         lines += [f"Required root attributes: {req}.", ""]
         if table:
-            lines += ["| dataset | units | meaning |", "|---|---|---|"]
-            lines += [f"| `{name}` | {units} | {desc} |" for name, (units, desc) in table.items()]
+            layout, optional = LAYOUT.get(schema, {}), OPTIONAL.get(schema, frozenset())
+            lines += ["| dataset | dtype | shape | units | meaning |", "|---|---|---|---|---|"]
+            for name, (units, desc) in table.items():
+                kind, shape = layout.get(name, ("", ()))
+                dtype = {"f": "float", "i": "int", "S": "bytes"}.get(kind, "")
+                dims = f"({', '.join(map(str, shape))}{',' if len(shape) == 1 else ''})" if kind else ""
+                flag = " (optional)" if name in optional else ""
+                lines.append(f"| `{name}`{flag} | {dtype} | {dims} | {units} | {desc} |")
             lines.append("")
     return "\n".join(lines)
 
