@@ -159,4 +159,5 @@ def check_eigensolve(n_dof: int, k: int | None = None, tridiagonal: bool = False
 def check_propagate(n_dof: int, samples: int, snapshots: int = 0) -> None:
     """A signal of ``samples`` samples and ``snapshots`` displacement fields of ``n_dof`` dofs."""
     need = 4 * DOUBLE * float(samples) + 3 * DOUBLE * float(snapshots) * float(n_dof)
-    require_memory(need, f"a signal of {samples} samples and {snapshots} snapshots of {n_dof} dofs")
+    shots = f" and {snapshots} snapshots of {n_dof} dofs" if snapshots else ""
+    require_memory(need, f"a signal of {samples} samples{shots}")

@@ -275,3 +275,17 @@ def test_memory_error_anywhere_is_one_line():
     r = CliRunner().invoke(greedy, [])
     assert r.exit_code == 2 and r.output.startswith("Error: out of memory: the request does not fit (")
     assert len(r.output.strip().splitlines()) == 1
+
+
+def test_a_file_declaring_huge_datasets_is_refused_before_reading(tmp_path):
+    """HDF5 stores a never-written dataset in no space: its declared size is checked first."""
+    p = tmp_path / "s.h5"
+    files.write_signal(p, modal_propagate(eigensolve(linearize(systems.chain(n_balls=3, pressure=1e-4))),
+                                          ic="A", t_max=5.0, samples=10))
+    with h5py.File(p, "a") as f:
+        for name in ("signal/time", "signal/force"):
+            del f[name]
+            f.create_dataset(name, shape=(10**13,), dtype="f8")  # 80 TB declared, nothing stored
+    assert p.stat().st_size < 1_000_000
+    with pytest.raises(ResourceError, match=r"reading .*s\.h5 needs about 160 TB of memory"):
+        files.read_signal(p)

@@ -388,8 +388,16 @@ def _get(f: h5py.File, path, name: str) -> np.ndarray:
 
 
 def _read_all(f: h5py.File, path, schema: str, skip=()) -> dict:
-    """Every dataset of ``schema`` present in ``f`` (layout already checked), by name."""
-    return {name: _read(f, path, name) for name in S.LAYOUT[schema] if name in f and name not in skip}
+    """Every dataset of ``schema`` present in ``f`` (layout already checked), by name.
+
+    The size the file declares is checked against the available memory first: a
+    damaged file may declare a dataset far larger than the data it holds.
+    """
+    from ..resources import require_memory
+
+    names = [name for name in S.LAYOUT[schema] if name in f and name not in skip]
+    require_memory(sum(float(f[n].size) * f[n].dtype.itemsize for n in names), f"reading {path}")
+    return {name: _read(f, path, name) for name in names}
 
 
 def _nbytes(*arrays) -> int:
