@@ -149,7 +149,7 @@ def _dead_pid() -> int:
 
 
 def test_stale_temporaries_of_killed_runs_are_removed(tmp_path):
-    host = files._TAG.split("h", 1)[1]
+    host = files._HOST
     killed = tmp_path / f".out.h5.p{_dead_pid()}h{host}.k1ll3d00.tmp"
     live = tmp_path / f".out.h5.p{os.getppid()}h{host}.l1ve0000.tmp"  # a live writer's file
     old_legacy = tmp_path / ".out.h5.abcd1234.tmp"  # an older granwave's name, hours old

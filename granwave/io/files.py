@@ -53,9 +53,15 @@ _INPUTS: dict[str, None] = {}
 #: A temporary file of another host, or of an older granwave, is stale after this long (s).
 STALE_AGE = 3600.0
 
-#: Tag in temporary names: this process and host, so the next run can tell a killed
-#: writer's leftovers from a live writer's file.
-_TAG = f"p{os.getpid()}h{zlib.crc32(socket.gethostname().encode()):08x}"
+#: This host, in the tag of temporary names (see :func:`_tag`).
+_HOST = f"{zlib.crc32(socket.gethostname().encode()):08x}"
+
+
+def _tag() -> str:
+    """Tag in temporary names: the writing process and host, so that the next run can
+    tell a killed writer's leftovers from a live writer's file (computed per call: a
+    forked worker has its own pid)."""
+    return f"p{os.getpid()}h{_HOST}"
 
 
 def record_input(path: str | os.PathLike) -> None:
@@ -154,7 +160,6 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
     """
     removed = []
     prefix = f".{path.name}."
-    my_host = _TAG.split("h", 1)[1]
     try:
         entries = list(os.scandir(path.parent if str(path.parent) else "."))
     except OSError:
@@ -170,7 +175,7 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
             stale = now - e.stat(follow_symlinks=False).st_mtime > STALE_AGE
             if tag.startswith("p") and "h" in tag:
                 pid, host = tag[1:].split("h", 1)
-                if host == my_host and pid.isdigit() and int(pid) != os.getpid():
+                if host == _HOST and pid.isdigit() and int(pid) != os.getpid():
                     stale = stale or not _pid_alive(int(pid))
             if stale:
                 os.unlink(e.path)
@@ -183,7 +188,7 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
 def _temporary(path: Path, suffix: str = "") -> str:
     """A new empty file beside ``path``, with the permissions the umask gives new files."""
     remove_stale_temporaries(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_TAG}.", suffix=f"{suffix}.tmp",
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_tag()}.", suffix=f"{suffix}.tmp",
                                dir=path.parent if str(path.parent) else ".")
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; outputs are ordinary files
@@ -404,7 +409,8 @@ def _nbytes(*arrays) -> int:
     total = 0
     for a in arrays:
         if a is not None:
-            total += a.data.nbytes + a.indices.nbytes + a.indptr.nbytes if sp.issparse(a) else np.asarray(a).nbytes
+            parts = (a.data, a.indices, a.indptr) if sp.issparse(a) else (np.asarray(a),)
+            total += sum(x.nbytes for x in parts)
     return total
 
 

@@ -207,8 +207,9 @@ def packing(path, a: dict, attrs: dict) -> None:
         if np.any(bad):
             k = int(np.flatnonzero(grain)[np.flatnonzero(bad)[0]])
             kk = int(np.flatnonzero(bad)[0])
-            _fail(path, "contacts/overlap", f"contact {k} (grains {i[k]}, {j[k]}): centre distance "
-                                            f"{r[kk]:.9g} is less than R_i + R_j - overlap = {claimed[kk]:.9g}")
+            _fail(path, "contacts/overlap",
+                  f"contact {k} (grains {i[k]}, {j[k]}): centre distance {r[kk]:.9g} is less "
+                  f"than R_i + R_j - overlap = {claimed[kk]:.9g}")
     for wall, gap_of in ((S.BOTTOM_WALL, lambda y: y), (S.TOP_WALL, lambda y: box[-1] - y)):
         w = j == wall
         if np.any(w):
