@@ -362,3 +362,17 @@ def test_the_stiffest_prepared_packings_pass(tmp_path):
     q = files.read_packing(tmp_path / "p.h5")
     ratio = q.contacts.overlap / q.radius[q.contacts.i]
     assert 0.25 < ratio.max() < validate.MAX_OVERLAP_FRACTION  # overlaps are large, still accepted
+
+
+def test_unsorted_and_repeated_snapshot_times_are_valid(tmp_path):
+    """Snapshots are stored in the order asked for; only sample times must increase."""
+    system = linearize(systems.chain(n_balls=4, pressure=1e-4))
+    modes = eigensolve(system, vectors=True)
+    sig = modal_propagate(modes, ic="B", t_max=10.0, samples=20, snapshots=[5.0, 1.0, 1.0],
+                          dof_grain=system.dof_grain, dof_axis=system.dof_axis)
+    files.write_signal(tmp_path / "s.h5", sig)
+    np.testing.assert_array_equal(files.read_signal(tmp_path / "s.h5").snapshot_time, [5.0, 1.0, 1.0])
+    with h5py.File(tmp_path / "s.h5", "a") as f:
+        f["snapshots/time"][0] = -1.0
+    with pytest.raises(InputError, match="snapshots/time: must be >= 0, entry 0 is -1"):
+        files.read_signal(tmp_path / "s.h5")
