@@ -240,7 +240,9 @@ def _no_hidden_overlaps(path, pos, radius, box, ci, cj) -> None:
     size[-1] = 2.0 * (wrapped[:, -1].max() + 4.0 * radius.max()) + 1.0
     wrapped = np.minimum(wrapped, np.nextafter(size, 0))  # mod may round up to exactly L
     tree = cKDTree(wrapped, boxsize=size)
-    pairs = tree.query_pairs(2.0 * float(radius.max()), output_type="ndarray")
+    # Only pairs closer than the largest distance that could be refused.
+    cutoff = 2.0 * float(radius.max()) - MAX_OVERLAP_FRACTION * float(radius.min())
+    pairs = tree.query_pairs(cutoff, output_type="ndarray")
     if not len(pairs):
         return
     p, q = pairs[:, 0], pairs[:, 1]
