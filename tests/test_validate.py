@@ -51,7 +51,11 @@ def make_files(folder: Path) -> dict:
 
 @pytest.fixture(scope="module")
 def valid(tmp_path_factory):
-    return make_files(tmp_path_factory.mktemp("valid"))
+    out = make_files(tmp_path_factory.mktemp("valid"))
+    s = files.read_signal(out["signal"])
+    out["ensemble"] = out["signal"].with_name("ensemble.h5")
+    write_ensemble(out["ensemble"], ensemble_average([s, s]))
+    return out
 
 
 def copy(src: Path, dst: Path) -> Path:
@@ -290,7 +294,7 @@ def _corrupt(rng: np.random.Generator, path: Path) -> str:
 
 _READERS = {
     "packing": "read_packing", "chain": "read_packing", "linear": "read_linear",
-    "modes": "read_modes", "signal": "read_signal",
+    "modes": "read_modes", "signal": "read_signal", "ensemble": None,
 }
 
 
@@ -299,7 +303,7 @@ def fuzz(kind: str, valid_path: str, folder: str, seed: int, cases: int) -> list
     from granwave.linear.assemble import asymmetry
 
     rng = np.random.default_rng(seed)
-    reader = getattr(files, _READERS[kind])
+    reader = read_ensemble if kind == "ensemble" else getattr(files, _READERS[kind])
     problems = []
     for case in range(cases):
         p = Path(folder) / f"{kind}_{case}.h5"
@@ -312,6 +316,8 @@ def fuzz(kind: str, valid_path: str, folder: str, seed: int, cases: int) -> list
             if kind == "linear":
                 asymmetry(obj.stiffness)
                 obj.stiffness @ np.ones(obj.n_dof)
+            if kind in ("packing", "chain"):
+                linearize(obj, check=False, force=True)
         except InputError as exc:
             msg = str(exc)
             if "\n" in msg or str(p) not in msg:
@@ -323,7 +329,7 @@ def fuzz(kind: str, valid_path: str, folder: str, seed: int, cases: int) -> list
     return problems
 
 
-@pytest.mark.parametrize("kind", ["packing", "chain", "linear", "modes", "signal"])
+@pytest.mark.parametrize("kind", ["packing", "chain", "linear", "modes", "signal", "ensemble"])
 def test_randomly_corrupted_files_give_a_clean_error_or_a_correct_result(valid, tmp_path, kind):
     code = ("import json, sys; sys.path.insert(0, sys.argv[1]); import test_validate as T; "
             "print(json.dumps(T.fuzz(sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5]), 40)))")
