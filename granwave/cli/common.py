@@ -71,7 +71,8 @@ def _paths(value) -> list[str]:
 
 def _check_outputs(kwargs: dict) -> None:
     """Refuse, before computing, an output that is '-', not a regular file, or an input."""
-    outputs = [v for k, v in kwargs.items() if (k == "output" or k.endswith("_output")) and v]
+    outputs = [v for k, v in kwargs.items()
+               if (k == "output" or k.endswith("_output")) and isinstance(v, (str, os.PathLike)) and v]
     if not outputs:
         return
     from ..io.files import check_target
