@@ -188,8 +188,11 @@ def remove_stale_temporaries(path: Path) -> list[Path]:
 def _temporary(path: Path, suffix: str = "") -> str:
     """A new empty file beside ``path``, with the permissions the umask gives new files."""
     remove_stale_temporaries(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_tag()}.", suffix=f"{suffix}.tmp",
-                               dir=path.parent if str(path.parent) else ".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_tag()}.", suffix=f"{suffix}.tmp",
+                                   dir=path.parent if str(path.parent) else ".")
+    except OSError as exc:  # no space or no inode left for even an empty file
+        raise _write_failure(path, exc) from None
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; outputs are ordinary files
     return tmp
