@@ -1,12 +1,20 @@
 """Errors a user can cause (bad input), as opposed to bugs.
 
 Every stage raises :class:`InputError` for problems with its input files or
-parameters; the CLI turns it into a one-line message and a non-zero exit.
+parameters; the CLI turns it into a one-line message and exit status 2.
 """
 
 
 class InputError(ValueError):
     """Bad input: a parameter out of range, a foreign file, an unconverged packing..."""
+
+
+class ResourceError(InputError):
+    """A request that cannot fit: its memory or disk estimate exceeds what is available."""
+
+
+class OutputError(Exception):
+    """An output could not be written (disk full, I/O error); no partial file is left."""
 
 
 class ConvergenceError(RuntimeError):

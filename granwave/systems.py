@@ -55,6 +55,7 @@ from . import contact
 from .errors import InputError
 from .io import schema as _schema  # noqa: F401  (import order: granwave.model needs granwave.io first)
 from .model import Contacts, Packing
+from .resources import check_chain, check_lattice
 
 SQRT3 = math.sqrt(3.0)
 
@@ -105,6 +106,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     if int(width) != width or width < 3:
         raise InputError(f"width must be an integer >= 3 (periodic neighbours must differ), got {width}")
     rows, width = int(rows), int(width)
+    check_lattice(rows, width)  # refuse a request that cannot fit, before allocating
     _check_common(pressure, friction, poisson)
     radius = 0.5
     r12_g, e12_g = contact.effective_radius(1 / radius, 1 / radius), contact.effective_young(False)
@@ -192,6 +194,7 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     if int(n_balls) != n_balls or n_balls < 1:
         raise InputError(f"n_balls must be a positive integer, got {n_balls}")
     n = int(n_balls)
+    check_chain(n)  # refuse a request that cannot fit, before allocating
     _check_common(pressure, 0.0, 0.0)
     if not (np.isfinite(polydispersity) and 0.0 <= polydispersity < 1.0):
         raise InputError(f"polydispersity must be in [0, 1), got {polydispersity}")

@@ -247,8 +247,8 @@ def update_summary_file(path, *, section: str | None = None, data=None, **fields
         validate_summary(summary, str(path))
     from ..io.files import check_writable
 
-    check_writable(path)
-    atomic_text(path, json.dumps(summary, indent=1) + "\n")
+    check_writable(path, replace_input=True)  # an update in place: the input is this file
+    atomic_text(path, json.dumps(summary, indent=1) + "\n", replace_input=True)
     return summary
 
 

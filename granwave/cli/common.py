@@ -5,13 +5,14 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
 import signal
 import sys
 
 import click
 import numpy as np
 
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError, InputError, OutputError
 
 
 class FiniteFloat(click.ParamType):
@@ -56,9 +57,38 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+class Refusal(click.ClickException):
+    """Bad input, refused before any output is written: one line, exit status 2."""
+
+    exit_code = 2
+
+
+def _paths(value) -> list[str]:
+    """The file paths among a click parameter's value (a path or a tuple of paths)."""
+    items = value if isinstance(value, (list, tuple)) else [value]
+    return [str(v) for v in items if isinstance(v, (str, os.PathLike)) and os.path.isfile(v)]
+
+
+def _check_outputs(kwargs: dict) -> None:
+    """Refuse, before computing, an output that is '-', not a regular file, or an input."""
+    outputs = [v for k, v in kwargs.items()
+               if (k == "output" or k.endswith("_output")) and isinstance(v, (str, os.PathLike)) and v]
+    if not outputs:
+        return
+    from ..io.files import check_target
+
+    inputs = [p for k, v in kwargs.items() if k != "output" and not k.endswith("_output")
+              for p in _paths(v)]
+    for out in outputs:
+        check_target(out, inputs)
+
+
 def stage(func):
     """Turn user errors into a one-line message and a non-zero exit (no traceback).
 
+    Exit status 2: bad input (InputError, an output that would replace an input or
+    a device, a request too large for the machine, MemoryError); 1: a stage that
+    did not converge or an output that could not be written (disk full).
     SIGTERM (a scheduler's time limit, Snakemake stopping its jobs) is handled like
     Ctrl-C, so that an interrupted atomic write removes its temporary file.
     """
@@ -67,11 +97,19 @@ def stage(func):
     def wrapper(*args, **kwargs):
         signal.signal(signal.SIGTERM, _interrupt)
         try:
+            _check_outputs(kwargs)
             return func(*args, **kwargs)
         except InputError as exc:
+            raise Refusal(str(exc)) from None
+        except OutputError as exc:
             raise click.ClickException(str(exc)) from None
         except ConvergenceError as exc:
             raise click.ClickException(f"not converged: {exc}") from None
+        except MemoryError:
+            from ..resources import available_memory, format_bytes
+
+            raise Refusal(f"out of memory: the request does not fit ({format_bytes(available_memory())} "
+                          "available); reduce it") from None
         except KeyboardInterrupt:
             click.echo("\ninterrupted; no output written", err=True)
             sys.exit(130)

@@ -47,6 +47,7 @@ from .. import contact as C
 from ..errors import ConvergenceError, InputError
 from ..geometry import grain_inertia, grain_mass, grain_measure, lateral_size, wall_area, wrap
 from ..model import Packing
+from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
 from .integrator import Engine
 from .params import PrepareParams
@@ -125,6 +126,7 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     -2 top) and records the protocol in ``attrs``.
     """
     p = params
+    check_prepare(p.grains, p.dim)  # refuse a request that cannot fit, before allocating
     rng = np.random.default_rng(p.seed)
     w = p.polydispersity
     diameter = rng.uniform(1.0 - w, 1.0 + w, size=p.grains) if w > 0 else np.ones(p.grains)

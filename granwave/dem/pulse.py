@@ -64,6 +64,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Packing, Signal
+from ..resources import check_propagate
 from . import kernels as K
 from . import pulse_kernels as PK
 from .integrator import Engine
@@ -256,6 +257,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     if int(samples) != samples or samples < 2:
         raise InputError(f"need at least 2 samples (got {samples})")
     samples = int(samples)
+    check_propagate(packing.n_grains * packing.dim, samples)  # refuse a signal that cannot fit
     if str(packing.attrs.get("converged", True)) in ("False", "false", "0"):
         raise InputError("the packing is not converged (attrs converged = False)")
     times = np.linspace(0.0, float(t_max), samples)

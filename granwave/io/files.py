@@ -2,16 +2,31 @@
 
 Writes are atomic: the file is built under a temporary name in the target
 folder and renamed into place only when complete, so a stage killed halfway
-never leaves a file that looks finished. Readers check the schema name and
-major version and refuse anything else with an :class:`InputError`.
+never leaves a file that looks finished. Every write goes through
+:func:`check_writable`, which refuses an output that would destroy something:
+``-``, an existing target that is not a regular file (a folder, a device such
+as /dev/null, a FIFO) and a target that is the same file (path, hard or
+symbolic link) as a file read in this process. Outputs get the permissions the
+umask allows; temporary files left by killed runs are removed by the next
+write of the same output; a write that fails (disk full) leaves no file and
+raises :class:`~granwave.errors.OutputError` with one line.
+
+Readers check the schema name and major version, then validate every dataset
+(:mod:`granwave.io.validate`) before returning, and refuse anything else with
+an :class:`InputError`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
+import socket
+import stat
 import tempfile
+import time
+import zlib
 from pathlib import Path
 from typing import Iterator
 
@@ -19,10 +34,11 @@ import h5py
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import InputError
+from ..errors import InputError, OutputError
 from ..model import Contacts, LinearSystem, Modes, Packing, Signal
 from ..provenance import provenance_attrs
 from . import schema as S
+from . import validate as V
 
 
 # ---------------------------------------------------------------- generic layer
@@ -30,27 +46,204 @@ from . import schema as S
 RESERVED_ATTRS = frozenset({"schema", "schema_version", "granwave_version", "git_revision",
                             "command_line"})
 
+#: Absolute paths of every file read in this process (insertion ordered), so that no
+#: write replaces one of them (checked by identity: links count).
+_INPUTS: dict[str, None] = {}
 
-def check_writable(path: str | os.PathLike) -> Path:
-    """Fail early (before any computation) if ``path`` cannot be written."""
+#: A temporary file of another host, or of an older granwave, is stale after this long (s).
+STALE_AGE = 3600.0
+
+#: This host, in the tag of temporary names (see :func:`_tag`).
+_HOST = f"{zlib.crc32(socket.gethostname().encode()):08x}"
+
+
+def _tag() -> str:
+    """Tag in temporary names: the writing process and host, so that the next run can
+    tell a killed writer's leftovers from a live writer's file (computed per call: a
+    forked worker has its own pid)."""
+    return f"p{os.getpid()}h{_HOST}"
+
+
+def record_input(path: str | os.PathLike) -> None:
+    """Remember that ``path`` was read: later writes refuse to replace it."""
+    _INPUTS[os.path.abspath(path)] = None
+
+
+def inputs_read() -> list[str]:
+    """The files read so far in this process (absolute paths)."""
+    return list(_INPUTS)
+
+
+def same_file_as(path: str | os.PathLike, candidates) -> str | None:
+    """The first of ``candidates`` that is the same file as ``path`` (links count), or None."""
+    if not os.path.exists(path):
+        return None
+    for c in candidates:
+        try:
+            if os.path.samefile(c, path):
+                return str(c)
+        except (OSError, TypeError, ValueError):
+            continue
+    return None
+
+
+def check_target(path: str | os.PathLike, inputs=None) -> None:
+    """Refuse a target whose replacement would destroy something.
+
+    Refused: ``-`` (no stage writing through here writes to standard output), an
+    existing target that is not a regular file (a folder, a device such as
+    /dev/null, a FIFO), and a target that is the same file as one of ``inputs``
+    (default: every file read in this process; ``()``: none).
+    """
+    if str(path) == "-":
+        raise InputError("cannot write to '-' (standard output): this output must be a file name")
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return  # absent (or a dangling link, which the rename replaces)
+    if not stat.S_ISREG(mode):
+        kind = ("a folder" if stat.S_ISDIR(mode) else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "a FIFO" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "not a regular file")
+        raise InputError(f"cannot write {path}: it is {kind}, not a regular file")
+    same = same_file_as(path, _INPUTS if inputs is None else inputs)
+    if same is not None:
+        raise InputError(f"cannot write {path}: it is the input file {same}; "
+                         "choose another output name")
+
+
+def check_writable(path: str | os.PathLike, *, replace_input: bool = False) -> Path:
+    """Fail early (before any computation) if ``path`` cannot or must not be written.
+
+    Besides :func:`check_target` (``replace_input``: a stage that updates a file in
+    place may replace a file it read), the folder must exist and be writable.
+    """
+    check_target(path, () if replace_input else None)
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"cannot write {path}: folder {folder} does not exist")
     if not os.access(folder, os.W_OK):
         raise InputError(f"cannot write {path}: folder {folder} is not writable")
-    if path.is_dir():
-        raise InputError(f"cannot write {path}: it is a folder")
     return path
 
 
-@contextlib.contextmanager
-def atomic_h5(path: str | os.PathLike, schema: str, attrs: dict) -> Iterator[h5py.File]:
-    """Open a new HDF5 file for writing; it appears at ``path`` only on success."""
-    path = check_writable(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    os.close(fd)
+def _umask() -> int:
     try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)  # no read-only query elsewhere: set and restore
+    os.umask(mask)
+    return mask
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # exists, owned by someone else
+    return True
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Remove ``.NAME.*.tmp`` files beside ``path`` left by killed writers; return them.
+
+    A temporary of this host whose writer process is gone is stale at once; one of
+    another host or an older naming only after STALE_AGE seconds without change
+    (a live writer on a shared file system keeps modifying its file).
+    """
+    removed = []
+    prefix = f".{path.name}."
+    try:
+        entries = list(os.scandir(path.parent if str(path.parent) else "."))
+    except OSError:
+        return removed
+    now = time.time()
+    for e in entries:
+        if not (e.name.startswith(prefix) and e.name.endswith(".tmp")):
+            continue
+        try:
+            if not e.is_file(follow_symlinks=False):
+                continue
+            tag = e.name[len(prefix):].split(".", 1)[0]
+            stale = now - e.stat(follow_symlinks=False).st_mtime > STALE_AGE
+            if tag.startswith("p") and "h" in tag:
+                pid, host = tag[1:].split("h", 1)
+                if host == _HOST and pid.isdigit() and int(pid) != os.getpid():
+                    stale = stale or not _pid_alive(int(pid))
+            if stale:
+                os.unlink(e.path)
+                removed.append(Path(e.path))
+        except (OSError, ValueError):
+            continue
+    return removed
+
+
+def _temporary(path: Path, suffix: str = "") -> str:
+    """A new empty file beside ``path``, with the permissions the umask gives new files."""
+    remove_stale_temporaries(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_tag()}.", suffix=f"{suffix}.tmp",
+                                   dir=path.parent if str(path.parent) else ".")
+    except OSError as exc:  # no space or no inode left for even an empty file
+        raise _write_failure(path, exc) from None
+    os.close(fd)
+    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; outputs are ordinary files
+    return tmp
+
+
+def _write_failure(path: Path, exc: OSError) -> OutputError:
+    """One line for a failed write: a full disk says so and how much space is left."""
+    text = str(exc)
+    if getattr(exc, "errno", None) == errno.ENOSPC or "No space left" in text:
+        from ..resources import available_disk, format_bytes
+
+        free = available_disk(path.parent if str(path.parent) else ".")
+        reason = f"no space left on the device ({format_bytes(free)} free); no output written"
+    else:
+        first = text.splitlines()[0] if text else exc.__class__.__name__
+        reason = f"{getattr(exc, 'strerror', None) or first}; no output written"
+    return OutputError(f"cannot write {path}: {reason}")
+
+
+@contextlib.contextmanager
+def _replace_on_success(path: Path, tmp: str, replace_input: bool) -> Iterator[None]:
+    """Rename ``tmp`` to ``path`` when the body succeeds; remove it otherwise."""
+    try:
+        yield
+        check_writable(path, replace_input=replace_input)  # the target may have appeared meanwhile
+        os.replace(tmp, path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise _write_failure(path, exc) from None
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def atomic_h5(path: str | os.PathLike, schema: str, attrs: dict, *,
+              nbytes: int = 0) -> Iterator[h5py.File]:
+    """Open a new HDF5 file for writing; it appears at ``path`` only on success.
+
+    ``nbytes``: the size of the data to be written, checked against the free disk
+    space before anything is written (0: not checked).
+    """
+    path = check_writable(path)
+    if nbytes:
+        from ..resources import require_disk
+
+        require_disk(path.parent if str(path.parent) else Path("."), nbytes, f"writing {path}")
+    tmp = _temporary(path)
+    with _replace_on_success(path, tmp, False):
         with h5py.File(tmp, "w") as f:
             # Attributes copied from an input file may carry that file's schema name and
             # provenance: this file's own are written last so they always win.
@@ -62,11 +255,6 @@ def atomic_h5(path: str | os.PathLike, schema: str, attrs: dict) -> Iterator[h5p
             f.attrs["schema"] = schema
             f.attrs["schema_version"] = S.VERSIONS[schema]
             yield f
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
 @contextlib.contextmanager
@@ -78,33 +266,26 @@ def atomic_file(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     extension a writer may look at (".png").
     """
     path = check_writable(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f"{suffix}.tmp", dir=path.parent or ".")
-    os.close(fd)
-    try:
+    tmp = _temporary(path, suffix)
+    with _replace_on_success(path, tmp, False):
         yield Path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
-def atomic_text(path: str | os.PathLike, text: str) -> None:
-    """Write a text file (JSON, Markdown, CSV) atomically: temporary file, then rename."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+def atomic_text(path: str | os.PathLike, text: str, *, replace_input: bool = False) -> None:
+    """Write a text file (JSON, Markdown, CSV) atomically: temporary file, then rename.
+
+    ``replace_input``: the write deliberately updates a file read in this process.
+    """
+    path = check_writable(path, replace_input=replace_input)
+    tmp = _temporary(path)
+    with _replace_on_success(path, tmp, replace_input):
+        with open(tmp, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
 def load_json(path: str | os.PathLike) -> object:
     """Read a JSON file; an unreadable or malformed file is an InputError naming it."""
+    record_input(path)
     try:
         with open(path, encoding="utf-8") as f:
             return json.load(f)
@@ -188,27 +369,41 @@ def _attr_value(v):
 
 @contextlib.contextmanager
 def open_checked(path: str | os.PathLike, schema: str) -> Iterator[h5py.File]:
-    """Open a granwave file for reading, refusing a foreign schema or major version."""
+    """Open a granwave file for reading, refusing a foreign schema or major version.
+
+    The file is recorded as an input of this process (see :func:`check_writable`),
+    and its layout (presence, dtype and shape of every dataset) is checked.
+    """
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such file")
+    record_input(path)
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise InputError(f"{path}: not an HDF5 file ({exc.__class__.__name__})") from None
     with f:
-        found = _attr_value(f.attrs.get("schema", ""))
+        try:
+            attrs = read_attrs(f)
+        except (OSError, RuntimeError, ValueError, KeyError) as exc:
+            raise InputError(f"{path}: unreadable root attributes ({exc.__class__.__name__})") from None
+        found = attrs.get("schema", "")
         if found != schema:
             raise InputError(f"{path}: expected a {schema} file, found schema {found!r}")
-        version = str(_attr_value(f.attrs.get("schema_version", "")))
+        version = str(attrs.get("schema_version", ""))
         if version.split(".")[0] != S.VERSIONS[schema].split(".")[0]:
             raise InputError(
                 f"{path}: schema version {version!r} is not readable by this granwave "
                 f"(reads {schema} {S.VERSIONS[schema].split('.')[0]}.x)"
             )
-        missing = [a for a in S.REQUIRED_ATTRS[schema] if a not in f.attrs]
+        missing = [a for a in S.REQUIRED_ATTRS[schema] if a not in attrs]
         if missing:
             raise InputError(f"{path}: missing root attribute(s) {', '.join(missing)}")
+        try:
+            V.check_layout(path, f, schema, attrs)
+        except (OSError, RuntimeError, KeyError) as exc:  # a damaged HDF5 structure
+            raise InputError(f"{path}: damaged HDF5 file ({exc.__class__.__name__}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
         yield f
 
 
@@ -218,6 +413,7 @@ def read_attrs(f: h5py.File) -> dict:
 
 def file_schema(path: str | os.PathLike) -> str:
     """The schema name of a granwave file (for stages that take several kinds)."""
+    record_input(path)
     try:
         with h5py.File(path, "r") as f:
             return str(_attr_value(f.attrs.get("schema", "")))
@@ -227,20 +423,54 @@ def file_schema(path: str | os.PathLike) -> str:
 
 def _finite(path, name: str, arr: np.ndarray) -> np.ndarray:
     if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
-        raise InputError(f"{path}: dataset {name} contains NaN or infinite values")
+        raise InputError(f"{path}: {name}: contains NaN or infinite values")
     return arr
+
+
+def _read(f: h5py.File, path, name: str) -> np.ndarray:
+    """One dataset's values; a damaged (truncated) file is an InputError naming it."""
+    try:
+        return f[name][()]
+    except (OSError, RuntimeError, ValueError, KeyError) as exc:
+        raise InputError(f"{path}: {name}: unreadable ({exc.__class__.__name__}: "
+                         f"{str(exc).splitlines()[0] if str(exc) else 'damaged file'})") from None
 
 
 def _get(f: h5py.File, path, name: str) -> np.ndarray:
     if name not in f:
-        raise InputError(f"{path}: missing dataset {name}")
-    return _finite(path, name, f[name][()])
+        raise InputError(f"{path}: {name}: missing dataset")
+    return _finite(path, name, _read(f, path, name))
+
+
+def _read_all(f: h5py.File, path, schema: str, skip=()) -> dict:
+    """Every dataset of ``schema`` present in ``f`` (layout already checked), by name.
+
+    The size the file declares is checked against the available memory first: a
+    damaged file may declare a dataset far larger than the data it holds.
+    """
+    from ..resources import require_memory
+
+    names = [name for name in S.LAYOUT[schema] if name in f and name not in skip]
+    require_memory(sum(float(f[n].size) * f[n].dtype.itemsize for n in names), f"reading {path}")
+    return {name: _read(f, path, name) for name in names}
+
+
+def _nbytes(*arrays) -> int:
+    total = 0
+    for a in arrays:
+        if a is not None:
+            parts = (a.data, a.indices, a.indptr) if sp.issparse(a) else (np.asarray(a),)
+            total += sum(x.nbytes for x in parts)
+    return total
 
 
 # ---------------------------------------------------------------- packing
 def write_packing(path, packing: Packing) -> None:
     c = packing.contacts
-    with atomic_h5(path, S.PACKING, {**packing.attrs, "dim": packing.dim}) as f:
+    size = _nbytes(packing.position, packing.radius, packing.mass, packing.inertia, c.i, c.j,
+                   c.normal, c.overlap, c.force_normal, c.force_tangential, c.stiffness_normal,
+                   c.stiffness_tangential)
+    with atomic_h5(path, S.PACKING, {**packing.attrs, "dim": packing.dim}, nbytes=size) as f:
         put(f, S.PACKING, "grains/position", packing.position)
         put(f, S.PACKING, "grains/radius", packing.radius)
         put(f, S.PACKING, "grains/mass", packing.mass)
@@ -257,32 +487,29 @@ def write_packing(path, packing: Packing) -> None:
 
 
 def read_packing(path) -> Packing:
+    """Read a packing, validated (:func:`granwave.io.validate.packing`) before use."""
     with open_checked(path, S.PACKING) as f:
-        g = lambda name: _get(f, path, name)  # noqa: E731
-        contacts = Contacts(
-            i=g("contacts/i").astype(np.int64), j=g("contacts/j").astype(np.int64),
-            normal=g("contacts/normal"), overlap=g("contacts/overlap"),
-            force_normal=g("contacts/force_normal"),
-            force_tangential=g("contacts/force_tangential"),
-            stiffness_normal=g("contacts/stiffness_normal"),
-            stiffness_tangential=g("contacts/stiffness_tangential"),
-        )
-        packing = Packing(
-            position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
-            inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts,
-            attrs=read_attrs(f),
-        )
-    n = packing.n_grains
-    if len(contacts) and (contacts.i.min() < 0 or contacts.i.max() >= n or contacts.j.max() >= n
-                          or contacts.j.min() < S.TOP_WALL):
-        raise InputError(f"{path}: contact indices out of range")
-    return packing
+        a = _read_all(f, path, S.PACKING)
+        attrs = read_attrs(f)
+    V.packing(path, a, attrs)
+    g = a.__getitem__
+    contacts = Contacts(
+        i=g("contacts/i").astype(np.int64), j=g("contacts/j").astype(np.int64),
+        normal=g("contacts/normal"), overlap=g("contacts/overlap"),
+        force_normal=g("contacts/force_normal"), force_tangential=g("contacts/force_tangential"),
+        stiffness_normal=g("contacts/stiffness_normal"),
+        stiffness_tangential=g("contacts/stiffness_tangential"),
+    )
+    return Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
+                   inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)
 
 
 # ---------------------------------------------------------------- linear system
 def write_linear(path, system: LinearSystem) -> None:
     D = sp.csr_matrix(system.stiffness)
-    with atomic_h5(path, S.LINEAR, system.attrs) as f:
+    size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
+                   system.source_displacement, system.detector)
+    with atomic_h5(path, S.LINEAR, system.attrs, nbytes=size) as f:
         put(f, S.LINEAR, "matrix/data", D.data)
         put(f, S.LINEAR, "matrix/indices", D.indices.astype(np.int64))
         put(f, S.LINEAR, "matrix/indptr", D.indptr.astype(np.int64))
@@ -296,20 +523,28 @@ def write_linear(path, system: LinearSystem) -> None:
 
 
 def read_linear(path) -> LinearSystem:
+    """Read a linear system, validated (:func:`granwave.io.validate.linear`) before scipy sees it."""
     with open_checked(path, S.LINEAR) as f:
-        g = lambda name: _get(f, path, name)  # noqa: E731
-        shape = tuple(int(s) for s in f["matrix"].attrs["shape"])
-        D = sp.csr_matrix((g("matrix/data"), g("matrix/indices"), g("matrix/indptr")), shape=shape)
-        return LinearSystem(
-            stiffness=D, mass=g("mass"), dof_grain=g("dof/grain"), dof_axis=g("dof/axis"),
-            source_velocity=g("source/velocity"), source_displacement=g("source/displacement"),
-            detector=g("detector"), attrs=read_attrs(f),
-        )
+        a = _read_all(f, path, S.LINEAR)
+        shape = f["matrix"].attrs.get("shape")
+        attrs = read_attrs(f)
+    if shape is None:
+        raise InputError(f"{path}: matrix: missing shape attribute")
+    V.linear(path, a, attrs, shape)
+    n = len(a["mass"])
+    D = sp.csr_matrix((a["matrix/data"], a["matrix/indices"], a["matrix/indptr"]), shape=(n, n))
+    return LinearSystem(
+        stiffness=D, mass=a["mass"], dof_grain=a["dof/grain"], dof_axis=a["dof/axis"],
+        source_velocity=a["source/velocity"], source_displacement=a["source/displacement"],
+        detector=a["detector"], attrs=attrs,
+    )
 
 
 # ---------------------------------------------------------------- modes
 def write_modes(path, modes: Modes) -> None:
-    with atomic_h5(path, S.MODES, {**modes.attrs, "has_vectors": modes.vectors is not None}) as f:
+    size = _nbytes(modes.omega2, modes.amplitude_A, modes.amplitude_B, modes.coupling, modes.vectors)
+    with atomic_h5(path, S.MODES, {**modes.attrs, "has_vectors": modes.vectors is not None},
+                   nbytes=size) as f:
         put(f, S.MODES, "omega2", modes.omega2)
         put(f, S.MODES, "amplitude_A", modes.amplitude_A)
         put(f, S.MODES, "amplitude_B", modes.amplitude_B)
@@ -319,22 +554,22 @@ def write_modes(path, modes: Modes) -> None:
 
 
 def read_modes(path, *, vectors: bool = False) -> Modes:
-    """Read a modes file; the (large) eigenvectors only when ``vectors`` is asked for."""
+    """Read a modes file, validated before use; the (large) eigenvectors only when asked for."""
     with open_checked(path, S.MODES) as f:
-        g = lambda name: _get(f, path, name)  # noqa: E731
-        vecs = None
-        if vectors:
-            if "vectors" not in f:
-                raise InputError(f"{path}: no eigenvectors stored (rerun eigensolve with --vectors)")
-            vecs = g("vectors")
-        return Modes(omega2=g("omega2"), amplitude_A=g("amplitude_A"),
-                     amplitude_B=g("amplitude_B"), coupling=g("coupling"), vectors=vecs,
-                     attrs=read_attrs(f))
+        if vectors and "vectors" not in f:
+            raise InputError(f"{path}: no eigenvectors stored (rerun eigensolve with --vectors)")
+        a = _read_all(f, path, S.MODES, skip=() if vectors else ("vectors",))
+        attrs = read_attrs(f)
+    V.modes(path, a, attrs)
+    return Modes(omega2=a["omega2"], amplitude_A=a["amplitude_A"], amplitude_B=a["amplitude_B"],
+                 coupling=a["coupling"], vectors=a.get("vectors"), attrs=attrs)
 
 
 # ---------------------------------------------------------------- signal
 def write_signal(path, signal: Signal) -> None:
-    with atomic_h5(path, S.SIGNAL, signal.attrs) as f:
+    size = _nbytes(signal.time, signal.force, signal.snapshot_time, signal.snapshot_displacement,
+                   signal.dof_grain, signal.dof_axis, signal.position)
+    with atomic_h5(path, S.SIGNAL, signal.attrs, nbytes=size) as f:
         put(f, S.SIGNAL, "signal/time", signal.time)
         put(f, S.SIGNAL, "signal/force", signal.force)
         if signal.snapshot_time is not None:
@@ -347,14 +582,16 @@ def write_signal(path, signal: Signal) -> None:
 
 
 def read_signal(path) -> Signal:
+    """Read a signal file, validated (:func:`granwave.io.validate.signal`) before use."""
     with open_checked(path, S.SIGNAL) as f:
-        g = lambda name: _get(f, path, name)  # noqa: E731
-        sig = Signal(time=g("signal/time"), force=g("signal/force"), attrs=read_attrs(f))
-        if "snapshots/time" in f:
-            sig.snapshot_time = g("snapshots/time")
-            sig.snapshot_displacement = g("snapshots/displacement")
-            sig.dof_grain = g("snapshots/dof_grain")
-            sig.dof_axis = g("snapshots/dof_axis")
-            if "snapshots/position" in f:
-                sig.position = g("snapshots/position")
-        return sig
+        a = _read_all(f, path, S.SIGNAL)
+        attrs = read_attrs(f)
+    V.signal(path, a, attrs)
+    sig = Signal(time=a["signal/time"], force=a["signal/force"], attrs=attrs)
+    if "snapshots/time" in a:
+        sig.snapshot_time = a["snapshots/time"]
+        sig.snapshot_displacement = a["snapshots/displacement"]
+        sig.dof_grain = a["snapshots/dof_grain"]
+        sig.dof_axis = a["snapshots/dof_axis"]
+        sig.position = a.get("snapshots/position")
+    return sig

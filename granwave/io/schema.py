@@ -238,6 +238,86 @@ EXTRA_ATTRS: dict[str, dict[str, dict[str, str]]] = {
     },
 }
 
+# name -> (dtype kind, shape), per schema: what the validator (granwave.io.validate) checks
+# before any reader uses a dataset. Kind "f" float, "i" integer (signed or unsigned), "S"
+# bytes. A shape is a tuple of symbols shared within one file (a symbol takes its value
+# at its first dataset, in table order; "n+1" is one more than n) or of integers; "dim"
+# is the root attribute of that name. OPTIONAL names may be absent; a GROUPS entry is
+# all present or all absent.
+LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
+    PACKING: {
+        "grains/position": ("f", ("N", "dim")),
+        "grains/radius": ("f", ("N",)),
+        "grains/mass": ("f", ("N",)),
+        "grains/inertia": ("f", ("N",)),
+        "box/size": ("f", ("dim",)),
+        "contacts/i": ("i", ("M",)),
+        "contacts/j": ("i", ("M",)),
+        "contacts/normal": ("f", ("M", "dim")),
+        "contacts/overlap": ("f", ("M",)),
+        "contacts/force_normal": ("f", ("M",)),
+        "contacts/force_tangential": ("f", ("M", "dim")),
+        "contacts/stiffness_normal": ("f", ("M",)),
+        "contacts/stiffness_tangential": ("f", ("M",)),
+    },
+    LINEAR: {
+        "mass": ("f", ("n",)),
+        "matrix/indptr": ("i", ("n+1",)),
+        "matrix/data": ("f", ("nnz",)),
+        "matrix/indices": ("i", ("nnz",)),
+        "dof/grain": ("i", ("n",)),
+        "dof/axis": ("i", ("n",)),
+        "source/velocity": ("f", ("n",)),
+        "source/displacement": ("f", ("n",)),
+        "detector": ("f", ("n",)),
+    },
+    MODES: {
+        "omega2": ("f", ("n",)),
+        "amplitude_A": ("f", ("n",)),
+        "amplitude_B": ("f", ("n",)),
+        "coupling": ("f", ("n",)),
+        "vectors": ("f", ("n_dof", "n")),
+    },
+    SIGNAL: {
+        "signal/time": ("f", ("T",)),
+        "signal/force": ("f", ("T",)),
+        "snapshots/time": ("f", ("S",)),
+        "snapshots/displacement": ("f", ("S", "n")),
+        "snapshots/dof_grain": ("i", ("n",)),
+        "snapshots/dof_axis": ("i", ("n",)),
+        "snapshots/position": ("f", ("N", "d")),
+    },
+    ENSEMBLE: {
+        "ensemble/time": ("f", ("T",)),
+        "ensemble/mean": ("f", ("T",)),
+        "ensemble/rms": ("f", ("T",)),
+    },
+    SWEEP: {
+        "sweep/pressure": ("f", ("P",)),
+        "sweep/n_samples": ("i", ("P",)),
+        "sweep/quantity": ("S", ("Q",)),
+        "sweep/mean": ("f", ("P", "Q")),
+        "sweep/std": ("f", ("P", "Q")),
+        "sweep/count": ("i", ("P", "Q")),
+        **{f"sweep/{k}": ("f", ("P",)) for k in (
+            "c_tof", "c_tof_err", "c_l", "c_l_err", "c_t", "c_t_err", "c_tof_over_c_l",
+            "c_tof_over_c_l_err", "lattice_frictionless", "lattice_frictional")},
+    },
+}
+
+#: Datasets a file may lack.
+OPTIONAL: dict[str, frozenset[str]] = {
+    PACKING: frozenset(), LINEAR: frozenset(), ENSEMBLE: frozenset(), SWEEP: frozenset(),
+    MODES: frozenset({"vectors"}),
+    SIGNAL: frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
+                       "snapshots/dof_axis", "snapshots/position"}),
+}
+
+#: Optional datasets that come together (all or none).
+GROUPS: dict[str, tuple[frozenset[str], ...]] = {
+    SIGNAL: (frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
+                        "snapshots/dof_axis"}),),
+}
 
 # Root attributes every file of a schema must carry (beyond schema, schema_version,
 # granwave_version, git_revision, command_line).
@@ -304,6 +384,15 @@ def formats_markdown() -> str:
         "rotations' (rotations in radians), and `units_rule` says which rows are which",
         "(`dof/axis` >= `dim`: a rotation). `matrix/data` has a third kind,",
         "`units_translation_rotation`, for entries coupling a translation to a rotation.",
+        "Every reader validates a file before any stage uses it (`granwave/io/validate.py`):",
+        "presence, dtype and shape of every dataset as in the tables below (a symbol such as",
+        "N stands for the same size throughout one file; `dim` is the root attribute), index",
+        "ranges (CSR `indptr` from 0 to nnz and non-decreasing, `indices` and contact indices",
+        "in range), finite values, and the physical invariants: radii, masses, moments of",
+        "inertia and box lengths > 0; centres between the walls; overlaps >= 0 and at most",
+        "half the smaller radius; no two centres closer than the radii and the stored",
+        "overlap allow; friction >= 0, 0 <= Poisson ratio < 0.5, pressure >= 0, height > 0.",
+        "A failure is one line naming the file, the dataset and what is wrong.",
         "",
     ]
     for schema, table in DATASETS.items():
@@ -313,13 +402,19 @@ def formats_markdown() -> str:
         if table:
             dims = DIMS.get(schema, {})
             extra = EXTRA_ATTRS.get(schema, {})
-            lines += ["| dataset | dimensions | units | meaning |", "|---|---|---|---|"]
+            layout, optional = LAYOUT.get(schema, {}), OPTIONAL.get(schema, frozenset())
+            lines += ["| dataset | dtype | shape | dimensions | units | meaning |",
+                      "|---|---|---|---|---|---|"]
             for name, (units, desc) in table.items():
+                kind, shape = layout.get(name, ("", ()))
+                dtype = {"f": "float", "i": "int", "S": "bytes"}.get(kind, "")
+                sizes = f"({', '.join(map(str, shape))}{',' if len(shape) == 1 else ''})" if kind else ""
+                flag = " (optional)" if name in optional else ""
                 dim = ", ".join(dims.get(name, ()))
                 unit = f"`{units}`"
                 if "units_rotation" in extra.get(name, {}):
                     unit += f"; rotations `{extra[name]['units_rotation']}`"
-                lines.append(f"| `{name}` | ({dim}) | {unit} | {desc} |")
+                lines.append(f"| `{name}`{flag} | {dtype} | {sizes} | ({dim}) | {unit} | {desc} |")
             lines.append("")
     return "\n".join(lines)
 

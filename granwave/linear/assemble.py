@@ -48,6 +48,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import LinearSystem, Packing
+from ..resources import check_linearize
 
 #: Relative threshold on omega^2 / omega^2_max below which a mode counts as a zero mode.
 ZERO_MODE_THRESHOLD = 1e-10
@@ -270,6 +271,7 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     translations, rho d^5 for rotations), dof map, sources and detector.
     """
     attrs = packing.attrs
+    check_linearize(packing.n_grains, len(packing.contacts), packing.dim, packing.friction)
     if "converged" in attrs and not bool(attrs["converged"]) and not force:
         raise InputError("the packing is not converged (attrs converged = False); "
                          "use force=True / --force to linearize it anyway")

@@ -41,6 +41,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import LinearSystem, Modes
+from ..resources import check_eigensolve
 from .assemble import ZERO_MODE_THRESHOLD, asymmetry, omega2_max, symmetric_part
 
 #: Above this many dofs a full dense solve is refused unless asked for explicitly (memory ~ 3 n^2 x 8 B).
@@ -89,6 +90,7 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
     """
     n = system.n_dof
     A, asym = mass_weighted(system)
+    check_eigensolve(n, k, _is_tridiagonal(A))  # refuse a spectrum that cannot fit in memory
     sqrt_m = np.sqrt(system.mass)
     if k is None or k >= n - 1:
         if n > dense_max_dof:

@@ -36,6 +36,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import LinearSystem, Modes, Signal
+from ..resources import check_propagate
 from .assemble import asymmetry, omega2_max, symmetric_part
 
 #: Default fraction of the stability limit 2/omega_max used as time step.
@@ -119,6 +120,7 @@ def modal_propagate(modes: Modes, *, ic: str, t_max: float, samples: int = 2001,
     (``dof_grain``, ``dof_axis`` of the linear system) to be stored.
     """
     ic = _check_ic(ic)
+    check_propagate(len(modes.omega2), samples, 0 if snapshots is None else np.size(snapshots))
     times = sample_times(t_max, samples)
     force = modal_signal(modes, ic=ic, times=times)
     attrs = carried_attrs(modes.attrs)
@@ -232,6 +234,7 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     progress : called with a one-line message about every ``progress_interval`` s.
     """
     ic = _check_ic(ic)
+    check_propagate(system.n_dof, samples, 0 if snapshots is None else np.size(snapshots))
     times = sample_times(t_max, samples)
     h = times[1] - times[0]
     dt_auto, wmax = stable_time_step(system, safety=safety)

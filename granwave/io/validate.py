@@ -1,0 +1,311 @@
+"""Validation of granwave files before any stage uses them: one function per file kind.
+
+The readers of :mod:`granwave.io.files` call :func:`check_layout` on every file they
+open (presence, dtype and shape of every dataset, against ``schema.LAYOUT``) and then
+the function of the file's kind on the arrays they read (index ranges, finiteness and
+the physical invariants). A failure is an :class:`~granwave.errors.InputError` whose
+one-line message names the file, the dataset and what is wrong, so that no kernel
+(numba, scipy's sparse routines) ever sees a corrupt array.
+
+Ranges shared with the parameters of the stages (units of docs/method.md §1):
+friction mu >= 0, Poisson ratio nu in [0, 0.5), pressure >= 0.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from . import schema as S
+
+#: Poisson ratio nu: [POISSON_MIN, POISSON_MAX) (G* stays positive, docs/method.md §2).
+POISSON_MIN, POISSON_MAX = 0.0, 0.5
+#: Largest overlap accepted, as a fraction of the smaller radius of the pair. The Hertz
+#: law assumes overlaps much smaller than the radius, but the stiffest packings the
+#: project prepares (p = 1e-2, 2D, frictional) reach 0.36 R at their most loaded
+#: contact; half the radius lets them pass and still refuses the nonsense of a
+#: corrupted or hand-made file (overlaps of diameters, coincident grains).
+MAX_OVERLAP_FRACTION = 0.5
+#: Relative tolerance on |n| = 1 for contact normals.
+NORMAL_TOL = 1e-6
+#: Tolerance on centre distance below R_i + R_j - overlap, relative to R_i + R_j.
+DISTANCE_TOL = 1e-6
+
+
+def _fail(path, name: str, what: str):
+    where = f"{path}: {name}: " if name else f"{path}: "
+    raise InputError(where + what)
+
+
+# ---------------------------------------------------------------- structure
+def check_layout(path, f, schema: str, attrs: dict) -> None:
+    """Presence, dtype and shape of every dataset of ``schema`` in the open file ``f``.
+
+    Reads only metadata (no dataset is loaded). ``attrs``: the file's root attributes.
+    """
+    table = S.LAYOUT.get(schema, {})
+    optional = S.OPTIONAL.get(schema, frozenset())
+    sizes: dict[str, tuple[int, str]] = {}
+    if "dim" in attrs and schema in (S.PACKING, S.LINEAR, S.MODES):
+        dim = attrs["dim"]
+        if isinstance(dim, (bool, np.bool_)) or not isinstance(dim, (int, np.integer)) or not 1 <= dim <= 3:
+            _fail(path, "", f"root attribute dim must be 1, 2 or 3, found {dim!r}")
+        sizes["dim"] = (int(dim), "the root attribute dim")
+    for group in S.GROUPS.get(schema, ()):
+        present = sorted(n for n in group if n in f)
+        if present and len(present) < len(group):
+            missing = sorted(group - set(present))
+            _fail(path, missing[0], f"missing (it comes with {present[0]})")
+    for name, (kind, shape) in table.items():
+        if name not in f:
+            if name in optional:
+                continue
+            _fail(path, name, "missing dataset")
+        ds = f[name]
+        if not hasattr(ds, "dtype") or not hasattr(ds, "shape"):
+            _fail(path, name, "is a group, expected a dataset")
+        found = ds.dtype.kind
+        ok = {"f": "f", "i": "iu", "S": "SO"}[kind]
+        if found not in ok:
+            expected = {"f": "floating point", "i": "integer", "S": "strings"}[kind]
+            _fail(path, name, f"has dtype {ds.dtype}, expected {expected}")
+        if ds.shape is None or len(ds.shape) != len(shape):
+            _fail(path, name, f"has shape {ds.shape}, expected ({', '.join(map(str, shape))})")
+        for axis, (symbol, size) in enumerate(zip(shape, ds.shape)):
+            if isinstance(symbol, int):
+                if size != symbol:
+                    _fail(path, name, f"has shape {ds.shape}, expected {symbol} along axis {axis}")
+                continue
+            base, extra = (symbol[:-2], 1) if symbol.endswith("+1") else (symbol, 0)
+            if base in sizes:
+                want, origin = sizes[base]
+                if size != want + extra:
+                    _fail(path, name, f"has shape {ds.shape}, expected {symbol} = {want + extra} "
+                                      f"along axis {axis} (from {origin})")
+            else:
+                if size - extra < 0:
+                    _fail(path, name, f"has shape {ds.shape}, expected at least {extra} along axis {axis}")
+                sizes[base] = (size - extra, name)
+
+
+# ---------------------------------------------------------------- shared value checks
+def _finite(path, arrays: dict) -> None:
+    for name, a in arrays.items():
+        if a is not None and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+            _fail(path, name, "contains NaN or infinite values")
+
+
+def _positive(path, name: str, a: np.ndarray) -> None:
+    if a.size and not np.all(a > 0):
+        k = int(np.argmin(a))
+        _fail(path, name, f"must be > 0, entry {k} is {a.flat[k]:g}")
+
+
+def _non_negative(path, name: str, a: np.ndarray) -> None:
+    if a.size and not np.all(a >= 0):
+        k = int(np.argmin(a))
+        _fail(path, name, f"must be >= 0, entry {k} is {a.flat[k]:g}")
+
+
+def _in_range(path, name: str, a: np.ndarray, lo: int, hi: int) -> None:
+    """Integers in [lo, hi)."""
+    if a.size and (a.min() < lo or a.max() >= hi):
+        bad = int(np.flatnonzero((a < lo) | (a >= hi))[0])
+        _fail(path, name, f"index {a[bad]} at entry {bad} is out of range [{lo}, {hi})")
+
+
+def _attr_number(path, attrs: dict, key: str, *, lo: float | None = None, lo_open=False,
+                 hi: float | None = None, hi_open=False) -> None:
+    """A numeric root attribute, if present, finite and in range."""
+    if key not in attrs:
+        return
+    v = attrs[key]
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        _fail(path, "", f"root attribute {key} must be a number, found {v!r}")
+    if not math.isfinite(x):
+        _fail(path, "", f"root attribute {key} must be finite, found {x}")
+    if lo is not None and (x < lo or (lo_open and x == lo)):
+        _fail(path, "", f"root attribute {key} must be {'>' if lo_open else '>='} {lo:g}, found {x:g}")
+    if hi is not None and (x > hi or (hi_open and x == hi)):
+        _fail(path, "", f"root attribute {key} must be {'<' if hi_open else '<='} {hi:g}, found {x:g}")
+
+
+def material_attrs(path, attrs: dict) -> None:
+    """pressure >= 0, friction >= 0, Poisson ratio in [0, 0.5), height > 0 (where present)."""
+    _attr_number(path, attrs, "pressure", lo=0.0)
+    _attr_number(path, attrs, "friction", lo=0.0)
+    _attr_number(path, attrs, "poisson", lo=POISSON_MIN, hi=POISSON_MAX, hi_open=True)
+    _attr_number(path, attrs, "height", lo=0.0, lo_open=True)
+
+
+def _nearest_image(x: np.ndarray, box: np.ndarray, dim: int) -> np.ndarray:
+    """Fold every lateral (periodic) component of the separation vectors x (M, dim)."""
+    x = np.array(x, copy=True)
+    for k in range(dim - 1):
+        x[:, k] -= box[k] * np.round(x[:, k] / box[k])
+    return x
+
+
+# ---------------------------------------------------------------- packing
+def packing(path, a: dict, attrs: dict) -> None:
+    """Invariants of a packing (``a``: dataset name -> array, as read).
+
+    Radii, masses, inertia and the box are positive; centres lie between the walls;
+    contact indices are in range (j: a grain, -1 bottom wall or -2 top wall); normals
+    are unit vectors; overlaps, normal forces and stiffnesses are >= 0 and overlaps
+    below MAX_OVERLAP_FRACTION of the smaller radius; no two centres in contact are
+    closer than R_i + R_j - overlap (no grain closer to a wall than R - overlap), and
+    no two grains that are not in contact overlap by more than MAX_OVERLAP_FRACTION
+    (coincident grains are refused).
+    """
+    _finite(path, a)
+    material_attrs(path, attrs)
+    pos, radius = a["grains/position"], a["grains/radius"]
+    box = a["box/size"]
+    n, dim = pos.shape
+    for name in ("grains/radius", "grains/mass", "grains/inertia", "box/size"):
+        _positive(path, name, a[name])
+    if n:
+        y = pos[:, -1]
+        if not (np.all(y > 0) and np.all(y < box[-1])):
+            k = int(np.flatnonzero(~((y > 0) & (y < box[-1])))[0])
+            _fail(path, "grains/position", f"grain {k} lies outside the walls "
+                                           f"(coordinate {y[k]:g}, walls at 0 and {box[-1]:g})")
+    i, j = a["contacts/i"], a["contacts/j"]
+    _in_range(path, "contacts/i", i, 0, n)
+    _in_range(path, "contacts/j", j, S.TOP_WALL, n)
+    if np.any(i == j):
+        _fail(path, "contacts/j", f"contact {int(np.flatnonzero(i == j)[0])} joins a grain to itself")
+    for name in ("contacts/overlap", "contacts/force_normal", "contacts/stiffness_normal",
+                 "contacts/stiffness_tangential"):
+        _non_negative(path, name, a[name])
+    normal = a["contacts/normal"]
+    if len(normal):
+        err = np.abs(np.linalg.norm(normal, axis=1) - 1.0)
+        if np.any(err > NORMAL_TOL):
+            _fail(path, "contacts/normal", f"contact {int(np.argmax(err))} has no unit normal")
+    overlap = a["contacts/overlap"]
+    grain = j >= 0
+    r_min = np.where(grain, np.minimum(radius[i], radius[np.where(grain, j, 0)]), radius[i])
+    too_big = overlap > MAX_OVERLAP_FRACTION * r_min
+    if np.any(too_big):
+        k = int(np.flatnonzero(too_big)[0])
+        _fail(path, "contacts/overlap", f"contact {k} overlaps by {overlap[k]:g}, more than "
+                                        f"{MAX_OVERLAP_FRACTION:g} of the radius {r_min[k]:g}")
+    # The geometry must not overlap more than the stored overlaps say: grain pairs by
+    # their centre distance, wall contacts by the distance to the wall. (Farther apart
+    # than claimed is only a stale contact list, harmless to every stage.)
+    gi, gj = i[grain], j[grain]
+    if len(gi):
+        r = np.linalg.norm(_nearest_image(pos[gi] - pos[gj], box, dim), axis=1)
+        claimed = radius[gi] + radius[gj] - overlap[grain]
+        bad = r < claimed - DISTANCE_TOL * (radius[gi] + radius[gj])
+        if np.any(bad):
+            k = int(np.flatnonzero(grain)[np.flatnonzero(bad)[0]])
+            kk = int(np.flatnonzero(bad)[0])
+            _fail(path, "contacts/overlap",
+                  f"contact {k} (grains {i[k]}, {j[k]}): centre distance {r[kk]:.9g} is less "
+                  f"than R_i + R_j - overlap = {claimed[kk]:.9g}")
+    for wall, gap_of in ((S.BOTTOM_WALL, lambda y: y), (S.TOP_WALL, lambda y: box[-1] - y)):
+        w = j == wall
+        if np.any(w):
+            gap = gap_of(pos[i[w], -1])
+            claimed = radius[i[w]] - overlap[w]
+            bad = gap < claimed - DISTANCE_TOL * 2 * radius[i[w]]
+            if np.any(bad):
+                k = int(np.flatnonzero(w)[np.flatnonzero(bad)[0]])
+                _fail(path, "contacts/overlap", f"wall contact {k} (grain {i[k]}): distance to the "
+                                                f"wall is less than R - overlap")
+    _no_hidden_overlaps(path, pos, radius, box, i[grain], j[grain])
+
+
+def _no_hidden_overlaps(path, pos, radius, box, ci, cj) -> None:
+    """No two grains outside the contact list overlap by more than MAX_OVERLAP_FRACTION."""
+    n, dim = pos.shape
+    if n < 2:
+        return
+    from scipy.spatial import cKDTree
+
+    wrapped = np.array(pos, dtype=float, copy=True)
+    size = np.empty(dim)
+    for k in range(dim - 1):
+        wrapped[:, k] = np.mod(wrapped[:, k], box[k])
+        size[k] = box[k]
+    # The wall-normal axis is not periodic: a period far beyond the walls.
+    wrapped[:, -1] -= wrapped[:, -1].min()
+    size[-1] = 2.0 * (wrapped[:, -1].max() + 4.0 * radius.max()) + 1.0
+    wrapped = np.minimum(wrapped, np.nextafter(size, 0))  # mod may round up to exactly L
+    tree = cKDTree(wrapped, boxsize=size)
+    # Only pairs closer than the largest distance that could be refused.
+    cutoff = 2.0 * float(radius.max()) - MAX_OVERLAP_FRACTION * float(radius.min())
+    pairs = tree.query_pairs(cutoff, output_type="ndarray")
+    if not len(pairs):
+        return
+    p, q = pairs[:, 0], pairs[:, 1]
+    r = np.linalg.norm(_nearest_image(pos[p] - pos[q], box, dim), axis=1)
+    allowed = radius[p] + radius[q] - MAX_OVERLAP_FRACTION * np.minimum(radius[p], radius[q])
+    close = r < allowed
+    if not np.any(close):
+        return
+    listed = set(zip(np.minimum(ci, cj).tolist(), np.maximum(ci, cj).tolist()))
+    for k in np.flatnonzero(close):
+        a, b = int(min(p[k], q[k])), int(max(p[k], q[k]))
+        if (a, b) not in listed:
+            _fail(path, "grains/position", f"grains {a} and {b} overlap by "
+                                           f"{radius[a] + radius[b] - r[k]:g} (centre distance {r[k]:g}) "
+                                           "without a contact")
+
+
+# ---------------------------------------------------------------- linear system
+def linear(path, a: dict, attrs: dict, shape) -> None:
+    """Invariants of a linear system: CSR structure, positive masses, dof map in range.
+
+    ``shape``: the ``matrix`` group's shape attribute (must be (n, n)).
+    """
+    material_attrs(path, attrs)
+    n = len(a["mass"])
+    try:
+        shape = tuple(int(s) for s in np.asarray(shape).ravel())
+    except (TypeError, ValueError):
+        _fail(path, "matrix", f"shape attribute {shape!r} is not a pair of integers")
+    if shape != (n, n):
+        _fail(path, "matrix", f"shape attribute {shape} does not match the {n} dofs of mass")
+    indptr, indices = a["matrix/indptr"], a["matrix/indices"]
+    nnz = len(indices)
+    if indptr[0] != 0 or indptr[-1] != nnz:
+        _fail(path, "matrix/indptr", f"must run from 0 to {nnz} (found {indptr[0]} .. {indptr[-1]})")
+    if np.any(np.diff(indptr) < 0):
+        _fail(path, "matrix/indptr", f"decreases at row {int(np.flatnonzero(np.diff(indptr) < 0)[0])}")
+    _in_range(path, "matrix/indices", indices, 0, n)
+    _finite(path, {k: v for k, v in a.items() if k != "matrix/indptr"})
+    _positive(path, "mass", a["mass"])
+    _non_negative(path, "dof/grain", a["dof/grain"])
+    dim = int(attrs.get("dim", 3))
+    _in_range(path, "dof/axis", a["dof/axis"], 0, dim + dim * (dim - 1) // 2)
+
+
+# ---------------------------------------------------------------- modes
+def modes(path, a: dict, attrs: dict) -> None:
+    """Invariants of a modes file: finite values, omega^2 ascending, height > 0."""
+    material_attrs(path, attrs)
+    _finite(path, a)
+    w = a["omega2"]
+    if np.any(np.diff(w) < 0):
+        _fail(path, "omega2", f"not ascending at entry {int(np.flatnonzero(np.diff(w) < 0)[0]) + 1}")
+
+
+# ---------------------------------------------------------------- signal
+def signal(path, a: dict, attrs: dict) -> None:
+    """Invariants of a signal file: finite values, increasing sample times, snapshot
+    times >= 0 (in the order asked for, not necessarily sorted), dof map >= 0."""
+    material_attrs(path, attrs)
+    _finite(path, a)
+    if np.any(np.diff(a["signal/time"]) <= 0):
+        _fail(path, "signal/time", "times must increase")
+    for name in ("snapshots/time", "snapshots/dof_grain", "snapshots/dof_axis"):
+        if a.get(name) is not None:
+            _non_negative(path, name, a[name])

@@ -1,0 +1,163 @@
+"""Memory and disk estimates, and the guard that refuses requests that cannot fit.
+
+Each stage that can allocate without bound calls one ``check_*`` function at its
+top, before allocating: the request is refused with a :class:`ResourceError`
+(an :class:`InputError`: one line, exit status 2 on the command line) that gives
+the estimate and the amount available, instead of ending in a MemoryError, the
+kernel's out-of-memory killer or a half-written file.
+
+The estimates are the peak memory of the stage (bytes), measured on 1e5..2e6
+grain runs (peak resident size minus the interpreter's) and rounded up:
+
+=======================  =====================================================
+stage                    peak memory
+=======================  =====================================================
+prepare-packing          300 B per grain (2D), 500 B per grain (3D)
+chain                    200 B per ball
+lattice                  600 B per ball
+linearize                50 B per stiffness-block entry: (2 p)^2 per contact,
+                         p dofs per grain, plus 100 B per grain
+eigensolve (dense)       4 n^2 doubles (matrix, eigenvectors, LAPACK workspace)
+eigensolve (chain)       n^2 doubles (eigenvectors of the tridiagonal matrix)
+eigensolve (k lowest)    2 (2 k + 1) n doubles of Lanczos basis, plus k n vectors
+propagate                4 doubles per sample, 3 n doubles per snapshot
+=======================  =====================================================
+
+"Available" is the smallest of the kernel's MemAvailable, the cgroup's limit
+minus its usage and the address-space limit (``ulimit -v``) minus what this
+process already maps; a request is refused beyond HEADROOM of it, so that the
+machine keeps room for the interpreter, the page cache and other jobs.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import resource as _rlimit
+
+from .errors import ResourceError
+
+#: Fraction of the available memory a single request may take.
+HEADROOM = 0.9
+DOUBLE = 8
+
+
+def format_bytes(n: float) -> str:
+    """Bytes in a readable unit (1 kB = 1000 B)."""
+    n = float(n)
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
+        if abs(n) < 1000 or unit == "PB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+        n /= 1000.0
+    return f"{n:.3g} PB"
+
+
+def _read_int(path: str) -> int | None:
+    try:
+        with open(path, encoding="ascii") as fh:
+            text = fh.read().strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def available_memory() -> int:
+    """Bytes this process can still allocate (see the module docstring)."""
+    candidates = []
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    candidates.append(int(line.split()[1]) * 1024)
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    if not candidates:
+        try:
+            candidates.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (OSError, ValueError, AttributeError):
+            pass
+    # cgroup v2, then v1 (a container or a batch job's limit)
+    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        limit, usage = _read_int(limit_file), _read_int(usage_file)
+        if limit is not None and usage is not None and limit < 1 << 60:
+            candidates.append(max(0, limit - usage))
+            break
+    soft, _ = _rlimit.getrlimit(_rlimit.RLIMIT_AS)
+    if soft != _rlimit.RLIM_INFINITY:
+        try:
+            with open("/proc/self/statm", encoding="ascii") as fh:
+                mapped = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        except (OSError, ValueError, IndexError):
+            mapped = 0
+        candidates.append(max(0, soft - mapped))
+    return min(candidates) if candidates else 1 << 62
+
+
+def available_disk(folder: str | os.PathLike) -> int:
+    """Bytes an unprivileged user can still write in ``folder``'s file system."""
+    try:
+        st = os.statvfs(folder)
+    except OSError:
+        return 1 << 62
+    return st.f_bavail * st.f_frsize
+
+
+def require_memory(nbytes: float, what: str) -> None:
+    """Refuse ``what`` if its estimate ``nbytes`` exceeds HEADROOM of the available memory."""
+    avail = available_memory()
+    if not math.isfinite(nbytes) or nbytes > HEADROOM * avail:
+        raise ResourceError(f"{what} needs about {format_bytes(nbytes)} of memory; "
+                            f"{format_bytes(avail)} available: reduce the request")
+
+
+def require_disk(folder: str | os.PathLike, nbytes: float, what: str) -> None:
+    """Refuse ``what`` if ``nbytes`` (plus 1 MB of file overhead) exceeds the free disk space."""
+    avail = available_disk(folder)
+    if not math.isfinite(nbytes) or nbytes + 1_000_000 > avail:
+        raise ResourceError(f"{what} needs about {format_bytes(nbytes)} of disk; "
+                            f"{format_bytes(avail)} free in {folder}")
+
+
+# ---------------------------------------------------------------- per-stage guards
+def check_prepare(grains: int, dim: int) -> None:
+    """prepare-packing of ``grains`` grains in ``dim`` dimensions."""
+    require_memory(float(grains) * (300 if dim <= 2 else 500), f"a packing of {grains} grains")
+
+
+def check_chain(n_balls: int) -> None:
+    """A chain of ``n_balls`` balls."""
+    require_memory(200.0 * float(n_balls), f"a chain of {n_balls} balls")
+
+
+def check_lattice(rows: int, width: int) -> None:
+    """A triangular lattice of ``rows`` x ``width`` balls."""
+    require_memory(600.0 * float(rows) * float(width), f"a lattice of {rows} x {width} balls")
+
+
+def check_linearize(n_grains: int, n_contacts: int, dim: int, friction: float) -> None:
+    """Stiffness matrix of a packing: (2 p)^2 block entries per contact."""
+    p = dim + (dim * (dim - 1) // 2 if friction > 0 else 0)
+    need = 50.0 * (2 * p) ** 2 * float(n_contacts) + 100.0 * float(n_grains)
+    require_memory(need, f"the stiffness matrix of {n_contacts} contacts")
+
+
+def check_eigensolve(n_dof: int, k: int | None = None, tridiagonal: bool = False) -> None:
+    """Eigensolve of ``n_dof`` dofs: dense, tridiagonal (chains) or the ``k`` lowest modes."""
+    n = float(n_dof)
+    if k is not None and k < n_dof - 1:
+        need, how = DOUBLE * n * (2 * (2 * k + 1) + k), f"the {k} lowest modes"
+    elif tridiagonal:
+        need, how = DOUBLE * n * n, "all modes (tridiagonal)"
+    else:
+        need, how = 4 * DOUBLE * n * n, "a dense eigensolve"
+    require_memory(need, f"{how} of {n_dof} dofs")
+
+
+def check_propagate(n_dof: int, samples: int, snapshots: int = 0) -> None:
+    """A signal of ``samples`` samples and ``snapshots`` displacement fields of ``n_dof`` dofs."""
+    need = 4 * DOUBLE * float(samples) + 3 * DOUBLE * float(snapshots) * float(n_dof)
+    shots = f" and {snapshots} snapshots of {n_dof} dofs" if snapshots else ""
+    require_memory(need, f"a signal of {samples} samples{shots}")
