@@ -53,20 +53,11 @@ from scipy import optimize
 
 from . import contact
 from .errors import InputError
+from .geometry import grain_inertia, grain_mass
 from .io import schema as _schema  # noqa: F401  (import order: granwave.model needs granwave.io first)
 from .model import Contacts, Packing
 
 SQRT3 = math.sqrt(3.0)
-
-
-def _ball_mass(diameter):
-    """m = ρ π d³/6 with ρ = 1 (SPEC §1)."""
-    return np.pi * np.asarray(diameter, dtype=float) ** 3 / 6.0
-
-
-def _ball_inertia(diameter):
-    """I = m d²/10 (solid sphere)."""
-    return _ball_mass(diameter) * np.asarray(diameter, dtype=float) ** 2 / 10.0
 
 
 def hertz_overlap(force: float, r12: float, e12: float) -> float:
@@ -89,8 +80,8 @@ def _check_common(pressure, friction, poisson):
         raise InputError(f"pressure must be positive and finite (E* units), got {pressure}")
     if not (np.isfinite(friction) and friction >= 0):
         raise InputError(f"friction must be >= 0, got {friction}")
-    if not (0.0 <= poisson < 1.0):
-        raise InputError(f"poisson must be in [0, 1), got {poisson}")
+    if not (0.0 <= poisson < 0.5):  # the range of every stage (granwave.params)
+        raise InputError(f"poisson must be in [0, 0.5), got {poisson}")
 
 
 def triangular_lattice(*, rows: int, width: int, pressure: float, friction: float = 0.0,
@@ -121,6 +112,9 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     delta_w = hertz_overlap(f_w, r12_w, e12_w)
     h = a * SQRT3 / 2.0
     y0 = radius - delta_w
+    if not (y0 > 0.0 and a > 0.0):
+        raise InputError(f"pressure {pressure:g} is too large: the wall overlap {delta_w:.3g} leaves "
+                         f"no positive spacing between the first row and the wall (radius {radius})")
 
     row = np.repeat(np.arange(rows), width)
     col = np.tile(np.arange(width), rows)
@@ -162,8 +156,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
             contact.tangential_stiffness(delta_g, r12_g, contact.effective_shear(poisson, False))),
     )
     n = rows * width
-    diameter = np.ones(n)
-    mass = _ball_mass(diameter)
+    mass = grain_mass(np.full(n, radius))
     force = _net_force(n, contacts)
     residual = float(np.max(np.linalg.norm(force, axis=1) / mass))
     attrs = dict(kind="lattice", pressure=float(pressure), friction=float(friction),
@@ -171,7 +164,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
                  rows=rows, width=width, spacing=a, row_spacing=h, contact_force=f_g,
                  wall_force=f_w)
     return Packing(position=position, radius=np.full(n, radius), mass=mass,
-                   inertia=_ball_inertia(diameter), box=box, contacts=contacts, attrs=attrs)
+                   inertia=grain_inertia(np.full(n, radius)), box=box, contacts=contacts, attrs=attrs)
 
 
 def default_chain_stiffness(pressure: float) -> float:
@@ -231,18 +224,19 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     x = np.cumsum(gaps)
     height = x[-1] + radius[-1] - overlap[-1]
     if np.any(gaps <= 0) or height <= 0:
-        raise InputError("pressure too large for this stiffness: overlaps exceed the radii")
+        raise InputError("pressure too large for this stiffness: overlaps exceed the radii and "
+                         "leave no positive spacing")
     contacts = Contacts(i=i, j=j, normal=normal, overlap=overlap, force_normal=np.full(n + 1, float(pressure)),
                         force_tangential=np.zeros((n + 1, 1)), stiffness_normal=k,
                         stiffness_tangential=np.zeros(n + 1))
     position = x[:, None]
     box = np.array([height])
-    mass = _ball_mass(diameter)
+    mass = grain_mass(radius)
     force = _net_force(n, contacts)
     residual = float(np.max(np.abs(force[:, 0]) / mass))
     attrs = dict(kind="chain", pressure=float(pressure), friction=0.0, poisson=0.0, seed=int(seed),
                  converged=True, max_acceleration=residual, n_balls=n,
                  polydispersity=float(polydispersity), stiffness=k_record,
                  stiffness_model=stiffness_model, pressure_meaning="force per mean diameter squared")
-    return Packing(position=position, radius=radius, mass=mass, inertia=_ball_inertia(diameter),
+    return Packing(position=position, radius=radius, mass=mass, inertia=grain_inertia(radius),
                    box=box, contacts=contacts, attrs=attrs)

@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
-from ..geometry import nearest_image
+from ..geometry import n_rotations, nearest_image
 from ..model import Contacts, Packing
 from . import kernels as K
 
@@ -86,11 +86,6 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
                 force[j, a] -= fvec[a]
             if r > 0:
                 K.add_torque(torque, j, aj, nv, fvec)
-
-
-def n_rotations(dim: int, friction: float) -> int:
-    """Rotational dof per grain: 0 without friction, 1 in 2D, 3 in 3D."""
-    return 0 if friction == 0.0 else (1 if dim == 2 else 3)
 
 
 def frozen_history_forces(packing: Packing, displacement=None, rotation=None):

@@ -47,6 +47,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..geometry import n_rotations  # noqa: F401  (re-exported)
 from ..model import LinearSystem, Packing
 
 #: Relative threshold on omega^2 / omega^2_max below which a mode counts as a zero mode.
@@ -60,13 +61,6 @@ SPARSE_CHECK_MODES = 12
 
 _COPIED_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson", "converged",
                  "max_acceleration", "n_grains")
-
-
-def n_rotations(dim: int, friction: float) -> int:
-    """Rotational dofs per grain: none without friction or in 1D, 1 in 2D, 3 in 3D."""
-    if friction <= 0.0 or dim == 1:
-        return 0
-    return 1 if dim == 2 else 3
 
 
 def expected_zero_modes(dim: int, friction: float) -> int:

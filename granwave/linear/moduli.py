@@ -104,6 +104,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import LinearSystem, Packing
+from ..params import BULK_LAYER
 from .assemble import contact_blocks, contact_dofs, dof_map, n_rotations, scatter_blocks
 
 #: Up to this many free dofs the least-squares fallback is a dense LAPACK solve.
@@ -548,7 +549,7 @@ def _phi3_star(packing: Packing, cell: _Cell, layer: float) -> tuple[float, str]
 def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
            amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None,
            system: LinearSystem | None = None, force: bool = False,
-           layer: float = 3.0) -> dict:
+           layer: float = BULK_LAYER) -> dict:
     """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (SPEC §6).
 
     Parameters
