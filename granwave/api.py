@@ -14,8 +14,8 @@ which build (or replace fields of) the stage's parameter object::
     front = api.front(signal)
 
 Errors in the input raise :class:`granwave.errors.InputError`. Compute stages
-take ``threads`` (None: every available core, :mod:`granwave.threads`); the
-results do not depend on it. Units: docs/method.md §1. A walk-through:
+take ``threads`` (:func:`granwave.threads.set_threads`; None leaves the
+process's setting, by default every core); the results do not depend on it. Units: docs/method.md §1. A walk-through:
 docs/api.md.
 """
 
@@ -53,9 +53,11 @@ def _params(cls, params, fields: dict):
 
 
 def _threads(threads: int | None) -> None:
-    from .threads import set_threads
+    """Set the parallel kernels' thread count; None leaves the process's setting alone."""
+    if threads is not None:
+        from .threads import set_threads
 
-    set_threads(threads)
+        set_threads(threads)
 
 
 # ----------------------------------------------------------------- packings
@@ -138,6 +140,16 @@ MODAL_SUM_SECONDS_PER_TERM = 1.5e-8
 VERLET_SECONDS_PER_NNZ_STEP = 1.0e-9
 
 
+#: The time-domain kernel counts steps in a 64-bit integer.
+MAX_TIME_STEPS = 2**63 - 1
+
+
+def _time_steps(params: PropagateParams, dt: float) -> float:
+    """Velocity-Verlet steps of a time-domain run: ceil(h/dt) per output interval h."""
+    h = params.t_max / (params.samples - 1)
+    return float(params.samples - 1) * (1.0 if dt >= h else math.ceil(h / dt))
+
+
 def _omega_max_bound(system: LinearSystem) -> float:
     """Gershgorin bound on omega_max of M^-1/2 D M^-1/2 (instant; at most ~40% high)."""
     import scipy.sparse as sp
@@ -162,7 +174,7 @@ def choose_method(system: LinearSystem, params: PropagateParams) -> tuple[str, s
     nnz = system.stiffness.nnz
     h = params.t_max / (params.samples - 1)
     dt = params.dt if params.dt is not None else params.safety * 2.0 / max(_omega_max_bound(system), 1e-300)
-    steps = params.samples - 1 if dt >= h else (params.samples - 1) * math.ceil(h / dt)
+    steps = _time_steps(params, dt)
     t_time = VERLET_SECONDS_PER_NNZ_STEP * nnz * steps
     if n > DENSE_MAX_DOF:
         return "time", (f"time domain: {n} dofs exceed the dense eigensolve limit {DENSE_MAX_DOF} "
@@ -172,7 +184,7 @@ def choose_method(system: LinearSystem, params: PropagateParams) -> tuple[str, s
     return method, (f"{'modal sum' if method == 'modal' else 'time domain'}: predicted "
                     f"{min(t_modal, t_time):.3g} s against {max(t_modal, t_time):.3g} s for the "
                     f"{'time domain' if method == 'modal' else 'modal sum'} ({n} dofs, {nnz} "
-                    f"nonzeros, {steps} steps at safety {params.safety:g})")
+                    f"nonzeros, {steps:.3g} steps at safety {params.safety:g})")
 
 
 def _dem_omega_max(packing: Packing) -> float:
@@ -202,8 +214,8 @@ def _check_band(signal: Signal, omega_max: float) -> None:
         warnings.warn(AliasingWarning(
             f"the sample interval {h:.3g} is {ratio:.3g} x the Nyquist interval pi/omega_max = "
             f"{math.pi / omega_max:.3g}: modes above omega = {math.pi / h:.3g} alias in this record "
-            f"(use at least {math.ceil(signal.attrs['t_max'] * omega_max / math.pi) + 1} samples "
-            "or a shorter --t-max)"), stacklevel=3)
+            f"(use at least {signal.attrs['t_max'] * omega_max / math.pi + 1:.3g} samples or a "
+            "shorter --t-max)"), stacklevel=3)
 
 
 def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | None = None, /, *,
@@ -259,6 +271,14 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                                   dof_axis=source.dof_axis)
             omega_max = math.sqrt(max(float(np.max(modes.omega2, initial=0.0)), 0.0))
         else:
+            if p.dt is None:
+                dt_guess = p.safety * 2.0 / max(_omega_max_bound(source), 1e-300)
+            else:
+                dt_guess = p.dt
+            if _time_steps(p, dt_guess) > MAX_TIME_STEPS:
+                raise InputError(f"t_max {p.t_max:g} needs about {_time_steps(p, dt_guess):.3g} "
+                                 f"time steps of {dt_guess:.3g}, more than the kernel can count "
+                                 f"({MAX_TIME_STEPS:.3g}): use a shorter --t-max")
             sig = time_domain_signal(source, ic=p.ic, t_max=p.t_max, dt=p.dt, samples=p.samples,
                                      safety=p.safety, snapshots=p.snapshots, progress=progress)
             omega_max = float(sig.attrs["omega_max"])
