@@ -172,7 +172,6 @@ def choose_method(system: LinearSystem, params: PropagateParams) -> tuple[str, s
 
     n = system.n_dof
     nnz = system.stiffness.nnz
-    h = params.t_max / (params.samples - 1)
     dt = params.dt if params.dt is not None else params.safety * 2.0 / max(_omega_max_bound(system), 1e-300)
     steps = _time_steps(params, dt)
     t_time = VERLET_SECONDS_PER_NNZ_STEP * nnz * steps

@@ -54,7 +54,7 @@ from scipy import optimize
 from . import contact
 from .errors import InputError
 from .geometry import grain_inertia, grain_mass
-from .io import schema as _schema  # noqa: F401  (import order: granwave.model needs granwave.io first)
+from .io.schema import BOTTOM_WALL, TOP_WALL
 from .model import Contacts, Packing
 
 SQRT3 = math.sqrt(3.0)
@@ -140,7 +140,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     bottom = np.arange(width)
     top = (rows - 1) * width + np.arange(width)
     i = np.concatenate([i, bottom, top]).astype(np.int64)
-    j = np.concatenate([j, np.full(width, -1), np.full(width, -2)]).astype(np.int64)
+    j = np.concatenate([j, np.full(width, BOTTOM_WALL), np.full(width, TOP_WALL)]).astype(np.int64)
     normal = np.concatenate([normal, np.tile([0.0, -1.0], (width, 1)), np.tile([0.0, 1.0], (width, 1))])
     wall = j < 0
     m = len(i)
@@ -204,7 +204,7 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     radius = diameter / 2.0
     # contacts: bottom wall, pairs (k, k+1), top wall — in order along the chain
     i = np.concatenate([[0], np.arange(n - 1), [n - 1]]).astype(np.int64)
-    j = np.concatenate([[-1], np.arange(1, n), [-2]]).astype(np.int64)
+    j = np.concatenate([[BOTTOM_WALL], np.arange(1, n), [TOP_WALL]]).astype(np.int64)
     normal = np.concatenate([[-1.0], np.ones(n - 1), [1.0]])[:, None]
     wall = j < 0
     inv_rj = np.where(wall, 0.0, 1.0 / radius[np.maximum(j, 0)])

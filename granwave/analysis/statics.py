@@ -205,7 +205,7 @@ def statics(packing: Packing, *, layer: float = BULK_LAYER, min_contacts: int = 
     if torque.shape[1]:
         worst = max(worst, np.max(np.linalg.norm(torque, axis=1)))
     area = float(np.prod(lateral)) if dim >= 2 else 1.0  # 2D: L1 x 1 d; 1D: 1 d^2
-    top = c.j == -2
+    top = c.is_top
     piston_balance = float(fn[top].sum() / (p * area) - 1.0)
 
     return dict(

@@ -5,13 +5,12 @@ from __future__ import annotations
 import click
 
 from ..params import FrontParams
-from .common import echo_json, echo_table, json_option, options_from, params_from, stage
+from .common import echo_result, options_from, params_from, stage
 
 
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.command()
 @click.argument("signal", type=click.Path(dir_okay=False))
-@options_from(FrontParams)
-@json_option
+@options_from(FrontParams, json=True)
 @stage
 def front(signal, as_json, **options):
     """Leading edge, first peak, zero crossing and width of a signal's first pulse.
@@ -34,7 +33,4 @@ def front(signal, as_json, **options):
 
     params = params_from(FrontParams, options)
     out = api.front(read_signal(signal), params)
-    if as_json:
-        echo_json(out)
-    else:
-        echo_table(out, title=f"front of {signal}")
+    echo_result(out, as_json, title=f"front of {signal}")

@@ -7,17 +7,16 @@ from pathlib import Path
 import click
 
 from ..params import ModuliParams
-from .common import echo_json, echo_table, json_option, options_from, params_from, stage, threads_option
+from .common import echo_result, options_from, params_from, stage, threads_option
 
 
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.command()
 @click.argument("source", metavar="LINEAR|PACKING", type=click.Path(dir_okay=False))
 @click.option("--packing", "packing_path", type=click.Path(dir_okay=False), default=None,
               help="The packing file; required when the argument is a linear file "
                    "(which has no contact geometry).")
-@options_from(ModuliParams)
+@options_from(ModuliParams, json=True)
 @threads_option
-@json_option
 @stage
 def moduli(source, packing_path, threads, as_json, **options):
     """Elastic moduli of a packing by imposed strain and linear relaxation.
@@ -57,9 +56,7 @@ def moduli(source, packing_path, threads, as_json, **options):
         raise InputError(f"{source}: expected a granwave.packing or granwave.linear file, "
                          f"found schema {kind!r}")
     res = api.moduli(packing, params, system=system, threads=threads)
-    if as_json:
-        echo_json(res)
-    else:
-        rows = {k: v for k, v in res.items() if k not in ("voigt", "static_stress", "solver")}
-        echo_table({k: float(v) if hasattr(v, "dtype") else v for k, v in rows.items()},
-                   title=f"elastic moduli of {source}")
+    if not as_json:  # the table leaves out the arrays and the solver notes
+        res = {k: float(v) if hasattr(v, "dtype") else v for k, v in res.items()
+               if k not in ("voigt", "static_stress", "solver")}
+    echo_result(res, as_json, title=f"elastic moduli of {source}")

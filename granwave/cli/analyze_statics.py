@@ -5,13 +5,12 @@ from __future__ import annotations
 import click
 
 from ..params import StaticsParams
-from .common import echo_json, echo_table, json_option, options_from, params_from, stage
+from .common import echo_result, options_from, params_from, stage
 
 
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.command()
 @click.argument("packing", type=click.Path(dir_okay=False))
-@options_from(StaticsParams)
-@json_option
+@options_from(StaticsParams, json=True)
 @stage
 def statics(packing, as_json, **options):
     """Solid fractions, coordination, force statistics, fabric and stress of a packing.
@@ -32,7 +31,4 @@ def statics(packing, as_json, **options):
 
     params = params_from(StaticsParams, options)
     result = api.statics(read_packing(packing), params)
-    if as_json:
-        echo_json(result)
-    else:
-        echo_table(result, title=f"statics of {packing} (layer {params.layer:g})")
+    echo_result(result, as_json, title=f"statics of {packing} (layer {params.layer:g})")

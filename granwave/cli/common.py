@@ -48,7 +48,6 @@ class FiniteFloat(click.ParamType):
 
 FLOAT = FiniteFloat()
 POSITIVE = FiniteFloat(min=0.0, min_open=True)
-NON_NEGATIVE = FiniteFloat(min=0.0)
 
 output_option = click.option(
     "-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
@@ -112,16 +111,19 @@ def _option_for(f: dataclasses.Field):
                         show_default=default is not None and not required, **kw)
 
 
-def options_from(cls, *, exclude=()):
+def options_from(cls, *, exclude=(), json: bool = False):
     """Decorator adding one click option per field of the parameter class ``cls``.
 
     Fields whose metadata ``cli`` is "" (internal protocol settings) and those
     in ``exclude`` get no option; the order of the help follows the fields.
+    ``json`` adds ``--json`` (the stage prints its result with :func:`echo_result`).
     """
     fields = [f for f in dataclasses.fields(cls)
               if f.name not in exclude and f.metadata.get("cli") != ""]
 
     def decorate(func):
+        if json:
+            func = json_option(func)
         for f in reversed(fields):
             func = _option_for(f)(func)
         return func
@@ -205,6 +207,11 @@ def _jsonable(x):
 def echo_json(obj) -> None:
     """Print one JSON object (NaN becomes null, arrays become lists)."""
     click.echo(json.dumps(_jsonable(obj), indent=1))
+
+
+def echo_result(rows: dict, as_json: bool, title: str | None = None) -> None:
+    """One JSON object (``--json``) or the ``name  value`` table under ``title``."""
+    echo_json(rows) if as_json else echo_table(rows, title=title)
 
 
 def echo_table(rows: dict, title: str | None = None) -> None:

@@ -7,8 +7,8 @@ import warnings
 import click
 
 from ..params import EigenParams, LinearizeParams
-from .common import (echo_json, echo_table, echo_warnings, json_option, options_from, output_option,
-                     params_from, stage, threads_option)
+from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
+                     stage, threads_option)
 
 LINEARIZE_ROWS = ("n_dof", "n_rattlers", "n_contacts", "prestress", "asymmetry", "n_zero_modes",
                   "expected_zero_modes", "n_negative_modes", "omega2_max", "psd_check")
@@ -17,8 +17,7 @@ EIGENSOLVE_ROWS = ("n_dof", "n_modes", "n_zero_modes", "n_negative_modes", "omeg
 
 
 def _echo_summary(attrs: dict, keys, output, as_json: bool) -> None:
-    rows = {k: attrs[k] for k in keys if k in attrs}
-    echo_json(rows) if as_json else echo_table(rows, title=f"wrote {output}")
+    echo_result({k: attrs[k] for k in keys if k in attrs}, as_json, title=f"wrote {output}")
 
 
 @click.command()

@@ -13,8 +13,8 @@ from pathlib import Path
 import click
 
 from ..params import PropagateParams
-from .common import (echo_json, echo_table, echo_warnings, json_option, options_from, output_option,
-                     params_from, progress_printer, stage, threads_option)
+from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
+                     progress_printer, stage, threads_option)
 
 ROWS = ("ic", "method", "method_reason", "height", "t_max", "samples", "dt", "omega_max_dt",
         "nyquist_ratio", "modified_energy_max_rel_deviation", "amplitude", "damping", "n_opened",
@@ -89,4 +89,4 @@ def propagate(source, output, threads, quiet, as_json, **options):
     if "method_reason" in signal.attrs and not as_json:
         click.echo(f"method auto -> {signal.attrs['method_reason']}", err=True)
     rows = {k: signal.attrs[k] for k in ROWS if k in signal.attrs}
-    echo_json(rows) if as_json else echo_table(rows, title=f"wrote {output}")
+    echo_result(rows, as_json, title=f"wrote {output}")

@@ -7,10 +7,19 @@ import click
 from ..params import ChainParams, LatticeParams
 from .common import options_from, output_option, params_from, stage
 
-CONTEXT = {"help_option_names": ["-h", "--help"]}
 
 
-@click.command(context_settings=CONTEXT)
+def _write(output, build, params):
+    """Check the output, build the state with ``build(params)``, write it; returns the packing."""
+    from ..io.files import check_writable, write_packing
+
+    check_writable(output)
+    packing = build(params)
+    write_packing(output, packing)
+    return packing
+
+
+@click.command()
 @options_from(LatticeParams)
 @output_option
 @stage
@@ -23,17 +32,14 @@ def lattice(output, **options):
     Hertz-Mindlin law. Lengths in mean diameters, forces in E* d^2.
     """
     from .. import api
-    from ..io.files import check_writable, write_packing
 
     params = params_from(LatticeParams, options)
-    check_writable(output)
-    packing = api.lattice(params)
-    write_packing(output, packing)
+    packing = _write(output, api.lattice, params)
     click.echo(f"lattice {params.rows} x {params.width}, p = {params.pressure:g}: spacing "
                f"{packing.attrs['spacing']:.12g}, height {packing.height:.8g} -> {output}", err=True)
 
 
-@click.command(context_settings=CONTEXT)
+@click.command()
 @options_from(ChainParams)
 @output_option
 @stage
@@ -45,11 +51,8 @@ def chain(output, **options):
     stiffness in E* d, forces in E* d^2.
     """
     from .. import api
-    from ..io.files import check_writable, write_packing
 
     params = params_from(ChainParams, options)
-    check_writable(output)
-    packing = api.chain(params)
-    write_packing(output, packing)
+    packing = _write(output, api.chain, params)
     click.echo(f"chain of {params.balls} balls, p = {params.pressure:g}, K = {packing.attrs['stiffness']}: "
                f"height {packing.height:.8g} -> {output}", err=True)

@@ -21,14 +21,13 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..model import Contacts, LinearSystem, Modes, Packing, Signal
-from ..provenance import provenance_attrs
+from ..provenance import FILE_ATTRS, provenance_attrs
 from . import schema as S
 
 
 # ---------------------------------------------------------------- generic layer
 #: Root attributes that describe the file itself, never copied from a caller's attrs.
-RESERVED_ATTRS = frozenset({"schema", "schema_version", "granwave_version", "git_revision",
-                            "command_line"})
+RESERVED_ATTRS = frozenset(FILE_ATTRS)
 
 
 def check_writable(path: str | os.PathLike) -> Path:

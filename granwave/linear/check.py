@@ -136,7 +136,6 @@ def reference_frozen_forces(packing: Packing, displacement: np.ndarray, rotation
     c = packing.contacts
     dim = packing.dim
     n_rot = rotation.shape[1]
-    poisson = float(packing.attrs.get("poisson", 0.0))
     force = np.zeros((packing.n_grains, dim))
     torque = np.zeros((packing.n_grains, n_rot))
     R = packing.radius

@@ -167,7 +167,7 @@ def _check_packing(packing: Packing) -> None:
     if np.any(packing.box <= 0):
         raise InputError("packing box sizes must be positive")
     keep = c.force_normal > 0
-    if not np.any(keep & (c.j == -1)) or not np.any(keep & (c.j == -2)):
+    if not np.any(keep & c.is_bottom) or not np.any(keep & c.is_top):
         raise InputError("the packing does not touch both walls: no strain can be imposed")
 
 
