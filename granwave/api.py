@@ -67,13 +67,16 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
 
     ``progress`` receives one line of text about once a second. Raises
     ConvergenceError when ``max_steps`` do not converge. The protocol is
-    recorded in ``packing.attrs`` (one attribute per parameter).
+    recorded in ``packing.attrs`` (one attribute per parameter, and the whole
+    parameter object as JSON in ``prepare_params``).
     """
     from .dem.protocol import prepare_packing as run
 
     p = _params(PrepareParams, params, fields)
     _threads(threads)
-    return run(p, progress=progress)
+    packing = run(p, progress=progress)
+    p.record(packing.attrs)
+    return packing
 
 
 def lattice(params: LatticeParams | None = None, /, **fields) -> Packing:

@@ -218,10 +218,6 @@ class PrepareParams(Params):
                         lo_open=True, hi=1.0, cli="")
     check_every: int = param(20, help="Steps between convergence checks.", lo=1, cli="")
 
-    def as_attrs(self) -> dict:
-        # the packing file's historical flat layout (one attribute per field)
-        return {k: ("none" if v is None else v) for k, v in dataclasses.asdict(self).items()}
-
 
 @dataclass(frozen=True, kw_only=True)
 class LatticeParams(Params):
@@ -420,7 +416,10 @@ class FrontParams(Params):
 
 
 def _front_override():
-    return _peak_fraction(None)
+    """--peak-fraction of the analyses built on the front rule; None: FrontParams' default."""
+    return param(None, help="First-pulse rule parameter of `granwave analyze front` (default: its "
+                 f"default, {FrontParams.peak_fraction:g}), the same for every signal.",
+                 lo=0.0, lo_open=True, hi=1.0)
 
 
 @dataclass(frozen=True, kw_only=True)

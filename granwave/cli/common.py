@@ -18,6 +18,7 @@ import click
 import numpy as np
 
 from ..errors import ConvergenceError, InputError
+from ..params import range_text
 
 
 class FiniteFloat(click.ParamType):
@@ -80,8 +81,6 @@ def _option_for(f: dataclasses.Field):
     default = None if required else f.default
     help_text = meta.get("help", "")
     extra = [meta["units"]] if meta.get("units") else []
-    from ..params import range_text
-
     if range_text(meta):
         extra.append(f"range {range_text(meta)}")
     if extra:
@@ -107,8 +106,10 @@ def _option_for(f: dataclasses.Field):
         default = None if default is None else ",".join(f"{x:g}" for x in default)
     else:
         ptype = click.STRING
-    return click.option(name, f.name, type=ptype, default=default,
-                        show_default=default is not None and not required, **kw)
+    if required:
+        return click.option(name, f.name, type=ptype, **kw)
+    return click.option(name, f.name, type=ptype, default=default, show_default=default is not None,
+                        **kw)
 
 
 def options_from(cls, *, exclude=(), json: bool = False):

@@ -185,7 +185,8 @@ def _cell(packing: Packing, prestress: bool) -> _Cell:
     n = np.asarray(c.normal[keep], float).reshape(len(keep), dim)
     delta = c.overlap[keep]
     R = packing.radius
-    # Branch vector: centre-to-centre (R_i + R_j - delta) n, wall: a_i n with a_i = R_i - delta.
+    # Branch vector: centre-to-centre (R_i + R_j - delta) n, wall: a_i n with a_i = R_i - delta;
+    # along the stored normal that D's blocks use (statics.branch_vectors takes the positions).
     length = np.where(wall, R[ii] - delta, R[ii] + R[jj] - delta)
     branch = length[:, None] * n
     force_i = (-c.force_normal[keep][:, None] * n
