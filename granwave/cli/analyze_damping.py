@@ -3,13 +3,12 @@
 import click
 
 from ..params import DampingParams
-from .common import echo_json, json_option, options_from, params_from, stage
+from .common import echo_json, options_from, params_from, stage
 
 
 @click.command()
 @click.argument("signals", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@options_from(DampingParams)
-@json_option
+@options_from(DampingParams, json=True)
 @stage
 def damping(signals, as_json, **options):
     """Damping series: for SIGNALS of one packing (`propagate --method dem --damping ZETA`),

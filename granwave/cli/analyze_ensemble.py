@@ -5,14 +5,13 @@ from __future__ import annotations
 import click
 
 from ..params import EnsembleParams
-from .common import echo_json, echo_table, json_option, options_from, output_option, params_from, stage
+from .common import echo_json, echo_table, options_from, output_option, params_from, stage
 
 
 @click.command()
 @click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
 @output_option
-@options_from(EnsembleParams)
-@json_option
+@options_from(EnsembleParams, json=True)
 @stage
 def ensemble(signals, output, as_json, **options):
     """Average signal and rms deviation over independent packings (docs/method.md §9).

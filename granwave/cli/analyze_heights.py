@@ -5,13 +5,12 @@ from __future__ import annotations
 import click
 
 from ..params import HeightsParams
-from .common import echo_json, echo_table, json_option, options_from, params_from, stage
+from .common import echo_json, echo_table, options_from, params_from, stage
 
 
 @click.command()
 @click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
-@options_from(HeightsParams)
-@json_option
+@options_from(HeightsParams, json=True)
 @stage
 def heights(signals, as_json, **options):
     """Arrival times, speeds and exponents over a container-height series (docs/method.md §9).

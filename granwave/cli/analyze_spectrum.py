@@ -7,7 +7,7 @@ import dataclasses
 import click
 
 from ..params import SpectrumParams
-from .common import echo_json, echo_table, json_option, options_from, params_from, stage
+from .common import echo_json, echo_table, options_from, params_from, stage
 
 
 @click.command()
@@ -16,8 +16,7 @@ from .common import echo_json, echo_table, json_option, options_from, params_fro
               help="The linear file the modes were computed from: its dof map makes the "
                    "participation ratio run over grains (translations only). Without it "
                    "every dof counts as one site.")
-@options_from(SpectrumParams)
-@json_option
+@options_from(SpectrumParams, json=True)
 @stage
 def spectrum(modes_file, linear_file, as_json, **options):
     """Spectrum and each mode's part in the signal (docs/method.md §7).

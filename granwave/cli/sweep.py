@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from ..params import SweepParams
-from .common import echo_json, echo_table, json_option, options_from, output_option, params_from, stage
+from .common import echo_json, echo_table, options_from, output_option, params_from, stage
 
 
 @click.command("pressure-sweep")
@@ -18,8 +18,7 @@ from .common import echo_json, echo_table, json_option, options_from, output_opt
 @click.option("--tables", "tables_dir", type=click.Path(file_okay=False), default=None,
               help="Folder for the Markdown and CSV tables (created if missing; default: "
                    "beside the output).")
-@options_from(SweepParams)
-@json_option
+@options_from(SweepParams, json=True)
 @stage
 def pressure_sweep(summaries, heights_files, output, tables_dir, as_json, **options):
     """Pressure dependence of the speeds and of the statics (docs/method.md §10).
