@@ -136,11 +136,14 @@ def eigensolve(system: LinearSystem, params: EigenParams | None = None, /, *,
 #: dense eigensolve 0.04 s, i.e. about 2.8e-10 s x n^3; modal sum 0.004 s for 525 modes x
 #: 492 samples, about 1.5e-8 s per (mode, sample); time domain at safety 0.1 (front error
 #: < 1e-3 of max|F|, the publication-quality setting there) 0.03 s for 4419 steps over
-#: ~7e3 nonzeros, about 1e-9 s per (nonzero, step). Only the ratio of the two predictions
-#: decides, so the machine's speed cancels.
+#: ~7e3 nonzeros, about 1e-9 s per (nonzero, step), plus the detector and energy sums at
+#: every output sample, about 8e-9 s per (dof, sample) (benchmarks/propagate_auto.py fits
+#: 3.1e-9 and 2.4e-8 on a machine three times slower). Only the ratio of the two
+#: predictions decides, so the machine's speed cancels.
 EIGEN_SECONDS_PER_DOF3 = 2.8e-10
 MODAL_SUM_SECONDS_PER_TERM = 1.5e-8
 VERLET_SECONDS_PER_NNZ_STEP = 1.0e-9
+TIME_SAMPLE_SECONDS_PER_DOF = 8e-9
 
 
 #: The time-domain kernel counts steps in a 64-bit integer.
@@ -177,7 +180,7 @@ def choose_method(system: LinearSystem, params: PropagateParams) -> tuple[str, s
     nnz = system.stiffness.nnz
     dt = params.dt if params.dt is not None else params.safety * 2.0 / max(_omega_max_bound(system), 1e-300)
     steps = _time_steps(params, dt)
-    t_time = VERLET_SECONDS_PER_NNZ_STEP * nnz * steps
+    t_time = VERLET_SECONDS_PER_NNZ_STEP * nnz * steps + TIME_SAMPLE_SECONDS_PER_DOF * n * params.samples
     if n > DENSE_MAX_DOF:
         return "time", (f"time domain: {n} dofs exceed the dense eigensolve limit {DENSE_MAX_DOF} "
                         f"(predicted {t_time:.3g} s)")

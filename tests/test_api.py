@@ -168,7 +168,8 @@ def test_auto_picks_the_cheaper_method_and_records_it(lattice_system):
     for t_max in (10.0, 1e5):
         p = P.PropagateParams(t_max=t_max, samples=401, method="auto")
         steps = api._time_steps(p, p.safety * 2 / wmax)
-        t_time = api.VERLET_SECONDS_PER_NNZ_STEP * nnz * steps
+        t_time = (api.VERLET_SECONDS_PER_NNZ_STEP * nnz * steps
+                  + api.TIME_SAMPLE_SECONDS_PER_DOF * n * p.samples)
         t_modal = api.EIGEN_SECONDS_PER_DOF3 * n**3 + api.MODAL_SUM_SECONDS_PER_TERM * n * p.samples
         expected = "modal" if t_modal <= t_time else "time"
         with warnings.catch_warnings():
