@@ -276,3 +276,24 @@ def test_api_refuses_wrong_objects_and_parameter_types(lattice_system):
         api.propagate("signal.h5", t_max=1.0)
     with pytest.raises(InputError, match="method dem"):
         api.propagate(lattice_system, t_max=1.0, method="dem")
+
+
+def test_threads_reach_numba_and_bad_counts_are_refused(tmp_path):
+    import numba
+
+    before = numba.get_num_threads()
+    try:
+        api.lattice(rows=4, width=4, pressure=1e-4)  # no threads argument: setting left alone
+        assert numba.get_num_threads() == before
+        api.linearize(api.lattice(rows=4, width=4, pressure=1e-4), threads=1)
+        assert numba.get_num_threads() == 1
+        with pytest.raises(InputError, match="threads"):
+            api.linearize(api.lattice(rows=4, width=4, pressure=1e-4), threads=0)
+    finally:
+        numba.set_num_threads(before)
+    r = CliRunner().invoke(main, ["lattice", "--rows", "4", "--width", "4", "--pressure", "1e-4",
+                                  "-o", str(tmp_path / "l.h5")])
+    assert r.exit_code == 0
+    r = CliRunner().invoke(main, ["linearize", str(tmp_path / "l.h5"), "--threads", "0",
+                                  "-o", str(tmp_path / "s.h5")])
+    assert r.exit_code == 2 and not (tmp_path / "s.h5").exists()
