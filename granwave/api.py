@@ -256,6 +256,8 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
     _threads(threads)
     reason = None
     if kind == "modes":
+        if method == "auto":
+            reason = "modal sum: the modes are already computed"
         method = "modal"
         if p.snapshots is not None and system is None:
             raise InputError("snapshots from a modes file need the dof map of the linear system it "
