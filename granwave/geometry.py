@@ -72,6 +72,13 @@ def grain_inertia(radius: np.ndarray) -> np.ndarray:
     return grain_mass(radius) * (2.0 * np.asarray(radius)) ** 2 / 10.0
 
 
+def n_rotations(dim: int, friction: float) -> int:
+    """Rotational dofs per grain: none without friction or in 1D, 1 (about z) in 2D, 3 in 3D."""
+    if friction <= 0.0 or dim == 1:
+        return 0
+    return 1 if dim == 2 else 3
+
+
 def wall_area(lateral: np.ndarray) -> float:
     """Area on which the piston pressure acts: L1 x (one diameter) in 2D, L1 L2 in 3D.
 

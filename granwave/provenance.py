@@ -28,6 +28,20 @@ def git_revision() -> str:
         return "unknown"
 
 
+#: Root attributes that describe a file itself (written by every writer; never copied
+#: from an input file's attributes into an output's).
+FILE_ATTRS = ("schema", "schema_version", "granwave_version", "git_revision", "command_line")
+
+#: Attributes that identify a sample: every stage carries them from its input to its output
+#: (each stage adds the few of its own that later stages need).
+SAMPLE_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson")
+
+
+def carried(attrs: dict, keys=SAMPLE_ATTRS) -> dict:
+    """The entries of ``attrs`` named in ``keys`` (those present), in the order of ``keys``."""
+    return {k: attrs[k] for k in keys if k in attrs}
+
+
 def provenance_attrs() -> dict:
     """Attributes written on the root of every granwave file."""
     return {

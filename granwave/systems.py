@@ -53,21 +53,12 @@ from scipy import optimize
 
 from . import contact
 from .errors import InputError
-from .io import schema as _schema  # noqa: F401  (import order: granwave.model needs granwave.io first)
+from .geometry import grain_inertia, grain_mass
+from .io.schema import BOTTOM_WALL, TOP_WALL
 from .model import Contacts, Packing
 from .resources import check_chain, check_lattice
 
 SQRT3 = math.sqrt(3.0)
-
-
-def _ball_mass(diameter):
-    """m = ρ π d³/6 with ρ = 1 (SPEC §1)."""
-    return np.pi * np.asarray(diameter, dtype=float) ** 3 / 6.0
-
-
-def _ball_inertia(diameter):
-    """I = m d²/10 (solid sphere)."""
-    return _ball_mass(diameter) * np.asarray(diameter, dtype=float) ** 2 / 10.0
 
 
 def hertz_overlap(force: float, r12: float, e12: float) -> float:
@@ -90,8 +81,8 @@ def _check_common(pressure, friction, poisson):
         raise InputError(f"pressure must be positive and finite (E* units), got {pressure}")
     if not (np.isfinite(friction) and friction >= 0):
         raise InputError(f"friction must be >= 0, got {friction}")
-    if not (0.0 <= poisson < 1.0):
-        raise InputError(f"poisson must be in [0, 1), got {poisson}")
+    if not (0.0 <= poisson < 0.5):  # the range of every stage (granwave.params)
+        raise InputError(f"poisson must be in [0, 0.5), got {poisson}")
 
 
 def triangular_lattice(*, rows: int, width: int, pressure: float, friction: float = 0.0,
@@ -123,6 +114,9 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     delta_w = hertz_overlap(f_w, r12_w, e12_w)
     h = a * SQRT3 / 2.0
     y0 = radius - delta_w
+    if not (y0 > 0.0 and a > 0.0):
+        raise InputError(f"pressure {pressure:g} is too large: the wall overlap {delta_w:.3g} leaves "
+                         f"no positive spacing between the first row and the wall (radius {radius})")
 
     row = np.repeat(np.arange(rows), width)
     col = np.tile(np.arange(width), rows)
@@ -148,7 +142,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     bottom = np.arange(width)
     top = (rows - 1) * width + np.arange(width)
     i = np.concatenate([i, bottom, top]).astype(np.int64)
-    j = np.concatenate([j, np.full(width, -1), np.full(width, -2)]).astype(np.int64)
+    j = np.concatenate([j, np.full(width, BOTTOM_WALL), np.full(width, TOP_WALL)]).astype(np.int64)
     normal = np.concatenate([normal, np.tile([0.0, -1.0], (width, 1)), np.tile([0.0, 1.0], (width, 1))])
     wall = j < 0
     m = len(i)
@@ -164,8 +158,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
             contact.tangential_stiffness(delta_g, r12_g, contact.effective_shear(poisson, False))),
     )
     n = rows * width
-    diameter = np.ones(n)
-    mass = _ball_mass(diameter)
+    mass = grain_mass(np.full(n, radius))
     force = _net_force(n, contacts)
     residual = float(np.max(np.linalg.norm(force, axis=1) / mass))
     attrs = dict(kind="lattice", pressure=float(pressure), friction=float(friction),
@@ -173,7 +166,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
                  rows=rows, width=width, spacing=a, row_spacing=h, contact_force=f_g,
                  wall_force=f_w)
     return Packing(position=position, radius=np.full(n, radius), mass=mass,
-                   inertia=_ball_inertia(diameter), box=box, contacts=contacts, attrs=attrs)
+                   inertia=grain_inertia(np.full(n, radius)), box=box, contacts=contacts, attrs=attrs)
 
 
 def default_chain_stiffness(pressure: float) -> float:
@@ -214,7 +207,7 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     radius = diameter / 2.0
     # contacts: bottom wall, pairs (k, k+1), top wall — in order along the chain
     i = np.concatenate([[0], np.arange(n - 1), [n - 1]]).astype(np.int64)
-    j = np.concatenate([[-1], np.arange(1, n), [-2]]).astype(np.int64)
+    j = np.concatenate([[BOTTOM_WALL], np.arange(1, n), [TOP_WALL]]).astype(np.int64)
     normal = np.concatenate([[-1.0], np.ones(n - 1), [1.0]])[:, None]
     wall = j < 0
     inv_rj = np.where(wall, 0.0, 1.0 / radius[np.maximum(j, 0)])
@@ -234,18 +227,19 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     x = np.cumsum(gaps)
     height = x[-1] + radius[-1] - overlap[-1]
     if np.any(gaps <= 0) or height <= 0:
-        raise InputError("pressure too large for this stiffness: overlaps exceed the radii")
+        raise InputError("pressure too large for this stiffness: overlaps exceed the radii and "
+                         "leave no positive spacing")
     contacts = Contacts(i=i, j=j, normal=normal, overlap=overlap, force_normal=np.full(n + 1, float(pressure)),
                         force_tangential=np.zeros((n + 1, 1)), stiffness_normal=k,
                         stiffness_tangential=np.zeros(n + 1))
     position = x[:, None]
     box = np.array([height])
-    mass = _ball_mass(diameter)
+    mass = grain_mass(radius)
     force = _net_force(n, contacts)
     residual = float(np.max(np.abs(force[:, 0]) / mass))
     attrs = dict(kind="chain", pressure=float(pressure), friction=0.0, poisson=0.0, seed=int(seed),
                  converged=True, max_acceleration=residual, n_balls=n,
                  polydispersity=float(polydispersity), stiffness=k_record,
                  stiffness_model=stiffness_model, pressure_meaning="force per mean diameter squared")
-    return Packing(position=position, radius=radius, mass=mass, inertia=_ball_inertia(diameter),
+    return Packing(position=position, radius=radius, mass=mass, inertia=grain_inertia(radius),
                    box=box, contacts=contacts, attrs=attrs)

@@ -49,10 +49,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..params import FrontParams
 
-DEFAULT_PEAK_FRACTION = 0.3
-DEFAULT_LEAD_FRACTION = 0.1
-DEFAULT_NOISE_FRACTION = 1e-3
+# The defaults live with the stage's parameters (granwave.params.FrontParams).
+DEFAULT_PEAK_FRACTION = FrontParams.peak_fraction
+DEFAULT_LEAD_FRACTION = FrontParams.lead_fraction
+DEFAULT_NOISE_FRACTION = FrontParams.noise_fraction
 
 
 @dataclass(frozen=True, kw_only=True)

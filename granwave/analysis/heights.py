@@ -37,14 +37,15 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from ..errors import InputError
+from ..params import HeightsParams
 from .fits import inverse_slope, linear_fit, local_exponents, power_law_fit
 from .front import features_of_signals
 
 if TYPE_CHECKING:  # annotations only
     from ..model import Signal
 
-DEFAULT_EDGE_HEIGHTS = (8.0, 25.0)
-DEFAULT_GROUP_RTOL = 0.05
+DEFAULT_EDGE_HEIGHTS = HeightsParams.edge_heights  # defaults: granwave.params
+DEFAULT_GROUP_RTOL = HeightsParams.group_tolerance
 FEATURES = ("t_lead10", "t_peak", "t_zero", "amplitude", "width")
 
 

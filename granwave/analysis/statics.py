@@ -46,6 +46,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import Packing
+from ..params import BULK_LAYER
 
 KEYS = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p", "Z2", "Z3",
         "F2", "F2_strong", "stress", "stress_ratio", "max_force_residual", "piston_balance")
@@ -134,7 +135,7 @@ def _amount_in_slab(y: np.ndarray, radius: np.ndarray, lo: float, hi: float, kin
     return below(hi) - below(lo)
 
 
-def statics(packing: Packing, *, layer: float = 3.0, min_contacts: int = 2,
+def statics(packing: Packing, *, layer: float = BULK_LAYER, min_contacts: int = 2,
             force_tol: float = 1e-9) -> dict:
     """Bulk statistics, stress and balance checks of a packing (SPEC §4; choices: module docstring).
 
@@ -204,7 +205,7 @@ def statics(packing: Packing, *, layer: float = 3.0, min_contacts: int = 2,
     if torque.shape[1]:
         worst = max(worst, np.max(np.linalg.norm(torque, axis=1)))
     area = float(np.prod(lateral)) if dim >= 2 else 1.0  # 2D: L1 x 1 d; 1D: 1 d^2
-    top = c.j == -2
+    top = c.is_top
     piston_balance = float(fn[top].sum() / (p * area) - 1.0)
 
     return dict(

@@ -65,6 +65,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.files import atomic_text, load_json
+from ..provenance import SAMPLE_ATTRS
 from .ensemble import describe
 from .fits import power_law_fit
 
@@ -179,8 +180,7 @@ def write_summary(path, summary) -> None:
 
 
 #: Attributes of a signal / packing file copied into a summary by :func:`merge_summary`.
-CARRIED_ATTRS = ("pressure", "seed", "kind", "height", "friction", "poisson", "dim", "ic", "method",
-                 "n_grains")
+CARRIED_ATTRS = (*SAMPLE_ATTRS, "height", "ic", "method", "n_grains")
 
 
 def _section_data(name: str, data):

@@ -17,4 +17,4 @@ ANALYSES = {
 
 @click.group(cls=LazyGroup, lazy_commands=ANALYSES)
 def analyze():
-    """Measure packings, signals and spectra (SPEC §4, §6, §7, §9)."""
+    """Measure packings, signals and spectra (docs/method.md §4, §6, §7, §9)."""

@@ -1,28 +1,27 @@
-"""``granwave analyze damping``: coherent amplitude and tail rms against ζ (SPEC §11)."""
+"""``granwave analyze damping``: coherent amplitude and tail rms against ζ (docs/method.md §11)."""
 
 import click
 
-from .common import FiniteFloat, echo_json, json_option, stage
+from ..params import DampingParams
+from .common import echo_json, options_from, params_from, stage
 
 
 @click.command()
 @click.argument("signals", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--tail-start", type=FiniteFloat(min=0.0), default=None,
-              help="Start of the tail window (time units d/sqrt(E*/rho)); default: the least "
-                   "damped signal's first zero crossing plus one pulse width.")
-@json_option
+@options_from(DampingParams, json=True)
 @stage
-def damping(signals, tail_start, as_json):
+def damping(signals, as_json, **options):
     """Damping series: for SIGNALS of one packing (`propagate --method dem --damping ZETA`),
     the first-pulse amplitude and width and the tail rms, by contact damping ζ.
 
     The tail window is the same for every ζ, so that a broader damped pulse does not
     move it. Signals need the attribute `damping`.
     """
-    from ..dem.pulse import damping_table
+    from .. import api
     from ..io.files import read_signal
 
-    rows = damping_table([read_signal(path) for path in signals], tail_start=tail_start)
+    params = params_from(DampingParams, options)
+    rows = api.damping([read_signal(path) for path in signals], params)
     if as_json:
         echo_json(rows)
         return

@@ -4,19 +4,17 @@ from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, echo_json, echo_table, json_option, output_option, stage
+from ..params import EnsembleParams
+from .common import echo_json, echo_table, options_from, output_option, params_from, stage
 
 
 @click.command()
 @click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
 @output_option
-@click.option("--peak-fraction", type=FiniteFloat(min=0.0, max=1.0, min_open=True), default=None,
-              help="First-pulse rule parameter of `granwave analyze front` (default: its "
-                   "default); the same rule for every signal and for the mean.")
-@json_option
+@options_from(EnsembleParams, json=True)
 @stage
-def ensemble(signals, output, peak_fraction, as_json):
-    """Average signal and rms deviation over independent packings (SPEC §9).
+def ensemble(signals, output, as_json, **options):
+    """Average signal and rms deviation over independent packings (docs/method.md §9).
 
     SIGNALS are signal files (from `granwave propagate`) of one pressure and
     one initial condition. Writes OUTPUT (schema granwave.ensemble):
@@ -29,26 +27,17 @@ def ensemble(signals, output, peak_fraction, as_json):
     Prints the mean, std, standard error and count of every front feature
     over the signals, and the front features of the mean signal.
     """
-    import json
-
-    from ..analysis.ensemble import analyze_ensemble, write_ensemble
+    from .. import api
+    from ..analysis.ensemble import write_ensemble
     from ..errors import InputError
     from ..io.files import check_writable, read_signal
 
+    params = params_from(EnsembleParams, options)
     if not signals:
         raise InputError("no signal files given")
     check_writable(output)
-    sigs = [read_signal(p) for p in signals]
-    front_kw = {} if peak_fraction is None else {"peak_fraction": peak_fraction}
-    ens, summary = analyze_ensemble(sigs, labels=list(signals), **front_kw)
-    extra = {"front_options": json.dumps(front_kw), "sources": json.dumps(list(signals))}
-    for key, st in summary["front_stats"].items():
-        extra[f"front_{key}_mean"] = st["mean"]
-        extra[f"front_{key}_std"] = st["std"]
-    for key, value in summary["front_of_mean"].items():
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            extra[f"front_of_mean_{key}"] = value
-    write_ensemble(output, ens, extra)
+    ens, summary = api.ensemble([read_signal(p) for p in signals], params, labels=list(signals))
+    write_ensemble(output, ens, summary.pop("attrs"))
     summary["output"] = str(output)
     if as_json:
         echo_json(summary)

@@ -2,46 +2,18 @@
 
 from __future__ import annotations
 
-import math
-
 import click
 
-from .common import FiniteFloat, echo_json, echo_table, json_option, stage
-
-
-class HeightPair(click.ParamType):
-    """Two positive finite heights written ``A,B`` (d)."""
-
-    name = "L1,L2"
-
-    def convert(self, value, param, ctx):
-        if isinstance(value, tuple):
-            return value
-        parts = str(value).split(",")
-        try:
-            pair = tuple(float(p) for p in parts)
-        except ValueError:
-            self.fail(f"{value!r} is not two numbers separated by a comma", param, ctx)
-        if len(pair) != 2 or not all(math.isfinite(h) and h > 0 for h in pair) or pair[0] == pair[1]:
-            self.fail(f"{value!r} must be two different positive heights, e.g. 8,25", param, ctx)
-        return pair
+from ..params import HeightsParams
+from .common import echo_json, echo_table, options_from, params_from, stage
 
 
 @click.command()
 @click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
-@click.option("--edge-heights", type=HeightPair(), default="8,25", show_default=True,
-              help="c_tof, c_peak, c_zero are taken between the two nominal heights nearest "
-                   "to these (d); the fit over all heights is reported as *_all.")
-@click.option("--group-tolerance", type=FiniteFloat(min=0.0, max=1.0, max_open=True), default=0.05,
-              show_default=True,
-              help="Heights within this relative gap of each other form one nominal height.")
-@click.option("--peak-fraction", type=FiniteFloat(min=0.0, max=1.0, min_open=True), default=None,
-              help="First-pulse rule parameter of `granwave analyze front` (default: its "
-                   "default); the same rule is applied to every signal.")
-@json_option
+@options_from(HeightsParams, json=True)
 @stage
-def heights(signals, edge_heights, group_tolerance, peak_fraction, as_json):
-    """Arrival times, speeds and exponents over a container-height series (SPEC §9).
+def heights(signals, as_json, **options):
+    """Arrival times, speeds and exponents over a container-height series (docs/method.md §9).
 
     SIGNALS are signal files (from `granwave propagate`) of containers of
     several heights L (attribute `height`, bottom wall to top wall, in d),
@@ -58,16 +30,14 @@ def heights(signals, edge_heights, group_tolerance, peak_fraction, as_json):
     exponents between consecutive heights. Uncertainties of a fit through
     exactly two points are undetermined (null).
     """
-    from ..analysis.heights import height_series
+    from .. import api
     from ..errors import InputError
     from ..io.files import read_signal
 
+    params = params_from(HeightsParams, options)
     if not signals:
         raise InputError("no signal files given")
-    sigs = [read_signal(p) for p in signals]
-    front_kw = {} if peak_fraction is None else {"peak_fraction": peak_fraction}
-    res = height_series(sigs, labels=list(signals), edge_heights=edge_heights,
-                        group_rtol=group_tolerance, **front_kw)
+    res = api.heights([read_signal(p) for p in signals], params, labels=list(signals))
     if as_json:
         echo_json(res)
         return

@@ -2,25 +2,24 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import click
 
-from .common import echo_json, echo_table, json_option, stage
+from ..params import SpectrumParams
+from .common import echo_json, echo_table, options_from, params_from, stage
 
 
 @click.command()
 @click.argument("modes_file", metavar="MODES", type=click.Path(dir_okay=False))
-@click.option("--ic", type=click.Choice(["A", "B"], case_sensitive=False), default="A",
-              show_default=True, help="Initial condition whose weights a_n b_n are analysed.")
 @click.option("--linear", "linear_file", type=click.Path(dir_okay=False), default=None,
               help="The linear file the modes were computed from: its dof map makes the "
                    "participation ratio run over grains (translations only). Without it "
                    "every dof counts as one site.")
-@click.option("--arrays/--no-arrays", default=False, show_default=True,
-              help="With --json, also print omega^2, a_n b_n and PR of every mode.")
-@json_option
+@options_from(SpectrumParams, json=True)
 @stage
-def spectrum(modes_file, ic, linear_file, arrays, as_json):
-    """Spectrum and each mode's part in the signal (SPEC §7).
+def spectrum(modes_file, linear_file, as_json, **options):
+    """Spectrum and each mode's part in the signal (docs/method.md §7).
 
     MODES is a modes file from `granwave eigensolve`. Reports the number of
     modes and of zero modes (|omega^2| <= the eigensolve threshold x
@@ -34,25 +33,17 @@ def spectrum(modes_file, ic, linear_file, arrays, as_json):
     per mode needs eigenvectors (`granwave eigensolve --vectors`); without
     them everything else is still reported.
     """
-    from ..errors import InputError
+    from .. import api
     from ..io import files as F
     from ..io import schema as S
 
+    params = params_from(SpectrumParams, options)
+    params = dataclasses.replace(params, arrays=params.arrays and as_json)
     with F.open_checked(modes_file, S.MODES) as f:
         has_vectors = "vectors" in f
     modes = F.read_modes(modes_file, vectors=has_vectors)
-    dof_grain = dof_axis = None
-    if linear_file is not None:
-        system = F.read_linear(linear_file)
-        if modes.vectors is not None and system.n_dof != modes.vectors.shape[0]:
-            raise InputError(f"{linear_file} has {system.n_dof} dofs, the eigenvectors of "
-                             f"{modes_file} {modes.vectors.shape[0]}: not the same system")
-        dof_grain, dof_axis = system.dof_grain, system.dof_axis
-
-    from ..analysis.spectrum import spectrum_summary
-
-    res = spectrum_summary(modes, ic=ic, dof_grain=dof_grain, dof_axis=dof_axis,
-                           arrays=arrays and as_json)
+    system = F.read_linear(linear_file) if linear_file is not None else None
+    res = api.spectrum(modes, params, system=system)
     res["source"] = str(modes_file)
     if as_json:
         echo_json(res)

@@ -1,23 +1,18 @@
-"""``granwave analyze statics``: static characterization of a packing (SPEC §4)."""
+"""``granwave analyze statics``: static characterization of a packing (docs/method.md §4)."""
 
 from __future__ import annotations
 
 import click
 
-from .common import NON_NEGATIVE, echo_json, echo_table, json_option, stage
+from ..params import StaticsParams
+from .common import echo_result, options_from, params_from, stage
 
 
-@click.command(context_settings={"help_option_names": ["-h", "--help"]})
+@click.command()
 @click.argument("packing", type=click.Path(dir_okay=False))
-@click.option("--layer", type=NON_NEGATIVE, default=3.0, show_default=True,
-              help="Thickness l (mean diameters) excluded next to the bottom wall and the piston "
-                   "from the bulk measurements.")
-@click.option("--min-contacts", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Rattler rule: grains with fewer force-carrying contacts are rattlers "
-                   "(applied iteratively; 1 = literally no force-carrying contact).")
-@json_option
+@options_from(StaticsParams, json=True)
 @stage
-def statics(packing, layer, min_contacts, as_json):
+def statics(packing, as_json, **options):
     """Solid fractions, coordination, force statistics, fabric and stress of a packing.
 
     Bulk quantities use the slab l <= y <= H - l (grains cut exactly by its
@@ -31,11 +26,9 @@ def statics(packing, layer, min_contacts, as_json):
     torque / p d^2), piston_balance (top-wall force / (p x wall area) - 1).
     Rattler rule and other choices: granwave.analysis.statics docstring.
     """
-    from ..analysis.statics import statics as compute
+    from .. import api
     from ..io.files import read_packing
 
-    result = compute(read_packing(packing), layer=layer, min_contacts=min_contacts)
-    if as_json:
-        echo_json(result)
-    else:
-        echo_table(result, title=f"statics of {packing} (layer {layer:g})")
+    params = params_from(StaticsParams, options)
+    result = api.statics(read_packing(packing), params)
+    echo_result(result, as_json, title=f"statics of {packing} (layer {params.layer:g})")

@@ -1,7 +1,13 @@
-"""Options and error handling shared by every stage of the CLI."""
+"""Options and error handling shared by every stage of the CLI.
+
+Stage options come from the fields of the stage's parameter dataclass
+(:func:`options_from`, :func:`params_from`), so that every default, range,
+unit and help text is written once, in :mod:`granwave.params`.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -13,6 +19,7 @@ import click
 import numpy as np
 
 from ..errors import ConvergenceError, InputError, OutputError
+from ..params import range_text
 
 
 class FiniteFloat(click.ParamType):
@@ -43,24 +50,123 @@ class FiniteFloat(click.ParamType):
 
 FLOAT = FiniteFloat()
 POSITIVE = FiniteFloat(min=0.0, min_open=True)
-NON_NEGATIVE = FiniteFloat(min=0.0)
 
 output_option = click.option(
     "-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
     help="Output HDF5 file (written atomically).")
 json_option = click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
-seed_option = click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
-                           help="Random seed; the same seed gives the same result bit for bit.")
+
+
+class FloatList(click.ParamType):
+    """Comma-separated finite numbers, e.g. ``8,25`` (a tuple)."""
+
+    name = "list"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        try:
+            values = tuple(float(x) for x in str(value).split(",") if x.strip())
+        except ValueError:
+            self.fail(f"{value!r} is not a comma-separated list of numbers", param, ctx)
+        if not all(math.isfinite(x) for x in values):
+            self.fail(f"{value!r} holds a value that is not a finite number", param, ctx)
+        return values
+
+
+def _option_for(f: dataclasses.Field):
+    """The click option of one parameter field (name, type, default, help from the field)."""
+    meta = f.metadata
+    name = meta.get("cli") or "--" + f.name.replace("_", "-")
+    required = f.default is dataclasses.MISSING
+    default = None if required else f.default
+    help_text = meta.get("help", "")
+    extra = [meta["units"]] if meta.get("units") else []
+    if range_text(meta):
+        extra.append(f"range {range_text(meta)}")
+    if extra:
+        help_text += f" [{'; '.join(extra)}]"
+    kw = dict(help=help_text, required=required)
+    if meta.get("metavar"):
+        kw["metavar"] = meta["metavar"]
+    if f.type in ("bool", "bool | None"):
+        if meta.get("negatable"):
+            flag = name.lstrip("-")
+            return click.option(f"--{flag}/--no-{flag}", f.name, default=default,
+                                show_default=default is not None, **kw)
+        return click.option(name, f.name, is_flag=True, default=bool(default), **kw)
+    if meta.get("choices") is not None:
+        ptype = click.Choice([str(c) for c in meta["choices"]], case_sensitive=False)
+        default = None if default is None else str(default)
+    elif f.type.startswith("int"):
+        ptype = click.INT
+    elif f.type.startswith("float"):
+        ptype = FLOAT
+    elif f.type.startswith("tuple"):
+        ptype = FloatList()
+        default = None if default is None else ",".join(f"{x:g}" for x in default)
+    else:
+        ptype = click.STRING
+    if required:
+        return click.option(name, f.name, type=ptype, **kw)
+    return click.option(name, f.name, type=ptype, default=default, show_default=default is not None,
+                        **kw)
+
+
+def options_from(cls, *, exclude=(), json: bool = False):
+    """Decorator adding one click option per field of the parameter class ``cls``.
+
+    Fields whose metadata ``cli`` is "" (internal protocol settings) and those
+    in ``exclude`` get no option; the order of the help follows the fields.
+    ``json`` adds ``--json`` (the stage prints its result with :func:`echo_result`).
+    """
+    fields = [f for f in dataclasses.fields(cls)
+              if f.name not in exclude and f.metadata.get("cli") != ""]
+
+    def decorate(func):
+        if json:
+            func = json_option(func)
+        for f in reversed(fields):
+            func = _option_for(f)(func)
+        return func
+
+    return decorate
+
+
+def params_from(cls, options: dict, **fixed):
+    """Build ``cls`` from the click values in ``options`` (its own fields only) and ``fixed``."""
+    values = {}
+    for f in dataclasses.fields(cls):
+        if f.name in options:
+            value = options[f.name]
+            choices = f.metadata.get("choices")
+            if choices is not None and value is not None:
+                value = next((c for c in choices if str(c).upper() == str(value).upper()), value)
+            values[f.name] = value
+    values.update(fixed)
+    return cls(**values)
+
+
+def _default_threads():
+    from ..threads import available_cores
+
+    return available_cores()
+
+
+threads_option = click.option(
+    "--threads", type=click.IntRange(min=1), default=_default_threads,
+    show_default="the cores this process may run on",
+    help="Threads of the parallel kernels (results do not depend on it).")
+
+
+class BadInput(click.ClickException):
+    """A one-line error about the user's input: exit status 2, like click's usage errors."""
+
+    exit_code = 2
 
 
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
-
-
-class Refusal(click.ClickException):
-    """Bad input, refused before any output is written: one line, exit status 2."""
-
-    exit_code = 2
 
 
 def _paths(value) -> list[str]:
@@ -100,7 +206,7 @@ def stage(func):
             _check_outputs(kwargs)
             return func(*args, **kwargs)
         except InputError as exc:
-            raise Refusal(str(exc)) from None
+            raise BadInput(str(exc)) from None
         except OutputError as exc:
             raise click.ClickException(str(exc)) from None
         except ConvergenceError as exc:
@@ -108,7 +214,7 @@ def stage(func):
         except MemoryError:
             from ..resources import available_memory, format_bytes
 
-            raise Refusal(f"out of memory: the request does not fit ({format_bytes(available_memory())} "
+            raise BadInput(f"out of memory: the request does not fit ({format_bytes(available_memory())} "
                           "available); reduce it") from None
         except KeyboardInterrupt:
             click.echo("\ninterrupted; no output written", err=True)
@@ -136,6 +242,11 @@ def echo_json(obj) -> None:
     click.echo(json.dumps(_jsonable(obj), indent=1))
 
 
+def echo_result(rows: dict, as_json: bool, title: str | None = None) -> None:
+    """One JSON object (``--json``) or the ``name  value`` table under ``title``."""
+    echo_json(rows) if as_json else echo_table(rows, title=title)
+
+
 def echo_table(rows: dict, title: str | None = None) -> None:
     """Print ``name  value`` rows, numbers with 6 significant digits."""
     if title:
@@ -147,6 +258,12 @@ def echo_table(rows: dict, title: str | None = None) -> None:
         elif isinstance(value, np.ndarray):
             value = np.array2string(value, precision=5)
         click.echo(f"  {key:<{width}}  {value}")
+
+
+def echo_warnings(caught) -> None:
+    """Print warnings recorded by ``warnings.catch_warnings(record=True)`` as one line each."""
+    for w in caught:
+        click.echo(f"warning: {w.message}", err=True)
 
 
 def progress_printer(enabled: bool = True):

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, echo_json, echo_table, json_option, output_option, stage
+from ..params import SweepParams
+from .common import echo_json, echo_table, options_from, output_option, params_from, stage
 
 
 @click.command("pressure-sweep")
@@ -17,13 +18,10 @@ from .common import FiniteFloat, echo_json, echo_table, json_option, output_opti
 @click.option("--tables", "tables_dir", type=click.Path(file_okay=False), default=None,
               help="Folder for the Markdown and CSV tables (created if missing; default: "
                    "beside the output).")
-@click.option("--poisson", type=FiniteFloat(min=0.0, max=1.0, max_open=True), default=0.0,
-              show_default=True, help="Poisson ratio for the frictional lattice formula "
-                                      "(eta = k_t/k_n = 2(1-nu)/(2-nu)).")
-@json_option
+@options_from(SweepParams, json=True)
 @stage
-def pressure_sweep(summaries, heights_files, output, tables_dir, poisson, as_json):
-    """Pressure dependence of the speeds and of the statics (SPEC §10).
+def pressure_sweep(summaries, heights_files, output, tables_dir, as_json, **options):
+    """Pressure dependence of the speeds and of the statics (docs/method.md §10).
 
     SUMMARIES are per-sample summary JSON files (layout: docs/summaries.md;
     a file may also hold a list of summaries); height-series JSON files
@@ -42,10 +40,12 @@ def pressure_sweep(summaries, heights_files, output, tables_dir, poisson, as_jso
     """
     from pathlib import Path
 
-    from ..analysis.sweep import load_inputs, pressure_sweep as run, write_sweep, write_tables
+    from .. import api
+    from ..analysis.sweep import load_inputs, write_sweep, write_tables
     from ..errors import InputError
     from ..io.files import check_writable
 
+    params = params_from(SweepParams, options)
     if not summaries and not heights_files:
         raise InputError("no summary files given")
     out = check_writable(output)
@@ -53,10 +53,11 @@ def pressure_sweep(summaries, heights_files, output, tables_dir, poisson, as_jso
     if not folder.is_dir() and not folder.parent.is_dir():
         raise InputError(f"tables folder {folder}: its parent folder does not exist")
     sums, series = load_inputs([*summaries, *heights_files])
-    res = run(sums, height_series=series, poisson=poisson)
+    res = api.pressure_sweep(sums, params, height_series=series)
     folder.mkdir(exist_ok=True)  # only now that the inputs are known to be good
     written = write_tables(res, folder, prefix=out.stem)
-    write_sweep(out, res, {"sources": "\n".join([*summaries, *heights_files]), "poisson": poisson})
+    write_sweep(out, res, params.record({"sources": "\n".join([*summaries, *heights_files]),
+                                         "poisson": params.poisson}))
     res["output"], res["tables"] = str(out), written
     if as_json:
         echo_json(res)

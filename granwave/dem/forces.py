@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
-from ..geometry import nearest_image
+from ..geometry import BOTTOM_WALL, TOP_WALL, n_rotations, nearest_image
 from ..model import Contacts, Packing
 from . import kernels as K
 
@@ -59,11 +59,11 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
             g12 = g_pair
         else:
             y = pos[i, d - 1] + disp[i, d - 1]
-            delta = R - y if j == -1 else R - (h - y)
+            delta = R - y if j == BOTTOM_WALL else R - (h - y)
             for a in range(d):
                 nv[a] = 0.0
                 du[a] = -disp[i, a]
-            nv[d - 1] = -1.0 if j == -1 else 1.0
+            nv[d - 1] = -1.0 if j == BOTTOM_WALL else 1.0
             ai = R - delta
             aj = 0.0
             r12 = R
@@ -86,11 +86,6 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
                 force[j, a] -= fvec[a]
             if r > 0:
                 K.add_torque(torque, j, aj, nv, fvec)
-
-
-def n_rotations(dim: int, friction: float) -> int:
-    """Rotational dof per grain: 0 without friction, 1 in 2D, 3 in 3D."""
-    return 0 if friction == 0.0 else (1 if dim == 2 else 3)
 
 
 def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
@@ -147,12 +142,12 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
     overlap = [delta[keep]]
     ft = [pair_ft[keep]]
     y = position[:, d - 1]
-    for k, (j_wall, dlt) in enumerate(((-1, radius - y), (-2, radius - (height - y)))):
+    for k, (j_wall, dlt) in enumerate(((BOTTOM_WALL, radius - y), (TOP_WALL, radius - (height - y)))):
         on = np.nonzero(dlt > 0.0)[0]
         ci.append(on)
         cj.append(np.full(len(on), j_wall, np.int64))
         nrm = np.zeros((len(on), d))
-        nrm[:, d - 1] = -1.0 if j_wall == -1 else 1.0
+        nrm[:, d - 1] = -1.0 if j_wall == BOTTOM_WALL else 1.0
         normal.append(nrm)
         overlap.append(dlt[on])
         ft.append(wall_ft[2 * on + k])
@@ -199,7 +194,7 @@ def static_residual(packing: Packing, piston_mass: float | None = None, piston_f
     a = np.sqrt(np.sum(force**2, axis=1)) / packing.mass
     al = np.sqrt(np.sum(torque**2, axis=1)) / packing.inertia if torque.shape[1] else np.zeros(1)
     c = packing.contacts
-    ftop = float(np.sum(c.force_normal[c.j == -2]))
+    ftop = float(np.sum(c.force_normal[c.is_top]))
     if piston_force is None:
         from ..geometry import wall_area
         piston_force = packing.pressure * wall_area(packing.box[:-1])

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import contact as C
 from ..errors import InputError
+from ..geometry import grain_inertia, grain_mass, n_rotations
 from . import kernels as K
 from .neighbours import rebuild
 
@@ -69,11 +70,10 @@ class Engine:
         if np.any(self.lateral <= reach):
             raise InputError(f"periodic length {self.lateral.min():g} too small: must exceed {reach:g} "
                              "(twice the largest diameter plus skin) for unique nearest images")
-        self.mass = np.pi * (2.0 * self.radius) ** 3 / 6.0
-        self.inertia = self.mass * (2.0 * self.radius) ** 2 / 10.0
+        self.mass, self.inertia = grain_mass(self.radius), grain_inertia(self.radius)
         self.dim = d
         self.friction = float(friction)
-        n_rot = 0 if self.friction == 0.0 else (1 if d == 2 else 3)
+        n_rot = n_rotations(d, self.friction)
         self.velocity = np.zeros((n, d)) if velocity is None else np.array(velocity, dtype=np.float64)
         self.angular_velocity = (np.zeros((n, n_rot)) if angular_velocity is None or n_rot == 0
                                  else np.array(angular_velocity, dtype=np.float64).reshape(n, n_rot))

@@ -50,7 +50,7 @@ from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
 from .integrator import Engine
-from .params import PrepareParams
+from ..params import PrepareParams, default_gas_density
 
 DT_RULE = ("(safety/0.1) * min over the normal and (friction) rotational mode of the stiffest contact "
            "of 2(sqrt(1+z^2)-z)/w: w_n^2 = k_max/m_min, z = zeta; w_t^2 = 3.5 eta k_max/m_min, "
@@ -133,7 +133,7 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     radius = 0.5 * diameter
     width = lateral_size(radius, p.dim, p.aspect)
     lateral = np.full(p.dim - 1, width)
-    gas_density = p.gas_density if p.gas_density is not None else (0.50 if p.dim == 2 else 0.30)
+    gas_density = p.gas_density if p.gas_density is not None else default_gas_density(p.dim)
     position, height = granular_gas(radius, lateral, gas_density, rng)
     actual_gas_density = float(np.sum(grain_measure(radius, p.dim))) / (height * float(np.prod(lateral)))
     mass = grain_mass(radius)

@@ -65,6 +65,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Packing, Signal
 from ..resources import check_propagate
+from ..provenance import SAMPLE_ATTRS, carried
 from . import kernels as K
 from . import pulse_kernels as PK
 from .integrator import Engine
@@ -87,8 +88,7 @@ AMPLITUDE_DEFINITION = {
 }
 
 #: Attributes carried from the packing into the signal.
-CARRIED_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson", "grains",
-                 "polydispersity")
+CARRIED_ATTRS = (*SAMPLE_ATTRS, "grains", "polydispersity")
 
 
 # ---------------------------------------------------------------- set-up
@@ -102,10 +102,10 @@ def _check_ic(ic: str) -> str:
 def source(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
     """(grain indices, k_wall) of the force-carrying bottom-wall contacts (the source)."""
     c = packing.contacts
-    on = (c.j == -1) & (c.force_normal > 0.0)
+    on = c.is_bottom & (c.force_normal > 0.0)
     if not np.any(on):
         raise InputError("the packing has no force-carrying bottom-wall contact: no source")
-    if not np.any((c.j == -2) & (c.force_normal > 0.0)):
+    if not np.any(c.is_top & (c.force_normal > 0.0)):
         raise InputError("the packing has no force-carrying top-wall contact: no detector")
     return c.i[on].astype(np.int64), c.stiffness_normal[on].astype(float)
 
@@ -272,7 +272,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     dbar = mean_overlap(packing)
     scale = amplitude_scale(packing, ic, amplitude)
     c = packing.contacts
-    f_static = float(np.sum(c.force_normal[c.j == -2]))
+    f_static = float(np.sum(c.force_normal[c.is_top]))
     run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
                progress=progress, progress_interval=progress_interval, unloading=unloading)
     t_wall0 = _time.perf_counter()
@@ -285,7 +285,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     wall_time = _time.perf_counter() - t_wall0
     reference = base["top"] if base is not None else np.full(samples, f_static)
     force = (kicked["top"] - reference) / scale
-    attrs = {key: packing.attrs[key] for key in CARRIED_ATTRS if key in packing.attrs}
+    attrs = carried(packing.attrs, CARRIED_ATTRS)
     attrs.update(
         ic=ic, method="dem", height=packing.height, amplitude=float(amplitude), damping=float(damping),
         scale=float(scale), mean_overlap=dbar, amplitude_definition=AMPLITUDE_DEFINITION[ic],

@@ -36,15 +36,14 @@ import scipy.sparse as sp
 
 from ..errors import InputError, OutputError
 from ..model import Contacts, LinearSystem, Modes, Packing, Signal
-from ..provenance import provenance_attrs
+from ..provenance import FILE_ATTRS, provenance_attrs
 from . import schema as S
 from . import validate as V
 
 
 # ---------------------------------------------------------------- generic layer
 #: Root attributes that describe the file itself, never copied from a caller's attrs.
-RESERVED_ATTRS = frozenset({"schema", "schema_version", "granwave_version", "git_revision",
-                            "command_line"})
+RESERVED_ATTRS = frozenset(FILE_ATTRS)
 
 #: Absolute paths of every file read in this process (insertion ordered), so that no
 #: write replaces one of them (checked by identity: links count).

@@ -47,8 +47,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..geometry import n_rotations  # noqa: F401  (re-exported)
 from ..model import LinearSystem, Packing
 from ..resources import check_linearize
+from ..provenance import SAMPLE_ATTRS
 
 #: Relative threshold on omega^2 / omega^2_max below which a mode counts as a zero mode.
 ZERO_MODE_THRESHOLD = 1e-10
@@ -59,15 +61,7 @@ DENSE_CHECK_MAX_DOF = 3000
 #: Lowest eigenvalues computed by shift-invert Lanczos above DENSE_CHECK_MAX_DOF.
 SPARSE_CHECK_MODES = 12
 
-_COPIED_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson", "converged",
-                 "max_acceleration", "n_grains")
-
-
-def n_rotations(dim: int, friction: float) -> int:
-    """Rotational dofs per grain: none without friction or in 1D, 1 in 2D, 3 in 3D."""
-    if friction <= 0.0 or dim == 1:
-        return 0
-    return 1 if dim == 2 else 3
+_COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains")
 
 
 def expected_zero_modes(dim: int, friction: float) -> int:
@@ -294,8 +288,8 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
 
     # Source and detector (docs/conventions.md): bottom-wall and top-wall contacts.
     vert = dim - 1
-    bottom = keep[c.j[keep] == -1]
-    top = keep[c.j[keep] == -2]
+    bottom = keep[c.is_bottom[keep]]
+    top = keep[c.is_top[keep]]
     kb = np.zeros(n_dof)
     np.add.at(kb, first[c.i[bottom]] + vert, c.stiffness_normal[bottom])
     source_velocity = kb / mass

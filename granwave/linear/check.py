@@ -20,10 +20,9 @@ import math
 import numpy as np
 
 from .. import contact as law
+from ..geometry import grain_inertia, grain_mass
 from ..model import Contacts, Packing
 
-BALL_MASS = math.pi / 6.0
-BALL_INERTIA = BALL_MASS / 10.0
 
 
 def reference_chain(n_balls: int, *, stiffness: float = 1.0, pressure: float = 1e-3) -> Packing:
@@ -45,8 +44,8 @@ def reference_chain(n_balls: int, *, stiffness: float = 1.0, pressure: float = 1
                         overlap=np.full(m, delta), force_normal=np.full(m, pressure),
                         force_tangential=np.zeros((m, 1)), stiffness_normal=np.full(m, stiffness),
                         stiffness_tangential=np.zeros(m))
-    return Packing(position=pos, radius=np.full(n, 0.5), mass=np.full(n, BALL_MASS),
-                   inertia=np.full(n, BALL_INERTIA), box=np.array([height]), contacts=contacts,
+    return Packing(position=pos, radius=np.full(n, 0.5), mass=grain_mass(np.full(n, 0.5)),
+                   inertia=grain_inertia(np.full(n, 0.5)), box=np.array([height]), contacts=contacts,
                    attrs=dict(dim=1, pressure=pressure, friction=0.0, poisson=0.0, seed=0,
                               converged=True, max_acceleration=0.0, kind="chain",
                               spacing=ell, spring_stiffness=stiffness))
@@ -104,8 +103,8 @@ def reference_lattice(rows: int, width: int, *, pressure: float, friction: float
     pos = np.stack([(k_of + 0.5 * (r_of % 2)) * ell,
                     R - d_w + r_of * ell * math.sqrt(3.0) / 2], axis=1)
     box = np.array([width * ell, 2 * (R - d_w) + (rows - 1) * ell * math.sqrt(3.0) / 2])
-    return Packing(position=pos, radius=np.full(n, R), mass=np.full(n, BALL_MASS),
-                   inertia=np.full(n, BALL_INERTIA), box=box, contacts=contacts,
+    return Packing(position=pos, radius=np.full(n, R), mass=grain_mass(np.full(n, R)),
+                   inertia=grain_inertia(np.full(n, R)), box=box, contacts=contacts,
                    attrs=dict(dim=2, pressure=pressure, friction=friction, poisson=poisson, seed=0,
                               converged=True, max_acceleration=0.0, kind="lattice",
                               rows=rows, width=width))
@@ -137,7 +136,6 @@ def reference_frozen_forces(packing: Packing, displacement: np.ndarray, rotation
     c = packing.contacts
     dim = packing.dim
     n_rot = rotation.shape[1]
-    poisson = float(packing.attrs.get("poisson", 0.0))
     force = np.zeros((packing.n_grains, dim))
     torque = np.zeros((packing.n_grains, n_rot))
     R = packing.radius

@@ -42,13 +42,13 @@ import scipy.sparse.linalg as spla
 from ..errors import InputError
 from ..model import LinearSystem, Modes
 from ..resources import check_eigensolve
+from ..provenance import FILE_ATTRS
 from .assemble import ZERO_MODE_THRESHOLD, asymmetry, omega2_max, symmetric_part
 
 #: Above this many dofs a full dense solve is refused unless asked for explicitly (memory ~ 3 n^2 x 8 B).
 DENSE_MAX_DOF = 20000
 
 
-_FILE_KEYS = ("schema", "schema_version", "granwave_version", "git_revision", "command_line")
 
 
 class NegativeModesWarning(RuntimeWarning):
@@ -134,7 +134,7 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
                       "positive semi-definite; modal propagation will refuse these modes",
                       NegativeModesWarning, stacklevel=2)
     # The file-level keys belong to the file being written, not to this object.
-    attrs = {k: v for k, v in system.attrs.items() if k not in _FILE_KEYS}
+    attrs = {k: v for k, v in system.attrs.items() if k not in FILE_ATTRS}
     attrs.update(
         n_dof=n, n_modes=int(len(w)), partial=partial, solver=solver,
         n_zero_modes=int(zero.sum()), n_negative_modes=n_neg,

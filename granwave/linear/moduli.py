@@ -104,6 +104,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import InputError
 from ..model import LinearSystem, Packing
+from ..params import BULK_LAYER
 from .assemble import contact_blocks, contact_dofs, dof_map, n_rotations, scatter_blocks
 
 #: Up to this many free dofs the least-squares fallback is a dense LAPACK solve.
@@ -166,7 +167,7 @@ def _check_packing(packing: Packing) -> None:
     if np.any(packing.box <= 0):
         raise InputError("packing box sizes must be positive")
     keep = c.force_normal > 0
-    if not np.any(keep & (c.j == -1)) or not np.any(keep & (c.j == -2)):
+    if not np.any(keep & c.is_bottom) or not np.any(keep & c.is_top):
         raise InputError("the packing does not touch both walls: no strain can be imposed")
 
 
@@ -184,7 +185,8 @@ def _cell(packing: Packing, prestress: bool) -> _Cell:
     n = np.asarray(c.normal[keep], float).reshape(len(keep), dim)
     delta = c.overlap[keep]
     R = packing.radius
-    # Branch vector: centre-to-centre (R_i + R_j - delta) n, wall: a_i n with a_i = R_i - delta.
+    # Branch vector: centre-to-centre (R_i + R_j - delta) n, wall: a_i n with a_i = R_i - delta;
+    # along the stored normal that D's blocks use (statics.branch_vectors takes the positions).
     length = np.where(wall, R[ii] - delta, R[ii] + R[jj] - delta)
     branch = length[:, None] * n
     force_i = (-c.force_normal[keep][:, None] * n
@@ -548,7 +550,7 @@ def _phi3_star(packing: Packing, cell: _Cell, layer: float) -> tuple[float, str]
 def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
            amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None,
            system: LinearSystem | None = None, force: bool = False,
-           layer: float = 3.0) -> dict:
+           layer: float = BULK_LAYER) -> dict:
     """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (SPEC §6).
 
     Parameters

@@ -37,15 +37,15 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..model import LinearSystem, Modes, Signal
 from ..resources import check_propagate
+from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
 
 #: Default fraction of the stability limit 2/omega_max used as time step.
 DEFAULT_SAFETY = 0.1
 
 #: Attributes carried from the linear / modes file into the signal file.
-CARRIED_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson", "prestress", "n_dof",
-                 "n_rattlers", "packing_seed", "packing_source", "packing_git_revision",
-                 "n_zero_modes", "linear_source", "modes_source")
+CARRIED_ATTRS = (*SAMPLE_ATTRS, "prestress", "n_dof", "n_rattlers", "packing_seed", "packing_source",
+                 "packing_git_revision", "n_zero_modes", "linear_source", "modes_source")
 
 
 def sample_times(t_max: float, samples: int) -> np.ndarray:
@@ -65,7 +65,7 @@ def _check_ic(ic: str) -> str:
 
 
 def carried_attrs(attrs: dict) -> dict:
-    return {k: attrs[k] for k in CARRIED_ATTRS if k in attrs}
+    return carried(attrs, CARRIED_ATTRS)
 
 
 def _modal_coefficients(modes: Modes, ic: str) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,427 @@
+"""The granwave library API: one function per stage, objects in, objects out.
+
+Every function takes the in-memory objects of :mod:`granwave.model`
+(:class:`Packing`, :class:`LinearSystem`, :class:`Modes`, :class:`Signal`)
+and a frozen parameter object of :mod:`granwave.params`, and returns an
+object or a summary dict; nothing here reads or writes files (use
+:mod:`granwave.io.files` for that). Parameters may also be given as keywords,
+which build (or replace fields of) the stage's parameter object::
+
+    from granwave import api
+    packing = api.prepare_packing(grains=100, pressure=1e-4, seed=1)
+    system = api.linearize(packing)
+    signal = api.propagate(system, t_max=300.0, method="auto")
+    front = api.front(signal)
+
+Errors in the input raise :class:`granwave.errors.InputError`. Compute stages
+take ``threads`` (:func:`granwave.threads.set_threads`; None leaves the
+process's setting, by default every core); the results do not depend on it. Units: docs/method.md §1. A walk-through:
+docs/api.md.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .errors import InputError
+from .model import LinearSystem, Modes, Packing, Signal
+from .params import (ChainParams, DampingParams, EigenParams, EnsembleParams, FrontParams,
+                     HeightsParams, LatticeParams, LinearizeParams, ModuliParams, PrepareParams,
+                     PropagateParams, SpectrumParams, StaticsParams, SweepParams)
+
+__all__ = ["prepare_packing", "lattice", "chain", "linearize", "eigensolve", "propagate",
+           "choose_method", "statics", "moduli", "front", "heights", "ensemble", "spectrum",
+           "damping", "pressure_sweep", "AliasingWarning"]
+
+
+class AliasingWarning(UserWarning):
+    """The output sample interval is longer than pi/omega_max: the highest modes alias."""
+
+
+def _params(cls, params, fields: dict):
+    """``params`` (or the class defaults) with ``fields`` replaced; validated on creation."""
+    if params is not None and not isinstance(params, cls):
+        raise InputError(f"expected {cls.__name__}, got {type(params).__name__}")
+    if params is None:
+        return cls(**fields)
+    return dataclasses.replace(params, **fields) if fields else params
+
+
+def _threads(threads: int | None) -> None:
+    """Set the parallel kernels' thread count; None leaves the process's setting alone."""
+    if threads is not None:
+        from .threads import set_threads
+
+        set_threads(threads)
+
+
+# ----------------------------------------------------------------- packings
+def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callable[[str], None] | None = None,
+                    threads: int | None = None, **fields) -> Packing:
+    """A disordered packing by piston compression of a granular gas (docs/method.md §3).
+
+    ``progress`` receives one line of text about once a second. Raises
+    ConvergenceError when ``max_steps`` do not converge. The protocol is
+    recorded in ``packing.attrs`` (one attribute per parameter, and the whole
+    parameter object as JSON in ``prepare_params``).
+    """
+    from .dem.protocol import prepare_packing as run
+
+    p = _params(PrepareParams, params, fields)
+    _threads(threads)
+    packing = run(p, progress=progress)
+    p.record(packing.attrs)
+    return packing
+
+
+def lattice(params: LatticeParams | None = None, /, **fields) -> Packing:
+    """Perfect triangular lattice under pressure (docs/method.md §3, §12; granwave.systems)."""
+    from .systems import triangular_lattice
+
+    p = _params(LatticeParams, params, fields)
+    packing = triangular_lattice(rows=p.rows, width=p.width, pressure=p.pressure,
+                                 friction=p.friction, poisson=p.poisson)
+    p.record(packing.attrs)
+    return packing
+
+
+def chain(params: ChainParams | None = None, /, **fields) -> Packing:
+    """1D chain of balls between two walls (docs/method.md §3, §12; granwave.systems)."""
+    from .systems import chain as make_chain
+
+    p = _params(ChainParams, params, fields)
+    packing = make_chain(n_balls=p.balls, pressure=p.pressure, polydispersity=p.polydispersity,
+                         seed=p.seed, stiffness=p.stiffness,
+                         stiffness_model="hertz" if p.hertz else "equal")
+    p.record(packing.attrs)
+    return packing
+
+
+# ----------------------------------------------------------------- linear model
+def linearize(packing: Packing, params: LinearizeParams | None = None, /, *,
+              threads: int | None = None, **fields) -> LinearSystem:
+    """Stiffness matrix D and mass matrix M around equilibrium (docs/method.md §5)."""
+    from .linear.assemble import linearize as build
+
+    p = _params(LinearizeParams, params, fields)
+    _threads(threads)
+    system = build(packing, prestress=p.prestress, force=p.force, check=p.check)
+    p.record(system.attrs)
+    return system
+
+
+def eigensolve(system: LinearSystem, params: EigenParams | None = None, /, *,
+               threads: int | None = None, **fields) -> Modes:
+    """Spectrum and signal projections of D phi = omega^2 M phi (docs/method.md §7).
+
+    Emits granwave.linear.eigen.NegativeModesWarning when D is not positive
+    semi-definite.
+    """
+    from .linear.eigen import eigensolve as solve
+
+    p = _params(EigenParams, params, fields)
+    _threads(threads)
+    modes = solve(system, vectors=p.vectors, k=p.lowest)
+    p.record(modes.attrs)
+    return modes
+
+
+# ----------------------------------------------------------------- propagation
+#: Cost model of method="auto", from the measurements of docs/tradeoffs.md §3 (525 dofs):
+#: dense eigensolve 0.04 s, i.e. about 2.8e-10 s x n^3; modal sum 0.004 s for 525 modes x
+#: 492 samples, about 1.5e-8 s per (mode, sample); time domain at safety 0.1 (front error
+#: < 1e-3 of max|F|, the publication-quality setting there) 0.03 s for 4419 steps over
+#: ~7e3 nonzeros, about 1e-9 s per (nonzero, step), plus the detector and energy sums at
+#: every output sample, about 8e-9 s per (dof, sample) (benchmarks/propagate_auto.py fits
+#: 3.1e-9 and 2.4e-8 on a machine three times slower). Only the ratio of the two
+#: predictions decides, so the machine's speed cancels.
+EIGEN_SECONDS_PER_DOF3 = 2.8e-10
+MODAL_SUM_SECONDS_PER_TERM = 1.5e-8
+VERLET_SECONDS_PER_NNZ_STEP = 1.0e-9
+TIME_SAMPLE_SECONDS_PER_DOF = 8e-9
+
+
+#: The time-domain kernel counts steps in a 64-bit integer.
+MAX_TIME_STEPS = 2**63 - 1
+
+
+def _time_steps(params: PropagateParams, dt: float) -> float:
+    """Velocity-Verlet steps of a time-domain run: ceil(h/dt) per output interval h."""
+    h = params.t_max / (params.samples - 1)
+    return float(params.samples - 1) * (1.0 if dt >= h else math.ceil(h / dt))
+
+
+def _omega_max_bound(system: LinearSystem) -> float:
+    """Gershgorin bound on omega_max of M^-1/2 D M^-1/2 (instant; at most ~40% high)."""
+    import scipy.sparse as sp
+
+    s = 1.0 / np.sqrt(system.mass)
+    A = sp.diags(s) @ abs(system.stiffness) @ sp.diags(s)
+    return math.sqrt(float(np.max(np.asarray(A.sum(axis=1)).ravel(), initial=0.0)))
+
+
+def choose_method(system: LinearSystem, params: PropagateParams) -> tuple[str, str]:
+    """("modal" | "time", why): the cheaper method by predicted cost (constants above).
+
+    Modal: dense eigensolve (n^3) plus the modal sum (n x samples); refused above
+    the dense limit of :func:`granwave.linear.eigen.eigensolve`. Time domain:
+    t_max / dt velocity-Verlet steps over the nonzeros of D, dt = safety x
+    2/omega_max (omega_max bounded by Gershgorin, so the prediction errs towards
+    the modal sum), never coarser than the output interval.
+    """
+    from .linear.eigen import DENSE_MAX_DOF
+
+    n = system.n_dof
+    nnz = system.stiffness.nnz
+    dt = params.dt if params.dt is not None else params.safety * 2.0 / max(_omega_max_bound(system), 1e-300)
+    steps = _time_steps(params, dt)
+    t_time = VERLET_SECONDS_PER_NNZ_STEP * nnz * steps + TIME_SAMPLE_SECONDS_PER_DOF * n * params.samples
+    if n > DENSE_MAX_DOF:
+        return "time", (f"time domain: {n} dofs exceed the dense eigensolve limit {DENSE_MAX_DOF} "
+                        f"(predicted {t_time:.3g} s)")
+    t_modal = EIGEN_SECONDS_PER_DOF3 * n**3 + MODAL_SUM_SECONDS_PER_TERM * n * params.samples
+    method = "modal" if t_modal <= t_time else "time"
+    return method, (f"{'modal sum' if method == 'modal' else 'time domain'}: predicted "
+                    f"{min(t_modal, t_time):.3g} s against {max(t_modal, t_time):.3g} s for the "
+                    f"{'time domain' if method == 'modal' else 'modal sum'} ({n} dofs, {nnz} "
+                    f"nonzeros, {steps:.3g} steps at safety {params.safety:g})")
+
+
+def _dem_omega_max(packing: Packing) -> float:
+    """Gershgorin bound on the highest DEM frequency: max_i 2 sum_j k_n,ij / m_i."""
+    c = packing.contacts
+    rows = np.zeros(packing.n_grains)
+    np.add.at(rows, c.i, c.stiffness_normal)
+    pair = c.j >= 0
+    np.add.at(rows, c.j[pair], c.stiffness_normal[pair])
+    return math.sqrt(float(np.max(2.0 * rows / packing.mass, initial=0.0)))
+
+
+def _check_band(signal: Signal, omega_max: float) -> None:
+    """Record the Nyquist ratio h omega_max / pi; warn (AliasingWarning) when it exceeds 1.
+
+    A warning and not a refusal: the samples are the exact signal at the sample
+    times, and a coherent front far slower than the highest mode (a long chain)
+    is still well sampled; but a spectrum of such a record folds the modes above
+    pi/h back onto lower frequencies.
+    """
+    h = float(signal.time[1] - signal.time[0])
+    ratio = h * omega_max / math.pi
+    signal.attrs["omega_max_band"] = float(omega_max)
+    signal.attrs["nyquist_ratio"] = float(ratio)
+    signal.attrs["aliased"] = bool(ratio > 1.0)
+    if ratio > 1.0:
+        warnings.warn(AliasingWarning(
+            f"the sample interval {h:.3g} is {ratio:.3g} x the Nyquist interval pi/omega_max = "
+            f"{math.pi / omega_max:.3g}: modes above omega = {math.pi / h:.3g} alias in this record "
+            f"(use at least {signal.attrs['t_max'] * omega_max / math.pi + 1:.3g} samples or a "
+            "shorter --t-max)"), stacklevel=3)
+
+
+def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | None = None, /, *,
+              system: LinearSystem | None = None, progress: Callable[[str], None] | None = None,
+              threads: int | None = None, **fields) -> Signal:
+    """The signal on the top wall after a kick at the bottom (docs/method.md §8).
+
+    ``source``: a Modes (modal sum), a LinearSystem (``method`` "time", "modal"
+    with an eigensolve on the fly, or "auto", which picks the cheaper of the two
+    by :func:`choose_method`) or a Packing (``method`` "dem": the nonlinear
+    DEM pulse). The default method follows the source: modal, time, dem.
+    ``system``: the linear system a Modes came from, needed only for snapshots
+    (its dof map). The signal's attrs record the method, for "auto" also
+    ``method_requested`` and ``method_reason``, and the sampling check
+    (``nyquist_ratio``, ``aliased``; an AliasingWarning when aliased).
+    """
+    from .linear.propagate import modal_propagate, time_domain_signal
+
+    kind = ("modes" if isinstance(source, Modes) else "linear" if isinstance(source, LinearSystem)
+            else "packing" if isinstance(source, Packing) else None)
+    if kind is None:
+        raise InputError(f"propagate needs a Modes, LinearSystem or Packing, got {type(source).__name__}")
+    p = _params(PropagateParams, params, fields)
+    method = p.method or {"modes": "modal", "linear": "time", "packing": "dem"}[kind]
+    allowed = {"modes": ("modal", "auto"), "linear": ("modal", "time", "auto"), "packing": ("dem",)}[kind]
+    if method not in allowed:
+        what = {"modes": "a modes file (granwave.modes): the time domain needs the linear file "
+                         "(granwave linearize output)",
+                "linear": "a linear file (granwave.linear): the DEM pulse needs the packing file",
+                "packing": "a packing file (granwave.packing): linearize it first, or use --method dem"}
+        raise InputError(f"cannot run --method {method} on {what[kind]}")
+    p.check_method(method)
+    _threads(threads)
+    reason = None
+    if kind == "modes":
+        if method == "auto":
+            reason = "modal sum: the modes are already computed"
+        method = "modal"
+        if p.snapshots is not None and system is None:
+            raise InputError("snapshots from a modes file need the dof map of the linear system it "
+                             "came from (system=...)")
+        sig = modal_propagate(source, ic=p.ic, t_max=p.t_max, samples=p.samples, snapshots=p.snapshots,
+                              dof_grain=None if system is None else system.dof_grain,
+                              dof_axis=None if system is None else system.dof_axis)
+        omega_max = math.sqrt(max(float(np.max(source.omega2, initial=0.0)), 0.0))
+    elif kind == "linear":
+        if method == "auto":
+            method, reason = choose_method(source, p)
+        if method == "modal":
+            from .linear.eigen import eigensolve as solve
+
+            modes = solve(source, vectors=p.snapshots is not None)
+            sig = modal_propagate(modes, ic=p.ic, t_max=p.t_max, samples=p.samples,
+                                  snapshots=p.snapshots, dof_grain=source.dof_grain,
+                                  dof_axis=source.dof_axis)
+            omega_max = math.sqrt(max(float(np.max(modes.omega2, initial=0.0)), 0.0))
+        else:
+            if p.dt is None:
+                dt_guess = p.safety * 2.0 / max(_omega_max_bound(source), 1e-300)
+            else:
+                dt_guess = p.dt
+            if _time_steps(p, dt_guess) > MAX_TIME_STEPS:
+                raise InputError(f"t_max {p.t_max:g} needs about {_time_steps(p, dt_guess):.3g} "
+                                 f"time steps of {dt_guess:.3g}, more than the kernel can count "
+                                 f"({MAX_TIME_STEPS:.3g}): use a shorter --t-max")
+            sig = time_domain_signal(source, ic=p.ic, t_max=p.t_max, dt=p.dt, samples=p.samples,
+                                     safety=p.safety, snapshots=p.snapshots, progress=progress)
+            omega_max = float(sig.attrs["omega_max"])
+    else:
+        from .dem.pulse import DEFAULT_AMPLITUDE, propagate_dem
+
+        sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
+                            amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
+                            damping=p.damping or 0.0, progress=progress)
+        omega_max = _dem_omega_max(source)
+    if reason is not None:
+        sig.attrs.update(method_requested="auto", method_reason=reason)
+    p.record(sig.attrs)
+    if omega_max > 0:
+        _check_band(sig, omega_max)
+    return sig
+
+
+# ----------------------------------------------------------------- analyses
+def statics(packing: Packing, params: StaticsParams | None = None, /, **fields) -> dict:
+    """Solid fractions, coordination, force statistics, fabric and stress (docs/method.md §4)."""
+    from .analysis.statics import statics as compute
+
+    p = _params(StaticsParams, params, fields)
+    return compute(packing, layer=p.layer, min_contacts=p.min_contacts)
+
+
+def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
+           system: LinearSystem | None = None, threads: int | None = None, **fields) -> dict:
+    """Global (and local) elastic moduli by imposed strain (docs/method.md §6).
+
+    ``system``: a linear system built from ``packing`` (its prestress setting is
+    used; ``prestress=True`` with a system built without it is refused).
+    """
+    from .linear.moduli import moduli as compute
+
+    p = _params(ModuliParams, params, fields)
+    if system is not None and p.prestress and not bool(system.attrs.get("prestress", False)):
+        raise InputError("--prestress conflicts with the linear file (built without prestress)")
+    _threads(threads)
+    return compute(packing, local=p.local, prestress=p.prestress, amplitude=p.amplitude, grip=p.grip,
+                   system=system, force=p.force, layer=p.layer)
+
+
+def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dict:
+    """Leading edge, first peak, zero crossing and width of the first pulse (docs/method.md §9).
+
+    Returns t_lead10, t_peak, amplitude, polarity, t_zero, width, height, the
+    signal's ic/method/pressure where known, rise and the rule's parameters.
+    """
+    from .analysis.front import front_features
+
+    p = _params(FrontParams, params, fields)
+    d = front_features(signal.time, signal.force, **p.as_dict()).as_dict()
+    out = {k: d[k] for k in ("t_lead10", "t_peak", "amplitude", "polarity", "t_zero", "width")}
+    out["height"] = float(signal.attrs["height"])
+    for key in ("ic", "method", "pressure"):
+        if key in signal.attrs:
+            out[key] = signal.attrs[key]
+    out.update(rise=d["rise"], **p.as_dict())
+    return out
+
+
+def heights(signals: Sequence[Signal], params: HeightsParams | None = None, /, *,
+            labels: Sequence[str] | None = None, **fields) -> dict:
+    """Arrival times, speeds and exponents over a container-height series (docs/method.md §9)."""
+    from .analysis.heights import height_series
+
+    p = _params(HeightsParams, params, fields)
+    return height_series(list(signals), labels=labels, edge_heights=p.edge_heights,
+                         group_rtol=p.group_tolerance, **p.front_kw())
+
+
+def ensemble(signals: Sequence[Signal], params: EnsembleParams | None = None, /, *,
+             labels: Sequence[str] | None = None, **fields):
+    """(Ensemble, summary): average signal and rms deviation over packings (docs/method.md §9).
+
+    The summary's ``attrs`` entry holds the flat attributes to store with the
+    ensemble (front statistics, front of the mean, the parameters).
+    """
+    import json
+
+    from .analysis.ensemble import analyze_ensemble
+
+    p = _params(EnsembleParams, params, fields)
+    if not signals:
+        raise InputError("no signal files given")
+    front_kw = p.front_kw()
+    ens, summary = analyze_ensemble(list(signals), labels=labels, **front_kw)
+    attrs = {"front_options": json.dumps(front_kw)}
+    if labels is not None:
+        attrs["sources"] = json.dumps(list(labels))
+    for key, st in summary["front_stats"].items():
+        attrs[f"front_{key}_mean"] = st["mean"]
+        attrs[f"front_{key}_std"] = st["std"]
+    for key, value in summary["front_of_mean"].items():
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            attrs[f"front_of_mean_{key}"] = value
+    p.record(attrs)
+    summary["attrs"] = attrs
+    return ens, summary
+
+
+def spectrum(modes: Modes, params: SpectrumParams | None = None, /, *,
+             system: LinearSystem | None = None, **fields) -> dict:
+    """Spectrum statistics and each mode's part in the signal (docs/method.md §7).
+
+    ``system`` (the linear system of the modes) makes the participation ratio
+    run over grains.
+    """
+    from .analysis.spectrum import spectrum_summary
+
+    p = _params(SpectrumParams, params, fields)
+    dof_grain = dof_axis = None
+    if system is not None:
+        if modes.vectors is not None and system.n_dof != modes.vectors.shape[0]:
+            raise InputError(f"the linear system has {system.n_dof} dofs, the eigenvectors "
+                             f"{modes.vectors.shape[0]}: not the same system")
+        dof_grain, dof_axis = system.dof_grain, system.dof_axis
+    return spectrum_summary(modes, ic=p.ic, dof_grain=dof_grain, dof_axis=dof_axis, arrays=p.arrays)
+
+
+def damping(signals: Sequence[Signal], params: DampingParams | None = None, /, **fields) -> list[dict]:
+    """Coherent amplitude, width and tail rms against contact damping (docs/method.md §11)."""
+    from .dem.pulse import damping_table
+
+    p = _params(DampingParams, params, fields)
+    return damping_table(list(signals), tail_start=p.tail_start)
+
+
+def pressure_sweep(summaries: Sequence[dict], params: SweepParams | None = None, /, *,
+                   height_series: Sequence[dict] = (), **fields) -> dict:
+    """Per-pressure statistics and speed exponents from per-sample summaries (docs/method.md §10)."""
+    from .analysis.sweep import pressure_sweep as run
+
+    p = _params(SweepParams, params, fields)
+    if not summaries and not height_series:
+        raise InputError("no summary files given")
+    return run(list(summaries), height_series=list(height_series), poisson=p.poisson)

@@ -1,0 +1,498 @@
+"""Parameters of every stage: frozen, keyword-only dataclasses (one per stage).
+
+Each class is the one home of its stage's defaults, ranges and units: the
+library (:mod:`granwave.api`) takes it, the CLI builds its click options from
+its fields (:func:`granwave.cli.common.options_from`), and the output files
+record it (:meth:`Params.as_attrs`). Ranges are checked in ``__post_init__``
+and raise :class:`granwave.errors.InputError`; the same physical parameter has
+the same range on every stage (ν in [0, 0.5), μ >= 0, 0 < p <= 0.1 E*, ...).
+
+Units are those of ``docs/method.md §1``: lengths in mean grain diameters d,
+masses in ρ d³, pressures and stiffnesses in E* (times d for a stiffness),
+times in d/sqrt(E*/ρ). Field metadata: ``help`` (one sentence), ``units``,
+and the range (``lo``/``hi``, ``lo_open``/``hi_open``) or ``choices``.
+
+This module imports nothing heavy (no numpy), so that building the CLI stays
+instant.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import MISSING, dataclass
+
+from .errors import InputError
+
+#: Thickness l (d) of the layers next to the bottom wall and the piston left out of bulk
+#: measurements (docs/method.md §4); statics and moduli use the same slab.
+BULK_LAYER = 3.0
+
+#: Largest accepted DEM time-step safety: 0.6 of the estimated stability limit
+#: (granwave.dem.kernels.stable_dt), measured limits being 0.8-1.0 of the estimate.
+MAX_SAFETY = 0.06
+
+#: Initial solid fraction of the granular gas when none is given, by dimension
+#: (area fraction in 2D, volume fraction in 3D; docs/dem.md).
+GAS_DENSITY = {2: 0.50, 3: 0.30}
+
+#: Largest pressure (E*) accepted anywhere: beyond it the overlaps leave the Hertz regime.
+MAX_PRESSURE = 0.1
+
+
+def default_gas_density(dim: int) -> float:
+    """Initial solid fraction of the gas used when ``gas_density`` is None."""
+    return GAS_DENSITY[int(dim)]
+
+
+# ----------------------------------------------------------------- field helpers
+def param(default=MISSING, *, help: str, units: str | None = None, lo=None, hi=None,
+          lo_open: bool = False, hi_open: bool = False, choices=None, cli: str | None = None,
+          negatable: bool = False, metavar: str | None = None, why: str | None = None):
+    """A dataclass field with its help text, units and accepted range in ``metadata``.
+
+    ``cli`` overrides the option name (default ``--field-name``); ``negatable``
+    makes a boolean an ``--x/--no-x`` switch instead of a flag; ``why`` is added to
+    the message that refuses a value out of range.
+    """
+    meta = dict(help=help, units=units, lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open,
+                choices=None if choices is None else tuple(choices), cli=cli, negatable=negatable,
+                metavar=metavar, why=why)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def range_text(meta) -> str:
+    """The accepted range of a field as text, e.g. ``[0, 0.5)`` or ``> 0``."""
+    lo, hi = meta.get("lo"), meta.get("hi")
+    if lo is not None and hi is not None:
+        return f"{'(' if meta['lo_open'] else '['}{lo:g}, {hi:g}{')' if meta['hi_open'] else ']'}"
+    if lo is not None:
+        return f"{'>' if meta['lo_open'] else '>='} {lo:g}"
+    if hi is not None:
+        return f"{'<' if meta['hi_open'] else '<='} {hi:g}"
+    return ""
+
+
+def _check_field(name: str, value, meta) -> None:
+    if value is None:
+        return
+    choices = meta.get("choices")
+    if choices is not None:
+        if value not in choices:
+            raise InputError(f"{name} must be one of {', '.join(map(str, choices))}, got {value!r}")
+        return
+    if isinstance(value, bool) or isinstance(value, (str, tuple, list)):
+        return
+    if isinstance(value, float) and not math.isfinite(value):
+        raise InputError(f"{name} must be a finite number, got {value!r}")
+    lo, hi = meta.get("lo"), meta.get("hi")
+    bad = ((lo is not None and (value < lo or (meta["lo_open"] and value == lo)))
+           or (hi is not None and (value > hi or (meta["hi_open"] and value == hi))))
+    if bad:
+        units = f" {meta['units']}" if meta.get("units") else ""
+        why = f": {meta['why']}" if meta.get("why") else ""
+        where = "in " if lo is not None and hi is not None else ""
+        raise InputError(f"{name} must be {where}{range_text(meta)}{units}, got {value:g}{why}")
+
+
+class Params:
+    """Base of the stage parameters: range checks from the field metadata, attribute export."""
+
+    #: Name of the root attribute (JSON text) under which an output records these parameters.
+    ATTR = "params"
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.type in ("int", "int | None") and value is not None:
+                if isinstance(value, bool) or not isinstance(value, int):
+                    if isinstance(value, float) and value.is_integer():
+                        object.__setattr__(self, f.name, int(value))
+                        value = int(value)
+                    else:
+                        raise InputError(f"{f.name} must be an integer, got {value!r}")
+            if f.type in ("float", "float | None") and isinstance(value, int) \
+                    and not isinstance(value, bool):
+                object.__setattr__(self, f.name, float(value))
+                value = float(value)
+            _check_field(f.name, value, f.metadata)
+        self._cross_check()
+
+    def _cross_check(self) -> None:
+        """Checks that involve several fields (subclasses)."""
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def as_attrs(self) -> dict:
+        """The parameters as HDF5-storable attributes (None becomes "none")."""
+        return {k: ("none" if v is None else list(v) if isinstance(v, tuple) else v)
+                for k, v in self.as_dict().items()}
+
+    def record(self, attrs: dict) -> dict:
+        """Write these parameters into ``attrs`` under ``self.ATTR`` (JSON text); returns attrs."""
+        attrs[self.ATTR] = json.dumps(self.as_dict(), sort_keys=True)
+        return attrs
+
+
+# Shared fields: one definition (range, units, help) per physical parameter.
+def _pressure(default=MISSING, what="Pressure p"):
+    return param(default, help=f"{what}.", units="E*", lo=0.0, lo_open=True, hi=MAX_PRESSURE)
+
+
+def _friction(default):
+    return param(default, help="Coulomb friction coefficient mu (0: frictionless, no rotational "
+                 "degrees of freedom).", lo=0.0)
+
+
+def _poisson(default=0.0):
+    return param(default, help="Poisson ratio nu of the grains: k_t/k_n = 2(1-nu)/(2-nu).",
+                 lo=0.0, hi=0.5, hi_open=True)
+
+
+def _polydispersity(default):
+    return param(default, help="W: diameters uniform in [1-W, 1+W]; 0 = monodisperse.", units="d",
+                 lo=0.0, hi=1.0, hi_open=True)
+
+
+def _seed():
+    return param(0, help="Random seed; the same seed gives the same result bit for bit.", lo=0)
+
+
+def _peak_fraction(default):
+    return param(default, help="The first pulse is the first lobe at least this fraction of the "
+                 "largest lobe up to and including the next one (skips precursors).",
+                 lo=0.0, lo_open=True, hi=1.0)
+
+
+# ----------------------------------------------------------------- packings
+@dataclass(frozen=True, kw_only=True)
+class PrepareParams(Params):
+    """Preparation of a disordered packing by piston compression of a granular gas (docs/method.md §3).
+
+    dim 2 or 3; grains N; pressure p (piston force / (L1 x 1 d) in 2D, / (L1 L2)
+    in 3D, in E*); friction mu; poisson nu; polydispersity W; aspect (final
+    height / width); damping zeta (fraction of critical); background_damping b,
+    the viscous rate gamma = b / t_i with t_i = sqrt(m_mean / (p d)) (force
+    -gamma m v on grains and piston; it sets the compaction speed, hence density
+    and coordination: keep it fixed within a study); piston_mass (rho d^3, None:
+    one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
+    0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
+    (dt = (safety/0.1) x the estimated stability limit, at most MAX_SAFETY;
+    docs/dem.md); skin (d); check_every (steps between convergence checks).
+    """
+
+    ATTR = "prepare_params"
+
+    dim: int = param(2, help="2: sphere centres in a plane (x periodic, y vertical); 3: x, y "
+                     "periodic, z vertical.", choices=(2, 3))
+    grains: int = param(600, help="Number of grains N.", lo=1)
+    pressure: float = _pressure(1e-4, "Piston pressure p (2D: force / (L1 x 1 d); 3D: force / (L1 L2))")
+    friction: float = _friction(0.5)
+    poisson: float = _poisson()
+    polydispersity: float = _polydispersity(0.2)
+    aspect: float = param(1.0, help="Expected final height / periodic width.", lo=0.0, lo_open=True)
+    damping: float = param(0.5, help="Contact damping zeta, fraction of critical (normal and "
+                           "tangential).", lo=0.0, hi=1.0)
+    background_damping: float = param(
+        0.3, help="Background viscous damping rate in units of 1/t_i, t_i = sqrt(m/(p d)) (sets the "
+        "compaction speed; keep it fixed within a study).", lo=0.0)
+    piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
+                                      "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
+                                      lo=0.0, lo_open=True)
+    gas_density: float | None = param(None, help="Initial solid fraction of the granular gas "
+                                      "[default: 0.5 in 2D, 0.3 in 3D].", lo=0.0, lo_open=True,
+                                      hi=0.6, hi_open=True)
+    tol: float = param(1e-10, help="Convergence threshold on every acceleration; velocities are "
+                       "tested too.", units="E*/(rho d)", lo=0.0, lo_open=True)
+    max_steps: int = param(2_000_000, help="Step budget; not converged by then: error, no output.",
+                           lo=1)
+    seed: int = _seed()
+    safety: float = param(0.05, help="Time-step factor: dt = (safety/0.1) x the stability limit of "
+                          "the stiffest contact (normal and rotational modes, contact damping "
+                          "included; docs/dem.md).", lo=0.0, lo_open=True, hi=MAX_SAFETY,
+                          why="dt is safety/0.1 of the estimated stability limit of the explicit "
+                          "step, and the true limit is as low as 0.8 of the estimate (docs/dem.md)")
+    skin: float = param(0.25, help="Verlet skin of the neighbour list.", units="d", lo=0.0,
+                        lo_open=True, hi=1.0, cli="")
+    check_every: int = param(20, help="Steps between convergence checks.", lo=1, cli="")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LatticeParams(Params):
+    """Perfect triangular lattice of unit balls under vertical stress p (docs/method.md §3, §12).
+
+    rows >= 2 (first on the bottom wall, last on the top wall), width >= 3 balls
+    per row (periodic); pressure p in E* (force per wall length x one diameter);
+    friction mu and Poisson ratio nu (recorded; they set k_t).
+    """
+
+    ATTR = "lattice_params"
+
+    rows: int = param(help="Number of rows; the first touches the bottom wall, the last the top "
+                      "wall.", lo=2)
+    width: int = param(help="Balls per row; periodic in x, box length = width x spacing.", lo=3)
+    pressure: float = _pressure(what="Vertical stress p (force per wall length x one diameter)")
+    friction: float = _friction(0.0)
+    poisson: float = _poisson()
+
+
+@dataclass(frozen=True, kw_only=True)
+class ChainParams(Params):
+    """1D chain of balls between two walls (docs/method.md §3, §12).
+
+    balls N; pressure: the force on every contact in E* d^2; polydispersity W
+    (diameters uniform in [1-W, 1+W], masses pi d^3/6 follow); seed; stiffness K
+    (E* d) of every spring, walls included (None: the Hertz k_n of two unit
+    balls at force p); hertz: every contact its own Hertz k_n instead.
+    """
+
+    ATTR = "chain_params"
+
+    balls: int = param(help="Number of balls N.", lo=1)
+    pressure: float = _pressure(what="Force on every contact (1D pressure: force per mean "
+                                "diameter squared), in E* d^2")
+    polydispersity: float = _polydispersity(0.0)
+    seed: int = _seed()
+    stiffness: float | None = param(None, help="Spring stiffness K of every contact, walls included "
+                                    "[default: Hertz k_n of two unit balls at force p].",
+                                    units="E* d", lo=0.0, lo_open=True)
+    hertz: bool = param(False, help="Give each contact its own Hertz k_n (radius dependent) "
+                        "instead of one K.")
+
+    def _cross_check(self):
+        if self.hertz and self.stiffness is not None:
+            raise InputError("give either --stiffness K or --hertz, not both")
+
+
+# ----------------------------------------------------------------- linear model
+@dataclass(frozen=True, kw_only=True)
+class LinearizeParams(Params):
+    """Linearization around equilibrium (docs/method.md §5)."""
+
+    ATTR = "linearize_params"
+
+    prestress: bool = param(False, help="Add the geometric (prestress) terms: D becomes the "
+                            "Jacobian of the frozen-history contact forces (off by default).")
+    force: bool = param(False, help="Linearize even a packing whose preparation did not converge.")
+    check: bool = param(True, help="Check symmetry and positive semi-definiteness and count zero "
+                        "modes (dense eigenvalues up to 3000 dofs, else the 12 lowest by "
+                        "shift-invert Lanczos).", negatable=True)
+
+
+@dataclass(frozen=True, kw_only=True)
+class EigenParams(Params):
+    """Eigenmodes of D phi = omega^2 M phi (docs/method.md §7)."""
+
+    ATTR = "eigensolve_params"
+
+    vectors: bool = param(False, help="Also store the M-orthonormal eigenvectors (n x n doubles; "
+                          "needed only for mode shapes and modal snapshots).")
+    lowest: int | None = param(None, help="Compute only the K lowest modes (sparse shift-invert "
+                               "Lanczos) instead of the full dense spectrum; the modal signal is "
+                               "then a low-pass truncation.", lo=1)
+
+
+#: Propagation methods; "auto" picks "modal" or "time" by predicted cost (granwave.api).
+METHODS = ("modal", "time", "dem", "auto")
+
+
+@dataclass(frozen=True, kw_only=True)
+class PropagateParams(Params):
+    """A kick at the bottom wall and the signal on the top wall (docs/method.md §8).
+
+    ic "A" (impulse) or "B" (displacement); t_max (d/sqrt(E*/rho)) and samples,
+    the output grid; method (None: by the input, see granwave.api.propagate);
+    dt and safety, the time step of the time domain (dt = safety x 2/omega_max)
+    or of the DEM; snapshots, times of stored displacement fields; amplitude and
+    damping, the kick size and contact damping of the DEM method.
+    """
+
+    ATTR = "propagate_params"
+
+    ic: str = param("A", help="Initial condition: A = impulse on the grains touching the bottom "
+                    "wall, B = their displacement (docs/conventions.md).", choices=("A", "B"))
+    t_max: float = param(help="Length of the signal (the crossing time is height / c).",
+                         units="d/sqrt(E*/rho)", lo=0.0, lo_open=True, cli="--t-max")
+    method: str | None = param(None, help="modal (needs a modes file, or eigensolves a linear file "
+                               "on the fly), time (velocity Verlet on a linear file), auto (modal "
+                               "or time, whichever is predicted cheaper at the accuracy of "
+                               "docs/tradeoffs.md; the choice is printed and recorded) or dem "
+                               "(nonlinear Hertz-Mindlin DEM on a packing file). Default: modal "
+                               "for a modes file, time for a linear file, dem for a packing file.",
+                               choices=METHODS)
+    dt: float | None = param(None, help="Time step of the time-domain method (default: safety x "
+                             "2/omega_max, shortened to fit an integer number of steps per "
+                             "sample); with dem, default 0.01 x the shortest contact period "
+                             "2 pi sqrt(m_min/k_max).", units="d/sqrt(E*/rho)", lo=0.0,
+                             lo_open=True)
+    safety: float = param(0.1, help="Default time step as a fraction of the stability limit "
+                          "2/omega_max.", lo=0.0, lo_open=True, hi=1.0, hi_open=True)
+    samples: int = param(2001, help="Number of equally spaced output times from 0 to t_max.", lo=2)
+    snapshots: tuple | None = param(None, help="Store the displacement field at these times (modal "
+                                    "needs a modes file made with --vectors).",
+                                    units="d/sqrt(E*/rho)", metavar="T1,T2,...")
+    amplitude: float | None = param(None, help="dem only: EPS, kick size such that the largest "
+                                    "single-contact displacement estimate of a kicked grain is EPS "
+                                    "x the mean overlap of the packing's contacts (A: v_i "
+                                    "sqrt(m_i/k_wall,i); B: the imposed displacement). Default "
+                                    "1e-3 (linear regime). The signal is divided by the kick's "
+                                    "scale (docs/damping.md).", lo=0.0, lo_open=True)
+    damping: float | None = param(None, help="dem only: contact damping zeta, fraction of "
+                                  "critical, normal and tangential (docs/method.md §2). Default 0.",
+                                  lo=0.0, hi=1.0)
+
+    def __post_init__(self):
+        object.__setattr__(self, "ic", str(self.ic).upper())
+        if self.snapshots is not None:
+            try:
+                st = tuple(float(t) for t in self.snapshots)
+            except (TypeError, ValueError):
+                raise InputError(f"snapshots must be a list of times, got {self.snapshots!r}") from None
+            object.__setattr__(self, "snapshots", st)
+        super().__post_init__()
+
+    def _cross_check(self):
+        self.check_method(self.method)
+        if self.snapshots is not None and not all(math.isfinite(t) and 0 <= t <= self.t_max
+                                                  for t in self.snapshots):
+            raise InputError(f"snapshot times must lie in [0, t_max = {self.t_max:g}]")
+
+
+    def check_method(self, method: str | None) -> None:
+        """Refuse options that do not apply to ``method`` (None: not known yet)."""
+        if method not in (None, "dem") and (self.amplitude is not None or self.damping is not None):
+            raise InputError("--amplitude and --damping apply to --method dem only")
+        if method == "dem" and self.snapshots is not None:
+            raise InputError("--snapshots is not available with --method dem")
+
+
+# ----------------------------------------------------------------- analyses
+@dataclass(frozen=True, kw_only=True)
+class StaticsParams(Params):
+    """Static characterization of a packing (docs/method.md §4)."""
+
+    ATTR = "statics_params"
+
+    layer: float = param(BULK_LAYER, help="Thickness l excluded next to the bottom wall and the "
+                         "piston from the bulk measurements.", units="d", lo=0.0)
+    min_contacts: int = param(2, help="Rattler rule: grains with fewer force-carrying contacts are "
+                              "rattlers (applied iteratively; 1 = literally no force-carrying "
+                              "contact).", lo=1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModuliParams(Params):
+    """Elastic moduli by imposed strain and linear relaxation (docs/method.md §6)."""
+
+    ATTR = "moduli_params"
+
+    local: bool = param(False, help="Also the body-force (n = 1, 2) and line (n = 1, 3) moduli, as "
+                        "ratios to the global ones.")
+    prestress: bool = param(False, help="Include the prestress (geometric) terms (a linear file "
+                            "brings its own).")
+    amplitude: float = param(1e-6, help="Strain amplitude (the linear model makes the result "
+                             "independent of it).", lo=0.0, lo_open=True)
+    grip: bool | None = param(None, help="Hold the lateral motion of wall-touching grains in the "
+                              "shear loadings [default: only for frictionless packings, whose "
+                              "walls cannot drag].", negatable=True)
+    layer: float = param(BULK_LAYER, help="Layer next to each wall left out of the bulk phi3_star "
+                         "(docs/method.md §4).", units="d", lo=0.0)
+    force: bool = param(False, help="Accept a packing marked as not converged.")
+
+
+@dataclass(frozen=True, kw_only=True)
+class FrontParams(Params):
+    """The first-pulse rule of the coherent-front analysis (docs/method.md §9, docs/front.md)."""
+
+    ATTR = "front_params"
+
+    peak_fraction: float = _peak_fraction(0.3)
+    lead_fraction: float = param(0.1, help="Leading-edge level, fraction of the first peak.",
+                                 lo=0.0, lo_open=True, hi=1.0, hi_open=True)
+    noise_fraction: float = param(1e-3, help="Lobes below this fraction of max |F| are ripples and "
+                                  "skipped.", lo=0.0, hi=1.0, hi_open=True)
+
+
+def _front_override():
+    """--peak-fraction of the analyses built on the front rule; None: FrontParams' default."""
+    return param(None, help="First-pulse rule parameter of `granwave analyze front` (default: its "
+                 f"default, {FrontParams.peak_fraction:g}), the same for every signal.",
+                 lo=0.0, lo_open=True, hi=1.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class HeightsParams(Params):
+    """Speeds and scaling of the front over container heights (docs/method.md §9)."""
+
+    ATTR = "heights_params"
+
+    edge_heights: tuple = param((8.0, 25.0), help="c_tof, c_peak, c_zero are taken between the "
+                                "two nominal heights nearest to these; the fit over all heights "
+                                "is reported as *_all.", units="d", metavar="L1,L2")
+    group_tolerance: float = param(0.05, help="Heights within this relative gap of each other form "
+                                   "one nominal height.", lo=0.0, hi=1.0, hi_open=True)
+    peak_fraction: float | None = _front_override()
+
+    def __post_init__(self):
+        try:
+            pair = tuple(float(h) for h in self.edge_heights)
+        except (TypeError, ValueError):
+            pair = ()
+        if len(pair) != 2 or not all(math.isfinite(h) and h > 0 for h in pair) or pair[0] == pair[1]:
+            raise InputError(f"edge heights {self.edge_heights!r} must be two different positive "
+                             "heights, e.g. 8,25")
+        object.__setattr__(self, "edge_heights", pair)
+        super().__post_init__()
+
+    def front_kw(self) -> dict:
+        return {} if self.peak_fraction is None else {"peak_fraction": self.peak_fraction}
+
+
+@dataclass(frozen=True, kw_only=True)
+class EnsembleParams(Params):
+    """Average signal and rms deviation over packings (docs/method.md §9)."""
+
+    ATTR = "ensemble_params"
+
+    peak_fraction: float | None = _front_override()
+
+    def front_kw(self) -> dict:
+        return {} if self.peak_fraction is None else {"peak_fraction": self.peak_fraction}
+
+
+@dataclass(frozen=True, kw_only=True)
+class SpectrumParams(Params):
+    """Spectrum statistics and each mode's part in the signal (docs/method.md §7)."""
+
+    ATTR = "spectrum_params"
+
+    ic: str = param("A", help="Initial condition whose weights a_n b_n are analysed.",
+                    choices=("A", "B"))
+    arrays: bool = param(False, help="With --json, also print omega^2, a_n b_n and PR of every "
+                         "mode.", negatable=True)
+
+    def __post_init__(self):
+        object.__setattr__(self, "ic", str(self.ic).upper())
+        super().__post_init__()
+
+
+@dataclass(frozen=True, kw_only=True)
+class DampingParams(Params):
+    """Damping series from DEM signals of one packing (docs/method.md §11)."""
+
+    ATTR = "damping_params"
+
+    tail_start: float | None = param(None, help="Start of the tail window; default: the least "
+                                     "damped signal's first zero crossing plus one pulse width.",
+                                     units="d/sqrt(E*/rho)", lo=0.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SweepParams(Params):
+    """Pressure dependence of the speeds and statics (docs/method.md §10)."""
+
+    ATTR = "sweep_params"
+
+    poisson: float = _poisson()
