@@ -22,7 +22,8 @@ def damping(signals, tail_start, as_json):
     from ..dem.pulse import damping_table
     from ..io.files import read_signal
 
-    rows = damping_table([read_signal(path) for path in signals], tail_start=tail_start)
+    rows = damping_table([read_signal(path) for path in signals], tail_start=tail_start,
+                         labels=list(signals))
     if as_json:
         echo_json(rows)
         return
