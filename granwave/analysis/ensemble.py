@@ -1,4 +1,4 @@
-"""Ensemble average of signals over independent packings (SPEC §9).
+"""Ensemble average of signals over independent packings (docs/method.md §9).
 
 Choices (also in ``docs/summaries.md`` and the CLI help)
 --------------------------------------------------------
@@ -72,7 +72,7 @@ def common_grid(times: Sequence[np.ndarray]) -> tuple[np.ndarray, str]:
 
 
 def ensemble_average(signals: Sequence["Signal"], *, labels: Sequence[str] | None = None) -> Ensemble:
-    """Mean signal and rms deviation over packings (SPEC §9); rule in the module docstring."""
+    """Mean signal and rms deviation over packings (docs/method.md §9); rule in the module docstring."""
     signals = list(signals)
     if not signals:
         raise InputError("no signals given")

@@ -67,7 +67,7 @@ def plot():
     """Draw the study's figures (one subcommand per figure; see docs/figures.md).
 
     Every subcommand writes one figure with -o FILE.png (add --pdf for a PDF
-    twin). Units: d̄, E*, time d̄/sqrt(E*/ρ) (SPEC §1).
+    twin). Units: d̄, E*, time d̄/sqrt(E*/ρ) (docs/method.md §1).
     """
 
 

@@ -100,7 +100,7 @@ def _weights(c, walls: bool):
 # ====================================================================== statics
 def force_network(packing: Packing, path, *, pdf: bool = False, walls: bool = False,
                   bins: int = 40, max_width: float = 4.0) -> list[Path]:
-    """Force network beside stiffness network, and their histograms (SPEC §4).
+    """Force network beside stiffness network, and their histograms (docs/method.md §4).
 
     Line widths are proportional to the normal force (left) and the normal
     stiffness k_n (right), each relative to its maximum. The histograms show
