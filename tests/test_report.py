@@ -316,3 +316,14 @@ def test_report_from_single_files(inputs, tmp_path):
     md = out.read_text()
     assert "### frictional2d" in md and "| lattice_frictional | 0.5 | 1e-05 |" in md
     assert f"| {1e-4:.3g} | {TALL:.3g} | 3 |" in md and "figures/exponents.png)" in md
+
+
+def test_sweep_without_fits_is_one_line():
+    from granwave.report.tables import sweep_table
+
+    obj = {"alpha_tof": None, "alpha_tof_err": None, "alpha_tof_n": 0, "alpha_l": None,
+           "fit_notes": ["alpha_tof: c_tof known at 1 pressure(s), need 2"]}
+    assert sweep_table(obj) == ["No exponent fitted: alpha_tof: c_tof known at 1 pressure(s), "
+                                "need 2.", ""]
+    rows = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
+    assert rows[2] == "| alpha_tof | 0.2 ± 0.01 | 4 |" and len(rows) == 4  # no "—" row for alpha_l

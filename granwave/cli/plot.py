@@ -113,9 +113,10 @@ def roses(packing, output, pdf, walls, bins):
                    "the row-averaged energy E(y, t) and the low-pass displacement maps (needs "
                    "--linear and --packing).")
 @click.option("--linear", type=click.Path(dir_okay=False), help="The linear file of --modes.")
-@click.option("--cutoff-factor", type=click.FloatRange(0, min_open=True), default=2.0,
-              show_default=True,
-              help="Low-pass cut-off ω_c = factor × π / W, W the front width (docs/figures.md).")
+@click.option("--cutoff-factor", type=click.FloatRange(0, min_open=True), default=None,
+              help="Low-pass cut-off ω_c = factor × π / W, W the front width (docs/figures.md); "
+                   "default: granwave.analysis.pulse_field.row_fields's, twice the front's "
+                   "own frequency.")
 @fig_output
 @pdf_option
 @stage
@@ -135,9 +136,9 @@ def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf):
     if modes:
         from ..analysis.pulse_field import row_fields
 
+        cut = {} if cutoff_factor is None else {"cutoff_factor": cutoff_factor}
         fields = row_fields(read_linear(linear), read_modes(modes, vectors=True), pk.position,
-                            ic=str(sig.attrs.get("ic", "A")), cutoff_factor=cutoff_factor,
-                            t_max=float(sig.time[-1]))
+                            ic=str(sig.attrs.get("ic", "A")), t_max=float(sig.time[-1]), **cut)
     _done(figs.displacement_snapshot(sig, output, packing=pk, index=list(index) or None,
                                      fields=fields, pdf=pdf))
 

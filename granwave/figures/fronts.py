@@ -18,26 +18,33 @@ def arrival_times(data: Mapping, path, *, pdf: bool = False) -> list[Path]:
     """Arrival times of the 10% edge, the first peak and the zero crossing against L.
 
     ``data``: ``height`` (array) and ``t_lead10``, ``t_peak``, ``t_zero`` arrays
-    (missing ones are skipped); lines are least-squares fits t = t0 + L/c, the
-    speeds 1/slope given in the legend.
+    (missing ones are skipped). Lines t = t0 + L/c: the fits over all heights that
+    `analyze heights` wrote (``c_tof_all``, ``t0_t_lead10_all``, ... with ``_err``)
+    when the data hold them, else least-squares fits here; the speeds in the legend.
     """
     L = array(data["height"], "height")
     fig = new_figure((8, 5.5))
     ax = fig.add_subplot(1, 1, 1)
     drawn = 0
-    for k, (key, name, _) in enumerate(ARRIVAL_POINTS):
+    Lx = np.linspace(0, L.max() * 1.05, 50)
+    for k, (key, name, speed) in enumerate(ARRIVAL_POINTS):
         if data.get(key) is None:
             continue
         t = np.asarray(data[key], float)
         ax.plot(L, t, "o", color=f"C{k}", ms=5)
         lab = name
-        if np.sum(np.isfinite(t)) >= 2:
+        c, t0 = data.get(speed + "_all"), data.get(f"t0_{key}_all")
+        if c is not None and t0 is not None:  # the analysis's own fit
+            c, t0, dc = float(c), float(t0), data.get(speed + "_all_err")
+        elif np.sum(np.isfinite(t)) >= 2:
             ok = np.isfinite(t)
             fit = linear_fit(L[ok], t[ok], what=f"{key} against height")
-            Lx = np.linspace(0, L.max() * 1.05, 50)
-            c, dc = inverse_slope(fit)
-            lab += f": c = {c:.4g}" + fmt_err(dc)
-            ax.plot(Lx, fit.intercept + fit.slope * Lx, "-", color=f"C{k}", lw=1)
+            (c, dc), t0 = inverse_slope(fit), fit.intercept
+        else:
+            c = None
+        if c is not None:
+            lab += f": c = {c:.4g}" + fmt_err(None if dc is None else float(dc))
+            ax.plot(Lx, t0 + Lx / c, "-", color=f"C{k}", lw=1)
         ax.plot([], [], "o-", color=f"C{k}", label=lab)
         drawn += 1
     need(drawn > 0, "no arrival times (t_lead10, t_peak, t_zero) in the data")

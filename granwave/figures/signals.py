@@ -41,7 +41,7 @@ def signals_overlay(signals: Sequence[Signal], path, *, ensemble: Mapping | None
         ax.plot(s.time, s.force, lw=0.7, alpha=0.8)
     shown = min(len(signals), max_traces)
     ax.set_title(f"{shown} of {len(signals)} signals" if shown < len(signals) else
-                 f"{len(signals)} signals")
+                 f"{len(signals)} signal{'s' if len(signals) != 1 else ''}")
     ax.set_xlabel(T_LABEL)
     ax.set_ylabel(F_LABEL)
     ax2 = fig.add_subplot(1, 2, 2, sharex=ax, sharey=ax)
@@ -51,7 +51,8 @@ def signals_overlay(signals: Sequence[Signal], path, *, ensemble: Mapping | None
         ax2.fill_between(t, m - r, m + r, color="C1", alpha=0.3, lw=0, label="± rms")
         ax2.plot(t, m, color="C0", lw=1.2, label="mean")
         n = ens.get("n", ens.get("n_signals"))
-        ax2.set_title("ensemble average" + (f" over {int(n)} packings" if n is not None else ""))
+        ax2.set_title("ensemble average" + (f" over {int(n)} packing{'s' if int(n) != 1 else ''}"
+                                            if n is not None else ""))
         ax2.legend()
     else:
         ax2.text(0.5, 0.5, "one signal: no average", ha="center", transform=ax2.transAxes)

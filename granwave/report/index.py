@@ -84,7 +84,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         if h.get("pressure") is not None:
             h_by_scene[h["_scene"]][T.pressure_key(h["pressure"])] = h
 
-    md += T.statics_section(groups)
+    md += T.statics_section(groups, scenes)
     md += T.moduli_section(groups, scenes)
     md += T.speeds_section(groups, h_by_scene, scenes)
     md += T.exponents_section(hts, scenes, sorted(per_scene))
@@ -94,7 +94,8 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
                "The fitted exponents c ∝ p^α of each sweep file, as computed by `pressure-sweep` "
-               "(through the per-pressure means of the summaries; ± one standard error).", ""]
+               "(through the per-pressure means of the summaries; dimensionless, ± one standard "
+               "error; pressures: how many the fit used).", ""]
         for path, obj, _ in sweeps:
             label = obj.get("scene") if isinstance(obj, Mapping) and obj.get("scene") else Path(path).stem
             md += [f"### {label}", ""] + T.sweep_table(obj)

@@ -214,7 +214,8 @@ def _layer(groups: Groups) -> float:
     return 3.0
 
 
-def count_notes(scene: str, groups: Groups, sections: Sequence[str]) -> list[str]:
+def count_notes(scene: str, groups: Groups, sections: Sequence[str], *,
+                moduli_off: bool = False) -> list[str]:
     """One line per (p, L) where the sections were measured on different packings, saying why."""
     notes = []
     layer = _layer(groups)
@@ -231,6 +232,8 @@ def count_notes(scene: str, groups: Groups, sections: Sequence[str]) -> list[str
                 if sec == "statics" and L <= 2 * layer + 1:
                     why.append(f"no statics: the container has no bulk (L ≤ 2 l + 1 with wall "
                                f"layers l = {layer:g} d̄)")
+                elif sec == "moduli" and moduli_off:
+                    why.append("no moduli: switched off for this scene (config `moduli: false`)")
                 else:
                     why.append(f"no {sec} in {', '.join(lack)}")
             parts = ", ".join(f"{n} with {sec}" for sec, n in have.items())
@@ -239,7 +242,7 @@ def count_notes(scene: str, groups: Groups, sections: Sequence[str]) -> list[str
     return notes
 
 
-def statics_section(groups_by_scene: Mapping[str, Groups]) -> list[str]:
+def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None = None) -> list[str]:
     md = ["## Statics per pressure and container height", "",
           "One row per scene, pressure p [E*] and nominal container height L [d̄] (mean of the "
           "row's packings); n: the packings in the row. Every quantity is dimensionless "
@@ -250,7 +253,8 @@ def statics_section(groups_by_scene: Mapping[str, Groups]) -> list[str]:
         t = quantity_table(groups, "statics", STATICS_KEYS)
         if t:
             md += [f"### {scene}", ""] + t
-            notes = count_notes(scene, groups, ["statics", "moduli"])
+            off = scenes is not None and scenes.spec.get(scene, {}).get("moduli") is False
+            notes = count_notes(scene, groups, ["statics", "moduli"], moduli_off=off)
             md += (["Packings not in this table:", ""] + notes + [""]) if notes else []
             any_table = True
     return md if any_table else md + ["No static measurements among the inputs.", ""]
@@ -489,6 +493,12 @@ def sweep_table(obj) -> list[str]:
     if not isinstance(obj, Mapping):
         return ["(not a sweep object)", ""]
     alphas = [k for k in obj if k.startswith("alpha_") and not k.endswith(("_err", "_n"))]
+    fitted = [k for k in alphas if math.isfinite(num(obj[k]))]
+    if alphas and not fitted:  # no empty table: say why
+        notes = obj.get("fit_notes") or []
+        why = "; ".join(str(n) for n in (notes.values() if isinstance(notes, Mapping) else notes))
+        return [f"No exponent fitted{': ' + why if why else ' (fewer than two pressures)'}.", ""]
+    alphas = fitted
     if alphas:
         rows = [[k, fmt(obj[k], obj.get(k + "_err")),
                  str(obj.get(k + "_n", "")) if obj.get(k + "_n") is not None else ""] for k in alphas]
