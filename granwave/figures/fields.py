@@ -186,6 +186,8 @@ def mode_shapes(vectors: np.ndarray, dof_grain, dof_axis, position, path, *,
             title += f", ω = {float(omega[k]):.4g} " + r"$\sqrt{E^*/\rho}/\bar d$"
         q = _arrows(ax, position, u, has, dim, box, radius, title=title)
     fig.colorbar(q, ax=fig.axes, label=r"$|\phi|/|\phi|_{\max}$", shrink=0.8)
+    fig.suptitle("mode shapes (translational part); each panel scaled to its largest arrow",
+                 fontsize=10)
     return save_figure(fig, path, pdf=pdf)
 
 
