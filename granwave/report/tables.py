@@ -392,9 +392,12 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                 row += [fmt(cl, ecl), fmt(r, er if math.isfinite(er) else None)]
                 tof.append(row)
                 cols["p"].append(p)
+            header = ["p", "L1–L2", "n", "c_tof", "c_peak", "c_zero", "c_ℓ (L2)", "c_tof/c_ℓ"]
+            if all(r[6] == "—" for r in tof):  # no moduli: no c_ℓ columns (said above)
+                header, tof = header[:6], [r[:6] for r in tof]
             md += ["Time-of-flight speeds between the two edge heights L1–L2 (n signals in the "
-                   "height series; c_ℓ of the packings at L2):", ""]
-            md += table(["p", "L1–L2", "n", "c_tof", "c_peak", "c_zero", "c_ℓ (L2)", "c_tof/c_ℓ"], tof)
+                   "height series" + ("; c_ℓ of the packings at L2):" if len(header) > 6 else "):"), ""]
+            md += table(header, tof)
             if len(cols["p"]) >= 2:
                 fits = [[k, fmt(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
                         for k in SPEED_KEYS] + fits
