@@ -408,12 +408,16 @@ def spectrum(modes: Modes, params: SpectrumParams | None = None, /, *,
     return spectrum_summary(modes, ic=p.ic, dof_grain=dof_grain, dof_axis=dof_axis, arrays=p.arrays)
 
 
-def damping(signals: Sequence[Signal], params: DampingParams | None = None, /, **fields) -> list[dict]:
-    """Coherent amplitude, width and tail rms against contact damping (docs/method.md §11)."""
+def damping(signals: Sequence[Signal], params: DampingParams | None = None, /, *,
+            labels: Sequence[str] | None = None, **fields) -> list[dict]:
+    """Coherent amplitude, width and tail rms against contact damping (docs/method.md §11).
+
+    ``labels`` name the signals in error messages (the CLI passes the file names).
+    """
     from .dem.pulse import damping_table
 
     p = _params(DampingParams, params, fields)
-    return damping_table(list(signals), tail_start=p.tail_start)
+    return damping_table(list(signals), tail_start=p.tail_start, labels=labels)
 
 
 def pressure_sweep(summaries: Sequence[dict], params: SweepParams | None = None, /, *,

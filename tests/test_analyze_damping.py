@@ -47,3 +47,15 @@ def test_signals_without_damping_attribute_are_refused(tmp_path):
     run = CliRunner().invoke(main, ["analyze", "damping", str(path)])
     assert run.exit_code != 0
     assert "damping" in run.output and "Traceback" not in run.output
+
+
+def test_signal_without_damping_is_named(tmp_path):
+    t = np.linspace(0.0, 120.0, 601)
+    good, bad = tmp_path / "z0.h5", tmp_path / "linear.h5"
+    write_signal(good, Signal(time=t, force=pulse(t, 0.0), attrs=dict(ic="A", method="dem",
+                                                                       height=10.0, damping=0.0)))
+    write_signal(bad, Signal(time=t, force=pulse(t, 0.0), attrs=dict(ic="A", method="modal",
+                                                                      height=10.0)))
+    run = CliRunner().invoke(main, ["analyze", "damping", str(good), str(bad), "--json"])
+    assert run.exit_code != 0 and f"{bad}: no 'damping' attribute" in run.output
+    assert "Traceback" not in run.output

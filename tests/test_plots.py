@@ -1,6 +1,8 @@
-"""Figures (granwave.plots and `granwave plot`): each one is drawn from small
+"""Figures (granwave.figures and `granwave plot`): each one is drawn from small
 synthetic inputs and checked to be a PNG of the expected size with a
-meaningful number of non-background pixels."""
+meaningful number of non-background pixels; the numbers a figure shows
+(local exponents, the pulse's energy map, shared scales, labels) are checked
+against exact values."""
 
 from __future__ import annotations
 
@@ -16,7 +18,8 @@ import pytest  # noqa: E402
 from click.testing import CliRunner  # noqa: E402
 
 from granwave import io as gio  # noqa: E402  (import io before model: import cycle)
-from granwave import plots  # noqa: E402
+from granwave import figures  # noqa: E402
+from granwave.errors import InputError  # noqa: E402
 from granwave.model import Contacts, Modes, Packing, Signal  # noqa: E402
 
 
@@ -76,7 +79,7 @@ def synthetic_signal(height=10.0, c=0.1, seed=0, snapshots=False, n=36, **attrs)
 def check_png(path, size, min_fraction=0.01):
     img = mpimg.imread(path)
     w, h = size
-    assert img.shape[:2] == (round(h * plots.DPI), round(w * plots.DPI))
+    assert img.shape[:2] == (round(h * figures.DPI), round(w * figures.DPI))
     rgb = img[..., :3]
     background = np.all(rgb > 0.98, axis=-1)
     assert (~background).mean() > min_fraction, "figure is nearly empty"
@@ -89,7 +92,7 @@ def packing():
 
 # ---------------------------------------------------------------- library
 def test_segments_wrap_periodic_contacts(packing):
-    segs, owner = plots.contact_segments(packing)
+    segs, owner = figures.contact_segments(packing)
     c = packing.contacts
     assert set(owner) == set(range(len(c)))
     # a contact across the periodic boundary is drawn twice, and no segment is longer than a contact
@@ -100,28 +103,25 @@ def test_segments_wrap_periodic_contacts(packing):
 
 def test_snapshot_and_modes(tmp_path, packing):
     sig = synthetic_signal(snapshots=True)
-    out = plots.displacement_snapshot(sig, tmp_path / "snap.png", packing=packing, index=[0, 2])
-    check_png(out[0], (4.2 * 2 + 0.8, 5.5))
+    out = figures.displacement_snapshot(sig, tmp_path / "snap.png", packing=packing, index=[0, 2])
+    check_png(out[0], (12, 5.5))
     vecs = np.random.default_rng(0).standard_normal((sig.dof_grain.size, 3))
-    out = plots.mode_shapes(vecs, sig.dof_grain, sig.dof_axis, packing.position,
+    out = figures.mode_shapes(vecs, sig.dof_grain, sig.dof_axis, packing.position,
                             tmp_path / "modes.png", omega=[0.1, 0.2, 0.3], radius=packing.radius,
                             box=packing.box)
     check_png(out[0], (4.2 * 3 + 0.8, 5.5))
-    with pytest.raises(plots.InputError, match="no grain positions"):
-        plots.displacement_snapshot(sig, tmp_path / "x.png")
+    with pytest.raises(InputError, match="no grain positions"):
+        figures.displacement_snapshot(sig, tmp_path / "x.png")
     assert not (tmp_path / "x.png").exists()
 
 
 def test_signal_figures(tmp_path):
     # drawing is covered by the CLI tests below; here the library-only behaviour
     sigs = [synthetic_signal(seed=s) for s in range(3)]
-    ens = plots.ensemble_stats(sigs)
-    F = np.stack([s.force for s in sigs])
-    assert ens["n"] == 3 and np.allclose(ens["mean"], F.mean(0)) and np.allclose(ens["rms"], F.std(0))
-    with pytest.raises(plots.InputError, match="damping"):
-        plots.damping_series(sigs, tmp_path / "d2.png")
-    with pytest.raises(plots.InputError, match="speed for every signal or for none"):
-        plots.signal_comparison(sigs[:2], tmp_path / "c.png", speeds=[0.1, None])
+    with pytest.raises(InputError, match="^b.h5: no 'damping' attribute"):
+        figures.damping_series(sigs, tmp_path / "d2.png", labels=["b.h5", "c.h5", "d.h5"])
+    with pytest.raises(InputError, match="speed for every signal or for none"):
+        figures.signal_comparison(sigs[:2], tmp_path / "c.png", speeds=[0.1, None])
     assert not list(tmp_path.iterdir())
 
 
@@ -135,9 +135,132 @@ def test_front_figures(tmp_path):
     d = heights_data()
     series = {"2D disordered": d, "chain": heights_data(2 / 3, 1 / 3),
               "polydisperse chain": heights_data(0.8, 0.5)}
-    check_png(plots.amplitude_width(series, tmp_path / "e.png")[0], (12, 8.5))
-    Lm, e = plots.effective_exponents(d["height"], d["amplitude"])
-    assert np.allclose(e, -0.6)
+    check_png(figures.amplitude_width(series, tmp_path / "e.png")[0], (12, 8.5))
+
+
+def jittered_series(gamma=0.6, alpha=0.35, seed=0):
+    """`analyze heights` output for disordered packings: 4 packings at each of 3 nominal heights,
+    each packing's L jittered by ±1 % (so that some are nearly equal), A and W with 5 % noise."""
+    from granwave.analysis.heights import height_series_from_features
+
+    rng = np.random.default_rng(seed)
+    L = np.repeat([8.0, 16.0, 25.0], 4) * (1 + 0.01 * rng.uniform(-1, 1, 12))
+    noise = 1 + 0.05 * rng.standard_normal((2, 12))
+    feats = [{"t_lead10": h / 0.1, "t_peak": h / 0.09, "t_zero": h / 0.08,
+              "amplitude": 2 * h ** -gamma * noise[0, i], "width": 0.5 * h ** alpha * noise[1, i]}
+             for i, h in enumerate(L)]
+    return json.loads(json.dumps(height_series_from_features(L, feats, edge_heights=(8, 25)),
+                                 default=lambda a: np.asarray(a).tolist()))
+
+
+def test_local_exponents_between_ensemble_means():
+    """The exponents figure's points: between ensemble means at distinct nominal heights, with
+    the two standard errors propagated (not between single packings at nearly equal L)."""
+    from granwave.analysis.ensemble import local_exponents_of_means
+    from granwave.report import heights_means
+
+    obj = jittered_series()
+    d = heights_means(obj)
+    assert d["height"].size == 3 and np.all(d["count"] == 4)
+    ph = obj["per_height"]
+    np.testing.assert_allclose(d["amplitude_sem"], np.array(ph["amplitude_std"]) / 2)
+    loc = local_exponents_of_means(d["height"], d["amplitude"], d["amplitude_sem"])
+    L, A, e = d["height"], d["amplitude"], d["amplitude_sem"]
+    expect = np.log(A[1:] / A[:-1]) / np.log(L[1:] / L[:-1])
+    np.testing.assert_allclose(loc["exponent"], expect, rtol=1e-12)
+    np.testing.assert_allclose(loc["exponent_err"],
+                               np.hypot(e[1:] / A[1:], e[:-1] / A[:-1]) / np.log(L[1:] / L[:-1]),
+                               rtol=1e-12)
+    # the true exponent (-0.6) lies within three standard errors of each local value
+    assert np.all(np.abs(loc["exponent"] + 0.6) < 3 * loc["exponent_err"])
+    # the old way, between single packings at nearly equal heights, swings far more
+    s = sorted(obj["samples"], key=lambda r: r["height"])
+    single = [np.log(b["amplitude"] / a["amplitude"]) / np.log(b["height"] / a["height"])
+              for a, b in zip(s, s[1:]) if b["height"] > a["height"]]
+    assert np.max(np.abs(single)) > 5 * np.max(np.abs(loc["exponent"]))
+    with pytest.raises(InputError, match="distinct heights"):
+        local_exponents_of_means([8.0, 8.0, 25.0], [1.0, 1.1, 0.5])
+
+
+def test_damping_and_compare_labels():
+    from granwave.figures.damping import DEM_F_LABEL, _reference_label
+
+    assert "E^*" not in DEM_F_LABEL and "s" in DEM_F_LABEL  # the DEM signal is divided by s
+    assert _reference_label(synthetic_signal()) == "linear model (modal), same packing"
+    from granwave.figures.signals import with_height
+
+    assert with_height("frictionless2d", synthetic_signal(height=25.04)) == "frictionless2d, L = 25"
+
+
+def test_snapshots_share_one_scale():
+    from granwave.figures.fields import snapshot_panels
+
+    sig = synthetic_signal(snapshots=True)
+    sig.snapshot_displacement[1] *= 100.0  # one loud snapshot
+    panels, scale = snapshot_panels(sig, [0, 1, 2], 36, 2)
+    u1, has = panels[1]
+    assert scale == pytest.approx(np.max(np.linalg.norm(u1[has], axis=1)))
+    assert len(panels) == 3
+
+
+# ---------------------------------------------------------------- the pulse's fields
+@pytest.fixture(scope="module")
+def lattice_pulse():
+    from granwave.linear.assemble import linearize
+    from granwave.linear.check import reference_lattice
+    from granwave.linear.eigen import eigensolve
+
+    lat = reference_lattice(12, 5, pressure=1e-4, friction=0.5)
+    system = linearize(lat)
+    return lat, system, eigensolve(system, vectors=True)
+
+
+@pytest.mark.parametrize("ic", ["A", "B"])
+def test_row_energy_is_conserved_and_starts_at_the_source(lattice_pulse, ic):
+    """Σ_rows E(y, t) Δy = 1 at every time (energy of the nonzero modes), and at t = 0 the
+    kick's energy sits in the rows next to the bottom wall (all of it, for A: v(0) = source)."""
+    from granwave.analysis.front import front_features
+    from granwave.analysis.pulse_field import row_fields
+    from granwave.linear.propagate import modal_signal
+
+    lat, system, modes = lattice_pulse
+    f = row_fields(system, modes, lat.position, ic=ic, n_times=200)
+    np.testing.assert_allclose(f.energy.sum(axis=0) * f.attrs["row_width"], 1.0, atol=1e-12)
+    assert f.energy.shape == (int(np.ceil(system.height)), 200)
+    if ic == "A":
+        kicked = np.unique(lat.contacts.i[lat.contacts.is_bottom])
+        rows = np.unique((lat.position[kicked, 1] // 1).astype(int))
+        assert f.energy[rows, 0].sum() == pytest.approx(1.0, abs=1e-12)
+    # the arrival lines are the detector signal's own front features
+    t = np.linspace(0, 3 * f.attrs["t_peak"], 6000)
+    ref = front_features(t, modal_signal(modes, ic=ic, times=t))
+    assert f.attrs["t_peak"] == pytest.approx(ref.t_peak, rel=1e-3)
+    assert f.attrs["t_lead10"] == pytest.approx(ref.t_lead10, rel=1e-3)
+
+
+def test_low_pass_keeps_the_modes_below_the_front_band(lattice_pulse):
+    from granwave.analysis.pulse_field import row_fields
+
+    lat, system, modes = lattice_pulse
+    low = row_fields(system, modes, lat.position, n_times=50, cutoff_factor=2.0)
+    omega = np.sqrt(np.maximum(modes.omega2, 0))
+    nonzero = modes.omega2 > 1e-9 * modes.omega2.max()
+    assert low.attrs["omega_cut"] == pytest.approx(2 * np.pi / low.attrs["width"])
+    assert low.attrs["modes_below_cut"] == int(np.sum(nonzero & (omega < low.attrs["omega_cut"])))
+    assert 0 < low.attrs["modes_below_cut"] < low.attrs["modes_nonzero"]
+    # with the cut above every mode the low-pass field is the full row-mean displacement
+    full = row_fields(system, modes, lat.position, n_times=50, cutoff_factor=1e9)
+    from granwave.analysis.pulse_field import _modal_state
+
+    u, _ = _modal_state(modes, "A", full.time, nonzero)
+    vert = system.dof_axis == 1
+    row = (lat.position[system.dof_grain[vert], 1] // 1).astype(int)
+    expect = np.array([u[:, vert][:, row == r].mean(axis=1) if np.any(row == r)
+                       else np.full(full.time.size, np.nan) for r in range(full.row_y.size)])
+    np.testing.assert_allclose(full.displacement_low, expect, atol=1e-14)
+    with pytest.raises(InputError, match="eigenvectors"):
+        row_fields(system, Modes(modes.omega2, modes.amplitude_A, modes.amplitude_B,
+                                 modes.coupling, attrs=modes.attrs), lat.position)
 
 
 def test_select_modes():
@@ -148,21 +271,21 @@ def test_select_modes():
     a = np.r_[np.ones(5), 3.0, np.ones(n - 6)]
     modes = Modes(np.r_[0.0, np.linspace(0.1, 1, n - 1)], a, np.ones(n), np.ones(n), vectors=vecs,
                   attrs={"height": 1.0})
-    sel = plots.select_modes(modes, dof_grain=np.arange(n))
+    sel = figures.select_modes(modes, dof_grain=np.arange(n))
     assert sel["lowest nonzero"] == 1 and sel["strongest |a_n b_n|"] == 5
     assert sel["most localized"] != 0
 
 
 def test_bad_output_name(tmp_path, packing):
-    with pytest.raises(plots.InputError, match=".png"):
-        plots.contact_roses(packing, tmp_path / "roses.txt")
-    with pytest.raises(plots.InputError, match="does not exist"):
-        plots.contact_roses(packing, tmp_path / "nowhere" / "roses.png")
+    with pytest.raises(InputError, match=".png"):
+        figures.contact_roses(packing, tmp_path / "roses.txt")
+    with pytest.raises(InputError, match="does not exist"):
+        figures.contact_roses(packing, tmp_path / "nowhere" / "roses.png")
 
 
 def test_caption_for():
-    assert plots.caption_for("figures/speeds.png").startswith("Sound speeds")
-    assert "p1e-4" in plots.caption_for("network_p1e-4.png")
+    assert figures.caption_for("figures/speeds.png").startswith("Sound speeds")
+    assert "p1e-4" in figures.caption_for("network_p1e-4.png")
 
 
 # ---------------------------------------------------------------- CLI
@@ -198,10 +321,22 @@ def files(tmp_path_factory, packing):
                        np.zeros(ndof), np.zeros(ndof), np.zeros(ndof),
                        {"dim": 2, "pressure": 1e-4, "friction": 0.5, "height": 6.0, "prestress": False})
     gio.write_linear(d / "linear.h5", lin)
-    h = heights_data()
-    h_json = {"pressure": 1e-4, "ic": "A", "gamma": 0.6, "c_tof": 0.1,
-              "samples": [{k: float(v[i]) for k, v in h.items()} for i in range(h["height"].size)]}
-    (d / "heights.json").write_text(json.dumps(h_json))
+    (d / "heights.json").write_text(json.dumps(jittered_series()))
+    # a real small system for the pulse figure: lattice, linear system, modes with vectors
+    from granwave.linear.assemble import linearize
+    from granwave.linear.check import reference_lattice
+    from granwave.linear.eigen import eigensolve
+    from granwave.linear.propagate import modal_propagate
+
+    lat = reference_lattice(10, 5, pressure=1e-4, friction=0.5)
+    lsys = linearize(lat)
+    lmodes = eigensolve(lsys, vectors=True)
+    gio.write_packing(d / "lat_packing.h5", lat)
+    gio.write_linear(d / "lat_linear.h5", lsys)
+    gio.write_modes(d / "lat_modes.h5", lmodes)
+    gio.write_signal(d / "lat_signal.h5", modal_propagate(
+        lmodes, ic="A", t_max=80.0, samples=400, snapshots=[10.0, 20.0, 30.0, 40.0],
+        dof_grain=lsys.dof_grain, dof_axis=lsys.dof_axis))
     (d / "lat.json").write_text(json.dumps({"pressure": 1e-5, "c_tof": 0.2, "c_peak": 0.19}))
     p = [1e-7, 1e-6, 1e-5, 1e-4]
     (d / "sweep.json").write_text(json.dumps({"pressures": [
@@ -213,7 +348,9 @@ def files(tmp_path_factory, packing):
 CLI_CASES = [
     ("network", ["packing.h5"], (12, 10)),
     ("roses", ["packing.h5"], (13, 4.8)),
-    ("snapshot", ["signal.h5", "--packing", "packing.h5", "--index", "1"], (5.0, 5.5)),
+    ("snapshot", ["signal.h5", "--packing", "packing.h5", "--index", "1"], (12, 5.5)),
+    ("snapshot", ["lat_signal.h5", "--packing", "lat_packing.h5", "--modes", "lat_modes.h5",
+                  "--linear", "lat_linear.h5"], (17.6, 11)),
     ("signals", ["s0.h5", "s1.h5", "s2.h5"], (12, 4.8)),
     ("signals", ["s0.h5", "s1.h5", "--ensemble", "ens.h5"], (12, 4.8)),
     ("compare", ["s0.h5", "tall.h5", "--speed", "0.1", "--speed", "0.1"], (8, 5)),
@@ -234,7 +371,7 @@ def test_cli_plot(files, tmp_path, name, args, size):
 
     args = [str(files / a) if a.endswith((".h5", ".json")) else a for a in args]
     out = tmp_path / f"{name}.png"
-    pdf = name in ("snapshot", "speeds")  # PDFs are slow: two cases check the --pdf twin
+    pdf = name == "speeds" or args[0].endswith("/signal.h5")  # PDFs are slow: two cases check it
     res = CliRunner().invoke(main, ["plot", name, *args, "-o", str(out)] + (["--pdf"] if pdf else []))
     assert res.exit_code == 0, res.output
     check_png(out, size)
@@ -249,6 +386,7 @@ def test_cli_plot_bad_input(files, tmp_path):
     out = tmp_path / "x.png"
     for args in (["network", str(files / "signal.h5")],          # a signal, not a packing
                  ["damping", str(files / "s0.h5")],               # no damping attribute
+                 ["snapshot", str(files / "lat_signal.h5"), "--modes", str(files / "lat_modes.h5")],
                  ["snapshot", str(files / "s0.h5")],              # no snapshots
                  ["arrivals", str(files / "packing.h5")],         # not JSON
                  ["compare", str(files / "s0.h5"), "--speed", "0.1", "--speed", "0.2"]):
@@ -256,3 +394,5 @@ def test_cli_plot_bad_input(files, tmp_path):
         assert res.exit_code != 0, args
         assert res.output.strip().count("\n") <= 2 and "Traceback" not in res.output, res.output
         assert not out.exists()
+        if args[0] == "damping":
+            assert "s0.h5: no 'damping' attribute" in res.output  # names the file

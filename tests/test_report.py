@@ -1,10 +1,13 @@
 """`granwave report`: from small synthetic inputs the report holds every table,
-every figure link and the numbers of the inputs (none typed in)."""
+every figure link and the numbers of the inputs (none typed in), one row per
+scene, pressure and container height, units and ensemble sizes stated,
+diagnostics apart, and no empty table."""
 
 from __future__ import annotations
 
 import json
 import math
+import re
 
 import matplotlib
 
@@ -20,47 +23,76 @@ from granwave.cli import main  # noqa: E402
 from granwave.theory import lattice_speed  # noqa: E402
 
 PRESSURES = (1e-6, 1e-4)
+TALL, SHORT, TINY = 25.0, 8.1, 5.0  # container heights of the frictional scene
 
 
-def summary(p, seed):
-    """A per-sample summary (docs/summaries.md) with seed-dependent numbers."""
-    x = 0.001 * seed
-    c_l = 2.0 * p ** (1 / 6) * (1 + x)
-    return {"pressure": p, "seed": seed, "kind": "disordered", "height": 25.0, "friction": 0.5,
-            "statics": {"phi2": 0.80 + x, "phi3": 0.54 + x, "phi3_star": 0.53 + x, "z_star": 3.4 + x,
-                        "rattler_fraction": 0.1, "mean_force_over_p": 1.0 + x, "Z2": 1.5, "Z3": 3.1,
-                        "F2": 0.51, "F2_strong": 0.55, "stress_ratio": 0.9 + x},
-            "moduli": {"C11": 0.01 + x, "C12": 0.005, "C22": 0.011, "C33": 0.003, "c_l": c_l,
-                       "c_t": 0.5 * c_l, "phi3_star": 0.53 + x},
-            "front": {"t_lead10": 100.0, "t_peak": 110.0, "amplitude": 0.02, "t_zero": 120.0,
-                      "width": 20.0}}
+def c_l_of(p, seed, height):
+    return 2.0 * p ** (1 / 6) * (1 + 0.001 * seed) * (1 + 0.01 * (height == SHORT))
+
+
+def summary(p, seed, height=TALL, statics=True):
+    """A per-sample summary (docs/summaries.md) with seed- and height-dependent numbers."""
+    x = 0.001 * seed + (0.05 if height == SHORT else 0.0)
+    c_l = c_l_of(p, seed, height)
+    out = {"pressure": p, "seed": seed, "kind": "disordered", "height": height + 0.01 * seed,
+           "friction": 0.5,
+           "moduli": {"C11": 0.01 + x, "C12": 0.005, "C22": 0.011, "C33": 0.003, "c_l": c_l,
+                      "c_t": 0.5 * c_l, "phi3_star": 0.53 + x, "dim": 2, "n_dof": 1800 + seed},
+           "front": {"t_lead10": 100.0, "t_peak": 110.0, "amplitude": 0.02, "t_zero": 120.0,
+                     "width": 20.0}}
+    if statics:
+        out["statics"] = {"phi2": 0.80 + x, "phi3": 0.54 + x, "phi3_star": 0.53 + x,
+                          "z_star": 3.4 + x, "rattler_fraction": 0.1, "mean_force_over_p": 1.0 + x,
+                          "Z2": 1.5, "Z3": 3.1, "F2": 0.51, "F2_strong": 0.55,
+                          "stress_ratio": 0.9 + x, "layer": 3.0, "min_contacts": 2,
+                          "max_force_residual": 1e-7 * (1 + seed), "piston_balance": -1e-8}
+    return out
+
+
+def lattice_summary(p, rows):
+    h = rows * math.sqrt(3) / 2
+    return {"pressure": p, "seed": None, "kind": "lattice", "height": h, "friction": 0.5,
+            "statics": {"phi2": 0.9069, "z_star": 6.0, "rattler_fraction": 0.0, "layer": 3.0},
+            "moduli": {"C11": 0.016 + 1e-4 * rows, "C12": 3e-35 * rows, "C22": 0.0166,
+                       "C33": 0.0056, "c_l": 0.163, "c_t": 0.095}}
 
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
     root = tmp_path_factory.mktemp("results")
+
+    def put(scene, p, size, seed, obj):
+        d = root / "summary" / scene / f"p{p:g}" / size
+        d.mkdir(parents=True, exist_ok=True)
+        (d / f"s{seed}.json").write_text(json.dumps(obj))
+
     for p in PRESSURES:
         for seed in range(3):
-            d = root / "summary" / "frictional2d" / f"p{p:g}" / "h25"
-            d.mkdir(parents=True, exist_ok=True)
-            (d / f"s{seed}.json").write_text(json.dumps(summary(p, seed)))
+            put("frictional2d", p, "h25", seed, summary(p, seed))
+        for seed in range(2):
+            put("frictional2d", p, "h8", seed, summary(p, seed, SHORT))
+        put("frictional2d", p, "h5", 0, summary(p, 0, TINY, statics=False))
+    for seed in range(2):
+        put("frictionless2d", 1e-4, "h25", seed, {**summary(1e-4, seed), "friction": 0.0})
+    for rows in (10, 29):
+        put("lattice_frictional", 1e-5, f"r{rows}", 0, lattice_summary(1e-5, rows))
     hd = root / "heights"
     heights = {
         ("frictional2d", 1e-6): {"c_tof": 0.2345, "c_tof_err": 0.0012, "c_peak": 0.2222,
                                   "c_zero": 0.2111, "gamma": 0.8123, "gamma_err": 0.021,
-                                  "alpha": 0.4567, "alpha_err": 0.034},
+                                  "alpha": 0.4567, "alpha_err": 0.034, "edge_heights": [SHORT, TALL]},
         ("frictional2d", 1e-4): {"c_tof": 0.4811, "c_tof_err": 0.002, "c_peak": 0.4711,
                                   "c_zero": 0.4611, "gamma": 0.7911, "gamma_err": 0.02,
-                                  "alpha": 0.4412, "alpha_err": 0.03},
-        ("lattice_frictional", 1e-5): {"c_tof": 0.4321, "c_tof_err": 0.001, "c_peak": 0.4012,
-                                        "c_zero": 0.3999},
+                                  "alpha": 0.4412, "alpha_err": 0.03, "edge_heights": [SHORT, TALL]},
+        ("lattice_frictional", 1e-5): {"c_tof": 0.4321, "c_tof_err": None, "c_peak": 0.4012,
+                                        "c_zero": 0.3999, "edge_heights": [8.66, 25.1]},
         ("chain_B", 1.0): {"ic": "B", "gamma": 0.9712, "gamma_err": 0.005, "alpha": 0.3401,
                            "alpha_err": 0.002},
     }
     for (scene, p), obj in heights.items():
         (hd / scene).mkdir(parents=True, exist_ok=True)
         L = [8.0, 8.0, 25.0, 25.0]
-        obj = {"pressure": p, "ic": obj.get("ic", "A"), **obj,
+        obj = {"pressure": p, "ic": obj.get("ic", "A"), "n_signals": 4, "n_heights": 2, **obj,
                "samples": [{"height": h, "t_lead10": h / 0.2, "t_peak": h / 0.19, "t_zero": h / 0.18,
                             "amplitude": h ** -0.8, "width": h ** 0.45} for h in L]}
         (hd / scene / f"p{p:g}.json").write_text(json.dumps(obj))
@@ -77,12 +109,14 @@ def inputs(tmp_path_factory):
     sweep.write_text(json.dumps(_jsonable(res)))
     figs = root / "figures"
     figs.mkdir()
-    from granwave import plots
-    plots.chain_airy(figs / "airy_A.png", n_balls=(10, 20), pdf=True)
-    plots.amplitude_width({"x": {"height": [8, 25], "amplitude": [1, 0.5], "width": [1, 2]}},
-                          figs / "exponents.png")
+    from granwave import figures
+
+    figures.chain_airy(figs / "airy_A.png", n_balls=(10, 20), pdf=True)
+    figures.amplitude_width({"x": {"height": [8, 25], "amplitude": [1, 0.5], "width": [1, 2]}},
+                            figs / "exponents.png")
     cfg = root / "config.yaml"
     cfg.write_text("name: synthetic-test\ndisordered:\n  frictional2d:\n    friction: 0.5\n"
+                   "  frictionless2d:\n    friction: 0.0\n"
                    "lattices:\n  lattice_frictional:\n    friction: 0.5\nchains:\n  chain_B:\n"
                    "    ic: B\n")
     return root
@@ -95,35 +129,35 @@ def run_report(root, out):
     return CliRunner().invoke(main, args)
 
 
-def test_report_contents(inputs, tmp_path):
-    out = tmp_path / "report" / "index.md"
+@pytest.fixture(scope="module")
+def page(inputs, tmp_path_factory):
+    out = tmp_path_factory.mktemp("report") / "report" / "index.md"
     res = run_report(inputs, out)
     assert res.exit_code == 0, res.output
-    md = out.read_text()
-    html = out.with_suffix(".html").read_text()
-    # provenance
+    return out.read_text(), out.with_suffix(".html").read_text()
+
+
+def section(md: str, heading: str) -> str:
+    start = md.index(heading)
+    nxt = md.find("\n## ", start + 1)
+    return md[start:nxt if nxt > 0 else None]
+
+
+def rows_of(text: str, first: str) -> list[list[str]]:
+    """Cells of the table rows of ``text`` whose first cell is ``first``."""
+    return [[c.strip() for c in line.strip().strip("|").split("|")] for line in text.splitlines()
+            if line.startswith(f"| {first} |")]
+
+
+def test_report_contents(page):
+    md, html = page
     assert "synthetic-test" in md and "git revision" in md
-    # every table
-    for heading in ("## Statics per pressure", "## Elastic moduli per pressure",
+    for heading in ("## Statics per pressure and container height",
+                    "## Elastic moduli per pressure and container height",
                     "## Sound speeds against pressure", "## Front scaling with distance",
                     "## Triangular lattices against the formula", "## Pressure-sweep fits",
-                    "## Figures"):
+                    "## Provenance and numerical checks", "## Figures"):
         assert heading in md
-    # statics: mean ± std over the 3 packings of each pressure, with their number
-    phi2 = [0.80, 0.801, 0.802]
-    assert R.fmt(np.mean(phi2), np.std(phi2, ddof=1)) in md
-    assert "| packings | 3 | 3 |" in md
-    # moduli and speeds: c_l per pressure, c_tof from the height series, ratio, exponents
-    for p in PRESSURES:
-        cl = [2.0 * p ** (1 / 6) * (1 + 0.001 * s) for s in range(3)]
-        assert R.fmt(np.mean(cl), np.std(cl, ddof=1)) in md
-    assert "0.2345 ± 0.0012" in md and "0.4811 ± 0.002" in md
-    assert "c_tof/c_ℓ" in md
-    assert R.fmt(0.2345 / np.mean([2.0 * 1e-6 ** (1 / 6) * (1 + 0.001 * s) for s in range(3)]),
-                 None)[:5] in md
-    alpha_tof = math.log(0.4811 / 0.2345) / math.log(100)
-    assert R.fmt(alpha_tof) in md
-    assert "α = 0.1667" in md  # the Hertz exponent from the lattice formula
     # gamma and alpha with uncertainties, against the chain's exact values
     assert "0.8123 ± 0.021" in md and "0.4567 ± 0.034" in md and "0.9712 ± 0.005" in md
     assert "| initial condition A | 0.6667 | 0.3333 |" in md
@@ -138,10 +172,91 @@ def test_report_contents(inputs, tmp_path):
     assert "![Chain signals against the Airy shape" in md
     assert "](../" in md and "figures/airy_A.png)" in md and "figures/exponents.png)" in md
     assert "airy_A.pdf" in md
-    # HTML twin
+    # HTML twin, rendered by the markdown package: every table, the images
     n_tables = sum(line.startswith("|---") for line in md.splitlines())
-    assert n_tables >= 8 and html.count("<table>") == n_tables and "<img src=" in html
+    assert n_tables >= 12 and html.count("<table>") == n_tables and "<img " in html
     assert "0.8123 ± 0.021" in html
+
+
+def test_statics_one_row_per_pressure_and_height(page):
+    md, _ = page
+    statics = section(md, "## Statics per pressure and container height")
+    for p in PRESSURES:
+        for height, seeds in ((TALL, range(3)), (SHORT, range(2))):
+            phi2 = [summary(p, s, height)["statics"]["phi2"] for s in seeds]
+            L = np.mean([height + 0.01 * s for s in seeds])
+            row = f"| {p:.3g} | {L:.3g} | {len(phi2)} | {R.fmt(np.mean(phi2), np.std(phi2, ddof=1))} |"
+            assert row in statics, row
+        pooled = [summary(p, s, h)["statics"]["phi2"] for h, n in ((TALL, 3), (SHORT, 2))
+                  for s in range(n)]
+        assert R.fmt(np.mean(pooled), np.std(pooled, ddof=1)) not in md  # heights never pooled
+    # the rattler fraction is the same in every packing: no "± 0"
+    assert "0.1 (all 3 equal)" in statics and "± 0 " not in md and "± 0 |" not in md
+    # the short containers have no bulk: they are not in the table, and the page says why
+    assert f"| {PRESSURES[0]:.3g} | {TINY:.3g} |" not in statics.split("Packings not in")[0]
+    assert "no statics: the container has no bulk (L ≤ 2 l + 1 with wall layers l = 3 d̄)" in statics
+    # units and what n counts
+    assert "p [E*]" in statics and "L [d̄]" in statics and "n: the packings in the row" in statics
+
+
+def test_diagnostics_apart_and_fixed_values_not_statistics(page):
+    md, _ = page
+    for name in ("## Statics per pressure", "## Elastic moduli per pressure"):
+        header = rows_of(section(md, name), "p")[0]
+        for diag in ("layer", "min_contacts", "max_force_residual", "piston_balance", "dim", "n_dof"):
+            assert not any(diag in h for h in header), (name, diag)
+    prov = section(md, "## Provenance and numerical checks")
+    header = rows_of(prov, "p")[0]
+    assert "layer (statics)" in header and "dim (moduli)" in header
+    row = [r for r in rows_of(prov, f"{1e-4:.3g}") if r[1] == f"{TALL:.3g}"][0]
+    assert row[header.index("layer (statics)")] == "3" and row[header.index("dim (moduli)")] == "2"
+    assert row[header.index("max_force_residual (statics)")] == "1e-07 … 3e-07"  # a range
+    assert "±" not in prov
+
+
+def test_lattice_rows_per_size_and_zero_within_precision(page):
+    md, _ = page
+    moduli = section(md, "## Elastic moduli per pressure")
+    lat = moduli[moduli.index("### lattice_frictional"):]
+    rows = rows_of(lat.split("Local")[0].split("###")[1], f"{1e-5:.3g}")
+    assert [r[1] for r in rows] == [f"{10 * math.sqrt(3) / 2:.3g}", f"{29 * math.sqrt(3) / 2:.3g}"]
+    assert all(r[2] == "1" and "±" not in " ".join(r) for r in rows)
+    assert all(r[4] == "0 (< 1e-12 × max Cij)" for r in rows)  # C12 = 3e-35, 9e-34
+    assert R.fmt(0.016 + 1e-4 * 29) in rows[1]
+
+
+def test_speeds_one_kind_of_error_bar(page):
+    md, _ = page
+    speeds = section(md, "## Sound speeds against pressure")
+    assert "Every ± is one standard error" in speeds and "± sample standard deviation" not in speeds
+    for p in PRESSURES:
+        cl = [c_l_of(p, s, TALL) for s in range(3)]
+        sem = np.std(cl, ddof=1) / np.sqrt(3)
+        assert R.fmt(np.mean(cl), sem) in speeds
+    # c_tof from the height series, against c_ℓ of the taller edge height
+    assert "0.2345 ± 0.0012" in speeds and "0.4811 ± 0.002" in speeds
+    cl = np.mean([c_l_of(1e-6, s, TALL) for s in range(3)])
+    row = rows_of(speeds, f"{1e-6:.3g}")
+    tof_row = [r for r in row if r[3] == "0.2345 ± 0.0012"][0]
+    assert tof_row[1] == f"{SHORT:.3g}–{TALL:.3g}" and tof_row[7].startswith(R.fmt(0.2345 / cl)[:5])
+    alpha_tof = math.log(0.4811 / 0.2345) / math.log(100)
+    assert R.fmt(alpha_tof) in speeds
+    assert "α = 0.1667" in speeds  # the Hertz exponent from the lattice formula
+
+
+def test_no_empty_tables(page):
+    md, _ = page
+    # a scene with one height: no time-of-flight table and no exponents row, one line why
+    fl = section(md, "## Sound speeds against pressure")
+    fl = fl[fl.index("### frictionless2d"):]
+    assert "No time-of-flight speeds: the scene has 1 container height" in fl
+    assert "c_tof" not in fl.split("No time-of-flight")[0]
+    assert "No γ or α for frictionless2d: one container height" in md
+    # no table row whose numbers are all missing
+    for line in md.splitlines():
+        if line.startswith("| ") and not line.startswith("|---"):
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            assert any(c not in ("—", "") for c in cells[3:]) or len(cells) <= 3, line
 
 
 def test_sweep_speeds_reads_pressure_sweep(inputs):
@@ -159,15 +274,31 @@ def test_report_bad_input(inputs, tmp_path):
     bad.write_text("{not json")
     res = CliRunner().invoke(main, ["report", "--heights", str(bad), "-o", str(out)])
     assert res.exit_code != 0 and "not a JSON file" in res.output and not out.exists()
-    res = CliRunner().invoke(main, ["report", "-o", str(tmp_path / "index.txt")])
+    res = CliRunner().invoke(main, ["report", "--summaries", str(bad), "-o", str(tmp_path / "i.txt")])
     assert res.exit_code != 0 and ".md" in res.output
+
+
+@pytest.mark.parametrize("args", [[], ["--config", "CFG"], ["--summaries", "EMPTY"]])
+def test_report_refuses_nothing_to_report(inputs, tmp_path, args):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    args = [str(inputs / "config.yaml") if a == "CFG" else str(empty) if a == "EMPTY" else a
+            for a in args]
+    out = tmp_path / "index.md"
+    res = CliRunner().invoke(main, ["report", *args, "-o", str(out)])
+    assert res.exit_code == 2, res.output
+    assert res.output.strip().count("\n") == 0 and "nothing to report" in res.output
+    assert not out.exists() and not out.with_suffix(".html").exists()
+    with pytest.raises(R.build_report.__globals__["InputError"], match="nothing to report"):
+        R.build_report()
 
 
 def test_markdown_to_html():
     h = R.markdown_to_html("# T\n\n- a **b**\n\n| x | y |\n|---|---|\n| 1 < 2 | `c` |\n\n"
-                           "![cap](f.png)\n")
-    assert "<h1>T</h1>" in h and "<li>a <strong>b</strong></li>" in h
-    assert "<td>1 &lt; 2</td>" in h and "<code>c</code>" in h and '<img src="f.png" alt="cap">' in h
+                           "![cap](f.png)\n", title="a <title>")
+    assert "<h1>T</h1>" in h and re.search(r"<li>a <strong>b</strong></li>", h)
+    assert "<td>1 &lt; 2</td>" in h and "<code>c</code>" in h and '<img alt="cap" src="f.png"' in h
+    assert "<title>a &lt;title&gt;</title>" in h and h.count("<table>") == 1
 
 
 def test_report_from_single_files(inputs, tmp_path):
@@ -184,4 +315,15 @@ def test_report_from_single_files(inputs, tmp_path):
     assert res.exit_code == 0, res.output
     md = out.read_text()
     assert "### frictional2d" in md and "| lattice_frictional | 0.5 | 1e-05 |" in md
-    assert "| packings | 3 | 3 |" in md and "figures/exponents.png)" in md
+    assert f"| {1e-4:.3g} | {TALL:.3g} | 3 |" in md and "figures/exponents.png)" in md
+
+
+def test_sweep_without_fits_is_one_line():
+    from granwave.report.tables import sweep_table
+
+    obj = {"alpha_tof": None, "alpha_tof_err": None, "alpha_tof_n": 0, "alpha_l": None,
+           "fit_notes": ["alpha_tof: c_tof known at 1 pressure(s), need 2"]}
+    assert sweep_table(obj) == ["No exponent fitted: alpha_tof: c_tof known at 1 pressure(s), "
+                                "need 2.", ""]
+    rows = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
+    assert rows[2] == "| alpha_tof | 0.2 ± 0.01 | 4 |" and len(rows) == 4  # no "—" row for alpha_l

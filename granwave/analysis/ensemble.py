@@ -1,4 +1,4 @@
-"""Ensemble average of signals over independent packings (SPEC §9).
+"""Ensemble average of signals over independent packings (docs/method.md §9).
 
 Choices (also in ``docs/summaries.md`` and the CLI help)
 --------------------------------------------------------
@@ -72,7 +72,7 @@ def common_grid(times: Sequence[np.ndarray]) -> tuple[np.ndarray, str]:
 
 
 def ensemble_average(signals: Sequence["Signal"], *, labels: Sequence[str] | None = None) -> Ensemble:
-    """Mean signal and rms deviation over packings (SPEC §9); rule in the module docstring."""
+    """Mean signal and rms deviation over packings (docs/method.md §9); rule in the module docstring."""
     signals = list(signals)
     if not signals:
         raise InputError("no signals given")
@@ -170,3 +170,34 @@ def read_ensemble(path) -> Ensemble:
         g = lambda name: F._get(f, path, name)  # noqa: E731
         return Ensemble(time=g("ensemble/time"), mean=g("ensemble/mean"), rms=g("ensemble/rms"),
                         attrs=F.read_attrs(f))
+
+
+# ---------------------------------------------------------------- heights
+def local_exponents_of_means(height, mean, sem=None) -> dict:
+    """Local exponents d log|y| / d log L between ensemble means at distinct heights.
+
+    ``height``: nominal heights (group means, strictly increasing after sorting;
+    equal heights are refused: take them as one ensemble first); ``mean``: the
+    ensemble mean of y at each; ``sem``: its standard error (NaN or None where
+    undetermined, e.g. one packing). The error of each local exponent is the
+    two standard errors propagated:
+    δe = sqrt((δy1/y1)² + (δy2/y2)²) / ln(L2/L1) (independent ensembles).
+    Returns ``height_mid`` (geometric means), ``exponent`` and ``exponent_err``.
+    """
+    L = np.asarray(height, float)
+    y = np.abs(np.asarray(mean, float))
+    e = np.full(L.shape, np.nan) if sem is None else np.asarray(sem, float)
+    if not (L.shape == y.shape == e.shape):
+        raise InputError("height, mean and sem must have the same length")
+    ok = np.isfinite(L) & np.isfinite(y) & (L > 0) & (y > 0)
+    L, y, e = L[ok], y[ok], e[ok]
+    order = np.argsort(L)
+    L, y, e = L[order], y[order], e[order]
+    if np.any(np.diff(L) <= 0):
+        raise InputError("local exponents need distinct heights (average equal heights first)")
+    if L.size < 2:
+        return {"height_mid": np.zeros(0), "exponent": np.zeros(0), "exponent_err": np.zeros(0)}
+    lnL, lny = np.log(L), np.log(y)
+    rel = e / y
+    return {"height_mid": np.sqrt(L[1:] * L[:-1]), "exponent": np.diff(lny) / np.diff(lnL),
+            "exponent_err": np.hypot(rel[1:], rel[:-1]) / np.diff(lnL)}

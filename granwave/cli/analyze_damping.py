@@ -21,7 +21,7 @@ def damping(signals, as_json, **options):
     from ..io.files import read_signal
 
     params = params_from(DampingParams, options)
-    rows = api.damping([read_signal(path) for path in signals], params)
+    rows = api.damping([read_signal(path) for path in signals], params, labels=list(signals))
     if as_json:
         echo_json(rows)
         return

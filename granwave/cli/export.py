@@ -7,7 +7,9 @@ from pathlib import Path
 
 import click
 
-from .common import NON_NEGATIVE, stage
+from .common import FiniteFloat, stage
+
+NON_NEGATIVE = FiniteFloat(min=0.0)
 
 
 def bad_input_exits_2(func):

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from .common import NON_NEGATIVE, POSITIVE, FiniteFloat, output_option, progress_printer
+from .common import POSITIVE, FiniteFloat, output_option, progress_printer
+from .export import NON_NEGATIVE
 from .export import bad_input_exits_2
 
 

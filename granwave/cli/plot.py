@@ -1,6 +1,6 @@
-"""``granwave plot <figure> INPUTS... -o FIG.png``: the study's figures (granwave.plots).
+"""``granwave plot <figure> INPUTS... -o FIG.png``: the study's figures (granwave.figures).
 
-Thin wrappers: read the inputs, call one function of :mod:`granwave.plots`.
+Thin wrappers: read the inputs, call one function of :mod:`granwave.figures`.
 matplotlib is imported only inside the commands, so ``granwave --help`` stays fast.
 """
 
@@ -23,13 +23,13 @@ fig_output = click.option("-o", "--output", "output", required=True, type=click.
 pdf_option = click.option("--pdf", is_flag=True, help="Also write a PDF beside the PNG.")
 
 
-def _plots():
+def _figures():
     import matplotlib
 
     matplotlib.use("Agg")
-    from .. import plots
+    from .. import figures
 
-    return plots
+    return figures
 
 
 def _done(paths) -> None:
@@ -67,7 +67,7 @@ def plot():
     """Draw the study's figures (one subcommand per figure; see docs/figures.md).
 
     Every subcommand writes one figure with -o FILE.png (add --pdf for a PDF
-    twin). Units: d̄, E*, time d̄/sqrt(E*/ρ) (SPEC §1).
+    twin). Units: d̄, E*, time d̄/sqrt(E*/ρ) (docs/method.md §1).
     """
 
 
@@ -79,11 +79,11 @@ def plot():
 @stage
 def network(packing, output, pdf, walls):
     """Force and stiffness networks of a packing, with their histograms."""
-    plots = _plots()
+    figs = _figures()
     from ..io.files import read_packing
 
-    plots.output_paths(output, pdf)
-    _done(plots.force_network(read_packing(packing), output, pdf=pdf, walls=walls))
+    figs.output_paths(output, pdf)
+    _done(figs.force_network(read_packing(packing), output, pdf=pdf, walls=walls))
 
 
 @plot.command()
@@ -95,11 +95,11 @@ def network(packing, output, pdf, walls):
 @stage
 def roses(packing, output, pdf, walls, bins):
     """Contact-direction roses: all, strong and weak contacts."""
-    plots = _plots()
+    figs = _figures()
     from ..io.files import read_packing
 
-    plots.output_paths(output, pdf)
-    _done(plots.contact_roses(read_packing(packing), output, pdf=pdf, walls=walls, bins=bins))
+    figs.output_paths(output, pdf)
+    _done(figs.contact_roses(read_packing(packing), output, pdf=pdf, walls=walls, bins=bins))
 
 
 @plot.command()
@@ -108,18 +108,39 @@ def roses(packing, output, pdf, walls, bins):
               help="Packing file (positions, radii) if the signal stores no positions.")
 @click.option("--index", "index", type=int, multiple=True,
               help="Snapshot index (repeatable; default: up to four spread over the record).")
+@click.option("--modes", type=click.Path(dir_okay=False),
+              help="Modes file with eigenvectors (eigensolve --vectors) of the same packing: adds "
+                   "the row-averaged energy E(y, t) and the low-pass displacement maps (needs "
+                   "--linear and --packing).")
+@click.option("--linear", type=click.Path(dir_okay=False), help="The linear file of --modes.")
+@click.option("--cutoff-factor", type=click.FloatRange(0, min_open=True), default=None,
+              help="Low-pass cut-off ω_c = factor × π / W, W the front width (docs/figures.md); "
+                   "default: granwave.analysis.pulse_field.row_fields's, twice the front's "
+                   "own frequency.")
 @fig_output
 @pdf_option
 @stage
-def snapshot(signal, packing, index, output, pdf):
-    """Displacement-field snapshots of a signal file as arrows."""
-    plots = _plots()
-    from ..io.files import read_packing, read_signal
+def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf):
+    """The pulse: displacement snapshots on one scale and, with --modes, the coherent front
+    in space and time (energy E(y, t) on a log scale, low-pass displacement, arrival lines)."""
+    figs = _figures()
+    from ..errors import InputError
+    from ..io.files import read_linear, read_modes, read_packing, read_signal
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
+    if (modes is None) != (linear is None) or (modes and not packing):
+        raise InputError("--modes needs --linear and --packing (and the other way round)")
+    sig = read_signal(signal)
     pk = read_packing(packing) if packing else None
-    _done(plots.displacement_snapshot(read_signal(signal), output, packing=pk,
-                                      index=list(index) or None, pdf=pdf))
+    fields = None
+    if modes:
+        from ..analysis.pulse_field import row_fields
+
+        cut = {} if cutoff_factor is None else {"cutoff_factor": cutoff_factor}
+        fields = row_fields(read_linear(linear), read_modes(modes, vectors=True), pk.position,
+                            ic=str(sig.attrs.get("ic", "A")), t_max=float(sig.time[-1]), **cut)
+    _done(figs.displacement_snapshot(sig, output, packing=pk, index=list(index) or None,
+                                     fields=fields, pdf=pdf))
 
 
 @plot.command()
@@ -133,13 +154,13 @@ def snapshot(signal, packing, index, output, pdf):
 @stage
 def signals(signals, ensemble, max_traces, output, pdf):
     """Signals of several packings overlaid, and the ensemble average ± rms."""
-    plots = _plots()
+    figs = _figures()
     from ..io.files import read_signal
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     sigs = [read_signal(s) for s in signals]
     ens = read_ensemble(ensemble) if ensemble else None
-    _done(plots.signals_overlay(sigs, output, ensemble=ens, max_traces=max_traces, pdf=pdf))
+    _done(figs.signals_overlay(sigs, output, ensemble=ens, max_traces=max_traces, pdf=pdf))
 
 
 @plot.command()
@@ -152,17 +173,17 @@ def signals(signals, ensemble, max_traces, output, pdf):
 @stage
 def compare(signals, labels, speeds, output, pdf):
     """Signals of different systems (frictional 2D, frictionless 2D, 3D) in one panel."""
-    plots = _plots()
+    figs = _figures()
     from ..errors import InputError
     from ..io.files import read_signal
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     if labels and len(labels) != len(signals):
         raise InputError(f"give one --label per signal ({len(signals)}), or none")
     if speeds and len(speeds) != len(signals):
         raise InputError(f"give one --speed per signal ({len(signals)}), or none")
     sigs = [read_signal(s) for s in signals]
-    _done(plots.signal_comparison(sigs, output, labels=list(labels) or None,
+    _done(figs.signal_comparison(sigs, output, labels=list(labels) or None,
                                   speeds=list(speeds) or None, pdf=pdf))
 
 
@@ -173,9 +194,9 @@ def compare(signals, labels, speeds, output, pdf):
 @stage
 def coherent(files, output, pdf):
     """Coherent part at several heights (ensemble files with a height, or signal files)."""
-    plots = _plots()
-    plots.output_paths(output, pdf)
-    _done(plots.coherent_heights([_signal_or_ensemble(f) for f in files], output, pdf=pdf))
+    figs = _figures()
+    figs.output_paths(output, pdf)
+    _done(figs.coherent_heights([_signal_or_ensemble(f) for f in files], output, pdf=pdf))
 
 
 @plot.command()
@@ -185,12 +206,12 @@ def coherent(files, output, pdf):
 @stage
 def arrivals(heights_json, output, pdf):
     """Arrival times of the three characteristic points against L (analyze heights --json)."""
-    plots = _plots()
+    figs = _figures()
     from ..report import heights_arrays
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     data = heights_arrays(load_json(heights_json), source=heights_json)
-    _done(plots.arrival_times(data, output, pdf=pdf))
+    _done(figs.arrival_times(data, output, pdf=pdf))
 
 
 @plot.command()
@@ -204,18 +225,19 @@ def arrivals(heights_json, output, pdf):
 @pdf_option
 @stage
 def exponents(heights_json, labels, chain, ic, output, pdf):
-    """A(L) and W(L) log-log with effective exponents, several series."""
-    plots = _plots()
+    """A(L) and W(L) log-log: ensemble means per height ± standard error, the fits of
+    `analyze heights`, and local exponents between distinct heights with error bars."""
+    figs = _figures()
     from ..errors import InputError
-    from ..report import chain_series, heights_arrays, label_from_path
+    from ..report import chain_series, heights_means, label_from_path
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     if labels and len(labels) != len(heights_json):
         raise InputError(f"give one --label per file ({len(heights_json)}), or none")
     series = {}
     for k, path in enumerate(heights_json):
         lab = labels[k] if labels else label_from_path(path)
-        series[lab] = heights_arrays(load_json(path), source=path)
+        series[lab] = heights_means(load_json(path), source=path)
     if chain:
         try:
             ns = [int(x) for x in chain.split(",") if x.strip()]
@@ -225,7 +247,7 @@ def exponents(heights_json, labels, chain, ic, output, pdf):
     if not series:
         raise InputError("give heights JSON files and/or --chain")
     refs = {"gamma": 2 / 3 if ic == "A" else 1.0, "alpha": 1 / 3}
-    _done(plots.amplitude_width(series, output, references=refs, pdf=pdf))
+    _done(figs.amplitude_width(series, output, references=refs, pdf=pdf))
 
 
 @plot.command()
@@ -243,10 +265,10 @@ def exponents(heights_json, labels, chain, ic, output, pdf):
 @stage
 def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf):
     """Speeds against pressure (pressure-sweep --json) with the lattice theory."""
-    plots = _plots()
+    figs = _figures()
     from ..report import sweep_speeds
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     data = sweep_speeds(load_json(sweep_json), source=sweep_json)
     points = []
     key = {"tof": "c_tof", "peak": "c_peak", "zero": "c_zero"}[lattice_speed]
@@ -257,7 +279,7 @@ def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf)
                 points.append({"pressure": h["pressure"], "speed": h[key], "friction": fr,
                                "label": f"lattice simulation ({key}), "
                                         + ("frictional" if fr else "frictionless")})
-    _done(plots.speeds_vs_pressure(data, output, lattice_points=points, poisson=poisson, pdf=pdf))
+    _done(figs.speeds_vs_pressure(data, output, lattice_points=points, poisson=poisson, pdf=pdf))
 
 
 @plot.command()
@@ -269,11 +291,11 @@ def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf)
 @stage
 def spectrum(modes, ic, bins, output, pdf):
     """Eigen-spectrum (density of ω) and the weights a_n b_n."""
-    plots = _plots()
+    figs = _figures()
     from ..io.files import read_modes
 
-    plots.output_paths(output, pdf)
-    _done(plots.spectrum(read_modes(modes), output, ic=ic, bins=bins, pdf=pdf))
+    figs.output_paths(output, pdf)
+    _done(figs.spectrum(read_modes(modes), output, ic=ic, bins=bins, pdf=pdf))
 
 
 @plot.command()
@@ -288,13 +310,13 @@ def spectrum(modes, ic, bins, output, pdf):
 @stage
 def modes(modes, linear, packing, mode_index, ic, output, pdf):
     """Selected mode shapes as arrows (needs eigensolve --vectors)."""
-    plots = _plots()
+    figs = _figures()
     import numpy as np
 
     from ..errors import InputError
     from ..io.files import read_linear, read_modes, read_packing
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     m = read_modes(modes, vectors=True)
     lin = read_linear(linear)
     pk = read_packing(packing)
@@ -307,12 +329,12 @@ def modes(modes, linear, packing, mode_index, ic, output, pdf):
             raise InputError(f"mode index {bad[0]} out of range (the file has {n} modes)")
         chosen = {f"mode {i}": i for i in mode_index}
     else:
-        chosen = plots.select_modes(m, dof_grain=lin.dof_grain, dof_axis=lin.dof_axis, dim=pk.dim,
+        chosen = figs.select_modes(m, dof_grain=lin.dof_grain, dof_axis=lin.dof_axis, dim=pk.dim,
                                     ic=ic)
     idx = list(chosen.values())
     labels = [f"{name} (n = {i})" if not name.startswith("mode") else name
               for name, i in chosen.items()]
-    _done(plots.mode_shapes(m.vectors[:, idx], lin.dof_grain, lin.dof_axis, pk.position, output,
+    _done(figs.mode_shapes(m.vectors[:, idx], lin.dof_grain, lin.dof_axis, pk.position, output,
                             omega=np.sqrt(np.maximum(m.omega2[idx], 0)), labels=labels,
                             radius=pk.radius, box=pk.box, pdf=pdf))
 
@@ -326,12 +348,13 @@ def modes(modes, linear, packing, mode_index, ic, output, pdf):
 @stage
 def damping(signals, reference, output, pdf):
     """Signals of one packing for several contact dampings ζ (attribute 'damping')."""
-    plots = _plots()
+    figs = _figures()
     from ..io.files import read_signal
 
-    plots.output_paths(output, pdf)
+    figs.output_paths(output, pdf)
     ref = read_signal(reference) if reference else None
-    _done(plots.damping_series([read_signal(s) for s in signals], output, reference=ref, pdf=pdf))
+    _done(figs.damping_series([read_signal(s) for s in signals], output, reference=ref,
+                               labels=list(signals), pdf=pdf))
 
 
 @plot.command()
@@ -343,6 +366,6 @@ def damping(signals, reference, output, pdf):
 @stage
 def airy(n_balls, ic, output, pdf):
     """Chain wall force (exact modal sum) against the Airy asymptote, co-moving frame."""
-    plots = _plots()
-    plots.output_paths(output, pdf)
-    _done(plots.chain_airy(output, n_balls=list(n_balls) or (25, 50, 100, 200), ic=ic, pdf=pdf))
+    figs = _figures()
+    figs.output_paths(output, pdf)
+    _done(figs.chain_airy(output, n_balls=list(n_balls) or (25, 50, 100, 200), ic=ic, pdf=pdf))

@@ -37,11 +37,13 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, ti
         --heights results/heights --sweep results/sweep/frictional2d.json \\
         --figures results/figures -o results/report/index.md
 
-    Contents: static and moduli tables per scene and pressure (mean ± std, number of
-    packings); c_tof, c_peak, c_zero, c_l, c_t against p with fitted exponents and
-    c_tof/c_l; gamma and alpha of every height series against the chain's exact
-    values; lattice speeds against the formula of SPEC §12; the sweep fits; every
-    figure; the config name and the granwave version and git revision.
+    Contents: statics and moduli per scene, pressure and container height (mean ± std
+    over n packings, units stated), a provenance table of diagnostics; c_l, c_t per
+    height and c_tof, c_peak, c_zero per pressure (± one standard error) with fitted
+    exponents and c_tof/c_l; gamma and alpha of every height series against the
+    chain's exact values; lattice speeds against the formula of docs/method.md §12;
+    the damping table; the sweep fits; every figure; the config name, the granwave
+    version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
     from ..report import build_report, collect_json, find_figures, load_config, write_report
@@ -56,8 +58,14 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, ti
         damping = collect_json([damping_json])[0][1]
         if not isinstance(damping, list):
             raise InputError(f"{damping_json}: expected the list printed by `analyze damping --json`")
-    md = build_report(summaries=collect_json(summaries), heights=collect_json(heights),
-                      sweeps=collect_json(sweeps), figures=find_figures(figures),
+    inputs = dict(summaries=collect_json(summaries), heights=collect_json(heights),
+                  sweeps=collect_json(sweeps), figures=find_figures(figures))
+    if not (any(inputs.values()) or damping):
+        refused = click.ClickException("nothing to report: give --summaries, --heights, --sweep, "
+                                       "--figures or --damping (files, or folders that hold some)")
+        refused.exit_code = 2  # bad usage, as click's own option errors
+        raise refused
+    md = build_report(**inputs,
                       out_dir=out.parent.resolve() if str(out.parent) else Path(".").resolve(),
                       config=cfg, config_path=config, title=title, damping=damping)
     for p in write_report(out, md, title=title):

@@ -413,7 +413,8 @@ def _grow(engine: Engine, needed: int) -> None:
 
 
 # ---------------------------------------------------------------- damping series
-def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None) -> list[dict]:
+def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None,
+                  labels: Sequence[str] | None = None) -> list[dict]:
     """Coherent amplitude and tail rms of each signal of a damping series, by ζ.
 
     For every signal (sorted by ``attrs['damping']``): the front features of
@@ -424,15 +425,18 @@ def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None)
     ``tail_start`` = t_zero + width of the *least damped* signal (its first
     pulse's zero crossing plus one pulse width), the same window for every ζ
     so that a damped, broader pulse does not move the window. Also
-    ``tail_rms_over_amplitude`` and the counts of the DEM run.
+    ``tail_rms_over_amplitude`` and the counts of the DEM run. ``labels`` name
+    the signals (file names) in error messages.
     """
     from ..analysis.front import front_features
 
     if not len(signals):
         raise InputError("no signals")
-    missing = [k for k, s in enumerate(signals) if "damping" not in s.attrs]
+    labels = list(labels) if labels is not None else [f"signal {k}" for k in range(len(signals))]
+    missing = [lab for lab, s in zip(labels, signals) if "damping" not in s.attrs]
     if missing:
-        raise InputError(f"signal(s) {missing} have no 'damping' attribute")
+        raise InputError(f"{', '.join(missing)}: no 'damping' attribute (not a "
+                         "`propagate --method dem` signal)")
     order = sorted(signals, key=lambda s: float(s.attrs["damping"]))
     feats = []
     for s in order:

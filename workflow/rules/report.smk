@@ -175,12 +175,15 @@ rule figure_snapshot:
     input:
         signal=lambda w: first_sample_path("snapshots", main_sample()[0]),
         packing=lambda w: first_sample_path("packing", main_sample()[0]),
+        modes=lambda w: first_sample_path("modes_vectors", main_sample()[0]),
+        linear=lambda w: first_sample_path("linear", main_sample()[0]),
     output:
         f"{F}/snapshot.png",
     log:
         f"{R}/logs/figures/snapshot.log",
     shell:
-        "granwave plot snapshot {input.signal} --packing {input.packing} -o {output} > {log} 2>&1"
+        "granwave plot snapshot {input.signal} --packing {input.packing} --modes {input.modes} "
+        "--linear {input.linear} -o {output} > {log} 2>&1"
 
 
 rule figure_airy:

@@ -1,0 +1,39 @@
+"""The study's figures: one module per figure family, one function per figure.
+
+Every function takes data objects (:class:`~granwave.model.Packing`,
+:class:`~granwave.model.Signal`, :class:`~granwave.model.Modes`, the dicts the
+analysis wrote) and an output path, draws one figure and saves it atomically
+(:func:`granwave.io.files.atomic_file`) as PNG — plus a PDF beside it when
+``pdf=True``. They return the list of files written. Figures compute no
+statistics of their own: averages, fits and exponents come from
+:mod:`granwave.analysis` (docs/figures.md).
+
+| module | figures |
+|---|---|
+| :mod:`.statics` | force/stiffness networks, contact roses |
+| :mod:`.fields` | the pulse (snapshots, E(y, t), low-pass front), mode shapes |
+| :mod:`.signals` | signals and ensemble average, system comparison, coherent part |
+| :mod:`.fronts` | arrival times, A(L) and W(L) with local exponents |
+| :mod:`.pressure` | speeds against pressure |
+| :mod:`.spectrum` | eigen-spectrum and weights |
+| :mod:`.damping` | the damping series |
+| :mod:`.chain` | the chain against the Airy shape |
+| :mod:`.registry` | figure names and captions |
+"""
+
+from .chain import chain_airy
+from .common import DPI, output_paths, save_figure
+from .damping import damping_series
+from .fields import displacement_snapshot, mode_shapes, select_modes
+from .fronts import amplitude_width, arrival_times
+from .pressure import speeds_vs_pressure
+from .registry import FIGURES, caption_for
+from .signals import coherent_heights, signal_comparison, signal_label, signals_overlay
+from .spectrum import spectrum
+from .statics import contact_angles, contact_roses, contact_segments, force_network
+
+__all__ = ["DPI", "FIGURES", "amplitude_width", "arrival_times", "caption_for", "chain_airy",
+           "coherent_heights", "contact_angles", "contact_roses", "contact_segments",
+           "damping_series", "displacement_snapshot", "force_network", "mode_shapes",
+           "output_paths", "save_figure", "select_modes", "signal_comparison", "signal_label",
+           "signals_overlay", "spectrum", "speeds_vs_pressure"]

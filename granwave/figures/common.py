@@ -1,0 +1,92 @@
+"""What every figure shares: the blank figure, the atomic save, axis labels with units.
+
+Figures are drawn on :class:`matplotlib.figure.Figure` objects with the Agg
+canvas (no pyplot state, no display needed). Sizes are fixed (no tight
+bounding box), so a figure of ``size=(w, h)`` inches is ``w*DPI x h*DPI``
+pixels. Axes carry the units of docs/method.md §1: lengths in d̄ (mean
+diameter), forces in E* d̄², stiffnesses in E* d̄, times in d̄/sqrt(E*/ρ),
+speeds in sqrt(E*/ρ), pressures in E*.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..io.files import atomic_file
+
+DPI = 100
+"""Resolution of the PNG files (pixels per inch)."""
+
+FORMATS = ("png", "pdf", "svg")
+
+# Axis labels with units (docs/method.md §1).
+L_UNIT = r"$\bar d$"
+T_UNIT = r"$\bar d/\sqrt{E^*/\rho}$"
+T_LABEL = r"time $t$  [$\bar d/\sqrt{E^*/\rho}$]"
+F_LABEL = r"$F_{\rm sig}$  [$E^*\bar d^{\,2}$]"
+C_UNIT = r"$\sqrt{E^*/\rho}$"
+L_LABEL = r"source–detector distance $L$  [$\bar d$]"
+
+
+def new_figure(size: tuple[float, float]):
+    """A blank constrained-layout figure of ``size`` inches on the Agg canvas."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, dpi=DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def output_paths(path: str | os.PathLike, pdf: bool = False) -> list[Path]:
+    """The files a figure saved to ``path`` produces (the PDF twin when ``pdf``)."""
+    path = Path(path)
+    fmt = path.suffix.lower().lstrip(".")
+    if fmt not in FORMATS:
+        raise InputError(f"{path}: figure name must end in .png, .pdf or .svg")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"cannot write {path}: folder {folder} does not exist")
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder")
+    out = [path]
+    if pdf and fmt != "pdf":
+        out.append(path.with_suffix(".pdf"))
+    return out
+
+
+def save_figure(fig, path: str | os.PathLike, *, pdf: bool = False) -> list[Path]:
+    """Save ``fig`` atomically to ``path`` (and its .pdf twin); return the files."""
+    paths = output_paths(path, pdf)
+    for p in paths:
+        fmt = p.suffix.lower().lstrip(".")
+        with atomic_file(p, suffix=f".{fmt}") as tmp:
+            fig.savefig(tmp, format=fmt, dpi=DPI)
+    return paths
+
+
+def need(cond: bool, message: str) -> None:
+    """Refuse bad input with one line (InputError)."""
+    if not cond:
+        raise InputError(message)
+
+
+def array(x, name: str) -> np.ndarray:
+    """``x`` as a non-empty float array, else a one-line InputError naming it."""
+    a = np.asarray(x, dtype=float)
+    need(a.ndim >= 1 and a.size > 0, f"{name}: no data to plot")
+    return a
+
+
+def plane_axes(dim: int) -> tuple[int, int]:
+    """Columns drawn as (horizontal, vertical): x–y in 2D, x–z in 3D."""
+    return (0, dim - 1)
+
+
+def fmt_err(x: float | None, digits: str = ".2g") -> str:
+    """" ± err" or nothing when the uncertainty is undetermined (NaN, two points)."""
+    return "" if x is None or not np.isfinite(x) else f" ± {x:{digits}}"

@@ -1,0 +1,36 @@
+"""Figure names (the ``granwave plot`` subcommands) and the report's captions."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+FIGURES: dict[str, str] = {
+    "network": "Force network (width ∝ normal force) beside the stiffness network (width ∝ k_n), "
+               "with the force and stiffness histograms",
+    "roses": "Contact-direction roses for all, strong and weak contacts",
+    "snapshot": "The pulse: displacement snapshots on one scale, the row-averaged energy E(y, t) "
+                "(log scale) and the low-pass displacement with the arrival lines",
+    "signals": "Signals of several packings and the ensemble average ± rms",
+    "compare": "Signals of the frictional 2D, frictionless 2D and 3D systems (heights L in the legend)",
+    "coherent": "Coherent part of the signal at several heights",
+    "arrivals": "Arrival times of the 10% edge, the peak and the zero crossing against distance",
+    "exponents": "Amplitude A(L) and width W(L): ensemble means ± standard error, fits, and local "
+                 "exponents between distinct heights",
+    "speeds": "Sound speeds against pressure with the lattice theory and p^1/6, p^1/4 guides",
+    "spectrum": "Eigen-spectrum and the modes' weights a_n b_n in the signal",
+    "modes": "Selected mode shapes",
+    "damping": "Nonlinear DEM signals for several contact dampings ζ, the linear model dashed",
+    "airy": "Chain signals against the Airy shape in the co-moving frame",
+}
+"""Figure name (the ``granwave plot`` subcommand) -> caption used by the report."""
+
+
+def caption_for(filename: str | os.PathLike) -> str:
+    """The caption of a figure file named after its ``granwave plot`` subcommand."""
+    stem = Path(filename).stem
+    for name in sorted(FIGURES, key=len, reverse=True):
+        if stem == name or stem.startswith(name + "_") or stem.startswith(name + "-"):
+            rest = stem[len(name) + 1:]
+            return FIGURES[name] + (f" ({rest.replace('_', ' ')})" if rest else "")
+    return stem.replace("_", " ")

@@ -1,0 +1,21 @@
+"""The study's report (results/report/index.md and index.html).
+
+| module | job |
+|---|---|
+| :mod:`.inputs` | read JSON files and folders, scenes, the config, figures |
+| :mod:`.references` | the chain's exact γ, α and front features (theory) |
+| :mod:`.tables` | cells and one table builder per section (rules in its docstring) |
+| :mod:`.html` | the HTML twin, rendered by the `markdown` package |
+| :mod:`.index` | the page: :func:`build_report`, :func:`write_report` |
+"""
+
+from .html import markdown_to_html
+from .index import build_report, write_report
+from .inputs import (collect_json, find_figures, heights_arrays, heights_means, label_from_path,
+                     load_config, sweep_speeds)
+from .references import chain_exact_exponents, chain_series
+from .tables import fmt
+
+__all__ = ["build_report", "chain_exact_exponents", "chain_series", "collect_json", "find_figures",
+           "fmt", "heights_arrays", "heights_means", "label_from_path", "load_config",
+           "markdown_to_html", "sweep_speeds", "write_report"]

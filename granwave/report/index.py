@@ -1,0 +1,125 @@
+"""The study's report page: results/report/index.md and its HTML twin index.html.
+
+:func:`build_report` assembles the sections of :mod:`granwave.report.tables`
+from the analysis outputs; :func:`write_report` writes the Markdown and the
+HTML (:mod:`granwave.report.html`) atomically. Every number on the page is
+computed from the inputs:
+
+* **per-sample summaries** (``results/summary/<scene>/p<p>/<size>/s<seed>.json``,
+  layout in docs/summaries.md): statics, moduli, provenance tables per scene,
+  pressure and container height, and the continuum speeds c_ℓ, c_t;
+* **height series** (``granwave analyze heights --json``): c_tof, c_peak,
+  c_zero with their standard errors, γ and α;
+* **pressure sweeps** (``granwave pressure-sweep --json``): their fits as given;
+* **the theory** (:mod:`granwave.theory`): lattice speeds, the p^{1/6}
+  exponent, the chain's exact γ and α;
+* **the damping table** (``granwave analyze damping --json``);
+* **figures**: every PNG given, linked relative to the page, captioned from its
+  file name (:func:`granwave.figures.caption_for`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from ..errors import InputError
+from ..io.files import atomic_text
+from . import tables as T
+from .html import markdown_to_html
+from .inputs import Scenes, scene_of
+
+
+def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
+                 heights: Sequence[tuple[Path, object, str | None]] = (),
+                 sweeps: Sequence[tuple[Path, object, str | None]] = (),
+                 figures: Sequence[Path] = (), out_dir: Path = Path("."),
+                 config: Mapping | None = None, config_path: str | None = None,
+                 title: str = "granwave report", damping: Sequence[Mapping] = ()) -> str:
+    """The report as Markdown (sources: module docstring).
+
+    ``summaries``, ``heights``, ``sweeps``: (path, object, scene guess) from
+    :func:`granwave.report.collect_json`; ``damping``: rows of
+    ``granwave analyze damping --json``. Refuses (InputError) a call with no
+    input at all: an empty report would look like a finished study.
+    """
+    from .. import __version__
+    from ..analysis.sweep import validate_summary
+    from ..figures.registry import caption_for
+    from ..provenance import git_revision
+
+    if not (summaries or heights or sweeps or figures or damping):
+        raise InputError("nothing to report: give --summaries, --heights, --sweep, --figures "
+                         "or --damping (files or folders that hold some)")
+    sums = []
+    for path, obj, guess in summaries:
+        items = obj if isinstance(obj, list) else [obj]  # a file holds one summary or a list
+        for k, item in enumerate(items):
+            validate_summary(item, f"{path}" + (f"[{k}]" if isinstance(obj, list) else ""))
+            sums.append({**item, "_scene": scene_of(path, item, guess), "_path": str(path)})
+    hts = []
+    for path, obj, guess in heights:
+        if not isinstance(obj, Mapping):
+            raise InputError(f"{path}: expected an `analyze heights --json` object")
+        hts.append({**obj, "_scene": scene_of(path, obj, guess), "_path": str(path)})
+    scenes = Scenes(config, sums)
+
+    name = (config or {}).get("name") or (Path(config_path).stem if config_path else "(none given)")
+    md = [f"# {title}", ""]
+    md += [f"- configuration: **{name}**" + (f" (`{config_path}`)" if config_path else ""),
+           f"- granwave {__version__}, git revision `{git_revision()}`",
+           f"- inputs: {len(sums)} sample summaries, {len(hts)} height series, "
+           f"{len(sweeps)} pressure sweeps, {len(figures)} figures",
+           "- units (docs/method.md §1): lengths d̄, pressures and moduli E*, forces E* d̄², "
+           "speeds √(E*/ρ), times d̄/√(E*/ρ); every table says which apply", ""]
+
+    per_scene: dict[str, list] = defaultdict(list)
+    for s in sums:
+        per_scene[s["_scene"]].append(s)
+    groups = {scene: T.Groups(items) for scene, items in sorted(per_scene.items())}
+    h_by_scene: dict[str, dict[float, Mapping]] = defaultdict(dict)
+    for h in hts:
+        if h.get("pressure") is not None:
+            h_by_scene[h["_scene"]][T.pressure_key(h["pressure"])] = h
+
+    md += T.statics_section(groups, scenes)
+    md += T.moduli_section(groups, scenes)
+    md += T.speeds_section(groups, h_by_scene, scenes)
+    md += T.exponents_section(hts, scenes, sorted(per_scene))
+    md += T.lattice_section(h_by_scene, scenes)
+    if damping:
+        md += T.damping_section(damping)
+    if sweeps:
+        md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
+               "The fitted exponents c ∝ p^α of each sweep file, as computed by `pressure-sweep` "
+               "(through the per-pressure means of the summaries; dimensionless, ± one standard "
+               "error; pressures: how many the fit used).", ""]
+        for path, obj, _ in sweeps:
+            label = obj.get("scene") if isinstance(obj, Mapping) and obj.get("scene") else Path(path).stem
+            md += [f"### {label}", ""] + T.sweep_table(obj)
+    md += T.provenance_section(groups) if groups else []
+    md += ["## Figures", ""]
+    if not figures:
+        md += ["No figures given.", ""]
+    for f in figures:
+        rel = Path(os.path.relpath(f, out_dir)).as_posix()
+        cap = caption_for(f)
+        md += [f"### {cap}", "", f"![{cap}]({rel})", ""]
+        twin = Path(f).with_suffix(".pdf")
+        if twin.exists() and twin != Path(f):
+            md += [f"[PDF]({Path(os.path.relpath(twin, out_dir)).as_posix()})", ""]
+    return "\n".join(md).rstrip() + "\n"
+
+
+def write_report(path, markdown: str, *, title: str = "granwave report") -> list[Path]:
+    """Write ``path`` (Markdown) and the HTML twin beside it (same stem, .html), atomically."""
+    path = Path(path)
+    if path.suffix.lower() != ".md":
+        raise InputError(f"{path}: the report must be a .md file")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    html_path = path.with_suffix(".html")
+    atomic_text(path, markdown)
+    atomic_text(html_path, markdown_to_html(markdown, title))
+    return [path, html_path]
