@@ -73,13 +73,16 @@ force per unit volume. Walls fixed. The continuum solution of
 ``W = L1 L2^3 f0^2 / (4 n^2 pi^2 C)`` (2D, thickness 1; in 3D ``L1 L2 L3^3``),
 so the apparent modulus is ``C = L1 L2^3 f0^2 / (4 n^2 pi^2 W)``, with
 ``W = u^T D u / 2`` of the relaxed linear model. n = 1, 2.
-(b) Lines: n + 2 equally spaced horizontal lines ``y_k = k L2/(n+1)``,
-k = 0..n+1 (the outer two are the wall planes); the grains crossed by line k
-(``|y_i - y_k| < R_i``) have their displacement along x (shear type) or y
-(normal type) imposed: 0 for even k, ``+u0`` for k = 1, 5, ...,
-``-u0`` for k = 3, 7, ...; every other degree of freedom (including
-rotations) relaxes. A continuum with piecewise-linear displacement stores
-``W = (n+1)^2 L1 C u0^2 / (2 L2)`` (3D: ``L1 L2``), which defines C. n = 1, 3.
+(b) Lines: n + 2 equally spaced horizontal lines ``y_k = k H/(n+1)``,
+k = 0..n+1 (the outer two are the wall planes; the walls stay fixed). The
+continuum reference field is 0 on even lines, ``+u0`` on k = 1, 5, ...,
+``-u0`` on k = 3, 7, ..., linear in between; every non-rattler grain crossed
+by an interior line (``|y_i - y_k| < R_i``, 0 < k < n+1) gets that field at
+its own centre along x (shear type) or y (normal type); the wall-touching
+grains are free (frictionless shear: held at the field value, as ``grip``);
+every other degree of freedom (including rotations) relaxes. A continuum with
+that piecewise-linear displacement stores ``W = (n+1)^2 L1 C u0^2 / (2 L2)``
+(3D: ``L1 L2``), which defines C. n = 1, 3.
 Both are reported as ratios to the global normal (C22; 3D C33) and shear
 (C33; 3D C55) moduli.
 
@@ -482,37 +485,55 @@ def body_force_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEF
     return area * H**3 * amplitude**2 / (4.0 * n**2 * np.pi**2 * W) if W > 0 else float("inf")
 
 
-def line_grains(cell: _Cell, n: int) -> list[np.ndarray]:
-    """Non-rattler grains crossed by each of the n + 2 lines y_k = k H / (n + 1)."""
+def line_field(y: np.ndarray, H: float, n: int) -> np.ndarray:
+    """The continuum reference field of the line loading, per unit u0, at heights ``y``.
+
+    Piecewise linear between the n + 2 lines y_k = k H / (n + 1), with the
+    value 0 on even k (the walls k = 0 and n + 1 included), +1 on k = 1, 5, ...
+    and -1 on k = 3, 7, ...
+    """
+    k = np.arange(n + 2)
+    value = np.where(k % 2 == 0, 0.0, np.where((k // 2) % 2 == 0, 1.0, -1.0))
+    return np.interp(y, k * H / (n + 1), value)
+
+
+def line_grains(cell: _Cell, n: int) -> np.ndarray:
+    """Non-rattler grains crossed by an interior line y_k = k H / (n + 1), k = 1 .. n."""
     vertical = cell.dim - 1
     H = cell.box[vertical]
     y = cell.position[:, vertical]
-    out = []
-    for k in range(n + 2):
-        yk = k * H / (n + 1)
-        out.append(np.flatnonzero(cell.active & (np.abs(y - yk) < cell.radius)))
-    return out
+    crossed = np.zeros(len(y), bool)
+    for k in range(1, n + 1):
+        crossed |= np.abs(y - k * H / (n + 1)) < cell.radius
+    return np.flatnonzero(cell.active & crossed)
 
 
-def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE) -> float:
-    """Apparent modulus from displacements imposed on n + 2 horizontal lines (SPEC §6 (b)).
+def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE,
+                 grip: bool | None = None) -> float:
+    """Apparent modulus from displacements imposed along n interior lines (SPEC §6 (b)).
 
-    NaN when two lines cross the same grain (a cell lower than about n + 1 diameters).
+    Every non-rattler grain crossed by an interior line gets, along ``axis``,
+    the continuum field :func:`line_field` at its own centre (times
+    ``amplitude`` = u0); the walls stay fixed, the grains touching them are
+    free, everything else relaxes. For a lateral axis with ``grip`` (default:
+    frictionless packings, whose walls cannot hold a grain sideways) the
+    lateral dof of each wall-touching grain is held at the field at its centre
+    too, as the global shear holds it at the affine value.
+    W = (n + 1)^2 L1 C u0^2 / (2 H) (3D: L1 L2) defines C.
     """
     dim = cell.dim
     vertical = dim - 1
     H = cell.box[vertical]
     area = float(np.prod(cell.box[:-1]))
-    lines = line_grains(cell, n)
-    value = np.zeros(cell.n_dof)
+    y = cell.position[:, vertical]
+    grains = line_grains(cell, n)
+    if axis != vertical and _use_grip(cell, grip):
+        grains = np.union1d(grains, np.flatnonzero(cell.active & cell.touches_wall))
     fixed = np.zeros(cell.n_dof, bool)
-    for k, grains in enumerate(lines):
-        s = 0.0 if k % 2 == 0 else (1.0 if (k // 2) % 2 == 0 else -1.0)
-        dofs = cell.first[grains] + axis
-        if np.any(fixed[dofs]):  # a grain crossed by two lines: the cell is too low
-            return float("nan")
-        fixed[dofs] = True
-        value[dofs] = s * amplitude
+    value = np.zeros(cell.n_dof)
+    dofs = cell.first[grains] + axis
+    fixed[dofs] = True
+    value[dofs] = amplitude * line_field(y[grains], H, n)
     solver = _solver(cell, fixed)
     u, _ = solver.solve(np.zeros(len(solver.free)), value[fixed])
     W = _energy(cell, u)
@@ -636,7 +657,7 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
             out["body_force_unbalanced"] = cell.unbalanced
             for n in (1, 3):
                 Cl = measured(f"{ref_key}_lines_n{n}", lambda: line_modulus(
-                    cell, axis=axis, n=n, amplitude=amplitude))
+                    cell, axis=axis, n=n, amplitude=amplitude, grip=grip))
                 out[f"{ref_key}_lines_n{n}"] = Cl
                 out[f"{ref_key}_lines_n{n}_ratio"] = Cl / ref if ref > 0 else float("nan")
         out["local_failures"] = failures
