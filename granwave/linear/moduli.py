@@ -58,9 +58,15 @@ zero mode does not stretch any spring), and the contact forces are the same
 for every solution. We solve with a sparse LU factorization of D augmented
 by one Lagrange constraint per lateral axis (the mean lateral displacement is
 zero), used only when no degree of freedom along that axis is held fixed. If
-the factorization fails or the residual is not small (floppy grains of a
-disordered packing), we fall back to the minimum-norm least-squares solution
-(dense LAPACK ``gelsd`` up to ``DENSE_MAX_DOF`` free dofs, LSQR above). The
+the factorization fails or its residual is not small against the load
+(``||D u - f|| > RESIDUAL_TOL ||f||``: a singular factorization returns a huge
+u whose residual is small only against ``|D| ||u||``), we fall back to the
+minimum-norm least-squares solution (dense LAPACK ``gelsd`` up to
+``DENSE_MAX_DOF`` free dofs, LSQR above). The fraction of the load left
+unbalanced, ``||D u - f|| / ||f||``, is reported per kind of loading
+(``global_unbalanced``, ``body_force_unbalanced``, ``lines_unbalanced``). The
+dofs are those of ``linearize``: rattlers and, in 3D, the free spins of
+two-contact grains removed (:func:`granwave.linear.assemble.dof_layout`). The
 solver used is reported in ``attrs``-like keys of the result.
 
 Scale-dependent moduli (``local=True``)
@@ -614,7 +620,10 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     (sqrt(E*/rho)) from ``phi3_star`` (bulk, as granwave.analysis.statics; whole
     cell when the cell has no bulk: ``phi3_star_region`` says which),
     ``phi3_star_cell`` (whole cell, normalizes the body force), ``static_stress``, the solver used,
-    and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``).
+    and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``);
+    ``n_spins_removed`` (3D free spins left out of the dofs) and the unbalanced load
+    fractions ``global_unbalanced`` (and with ``local`` ``body_force_unbalanced``,
+    ``lines_unbalanced``).
     """
     if not (math.isfinite(amplitude) and amplitude > 0):
         raise InputError(f"amplitude must be a positive finite number (got {amplitude!r})")
