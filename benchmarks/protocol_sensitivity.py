@@ -54,7 +54,7 @@ SETTINGS = [
 #: settings prepared first at the low pressure (default and the larger move of each knob)
 FIRST_AT_LOW_P = ("default", "zeta0.1", "b0.1", "b1", "M10", "gas0.3")
 QUANTITIES = [("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0"),
-              ("stress_ratio", "σ1/σ2"), ("C22_over_p", "C22/p^(1/3)")]
+              ("stress_ratio", "σ1/σ2"), ("C22_over_p", "C22/p^(1/3)"), ("steps", "steps")]
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = "<!-- protocol-sensitivity:begin -->", "<!-- protocol-sensitivity:end -->"
 
@@ -166,6 +166,21 @@ def shifts(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def spreads(records: list[dict]) -> str:
+    """One line per pressure: the range (max - min) of the setting means of each quantity."""
+    out = []
+    for p in PRESSURES:
+        parts = []
+        for key, label in QUANTITIES:
+            means = [mean_se(r[key] for r in records if r["setting"] == name and r["pressure"] == p
+                             and r.get("ok"))[0] for name, _, _ in SETTINGS]
+            means = [m for m in means if math.isfinite(m)]
+            if means:
+                parts.append(f"{label} {min(means):.4g} to {max(means):.4g}")
+        out.append(f"- p = {p:g}: " + ", ".join(parts))
+    return "Range of the setting means:\n\n" + "\n".join(out) + "\n"
+
+
 def write_docs(text: str) -> None:
     path = ROOT / "docs" / "dem.md"
     doc = path.read_text()
@@ -209,8 +224,11 @@ def main(argv=None) -> int:
                 print(f"[{k}/{len(tasks)}] {rec['setting']} p={rec['pressure']:g} seed={rec['seed']} "
                       f"{state} {rec['cpu_s']:.1f} s cpu", flush=True)
     records = [r for r in load(a.results) if r["grains"] == a.grains]
-    text = (table(records, a.grains) + "\n**Shift from the default** (Δ = setting − default, z = Δ in "
-            "combined standard errors; bold: |z| ≥ 3)\n\n" + shifts(records) + "\n")
+    cpu = sum(r.get("cpu_s", 0.0) for r in records)
+    text = (table(records, a.grains) + f"\n{len(records)} preparations, {cpu / 60:.0f} min of CPU in all "
+            "(preparation and measurement).\n\n**Shift from the default** (Δ = setting − default, z = Δ in "
+            "combined standard errors; bold: |z| ≥ 3)\n\n" + shifts(records) + "\n\n"
+            + spreads(records))
     print(text)
     if a.write_docs:
         write_docs(text)
