@@ -155,3 +155,72 @@ def test_cli_linearize(tmp_path):
     assert s.attrs["packing_source"] == str(tmp_path / "p.h5")
     np.testing.assert_array_equal(
         s.stiffness.toarray(), linearize(files.read_packing(tmp_path / "p.h5"), prestress=True).stiffness.toarray())
+
+
+def _contact_points(p, g):
+    """Force-carrying contact points of grain g seen from its centre (arm along the
+    outward normal: R - delta/2 to a grain, R - delta to a wall), written out here."""
+    c = p.contacts
+    pts = []
+    for k in np.flatnonzero(c.force_normal > 0):
+        wall = c.j[k] < 0
+        if c.i[k] == g:
+            pts.append((p.radius[g] - (c.overlap[k] if wall else 0.5 * c.overlap[k])) * c.normal[k])
+        elif c.j[k] == g:
+            pts.append(-(p.radius[g] - 0.5 * c.overlap[k]) * c.normal[k])
+    return pts
+
+
+def test_free_spins_of_two_contact_grains_removed(dem_packing_3d, monkeypatch, tmp_path):
+    """3D, friction: a grain with two contacts turns at no cost about the line through its
+    contact points (theta = e, u = -e x r1). That motion is a null vector of the full D;
+    linearize removes it (two rotations kept), leaving no zero mode and, with prestress,
+    no negative mode, where the full dofs have one per such grain."""
+    p = dem_packing_3d
+    spins, axes = assemble.free_spins(p, 3)
+    assert len(spins) >= 2
+    # the full layout (spins kept): each spin is a null vector of D
+    full = assemble.dof_layout(p, 3, remove_spins=False)
+    keep, blocks = assemble.contact_blocks(p, n_rot=3)
+    D = assemble.scatter_blocks(blocks, assemble.contact_dofs(full.full_first, p.contacts.i[keep],
+                                                              p.contacts.j[keep], 6), full.n_full)
+    for g, e in zip(spins, axes):
+        pts = _contact_points(p, g)
+        assert len(pts) == 2
+        d = pts[1] - pts[0]
+        assert abs(abs(e @ d) - np.linalg.norm(d)) < 1e-12  # axis along the line
+        z = np.zeros(full.n_full)
+        z[full.full_first[g]:full.full_first[g] + 3] = -np.cross(e, pts[0])
+        z[full.full_first[g] + 3:full.full_first[g] + 6] = e
+        assert np.linalg.norm(D @ z) < 1e-12 * abs(D).max()
+    n_active = len(np.unique(full.dof_grain))
+    for prestress in (False, True):
+        s = linearize(p, prestress=prestress)
+        assert s.n_dof == 6 * n_active - len(spins)
+        assert s.attrs["n_spins_removed"] == len(spins)
+        assert s.attrs["n_zero_modes"] == 0 and s.attrs["n_negative_modes"] == 0
+        red = np.isin(s.dof_axis, assemble.SPIN_REDUCED_AXES)
+        assert red.sum() == 2 * len(spins)
+        np.testing.assert_allclose(s.mass[red], p.inertia[s.dof_grain[red]], rtol=1e-15)
+        ax = assemble.rotation_axes(s)[red].reshape(-1, 2, 3)  # orthonormal, normal to e
+        gram = np.einsum("kad,kbd->kab", ax, ax)
+        np.testing.assert_allclose(gram, np.broadcast_to(np.eye(2), gram.shape), atol=1e-14)
+        assert np.abs(np.einsum("kad,kd->ka", ax, axes)).max() < 1e-14
+    path = tmp_path / "linear.h5"
+    files.write_linear(path, s)
+    back = files.read_linear(path)
+    np.testing.assert_array_equal(back.attrs["spin_removed_grains"], spins)
+    np.testing.assert_allclose(assemble.rotation_axes(back), assemble.rotation_axes(s), rtol=0, atol=0)
+    # the same packing with the spins kept: one zero mode per spin; prestress makes them negative
+    monkeypatch.setattr(assemble, "free_spins", lambda pk, n_rot: (np.zeros(0, np.int64), np.zeros((0, 3))))
+    assert linearize(p).attrs["n_zero_modes"] == len(spins)
+    kept = linearize(p, prestress=True).attrs
+    assert kept["n_negative_modes"] + kept["n_zero_modes"] == len(spins) and kept["n_negative_modes"] > 0
+
+
+def test_no_spins_removed_in_2d(dem_packing_2d, tmp_path):
+    s = linearize(dem_packing_2d)
+    assert s.attrs["n_spins_removed"] == 0 and len(s.attrs["spin_removed_grains"]) == 0
+    path = tmp_path / "linear.h5"
+    files.write_linear(path, s)
+    assert files.read_linear(path).attrs["n_spins_removed"] == 0

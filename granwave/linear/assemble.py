@@ -14,6 +14,20 @@ a 1D chain or a frictionless packing). Rattlers (grains without a
 force-carrying contact, i.e. without a contact of ``force_normal > 0``) are
 left out, and so are contacts that carry no force.
 
+Free spins (3D with friction). A grain with exactly two force-carrying
+contacts can rotate about the line through its two contact points at no
+energy cost: with ``r1``, ``r2`` the contact points seen from the centre and
+``e = (r2 - r1)/|r2 - r1|``, the motion ``theta = e``, ``u = -e x r1`` moves
+neither contact point. Such a spin is removed from the dofs as a rattler is:
+the grain keeps its 3 translations and only the two rotations about axes
+normal to ``e`` (an orthonormal pair from :func:`spin_basis`, dof_axis codes
+6 and 7 instead of 3, 4, 5), i.e. the constraint ``theta . e = 0``. Every
+displacement differs from a constrained one by a multiple of the spin, so the
+constrained D has the same energies, without that zero mode (with prestress:
+without the negative mode it becomes). The inertia of a sphere is isotropic,
+so M stays diagonal. ``attrs``: ``n_spins_removed``, ``spin_removed_grains``,
+``spin_removed_axes`` (docs/moduli.md, "Free spins in 3D").
+
 Material terms
 --------------
 Every contact is a normal spring ``k_n`` and (friction > 0) a tangential
@@ -40,6 +54,8 @@ kept exactly as the Jacobian and its relative asymmetry is recorded in
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
@@ -229,7 +245,7 @@ def _geometric_blocks(c, keep, n, proj, wall, delta, arm_i, arm_j, radius, n_rot
 
 
 def dof_map(packing: Packing, n_rot: int):
-    """Dof layout: (first dof of each grain or -1 for rattlers, dof_grain, dof_axis)."""
+    """Full dof layout: (first dof of each grain or -1 for rattlers, dof_grain, dof_axis)."""
     c = packing.contacts
     carrying = c.force_normal > 0.0
     active = np.zeros(packing.n_grains, bool)
@@ -243,6 +259,139 @@ def dof_map(packing: Packing, n_rot: int):
     dof_grain = np.repeat(grains, p).astype(np.int64)
     dof_axis = np.tile(np.arange(p), len(grains)).astype(np.int64)
     return first, dof_grain, dof_axis
+
+
+#: dof_axis codes of the two rotations kept for a grain whose free spin is removed (3D).
+SPIN_REDUCED_AXES = (6, 7)
+
+
+def spin_basis(axis: np.ndarray) -> np.ndarray:
+    """(k, 2, 3) orthonormal pair normal to each unit spin axis (k, 3), right-handed with it.
+
+    Deterministic: the first vector is e x (the coordinate axis least aligned with e),
+    normalized; the second e x first.
+    """
+    e = np.asarray(axis, float).reshape(-1, 3)
+    ref = np.eye(3)[np.argmin(np.abs(e), axis=1)]
+    b1 = np.cross(e, ref)
+    b1 /= np.linalg.norm(b1, axis=1)[:, None]
+    b2 = np.cross(e, b1)
+    return np.stack([b1, b2], axis=1)
+
+
+def free_spins(packing: Packing, n_rot: int) -> tuple[np.ndarray, np.ndarray]:
+    """Grains with exactly two force-carrying contacts (3D, rotations on) and their spin axes.
+
+    Returns ``(grains, axes)``: the unit vector along r2 - r1, r_k the contact
+    point seen from the grain's centre (arm along the outward normal, the arms
+    of :func:`contact_blocks`). Two contacts at the same point (no line) are
+    not a spin: such grains are skipped.
+    """
+    if packing.dim != 3 or n_rot != 3:
+        return np.zeros(0, np.int64), np.zeros((0, 3))
+    c = packing.contacts
+    keep = np.flatnonzero(c.force_normal > 0.0)
+    wall = c.j[keep] < 0
+    ii = c.i[keep]
+    jj = c.j[keep]
+    delta = c.overlap[keep]
+    n = np.asarray(c.normal[keep], float).reshape(len(keep), 3)
+    R = packing.radius
+    arm_i = np.where(wall, R[ii] - delta, R[ii] - 0.5 * delta)
+    # contact points seen from each end: from i along +n, from j along -n
+    owner = np.concatenate([ii, jj[~wall]])
+    point = np.concatenate([arm_i[:, None] * n,
+                            -(R[jj[~wall]] - 0.5 * delta[~wall])[:, None] * n[~wall]])
+    count = np.bincount(owner, minlength=packing.n_grains)
+    grains = np.flatnonzero(count == 2)
+    order = np.argsort(owner, kind="stable")
+    start = np.concatenate([[0], np.cumsum(count)])[grains]
+    d = point[order[start + 1]] - point[order[start]]
+    length = np.linalg.norm(d, axis=1)
+    ok = length > 1e-12 * R[grains]
+    return grains[ok].astype(np.int64), d[ok] / length[ok, None]
+
+
+@dataclass
+class DofLayout:
+    """The dofs of a linear system and the map from them to the full per-grain layout.
+
+    ``full_first`` / ``n_full``: every non-rattler grain with p = dim + n_rot
+    dofs (what the contact blocks act on). ``T`` (n_full x n_dof, CSR): full
+    dof vector = T @ reduced one; the identity unless free spins are removed.
+    ``first``: first reduced dof of each grain (-1 for rattlers); the
+    translations are ``first + axis`` for axis < dim in both layouts.
+    """
+
+    full_first: np.ndarray
+    n_full: int
+    T: sp.csr_matrix
+    first: np.ndarray
+    dof_grain: np.ndarray
+    dof_axis: np.ndarray
+    spin_grains: np.ndarray
+    spin_axes: np.ndarray
+
+    @property
+    def reduced(self) -> bool:
+        return len(self.spin_grains) > 0
+
+    def to_reduced(self, D: sp.spmatrix) -> sp.csr_matrix:
+        """T^T D T (the identity map when nothing is removed)."""
+        return sp.csr_matrix(D) if not self.reduced else (self.T.T @ D @ self.T).tocsr()
+
+
+def dof_layout(packing: Packing, n_rot: int, *, remove_spins: bool = True) -> DofLayout:
+    """Dofs of the linear system: rattlers out and (3D) free spins out (module docstring)."""
+    full_first, full_grain, full_axis = dof_map(packing, n_rot)
+    n_full = len(full_grain)
+    spins, axes = free_spins(packing, n_rot) if remove_spins else (np.zeros(0, np.int64), np.zeros((0, 3)))
+    if not len(spins):
+        T = sp.identity(n_full, format="csr")
+        return DofLayout(full_first, n_full, T, full_first.copy(), full_grain, full_axis, spins, axes)
+    dim = packing.dim
+    p = dim + n_rot
+    is_spin = np.zeros(packing.n_grains, bool)
+    is_spin[spins] = True
+    per_grain = np.where(full_first >= 0, np.where(is_spin, p - 1, p), 0)
+    first = np.where(full_first >= 0, np.cumsum(per_grain) - per_grain, -1).astype(np.int64)
+    grains = np.flatnonzero(full_first >= 0)
+    dof_grain = np.repeat(grains, per_grain[grains]).astype(np.int64)
+    dof_axis = np.concatenate([np.arange(p) if not is_spin[g] else
+                               np.r_[np.arange(dim), SPIN_REDUCED_AXES] for g in grains]).astype(np.int64)
+    rows, cols, vals = [], [], []
+    keep = ~is_spin[dof_grain] | (dof_axis < dim)  # dofs copied one to one
+    red = np.flatnonzero(keep)
+    rows.append(full_first[dof_grain[red]] + dof_axis[red]); cols.append(red); vals.append(np.ones(len(red)))
+    basis = spin_basis(axes)  # (k, 2, 3)
+    for slot in range(2):
+        red = first[spins] + dim + slot
+        for comp in range(3):
+            rows.append(full_first[spins] + dim + comp); cols.append(red); vals.append(basis[:, slot, comp])
+    T = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(n_full, len(dof_grain)))
+    return DofLayout(full_first, n_full, T, first, dof_grain, dof_axis, spins, axes)
+
+
+def rotation_axes(system: LinearSystem) -> np.ndarray:
+    """(n_dof, 3) unit axis of each rotation dof of a 3D system (zero rows for translations).
+
+    Rotation dofs 3, 4, 5 turn about x, y, z; 6 and 7 about the pair
+    :func:`spin_basis` of the grain's removed spin axis (``attrs``).
+    """
+    dim = int(system.attrs["dim"])
+    out = np.zeros((system.n_dof, 3))
+    axis = np.asarray(system.dof_axis)
+    std = (axis >= dim) & (axis < 2 * dim)
+    out[np.flatnonzero(std), axis[std] - dim] = 1.0
+    red = np.isin(axis, SPIN_REDUCED_AXES)
+    if np.any(red):
+        grains = np.asarray(system.attrs["spin_removed_grains"], np.int64).ravel()
+        basis = spin_basis(np.asarray(system.attrs["spin_removed_axes"], float).reshape(-1, 3))
+        where = {int(g): k for k, g in enumerate(grains)}
+        for d in np.flatnonzero(red):
+            out[d] = basis[where[int(system.dof_grain[d])], axis[d] - SPIN_REDUCED_AXES[0]]
+    return out
 
 
 def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
@@ -275,13 +424,15 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     friction = float(attrs.get("friction", 0.0))
     n_rot = n_rotations(dim, friction)
     p = dim + n_rot
-    first, dof_grain, dof_axis = dof_map(packing, n_rot)
+    layout = dof_layout(packing, n_rot)
+    first, dof_grain, dof_axis = layout.first, layout.dof_grain, layout.dof_axis
     n_dof = len(dof_grain)
     if n_dof == 0:
         raise InputError("the packing has no force-carrying contact: nothing to linearize")
 
     keep, blocks = contact_blocks(packing, prestress=prestress, n_rot=n_rot)
-    D = scatter_blocks(blocks, contact_dofs(first, c.i[keep], c.j[keep], p), n_dof)
+    D = layout.to_reduced(scatter_blocks(blocks, contact_dofs(layout.full_first, c.i[keep], c.j[keep], p),
+                                         layout.n_full))
 
     # Mass: translations m, rotations I.
     mass = np.where(dof_axis < dim, packing.mass[dof_grain], packing.inertia[dof_grain])
@@ -304,7 +455,10 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
         dim=dim, friction=friction, pressure=float(attrs.get("pressure", np.nan)),
         height=packing.height, prestress=bool(prestress),
         n_rotations=n_rot, n_dof=n_dof, n_contacts=int(len(keep)),
-        n_rattlers=int(packing.n_grains - len(dof_grain) // p),
+        n_rattlers=int(packing.n_grains - len(np.unique(dof_grain))),
+        n_spins_removed=int(len(layout.spin_grains)),
+        spin_removed_grains=layout.spin_grains.astype(np.int64),
+        spin_removed_axes=layout.spin_axes.reshape(-1),
         n_bottom_contacts=int(len(bottom)), n_top_contacts=int(len(top)),
         expected_zero_modes=expected_zero_modes(dim, friction),
         packing_seed=attrs.get("seed", "none"),

@@ -198,17 +198,23 @@ def finite_difference_stiffness(system, forces, n_grains: int, *, eps: float = 1
     n_rot = int(system.attrs.get("n_rotations", 0))
     n = system.n_dof
     out = np.zeros((n, n))
+    tr = system.dof_axis < dim
+    rot = np.flatnonzero(~tr)
+    if n_rot == 3:  # rotation dofs about their own axes (a removed spin leaves two of them)
+        from .assemble import rotation_axes
+        axes = rotation_axes(system)[rot]
+    else:
+        axes = np.ones((len(rot), n_rot))
 
     def gen_force(q):
         u = np.zeros((n_grains, dim))
         t = np.zeros((n_grains, n_rot))
-        tr = system.dof_axis < dim
         u[system.dof_grain[tr], system.dof_axis[tr]] = q[tr]
-        t[system.dof_grain[~tr], system.dof_axis[~tr] - dim] = q[~tr]
+        np.add.at(t, system.dof_grain[rot], q[rot, None] * axes)
         f, tau = forces(u, t)
         g = np.empty(n)
         g[tr] = f[system.dof_grain[tr], system.dof_axis[tr]]
-        g[~tr] = tau[system.dof_grain[~tr], system.dof_axis[~tr] - dim]
+        g[rot] = np.sum(tau[system.dof_grain[rot]] * axes, axis=1)
         return g
 
     for a in range(n):

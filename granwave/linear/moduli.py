@@ -58,9 +58,15 @@ zero mode does not stretch any spring), and the contact forces are the same
 for every solution. We solve with a sparse LU factorization of D augmented
 by one Lagrange constraint per lateral axis (the mean lateral displacement is
 zero), used only when no degree of freedom along that axis is held fixed. If
-the factorization fails or the residual is not small (floppy grains of a
-disordered packing), we fall back to the minimum-norm least-squares solution
-(dense LAPACK ``gelsd`` up to ``DENSE_MAX_DOF`` free dofs, LSQR above). The
+the factorization fails or its residual is not small against the load
+(``||D u - f|| > RESIDUAL_TOL ||f||``: a singular factorization returns a huge
+u whose residual is small only against ``|D| ||u||``), we fall back to the
+minimum-norm least-squares solution (dense LAPACK ``gelsd`` up to
+``DENSE_MAX_DOF`` free dofs, LSQR above). The fraction of the load left
+unbalanced, ``||D u - f|| / ||f||``, is reported per kind of loading
+(``global_unbalanced``, ``body_force_unbalanced``, ``lines_unbalanced``). The
+dofs are those of ``linearize``: rattlers and, in 3D, the free spins of
+two-contact grains removed (:func:`granwave.linear.assemble.dof_layout`). The
 solver used is reported in ``attrs``-like keys of the result.
 
 Scale-dependent moduli (``local=True``)
@@ -73,13 +79,16 @@ force per unit volume. Walls fixed. The continuum solution of
 ``W = L1 L2^3 f0^2 / (4 n^2 pi^2 C)`` (2D, thickness 1; in 3D ``L1 L2 L3^3``),
 so the apparent modulus is ``C = L1 L2^3 f0^2 / (4 n^2 pi^2 W)``, with
 ``W = u^T D u / 2`` of the relaxed linear model. n = 1, 2.
-(b) Lines: n + 2 equally spaced horizontal lines ``y_k = k L2/(n+1)``,
-k = 0..n+1 (the outer two are the wall planes); the grains crossed by line k
-(``|y_i - y_k| < R_i``) have their displacement along x (shear type) or y
-(normal type) imposed: 0 for even k, ``+u0`` for k = 1, 5, ...,
-``-u0`` for k = 3, 7, ...; every other degree of freedom (including
-rotations) relaxes. A continuum with piecewise-linear displacement stores
-``W = (n+1)^2 L1 C u0^2 / (2 L2)`` (3D: ``L1 L2``), which defines C. n = 1, 3.
+(b) Lines: n + 2 equally spaced horizontal lines ``y_k = k H/(n+1)``,
+k = 0..n+1 (the outer two are the wall planes; the walls stay fixed). The
+continuum reference field is 0 on even lines, ``+u0`` on k = 1, 5, ...,
+``-u0`` on k = 3, 7, ..., linear in between; every non-rattler grain crossed
+by an interior line (``|y_i - y_k| < R_i``, 0 < k < n+1) gets that field at
+its own centre along x (shear type) or y (normal type); the wall-touching
+grains are free (frictionless shear: held at the field value, as ``grip``);
+every other degree of freedom (including rotations) relaxes. A continuum with
+that piecewise-linear displacement stores ``W = (n+1)^2 L1 C u0^2 / (2 L2)``
+(3D: ``L1 L2``), which defines C. n = 1, 3.
 Both are reported as ratios to the global normal (C22; 3D C33) and shear
 (C33; 3D C55) moduli.
 
@@ -105,13 +114,17 @@ import scipy.sparse.linalg as spla
 from ..errors import InputError
 from ..model import LinearSystem, Packing
 from ..params import BULK_LAYER
-from .assemble import contact_blocks, contact_dofs, dof_map, n_rotations, scatter_blocks
+from .assemble import contact_blocks, contact_dofs, dof_layout, n_rotations, scatter_blocks
 
 #: Up to this many free dofs the least-squares fallback is a dense LAPACK solve.
 DENSE_MAX_DOF = 6000
 
-#: Relative residual ||D u - f|| / (||D|| ||u|| + ||f||) accepted from the sparse solve.
-RESIDUAL_TOL = 1e-10
+#: Relative residual ||D u - f|| / ||f|| accepted from the sparse solve (else least squares).
+RESIDUAL_TOL = 1e-8
+
+#: Largest unbalanced fraction ||D u - f|| / ||f|| accepted for a load no floppy mode may
+#: absorb (global strains, imposed displacements); body forces only report it.
+UNBALANCED_MAX = 1e-6
 
 #: Default strain (and body-force / displacement) amplitude. The model is linear:
 #: the moduli do not depend on it (tested).
@@ -141,14 +154,15 @@ class _Cell:
     dof_grain: np.ndarray
     dof_axis: np.ndarray
     stiffness: sp.csr_matrix  # D assembled from the same blocks
-    idx: np.ndarray  # (M, 2p) dof index of each block row, -1 for wall halves
+    idx: np.ndarray  # (M, 2p) full-layout dof index of each block row, -1 for wall halves
+    layout: object  # granwave.linear.assemble.DofLayout: full dofs = layout.T @ dofs
     grain_volume: np.ndarray  # (N,)
     active: np.ndarray  # (N,) bool, non-rattler
     position: np.ndarray  # (N, dim)
     radius: np.ndarray  # (N,)
     touches_wall: np.ndarray  # (N,) bool
     solvers: dict = field(default_factory=dict)
-    unbalanced: float = 0.0
+    unbalanced: dict = field(default_factory=dict)  # loading kind -> largest unbalanced fraction
 
     @property
     def n_dof(self) -> int:
@@ -191,9 +205,10 @@ def _cell(packing: Packing, prestress: bool) -> _Cell:
     branch = length[:, None] * n
     force_i = (-c.force_normal[keep][:, None] * n
                + np.asarray(c.force_tangential[keep], float).reshape(len(keep), dim))
-    first, dof_grain, dof_axis = dof_map(packing, n_rot)
-    idx = contact_dofs(first, ii, np.where(wall, -1, jj), p)
-    D = scatter_blocks(blocks, idx, len(dof_grain))
+    layout = dof_layout(packing, n_rot)  # rattlers and (3D) free spins removed, as in linearize
+    first, dof_grain, dof_axis = layout.first, layout.dof_grain, layout.dof_axis
+    idx = contact_dofs(layout.full_first, ii, np.where(wall, -1, jj), p)
+    D = layout.to_reduced(scatter_blocks(blocks, idx, layout.n_full))
     volume = float(np.prod(packing.box))  # 2D: L1 x L2 x one diameter
     active = first >= 0
     touches = np.zeros(packing.n_grains, bool)
@@ -201,7 +216,7 @@ def _cell(packing: Packing, prestress: bool) -> _Cell:
     return _Cell(dim=dim, n_rot=n_rot, p=p, box=np.asarray(packing.box, float), volume=volume,
                  friction=friction, prestress=prestress, ii=ii, jj=jj, wall=wall, normal=n,
                  branch=branch, force_i=force_i, blocks=blocks, first=first,
-                 dof_grain=dof_grain, dof_axis=dof_axis, stiffness=D, idx=idx,
+                 dof_grain=dof_grain, dof_axis=dof_axis, stiffness=D, idx=idx, layout=layout,
                  grain_volume=4.0 / 3.0 * np.pi * R**3, active=active,
                  position=np.asarray(packing.position, float), radius=np.asarray(R, float),
                  touches_wall=touches)
@@ -248,9 +263,14 @@ class _Solver:
               consistent: bool = True) -> tuple[np.ndarray, str]:
         """Full dof vector u with u[fixed] = held and D_ff u_f = rhs_free - D_fc held.
 
-        ``consistent=False`` accepts a load with a part on floppy modes (a body
-        force on a floppy grain): the least-squares solution carries the rest,
-        and ``self.unbalanced`` = ||D u - f|| / ||f|| says how much was left.
+        The sparse LU solution is accepted when its residual is small against
+        the right-hand side, ||D_ff x - rhs|| <= RESIDUAL_TOL ||rhs|| (a singular
+        factorization returns a huge x whose residual is small only against
+        |D| ||x||); otherwise the minimum-norm least-squares solution is used.
+        ``self.unbalanced`` = ||D_ff x - rhs|| / ||rhs|| of the solution returned:
+        the fraction of the load left unbalanced (a load on floppy modes).
+        ``consistent=True`` (a load that no floppy mode can absorb: strains,
+        imposed displacements) raises when more than ``UNBALANCED_MAX`` is left.
         """
         self.unbalanced = 0.0
         cell = self.cell
@@ -268,7 +288,7 @@ class _Solver:
         if self._lu is not None:
             sol = self._lu.solve(np.concatenate([rhs, np.zeros(self.n_cons)]))
             x = sol[:nf]
-            if not self._good(x, rhs):
+            if self._unbalanced(x, rhs) > RESIDUAL_TOL:
                 x = None
         if x is None:
             if nf <= DENSE_MAX_DOF:
@@ -278,21 +298,26 @@ class _Solver:
             else:
                 x = spla.lsqr(self.D_ff, rhs, atol=1e-14, btol=1e-14, iter_lim=20 * nf)[0]
                 method = "LSQR minimum-norm least squares"
-            if not consistent:
-                nr = np.linalg.norm(rhs)
-                self.unbalanced = float(np.linalg.norm(self.D_ff @ x - rhs) / nr) if nr else 0.0
-            elif not self._good(x, rhs, tol=1e-7):
-                raise InputError("the linear system D u = f could not be solved accurately "
-                                 "(inconsistent: a load acts on a floppy mode?)")
+        self.unbalanced = self._unbalanced(x, rhs)
+        if consistent and not self.unbalanced <= UNBALANCED_MAX:
+            raise InputError("the linear system D u = f could not be solved accurately: "
+                             f"{self.unbalanced:.2g} of the load left unbalanced (a load on a "
+                             "floppy mode?)")
         u[self.free] = x
         return u, method
 
-    def _good(self, x, rhs, tol=RESIDUAL_TOL) -> bool:
+    def _unbalanced(self, x, rhs) -> float:
+        """||D_ff x - rhs|| / ||rhs|| (inf for a non-finite x; 0 when rhs = 0 = D_ff x)."""
         if not np.all(np.isfinite(x)):
-            return False
-        r = np.linalg.norm(self.D_ff @ x - rhs)
-        scale = abs(self.D_ff).max() * np.linalg.norm(x) + np.linalg.norm(rhs)
-        return bool(r <= tol * scale) if scale > 0 else True
+            return float("inf")
+        r = float(np.linalg.norm(self.D_ff @ x - rhs))
+        nr = float(np.linalg.norm(rhs))
+        return r / nr if nr > 0 else (0.0 if r == 0 else float("inf"))
+
+
+def _note(cell: _Cell, kind: str, solver: _Solver) -> None:
+    """Keep the largest unbalanced load fraction per loading kind (global, body_force, lines)."""
+    cell.unbalanced[kind] = max(cell.unbalanced.get(kind, 0.0), solver.unbalanced)
 
 
 def _solver(cell: _Cell, fixed: np.ndarray) -> _Solver:
@@ -304,16 +329,17 @@ def _solver(cell: _Cell, fixed: np.ndarray) -> _Solver:
 
 def _gather(cell: _Cell, u: np.ndarray) -> np.ndarray:
     """(M, 2p) block vectors q = (u_i, theta_i, u_j, theta_j) from a dof vector (walls: 0)."""
-    ext = np.concatenate([u, [0.0]])
-    return ext[np.where(cell.idx >= 0, cell.idx, len(u))]
+    full = cell.layout.T @ u if cell.layout.reduced else u
+    ext = np.concatenate([full, [0.0]])
+    return ext[np.where(cell.idx >= 0, cell.idx, len(full))]
 
 
 def _scatter(cell: _Cell, g: np.ndarray) -> np.ndarray:
     """Dof vector summing per-contact generalized forces g (M, 2p) (wall halves dropped)."""
-    out = np.zeros(cell.n_dof)
+    out = np.zeros(cell.layout.n_full)
     ok = cell.idx >= 0
     np.add.at(out, cell.idx[ok], g[ok])
-    return out
+    return cell.layout.T.T @ out if cell.layout.reduced else out
 
 
 # ----------------------------------------------------------------------------- global moduli
@@ -390,6 +416,7 @@ def _respond(cell: _Cell, G: np.ndarray, amplitude: float, fixed: np.ndarray):
     f = _scatter(cell, -np.einsum("mkl,ml->mk", cell.blocks, q_aff))
     solver = _solver(cell, fixed)
     u, method = solver.solve(f[solver.free], np.zeros(int(fixed.sum())))
+    _note(cell, "global", solver)
     q = q_aff + _gather(cell, u)
     dlogv = -amplitude * float(np.trace(G)) if np.allclose(G, np.diag(np.diag(G))) else 0.0
     ds = _stress_change(cell, q, dlogv) + _grip_virial(cell, fixed, cell.stiffness @ u - f)
@@ -479,44 +506,63 @@ def body_force_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEF
         f[fixed] = 0.0
     solver = _solver(cell, fixed)
     u, _ = solver.solve(f[solver.free], np.zeros(int(fixed.sum())), consistent=False)
-    cell.unbalanced = max(cell.unbalanced, solver.unbalanced)
+    _note(cell, "body_force", solver)
     W = _energy(cell, u)
     return area * H**3 * amplitude**2 / (4.0 * n**2 * np.pi**2 * W) if W > 0 else float("inf")
 
 
-def line_grains(cell: _Cell, n: int) -> list[np.ndarray]:
-    """Non-rattler grains crossed by each of the n + 2 lines y_k = k H / (n + 1)."""
+def line_field(y: np.ndarray, H: float, n: int) -> np.ndarray:
+    """The continuum reference field of the line loading, per unit u0, at heights ``y``.
+
+    Piecewise linear between the n + 2 lines y_k = k H / (n + 1), with the
+    value 0 on even k (the walls k = 0 and n + 1 included), +1 on k = 1, 5, ...
+    and -1 on k = 3, 7, ...
+    """
+    k = np.arange(n + 2)
+    value = np.where(k % 2 == 0, 0.0, np.where((k // 2) % 2 == 0, 1.0, -1.0))
+    return np.interp(y, k * H / (n + 1), value)
+
+
+def line_grains(cell: _Cell, n: int) -> np.ndarray:
+    """Non-rattler grains crossed by an interior line y_k = k H / (n + 1), k = 1 .. n."""
     vertical = cell.dim - 1
     H = cell.box[vertical]
     y = cell.position[:, vertical]
-    out = []
-    for k in range(n + 2):
-        yk = k * H / (n + 1)
-        out.append(np.flatnonzero(cell.active & (np.abs(y - yk) < cell.radius)))
-    return out
+    crossed = np.zeros(len(y), bool)
+    for k in range(1, n + 1):
+        crossed |= np.abs(y - k * H / (n + 1)) < cell.radius
+    return np.flatnonzero(cell.active & crossed)
 
 
-def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE) -> float:
-    """Apparent modulus from displacements imposed on n + 2 horizontal lines (SPEC §6 (b)).
+def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE,
+                 grip: bool | None = None) -> float:
+    """Apparent modulus from displacements imposed along n interior lines (SPEC §6 (b)).
 
-    NaN when two lines cross the same grain (a cell lower than about n + 1 diameters).
+    Every non-rattler grain crossed by an interior line gets, along ``axis``,
+    the continuum field :func:`line_field` at its own centre (times
+    ``amplitude`` = u0); the walls stay fixed, the grains touching them are
+    free, everything else relaxes. For a lateral axis with ``grip`` (default:
+    frictionless packings, whose walls cannot hold a grain sideways) the
+    lateral dof of each wall-touching grain is held at the field at its centre
+    too, as the global shear holds it at the affine value.
+    W = (n + 1)^2 L1 C u0^2 / (2 H) (3D: L1 L2) defines C.
     """
     dim = cell.dim
     vertical = dim - 1
     H = cell.box[vertical]
     area = float(np.prod(cell.box[:-1]))
-    lines = line_grains(cell, n)
-    value = np.zeros(cell.n_dof)
+    y = cell.position[:, vertical]
+    grains = line_grains(cell, n)
+    if axis != vertical and _use_grip(cell, grip):
+        grains = np.union1d(grains, np.flatnonzero(cell.active & cell.touches_wall))
     fixed = np.zeros(cell.n_dof, bool)
-    for k, grains in enumerate(lines):
-        s = 0.0 if k % 2 == 0 else (1.0 if (k // 2) % 2 == 0 else -1.0)
-        dofs = cell.first[grains] + axis
-        if np.any(fixed[dofs]):  # a grain crossed by two lines: the cell is too low
-            return float("nan")
-        fixed[dofs] = True
-        value[dofs] = s * amplitude
+    value = np.zeros(cell.n_dof)
+    dofs = cell.first[grains] + axis
+    fixed[dofs] = True
+    value[dofs] = amplitude * line_field(y[grains], H, n)
     solver = _solver(cell, fixed)
     u, _ = solver.solve(np.zeros(len(solver.free)), value[fixed])
+    _note(cell, "lines", solver)
     W = _energy(cell, u)
     return 2.0 * H * W / ((n + 1) ** 2 * area * amplitude**2)
 
@@ -576,7 +622,10 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     (sqrt(E*/rho)) from ``phi3_star`` (bulk, as granwave.analysis.statics; whole
     cell when the cell has no bulk: ``phi3_star_region`` says which),
     ``phi3_star_cell`` (whole cell, normalizes the body force), ``static_stress``, the solver used,
-    and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``).
+    and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``);
+    ``n_spins_removed`` (3D free spins left out of the dofs) and the unbalanced load
+    fractions ``global_unbalanced`` (and with ``local`` ``body_force_unbalanced``,
+    ``lines_unbalanced``).
     """
     if not (math.isfinite(amplitude) and amplitude > 0):
         raise InputError(f"amplitude must be a positive finite number (got {amplitude!r})")
@@ -614,6 +663,8 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     out["grip_wall_grains"] = _use_grip(cell, grip)
     out["solver"] = sorted(set(methods))
     out["n_dof"] = cell.n_dof
+    out["n_spins_removed"] = int(len(cell.layout.spin_grains))
+    out["global_unbalanced"] = cell.unbalanced.get("global", 0.0)
     if local:
         vertical = dim - 1
         # A local measurement whose loaded sub-problem is floppy (e.g. a few rows of a
@@ -635,11 +686,12 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
                     cell, axis=axis, n=n, amplitude=amplitude, grip=grip))
                 out[f"{ref_key}_body_n{n}"] = Cb
                 out[f"{ref_key}_body_n{n}_ratio"] = Cb / ref if ref > 0 else float("nan")
-            out["body_force_unbalanced"] = cell.unbalanced
             for n in (1, 3):
                 Cl = measured(f"{ref_key}_lines_n{n}", lambda: line_modulus(
-                    cell, axis=axis, n=n, amplitude=amplitude))
+                    cell, axis=axis, n=n, amplitude=amplitude, grip=grip))
                 out[f"{ref_key}_lines_n{n}"] = Cl
                 out[f"{ref_key}_lines_n{n}_ratio"] = Cl / ref if ref > 0 else float("nan")
+        out["body_force_unbalanced"] = cell.unbalanced.get("body_force", 0.0)
+        out["lines_unbalanced"] = cell.unbalanced.get("lines", 0.0)
         out["local_failures"] = failures
     return out
