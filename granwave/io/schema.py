@@ -83,6 +83,11 @@ VERSIONS = {
 BOTTOM_WALL = -1
 TOP_WALL = -2
 
+# dof/axis codes: 0..dim-1 translations, dim..(rotations) about x, y, z; in 3D a grain
+# whose free spin was removed keeps two rotations about the pair normal to its spin
+# axis, codes 6 and 7 (granwave.linear.assemble.spin_basis).
+SPIN_REDUCED_AXES = (6, 7)
+
 # name -> (units, description), per schema.
 DATASETS: dict[str, dict[str, tuple[str, str]]] = {
     PACKING: {

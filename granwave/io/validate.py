@@ -285,7 +285,9 @@ def linear(path, a: dict, attrs: dict, shape) -> None:
     _positive(path, "mass", a["mass"])
     _non_negative(path, "dof/grain", a["dof/grain"])
     dim = int(attrs.get("dim", 3))
-    _in_range(path, "dof/axis", a["dof/axis"], 0, dim + dim * (dim - 1) // 2)
+    # 3D: rotations 3..5, or 6, 7 for a grain whose free spin was removed
+    _in_range(path, "dof/axis", a["dof/axis"], 0,
+              S.SPIN_REDUCED_AXES[-1] + 1 if dim == 3 else dim + dim * (dim - 1) // 2)
 
 
 # ---------------------------------------------------------------- modes

@@ -63,6 +63,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..io import schema as S
 from ..geometry import n_rotations  # noqa: F401  (re-exported)
 from ..model import LinearSystem, Packing
 from ..resources import check_linearize
@@ -262,7 +263,7 @@ def dof_map(packing: Packing, n_rot: int):
 
 
 #: dof_axis codes of the two rotations kept for a grain whose free spin is removed (3D).
-SPIN_REDUCED_AXES = (6, 7)
+SPIN_REDUCED_AXES = S.SPIN_REDUCED_AXES
 
 
 def spin_basis(axis: np.ndarray) -> np.ndarray:
