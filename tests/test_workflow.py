@@ -30,6 +30,98 @@ def test_config_typo_fails_at_once(tmp_path):
     assert "t_max_factr" in run.stdout + run.stderr
 
 
+def _tiny_config():
+    import yaml
+
+    from granwave.workflow_support import SCENE_KINDS
+
+    cfg = yaml.safe_load(TINY.read_text())
+    for kind in SCENE_KINDS:
+        cfg.setdefault(kind, {})
+    return cfg
+
+
+def _schema():
+    import yaml
+
+    return yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
+
+
+def _edit(cfg, change):
+    import copy
+
+    cfg = copy.deepcopy(cfg)
+    change(cfg)
+    return cfg
+
+
+def _rename(section, old, new):
+    def change(cfg):
+        cfg[section][new] = cfg[section].pop(old)
+    return change
+
+
+def _set(value, *keys):
+    def change(cfg):
+        node = cfg
+        for k in keys[:-1]:
+            node = node[k]
+        node[keys[-1]] = value
+    return change
+
+
+# (change to the tiny config, the key the one-line error must name)
+SCHEMA_CASES = [
+    (_rename("disordered", "frictional2d", "frictional-2d"), "disordered.frictional-2d"),
+    (_rename("lattices", "lattice_frictionless", "2lattice"), "lattices.2lattice"),
+    (_set(1, "chains", "chain_A", "typo"), "chains.chain_A.typo"),
+    (_set([6, "x"], "disordered", "frictional2d", "heights"), "disordered.frictional2d.heights[1]"),
+    (_set(-1e-4, "disordered", "frictional2d", "pressures", 0), "disordered.frictional2d.pressures[0]"),
+    (_set("C", "ic"), "ic"),
+]
+CROSS_CASES = [
+    (_set("frictional2x", "damping", "scene"), "damping.scene"),
+    (_set("chain_A", "damping", "scene"), "damping.scene"),
+    (_set(1e-6, "damping", "pressure"), "damping.pressure"),
+    (_set(12, "damping", "height"), "damping.height"),
+    (_set({"pressures": [1e-6], "heights": [20], "seeds": 1}, "disordered", "frictional2d", "series"),
+     "disordered.frictional2d.series.pressures[0]"),
+    (_rename("chains", "chain_A", "frictional2d"), "frictional2d"),
+    (_set([10, 6], "edge_heights"), "edge_heights"),
+]
+
+
+@pytest.mark.parametrize("change, key", SCHEMA_CASES)
+def test_schema_error_is_one_line_naming_the_key(change, key):
+    from granwave.workflow_support import cross_reference_error, schema_error
+
+    assert schema_error(_tiny_config(), _schema()) is None
+    assert cross_reference_error(_tiny_config()) is None
+    message = schema_error(_edit(_tiny_config(), change), _schema())
+    assert message and "\n" not in message and key in message, message
+
+
+@pytest.mark.parametrize("change, key", CROSS_CASES)
+def test_cross_reference_error_is_one_line_naming_the_key(change, key):
+    from granwave.workflow_support import cross_reference_error, schema_error
+
+    cfg = _edit(_tiny_config(), change)
+    assert schema_error(cfg, _schema()) is None  # the schema alone accepts it
+    message = cross_reference_error(cfg)
+    assert message and "\n" not in message and key in message, message
+
+
+def test_config_naming_a_missing_scene_stops_with_one_line(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("  scene: frictional2d", "  scene: frictional2x"))
+    run = snakemake("-n", "--configfile", str(bad), cwd=tmp_path)
+    assert run.returncode == 2
+    lines = [line for line in run.stderr.splitlines() if line.startswith("config:")]
+    assert lines == ["config: damping.scene = 'frictional2x' is not a disordered scene; "
+                     "disordered scenes: frictional2d, frictionless2d"], run.stderr
+    assert "Traceback" not in run.stdout + run.stderr
+
+
 def test_lint_is_clean(tmp_path):
     run = snakemake("--lint", "--configfile", str(TINY), cwd=tmp_path)
     assert run.returncode == 0, run.stdout + run.stderr

@@ -2,6 +2,8 @@
 # lists of every scene, and the helpers that turn wildcards into CLI options.
 import math
 import os
+import sys
+from types import SimpleNamespace
 
 from snakemake.utils import min_version, validate
 
@@ -15,7 +17,27 @@ if not workflow.overwrite_configfiles:
     configfile: os.path.join(workflow.basedir, "..", "config", "config.yaml")
 
 
-validate(config, "../schemas/config.schema.yaml")
+def _stop(message):
+    """End the workflow with one line naming the config key (no traceback)."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
+
+def _check_config():
+    import yaml
+    from granwave.workflow_support import cross_reference_error, schema_error
+
+    with open(os.path.join(workflow.basedir, "schemas", "config.schema.yaml")) as f:
+        message = schema_error(config, yaml.safe_load(f))
+    if message:
+        _stop(message)
+    validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
+    message = cross_reference_error(config)
+    if message:
+        _stop(message)
+
+
+_check_config()
 
 R = config["results"]
 
@@ -99,6 +121,11 @@ def solver_of(scene):
     return scene_spec(scene).get("solver", "modal")
 
 
+def signal_method(scene):
+    """How the batches compute a scene's signals (granwave.workflow_support.signal_of)."""
+    return solver_of(scene)
+
+
 def t_max(wildcards):
     """Record length: t_max_factor crossings at the perfect-lattice speed (SPEC §12), which is
     faster than the disordered front, so the first arrival is always inside the record."""
@@ -143,7 +170,7 @@ def propagate_input(wildcards):
 # height series (c_tof, gamma, alpha), ensembles, spectra and the pressure sweep.
 
 
-STATICS_LAYER = 3.0
+from granwave.workflow_support import STATICS_LAYER
 
 
 def sample_height(scene, size):
