@@ -118,12 +118,17 @@ def ic_of(scene):
 
 
 def solver_of(scene):
-    return scene_spec(scene).get("solver", "modal")
+    """The per-sample propagate rule's method (a lone sample asked for outside a batch)."""
+    return "time" if scene_spec(scene).get("solver", "auto") == "time" else "modal"
 
 
 def signal_method(scene):
-    """How the batches compute a scene's signals (granwave.workflow_support.signal_of)."""
-    return solver_of(scene)
+    """How the batches compute a scene's signals (granwave.workflow_support.signal_of):
+    modal, time or auto (the cheaper by predicted cost). Chains: modal, by the tridiagonal
+    eigensolver (no dense n^3 cost)."""
+    if scene_kind(scene) == "chains":
+        return "modal"
+    return scene_spec(scene).get("solver", "auto")
 
 
 def t_max(wildcards):
@@ -156,6 +161,49 @@ def prepare_args(wildcards):
             f"--pressure {wildcards.pressure} --friction {spec['friction']} "
             f"--poisson {spec['poisson']} --polydispersity {spec['polydispersity']} "
             f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}")
+
+
+# ---- helpers of rules/batches.smk
+
+
+def batch_sample(scene, p, size, seed):
+    """What workflow/scripts/sample_batch.py needs for one sample (options and paths)."""
+    kind, spec = scene_kind(scene), scene_spec(scene)
+    tail = f"{scene}/p{p}/{size}/s{seed}"
+    if kind == "disordered":
+        height = float(size[1:])
+        make = dict(dim=spec["dim"], grains=grain_count(spec, height),
+                    aspect=float(f"{height / spec['width']:.6g}"), pressure=float(p),
+                    friction=float(spec["friction"]), poisson=float(spec["poisson"]),
+                    polydispersity=float(spec["polydispersity"]), tol=float(spec["tol"]),
+                    max_steps=int(spec["max_steps"]), seed=seed)
+    elif kind == "lattices":
+        make = dict(rows=int(size[1:]), width=int(spec["width"]), pressure=float(p),
+                    friction=float(spec["friction"]), poisson=float(spec["poisson"]))
+    else:
+        make = dict(n_balls=int(size[1:]), pressure=float(p),
+                    polydispersity=float(spec["polydispersity"]), seed=seed)
+    wc = SimpleNamespace(scene=scene, pressure=p, size=size, seed=seed)
+    out = {stage: f"{R}/{stage}/{tail}.h5" for stage in ("packing", "linear", "signal")}
+    for stage in summary_inputs(wc):  # front, and statics / moduli where the scene has them
+        out[stage] = f"{R}/{stage}/{tail}.json"
+    out["summary"] = f"{R}/summary/{tail}.json"
+    return {"kind": kind, "scene": scene, "pressure": p, "size": size, "seed": seed, "make": make,
+            "signal": {"method": signal_method(scene), "ic": ic_of(scene),
+                       "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
+                       "safety": config["time_safety"]},
+            "out": out}
+
+
+def batches():
+    """[(name, scene, samples)]: every scene's samples in order, cut into batch_size pieces."""
+    out = []
+    for scene in scenes():
+        items = samples(scene)
+        for k in range(0, len(items), config["batch_size"]):
+            out.append((f"batch_{scene}_{k // config['batch_size']}", scene,
+                        [batch_sample(scene, *s) for s in items[k:k + config["batch_size"]]]))
+    return out
 
 
 # ---- helpers of rules/linear.smk

@@ -7,12 +7,19 @@ to the batch's timing table (read by benchmarks/workflow_runtime.py).
 """
 
 import csv
+import signal
 import sys
 
 from granwave.errors import ConvergenceError, InputError
 from granwave.threads import set_threads
 from granwave.workflow_support import run_sample
 
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt  # SIGTERM (Snakemake, a scheduler): atomic writes remove their temporary file
+
+
+signal.signal(signal.SIGTERM, _interrupt)
 set_threads(snakemake.threads)
 sys.argv = ["workflow/scripts/sample_batch.py", snakemake.rule]  # provenance: command_line
 FIELDS = ["scene", "pressure", "size", "seed", "stage", "n_grains", "n_dof", "steps", "cpu_s", "wall_s"]
