@@ -186,3 +186,62 @@ def test_interrupted_workflow_finishes_on_rerun(tmp_path):
     assert (tmp_path / "results" / "report" / "index.md").is_file()
     # no temporary file of an interrupted atomic write is left looking like an output
     assert not [p for p in (tmp_path / "results").rglob("*") if p.name.endswith(".tmp")]
+
+
+def _lattice_sample(tmp_path, method, safety):
+    from granwave.workflow_support import crossing_time
+
+    tail = "lat/p0.0001/r9/s0"
+    out = {stage: str(tmp_path / method / stage / f"{tail}.h5") for stage in ("packing", "linear", "signal")}
+    out.update({stage: str(tmp_path / method / stage / f"{tail}.json")
+                for stage in ("statics", "moduli", "front", "summary")})
+    spec = {"friction": 0.0, "poisson": 0.0}
+    return {"kind": "lattices", "scene": "lat", "pressure": "0.0001", "size": "r9", "seed": 0,
+            "make": dict(rows=9, width=6, pressure=1e-4, friction=0.0, poisson=0.0),
+            "signal": {"method": method, "ic": "A", "samples": 800, "safety": safety,
+                       "t_max": 2.5 * crossing_time("lattices", spec, 1e-4, "r9")},
+            "out": out}
+
+
+def test_batch_sample_pipeline_writes_every_file_and_time_domain_matches_modal(tmp_path):
+    """One sample through the batch pipeline by both signal methods: every file written, and the
+    time domain at safety 0.002 gives the front of the exact modal sum to ~1e-6 (the error
+    of velocity Verlet falls as the square of the step: docs/tradeoffs.md)."""
+    import json
+
+    from granwave.analysis.sweep import validate_summary
+    from granwave.io.files import read_signal
+    from granwave.workflow_support import run_sample
+
+    fronts = {}
+    for method in ("modal", "time"):
+        sample = _lattice_sample(tmp_path, method, 0.002)
+        stages = [t["stage"] for t in run_sample(sample, log=lambda line: None)]
+        assert stages == ["packing", "linear", "signal", "statics", "moduli", "front"]
+        for path in sample["out"].values():
+            assert Path(path).is_file(), path
+        summary = json.loads(Path(sample["out"]["summary"]).read_text())
+        validate_summary(summary)
+        assert summary["front"]["method"] == method
+        assert read_signal(sample["out"]["signal"]).attrs["method_choice"] == method
+        fronts[method] = summary["front"]
+    for key in ("t_lead10", "t_peak", "amplitude", "width"):
+        assert fronts["time"][key] == pytest.approx(fronts["modal"][key], rel=1e-5), key
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_auto_signal_method_picks_the_cheaper_prediction(tmp_path):
+    from granwave.io.files import read_linear, read_signal
+    from granwave.workflow_support import predicted_signal_cost, run_sample
+
+    sample = _lattice_sample(tmp_path, "auto", 0.1)
+    run_sample(sample, log=lambda line: None)
+    sig = read_signal(sample["out"]["signal"])
+    cost = predicted_signal_cost(read_linear(sample["out"]["linear"]), t_max=sample["signal"]["t_max"],
+                                 samples=800, safety=0.1)
+    assert sig.attrs["method"] == min(cost, key=cost.get)
+    assert sig.attrs["method_choice"].startswith(f"auto: {sig.attrs['method']}")
+    # a finer step costs more steps: the prediction follows ceil(h omega_max / (2 safety))
+    finer = predicted_signal_cost(read_linear(sample["out"]["linear"]), t_max=sample["signal"]["t_max"],
+                                  samples=800, safety=0.001)
+    assert finer["time"] > cost["time"] and finer["modal"] == cost["modal"]
