@@ -17,8 +17,10 @@ Measured inputs (CPU seconds, not wall time: the machines these runs share drift
   figure jobs that stay one process each).
 
 Models fitted to them (classes: dimension x frictional or not):
-- DEM preparation: cpu = k N x steps, steps = a H^g p^e. Relaxation steps grow with the
-  container height H faster than the grain count does (g and e fitted, a per class).
+- DEM preparation: cpu = k N x steps, steps = a H^g p^e S(tol). Relaxation steps grow with
+  the container height H faster than the grain count does (g and e fitted, a per class);
+  S(tol), steps against the convergence tolerance, is the packing-tolerance table of
+  docs/tradeoffs.md (measured by benchmarks/tradeoffs.py), interpolated in log10(tol).
 - linearize: cpu = c0 + c1 n + c3 n^3 up to 3000 dofs (its dense eigenvalue check),
   c0 + c1 n above (Lanczos), non-negative least squares.
 - signal: time domain cpu = kt nnz(D) x steps, with steps = (samples - 1) x
@@ -52,10 +54,27 @@ sys.path.insert(0, str(ROOT))
 from granwave.workflow_support import crossing_time  # noqa: E402
 
 DENSE_CHECK_MAX_DOF = 3000  # linearize's dense eigenvalue check (granwave linearize --help)
-SCENE_DEFAULTS = {"dim": 2, "friction": 0.5, "width": 24, "polydispersity": 0.2, "poisson": 0.0}
+SCENE_DEFAULTS = {"dim": 2, "friction": 0.5, "width": 24, "polydispersity": 0.2, "poisson": 0.0,
+                  "tol": 1e-10}  # the schema's defaults (workflow/schemas/config.schema.yaml)
 
 
 # ------------------------------------------------------------------ measured
+def tolerance_steps() -> tuple[np.ndarray, np.ndarray]:
+    """(log10 tol, DEM steps) of the packing-tolerance table of docs/tradeoffs.md."""
+    text = (ROOT / "docs" / "tradeoffs.md").read_text()
+    section = text.split("## 1. Packing tolerance", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:5] for line in section.splitlines() if re.match(r"\| \d", line)]
+    tol, steps = np.array([[math.log10(float(r[0])), float(r[3])] for r in rows]).T
+    return tol, steps
+
+
+def steps_factor(tol: float) -> float:
+    """S(tol): DEM steps to converge at tol, relative units (docs/tradeoffs.md table)."""
+    x, y = tolerance_steps()
+    order = np.argsort(x)
+    return float(np.interp(math.log10(tol), x[order], y[order]))
+
+
 def read_tsv(path: Path) -> list[dict]:
     with open(path) as f:
         return list(csv.DictReader(f, delimiter="\t"))
@@ -96,6 +115,8 @@ def sample_rows(results: Path) -> list[dict]:
             s["omega_max"] = math.sqrt(float(f.attrs.get("omega2_max", float("nan"))))
             s["dim"] = int(f.attrs.get("dim", 2))
             s["frictional"] = float(f.attrs.get("friction", 0.0)) > 0
+        with h5py.File(results / "packing" / tail) as f:
+            s["tol"] = float(f.attrs.get("tol", 1e-10))
         with h5py.File(results / "signal" / tail) as f:
             method = f.attrs["method"]
             s["method"] = method.decode() if isinstance(method, bytes) else str(method)
@@ -120,7 +141,7 @@ def fit_models(results: Path) -> dict:
     names = sorted({s["class"] for s in dem})
     X = np.array([[math.log(s["H"]), math.log(s["pressure"])] + [s["class"] == c for c in names]
                   for s in dem], float)
-    coef = np.linalg.lstsq(X, np.log([s["steps"] for s in dem]), rcond=None)[0]
+    coef = np.linalg.lstsq(X, np.log([s["steps"] / steps_factor(s["tol"]) for s in dem]), rcond=None)[0]
     m["steps_g"], m["steps_e"] = coef[:2]
     for c, a in zip(names, coef[2:]):
         m["classes"].setdefault(c, {})["steps_a"] = math.exp(a)
@@ -238,7 +259,7 @@ def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
         c = next(v for k, v in m["classes"].items() if k.startswith(kind))
     out = {}
     if kind == "disordered":
-        steps = c["steps_a"] * H ** m["steps_g"] * p ** m["steps_e"]
+        steps = c["steps_a"] * H ** m["steps_g"] * p ** m["steps_e"] * steps_factor(spec["tol"])
         out["packing"] = c["k_step"] * N * steps
     else:
         out["packing"] = m.get(f"make_{kind}", 0.0) * N
@@ -301,7 +322,7 @@ def main(argv=None):
     m = fit_models(args.measured)
     light = light_job_cpu()
     print(f"models fitted to {m['n_measured']} samples of {args.measured} (CPU seconds):")
-    print(f"  DEM steps = a H^{m['steps_g']:.2f} p^{m['steps_e']:.3f}; cpu = k N steps")
+    print(f"  DEM steps = a H^{m['steps_g']:.2f} p^{m['steps_e']:.3f} S(tol); cpu = k N steps")
     for c, d in sorted(m["classes"].items()):
         print(f"    {c}: " + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
     for k in ("linear", "kt", "km", "km2", "statics", "moduli", "front", "batch_overhead", "damping_signal"):
