@@ -341,8 +341,8 @@ def main(argv=None):
     if args.check:
         measured = sum(bench_cpu(t) for t in (args.check / "benchmarks" / "batch").glob("*.tsv"))
         predicted = sum(t for k, t in seconds.items() if k.startswith("  ") or k == "batch start-up")
-        print(f"\ncheck against {args.check}: batch jobs measured {measured / 3600:.3f} CPU h, "
-              f"predicted {predicted / 3600:.3f} CPU h ({predicted / measured - 1:+.0%})")
+        print(f"\ncheck against {args.check}: batch jobs measured {measured:.1f} CPU-s, "
+              f"predicted {predicted:.1f} CPU-s ({predicted / measured - 1:+.0%})")
     print(f"{name} config: {total / 3600:.2f} CPU-h, {total / 3600 / args.cores:.2f} h on {args.cores} cores")
 
 
