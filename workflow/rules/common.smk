@@ -132,7 +132,7 @@ def signal_method(scene):
 
 
 def t_max(wildcards):
-    """Record length: t_max_factor crossings at the perfect-lattice speed (SPEC §12), which is
+    """Record length: t_max_factor crossings at the perfect-lattice speed (docs/method.md §12), which is
     faster than the disordered front, so the first arrival is always inside the record."""
     from granwave.workflow_support import crossing_time
     kind = scene_kind(wildcards.scene)
@@ -232,7 +232,7 @@ def summary_inputs(wildcards):
     tail = f"{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}"
     inputs = {"front": f"{R}/front/{tail}.json"}
     if kind in ("disordered", "lattices"):
-        # Bulk statics exclude 3 d at each wall (SPEC §4): only containers with a bulk have them.
+        # Bulk statics exclude 3 d at each wall (docs/method.md §4): only containers with a bulk have them.
         if sample_height(wildcards.scene, wildcards.size) > 2 * STATICS_LAYER + 1:
             inputs["statics"] = f"{R}/statics/{tail}.json"
         if scene_spec(wildcards.scene).get("moduli", True):
