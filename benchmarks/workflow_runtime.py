@@ -1,16 +1,33 @@
-"""Expected run time of a workflow config, extrapolated from measured per-job times.
+"""Expected CPU time of a workflow config, extrapolated from the measured cost of a finished run.
 
-Usage (after a run of the quick config, which writes results/benchmarks/):
+Usage (after a run of the quick config, which writes results/timings/ and results/benchmarks/):
     python benchmarks/workflow_runtime.py --measured results --config config/paper.yaml
+    python benchmarks/workflow_runtime.py --measured results --config slice.yaml --check slice/results
 
-Models, fitted to the measured jobs (Snakemake `benchmark:` files, CPU seconds):
-- prepare_packing: t = a N p^(-1/3)  (steps grow as p^(-1/3), docs/dem.md; cost per step ~ N)
-- eigensolve:      t = c0 + b n^3   (dense LAPACK; n = degrees of freedom)
-- linearize, propagate, moduli, damping_signal: t = c0 + c1 N
-- every other job: the median wall time of a light CLI job, measured here.
-The target config's jobs come from `snakemake -n -p` (its own job list and shell
-commands). The estimate is printed per rule and as wall time on a given number of cores
-(perfect packing of independent jobs; the gather steps are short).
+The last line reads `<name> config: <X> CPU-h, <Y> h on <cores> cores`.
+
+Measured inputs (CPU seconds, not wall time: the machines these runs share drift):
+- results/timings/batch_*.tsv: every sample's stages, timed inside its batch process
+  (workflow/scripts/sample_batch.py), with grains, dofs and DEM steps;
+- results/benchmarks/batch/*.tsv (Snakemake `benchmark:`, cpu_time): a batch's total, whose
+  excess over its samples' stages is the start-up of one batch process;
+- results/benchmarks/damping/*.tsv: the nonlinear damping pulses;
+- the signal and linear files: which method each signal used, its steps, nnz(D), omega_max;
+- here and now: the CPU time of one light `granwave` command (the gather, analysis and
+  figure jobs that stay one process each).
+
+Models fitted to them (classes: dimension x frictional or not):
+- DEM preparation: cpu = k N x steps, steps = a H^g p^e S(tol). Relaxation steps grow with
+  the container height H faster than the grain count does (g and e fitted, a per class);
+  S(tol), steps against the convergence tolerance, is the packing-tolerance table of
+  docs/tradeoffs.md (measured by benchmarks/tradeoffs.py), interpolated in log10(tol).
+- linearize: cpu = c0 + c1 n + c3 n^3 up to 3000 dofs (its dense eigenvalue check),
+  c0 + c1 n above (Lanczos), non-negative least squares.
+- signal: time domain cpu = kt nnz(D) x steps, with steps = (samples - 1) x
+  ceil(h omega_max / (2 safety)), omega_max = b p^s per class (fitted), nnz per grain per
+  class; modal cpu = km n^3 (chains: the tridiagonal solver, km2 n^2); for `auto` scenes
+  the cheaper of the two, as the workflow chooses.
+- statics, moduli, front: power laws in N fitted per stage.
 """
 
 from __future__ import annotations
@@ -19,154 +36,277 @@ import argparse
 import csv
 import math
 import re
+import resource
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from collections import Counter, defaultdict
 from pathlib import Path
 
 import h5py
 import numpy as np
+import yaml
+from scipy.optimize import nnls
 
 ROOT = Path(__file__).resolve().parents[1]
-LINEAR_IN_N = ("linearize", "propagate", "moduli", "damping_signal")
+sys.path.insert(0, str(ROOT))
+from granwave.workflow_support import crossing_time  # noqa: E402
+
+DENSE_CHECK_MAX_DOF = 3000  # linearize's dense eigenvalue check (granwave linearize --help)
+SCENE_DEFAULTS = {"dim": 2, "friction": 0.5, "width": 24, "polydispersity": 0.2, "poisson": 0.0,
+                  "tol": 1e-10}  # the schema's defaults (workflow/schemas/config.schema.yaml)
 
 
-def read_benchmarks(results: Path) -> dict[str, list[tuple[Path, float]]]:
-    """{stage: [(benchmark file, cpu seconds)]} from results/benchmarks/<stage>/..."""
-    out = defaultdict(list)
-    for tsv in (results / "benchmarks").rglob("*.tsv"):
-        stage = tsv.relative_to(results / "benchmarks").parts[0]
-        with open(tsv) as f:
-            row = next(csv.DictReader(f, delimiter="\t"))
-        cpu = float(row.get("cpu_time") or 0.0) or float(row["s"])
-        out[stage].append((tsv, cpu))
-    return out
+# ------------------------------------------------------------------ measured
+def tolerance_steps() -> tuple[np.ndarray, np.ndarray]:
+    """(log10 tol, DEM steps) of the packing-tolerance table of docs/tradeoffs.md."""
+    text = (ROOT / "docs" / "tradeoffs.md").read_text()
+    section = text.split("## 1. Packing tolerance", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:5] for line in section.splitlines() if re.match(r"\| \d", line)]
+    tol, steps = np.array([[math.log10(float(r[0])), float(r[3])] for r in rows]).T
+    return tol, steps
 
 
-def sample_of(results: Path, stage: str, tsv: Path) -> tuple[Path, float]:
-    """The packing file of a benchmarked sample and its pressure."""
-    rel = tsv.relative_to(results / "benchmarks" / stage).with_suffix(".h5")
-    packing = results / "packing" / rel
-    return packing, float(rel.parts[1][1:])
+def steps_factor(tol: float) -> float:
+    """S(tol): DEM steps to converge at tol, relative units (docs/tradeoffs.md table)."""
+    x, y = tolerance_steps()
+    order = np.argsort(x)
+    return float(np.interp(math.log10(tol), x[order], y[order]))
 
 
-def grains(packing: Path) -> int:
-    with h5py.File(packing) as f:
-        return int(f["grains/radius"].shape[0])
+def read_tsv(path: Path) -> list[dict]:
+    with open(path) as f:
+        return list(csv.DictReader(f, delimiter="\t"))
 
 
-def dofs(results: Path, rel: Path) -> int:
-    with h5py.File(results / "linear" / rel) as f:
-        return int(f["mass"].shape[0])
+def bench_cpu(path: Path) -> float:
+    row = read_tsv(path)[0]
+    return float(row.get("cpu_time") or 0.0) or float(row["s"])
+
+
+def kind_of(scene: str, results: Path) -> str:
+    with h5py.File(next((results / "packing" / scene).rglob("*.h5"))) as f:
+        kind = f.attrs.get("kind", "")
+    kind = kind.decode() if isinstance(kind, bytes) else str(kind)
+    return {"lattice": "lattices", "chain": "chains"}.get(kind, "disordered")
+
+
+def sample_rows(results: Path) -> list[dict]:
+    """One dict per measured sample: its stages' CPU seconds and sizes."""
+    samples = {}
+    for tsv in sorted((results / "timings").glob("*.tsv")):
+        for r in read_tsv(tsv):
+            key = (r["scene"], r["pressure"], r["size"], r["seed"])
+            s = samples.setdefault(key, {"scene": r["scene"], "pressure": float(r["pressure"]),
+                                         "size": r["size"], "seed": int(r["seed"]),
+                                         "N": int(r["n_grains"]), "n": int(r["n_dof"]),
+                                         "steps": int(r["steps"]), "batch": tsv.stem,
+                                         "p_label": r["pressure"]})
+            s[r["stage"]] = float(r["cpu_s"])
+    kinds = {}
+    for s in samples.values():
+        if s["scene"] not in kinds:
+            kinds[s["scene"]] = kind_of(s["scene"], results)
+        s["kind"] = kinds[s["scene"]]
+        tail = f"{s['scene']}/p{s['p_label']}/{s['size']}/s{s['seed']}.h5"
+        with h5py.File(results / "linear" / tail) as f:
+            s["nnz"] = int(f["matrix/data"].shape[0]) if "matrix/data" in f else None
+            s["omega_max"] = math.sqrt(float(f.attrs.get("omega2_max", float("nan"))))
+            s["dim"] = int(f.attrs.get("dim", 2))
+            s["frictional"] = float(f.attrs.get("friction", 0.0)) > 0
+        with h5py.File(results / "packing" / tail) as f:
+            s["tol"] = float(f.attrs.get("tol", 1e-10))
+        with h5py.File(results / "signal" / tail) as f:
+            method = f.attrs["method"]
+            s["method"] = method.decode() if isinstance(method, bytes) else str(method)
+            s["signal_steps"] = int(f.attrs.get("n_steps", 0))
+    return list(samples.values())
+
+
+def cls(kind: str, dim: int, frictional: bool) -> str:
+    return f"{kind}/{dim}D/{'frictional' if frictional else 'frictionless'}"
 
 
 def fit_models(results: Path) -> dict:
-    bench = read_benchmarks(results)
-    models = {}
-    rows = [(grains(sample_of(results, "packing", t)[0]), sample_of(results, "packing", t)[1], c)
-            for t, c in bench.get("packing", [])]
-    if rows:
-        models["prepare_packing"] = statistics.median(c / (n * p ** (-1 / 3)) for n, p, c in rows)
-    rows = []
-    for t, c in bench.get("modes", []):
-        rel = t.relative_to(results / "benchmarks" / "modes").with_suffix(".h5")
-        if rel.parts[0].startswith("chain"):
-            continue  # chains use the tridiagonal path
-        rows.append((dofs(results, rel), c))
-    if rows:
-        n, c = np.array(rows, float).T
-        A = np.stack([np.ones_like(n), n**3], 1)
-        models["eigensolve"] = tuple(np.linalg.lstsq(A, c, rcond=None)[0])
-    for stage, rule in (("linear", "linearize"), ("signal", "propagate"), ("moduli", "moduli")):
-        rows = []
-        for t, c in bench.get(stage, []):
-            packing, _ = sample_of(results, stage, t)
-            if packing.exists():
-                rows.append((grains(packing), c))
-        if len(rows) >= 2:
-            n, c = np.array(rows, float).T
-            models[rule] = tuple(np.linalg.lstsq(np.stack([np.ones_like(n), n], 1), c, rcond=None)[0])
-    if bench.get("damping"):
-        models["damping_signal_each"] = statistics.median(c for _, c in bench["damping"])
-    return models
+    rows = sample_rows(results)
+    if not rows:
+        sys.exit(f"{results}/timings: no batch timings (run the workflow first)")
+    m = {"classes": {}}
+    for s in rows:
+        s["class"] = cls(s["kind"], s["dim"], s["frictional"])
+        s["H"] = float(s["size"][1:])
+    # DEM preparation: steps = a_class H^g p^e (least squares in logs), cpu = k_class N steps
+    dem = [s for s in rows if s["kind"] == "disordered" and s["steps"] > 0]
+    names = sorted({s["class"] for s in dem})
+    X = np.array([[math.log(s["H"]), math.log(s["pressure"])] + [s["class"] == c for c in names]
+                  for s in dem], float)
+    coef = np.linalg.lstsq(X, np.log([s["steps"] / steps_factor(s["tol"]) for s in dem]), rcond=None)[0]
+    m["steps_g"], m["steps_e"] = coef[:2]
+    for c, a in zip(names, coef[2:]):
+        m["classes"].setdefault(c, {})["steps_a"] = math.exp(a)
+        m["classes"][c]["k_step"] = statistics.median(s["packing"] / (s["N"] * s["steps"])
+                                                      for s in dem if s["class"] == c)
+    for kind in ("lattices", "chains"):
+        made = [s["packing"] / s["N"] for s in rows if s["kind"] == kind]
+        if made:
+            m[f"make_{kind}"] = statistics.median(made)
+    # linearize: nnls on [1, n, n^3 (dense check only)]
+    A = np.array([[1.0, s["n"], s["n"] ** 3 if s["n"] <= DENSE_CHECK_MAX_DOF else 0.0] for s in rows])
+    m["linear"] = tuple(nnls(A, np.array([s["linear"] for s in rows]))[0])
+    # signals
+    timed = [s for s in rows if s["method"] == "time" and s["signal_steps"] and s["nnz"]]
+    if timed:
+        m["kt"] = statistics.median(s["signal"] / (s["nnz"] * s["signal_steps"]) for s in timed)
+    modal = [s for s in rows if s["method"] == "modal" and s["kind"] != "chains"]
+    if modal:
+        m["km"] = statistics.median(s["signal"] / s["n"] ** 3 for s in modal)
+    chains = [s for s in rows if s["method"] == "modal" and s["kind"] == "chains"]
+    if chains:
+        m["km2"] = statistics.median(s["signal"] / s["n"] ** 2 for s in chains)
+    for c in {s["class"] for s in rows}:
+        mine = [s for s in rows if s["class"] == c]
+        d = m["classes"].setdefault(c, {})
+        d["dof_per_grain"] = statistics.median(s["n"] / s["N"] for s in mine)
+        d["nnz_per_grain"] = statistics.median(s["nnz"] / s["N"] for s in mine if s["nnz"])
+        ok = [s for s in mine if math.isfinite(s["omega_max"])]
+        if len({s["pressure"] for s in ok}) >= 2:
+            b = np.polyfit(np.log([s["pressure"] for s in ok]), np.log([s["omega_max"] for s in ok]), 1)
+            d["omega_s"], d["omega_b"] = float(b[0]), math.exp(b[1])
+        elif ok:  # one pressure: omega_max ~ k^(1/2) ~ p^(1/6) (Hertz)
+            d["omega_s"] = 1 / 6
+            d["omega_b"] = statistics.median(s["omega_max"] / s["pressure"] ** (1 / 6) for s in ok)
+    # statics, moduli, front: log cpu = a + b log N
+    for stage in ("statics", "moduli", "front"):
+        pts = [(s["N"], s[stage]) for s in rows if stage in s and s[stage] > 0]
+        if len(pts) >= 2:
+            b, a = np.polyfit(np.log([p[0] for p in pts]), np.log([p[1] for p in pts]), 1)
+            m[stage] = (math.exp(a), b)
+    # start-up of a batch process: its Snakemake total minus its samples' stages
+    stages = defaultdict(float)
+    for s in rows:
+        stages[s["batch"]] += sum(s.get(k, 0.0) for k in ("packing", "linear", "signal", "statics",
+                                                          "moduli", "front"))
+    over = [bench_cpu(t) - stages[t.stem] for t in (results / "benchmarks" / "batch").glob("*.tsv")
+            if t.stem in stages]
+    m["batch_overhead"] = max(0.0, statistics.median(over)) if over else 0.0
+    damping = list((results / "benchmarks" / "damping").glob("*.tsv"))
+    if damping:
+        m["damping_signal"] = statistics.median(bench_cpu(t) for t in damping)
+    m["n_measured"] = len(rows)
+    return m
 
 
-def light_job_seconds() -> float:
-    """Median wall time of a light CLI job (interpreter, imports, one small file)."""
+def light_job_cpu() -> float:
+    """CPU seconds of one light `granwave` command (interpreter, imports, one small file)."""
     times = []
-    for _ in range(3):
-        t0 = time.perf_counter()
-        subprocess.run(["granwave", "chain", "--balls", "10", "--pressure", "1e-4", "-o",
-                        str(Path(tempfile.mkdtemp()) / "c.h5")], check=True, capture_output=True)
-        times.append(time.perf_counter() - t0)
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(3):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            subprocess.run([sys.executable, "-m", "granwave", "chain", "--balls", "10", "--pressure", "1e-4",
+                            "-o", f"{tmp}/c{i}.h5"], check=True, capture_output=True,
+                           env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            times.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
     return statistics.median(times)
 
 
+# ------------------------------------------------------------------ planned
 def planned_jobs(config: Path) -> list[dict]:
-    """Jobs of a config from `snakemake -n -p` (rule, wildcards, shell command)."""
+    """Jobs of a config from `snakemake -n` (rule name and output files)."""
     with tempfile.TemporaryDirectory() as tmp:
         run = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
-                              "-n", "-p", "--configfile", str(config.resolve()),
-                              "--config", f"results={tmp}/results"],
-                             cwd=tmp, capture_output=True, text=True, check=True)
+                              "-n", "--configfile", str(config.resolve()), "--config", "results=results"],
+                             cwd=tmp, capture_output=True, text=True,
+                             env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
+    if run.returncode:
+        sys.exit(run.stderr.strip().splitlines()[-1] if run.stderr.strip() else "snakemake -n failed")
     jobs, cur = [], None
     for line in run.stdout.splitlines():
-        m = re.match(r"^(?:local)?rule (\w+):", line)
-        if m:
-            cur = {"rule": m.group(1), "text": ""}
+        mt = re.match(r"^(?:local)?rule (\w+):", line)
+        if mt:
+            cur = {"rule": mt.group(1), "output": []}
             jobs.append(cur)
-        elif cur is not None:
-            cur["text"] += line + "\n"
+        elif cur is not None and line.strip().startswith("output:"):
+            cur["output"] = [p.strip() for p in line.split(":", 1)[1].split(",")]
     return jobs
 
 
-def grains_of_job(job: dict, config_sizes: dict) -> int:
-    m = re.search(r"--grains (\d+)", job["text"])
-    if m:
-        return int(m.group(1))
-    m = re.search(r"wildcards: (.*)", job["text"])
-    wc = dict(kv.split("=", 1) for kv in m.group(1).split(", ")) if m else {}
-    return config_sizes.get((wc.get("scene"), wc.get("pressure"), wc.get("size") or wc.get("height")), 0)
+def load_config(path: Path) -> dict:
+    cfg = yaml.safe_load(path.read_text())
+    cfg.setdefault("samples", 4000)
+    cfg.setdefault("t_max_factor", 3.0)
+    cfg.setdefault("time_safety", 0.1)
+    return cfg
 
 
-def estimate(config: Path, models: dict, light: float) -> tuple[Counter, Counter]:
-    jobs = planned_jobs(config)
-    # grain count of every sample, from the prepare_packing commands of the same dry run
-    sizes = {}
-    for job in jobs:
-        if job["rule"] == "prepare_packing":
-            wc = dict(kv.split("=", 1) for kv in re.search(r"wildcards: (.*)", job["text"]).group(1).split(", "))
-            n = int(re.search(r"--grains (\d+)", job["text"]).group(1))
-            sizes[(wc["scene"], wc["pressure"], f"h{wc['height']}")] = n
-        elif job["rule"] in ("make_lattice", "make_chain"):
-            wc = dict(kv.split("=", 1) for kv in re.search(r"wildcards: (.*)", job["text"]).group(1).split(", "))
-            width = re.search(r"--width (\S+)", job["text"])
-            n = int(wc["rows"]) * int(float(width.group(1))) if "rows" in wc else int(wc["balls"])
-            sizes[(wc["scene"], wc["pressure"], f"r{wc['rows']}" if "rows" in wc else f"n{wc['balls']}")] = n
+def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
+    """Predicted CPU seconds of one sample's stages."""
+    kind = next(k for k in ("disordered", "lattices", "chains") if scene in (cfg.get(k) or {}))
+    spec = {**SCENE_DEFAULTS, **({"friction": 0.0} if kind == "lattices" else {}), **cfg[kind][scene]}
+    H = float(size[1:])
+    if kind == "disordered":
+        w = spec["width"]
+        N = max(1, round(w * H)) if spec["dim"] == 2 else max(1, round(w * w * H * 0.62 / (math.pi / 6)))
+    elif kind == "lattices":
+        N = int(H) * int(spec["width"])
+    else:
+        N = int(H)
+    dim = spec.get("dim", 2) if kind == "disordered" else (2 if kind == "lattices" else 1)
+    frictional = spec.get("friction", 0.0) > 0 if kind != "chains" else False
+    c = m["classes"].get(cls(kind, dim, frictional))
+    if c is None:  # no measured sample of this class: the nearest measured one of the same kind
+        c = next(v for k, v in m["classes"].items() if k.startswith(kind))
+    out = {}
+    if kind == "disordered":
+        steps = c["steps_a"] * H ** m["steps_g"] * p ** m["steps_e"] * steps_factor(spec["tol"])
+        out["packing"] = c["k_step"] * N * steps
+    else:
+        out["packing"] = m.get(f"make_{kind}", 0.0) * N
+    n = c["dof_per_grain"] * N
+    c0, c1, c3 = m["linear"]
+    out["linear"] = c0 + c1 * n + (c3 * n**3 if n <= DENSE_CHECK_MAX_DOF else 0.0)
+    method = "modal" if kind == "chains" else spec.get("solver", "auto")
+    modal = m.get("km2", 0.0) * n**2 if kind == "chains" else m.get("km", 0.0) * n**3
+    time = math.inf
+    if "kt" in m and "omega_b" in c:
+        t_max = cfg["t_max_factor"] * crossing_time(kind, spec, p, size)
+        h = t_max / (cfg["samples"] - 1)
+        sub = max(1, math.ceil(h * c["omega_b"] * p ** c["omega_s"] / (2 * cfg["time_safety"])))
+        time = m["kt"] * c["nnz_per_grain"] * N * sub * (cfg["samples"] - 1)
+    out["signal"] = {"modal": modal, "time": time}.get(method, min(modal, time))
+    if kind != "chains":
+        if H * (math.sqrt(3) / 2 if kind == "lattices" else 1) > 7 and "statics" in m:
+            out["statics"] = m["statics"][0] * N ** m["statics"][1]
+        if spec.get("moduli", True) and "moduli" in m:
+            out["moduli"] = m["moduli"][0] * N ** m["moduli"][1]
+    if "front" in m:
+        out["front"] = m["front"][0] * N ** m["front"][1]
+    return out
+
+
+SAMPLE = re.compile(r"/packing/(\w+)/p([0-9.e+-]+)/([hrn][0-9.]+)/s\d+\.h5$")
+
+
+def estimate(config: Path, m: dict, light: float) -> tuple[Counter, Counter]:
+    cfg = load_config(config)
     seconds, counts = Counter(), Counter()
-    for job in jobs:
+    for job in planned_jobs(config):
         rule = job["rule"]
+        if rule.startswith("batch_"):
+            counts["batch (per-sample pipelines)"] += 1
+            seconds["batch start-up"] += m["batch_overhead"]
+            for path in job["output"]:
+                mt = SAMPLE.search(path)
+                if mt:
+                    for stage, t in sample_cost(m, cfg, mt.group(1), float(mt.group(2)), mt.group(3)).items():
+                        seconds[f"  {stage}"] += t
+            continue
         counts[rule] += 1
-        wc_m = re.search(r"wildcards: (.*)", job["text"])
-        wc = dict(kv.split("=", 1) for kv in wc_m.group(1).split(", ")) if wc_m else {}
-        n = sizes.get((wc.get("scene"), wc.get("pressure"), wc.get("size") or f"h{wc.get('height')}"), 0)
-        if rule == "prepare_packing" and "prepare_packing" in models:
-            t = models["prepare_packing"] * n * float(wc["pressure"]) ** (-1 / 3)
-        elif rule == "eigensolve" and "eigensolve" in models and not wc.get("scene", "").startswith("chain"):
-            c0, b = models["eigensolve"]
-            dof = 3 * n  # 2D frictional: 3 per grain (an upper bound: rattlers are removed)
-            t = max(light, c0 + b * dof**3)
-        elif rule in models and rule in LINEAR_IN_N:
-            c0, c1 = models[rule]
-            t = max(light, c0 + c1 * n)
-        elif rule == "damping_signal" and "damping_signal_each" in models:
-            t = models["damping_signal_each"]
+        if rule == "damping_signal" and "damping_signal" in m:
+            seconds[rule] += m["damping_signal"]
         else:
-            t = light
-        seconds[rule] += t
+            seconds[rule] += light
     return seconds, counts
 
 
@@ -175,21 +315,35 @@ def main(argv=None):
     ap.add_argument("--measured", type=Path, default=ROOT / "results")
     ap.add_argument("--config", type=Path, default=ROOT / "config" / "paper.yaml")
     ap.add_argument("--cores", type=int, default=2)
+    ap.add_argument("--check", type=Path, default=None,
+                    help="results of a real run of --config: compare its measured batch CPU time "
+                         "with the prediction")
     args = ap.parse_args(argv)
-    models = fit_models(args.measured)
-    light = light_job_seconds()
-    print(f"models fitted to {args.measured}/benchmarks (CPU seconds):")
-    for k, v in models.items():
-        print(f"  {k}: {v}")
-    print(f"  light job (measured here): {light:.2f} s")
-    seconds, counts = estimate(args.config, models, light)
+    m = fit_models(args.measured)
+    light = light_job_cpu()
+    print(f"models fitted to {m['n_measured']} samples of {args.measured} (CPU seconds):")
+    print(f"  DEM steps = a H^{m['steps_g']:.2f} p^{m['steps_e']:.3f} S(tol); cpu = k N steps")
+    for c, d in sorted(m["classes"].items()):
+        print(f"    {c}: " + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
+    for k in ("linear", "kt", "km", "km2", "statics", "moduli", "front", "batch_overhead", "damping_signal"):
+        if k in m:
+            v = m[k]
+            print(f"  {k}: " + (", ".join(f"{x:.3g}" for x in v) if isinstance(v, tuple) else f"{v:.3g}"))
+    print(f"  light job (a granwave command, measured here): {light:.2f} s")
+    seconds, counts = estimate(args.config, m, light)
     total = sum(seconds.values())
+    name = load_config(args.config).get("name", args.config.stem)
     print(f"\nexpected cost of {args.config} ({sum(counts.values())} jobs):")
-    for rule, t in seconds.most_common():
-        print(f"  {rule:<20} {counts[rule]:>6} jobs  {t / 3600:8.2f} CPU h")
-    print(f"  {'total':<20} {sum(counts.values()):>6} jobs  {total / 3600:8.2f} CPU h"
-          f"  -> about {total / 3600 / args.cores:.1f} h wall on {args.cores} cores"
-          f" ({total / 86400 / args.cores:.1f} days)")
+    for key, n in sorted(counts.items()):
+        print(f"  {key:<32} {n:>6} jobs")
+    for key, t in sorted(seconds.items(), key=lambda kv: -kv[1]):
+        print(f"  {key:<32} {t / 3600:8.3f} CPU h")
+    if args.check:
+        measured = sum(bench_cpu(t) for t in (args.check / "benchmarks" / "batch").glob("*.tsv"))
+        predicted = sum(t for k, t in seconds.items() if k.startswith("  ") or k == "batch start-up")
+        print(f"\ncheck against {args.check}: batch jobs measured {measured:.1f} CPU-s, "
+              f"predicted {predicted:.1f} CPU-s ({predicted / measured - 1:+.0%})")
+    print(f"{name} config: {total / 3600:.2f} CPU-h, {total / 3600 / args.cores:.2f} h on {args.cores} cores")
 
 
 if __name__ == "__main__":

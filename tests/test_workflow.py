@@ -30,6 +30,98 @@ def test_config_typo_fails_at_once(tmp_path):
     assert "t_max_factr" in run.stdout + run.stderr
 
 
+def _tiny_config():
+    import yaml
+
+    from granwave.workflow_support import SCENE_KINDS
+
+    cfg = yaml.safe_load(TINY.read_text())
+    for kind in SCENE_KINDS:
+        cfg.setdefault(kind, {})
+    return cfg
+
+
+def _schema():
+    import yaml
+
+    return yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
+
+
+def _edit(cfg, change):
+    import copy
+
+    cfg = copy.deepcopy(cfg)
+    change(cfg)
+    return cfg
+
+
+def _rename(section, old, new):
+    def change(cfg):
+        cfg[section][new] = cfg[section].pop(old)
+    return change
+
+
+def _set(value, *keys):
+    def change(cfg):
+        node = cfg
+        for k in keys[:-1]:
+            node = node[k]
+        node[keys[-1]] = value
+    return change
+
+
+# (change to the tiny config, the key the one-line error must name)
+SCHEMA_CASES = [
+    (_rename("disordered", "frictional2d", "frictional-2d"), "disordered.frictional-2d"),
+    (_rename("lattices", "lattice_frictionless", "2lattice"), "lattices.2lattice"),
+    (_set(1, "chains", "chain_A", "typo"), "chains.chain_A.typo"),
+    (_set([6, "x"], "disordered", "frictional2d", "heights"), "disordered.frictional2d.heights[1]"),
+    (_set(-1e-4, "disordered", "frictional2d", "pressures", 0), "disordered.frictional2d.pressures[0]"),
+    (_set("C", "ic"), "ic"),
+]
+CROSS_CASES = [
+    (_set("frictional2x", "damping", "scene"), "damping.scene"),
+    (_set("chain_A", "damping", "scene"), "damping.scene"),
+    (_set(1e-6, "damping", "pressure"), "damping.pressure"),
+    (_set(12, "damping", "height"), "damping.height"),
+    (_set({"pressures": [1e-6], "heights": [20], "seeds": 1}, "disordered", "frictional2d", "series"),
+     "disordered.frictional2d.series.pressures[0]"),
+    (_rename("chains", "chain_A", "frictional2d"), "frictional2d"),
+    (_set([10, 6], "edge_heights"), "edge_heights"),
+]
+
+
+@pytest.mark.parametrize("change, key", SCHEMA_CASES)
+def test_schema_error_is_one_line_naming_the_key(change, key):
+    from granwave.workflow_support import cross_reference_error, schema_error
+
+    assert schema_error(_tiny_config(), _schema()) is None
+    assert cross_reference_error(_tiny_config()) is None
+    message = schema_error(_edit(_tiny_config(), change), _schema())
+    assert message and "\n" not in message and key in message, message
+
+
+@pytest.mark.parametrize("change, key", CROSS_CASES)
+def test_cross_reference_error_is_one_line_naming_the_key(change, key):
+    from granwave.workflow_support import cross_reference_error, schema_error
+
+    cfg = _edit(_tiny_config(), change)
+    assert schema_error(cfg, _schema()) is None  # the schema alone accepts it
+    message = cross_reference_error(cfg)
+    assert message and "\n" not in message and key in message, message
+
+
+def test_config_naming_a_missing_scene_stops_with_one_line(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("  scene: frictional2d", "  scene: frictional2x"))
+    run = snakemake("-n", "--configfile", str(bad), cwd=tmp_path)
+    assert run.returncode == 2
+    lines = [line for line in run.stderr.splitlines() if line.startswith("config:")]
+    assert lines == ["config: damping.scene = 'frictional2x' is not a disordered scene; "
+                     "disordered scenes: frictional2d, frictionless2d"], run.stderr
+    assert "Traceback" not in run.stdout + run.stderr
+
+
 def test_lint_is_clean(tmp_path):
     run = snakemake("--lint", "--configfile", str(TINY), cwd=tmp_path)
     assert run.returncode == 0, run.stdout + run.stderr
@@ -44,7 +136,9 @@ def test_slurm_profile_dry_run_resolves_resources(tmp_path, config):
     out = run.stdout + run.stderr
     assert run.returncode == 0, out[-3000:]
     total = re.search(r"^total\s+(\d+)", out, re.M)
-    assert total and int(total.group(1)) > 100
+    # the per-sample pipelines run as batches of config batch_size samples (rules/batches.smk)
+    assert total and int(total.group(1)) > 50
+    assert re.search(r"^batch_frictional2d_0\s+1$", out, re.M), out[-3000:]
     assert "This was a dry-run" in out
 
 
@@ -57,7 +151,7 @@ def test_tiny_workflow_end_to_end(tmp_path):
     for heading in ["## Statics per pressure", "## Elastic moduli per pressure",
                     "## Sound speeds against pressure", "## Front scaling with distance",
                     "## Triangular lattices against the formula",
-                    "## Damping series (nonlinear DEM", "## Provenance and numerical checks",
+                    "## Damping series", "## Provenance and numerical checks",
                     "## Figures"]:
         assert heading in report, heading
     figures = sorted(p.name for p in (tmp_path / "results" / "figures").glob("*.png"))
@@ -93,3 +187,62 @@ def test_interrupted_workflow_finishes_on_rerun(tmp_path):
     assert (tmp_path / "results" / "report" / "index.md").is_file()
     # no temporary file of an interrupted atomic write is left looking like an output
     assert not [p for p in (tmp_path / "results").rglob("*") if p.name.endswith(".tmp")]
+
+
+def _lattice_sample(tmp_path, method, safety):
+    from granwave.workflow_support import crossing_time
+
+    tail = "lat/p0.0001/r9/s0"
+    out = {stage: str(tmp_path / method / stage / f"{tail}.h5") for stage in ("packing", "linear", "signal")}
+    out.update({stage: str(tmp_path / method / stage / f"{tail}.json")
+                for stage in ("statics", "moduli", "front", "summary")})
+    spec = {"friction": 0.0, "poisson": 0.0}
+    return {"kind": "lattices", "scene": "lat", "pressure": "0.0001", "size": "r9", "seed": 0,
+            "make": dict(rows=9, width=6, pressure=1e-4, friction=0.0, poisson=0.0),
+            "signal": {"method": method, "ic": "A", "samples": 800, "safety": safety,
+                       "t_max": 2.5 * crossing_time("lattices", spec, 1e-4, "r9")},
+            "out": out}
+
+
+def test_batch_sample_pipeline_writes_every_file_and_time_domain_matches_modal(tmp_path):
+    """One sample through the batch pipeline by both signal methods: every file written, and the
+    time domain at safety 0.002 gives the front of the exact modal sum to ~1e-6 (the error
+    of velocity Verlet falls as the square of the step: docs/tradeoffs.md)."""
+    import json
+
+    from granwave.analysis.sweep import validate_summary
+    from granwave.io.files import read_signal
+    from granwave.workflow_support import run_sample
+
+    fronts = {}
+    for method in ("modal", "time"):
+        sample = _lattice_sample(tmp_path, method, 0.002)
+        stages = [t["stage"] for t in run_sample(sample, log=lambda line: None)]
+        assert stages == ["packing", "linear", "signal", "statics", "moduli", "front"]
+        for path in sample["out"].values():
+            assert Path(path).is_file(), path
+        summary = json.loads(Path(sample["out"]["summary"]).read_text())
+        validate_summary(summary)
+        assert summary["front"]["method"] == method
+        assert read_signal(sample["out"]["signal"]).attrs["method_choice"] == method
+        fronts[method] = summary["front"]
+    for key in ("t_lead10", "t_peak", "amplitude", "width"):
+        assert fronts["time"][key] == pytest.approx(fronts["modal"][key], rel=1e-5), key
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_auto_signal_method_picks_the_cheaper_prediction(tmp_path):
+    from granwave.io.files import read_linear, read_signal
+    from granwave.workflow_support import predicted_signal_cost, run_sample
+
+    sample = _lattice_sample(tmp_path, "auto", 0.1)
+    run_sample(sample, log=lambda line: None)
+    sig = read_signal(sample["out"]["signal"])
+    cost = predicted_signal_cost(read_linear(sample["out"]["linear"]), t_max=sample["signal"]["t_max"],
+                                 samples=800, safety=0.1)
+    assert sig.attrs["method"] == min(cost, key=cost.get)
+    assert sig.attrs["method_choice"].startswith(f"auto: {sig.attrs['method']}")
+    # a finer step costs more steps: the prediction follows ceil(h omega_max / (2 safety))
+    finer = predicted_signal_cost(read_linear(sample["out"]["linear"]), t_max=sample["signal"]["t_max"],
+                                  samples=800, safety=0.001)
+    assert finer["time"] > cost["time"] and finer["modal"] == cost["modal"]

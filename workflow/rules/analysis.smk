@@ -44,11 +44,12 @@ rule moduli:
         f"{R}/logs/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
     benchmark:
         f"{R}/benchmarks/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
+    threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
     shell:
-        "granwave analyze moduli {input} --local --json > {output} 2> {log}"
+        "NUMBA_NUM_THREADS={threads} granwave analyze moduli {input} --local --json > {output} 2> {log}"
 
 
 rule summary:

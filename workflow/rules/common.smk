@@ -2,6 +2,8 @@
 # lists of every scene, and the helpers that turn wildcards into CLI options.
 import math
 import os
+import sys
+from types import SimpleNamespace
 
 from snakemake.utils import min_version, validate
 
@@ -15,7 +17,27 @@ if not workflow.overwrite_configfiles:
     configfile: os.path.join(workflow.basedir, "..", "config", "config.yaml")
 
 
-validate(config, "../schemas/config.schema.yaml")
+def _stop(message):
+    """End the workflow with one line naming the config key (no traceback)."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
+
+def _check_config():
+    import yaml
+    from granwave.workflow_support import cross_reference_error, schema_error
+
+    with open(os.path.join(workflow.basedir, "schemas", "config.schema.yaml")) as f:
+        message = schema_error(config, yaml.safe_load(f))
+    if message:
+        _stop(message)
+    validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
+    message = cross_reference_error(config)
+    if message:
+        _stop(message)
+
+
+_check_config()
 
 R = config["results"]
 
@@ -96,11 +118,21 @@ def ic_of(scene):
 
 
 def solver_of(scene):
-    return scene_spec(scene).get("solver", "modal")
+    """The per-sample propagate rule's method (a lone sample asked for outside a batch)."""
+    return "time" if scene_spec(scene).get("solver", "auto") == "time" else "modal"
+
+
+def signal_method(scene):
+    """How the batches compute a scene's signals (granwave.workflow_support.signal_of):
+    modal, time or auto (the cheaper by predicted cost). Chains: modal, by the tridiagonal
+    eigensolver (no dense n^3 cost)."""
+    if scene_kind(scene) == "chains":
+        return "modal"
+    return scene_spec(scene).get("solver", "auto")
 
 
 def t_max(wildcards):
-    """Record length: t_max_factor crossings at the perfect-lattice speed (SPEC §12), which is
+    """Record length: t_max_factor crossings at the perfect-lattice speed (docs/method.md §12), which is
     faster than the disordered front, so the first arrival is always inside the record."""
     from granwave.workflow_support import crossing_time
     kind = scene_kind(wildcards.scene)
@@ -131,6 +163,49 @@ def prepare_args(wildcards):
             f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}")
 
 
+# ---- helpers of rules/batches.smk
+
+
+def batch_sample(scene, p, size, seed):
+    """What workflow/scripts/sample_batch.py needs for one sample (options and paths)."""
+    kind, spec = scene_kind(scene), scene_spec(scene)
+    tail = f"{scene}/p{p}/{size}/s{seed}"
+    if kind == "disordered":
+        height = float(size[1:])
+        make = dict(dim=spec["dim"], grains=grain_count(spec, height),
+                    aspect=float(f"{height / spec['width']:.6g}"), pressure=float(p),
+                    friction=float(spec["friction"]), poisson=float(spec["poisson"]),
+                    polydispersity=float(spec["polydispersity"]), tol=float(spec["tol"]),
+                    max_steps=int(spec["max_steps"]), seed=seed)
+    elif kind == "lattices":
+        make = dict(rows=int(size[1:]), width=int(spec["width"]), pressure=float(p),
+                    friction=float(spec["friction"]), poisson=float(spec["poisson"]))
+    else:
+        make = dict(n_balls=int(size[1:]), pressure=float(p),
+                    polydispersity=float(spec["polydispersity"]), seed=seed)
+    wc = SimpleNamespace(scene=scene, pressure=p, size=size, seed=seed)
+    out = {stage: f"{R}/{stage}/{tail}.h5" for stage in ("packing", "linear", "signal")}
+    for stage in summary_inputs(wc):  # front, and statics / moduli where the scene has them
+        out[stage] = f"{R}/{stage}/{tail}.json"
+    out["summary"] = f"{R}/summary/{tail}.json"
+    return {"kind": kind, "scene": scene, "pressure": p, "size": size, "seed": seed, "make": make,
+            "signal": {"method": signal_method(scene), "ic": ic_of(scene),
+                       "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
+                       "safety": config["time_safety"]},
+            "out": out}
+
+
+def batches():
+    """[(name, scene, samples)]: every scene's samples in order, cut into batch_size pieces."""
+    out = []
+    for scene in scenes():
+        items = samples(scene)
+        for k in range(0, len(items), config["batch_size"]):
+            out.append((f"batch_{scene}_{k // config['batch_size']}", scene,
+                        [batch_sample(scene, *s) for s in items[k:k + config["batch_size"]]]))
+    return out
+
+
 # ---- helpers of rules/linear.smk
 def propagate_input(wildcards):
     """Modes for the modal sum; the linear system itself for time-domain scenes."""
@@ -143,7 +218,7 @@ def propagate_input(wildcards):
 # height series (c_tof, gamma, alpha), ensembles, spectra and the pressure sweep.
 
 
-STATICS_LAYER = 3.0
+from granwave.workflow_support import STATICS_LAYER
 
 
 def sample_height(scene, size):
@@ -157,7 +232,7 @@ def summary_inputs(wildcards):
     tail = f"{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}"
     inputs = {"front": f"{R}/front/{tail}.json"}
     if kind in ("disordered", "lattices"):
-        # Bulk statics exclude 3 d at each wall (SPEC §4): only containers with a bulk have them.
+        # Bulk statics exclude 3 d at each wall (docs/method.md §4): only containers with a bulk have them.
         if sample_height(wildcards.scene, wildcards.size) > 2 * STATICS_LAYER + 1:
             inputs["statics"] = f"{R}/statics/{tail}.json"
         if scene_spec(wildcards.scene).get("moduli", True):

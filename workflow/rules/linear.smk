@@ -12,11 +12,12 @@ rule linearize:
         f"{R}/logs/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
     benchmark:
         f"{R}/benchmarks/linear/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
+    threads: 1
     resources:
         mem_mb=1000,
         runtime=5,
     shell:
-        "granwave linearize {input} -o {output} > {log} 2>&1"
+        "NUMBA_NUM_THREADS={threads} granwave linearize {input} -o {output} > {log} 2>&1"
 
 
 rule eigensolve:
@@ -35,7 +36,7 @@ rule eigensolve:
         mem_mb=4000,
         runtime=30,
     shell:
-        "granwave eigensolve {input} -o {output} > {log} 2>&1"
+        "NUMBA_NUM_THREADS={threads} granwave eigensolve {input} -o {output} > {log} 2>&1"
 
 
 rule propagate:
@@ -54,9 +55,10 @@ rule propagate:
         method=lambda w: solver_of(w.scene),
         t_max=t_max,
         samples=config["samples"],
+    threads: 1
     resources:
         mem_mb=1000,
         runtime=10,
     shell:
-        "granwave propagate {input} --method {params.method} --ic {params.ic} --t-max {params.t_max:.6g} "
+        "NUMBA_NUM_THREADS={threads} granwave propagate {input} --method {params.method} --ic {params.ic} --t-max {params.t_max:.6g} "
         "--samples {params.samples} -o {output} > {log} 2>&1"
