@@ -84,61 +84,22 @@ def front_section(sig) -> dict:
     return out
 
 
-#: CPU seconds per n^3 of a dense eigensolve with vectors (n dofs) and per stored entry of D
-#: and velocity-Verlet step, measured on the quick config's 2D frictional packings (n = 500 to
-#: 2300, one thread, shared machine): only their ratio matters for the choice below.
-EIGEN_S_PER_N3 = 1.0e-9
-VERLET_S_PER_NNZ_STEP = 2.0e-9
-
-
-def predicted_signal_cost(system, *, t_max: float, samples: int, safety: float) -> dict:
-    """Predicted CPU seconds of the modal sum and of the time domain for one signal.
-
-    Modal: one dense eigensolve with vectors, ~n^3. Time domain: nnz(D) per step, with
-    the step of ``granwave.linear.propagate.time_domain_signal`` (safety x 2/omega_max,
-    shortened to a whole number of steps per output interval); omega_max^2 from the
-    linear file's check, else the Gershgorin bound (an upper bound: at most a few
-    tens of % more steps).
-    """
-    import numpy as np
-
-    n = system.n_dof
-    w2 = system.attrs.get("omega2_max")
-    if not (isinstance(w2, (int, float)) and math.isfinite(w2) and w2 > 0):
-        s = 1.0 / np.sqrt(system.mass)
-        w2 = float(np.max(abs(system.stiffness).multiply(np.outer(s, s)).sum(axis=1)))
-    h = t_max / (samples - 1)
-    substeps = max(1, math.ceil(h * math.sqrt(w2) / (2.0 * safety)))
-    return {"modal": EIGEN_S_PER_N3 * n**3,
-            "time": VERLET_S_PER_NNZ_STEP * system.stiffness.nnz * substeps * (samples - 1)}
-
-
 def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, samples: int,
               safety: float):
     """The top-wall signal of a linear system, as `granwave propagate` makes it.
 
-    ``method``: modal (dense eigensolve; the eigenvectors are used for the projections and
-    dropped), time (velocity Verlet with time step ``safety`` x 2/omega_max) or auto (the
-    cheaper of the two by :func:`predicted_signal_cost`). The signal's ``method_choice``
-    attribute says what was chosen and why.
+    ``method``: modal, time or auto, as :func:`granwave.api.propagate` takes it (auto: the
+    cheaper by :func:`granwave.api.choose_method`, the one home of that cost model). The
+    signal's ``method_choice`` attribute says what was chosen and why.
     """
-    from .linear.propagate import time_domain_signal
+    from . import api
+    from .params import PropagateParams
 
     system.attrs["linear_source"] = str(path_linear)
-    choice = method
-    if method == "auto":
-        cost = predicted_signal_cost(system, t_max=t_max, samples=samples, safety=safety)
-        method = min(cost, key=cost.get)
-        choice = (f"auto: {method} (predicted CPU {cost['modal']:.3g} s modal, "
-                  f"{cost['time']:.3g} s time domain at safety {safety:g})")
-    if method == "time":
-        sig = time_domain_signal(system, ic=ic, t_max=t_max, samples=samples, safety=safety)
-    else:
-        from .linear.eigen import eigensolve
-        from .linear.propagate import modal_propagate
-
-        sig = modal_propagate(eigensolve(system), ic=ic, t_max=t_max, samples=samples)
-    sig.attrs["method_choice"] = choice
+    sig = api.propagate(system, PropagateParams(method=method, ic=ic, t_max=t_max, samples=samples,
+                                                safety=safety))
+    reason = sig.attrs.get("method_reason")
+    sig.attrs["method_choice"] = f"auto: {reason}" if reason else method
     return sig
 
 

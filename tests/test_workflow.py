@@ -232,17 +232,20 @@ def test_batch_sample_pipeline_writes_every_file_and_time_domain_matches_modal(t
 
 
 def test_auto_signal_method_picks_the_cheaper_prediction(tmp_path):
+    from granwave.api import choose_method
     from granwave.io.files import read_linear, read_signal
-    from granwave.workflow_support import predicted_signal_cost, run_sample
+    from granwave.params import PropagateParams
+    from granwave.workflow_support import run_sample
 
     sample = _lattice_sample(tmp_path, "auto", 0.1)
     run_sample(sample, log=lambda line: None)
     sig = read_signal(sample["out"]["signal"])
-    cost = predicted_signal_cost(read_linear(sample["out"]["linear"]), t_max=sample["signal"]["t_max"],
-                                 samples=800, safety=0.1)
-    assert sig.attrs["method"] == min(cost, key=cost.get)
-    assert sig.attrs["method_choice"].startswith(f"auto: {sig.attrs['method']}")
-    # a finer step costs more steps: the prediction follows ceil(h omega_max / (2 safety))
-    finer = predicted_signal_cost(read_linear(sample["out"]["linear"]), t_max=sample["signal"]["t_max"],
-                                  samples=800, safety=0.001)
-    assert finer["time"] > cost["time"] and finer["modal"] == cost["modal"]
+    linear = read_linear(sample["out"]["linear"])
+    method, reason = choose_method(linear, PropagateParams(t_max=sample["signal"]["t_max"], samples=800,
+                                                           safety=0.1, method="auto"))
+    assert sig.attrs["method"] == method
+    assert sig.attrs["method_choice"] == f"auto: {reason}"
+    # a 100x finer time step makes the time domain 100x dearer: a small system then takes the modal sum
+    finer, _ = choose_method(linear, PropagateParams(t_max=sample["signal"]["t_max"], samples=800,
+                                                     safety=0.001, method="auto"))
+    assert finer == "modal"
