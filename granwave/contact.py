@@ -1,15 +1,15 @@
-"""The Hertz–Mindlin contact law with Coulomb friction and viscous damping (SPEC §2).
+"""The Hertz–Mindlin contact law with Coulomb friction and viscous damping (docs/method.md §2).
 
 This is the one place the law is written: the DEM engine and the
 linearization both call these functions. All are scalar ``numba`` kernels
 (plus two tiny in-place vector helpers) so that the engine's loops inline them.
 
-Units (SPEC §1): lengths in mean diameters, E* = E/(1-nu^2) = 1 per grain,
+Units (docs/method.md §1): lengths in mean diameters, E* = E/(1-nu^2) = 1 per grain,
 density 1. A wall is rigid and flat: pass ``inv_radius = 0`` and
 ``wall = True`` so that R12 = R_grain, E*12 = E*_grain, G*12 = G*_grain.
 
-Unloading rule (SPEC §2 asks us to state it)
---------------------------------------------
+Unloading rule (docs/method.md §2)
+-----------------------------------
 The tangential force F_t is contact history, updated incrementally:
 
 1. when the overlap *decreases* from n_old to n_new, F_t is first scaled by
@@ -41,8 +41,8 @@ Step 1 is an option of :func:`update_tangential` (engine option ``unloading``:
   2 and 3 only. Why: for a prestressed contact (stored F_t != 0) the rescale is a
   *first-order*, one-sided term ΔF_t = -F_t dn / (2 n) on unloading only, i.e. a
   stiffness of size up to (mu/3) k_n that the linearization around equilibrium
-  (SPEC §5, frozen history: ``granwave.dem.forces.frozen_history_forces``, ``linearize``)
-  does not have and cannot have (it is not differentiable). SPEC §11 requires the
+  (docs/method.md §5, frozen history: ``granwave.dem.forces.frozen_history_forces``, ``linearize``)
+  does not have and cannot have (it is not differentiable). docs/method.md §11 requires the
   ζ = 0, small-amplitude DEM pulse to agree with the linear model; with the rescale
   a frictional packing's pulse was 16-96 % off at any amplitude (docs/damping.md),
   with the incremental law it converges to ``linearize(prestress=True)``.
@@ -65,13 +65,13 @@ import numpy as np
 
 FOUR_THIRDS = 4.0 / 3.0
 
-# Grain material: E* = 1 for every grain (SPEC §1).
+# Grain material: E* = 1 for every grain (docs/method.md §1).
 YOUNG_STAR = 1.0
 
 
 @numba.njit(cache=True, inline="always")
 def shear_modulus_star(poisson: float) -> float:
-    """Per-grain G* = E*(1-nu)/(4-2nu) in units of E* (SPEC §2)."""
+    """Per-grain G* = E*(1-nu)/(4-2nu) in units of E* (docs/method.md §2)."""
     return YOUNG_STAR * (1.0 - poisson) / (4.0 - 2.0 * poisson)
 
 

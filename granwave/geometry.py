@@ -63,7 +63,7 @@ def wrap(position: np.ndarray, lateral: np.ndarray) -> np.ndarray:
 
 
 def grain_mass(radius: np.ndarray) -> np.ndarray:
-    """Mass of a sphere of density 1: m = pi d^3 / 6 (SPEC §1), in rho d^3."""
+    """Mass of a sphere of density 1: m = pi d^3 / 6 (docs/method.md §1), in rho d^3."""
     return np.pi * (2.0 * np.asarray(radius)) ** 3 / 6.0
 
 
@@ -82,7 +82,7 @@ def n_rotations(dim: int, friction: float) -> int:
 def wall_area(lateral: np.ndarray) -> float:
     """Area on which the piston pressure acts: L1 x (one diameter) in 2D, L1 L2 in 3D.
 
-    SPEC §1: a 2D pressure is a force per (wall length x one diameter).
+    docs/method.md §1: a 2D pressure is a force per (wall length x one diameter).
     """
     lateral = np.atleast_1d(np.asarray(lateral, dtype=float))
     return float(np.prod(lateral)) if len(lateral) > 1 else float(lateral[0]) * 1.0

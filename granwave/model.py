@@ -1,7 +1,7 @@
 """In-memory objects that the stages exchange (one per file schema).
 
 Library functions take and return these; only :mod:`granwave.io.files`
-turns them into HDF5 files and back. Units are those of SPEC §1.
+turns them into HDF5 files and back. Units are those of docs/method.md §1.
 """
 
 from __future__ import annotations
@@ -103,7 +103,7 @@ class Packing:
 
 @dataclass
 class LinearSystem:
-    """M u'' = -D u around equilibrium (SPEC §5), with source and detector vectors."""
+    """M u'' = -D u around equilibrium (docs/method.md §5), with source and detector vectors."""
 
     stiffness: sp.csr_matrix  # D (n, n), symmetric positive semi-definite
     mass: np.ndarray  # diagonal of M (n,)
@@ -125,7 +125,7 @@ class LinearSystem:
 
 @dataclass
 class Modes:
-    """Spectrum of D phi = omega^2 M phi and each mode's part in the signal (SPEC §7)."""
+    """Spectrum of D phi = omega^2 M phi and each mode's part in the signal (docs/method.md §7)."""
 
     omega2: np.ndarray  # ascending (n,)
     amplitude_A: np.ndarray  # (n,)
@@ -141,7 +141,7 @@ class Modes:
 
 @dataclass
 class Signal:
-    """Force on the detector wall against time (SPEC §8)."""
+    """Force on the detector wall against time (docs/method.md §8)."""
 
     time: np.ndarray
     force: np.ndarray

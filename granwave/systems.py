@@ -1,4 +1,4 @@
-"""Exact reference states (SPEC §3): the perfect triangular lattice and the 1D chain.
+"""Exact reference states (docs/method.md §3): the perfect triangular lattice and the 1D chain.
 
 No preparation run is needed: contact forces follow from the pressure and the
 geometry, overlaps from inverting the contact law of :mod:`granwave.contact`,
@@ -16,7 +16,7 @@ h = a √3/2.
 
 Contact forces: in the perfect (isotropic) lattice all six contacts of a
 ball are equally compressed, so the geometry stays exactly equilateral.
-Vertical stress p (SPEC §1: force per wall length × one diameter) through a
+Vertical stress p (docs/method.md §1: force per wall length × one diameter) through a
 horizontal line crosses two inclined contacts per ball, i.e. per length a:
 2 f sin60° = p a, hence **f = p a/√3** (a = 1 − δ, δ the Hertz overlap at
 force f: solved self-consistently, so σ22 = p holds exactly and not only to
@@ -35,10 +35,10 @@ linearization ignores k_t then). The tangential forces are zero.
 N balls on the vertical axis between the bottom wall (0) and the top wall
 (``box[0]``). "Pressure" in 1D is a force per d̄² (d̄ = 1): every contact,
 walls included, carries the force p. Springs are linear with the same
-stiffness K on every contact (walls included), SPEC §3;
+stiffness K on every contact (walls included), docs/method.md §3;
 default K = the Hertz k_n of two unit balls at contact force p. With
 ``stiffness_model="hertz"`` each contact instead gets its own Hertz k_n
-(radii-dependent; wall contacts use the wall law) — not the SPEC default.
+(radii-dependent; wall contacts use the wall law) — not the default of docs/method.md §3.
 Overlaps are consistent with the spring law: δ = p/K for linear springs,
 the Hertz overlap at force p for ``"hertz"``. Polydisperse chains have
 diameters uniform in [1 − W, 1 + W] (seeded); masses ρπd³/6 vary with them.

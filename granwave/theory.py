@@ -1,4 +1,4 @@
-"""Exact references of SPEC §12: the 1D chain and the triangular lattice.
+"""Exact references of docs/method.md §12: the 1D chain and the triangular lattice.
 
 The chain
 ---------
@@ -50,7 +50,7 @@ the fast phases) are of relative order M^{-2/3} in the front region. At
 M^{1/3}; for (B) the amplitude falls as 1/N; Ai'' = x Ai(x) gives a small
 positive precursor (x > 0, ahead of the front) and a larger negative main lobe.
 
-The triangular lattice (SPEC §12)
+The triangular lattice (docs/method.md §12)
 ---------------------------------
 Identical Hertzian balls (diameter 1, E* = 1, ρ = 1), rows parallel to the
 walls, under vertical stress p. Rows map to a chain with spacing √3/2, mass
@@ -87,7 +87,7 @@ def chain_speed(*, stiffness: float = 1.0, mass: float = 1.0, spacing: float = 1
 
 def chain_travel_time(n_balls: int, *, stiffness: float = 1.0, mass: float = 1.0,
                       spacing: float = 1.0) -> float:
-    """Wall-to-wall travel time t0 = (N+1) ℓ / c (not N ℓ / c, SPEC §12)."""
+    """Wall-to-wall travel time t0 = (N+1) ℓ / c (not N ℓ / c, docs/method.md §12)."""
     return (n_balls + 1) * spacing / chain_speed(stiffness=stiffness, mass=mass, spacing=spacing)
 
 
@@ -170,7 +170,7 @@ LATTICE_PREFACTOR = 3.0 ** (19.0 / 12.0) / (2.0 ** 1.5 * np.sqrt(np.pi))
 
 
 def lattice_speed(pressure, *, friction: bool = False, poisson: float = 0.0):
-    """Longitudinal speed across the rows of a triangular lattice (SPEC §12), units sqrt(E*/ρ).
+    """Longitudinal speed across the rows of a triangular lattice (docs/method.md §12), units sqrt(E*/ρ).
 
     c = 3^{19/12} / (2^{3/2} π^{1/2}) (p/E*)^{1/6}, times sqrt(1 + η/3) with
     friction, η = k_t/k_n = :func:`granwave.contact.stiffness_ratio` (ν).

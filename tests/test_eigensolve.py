@@ -1,4 +1,4 @@
-"""eigensolve (SPEC §7): exact chain spectrum, M-orthonormality, partial solver, zero/negative modes."""
+"""eigensolve (docs/method.md §7): exact chain spectrum, M-orthonormality, partial solver, zero/negative modes."""
 
 import math
 import warnings

@@ -1,4 +1,4 @@
-"""Ensemble average (SPEC §9): mean and rms, common grid, front statistics, CLI and its errors."""
+"""Ensemble average (docs/method.md §9): mean and rms, common grid, front statistics, CLI and its errors."""
 
 import json
 

@@ -27,7 +27,7 @@ from granwave.linear.propagate import modal_signal, time_domain_signal
 from granwave.model import Contacts, Packing
 
 TOL = 1e-10
-#: Lattice speed prefactor of SPEC §12 (frictionless, leading order in p).
+#: Lattice speed prefactor of docs/method.md §12 (frictionless, leading order in p).
 LATTICE_PREFACTOR = 3 ** (19 / 12) / (2 ** 1.5 * math.sqrt(math.pi))
 
 
@@ -72,7 +72,7 @@ def test_prepare_soft_and_stiff_packings_through_the_pipeline(pressure):
 
 
 def _row_stiffness_speed(lattice):
-    """Exact long-wavelength speed of the lattice's row chain (SPEC §12) from the stored
+    """Exact long-wavelength speed of the lattice's row chain (docs/method.md §12) from the stored
     k_n and geometry: c = h sqrt((3/2) k_n (1 + eta/3) / m), eta = k_t/k_n (0 if frictionless)."""
     c = lattice.contacts
     pair = c.j >= 0
@@ -94,7 +94,7 @@ def test_lattice_peak_speed_at_extreme_pressures(pressure, friction):
         heights.append(lat.height)
     c_peak = (heights[1] - heights[0]) / (t_peak[1] - t_peak[0])
     assert c_peak == pytest.approx(c, rel=0.01)
-    if pressure == 1e-8:  # leading order of SPEC §12 holds at low pressure
+    if pressure == 1e-8:  # leading order of docs/method.md §12 holds at low pressure
         theory = LATTICE_PREFACTOR * pressure ** (1 / 6) * (math.sqrt(4 / 3) if friction else 1.0)
         assert c == pytest.approx(theory, rel=1e-3)
 
@@ -208,7 +208,7 @@ def test_tall_chain_200_balls():
     K = ch.contacts.stiffness_normal[0]
     c = (1 - 1e-4 / K) * math.sqrt(K / ch.mass[0])
     *_, ff = check_linear_pipeline(ch, t_max=1.3 * ch.height / c, samples=4001)
-    # SPEC §12: arrival at t0 = (N+1) l / c within the front width
+    # docs/method.md §12: arrival at t0 = (N+1) l / c within the front width
     assert abs(ff.t_peak - 201 * (1 - 1e-4 / K) / c) < ff.width
 
 

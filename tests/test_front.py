@@ -1,4 +1,4 @@
-"""Coherent-front features (SPEC §9) on analytic pulses and on the exact chain."""
+"""Coherent-front features (docs/method.md §9) on analytic pulses and on the exact chain."""
 
 import json
 

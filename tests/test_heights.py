@@ -1,4 +1,4 @@
-"""Height series (SPEC §9): exact recovery on synthetic features, 1D chains against theory, CLI errors."""
+"""Height series (docs/method.md §9): exact recovery on synthetic features, 1D chains against theory, CLI errors."""
 
 import json
 
@@ -180,7 +180,7 @@ def test_cli_bad_input(tmp_path):
 
 @pytest.mark.slow
 def test_lattice_speeds_against_formula():
-    """SPEC §9/§12: on a perfect triangular lattice (heights ~8 and ~25, width 24, p = 1e-4) the
+    """docs/method.md §9/§12: on a perfect triangular lattice (heights ~8 and ~25, width 24, p = 1e-4) the
     peak speed matches the long-wavelength formula to better than 1 %, while the 10 % edge runs
     ahead by several percent (measured 6 %) and the zero crossing lags."""
     systems = pytest.importorskip("granwave.systems")

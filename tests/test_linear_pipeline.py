@@ -1,4 +1,4 @@
-"""The linear-response path end to end against the exact references of SPEC §12.
+"""The linear-response path end to end against the exact references of docs/method.md §12.
 
 - chain through the CLI (packing -> linearize -> eigensolve -> propagate) = theory.chain_wall_force
 - chain exponents over N = 800...6400: gamma = 2/3 (A), 1 (B), alpha = 1/3
@@ -61,13 +61,13 @@ def test_chain_cli_pipeline_equals_theory(tmp_path, ic):
     K = float(pk.contacts.stiffness_normal[0])
     m = float(pk.mass[0])
     ell = float(pk.position[1, 0] - pk.position[0, 0])
-    assert np.allclose(pk.contacts.stiffness_normal, K)  # walls tied by the same K (SPEC §3)
+    assert np.allclose(pk.contacts.stiffness_normal, K)  # walls tied by the same K (docs/method.md §3)
     t_max = 2.5 * theory.chain_travel_time(n, stiffness=K, mass=m, spacing=ell)
     run_ok(["propagate", tmp_path / "modes.h5", "-o", tmp_path / "sig.h5", "--ic", ic,
             "--t-max", repr(float(t_max)), "--samples", 1500])
     sig = files.read_signal(tmp_path / "sig.h5")
     exact = theory.chain_wall_force(sig.time, n, ic=ic, stiffness=K, mass=m, spacing=ell)
-    # Normalization (docs/conventions.md vs SPEC §12): our IC A gives the first ball the
+    # Normalization (docs/conventions.md vs docs/method.md §12): our IC A gives the first ball the
     # velocity k_wall/m = K/m where theory gives c = ell sqrt(K/m); our IC B displaces it by
     # k_wall/<k_wall> = 1 where theory uses ell. The model is linear, so:
     scale = (K / m) / (ell * math.sqrt(K / m)) if ic == "A" else 1.0 / ell
@@ -131,7 +131,7 @@ def _speed(fronts, a, b, key):
 
 @pytest.mark.parametrize("friction", [0.0, 0.5])
 def test_lattice_speeds(friction):
-    """Peak speed between 25 and 75 rows within 1% of SPEC §12; the 10% edge runs ahead.
+    """Peak speed between 25 and 75 rows within 1% of docs/method.md §12; the 10% edge runs ahead.
 
     The lattice is 4 balls wide (periodic): a uniform kick excites only x-uniform
     motion, so the width does not matter. p = 1e-5 keeps the O(p^(2/3)) overlap
@@ -139,7 +139,7 @@ def test_lattice_speeds(friction):
     """
     fronts, c = _lattice_fronts((8, 25, 75), 1e-5, friction=friction)
     assert _speed(fronts, 25, 75, "t_peak") == pytest.approx(c, rel=0.01)
-    # what the 10%-edge speed does (SPEC §9): ahead by several % at small heights,
+    # what the 10%-edge speed does (docs/method.md §9): ahead by several % at small heights,
     # less at larger ones (the pulse broadens as L^(1/3))
     lead_small = _speed(fronts, 8, 25, "t_lead10") / c - 1
     lead_large = _speed(fronts, 25, 75, "t_lead10") / c - 1

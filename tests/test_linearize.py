@@ -1,4 +1,4 @@
-"""linearize (SPEC §5): matrix entries, prestress = FD of frozen-history forces, zero modes, errors."""
+"""linearize (docs/method.md §5): matrix entries, prestress = FD of frozen-history forces, zero modes, errors."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Elastic moduli (SPEC §6): granwave.linear.moduli and `granwave analyze moduli`.
+"""Elastic moduli (docs/method.md §6): granwave.linear.moduli and `granwave analyze moduli`.
 
 Exact references, derived here and not copied:
 
@@ -162,7 +162,7 @@ def column_model(par, *, G=np.zeros((2, 2)), body=None, held=None):
 
 
 def column_moduli(par):
-    """2D moduli of the lattice from the column model, conventions of SPEC §6."""
+    """2D moduli of the lattice from the column model, conventions of docs/method.md §6."""
     s11, s22, s12 = (column_model(par, G=G)[1] for G in (
         np.diag([1.0, 0.0]), np.diag([0.0, 1.0]), np.array([[0.0, 2.0], [0.0, 0.0]])))
     return dict(C11=s11[0, 0], C12=s11[1, 1], C21=s22[0, 0], C22=s22[1, 1],

@@ -1,4 +1,4 @@
-"""propagate (SPEC §8): modal vs time domain (dt^2 convergence), energy, snapshots, CLI errors."""
+"""propagate (docs/method.md §8): modal vs time domain (dt^2 convergence), energy, snapshots, CLI errors."""
 
 import numpy as np
 import pytest

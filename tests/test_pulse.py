@@ -1,4 +1,4 @@
-"""Nonlinear DEM pulse (SPEC §8, §11): agreement with the linear model, nonlinearity, damping, CLI.
+"""Nonlinear DEM pulse (docs/method.md §8, §11): agreement with the linear model, nonlinearity, damping, CLI.
 
 Reference: the modal signal of the same packing (linearize -> eigensolve ->
 modal_signal), exact in time; the DEM signal is compared over the first

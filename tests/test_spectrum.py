@@ -1,4 +1,4 @@
-"""Spectrum statistics (SPEC §7): chain modes (exact PR), a hand-made spectrum, CLI."""
+"""Spectrum statistics (docs/method.md §7): chain modes (exact PR), a hand-made spectrum, CLI."""
 
 import json
 import math
@@ -18,7 +18,7 @@ N = 20  # N + 1 = 21 is odd: no mode hits the special cases of the sin^4 sum bel
 
 
 def chain_system(n=N):
-    """Chain of n unit masses, unit springs, both ends tied to walls (SPEC §12); 1 dof per ball."""
+    """Chain of n unit masses, unit springs, both ends tied to walls (docs/method.md §12); 1 dof per ball."""
     D = sp.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1], format="csr")
     e1, en = np.zeros(n), np.zeros(n)
     e1[0], en[-1] = 1.0, 1.0

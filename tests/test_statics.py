@@ -1,4 +1,4 @@
-"""Static characterization (SPEC §4) on the perfect lattice and hand-built packings."""
+"""Static characterization (docs/method.md §4) on the perfect lattice and hand-built packings."""
 
 import json
 

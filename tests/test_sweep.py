@@ -1,4 +1,4 @@
-"""Pressure sweep (SPEC §10): summaries, per-pressure statistics, exponents, tables, CLI."""
+"""Pressure sweep (docs/method.md §10): summaries, per-pressure statistics, exponents, tables, CLI."""
 
 import csv
 import json

@@ -1,4 +1,4 @@
-"""Perfect triangular lattice and 1D chain states (SPEC §3) and their CLI."""
+"""Perfect triangular lattice and 1D chain states (docs/method.md §3) and their CLI."""
 
 import h5py
 import numpy as np
@@ -65,7 +65,7 @@ def test_lattice_equilibrium_stress_and_wall_force(pressure):
 
 
 def test_lattice_spacing_and_leading_order_force():
-    # to leading order the contact force is p/sqrt(3) and the spacing 1 (SPEC §12)
+    # to leading order the contact force is p/sqrt(3) and the spacing 1 (docs/method.md §12)
     pressure = 1e-6
     p = systems.triangular_lattice(rows=3, width=3, pressure=pressure)
     a = p.attrs["spacing"]

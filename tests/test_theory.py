@@ -1,4 +1,4 @@
-"""Exact references of SPEC §12 against independent numerics."""
+"""Exact references of docs/method.md §12 against independent numerics."""
 
 import numpy as np
 import pytest
@@ -95,7 +95,7 @@ def test_airy_form_converges_to_exact_sum(ic):
 
 
 def test_airy_scalings_at_arrival():
-    # Known results (SPEC §12): F_A(t0) ~ N^{-2/3} and the B main lobe ~ 1/N, with the
+    # Known results (docs/method.md §12): F_A(t0) ~ N^{-2/3} and the B main lobe ~ 1/N, with the
     # prefactors of the derivation: -8 Ai'(0) and 16 min(x Ai(x)) (x in (a1, 0)).
     n = 4000
     t0 = theory.chain_travel_time(n)

@@ -1,4 +1,4 @@
-"""Characteristic points of the coherent front of one signal (SPEC §9).
+"""Characteristic points of the coherent front of one signal (docs/method.md §9).
 
 The rule (also in ``docs/front.md`` and ``granwave analyze front --help``)
 --------------------------------------------------------------------------
@@ -10,7 +10,7 @@ The rule (also in ``docs/front.md`` and ``granwave analyze front --help``)
    pulse is the first lobe whose size reaches ``peak_fraction`` (default
    0.3) of the largest lobe seen so far *including the next lobe*. A
    precursor is a lobe much smaller than the one right after it, and is
-   skipped. Why 0.3 and why the next lobe only: on the chain (SPEC §12) the
+   skipped. Why 0.3 and why the next lobe only: on the chain (docs/method.md §12) the
    lobes behind the front keep growing (Airy tail), so a fraction of the
    record's maximum would skip the front itself. Asymptotically (large N)
    the precursor of initial condition (B) is 0.196 of its main lobe, while
@@ -38,7 +38,7 @@ through zero, inside the record raises :class:`granwave.errors.InputError`,
 as does a signal already beyond ``lead_fraction`` of the peak at its first
 sample (its leading edge is not in the record).
 
-Units: times in d/sqrt(E*/rho), forces in E* d^2 (SPEC §1); the functions do
+Units: times in d/sqrt(E*/rho), forces in E* d^2 (docs/method.md §1); the functions do
 not care, they return the units they are given.
 """
 

@@ -1,4 +1,4 @@
-"""Container-height series: arrival times, speeds and scaling exponents (SPEC §9).
+"""Container-height series: arrival times, speeds and scaling exponents (docs/method.md §9).
 
 Input: signals from containers of several heights L (source-detector
 distance = the signal's ``height`` attribute, bottom wall to top wall), one
@@ -16,7 +16,7 @@ Choices (also in ``docs/summaries.md`` and the CLI help)
 * **Speeds.** Arrival time against distance is a straight line t = t0 + L/c;
   c = 1/slope, δc = δslope/slope². ``c_tof`` (10 % leading edge), ``c_peak``
   and ``c_zero`` (first zero crossing) are taken between the two nominal
-  heights nearest to ``edge_heights`` (default 8 and 25 d, SPEC §9), and the
+  heights nearest to ``edge_heights`` (default 8 and 25 d, docs/method.md §9), and the
   same three from the fit over all heights as ``c_tof_all``, ``c_peak_all``,
   ``c_zero_all``. None of them is adjusted.
 * **Exponents.** |A|(L) ~ L^-gamma and W(L) ~ L^alpha (W = t_zero - t_lead10,
@@ -175,7 +175,7 @@ def height_series_from_features(heights, features: Sequence[dict], *,
 def height_series(signals: Sequence[Signal], *, labels: Sequence[str] | None = None,
                   edge_heights: tuple[float, float] = DEFAULT_EDGE_HEIGHTS,
                   group_rtol: float = DEFAULT_GROUP_RTOL, **front_kw) -> dict:
-    """Height-series analysis of signals (SPEC §9); see the module docstring.
+    """Height-series analysis of signals (docs/method.md §9); see the module docstring.
 
     ``labels`` name the signals in error messages (file names in the CLI).
     ``front_kw`` (peak_fraction, lead_fraction, ...) go to

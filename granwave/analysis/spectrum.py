@@ -1,4 +1,4 @@
-"""Eigen-spectrum statistics and each mode's part in the signal (SPEC §7).
+"""Eigen-spectrum statistics and each mode's part in the signal (docs/method.md §7).
 
 Choices (also in ``docs/summaries.md`` and the CLI help)
 --------------------------------------------------------
@@ -102,7 +102,7 @@ def carried_fractions(weights, fractions=DEFAULT_FRACTIONS, levels=POWER_LEVELS)
 
 def spectrum_summary(modes: "Modes", *, ic: str = "A", dof_grain=None, dof_axis=None,
                      fractions=DEFAULT_FRACTIONS, arrays: bool = True) -> dict:
-    """Spectrum statistics of a modes object (SPEC §7); choices in the module docstring.
+    """Spectrum statistics of a modes object (docs/method.md §7); choices in the module docstring.
 
     ``dof_grain``/``dof_axis`` (from the linear system) make the participation
     ratio run over grains; ``arrays`` adds omega2, weights and PR per mode.

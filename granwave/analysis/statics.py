@@ -1,6 +1,6 @@
-"""Static characterization of a packing (SPEC §4), in 1D, 2D and 3D.
+"""Static characterization of a packing (docs/method.md §4), in 1D, 2D and 3D.
 
-Choices where SPEC §4 leaves room (also in ``granwave analyze statics --help``):
+Choices where docs/method.md §4 leaves room (also in ``granwave analyze statics --help``):
 
 - **Force-carrying contact**: F_n > ``force_tol`` × p d̄² (default 1e-9).
 - **Rattlers**: grains with fewer than ``min_contacts`` force-carrying
@@ -8,7 +8,7 @@ Choices where SPEC §4 leaves room (also in ``granwave analyze statics --help``)
   and its neighbours re-examined until nothing changes. A grain in
   equilibrium with a single contact carries no force through it (the
   residual of a converged DEM packing may leave a tiny force there), so
-  with the default this is SPEC's "grains that carry no force";
+  with the default this is the rule "grains that carry no force" of docs/method.md §4;
   ``min_contacts=1`` is the literal rule (no force-carrying contact at all).
 - **Bulk**: the slab l <= y <= H − l (y the vertical coordinate, H the
   wall-to-piston distance, l = ``layer``, default 3 d̄). Bulk grains are
@@ -137,7 +137,7 @@ def _amount_in_slab(y: np.ndarray, radius: np.ndarray, lo: float, hi: float, kin
 
 def statics(packing: Packing, *, layer: float = BULK_LAYER, min_contacts: int = 2,
             force_tol: float = 1e-9) -> dict:
-    """Bulk statistics, stress and balance checks of a packing (SPEC §4; choices: module docstring).
+    """Bulk statistics, stress and balance checks of a packing (docs/method.md §4; choices: module docstring).
 
     ``layer`` l (d̄): thickness excluded next to the bottom wall and the piston.
     Returns a dict with the keys of :data:`KEYS` (NaN where not meaningful)

@@ -1,4 +1,4 @@
-"""Per-sample summaries and the pressure sweep (SPEC §10).
+"""Per-sample summaries and the pressure sweep (docs/method.md §10).
 
 A *summary* is one JSON object per sample (layout: ``docs/summaries.md``)::
 
@@ -44,7 +44,7 @@ The sweep (choices)
   samples of a pressure from being counted many times.
 * ``c_tof_over_c_l`` = mean c_tof / mean c_l, relative errors added in
   quadrature.
-* Side by side: the triangular-lattice speeds of SPEC §12
+* Side by side: the triangular-lattice speeds of docs/method.md §12
   (:func:`granwave.theory.lattice_speed`, frictionless and frictional with
   the sweep's Poisson ratio), and for each measured speed the p^{1/6} curve
   through its value at the highest pressure (``<key>_p16``).
@@ -291,7 +291,7 @@ def _speed_with_error(stats: dict, flat_rows: list[dict], quantity: str) -> tupl
 
 def pressure_sweep(summaries: Sequence[dict], *, height_series: Sequence[dict] = (),
                    poisson: float = 0.0) -> dict:
-    """Group summaries by pressure and fit the speeds (SPEC §10); rules in the module docstring.
+    """Group summaries by pressure and fit the speeds (docs/method.md §10); rules in the module docstring.
 
     Returns a JSON-ready dict: ``pressures``, ``quantities`` (names), ``per_pressure`` (one
     row per pressure: pressure, count, speeds with ``*_err``, lattice speeds, ``*_p16`` and
@@ -453,7 +453,7 @@ def _stat_columns(result: dict, keys: Sequence[tuple[str, str]]) -> list[tuple[s
 def tables(result: dict) -> dict[str, tuple[str, str]]:
     """The static, moduli and speed tables as {name: (markdown, csv)}.
 
-    statics: SPEC §4 quantities (mean ± std over samples); moduli: stress
+    statics: docs/method.md §4 quantities (mean ± std over samples); moduli: stress
     ratio and C11, C12, C22, C33, c_l, c_t (mean ± std); speeds: c_tof, c_l,
     c_t (± their uncertainty), c_tof/c_l, the lattice formulas and the
     p^{1/6} curves.
@@ -478,9 +478,9 @@ def write_tables(result: dict, folder, prefix: str = "sweep") -> list[str]:
     written = []
     fits = ", ".join(f"{a} = {_fmt(result.get(a), result.get(a + '_err'))}"
                      for a in ("alpha_tof", "alpha_l", "alpha_t"))
-    titles = {"statics": "Static quantities per pressure (mean ± std over samples, SPEC §4)",
-              "moduli": "Stress ratio and elastic moduli per pressure (mean ± std, SPEC §6)",
-              "speeds": f"Speeds per pressure (SPEC §10); fits c ∝ p^α: {fits}; expected 1/6"}
+    titles = {"statics": "Static quantities per pressure (mean ± std over samples, docs/method.md §4)",
+              "moduli": "Stress ratio and elastic moduli per pressure (mean ± std, docs/method.md §6)",
+              "speeds": f"Speeds per pressure (docs/method.md §10); fits c ∝ p^α: {fits}; expected 1/6"}
     for name, (md, text) in tables(result).items():
         md_path, csv_path = folder / f"{prefix}_{name}.md", folder / f"{prefix}_{name}.csv"
         atomic_text(md_path, f"# {titles[name]}\n\n{md}")

@@ -38,7 +38,7 @@ UNLOADING_RULES = ("rescale", "incremental")
 class Engine:
     """A DEM system: grains between a bottom wall and a top wall (piston).
 
-    Parameters (units of SPEC §1): ``position`` (N, dim) centres, ``radius``
+    Parameters (units of docs/method.md §1): ``position`` (N, dim) centres, ``radius``
     (N,), ``lateral`` periodic lengths (dim-1,), ``height`` initial top-wall
     position; ``friction`` mu (0: no rotational dof at all), ``poisson`` nu,
     ``damping`` zeta (fraction of critical, per contact), ``background_damping``

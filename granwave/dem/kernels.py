@@ -93,7 +93,7 @@ def add_torque(torque, k, arm, n, f):
 @numba.njit(cache=True, inline="always")
 def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt, zeta,
                    mu, rescale):
-    """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, SPEC §2); returns it and
+    """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, docs/method.md §2); returns it and
     the elastic normal force. The single per-contact routine (scalar form).
 
     Three components always (2D: the third is 0, and adding zeros leaves the 2D
@@ -416,7 +416,7 @@ def stable_dt(fpar):
     - normal: omega_n, damping ratio zeta;
     - tangential (mu > 0): the grain turning about its contact, mode mass m / 3.5
       (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n) and, since
-      c_t = 2 zeta sqrt(m k_t) uses the translational mass (SPEC §2), damping ratio
+      c_t = 2 zeta sqrt(m k_t) uses the translational mass (docs/method.md §2), damping ratio
       zeta sqrt(3.5).
     Measured on 40-grain packings (docs/dem.md) the true limit is 0.8-1.0 of this estimate
     for zeta in [0, 1], with and without friction; hence ``safety`` <= 0.06 (params).

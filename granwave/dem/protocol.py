@@ -1,4 +1,4 @@
-"""Preparation of disordered packings by piston compression (SPEC §3).
+"""Preparation of disordered packings by piston compression (docs/method.md §3).
 
 Protocol
 --------
@@ -27,7 +27,7 @@ grain's |a| and |alpha| and the piston's |a| are below ``tol``, and (c) every
 grain's |v| and |w| R and the piston's |v| are below v_tol, the speed at which
 a head-on Hertz collision of two mean grains peaks at an acceleration tol
 (:func:`impact_velocity`; 6.5e-9 for tol = 1e-10, independent of p). (c)
-removes the two false positives of SPEC §3: a dilute gas (or a piston at
+removes the two false positives of docs/method.md §3: a dilute gas (or a piston at
 terminal velocity) has small accelerations but finite velocities, and a caged
 rattler between collisions has zero acceleration but moves; a rattler slower
 than v_tol cannot raise an acceleration above tol when it hits. A candidate is
@@ -117,7 +117,7 @@ def granular_gas(radius: np.ndarray, lateral: np.ndarray, gas_density: float, rn
 
 
 def prepare_packing(params: PrepareParams, progress=None) -> Packing:
-    """Prepare one disordered packing in mechanical equilibrium (SPEC §3).
+    """Prepare one disordered packing in mechanical equilibrium (docs/method.md §3).
 
     ``progress``: optional callable taking one line of text, called about once
     a second. Raises :class:`granwave.errors.ConvergenceError` when

@@ -1,4 +1,4 @@
-"""Nonlinear pulse propagation with contact damping in the DEM engine (SPEC §8, §11).
+"""Nonlinear pulse propagation with contact damping in the DEM engine (docs/method.md §8, §11).
 
 The stored packing is kicked at the bottom wall and integrated with the full
 Hertz–Mindlin law (:mod:`granwave.contact`, through the engine's own kernels):
@@ -14,7 +14,7 @@ Set-up
   has no argument for an initial history, so it is written into its history
   arrays after construction (:func:`engine_from_packing`).
 - Walls: bottom wall and top wall (piston) both fixed; no piston dynamics,
-  no background damping. Contact damping ζ (SPEC §2: c = 2 ζ sqrt(m_eff k)
+  no background damping. Contact damping ζ (docs/method.md §2: c = 2 ζ sqrt(m_eff k)
   with the current k_n and k_t, normal and tangential, the total normal force
   never attractive) acts during the pulse when ``damping`` > 0.
 - Source (docs/conventions.md), times a global scale s:
@@ -173,7 +173,7 @@ def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, sk
                     piston_force=0.0, dt=dt, skin=skin, check_every=0,  # fixed dt, no convergence test
                     unloading=unloading)
     if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
-        raise InputError("the packing's grain masses are not rho pi d^3 / 6 (SPEC §1): "
+        raise InputError("the packing's grain masses are not rho pi d^3 / 6 (docs/method.md §1): "
                          "the DEM engine cannot represent them")
     c = packing.contacts
     n = packing.n_grains
@@ -220,7 +220,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     amplitude : EPS > 0, the largest single-contact displacement estimate in
         units of the mean overlap (module docstring); default 1e-3 (linear
         regime: docs/damping.md).
-    damping : contact damping ζ in [0, 1], fraction of critical (SPEC §2).
+    damping : contact damping ζ in [0, 1], fraction of critical (docs/method.md §2).
     t_max, samples : output grid of ``samples`` times from 0 to t_max (d/sqrt(E*/rho)).
     dt_safety : dt = dt_safety × 2π sqrt(m_min/k_max) (default 0.01); ``dt``
         overrides it. Either is shortened to divide the sample interval.

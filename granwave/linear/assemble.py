@@ -1,4 +1,4 @@
-"""Linearization of a packing around mechanical equilibrium (SPEC §5).
+"""Linearization of a packing around mechanical equilibrium (docs/method.md §5).
 
 Small oscillations obey ``M u'' = -D u``. This module builds the sparse
 stiffness (dynamical) matrix D, the diagonal mass matrix M, the dof map, the
@@ -397,7 +397,7 @@ def rotation_axes(system: LinearSystem) -> np.ndarray:
 
 def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
               check: bool = True) -> LinearSystem:
-    """Build ``M u'' = -D u`` for a packing in equilibrium (SPEC §5).
+    """Build ``M u'' = -D u`` for a packing in equilibrium (docs/method.md §5).
 
     Parameters
     ----------
@@ -487,7 +487,7 @@ def asymmetry(D: sp.spmatrix) -> float:
 
 
 def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESHOLD) -> dict:
-    """Symmetry, positive semi-definiteness and zero modes of D (SPEC §5).
+    """Symmetry, positive semi-definiteness and zero modes of D (docs/method.md §5).
 
     Method: the relative asymmetry ||D - D^T||_F/||D||_F; then the eigenvalues
     of the symmetric part in the mass-weighted form M^-1/2 D M^-1/2. Up to

@@ -59,7 +59,7 @@ def reference_lattice(rows: int, width: int, *, pressure: float, friction: float
                       poisson: float = 0.0) -> Packing:
     """Perfect triangular lattice, ``rows`` rows of ``width`` unit balls, periodic in x.
 
-    Grain contacts carry p/sqrt(3) (SPEC §12), wall contacts p. Row r is
+    Grain contacts carry p/sqrt(3) (docs/method.md §12), wall contacts p. Row r is
     shifted by half a spacing when r is odd.
     """
     if width < 3 or rows < 1:

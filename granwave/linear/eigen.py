@@ -1,4 +1,4 @@
-"""Eigenmodes of D phi = omega^2 M phi and their part in the signal (SPEC §7).
+"""Eigenmodes of D phi = omega^2 M phi and their part in the signal (docs/method.md §7).
 
 The generalized problem is solved in the symmetric standard form
 A = M^-1/2 D M^-1/2 (M is diagonal), A v = omega^2 v, phi = M^-1/2 v, so the

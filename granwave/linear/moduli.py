@@ -1,10 +1,10 @@
-"""Elastic moduli of a confined packing, global and scale dependent (SPEC §6).
+"""Elastic moduli of a confined packing, global and scale dependent (docs/method.md §6).
 
-Everything here is a static response of the linear model of SPEC §5: the
+Everything here is a static response of the linear model of docs/method.md §5: the
 grains relax non-affinely (``D u = f``) under an imposed global strain, an
 imposed body force or imposed displacements, and the stress change or the
 elastic energy gives a modulus. The full derivation and the choices made
-where SPEC is silent are in ``docs/moduli.md``; in short:
+where the method leaves room are in ``docs/moduli.md``; in short:
 
 Cell, strain and stress conventions
 -----------------------------------
@@ -17,7 +17,7 @@ the affine field ``u(x) = -G x`` with the displacement gradient ``G``
 simple shear, the lateral displacement grows along ``b``), so that
 ``eps_11 > 0`` shrinks the periodic width, ``eps_22 > 0`` moves the top wall
 down and ``eps_12`` moves the top wall along x by ``-2 eps_12 L2``.
-The stress is SPEC §4's ``sigma_ab = (1/V) sum_c F^a b^b`` with ``F`` the
+The stress is docs/method.md §4's ``sigma_ab = (1/V) sum_c F^a b^b`` with ``F`` the
 force exerted *by* grain i *on* its partner (minus the force on i) and ``b``
 the branch vector from the centre of i to the centre of j (nearest image)
 or, for a wall contact, to the contact point on the wall plane
@@ -39,7 +39,7 @@ move). The grains then relax: ``D u' = f`` with ``f`` the generalized force of
 the affine contact displacements; ``u'`` holds translations and, with
 friction, rotations. The relaxed contact forces give the stress change;
 because the model is linear the moduli do not depend on the amplitude.
-With ``prestress=True`` the blocks contain the geometric terms of SPEC §5,
+With ``prestress=True`` the blocks contain the geometric terms of docs/method.md §5,
 and the stress change also contains the change of the branch vectors and of
 the volume (``F dB`` and ``-sigma dV/V``): the Cauchy stress increment.
 
@@ -93,7 +93,7 @@ Both are reported as ratios to the global normal (C22; 3D C33) and shear
 (C33; 3D C55) moduli.
 
 Phi3* (the mass density entering the sound speeds c_l = sqrt(C22/Phi3*),
-c_t = sqrt(C33/Phi3*)) is SPEC §4's bulk value from
+c_t = sqrt(C33/Phi3*)) is docs/method.md §4's bulk value from
 :func:`granwave.analysis.statics.statics` (slab excluding ``layer`` next to each
 wall, its rattler rule); when the cell has no bulk slab, the whole-cell value.
 The body force is normalized with the whole-cell value ``phi3_star_cell``
@@ -484,7 +484,7 @@ def _energy(cell: _Cell, u: np.ndarray) -> float:
 
 def body_force_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE,
                        grip: bool | None = None) -> float:
-    """Apparent modulus from a sinusoidal body force along ``axis`` (SPEC §6 (a)).
+    """Apparent modulus from a sinusoidal body force along ``axis`` (docs/method.md §6 (a)).
 
     A body force on floppy grains (free to move at no energy cost) cannot be
     balanced: that part is dropped (least-squares solution) and the largest
@@ -536,7 +536,7 @@ def line_grains(cell: _Cell, n: int) -> np.ndarray:
 
 def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_AMPLITUDE,
                  grip: bool | None = None) -> float:
-    """Apparent modulus from displacements imposed along n interior lines (SPEC §6 (b)).
+    """Apparent modulus from displacements imposed along n interior lines (docs/method.md §6 (b)).
 
     Every non-rattler grain crossed by an interior line gets, along ``axis``,
     the continuum field :func:`line_field` at its own centre (times
@@ -581,7 +581,7 @@ def check_matches(cell: _Cell, system: LinearSystem) -> None:
 
 
 def _phi3_star(packing: Packing, cell: _Cell, layer: float) -> tuple[float, str]:
-    """Phi3* for the sound speeds: SPEC §4's bulk value (granwave.analysis.statics,
+    """Phi3* for the sound speeds: docs/method.md §4's bulk value (granwave.analysis.statics,
     slab ``layer`` <= y <= H - ``layer``), or the whole cell when there is no bulk."""
     try:
         from ..analysis.statics import statics
@@ -597,7 +597,7 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
            amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None,
            system: LinearSystem | None = None, force: bool = False,
            layer: float = BULK_LAYER) -> dict:
-    """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (SPEC §6).
+    """Global (and with ``local`` the scale-dependent) elastic moduli of a packing (docs/method.md §6).
 
     Parameters
     ----------
@@ -613,7 +613,7 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
         ``attrs['prestress']`` is used. The contact geometry always comes from
         the packing (a linear file does not hold it).
     force : accept a packing whose ``attrs['converged']`` is False.
-    layer : thickness next to each wall left out of the bulk Phi3* (SPEC §4).
+    layer : thickness next to each wall left out of the bulk Phi3* (docs/method.md §4).
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Pulse propagation in the linear model and the detector signal (SPEC §8).
+"""Pulse propagation in the linear model and the detector signal (docs/method.md §8).
 
 Two methods that must agree:
 
