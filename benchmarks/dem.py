@@ -1,4 +1,4 @@
-"""DEM engine speed against the goals of the DEM issue (a script, not a test).
+"""DEM engine speed against the DEM engine's speed goals (a script, not a test).
 
     python benchmarks/dem.py [--quick]
 

@@ -1,4 +1,4 @@
-"""Speed against accuracy (issue 7): writes docs/tradeoffs.md from its own measurements.
+"""Speed against accuracy: writes docs/tradeoffs.md from its own measurements.
 
     python benchmarks/tradeoffs.py            # default: 2D packings of 96-192 grains, ~10 min
     python benchmarks/tradeoffs.py --full     # larger packings and more seeds

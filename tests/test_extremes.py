@@ -1,4 +1,4 @@
-"""Stability at the extremes (issue 7): every case runs to a sensible result or stops with
+"""Stability at the extremes: every case runs to a sensible result or stops with
 a clear, specific error (InputError / ConvergenceError / one-line CLI error) — never a hang,
 a NaN or a silently wrong answer. Every run is bounded (small grain counts, small max_steps).
 

@@ -108,7 +108,7 @@ def test_frictionless_packing_error_scales_with_amplitude_and_dt(frictionless):
         sig = P.propagate_dem(frictionless, ic="A", amplitude=eps, dt_safety=safety, t_max=T_MAX,
                               samples=SAMPLES)
         err[eps, safety] = first_pulse_error(sig, ref)
-    assert err[1e-3, 0.005] < 1e-3  # the 1% of the issue, with a factor 10 to spare
+    assert err[1e-3, 0.005] < 1e-3  # the 1 % goal, with a factor 10 to spare
     assert 5.0 < err[1e-2, 0.005] / err[1e-3, 0.005] < 12.0, err  # nonlinear error ~ EPS
     # dt^2 floor, measured at EPS = 1e-5 where the nonlinear part (~EPS) is well below it (at
     # 1e-4 the two are comparable and partly cancel: 2.65e-4 / 8.9e-5 on this packing)

@@ -9,8 +9,8 @@ symmetric part is used and the relative asymmetry is recorded.
 Dense solver: LAPACK ``syevd`` (divide and conquer) through
 ``scipy.linalg.eigh(driver="evd")``. Measured on a 1800-dof frictional
 lattice (this machine, 2 shared cores): evd 0.7 s, scipy's default ("evr")
-5-13 s, "ev" 6.3 s, numpy.linalg.eigh 7.8 s — evd is 7-18x faster, as the
-issue reported. Memory: about 3 n^2 doubles (A, the vectors, workspace).
+5-13 s, "ev" 6.3 s, numpy.linalg.eigh 7.8 s — evd is 7-18x faster.
+Memory: about 3 n^2 doubles (A, the vectors, workspace).
 
 A tridiagonal A (a chain in its natural order) goes to LAPACK ``stemr``
 (``scipy.linalg.eigh_tridiagonal``), O(n^2).
