@@ -94,6 +94,8 @@ def network(packing, output, pdf, walls):
 @click.option("--bins", type=click.IntRange(4, 360), default=36, show_default=True)
 @stage
 def roses(packing, output, pdf, walls, bins):
+    # Every plot command has this shape (read one file, call one figure of
+    # granwave.figures); they differ in the reader and the figure, not in logic.
     """Contact-direction roses: all, strong and weak contacts."""
     figs = _figures()
     from ..io.files import read_packing

@@ -327,6 +327,9 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
                 vy -= wz * nx - wx * nz
                 vz -= wx * ny - wy * nx
             hx = hy = hz = 0.0
+            # Same steps as the grain pair above, on the wall's own history slots (wall_ft,
+            # wall_ov) with R12 = R, the wall moduli and the grain's mass: the law itself is
+            # written once (contact_force3); only this load/store of the history repeats.
             if mu > 0.0:
                 hx = wall_ft[w, 0]
                 hy = wall_ft[w, 1]

@@ -504,6 +504,8 @@ def read_packing(path) -> Packing:
 
 
 # ---------------------------------------------------------------- linear system
+# The writers look alike (one put() per dataset) but each writes its own schema's
+# names: the layout itself lives once, in io/schema.py.
 def write_linear(path, system: LinearSystem) -> None:
     D = sp.csr_matrix(system.stiffness)
     size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
