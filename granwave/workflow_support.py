@@ -45,10 +45,10 @@ def crossing_time(kind: str, spec: dict, pressure: float, size: str) -> float:
 
 def _write_json(path, obj) -> None:
     """One JSON object, as `granwave ... --json` prints it (NaN -> null), written atomically."""
-    from .analysis.sweep import _jsonable
+    from .io.files import jsonable
     from .io.files import atomic_text
 
-    atomic_text(path, json.dumps(_jsonable(obj), indent=1) + "\n")
+    atomic_text(path, json.dumps(jsonable(obj), indent=1) + "\n")
 
 
 def make_sample(kind: str, make: dict):
@@ -69,19 +69,9 @@ def make_sample(kind: str, make: dict):
 
 def front_section(sig) -> dict:
     """The front section of a summary: what `granwave analyze front --json` prints (defaults)."""
-    from .analysis.front import front_features
+    from . import api
 
-    d = front_features(sig.time, sig.force).as_dict()
-    out = {k: d[k] for k in ("t_lead10", "t_peak", "amplitude", "polarity", "t_zero", "width")}
-    out["height"] = float(sig.attrs["height"])
-    for key in ("ic", "method", "pressure"):
-        if key in sig.attrs:
-            out[key] = sig.attrs[key]
-    from .analysis.front import DEFAULT_LEAD_FRACTION, DEFAULT_NOISE_FRACTION, DEFAULT_PEAK_FRACTION
-
-    out.update(rise=d["rise"], peak_fraction=DEFAULT_PEAK_FRACTION, lead_fraction=DEFAULT_LEAD_FRACTION,
-               noise_fraction=DEFAULT_NOISE_FRACTION)
-    return out
+    return api.front(sig)
 
 
 def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, samples: int,

@@ -155,17 +155,9 @@ def load_inputs(paths: Iterable) -> tuple[list[dict], list[dict]]:
 
 
 def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        return _jsonable(x.item())
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
+    from ..io.files import jsonable
+
+    return jsonable(x)
 
 
 def write_summary(path, summary) -> None:

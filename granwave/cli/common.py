@@ -223,23 +223,11 @@ def stage(func):
     return wrapper
 
 
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {k: _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
-
-
 def echo_json(obj) -> None:
     """Print one JSON object (NaN becomes null, arrays become lists)."""
-    click.echo(json.dumps(_jsonable(obj), indent=1))
+    from ..io.files import jsonable
+
+    click.echo(json.dumps(jsonable(obj), indent=1))
 
 
 def echo_result(rows: dict, as_json: bool, title: str | None = None) -> None:

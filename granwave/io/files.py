@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import math
 import os
 import socket
 import stat
@@ -280,6 +281,22 @@ def atomic_text(path: str | os.PathLike, text: str, *, replace_input: bool = Fal
     with _replace_on_success(path, tmp, replace_input):
         with open(tmp, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
+
+
+def jsonable(x):
+    """``x`` with numpy arrays and scalars as plain lists and numbers, NaN/inf as None
+    and dict keys as strings: the one rule by which granwave writes and prints JSON."""
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return jsonable(x.tolist())
+    if isinstance(x, np.generic):
+        return jsonable(x.item())
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
 
 
 def load_json(path: str | os.PathLike) -> object:
