@@ -49,7 +49,7 @@ rule moduli:
         mem_mb=2000,
         runtime=10,
     shell:
-        "NUMBA_NUM_THREADS={threads} granwave analyze moduli {input} --local --json > {output} 2> {log}"
+        "granwave analyze moduli --threads {threads} {input} --local --json > {output} 2> {log}"
 
 
 rule summary:

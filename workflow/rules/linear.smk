@@ -17,7 +17,7 @@ rule linearize:
         mem_mb=1000,
         runtime=5,
     shell:
-        "NUMBA_NUM_THREADS={threads} granwave linearize {input} -o {output} > {log} 2>&1"
+        "granwave linearize --threads {threads} {input} -o {output} > {log} 2>&1"
 
 
 rule eigensolve:
@@ -36,7 +36,7 @@ rule eigensolve:
         mem_mb=4000,
         runtime=30,
     shell:
-        "NUMBA_NUM_THREADS={threads} granwave eigensolve {input} -o {output} > {log} 2>&1"
+        "granwave eigensolve --threads {threads} {input} -o {output} > {log} 2>&1"
 
 
 rule propagate:
@@ -60,5 +60,5 @@ rule propagate:
         mem_mb=1000,
         runtime=10,
     shell:
-        "NUMBA_NUM_THREADS={threads} granwave propagate {input} --method {params.method} --ic {params.ic} --t-max {params.t_max:.6g} "
+        "granwave propagate --threads {threads} {input} --method {params.method} --ic {params.ic} --t-max {params.t_max:.6g} "
         "--samples {params.samples} -o {output} > {log} 2>&1"

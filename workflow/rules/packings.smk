@@ -16,7 +16,7 @@ rule prepare_packing:
         mem_mb=1000,
         runtime=60,
     shell:
-        "NUMBA_NUM_THREADS={threads} granwave prepare-packing {params.args} --quiet -o {output} > {log} 2>&1"
+        "granwave prepare-packing --threads {threads} {params.args} --quiet -o {output} > {log} 2>&1"
 
 
 rule make_lattice:
