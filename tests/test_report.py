@@ -99,14 +99,14 @@ def inputs(tmp_path_factory):
     sweep = root / "sweep" / "frictional2d.json"
     sweep.parent.mkdir()
     from granwave.analysis.sweep import pressure_sweep
-    from granwave.cli.common import _jsonable
+    from granwave.io.files import jsonable
 
     sums = [summary(p, s) for p in PRESSURES for s in range(3)]
     for s in sums:  # a height series per pressure, copied into its samples' summaries
         s["tof"] = {"c_tof": 0.2345 if s["pressure"] < 1e-5 else 0.4811}
     res = pressure_sweep(sums)
     res["alpha_tof"], res["alpha_tof_err"] = 0.2468, 0.0135  # stands out in the report
-    sweep.write_text(json.dumps(_jsonable(res)))
+    sweep.write_text(json.dumps(jsonable(res)))
     figs = root / "figures"
     figs.mkdir()
     from granwave import figures
