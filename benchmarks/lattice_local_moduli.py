@@ -14,7 +14,6 @@ with ``--write-docs``, puts it into docs/moduli.md between the markers
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -41,15 +40,9 @@ def table() -> str:
 
 
 def write_docs(text: str) -> None:
-    path = ROOT / "docs" / "moduli.md"
-    doc = path.read_text()
-    if BEGIN not in doc or END not in doc:
-        raise SystemExit(f"{path} has no {BEGIN} ... {END} markers")
-    head, rest = doc.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    tmp = path.with_suffix(".md.tmp")
-    tmp.write_text(head + BEGIN + "\n" + text + "\n" + END + tail)
-    os.replace(tmp, path)
+    from granwave.io.files import replace_marked_block
+
+    replace_marked_block(ROOT / "docs" / "moduli.md", BEGIN, END, text)
 
 
 def main(argv=None) -> int:

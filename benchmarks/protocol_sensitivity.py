@@ -182,15 +182,9 @@ def spreads(records: list[dict]) -> str:
 
 
 def write_docs(text: str) -> None:
-    path = ROOT / "docs" / "dem.md"
-    doc = path.read_text()
-    if BEGIN not in doc or END not in doc:
-        raise SystemExit(f"{path} has no {BEGIN} ... {END} markers")
-    head, rest = doc.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    tmp = path.with_suffix(".md.tmp")
-    tmp.write_text(head + BEGIN + "\n" + text + "\n" + END + tail)
-    os.replace(tmp, path)
+    from granwave.io.files import replace_marked_block
+
+    replace_marked_block(ROOT / "docs" / "dem.md", BEGIN, END, text)
 
 
 def main(argv=None) -> int:

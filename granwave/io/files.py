@@ -299,6 +299,20 @@ def jsonable(x):
     return x
 
 
+def replace_marked_block(path: str | os.PathLike, begin: str, end: str, text: str) -> None:
+    """Replace what lies between the lines ``begin`` and ``end`` of a text file (atomically).
+
+    How the benchmarks regenerate their tables inside hand-written docs.
+    """
+    path = Path(path)
+    doc = path.read_text(encoding="utf-8")
+    if begin not in doc or end not in doc:
+        raise InputError(f"{path} has no {begin} ... {end} markers")
+    head, rest = doc.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    atomic_text(path, head + begin + "\n" + text + "\n" + end + tail)
+
+
 def load_json(path: str | os.PathLike) -> object:
     """Read a JSON file; an unreadable or malformed file is an InputError naming it."""
     record_input(path)
