@@ -534,13 +534,18 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
     )
 
 
+def gershgorin_bound(A: sp.spmatrix) -> float:
+    """max_i sum_j |A_ij|: an instant upper bound on the largest eigenvalue of A."""
+    return float(np.max(np.asarray(abs(A).sum(axis=1)).ravel(), initial=0.0))
+
+
 def omega2_max(A: sp.spmatrix, *, tol: float = 1e-6) -> float:
     """Largest eigenvalue of the symmetric mass-weighted matrix A (Lanczos to relative ``tol``).
 
-    Falls back to the Gershgorin bound max_i sum_j |A_ij| if Lanczos fails.
+    Falls back to the Gershgorin bound if Lanczos fails.
     """
     n = A.shape[0]
-    gersh = float(np.max(np.asarray(abs(A).sum(axis=1)).ravel())) if n else 0.0
+    gersh = gershgorin_bound(A)
     if n < 3:
         return float(np.max(np.linalg.eigvalsh(A.toarray()))) if n else 0.0
     try:

@@ -199,6 +199,10 @@ def state_sums(u: np.ndarray, v: np.ndarray, a: np.ndarray, m: np.ndarray,
     return 0.5 * kin, 0.5 * pot, ama, force
 
 
+#: The time-domain kernel counts its steps in a 64-bit integer.
+MAX_TIME_STEPS = 2**63 - 1
+
+
 def stable_time_step(system: LinearSystem, *, safety: float = DEFAULT_SAFETY) -> tuple[float, float]:
     """(dt = safety x 2/omega_max, omega_max) for velocity Verlet."""
     if not (0 < safety < 1):
@@ -244,6 +248,9 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
         raise InputError(f"time step must be positive (got {dt})")
     sub = max(1, int(math.ceil(h / dt * (1 - 1e-12))))
     dt = h / sub
+    if sub * (samples - 1) > MAX_TIME_STEPS:
+        raise InputError(f"t_max {t_max:g} needs {sub * (samples - 1):.3g} time steps of {dt:.3g}, "
+                         f"more than the kernel can count ({MAX_TIME_STEPS:.3g}): use a shorter --t-max")
     if wmax * dt >= 2.0:
         raise InputError(f"time step {dt:.3g} is unstable: omega_max dt = {wmax * dt:.3g} >= 2 "
                          f"(use dt <= {2 / wmax:.3g})")
