@@ -116,6 +116,98 @@ def granular_gas(radius: np.ndarray, lateral: np.ndarray, gas_density: float, rn
     return pos, height
 
 
+class Compression:
+    """The engine of the piston protocol for given grains, and what it records.
+
+    One home for the protocol's scales (pressure scales, inertial time, background
+    damping rate, velocity threshold, piston mass and force) shared by the
+    preparation from a gas and the relaxation of grains made elsewhere
+    (:func:`granwave.interop.relax.relax_grains`).
+    """
+
+    def __init__(self, position, radius, lateral, height: float, params: PrepareParams, *,
+                 velocity=None, angular_velocity=None):
+        p = self.params = params
+        self.radius, self.lateral = radius, lateral
+        self.mass = grain_mass(radius)
+        mean_mass = float(self.mass.mean())
+        delta_p, _, self.time_scale = pressure_scales(p.pressure, mean_mass)
+        self.piston_mass = p.piston_mass if p.piston_mass is not None else mean_mass * float(np.prod(lateral))
+        self.piston_force = p.pressure * wall_area(lateral)
+        self.inertial_time = math.sqrt(mean_mass / p.pressure)  # sqrt(m / (p d))
+        self.gamma = p.background_damping / self.inertial_time
+        self.tol_v = impact_velocity(p.tol, mean_mass)
+        self.engine = Engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
+                             damping=p.damping, background_damping=self.gamma,
+                             piston_mass=self.piston_mass, piston_force=self.piston_force,
+                             safety=p.safety, overlap_floor=delta_p, skin=p.skin,
+                             tol_acceleration=p.tol, tol_velocity=self.tol_v,
+                             check_every=p.check_every, velocity=velocity,
+                             angular_velocity=angular_velocity)
+
+    def packing(self, attrs: dict) -> Packing:
+        """The engine's current state as a packing, with the protocol in its attributes."""
+        p, engine = self.params, self.engine
+        a = dict(attrs)
+        a.update(dim=p.dim, pressure=p.pressure, friction=p.friction, poisson=p.poisson, seed=p.seed,
+                 damping=p.damping, background_damping=p.background_damping,
+                 background_damping_rate=self.gamma, piston_mass=self.piston_mass, dt=engine.dt,
+                 dt_safety=p.safety, dt_rule=DT_RULE, tol=p.tol, velocity_tol=self.tol_v,
+                 time_scale=self.time_scale, inertial_time=self.inertial_time, steps=engine.steps,
+                 rebuilds=engine.rebuilds, skin=p.skin, check_every=p.check_every,
+                 convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps)
+        r = self.radius
+        return Packing(position=wrap(engine.position, self.lateral), radius=r.copy(),
+                       mass=self.mass.copy(), inertia=grain_inertia(r),
+                       box=np.array([*self.lateral, engine.height]),
+                       contacts=contacts_of_engine(engine), attrs=a)
+
+    def relax(self, attrs: dict, *, progress=None, blow_up_hint: str,
+              failure: str = "did not converge") -> Packing:
+        """Run until every acceleration is below tol and the static residual agrees.
+
+        ``attrs``: what the packing records beyond the protocol (kind, sizes, ...).
+        ``progress`` is called about once a second. Raises ConvergenceError when the
+        run blows up (with ``blow_up_hint``) or ``max_steps`` steps ``failure``.
+        """
+        p, engine = self.params, self.engine
+        chunk = 2000
+        last = time.perf_counter()
+        last_steps = 0
+        history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
+        while engine.steps < p.max_steps:
+            t0 = time.perf_counter()
+            status = engine.run(min(chunk, p.max_steps - engine.steps))
+            if status == 3:
+                raise ConvergenceError(
+                    f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
+                    f"non-finite motion) at dt {engine.dt:.3g}: {blow_up_hint}")
+            history.append((engine.steps, _max_acceleration(engine.measure())))
+            elapsed = time.perf_counter() - t0
+            # about one progress line per second
+            if elapsed > 0:
+                chunk = int(min(max(chunk * min(4.0, 1.0 / max(elapsed, 1e-3)), 200), 200_000))
+            if status == 1:
+                packing = self.packing({**attrs, "converged": True, "max_acceleration": 0.0})
+                res = static_residual(packing, self.piston_mass, self.piston_force)
+                if max(res) < p.tol:
+                    packing.attrs["max_acceleration"] = max(res)
+                    if progress is not None:
+                        progress(f"converged after {engine.steps} steps: static residual {max(res):.3e}")
+                    return packing
+            now = time.perf_counter()
+            if progress is not None and now - last > 1.0:
+                m = engine.measure()
+                rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
+                progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
+                         f"  max|v| {m['max_speed']:.3e}  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
+                         f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s")
+                last, last_steps = now, engine.steps
+        m = engine.measure()
+        raise ConvergenceError(f"{p.max_steps} steps {failure}: "
+                               + non_convergence_hint(history, m, p, engine.dt))
+
+
 def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     """Prepare one disordered packing in mechanical equilibrium (docs/method.md §3).
 
@@ -136,73 +228,12 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     gas_density = p.gas_density if p.gas_density is not None else default_gas_density(p.dim)
     position, height = granular_gas(radius, lateral, gas_density, rng)
     actual_gas_density = float(np.sum(grain_measure(radius, p.dim))) / (height * float(np.prod(lateral)))
-    mass = grain_mass(radius)
-    mean_mass = float(mass.mean())
-    delta_p, k_p, t_p = pressure_scales(p.pressure, mean_mass)
-    area = wall_area(lateral)
-    piston_mass = p.piston_mass if p.piston_mass is not None else mean_mass * float(np.prod(lateral))
-    piston_force = p.pressure * area
-    t_i = math.sqrt(mean_mass / p.pressure)  # inertial time sqrt(m / (p d))
-    gamma = p.background_damping / t_i
-    tol_v = impact_velocity(p.tol, mean_mass)
-    engine = Engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
-                    damping=p.damping, background_damping=gamma, piston_mass=piston_mass,
-                    piston_force=piston_force, safety=p.safety, overlap_floor=delta_p, skin=p.skin,
-                    tol_acceleration=p.tol, tol_velocity=tol_v, check_every=p.check_every)
-
-    def packing_now(converged: bool, residual: float) -> Packing:
-        attrs = dict(
-            kind="disordered", dim=p.dim, pressure=p.pressure, friction=p.friction, poisson=p.poisson,
-            seed=p.seed, converged=converged, max_acceleration=residual, grains=p.grains,
-            polydispersity=p.polydispersity, aspect=p.aspect, damping=p.damping,
-            background_damping=p.background_damping, background_damping_rate=gamma,
-            piston_mass=piston_mass, gas_density=actual_gas_density, gas_height=height,
-            dt=engine.dt, dt_safety=p.safety, dt_rule=DT_RULE,
-            tol=p.tol, velocity_tol=tol_v, time_scale=t_p, inertial_time=t_i, steps=engine.steps,
-            rebuilds=engine.rebuilds, skin=p.skin, check_every=p.check_every,
-            convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps,
-        )
-        contacts = contacts_of_engine(engine)
-        return Packing(position=wrap(engine.position, lateral), radius=radius.copy(), mass=mass.copy(),
-                       inertia=grain_inertia(radius), box=np.array([*lateral, engine.height]),
-                       contacts=contacts, attrs=attrs)
-
-    chunk = 2000
-    last = time.perf_counter()
-    last_steps = 0
-    history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
-    while engine.steps < p.max_steps:
-        t0 = time.perf_counter()
-        status = engine.run(min(chunk, p.max_steps - engine.steps))
-        if status == 3:
-            raise ConvergenceError(
-                f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
-                f"non-finite motion) at dt {engine.dt:.3g}: the explicit step is unstable for "
-                f"safety {p.safety:g}, damping {p.damping:g}, friction {p.friction:g}; use a smaller "
-                "--safety")
-        history.append((engine.steps, _max_acceleration(engine.measure())))
-        elapsed = time.perf_counter() - t0
-        # about one progress line per second
-        if elapsed > 0:
-            chunk = int(min(max(chunk * min(4.0, 1.0 / max(elapsed, 1e-3)), 200), 200_000))
-        if status == 1:
-            packing = packing_now(True, 0.0)
-            res = static_residual(packing, piston_mass, piston_force)
-            if max(res) < p.tol:
-                packing.attrs["max_acceleration"] = max(res)
-                if progress is not None:
-                    progress(f"converged after {engine.steps} steps: static residual {max(res):.3e}")
-                return packing
-        now = time.perf_counter()
-        if progress is not None and now - last > 1.0:
-            m = engine.measure()
-            rate = (engine.steps - last_steps) * p.grains / (now - last)
-            progress(f"step {engine.steps:>9d}  max|a| {max(m['max_acceleration'], m['max_angular_acceleration'], m['piston_acceleration']):.3e}"
-                     f"  max|v| {m['max_speed']:.3e}  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
-                     f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s")
-            last, last_steps = now, engine.steps
-    m = engine.measure()
-    raise ConvergenceError(f"{p.max_steps} steps did not converge: " + non_convergence_hint(history, m, p, engine.dt))
+    run = Compression(position, radius, lateral, height, p)
+    attrs = dict(kind="disordered", grains=p.grains, polydispersity=p.polydispersity, aspect=p.aspect,
+                 gas_density=actual_gas_density, gas_height=height)
+    return run.relax(attrs, progress=progress,
+                     blow_up_hint=(f"the explicit step is unstable for safety {p.safety:g}, damping "
+                                   f"{p.damping:g}, friction {p.friction:g}; use a smaller --safety"))
 
 
 def _max_acceleration(m: dict) -> float:
