@@ -5,12 +5,14 @@
 
 For the default 2D frictional protocol (granwave.dem.params.PrepareParams) and
 for each protocol knob moved one at a time (contact damping zeta, background
-damping b, piston mass M, initial gas density), prepares ``--seeds`` packings
-of ``--grains`` grains at p = 1e-4 and p = 1e-7 (seeds 0..seeds-1, the same
-seeds for every setting), and measures per packing (docs/method.md §4, §6):
-Phi2 and z* and f0 (rattler fraction) of the bulk (layer 3 d excluded next to
-each wall), sigma1/sigma2 of the whole cell, and the global modulus C22
-(linear model without prestress) in units of E*.
+damping b, piston mass M, initial gas density, the compaction rule), prepares
+``--seeds`` packings of ``--grains`` grains at p = 1e-4 and p = 1e-7 (seeds
+0..seeds-1, the same seeds for every setting; ``--settings`` restricts the
+settings prepared), and measures per packing (docs/method.md §4, §6): Phi2, z*,
+f0 (rattler fraction), <N>/p (mean normal force) and F2 (fabric) of the bulk
+(layer 3 d excluded next to each wall), sigma1/sigma2 of the whole cell, the
+global moduli C22 and C33 (linear model without prestress) in units of E*, and
+a digest of the packing's arrays (equal digests: identical packings).
 
 Every finished packing appends one JSON line to ``--results`` (a rerun skips
 the (setting, pressure, seed) triples already there, so the script can be
@@ -41,7 +43,8 @@ PRESSURES = (1e-4, 1e-7)
 #: (name, label, PrepareParams overrides); "piston_mass_factor" multiplies the default
 #: piston mass (one layer of grains: mean grain mass x L1), computed per seed.
 SETTINGS = [
-    ("default", "default (ζ 0.5, b 0.3, M = 1 layer, gas 0.50)", {}),
+    ("default", "default (ζ 0.5, b 0.3, M = 1 layer, gas 0.50, height-scaled)", {}),
+    ("fixed", "compaction 'fixed' (b at every height)", {"compaction": "fixed"}),
     ("zeta0.1", "contact damping ζ = 0.1", {"damping": 0.1}),
     ("zeta0.9", "contact damping ζ = 0.9", {"damping": 0.9}),
     ("b0.1", "background damping b = 0.1", {"background_damping": 0.1}),
@@ -54,7 +57,8 @@ SETTINGS = [
 #: settings prepared first at the low pressure (default and the larger move of each knob)
 FIRST_AT_LOW_P = ("default", "zeta0.1", "b0.1", "b1", "M10", "gas0.3")
 QUANTITIES = [("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0"),
-              ("stress_ratio", "σ1/σ2"), ("C22_over_p", "C22/p^(1/3)"), ("steps", "steps")]
+              ("mean_force_over_p", "⟨N⟩/p"), ("F2", "F2"), ("stress_ratio", "σ1/σ2"),
+              ("C22_over_p", "C22/p^(1/3)"), ("C33_over_p", "C33/p^(1/3)"), ("steps", "steps")]
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = "<!-- protocol-sensitivity:begin -->", "<!-- protocol-sensitivity:end -->"
 
@@ -94,16 +98,42 @@ def measure(task: tuple) -> dict:
     s = statics(packing, layer=3.0)
     m = moduli(packing)
     record.update(ok=True, phi2=s["phi2"], z_star=s["z_star"], rattler_fraction=s["rattler_fraction"],
+                  mean_force_over_p=s["mean_force_over_p"], F2=s["F2"],
                   stress_ratio=s["stress_ratio"], C22=float(m["C22"]),
-                  C22_over_p=float(m["C22"]) / pressure ** (1.0 / 3.0), steps=int(packing.attrs["steps"]),
-                  cpu_s=time.process_time() - t0)
+                  C22_over_p=float(m["C22"]) / pressure ** (1.0 / 3.0), C33=float(m["C33"]),
+                  C33_over_p=float(m["C33"]) / pressure ** (1.0 / 3.0), steps=int(packing.attrs["steps"]),
+                  digest=digest(packing), cpu_s=time.process_time() - t0)
     return record
 
 
+def digest(packing) -> str:
+    """sha256 of the packing's arrays (positions, radii, box, contacts): equal digests, equal packings."""
+    import hashlib
+
+    h = hashlib.sha256()
+    c = packing.contacts
+    for a in (packing.position, packing.radius, packing.box, c.i, c.j, c.normal, c.overlap, c.force_normal,
+              c.force_tangential):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
 def load(path: Path) -> list[dict]:
+    """The records of ``path``, the last one of each (setting, pressure, seed, grains) only (a record
+    measured again, e.g. for quantities added later, replaces the earlier one)."""
     if not path.exists():
         return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    last = {}
+    for line in path.read_text().splitlines():
+        if line.strip():
+            r = json.loads(line)
+            last[r["setting"], r["pressure"], r["seed"], r["grains"]] = r
+    return list(last.values())
+
+
+def complete(record: dict) -> bool:
+    """A failed preparation, or one with every quantity of QUANTITIES measured."""
+    return not record.get("ok") or all(key in record for key, _ in QUANTITIES)
 
 
 def mean_se(values) -> tuple[float, float, int]:
@@ -136,7 +166,7 @@ def table(records: list[dict], grains: int) -> str:
         for name, label, _ in SETTINGS:
             rows = [r for r in records if r["setting"] == name and r["pressure"] == p]
             ok = [r for r in rows if r.get("ok")]
-            cells = [_fmt(*mean_se(r[key] for r in ok)[:2]) for key, _ in QUANTITIES]
+            cells = [_fmt(*mean_se(r.get(key) for r in ok)[:2]) for key, _ in QUANTITIES]
             lines.append(f"| {label} | {len(ok)} | {len(rows) - len(ok)} | " + " | ".join(cells) + " |")
         lines.append("")
     return "\n".join(lines)
@@ -151,9 +181,9 @@ def shifts(records: list[dict]) -> str:
         for p in PRESSURES:
             cells = []
             for key, _ in QUANTITIES:
-                m, se, n = mean_se(r[key] for r in records
+                m, se, n = mean_se(r.get(key) for r in records
                                    if r["setting"] == name and r["pressure"] == p and r.get("ok"))
-                m0, se0, n0 = mean_se(r[key] for r in records
+                m0, se0, n0 = mean_se(r.get(key) for r in records
                                       if r["setting"] == "default" and r["pressure"] == p and r.get("ok"))
                 err = math.hypot(se, se0)
                 if n < 2 or n0 < 2 or not err > 0:
@@ -172,7 +202,7 @@ def spreads(records: list[dict]) -> str:
     for p in PRESSURES:
         parts = []
         for key, label in QUANTITIES:
-            means = [mean_se(r[key] for r in records if r["setting"] == name and r["pressure"] == p
+            means = [mean_se(r.get(key) for r in records if r["setting"] == name and r["pressure"] == p
                              and r.get("ok"))[0] for name, _, _ in SETTINGS]
             means = [m for m in means if math.isfinite(m)]
             if means:
@@ -193,11 +223,14 @@ def main(argv=None) -> int:
     ap.add_argument("--grains", type=int, default=600)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "protocol_sensitivity.jsonl")
+    ap.add_argument("--settings", nargs="+", choices=[name for name, _, _ in SETTINGS],
+                    help="prepare only these settings (default: all)")
     ap.add_argument("--table-only", action="store_true", help="only tabulate the results file")
     ap.add_argument("--write-docs", action="store_true", help="write the table into docs/dem.md")
     a = ap.parse_args(argv)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    done = {(r["setting"], r["pressure"], r["seed"]) for r in load(a.results) if r["grains"] == a.grains}
+    done = {(r["setting"], r["pressure"], r["seed"]) for r in load(a.results)
+            if r["grains"] == a.grains and complete(r)}
     # cheap pressure first (a p = 1e-7 packing costs about 6 times a 1e-4 one), then the
     # low pressure seed-major, the settings of FIRST_AT_LOW_P first, so that a run stopped
     # early leaves every setting with about the same number of seeds
@@ -205,7 +238,7 @@ def main(argv=None) -> int:
     tasks = [(name, over, p, seed, a.grains)
              for p in PRESSURES for seed in range(a.seeds)
              for name, _, over in sorted(SETTINGS, key=lambda s: order.get(s[0], len(order)))
-             if (name, p, seed) not in done]
+             if (name, p, seed) not in done and (a.settings is None or name in a.settings)]
     tasks.sort(key=lambda t: (PRESSURES.index(t[2]), order.get(t[0], len(order)) >= len(order), t[3]))
     if not a.table_only and tasks:
         print(f"{len(tasks)} packings to prepare ({len(done)} already in {a.results})", flush=True)

@@ -45,7 +45,8 @@ import numpy as np
 
 from .. import contact as C
 from ..errors import ConvergenceError, InputError
-from ..geometry import grain_inertia, grain_mass, grain_measure, lateral_size, wall_area, wrap
+from ..geometry import (EXPECTED_SOLID_FRACTION_2D, EXPECTED_SOLID_FRACTION_3D, grain_inertia, grain_mass,
+                        grain_measure, lateral_size, wall_area, wrap)
 from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
@@ -58,6 +59,37 @@ DT_RULE = ("(safety/0.1) * min over the normal and (friction) rotational mode of
 CONVERGENCE_TEST = ("piston touches grains; max |a|, |alpha| of grains and |a| of piston < tol; "
                     "max |v|, |w| R of grains and |v| of piston < velocity_tol (Hertz impact at tol); "
                     "static residual from stored contacts < tol")
+
+COMPACTION_RULES = {
+    "fixed": "background damping rate b / t_i at every height",
+    "height-scaled": ("background damping rate (b / t_i) min(1, reference_height / H_e), H_e the expected "
+                      "final height (grain area or volume / (expected solid fraction x lateral size))"),
+}
+
+
+def expected_height(radius, lateral) -> float:
+    """Expected final height of the grains ``radius`` in the periodic cell ``lateral`` (d): their
+    area (2D) or volume (3D) over the expected solid fraction times the lateral size; the inverse
+    of :func:`granwave.geometry.lateral_size` (aspect x width for a prepared packing)."""
+    dim = len(lateral) + 1
+    phi = EXPECTED_SOLID_FRACTION_2D if dim == 2 else EXPECTED_SOLID_FRACTION_3D
+    return float(np.sum(grain_measure(radius, dim))) / (phi * float(np.prod(lateral)))
+
+
+def damping_scale(params: PrepareParams, height: float) -> float:
+    """Factor on the background damping rate b / t_i for a column of expected height ``height``.
+
+    'fixed': 1. 'height-scaled': min(1, reference_height / height). In the overdamped
+    compaction of a tall column the piston drags a growing plug of grains through the
+    background damping, so with a fixed rate its speed falls as 1/H and the compaction
+    takes a time ~ H^2; with the rate ~ 1/H the compaction is the same in units of H (the
+    continuum problem is invariant under x -> x H, t -> t H, gamma -> gamma / H: the same
+    speeds at the same relative depth) and the slowest mode (frequency ~ 1/H) keeps the same
+    damping ratio, so time and steps grow as H. Columns up to ``reference_height`` keep b.
+    """
+    if params.compaction == "fixed" or height <= params.reference_height:
+        return 1.0
+    return params.reference_height / height
 
 
 def pressure_scales(pressure: float, mean_mass: float) -> tuple[float, float, float]:
@@ -135,7 +167,9 @@ class Compression:
         self.piston_mass = p.piston_mass if p.piston_mass is not None else mean_mass * float(np.prod(lateral))
         self.piston_force = p.pressure * wall_area(lateral)
         self.inertial_time = math.sqrt(mean_mass / p.pressure)  # sqrt(m / (p d))
-        self.gamma = p.background_damping / self.inertial_time
+        self.expected_height = expected_height(radius, lateral)
+        self.damping_scale = damping_scale(p, self.expected_height)
+        self.gamma = p.background_damping * self.damping_scale / self.inertial_time
         self.tol_v = impact_velocity(p.tol, mean_mass)
         self.engine = Engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
                              damping=p.damping, background_damping=self.gamma,
@@ -151,7 +185,10 @@ class Compression:
         a = dict(attrs)
         a.update(dim=p.dim, pressure=p.pressure, friction=p.friction, poisson=p.poisson, seed=p.seed,
                  damping=p.damping, background_damping=p.background_damping,
-                 background_damping_rate=self.gamma, piston_mass=self.piston_mass, dt=engine.dt,
+                 background_damping_rate=self.gamma, compaction=p.compaction,
+                 reference_height=p.reference_height, expected_height=self.expected_height,
+                 background_damping_scale=self.damping_scale, compaction_rule=COMPACTION_RULES[p.compaction],
+                 piston_mass=self.piston_mass, dt=engine.dt,
                  dt_safety=p.safety, dt_rule=DT_RULE, tol=p.tol, velocity_tol=self.tol_v,
                  time_scale=self.time_scale, inertial_time=self.inertial_time, steps=engine.steps,
                  rebuilds=engine.rebuilds, skin=p.skin, check_every=p.check_every,

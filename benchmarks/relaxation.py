@@ -1,0 +1,189 @@
+"""Steps a preparation needs to converge against the column height, old and new compaction (a script).
+
+    python benchmarks/relaxation.py [--width 25] [--heights 25 50 100 200 400]
+        [--pressures 1e-4 1e-7] [--seeds 1] [--old-max-height 200]
+        [--results benchmarks/relaxation.jsonl] [--table-only] [--write-docs]
+
+For each pressure, height H and seed, prepares a 2D frictional packing (the
+defaults of PrepareParams: mu = 0.5, polydispersity 0.2, zeta 0.5, b 0.3) of
+width ``--width`` and expected height H (N = 0.82 W H / mean grain area
+grains, aspect H / W) with the compaction 'fixed' (the protocol before: b at
+every height) and 'height-scaled' (b divided by H / reference_height above
+25 d), and records the steps to convergence (load independent, unlike
+seconds) and the bulk statistics of the packing (layer 3 d). 'fixed' is
+skipped above ``--old-max-height`` (its cost grows fastest); its steps
+there are extrapolated from its fitted exponent and marked as such.
+
+Fit: log(steps) = a + k log(H) by least squares over the heights measured,
+k with its 95 % interval (Student t, n - 2 degrees of freedom). Every
+finished preparation appends one JSON line to ``--results``; a rerun skips
+what is there. ``--write-docs`` regenerates the block of docs/dem.md between
+``<!-- relaxation:begin -->`` and ``<!-- relaxation:end -->``. Run with
+NUMBA_NUM_THREADS=1 (set by default) so that numbers are per core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+BEGIN, END = "<!-- relaxation:begin -->", "<!-- relaxation:end -->"
+COMPACTIONS = ("fixed", "height-scaled")
+STATS = [("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0")]
+
+
+def grains_for(width: float, height: float, polydispersity: float = 0.2) -> int:
+    """Grains that fill width x height (d) at the expected solid fraction (2D)."""
+    from granwave.geometry import EXPECTED_SOLID_FRACTION_2D
+
+    mean_area = math.pi / 4.0 * (1.0 + polydispersity**2 / 3.0)  # E[d^2] for d uniform in [1-W, 1+W]
+    return int(round(EXPECTED_SOLID_FRACTION_2D * width * height / mean_area))
+
+
+def measure(compaction: str, pressure: float, height: float, width: float, seed: int) -> dict:
+    """Prepare one column and return its record (steps, sizes, bulk statistics)."""
+    from granwave.analysis.statics import statics
+    from granwave.dem.protocol import prepare_packing
+    from granwave.params import PrepareParams
+
+    n = grains_for(width, height)
+    params = PrepareParams(dim=2, grains=n, pressure=pressure, aspect=height / width, seed=seed,
+                           compaction=compaction, max_steps=50_000_000)
+    t0 = time.process_time()
+    packing = prepare_packing(params)
+    cpu = time.process_time() - t0
+    s = statics(packing, layer=3.0)
+    return dict(compaction=compaction, pressure=pressure, height=height, width=width, seed=seed, grains=n,
+                steps=int(packing.attrs["steps"]), final_height=float(packing.height),
+                gamma=float(packing.attrs["background_damping_rate"]),
+                residual=float(packing.attrs["max_acceleration"]), cpu_s=cpu,
+                **{k: float(s[k]) for k in ("phi2", "z_star", "rattler_fraction", "F2", "mean_force_over_p",
+                                            "stress_ratio")})
+
+
+def load(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def fit(heights, steps) -> tuple[float, float, float, float] | None:
+    """(k, lo, hi, a): exponent of steps ~ H^k, its 95 % interval, log prefactor; None below 2 heights."""
+    from scipy import stats
+
+    h, s = np.log(np.asarray(heights, float)), np.log(np.asarray(steps, float))
+    if len(np.unique(h)) < 2:
+        return None
+    r = stats.linregress(h, s)
+    dof = len(h) - 2
+    half = stats.t.ppf(0.975, dof) * r.stderr if dof > 0 else float("nan")
+    return float(r.slope), float(r.slope - half), float(r.slope + half), float(r.intercept)
+
+
+def report(records: list[dict], heights, pressures, old_max: float) -> str:
+    lines = []
+    fits = {}
+    for p in pressures:
+        for c in COMPACTIONS:
+            rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] in heights]
+            f = fit([r["height"] for r in rows], [r["steps"] for r in rows])
+            fits[p, c] = f
+    lines.append("| p | H (d) | grains | steps, fixed | steps, height-scaled | ratio | Φ2 fixed / scaled "
+                 "| z* fixed / scaled | f0 fixed / scaled |")
+    lines.append("|" + "---|" * 9)
+    for p in pressures:
+        for h in heights:
+            cell = {}
+            for c in COMPACTIONS:
+                rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] == h]
+                cell[c] = rows
+            new, old = cell["height-scaled"], cell["fixed"]
+            if not new and not old:
+                continue
+            n = (new or old)[0]["grains"]
+            s_new = np.mean([r["steps"] for r in new]) if new else float("nan")
+            if old:
+                s_old = np.mean([r["steps"] for r in old])
+                old_txt = f"{s_old:,.0f}"
+            elif fits[p, "fixed"] is not None and h > old_max:
+                k, _, _, a = fits[p, "fixed"]
+                s_old = math.exp(a + k * math.log(h))
+                old_txt = f"({s_old:,.0f}, fit)"
+            else:
+                s_old, old_txt = float("nan"), "—"
+            new_txt = f"{s_new:,.0f}" if new else "—"
+            ratio = f"{s_old / s_new:.2f}" if math.isfinite(s_old) and math.isfinite(s_new) else "—"
+            st = []
+            for key, _ in STATS:
+                a = f"{np.mean([r[key] for r in old]):.4f}" if old else "—"
+                b = f"{np.mean([r[key] for r in new]):.4f}" if new else "—"
+                st.append(f"{a} / {b}")
+            lines.append(f"| {p:g} | {h:g} | {n} | {old_txt} | {new_txt} | {ratio} | " + " | ".join(st) + " |")
+    lines.append("")
+    lines.append("Fitted exponent k of steps ∝ H^k (least squares in log-log over the measured heights, "
+                 "95 % interval):")
+    lines.append("")
+    for p in pressures:
+        for c in COMPACTIONS:
+            f = fits[p, c]
+            hs = sorted({r["height"] for r in records if r["pressure"] == p and r["compaction"] == c
+                         and r["height"] in heights})
+            if f is None:
+                lines.append(f"- p = {p:g}, {c}: fewer than two heights measured")
+                continue
+            k, lo, hi, _ = f
+            ci = f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) else " (two heights: no interval)"
+            lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over H = {', '.join(f'{h:g}' for h in hs)}")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--width", type=float, default=25.0)
+    ap.add_argument("--heights", type=float, nargs="+", default=[25, 50, 100, 200, 400])
+    ap.add_argument("--pressures", type=float, nargs="+", default=[1e-4, 1e-7])
+    ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--old-max-height", type=float, default=200.0,
+                    help="largest height prepared with the 'fixed' compaction (default 200)")
+    ap.add_argument("--only", choices=COMPACTIONS, help="prepare only this compaction")
+    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "relaxation.jsonl")
+    ap.add_argument("--table-only", action="store_true")
+    ap.add_argument("--write-docs", action="store_true")
+    a = ap.parse_args(argv)
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    done = {(r["compaction"], r["pressure"], r["height"], r["seed"]) for r in load(a.results)
+            if r["width"] == a.width}
+    tasks = [(c, p, h, s) for c in COMPACTIONS for p in a.pressures for h in a.heights for s in range(a.seeds)
+             if (c, p, h, s) not in done and not (c == "fixed" and h > a.old_max_height)
+             and (a.only is None or c == a.only)]
+    # cheapest first (grain-steps ~ N H^k p^(-1/3)), so that a stopped run leaves the small heights
+    tasks.sort(key=lambda t: t[2] ** (2.4 if t[0] == "fixed" else 2.0) * t[1] ** (-1.0 / 3.0))
+    if not a.table_only:
+        for c, p, h, s in tasks:
+            rec = measure(c, p, h, a.width, s)
+            with open(a.results, "a") as fh:
+                fh.write(json.dumps(rec) + "\n")
+            print(f"{c} p={p:g} H={h:g} seed={s}: {rec['steps']} steps ({rec['grains']} grains, "
+                  f"{rec['cpu_s']:.0f} s cpu)", flush=True)
+    records = [r for r in load(a.results) if r["width"] == a.width]
+    text = (f"Width {a.width:g} d, 2D, μ = 0.5, polydispersity 0.2, seeds 0 … {a.seeds - 1} (mean steps), "
+            f"'fixed' prepared up to H = {a.old_max_height:g}:\n\n"
+            + report(records, sorted(a.heights), a.pressures, a.old_max_height))
+    print(text)
+    if a.write_docs:
+        from granwave.io.files import replace_marked_block
+
+        replace_marked_block(ROOT / "docs" / "dem.md", BEGIN, END, text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
