@@ -88,6 +88,15 @@ def fit(heights, steps) -> tuple[float, float, float, float] | None:
     return float(r.slope), float(r.slope - half), float(r.slope + half), float(r.intercept)
 
 
+def _mean_se(values) -> str:
+    """Mean (± standard error over more than one value) with four decimals; — for none."""
+    if not values:
+        return "—"
+    if len(values) == 1:
+        return f"{values[0]:.4f}"
+    return f"{np.mean(values):.4f} ± {np.std(values, ddof=1) / math.sqrt(len(values)):.4f}"
+
+
 def report(records: list[dict], heights, pressures, old_max: float) -> str:
     lines = []
     fits = {}
@@ -96,9 +105,9 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
             rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] in heights]
             f = fit([r["height"] for r in rows], [r["steps"] for r in rows])
             fits[p, c] = f
-    lines.append("| p | H (d) | grains | steps, fixed | steps, height-scaled | ratio | Φ2 fixed / scaled "
-                 "| z* fixed / scaled | f0 fixed / scaled |")
-    lines.append("|" + "---|" * 9)
+    lines.append("| p | H (d) | grains | seeds fixed / scaled | steps, fixed | steps, height-scaled | ratio "
+                 "| Φ2 fixed / scaled | z* fixed / scaled | f0 fixed / scaled |")
+    lines.append("|" + "---|" * 10)
     for p in pressures:
         for h in heights:
             cell = {}
@@ -121,12 +130,9 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
                 s_old, old_txt = float("nan"), "—"
             new_txt = f"{s_new:,.0f}" if new else "—"
             ratio = f"{s_old / s_new:.2f}" if math.isfinite(s_old) and math.isfinite(s_new) else "—"
-            st = []
-            for key, _ in STATS:
-                a = f"{np.mean([r[key] for r in old]):.4f}" if old else "—"
-                b = f"{np.mean([r[key] for r in new]):.4f}" if new else "—"
-                st.append(f"{a} / {b}")
-            lines.append(f"| {p:g} | {h:g} | {n} | {old_txt} | {new_txt} | {ratio} | " + " | ".join(st) + " |")
+            st = [f"{_mean_se([r[key] for r in old])} / {_mean_se([r[key] for r in new])}" for key, _ in STATS]
+            lines.append(f"| {p:g} | {h:g} | {n} | {len(old)} / {len(new)} | {old_txt} | {new_txt} | {ratio} | "
+                         + " | ".join(st) + " |")
     lines.append("")
     lines.append("Fitted exponent k of steps ∝ H^k (least squares in log-log over the measured heights, "
                  "95 % interval):")
@@ -151,6 +157,7 @@ def main(argv=None) -> int:
     ap.add_argument("--heights", type=float, nargs="+", default=[25, 50, 100, 200, 400])
     ap.add_argument("--pressures", type=float, nargs="+", default=[1e-4, 1e-7])
     ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
     ap.add_argument("--old-max-height", type=float, default=200.0,
                     help="largest height prepared with the 'fixed' compaction (default 200)")
     ap.add_argument("--only", choices=COMPACTIONS, help="prepare only this compaction")
@@ -161,7 +168,7 @@ def main(argv=None) -> int:
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     done = {(r["compaction"], r["pressure"], r["height"], r["seed"]) for r in load(a.results)
             if r["width"] == a.width}
-    tasks = [(c, p, h, s) for c in COMPACTIONS for p in a.pressures for h in a.heights for s in range(a.seeds)
+    tasks = [(c, p, h, s) for c in COMPACTIONS for p in a.pressures for h in a.heights for s in range(a.first_seed, a.first_seed + a.seeds)
              if (c, p, h, s) not in done and not (c == "fixed" and h > a.old_max_height)
              and (a.only is None or c == a.only)]
     # cheapest first (grain-steps ~ N H^k p^(-1/3)), so that a stopped run leaves the small heights
@@ -174,8 +181,8 @@ def main(argv=None) -> int:
             print(f"{c} p={p:g} H={h:g} seed={s}: {rec['steps']} steps ({rec['grains']} grains, "
                   f"{rec['cpu_s']:.0f} s cpu)", flush=True)
     records = [r for r in load(a.results) if r["width"] == a.width]
-    text = (f"Width {a.width:g} d, 2D, μ = 0.5, polydispersity 0.2, seeds 0 … {a.seeds - 1} (mean steps), "
-            f"'fixed' prepared up to H = {a.old_max_height:g}:\n\n"
+    text = (f"Width {a.width:g} d, 2D, μ = 0.5, polydispersity 0.2; mean steps over the seeds prepared "
+            f"(each seed one point of the fit); 'fixed' prepared up to H = {a.old_max_height:g}:\n\n"
             + report(records, sorted(a.heights), a.pressures, a.old_max_height))
     print(text)
     if a.write_docs:
