@@ -43,8 +43,8 @@ PRESSURES = (1e-4, 1e-7)
 #: (name, label, PrepareParams overrides); "piston_mass_factor" multiplies the default
 #: piston mass (one layer of grains: mean grain mass x L1), computed per seed.
 SETTINGS = [
-    ("default", "default (ζ 0.5, b 0.3, M = 1 layer, gas 0.50, height-scaled)", {}),
-    ("fixed", "compaction 'fixed' (b at every height)", {"compaction": "fixed"}),
+    ("default", "default (ζ 0.5, b 0.3, M = 1 layer, gas 0.50, compaction fixed)", {}),
+    ("scaled", "compaction 'height-scaled'", {"compaction": "height-scaled"}),
     ("zeta0.1", "contact damping ζ = 0.1", {"damping": 0.1}),
     ("zeta0.9", "contact damping ζ = 0.9", {"damping": 0.9}),
     ("b0.1", "background damping b = 0.1", {"background_damping": 0.1}),

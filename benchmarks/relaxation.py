@@ -12,7 +12,8 @@ every height) and 'height-scaled' (b divided by H / reference_height above
 25 d), and records the steps to convergence (load independent, unlike
 seconds) and the bulk statistics of the packing (layer 3 d). 'fixed' is
 skipped above ``--old-max-height`` (its cost grows fastest); its steps
-there are extrapolated from its fitted exponent and marked as such.
+where it was not prepared are extrapolated from its fitted exponent and
+marked "(…, fit)".
 
 Fit: log(steps) = a + k log(H) by least squares over the heights measured,
 k with its 95 % interval (Student t, n - 2 degrees of freedom). Every
@@ -122,7 +123,7 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
             if old:
                 s_old = np.mean([r["steps"] for r in old])
                 old_txt = f"{s_old:,.0f}"
-            elif fits[p, "fixed"] is not None and h > old_max:
+            elif fits[p, "fixed"] is not None:  # not prepared (above --old-max-height, or stopped)
                 k, _, _, a = fits[p, "fixed"]
                 s_old = math.exp(a + k * math.log(h))
                 old_txt = f"({s_old:,.0f}, fit)"

@@ -176,10 +176,11 @@ class PrepareParams(Params):
     height / width); damping zeta (fraction of critical); background_damping b,
     the viscous rate gamma = b / t_i with t_i = sqrt(m_mean / (p d)) (force
     -gamma m v on grains and piston; it sets the compaction speed, hence density
-    and coordination: keep it fixed within a study); compaction ('height-scaled':
-    b divided by H_e / reference_height where the expected final height H_e
-    exceeds reference_height (d), so that the compaction is the same in units
-    of H at every height and the steps grow as H; 'fixed': b at every height);
+    and coordination: keep it fixed within a study); compaction ('fixed': b at
+    every height; 'height-scaled': b divided by H_e / reference_height where the
+    expected final height H_e exceeds reference_height (d), so that the
+    compaction is the same in units of H at every height and the steps grow as H;
+    tall columns then differ from 'fixed' ones, docs/dem.md);
     reference_height (d); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
@@ -202,12 +203,12 @@ class PrepareParams(Params):
     background_damping: float = param(
         0.3, help="Background viscous damping rate in units of 1/t_i, t_i = sqrt(m/(p d)) (sets the "
         "compaction speed; keep it fixed within a study).", lo=0.0)
-    compaction: str = param("height-scaled", help="How the background damping rate follows the column "
-                            "height: 'height-scaled' divides b by H/reference_height in columns "
-                            "expected taller than reference_height (compaction speed field and "
-                            "relaxation cost then scale with H; docs/dem.md), 'fixed' keeps b at "
-                            "every height (the protocol before; steps grow about as H^1.4).",
-                            choices=("height-scaled", "fixed"))
+    compaction: str = param("fixed", help="How the background damping rate follows the column height: "
+                            "'fixed' keeps b at every height (steps grow about as H^1.7); "
+                            "'height-scaled' divides b by H/reference_height in columns expected "
+                            "taller than reference_height (steps grow as H, but tall columns come "
+                            "out denser than with 'fixed'; docs/dem.md).",
+                            choices=("fixed", "height-scaled"))
     reference_height: float = param(25.0, help="Height up to which b applies unscaled "
                                     "(compaction 'height-scaled').", units="d", lo=0.0, lo_open=True)
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "

@@ -23,7 +23,7 @@ BEFORE = dict(grains=80, seed=3, aspect=2.0)
 BEFORE_DIGEST = "88df15a2b4cd0435a5d065a527249a0d6c141d7a9307212b0f592dc7d207b075"
 BEFORE_STEPS = 19020
 #: a reference height below the column's, so that the height-scaled rule acts
-SCALED = dict(BEFORE, reference_height=5.0)
+SCALED = dict(BEFORE, reference_height=5.0, compaction="height-scaled")
 
 
 def digest(packing) -> str:
@@ -41,10 +41,12 @@ def scaled():
 
 
 def test_damping_scale_rule():
-    assert damping_scale(PrepareParams(compaction="fixed"), 400.0) == 1.0
-    assert damping_scale(PrepareParams(), 25.0) == 1.0  # up to reference_height: b unscaled
-    assert damping_scale(PrepareParams(), 100.0) == 0.25
-    assert damping_scale(PrepareParams(reference_height=10.0), 40.0) == 0.25
+    assert PrepareParams().compaction == "fixed"  # the default: the protocol before
+    assert damping_scale(PrepareParams(), 400.0) == 1.0
+    scaled = PrepareParams(compaction="height-scaled")
+    assert damping_scale(scaled, 25.0) == 1.0  # up to reference_height: b unscaled
+    assert damping_scale(scaled, 100.0) == 0.25
+    assert damping_scale(PrepareParams(compaction="height-scaled", reference_height=10.0), 40.0) == 0.25
 
 
 def test_expected_height_inverts_lateral_size():
@@ -90,7 +92,7 @@ def test_before_reproduced(compaction):
 
 
 def test_fixed_ignores_height():
-    pk = prepare_packing(PrepareParams(**SCALED, compaction="fixed"))
+    pk = prepare_packing(PrepareParams(**{**SCALED, "compaction": "fixed"}))
     assert pk.attrs["compaction"] == "fixed" and pk.attrs["background_damping_scale"] == 1.0
     assert digest(pk) == BEFORE_DIGEST
 
