@@ -146,9 +146,9 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     engine.fpar[K.F_DT] = dt
     K.compute_forces(engine.position, engine.velocity, engine.angular_velocity, engine.radius,
                      engine.mass, engine.inertia, engine.lateral, engine.pair_i, engine.pair_j,
-                     engine.ipar[K.I_NPAIRS], engine.pair_ft, engine.pair_ov, engine.wall_ft,
-                     engine.wall_ov, engine.piston, engine.fpar, engine.acceleration,
-                     engine.angular_acceleration, engine.out)
+                     engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                     engine.fpar, engine.ipar, engine.acceleration, engine.angular_acceleration,
+                     engine.out, engine.ws)
     K.to_accelerations(engine.acceleration, engine.angular_acceleration, engine.mass, engine.inertia)
     engine.fpar[K.F_DT] = keep
 
@@ -371,11 +371,12 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                              engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
                              engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
                              engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
-                             engine.fpar, engine.ipar, engine.out, pair_state, wall_state, k, k_stop, sub,
+                             engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
+                             k_stop, sub,
                              top, stats)
         if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
             k = -r
-            _grow(engine, int(engine.ipar[K.I_NEEDED]))
+            engine.grow(int(engine.ipar[K.I_NEEDED]), int(engine.ipar[K.I_WIDTH]))
             grown = np.zeros(engine.pair_i.shape[0], np.int8)
             grown[: len(pair_state)] = pair_state
             pair_state = grown
@@ -400,16 +401,6 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.CONE0))),
                 n_at_cone_initial=count(PK.CONE0), max_displacement=float(stats[0]),
                 rebuilds=int(engine.rebuilds))
-
-
-def _grow(engine: Engine, needed: int) -> None:
-    """Room for ``needed`` pairs in the engine's pair arrays (contents kept)."""
-    cap = int(needed * 1.5) + 64
-    for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
-        old = getattr(engine, name)
-        new = np.zeros((cap, *old.shape[1:]), old.dtype)
-        new[: len(old)] = old
-        setattr(engine, name, new)
 
 
 # ---------------------------------------------------------------- damping series

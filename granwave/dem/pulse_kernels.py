@@ -132,7 +132,7 @@ def max_displacement(pos, pos_ref, lateral):
 
 @numba.njit(cache=True)
 def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
-                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, pair_state,
+                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
                   wall_state, k_start, k_stop, sub, force_out, stats):
     """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample.
 
@@ -140,7 +140,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     normal forces of the top-wall contacts) at sample k. ``stats[0]`` holds
     the largest grain displacement so far. Returns the next sample to run
     (``k_stop`` when done), or minus it when the pair list needs more room
-    (``ipar[I_NEEDED]`` pairs; the state is then between steps of that
+    (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours; the state is then between steps of that
     sample, which the caller resumes after growing the arrays: the steps
     already done inside the sample are kept in ``stats[1]``).
     """
@@ -156,7 +156,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
         for _ in range(done, sub):
             rebuilds = ipar[K.I_REBUILDS]
             status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
-                                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out)
+                                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
             if status == 2:
                 return -k
             if ipar[K.I_REBUILDS] != rebuilds:
