@@ -28,6 +28,7 @@ import numpy as np
 from .. import contact as C
 from ..errors import InputError
 from ..geometry import grain_inertia, grain_mass, n_rotations
+from ..threads import at_most
 from . import kernels as K
 from .neighbours import rebuild
 
@@ -170,18 +171,19 @@ class Engine:
         test passed, 3 if the state blew up (unstable time step; see
         :func:`kernels.run_chunk`), else 0."""
         target = self.steps + int(n_steps)
-        while self.steps < target:
-            self.ipar[K.I_NSTEPS] = target - self.steps
-            status = K.run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
-                                 self.angular_acceleration, self.radius, self.mass, self.inertia,
-                                 self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
-                                 self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
-                                 self.ipar, self.out, self.ws)
-            if status == 2:
-                self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
-                continue
-            if status in (1, 3):
-                return status
+        with at_most(len(self.radius), K.MIN_PARALLEL_GRAINS):
+            while self.steps < target:
+                self.ipar[K.I_NSTEPS] = target - self.steps
+                status = K.run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
+                                     self.angular_acceleration, self.radius, self.mass, self.inertia,
+                                     self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
+                                     self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
+                                     self.ipar, self.out, self.ws)
+                if status == 2:
+                    self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
+                    continue
+                if status in (1, 3):
+                    return status
         return 0
 
     def measure(self) -> dict:

@@ -36,6 +36,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from ..geometry import nearest_image
 from . import neighbours
 
@@ -713,6 +714,12 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
     else:
         out[O_APISTON] = 0.0
     out[O_KIN] = kin
+
+
+#: Below this many grains the engine runs on one thread (the same results): two parallel
+#: regions per step cost more than they save on a small system (applied by the callers,
+#: :func:`granwave.threads.at_most`: numba.set_num_threads inside a kernel stops caching).
+MIN_PARALLEL_GRAINS = 1000
 
 
 @numba.njit(cache=True)

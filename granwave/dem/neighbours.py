@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from ..geometry import periodic_distance2
+from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 
 
 @numba.njit(cache=True, inline="always")
@@ -200,3 +201,21 @@ def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old,
         for t in range(lo, ncnt[i]):
             gl[i, t] = new_row[i] + t - lo
     return m
+
+
+def candidate_keys(pos, rad, lateral, h, skin) -> np.ndarray:
+    """Sorted keys i*N + j (i < j) of the pairs with surface gap below ``skin`` (the pair
+    list :func:`rebuild` makes; positions wrapped into [0, L))."""
+    pos = np.ascontiguousarray(pos, dtype=np.float64)
+    n = pos.shape[0]
+    width = 16
+    while True:
+        nbr = np.zeros((n, width), np.int64)
+        ncnt = np.zeros(n, np.int64)
+        nlo = np.zeros(n, np.int64)
+        find_neighbours(pos, np.ascontiguousarray(rad, dtype=np.float64),
+                        np.ascontiguousarray(lateral, dtype=np.float64), float(h), float(skin), nbr, ncnt, nlo)
+        if n == 0 or ncnt.max() <= width:
+            break
+        width = int(ncnt.max())
+    return np.concatenate([i * n + nbr[i, nlo[i]:ncnt[i]] for i in range(n)] + [np.zeros(0, np.int64)])

@@ -65,6 +65,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Packing, Signal
 from ..resources import check_propagate
+from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
 from . import kernels as K
 from . import pulse_kernels as PK
@@ -367,13 +368,13 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     while k < samples:
         k_stop = min(samples, k + chunk)
         t0 = _time.perf_counter()
-        r = PK.pulse_samples(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
-                             engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
-                             engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
-                             engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
-                             engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
-                             k_stop, sub,
-                             top, stats)
+        with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
+            r = PK.pulse_samples(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+                                 engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
+                                 engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
+                                 engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                                 engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
+                                 k_stop, sub, top, stats)
         if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
             k = -r
             engine.grow(int(engine.ipar[K.I_NEEDED]), int(engine.ipar[K.I_WIDTH]))
