@@ -244,3 +244,28 @@ def elastic_energy_kernel(engine: Engine) -> float:
         if engine.friction > 0.0 and kt > 0.0:
             e += float(np.dot(c.force_tangential[k], c.force_tangential[k])) / (2.0 * kt)
     return e
+
+
+def eta_seconds(history, tol: float, steps_per_second: float, window: int = 8) -> float | None:
+    """Seconds until max |a| reaches ``tol`` at the decay rate of the recent chunks, or None.
+
+    ``history``: (steps, max |a|) after each chunk. The rate is the least-squares slope of
+    log max |a| against steps over the last ``window`` chunks; None (unknown) with fewer
+    than 3 chunks, a slope that is not a decay, or no rate yet. An estimate, not a promise:
+    the end game of a relaxation often slows down (max |a| decays in bursts).
+    """
+    pts = [(s, a) for s, a in history[-window:] if a > 0 and math.isfinite(a)]
+    if len(pts) < 3 or not steps_per_second > 0:
+        return None
+    s = np.array([p[0] for p in pts], float)
+    y = np.log([p[1] for p in pts])
+    s -= s.mean()
+    if not np.any(s):
+        return None
+    slope = float(np.dot(s, y - y.mean()) / np.dot(s, s))
+    a_now = pts[-1][1]
+    if a_now <= tol:
+        return 0.0
+    if not slope < 0:
+        return None
+    return math.log(tol / a_now) / slope / steps_per_second

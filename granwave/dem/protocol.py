@@ -49,7 +49,7 @@ from ..geometry import grain_inertia, grain_mass, grain_measure, lateral_size, w
 from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
-from .integrator import Engine
+from .integrator import Engine, eta_seconds
 from ..params import PrepareParams, default_gas_density
 
 DT_RULE = ("(safety/0.1) * min over the normal and (friction) rotational mode of the stiffest contact "
@@ -199,9 +199,11 @@ class Compression:
             if progress is not None and now - last > 1.0:
                 m = engine.measure()
                 rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
+                eta = eta_seconds(history, p.tol, rate / engine.position.shape[0])
                 progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
                          f"  max|v| {m['max_speed']:.3e}  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
-                         f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s")
+                         f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
+                         f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
         m = engine.measure()
         raise ConvergenceError(f"{p.max_steps} steps {failure}: "

@@ -37,7 +37,7 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..threads import at_most  # (importing it selects the threading layer first)
 from ..model import LinearSystem, Modes, Signal
-from ..resources import check_propagate
+from ..resources import check_propagate, check_time_domain
 from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
 
@@ -308,7 +308,7 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     progress : called with a one-line message about every ``progress_interval`` s.
     """
     ic = _check_ic(ic)
-    check_propagate(system.n_dof, samples, 0 if snapshots is None else np.size(snapshots))
+    check_time_domain(system.n_dof, system.stiffness.nnz, samples, 0 if snapshots is None else np.size(snapshots))
     times = sample_times(t_max, samples)
     h = times[1] - times[0]
     dt_auto, wmax = stable_time_step(system, safety=safety)
