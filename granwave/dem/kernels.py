@@ -175,23 +175,25 @@ N_GCOL = 10
 
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains and room for ``cap`` pairs,
-    ``width`` neighbours per grain: (nbr, gl, ncnt, nlo, row, need, pair_on, pair_f, pair_t,
-    blk_p, blk_g, top_f)."""
+    ``width`` neighbours per grain: (nbr, gl, ncnt, nlo, row, need, pair_w, blk_p, blk_g, top_f);
+    ``pair_w`` holds per pair the force on i (d columns), then the torques on i and on j
+    (r columns each), in one row so that a grain's gather reads one cache line per pair."""
     nblk_g = (n_grains + GRAIN_BLOCK - 1) // GRAIN_BLOCK
     nblk_p = (cap + PAIR_BLOCK - 1) // PAIR_BLOCK
     return (np.zeros((n_grains, width), np.int64), np.zeros((n_grains, width), np.int64),
             np.zeros(n_grains, np.int64), np.zeros(n_grains, np.int64), np.zeros(n_grains + 1, np.int64),
-            np.zeros(2, np.int64), np.zeros(cap, np.int8), np.zeros((cap, dim)),
-            np.zeros((cap, 2 * n_rot)), np.zeros((max(1, nblk_p), 2)), np.zeros((max(1, nblk_g), N_GCOL)),
+            np.zeros(2, np.int64), np.zeros((cap, dim + 2 * n_rot)),
+            np.zeros((max(1, nblk_p), 2)), np.zeros((max(1, nblk_g), N_GCOL)),
             np.zeros(max(1, nblk_g) * GRAIN_BLOCK))
 
 
 @numba.njit(cache=True, parallel=True)
 def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-               pair_on, pair_f, pair_t, blk_p):
-    """Force of every pair on its grain i into ``pair_f`` (j receives minus it), the torques
-    a_i (n x f) on i and a_j (n x f) on j into ``pair_t`` (columns 0:r and r:2r), 1 in
-    ``pair_on`` where the grains touch; tangential histories updated. Largest overlap and
+               pair_w, blk_p):
+    """Force of every pair on its grain i into ``pair_w[:, :d]`` (j receives minus it), the
+    torques a_i (n x f) on i and a_j (n x f) on j into columns d:d+r and d+r:d+2r (zeros where
+    the grains do not touch: adding them changes no bit of a sum that starts from +0);
+    tangential histories updated. Largest overlap and
     contact count of each block of PAIR_BLOCK pairs into ``blk_p``.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
@@ -230,7 +232,8 @@ def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair
             rj = rad[j]
             rs = ri + rj
             if r2 >= rs * rs:
-                pair_on[p] = 0
+                for a in range(d + 2 * r):
+                    pair_w[p, a] = 0.0
                 if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
                     pair_ov[p] = 0.0
                     for a in range(d):
@@ -276,25 +279,24 @@ def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair
                 if d == 3:
                     pair_ft[p, 2] = hz
             pair_ov[p] = delta
-            pair_on[p] = 1
-            pair_f[p, 0] = fx
-            pair_f[p, 1] = fy
+            pair_w[p, 0] = fx
+            pair_w[p, 1] = fy
             if d == 3:
-                pair_f[p, 2] = fz
+                pair_w[p, 2] = fz
             if r == 1:
                 c = nx * fy - ny * fx
-                pair_t[p, 0] = ai * c
-                pair_t[p, 1] = aj * c
+                pair_w[p, d] = ai * c
+                pair_w[p, d + 1] = aj * c
             elif r == 3:
                 c0 = ny * fz - nz * fy
                 c1 = nz * fx - nx * fz
                 c2 = nx * fy - ny * fx
-                pair_t[p, 0] = ai * c0
-                pair_t[p, 1] = ai * c1
-                pair_t[p, 2] = ai * c2
-                pair_t[p, 3] = aj * c0
-                pair_t[p, 4] = aj * c1
-                pair_t[p, 5] = aj * c2
+                pair_w[p, d] = ai * c0
+                pair_w[p, d + 1] = ai * c1
+                pair_w[p, d + 2] = ai * c2
+                pair_w[p, d + 3] = aj * c0
+                pair_w[p, d + 4] = aj * c1
+                pair_w[p, d + 5] = aj * c2
             if delta > dmax:
                 dmax = delta
             ncontact += 1
@@ -304,7 +306,7 @@ def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair
 
 @numba.njit(cache=True, parallel=True)
 def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                nbr_gl, ncnt, nlo, pair_on, pair_f, pair_t, blk_g, top_f, kick, stats, drift):
+                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
     """Per grain: its pair forces gathered in increasing pair order, then its two wall
     contacts (bottom, top), then the background damping -gamma m v, -gamma I w: the
     order of the former serial force loop, so sums are bit for bit those of one thread.
@@ -350,31 +352,29 @@ def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, 
             t1 = 0.0
             t2 = 0.0
             lo = nlo[i]
-            for t in range(ncnt[i]):
+            for t in range(lo):  # pairs where i is the j (lower pair indices first)
                 p = nbr_gl[i, t]
-                if pair_on[p] == 0:
-                    continue
-                if t < lo:  # i is the pair's j
-                    f0 -= pair_f[p, 0]
-                    f1 -= pair_f[p, 1]
-                    if d == 3:
-                        f2 -= pair_f[p, 2]
-                    if r == 1:
-                        t0 += pair_t[p, 1]
-                    elif r == 3:
-                        t0 += pair_t[p, 3]
-                        t1 += pair_t[p, 4]
-                        t2 += pair_t[p, 5]
-                else:
-                    f0 += pair_f[p, 0]
-                    f1 += pair_f[p, 1]
-                    if d == 3:
-                        f2 += pair_f[p, 2]
-                    if r >= 1:
-                        t0 += pair_t[p, 0]
-                    if r == 3:
-                        t1 += pair_t[p, 1]
-                        t2 += pair_t[p, 2]
+                f0 -= pair_w[p, 0]
+                f1 -= pair_w[p, 1]
+                if d == 3:
+                    f2 -= pair_w[p, 2]
+                if r == 1:
+                    t0 += pair_w[p, d + 1]
+                elif r == 3:
+                    t0 += pair_w[p, d + 3]
+                    t1 += pair_w[p, d + 4]
+                    t2 += pair_w[p, d + 5]
+            for t in range(lo, ncnt[i]):  # pairs where i is the i
+                p = nbr_gl[i, t]
+                f0 += pair_w[p, 0]
+                f1 += pair_w[p, 1]
+                if d == 3:
+                    f2 += pair_w[p, 2]
+                if r >= 1:
+                    t0 += pair_w[p, d]
+                if r == 3:
+                    t1 += pair_w[p, d + 1]
+                    t2 += pair_w[p, d + 2]
             # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
             y = pos[i, d - 1]
             R = rad[i]
@@ -554,14 +554,12 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     contact force (its grains' forces summed in grain order) and acceleration; with
     ``stats`` the convergence measures as :func:`measure` (the kinetic energy summed by
     blocks: only its finiteness is used)."""
-    nbr_gl, ncnt, nlo, pair_on, pair_f, pair_t, blk_p, blk_g, top_f = (ws[1], ws[2], ws[3], ws[6],
-                                                                        ws[7], ws[8], ws[9], ws[10],
-                                                                        ws[11])
+    nbr_gl, ncnt, nlo, pair_w, blk_p, blk_g, top_f = ws[1], ws[2], ws[3], ws[6], ws[7], ws[8], ws[9]
     npairs = ipar[I_NPAIRS]
     _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-               pair_on, pair_f, pair_t, blk_p)
+               pair_w, blk_p)
     _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                nbr_gl, ncnt, nlo, pair_on, pair_f, pair_t, blk_g, top_f, kick, stats, drift)
+                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
     n = pos.shape[0]
     nblk_p = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
     nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
@@ -745,7 +743,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     """
     n, d = pos.shape
     nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    blk_g = ws[10]
+    blk_g = ws[8]
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
