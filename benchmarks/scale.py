@@ -128,6 +128,49 @@ def time_threads(n_grains: int, steps: int, threads=(1, 2)) -> dict:
     return dict(per_step=per_step, dof=system.n_dof, same=len(set(finals.values())) == 1)
 
 
+LAYER_CHILD = r"""
+import json, time, numba, numpy as np
+@numba.njit(parallel=True)
+def region(x):
+    for b in numba.prange(x.shape[0]):
+        x[b] += 1.0
+@numba.njit
+def many(x, k):
+    for _ in range(k):
+        region(x)
+x = np.zeros(64)
+many(x, 10)
+out = {"layer": numba.threading_layer()}
+for t in (1, 2):
+    numba.set_num_threads(min(t, numba.config.NUMBA_NUM_THREADS))
+    w = time.perf_counter(); many(x, 20000)
+    out[t] = (time.perf_counter() - w) / 20000 * 1e6
+print(json.dumps(out))
+"""
+
+
+def layer_costs() -> list[tuple[str, str]]:
+    """Microseconds per (empty) parallel region at 1 and 2 threads for each threading layer,
+    each in a child process (a process keeps the layer it started)."""
+    import json
+    import subprocess
+
+    rows = []
+    for layer, wait in (("omp", "PASSIVE"), ("omp", "ACTIVE"), ("workqueue", None), ("tbb", None)):
+        env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY",)}
+        env["NUMBA_THREADING_LAYER"] = layer
+        if wait:
+            env["OMP_WAIT_POLICY"] = wait
+        name = layer + (f" ({wait.lower()})" if wait else "")
+        r = subprocess.run([sys.executable, "-c", LAYER_CHILD], env=env, capture_output=True, text=True)
+        if r.returncode != 0:
+            rows.append((name, "not available"))
+            continue
+        out = json.loads(r.stdout.strip().splitlines()[-1])
+        rows.append((name, f"{out['1']:.1f} us (1 thread), {out['2']:.1f} us (2 threads)"))
+    return rows
+
+
 def per_core_vs_lammps(packing, steps: int) -> tuple[float, float | None, str]:
     import numba
     from dem import engine_rate, lammps_rate
@@ -161,6 +204,7 @@ def main_table(quick: bool, write_docs: bool) -> None:
     else:
         rows.append(("per core, 600 grains (CPU grain-steps/s)", f"{cpu:.3g}", float("nan"),
                      GOALS["lammps"], note))
+    layers = layer_costs()
     end = load()
     print(f"end: {end}")
     width = max(len(x[0]) for x in rows)
@@ -168,6 +212,9 @@ def main_table(quick: bool, write_docs: bool) -> None:
              f"|{'-' * (width + 2)}|{'-' * 24}|-------|------|------|"]
     for name, vals, ratio, goal, note_ in rows:
         lines.append(f"| {name:<{width}} | {vals:<22} | {ratio:5.2f} | {goal:4.1f} | {note_} |")
+    lines += ["", "Cost of one empty parallel region per threading layer (the engine runs two per step, "
+              "the time domain one):", ""]
+    lines += [f"- {name}: {cost}" for name, cost in layers]
     table = "\n".join(lines)
     print(table)
     if write_docs:
@@ -219,8 +266,11 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None) -> None:
         n = rows * width
         n_dof, entries = 3 * n, 3 * n * 3 * 7  # 3 dofs, 6 neighbours + itself, 3 x 3 blocks
         need = 600.0 * n + 10 * 8 * n_dof + 40.0 * entries
+        steps = 6800 * rows / 316  # one crossing: 6800 steps at 316 rows (docs/linear.md)
+        minutes = steps * n_dof * 3e-8 / 60  # 9 ms per step at 3e5 dofs on one core (docs/linear.md)
         print(f"  {n} grains, {n_dof} dofs: estimated memory {resources.format_bytes(need)} "
-              f"(available {resources.format_bytes(resources.available_memory())})")
+              f"(available {resources.format_bytes(resources.available_memory())}); ~{steps:.3g} steps, "
+              f"~{minutes:.0f} min on one core at the measured 30 ns per dof-step")
         if dry_run:
             return
         from linear import crossing_time
