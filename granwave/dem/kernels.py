@@ -203,6 +203,17 @@ def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair
     included, stays in registers (contact.py's scalar forms of the law). Each pair writes
     only its own slots: no two threads touch the same memory.
     """
+    nblk = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
+    for b in numba.prange(nblk):
+        _pair_block(np.int64(b), pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
+                    pair_w, blk_p)
+
+
+@numba.njit(cache=True)
+def _pair_block(b, pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
+                pair_w, blk_p):
+    """Block b of :func:`_pair_pass` (a plain function: the parallel one stays small, which
+    keeps its compilation short)."""
     d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar[F_DT]
@@ -213,95 +224,93 @@ def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair
     g_pair = C.effective_shear(fpar[F_POISSON], False)
     lx = lateral[0]
     ly = lateral[1] if d == 3 else 0.0
-    nblk = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
-    for b in numba.prange(nblk):
-        dmax = 0.0
-        ncontact = 0
-        for p in range(b * PAIR_BLOCK, min(npairs, (b + 1) * PAIR_BLOCK)):
-            i = pair_i[p]
-            j = pair_j[p]
-            dx = nearest_image(pos[j, 0] - pos[i, 0], lx)
-            if d == 2:
-                dy = pos[j, 1] - pos[i, 1]
-                dz = 0.0
-            else:
-                dy = nearest_image(pos[j, 1] - pos[i, 1], ly)
-                dz = pos[j, 2] - pos[i, 2]
-            r2 = dx * dx + dy * dy + dz * dz
-            ri = rad[i]
-            rj = rad[j]
-            rs = ri + rj
-            if r2 >= rs * rs:
-                for a in range(d + 2 * r):
-                    pair_w[p, a] = 0.0
-                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
-                    pair_ov[p] = 0.0
-                    for a in range(d):
-                        pair_ft[p, a] = 0.0
-                continue
-            dist = math.sqrt(r2)
-            delta = rs - dist
-            nx = dx / dist
-            ny = dy / dist
-            nz = dz / dist if d == 3 else 0.0
-            vx = vel[j, 0] - vel[i, 0]
-            vy = vel[j, 1] - vel[i, 1]
-            vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
-            ai = ri - 0.5 * delta
-            aj = rj - 0.5 * delta
-            if r > 0:
-                # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-                if r == 1:
-                    wx = 0.0
-                    wy = 0.0
-                    wz = ai * omega[i, 0] + aj * omega[j, 0]
-                else:
-                    wx = ai * omega[i, 0] + aj * omega[j, 0]
-                    wy = ai * omega[i, 1] + aj * omega[j, 1]
-                    wz = ai * omega[i, 2] + aj * omega[j, 2]
-                vx -= wy * nz - wz * ny
-                vy -= wz * nx - wx * nz
-                vz -= wx * ny - wy * nx
-            r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
-            meff = C.reduced_mass(mass[i], mass[j], False)
-            hx = hy = hz = 0.0
-            if mu > 0.0:
-                hx = pair_ft[p, 0]
-                hy = pair_ft[p, 1]
-                if d == 3:
-                    hz = pair_ft[p, 2]
-            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
-                                                         vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
-                                                         mu, rescale)
-            if mu > 0.0:
-                pair_ft[p, 0] = hx
-                pair_ft[p, 1] = hy
-                if d == 3:
-                    pair_ft[p, 2] = hz
-            pair_ov[p] = delta
-            pair_w[p, 0] = fx
-            pair_w[p, 1] = fy
-            if d == 3:
-                pair_w[p, 2] = fz
+    dmax = 0.0
+    ncontact = 0
+    for p in range(b * PAIR_BLOCK, min(npairs, (b + 1) * PAIR_BLOCK)):
+        i = pair_i[p]
+        j = pair_j[p]
+        dx = nearest_image(pos[j, 0] - pos[i, 0], lx)
+        if d == 2:
+            dy = pos[j, 1] - pos[i, 1]
+            dz = 0.0
+        else:
+            dy = nearest_image(pos[j, 1] - pos[i, 1], ly)
+            dz = pos[j, 2] - pos[i, 2]
+        r2 = dx * dx + dy * dy + dz * dz
+        ri = rad[i]
+        rj = rad[j]
+        rs = ri + rj
+        if r2 >= rs * rs:
+            for a in range(d + 2 * r):
+                pair_w[p, a] = 0.0
+            if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                pair_ov[p] = 0.0
+                for a in range(d):
+                    pair_ft[p, a] = 0.0
+            continue
+        dist = math.sqrt(r2)
+        delta = rs - dist
+        nx = dx / dist
+        ny = dy / dist
+        nz = dz / dist if d == 3 else 0.0
+        vx = vel[j, 0] - vel[i, 0]
+        vy = vel[j, 1] - vel[i, 1]
+        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+        ai = ri - 0.5 * delta
+        aj = rj - 0.5 * delta
+        if r > 0:
+            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
             if r == 1:
-                c = nx * fy - ny * fx
-                pair_w[p, d] = ai * c
-                pair_w[p, d + 1] = aj * c
-            elif r == 3:
-                c0 = ny * fz - nz * fy
-                c1 = nz * fx - nx * fz
-                c2 = nx * fy - ny * fx
-                pair_w[p, d] = ai * c0
-                pair_w[p, d + 1] = ai * c1
-                pair_w[p, d + 2] = ai * c2
-                pair_w[p, d + 3] = aj * c0
-                pair_w[p, d + 4] = aj * c1
-                pair_w[p, d + 5] = aj * c2
-            if delta > dmax:
-                dmax = delta
-            ncontact += 1
-        blk_p[b, 0] = dmax
-        blk_p[b, 1] = ncontact
+                wx = 0.0
+                wy = 0.0
+                wz = ai * omega[i, 0] + aj * omega[j, 0]
+            else:
+                wx = ai * omega[i, 0] + aj * omega[j, 0]
+                wy = ai * omega[i, 1] + aj * omega[j, 1]
+                wz = ai * omega[i, 2] + aj * omega[j, 2]
+            vx -= wy * nz - wz * ny
+            vy -= wz * nx - wx * nz
+            vz -= wx * ny - wy * nx
+        r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
+        meff = C.reduced_mass(mass[i], mass[j], False)
+        hx = hy = hz = 0.0
+        if mu > 0.0:
+            hx = pair_ft[p, 0]
+            hy = pair_ft[p, 1]
+            if d == 3:
+                hz = pair_ft[p, 2]
+        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
+                                                     vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
+                                                     mu, rescale)
+        if mu > 0.0:
+            pair_ft[p, 0] = hx
+            pair_ft[p, 1] = hy
+            if d == 3:
+                pair_ft[p, 2] = hz
+        pair_ov[p] = delta
+        pair_w[p, 0] = fx
+        pair_w[p, 1] = fy
+        if d == 3:
+            pair_w[p, 2] = fz
+        if r == 1:
+            c = nx * fy - ny * fx
+            pair_w[p, d] = ai * c
+            pair_w[p, d + 1] = aj * c
+        elif r == 3:
+            c0 = ny * fz - nz * fy
+            c1 = nz * fx - nx * fz
+            c2 = nx * fy - ny * fx
+            pair_w[p, d] = ai * c0
+            pair_w[p, d + 1] = ai * c1
+            pair_w[p, d + 2] = ai * c2
+            pair_w[p, d + 3] = aj * c0
+            pair_w[p, d + 4] = aj * c1
+            pair_w[p, d + 5] = aj * c2
+        if delta > dmax:
+            dmax = delta
+        ncontact += 1
+    blk_p[b, 0] = dmax
+    blk_p[b, 1] = ncontact
 
 
 @numba.njit(cache=True, parallel=True)
@@ -322,6 +331,18 @@ def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, 
     b * GRAIN_BLOCK).
     """
     n, d = pos.shape
+    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    for b in numba.prange(nblk):
+        _grain_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston,
+                     fpar, nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
+
+
+@numba.njit(cache=True)
+def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
+                 nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
+    """Block b of :func:`_grain_pass` (a plain function: the parallel one stays small, which
+    keeps its compilation short)."""
+    n, d = pos.shape
     r = omega.shape[1]
     dt = fpar[F_DT]
     zeta = fpar[F_ZETA]
@@ -332,184 +353,182 @@ def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, 
     g_wall = C.effective_shear(fpar[F_POISSON], True)
     h = piston[P_H]
     vp = piston[P_V]
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    for b in numba.prange(nblk):
-        dmax = 0.0
-        ncontact = 0
-        ntop = 0
-        amax = 0.0
-        almax = 0.0
-        vmax = 0.0
-        wmax = 0.0
-        kin = 0.0
-        dvmax = 0.0
-        disp = 0.0
-        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
-            f0 = 0.0
-            f1 = 0.0
-            f2 = 0.0
-            t0 = 0.0
-            t1 = 0.0
-            t2 = 0.0
-            lo = nlo[i]
-            for t in range(lo):  # pairs where i is the j (lower pair indices first)
-                p = nbr_gl[i, t]
-                f0 -= pair_w[p, 0]
-                f1 -= pair_w[p, 1]
-                if d == 3:
-                    f2 -= pair_w[p, 2]
-                if r == 1:
-                    t0 += pair_w[p, d + 1]
-                elif r == 3:
-                    t0 += pair_w[p, d + 3]
-                    t1 += pair_w[p, d + 4]
-                    t2 += pair_w[p, d + 5]
-            for t in range(lo, ncnt[i]):  # pairs where i is the i
-                p = nbr_gl[i, t]
-                f0 += pair_w[p, 0]
-                f1 += pair_w[p, 1]
-                if d == 3:
-                    f2 += pair_w[p, 2]
-                if r >= 1:
-                    t0 += pair_w[p, d]
-                if r == 3:
-                    t1 += pair_w[p, d + 1]
-                    t2 += pair_w[p, d + 2]
-            # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
-            y = pos[i, d - 1]
-            R = rad[i]
-            for k in range(2):
-                delta = R - y if k == 0 else R - (h - y)
-                w = 2 * i + k
-                if delta <= 0.0:
-                    if wall_ov[w] != 0.0:
-                        wall_ov[w] = 0.0
-                        for a in range(d):
-                            wall_ft[w, a] = 0.0
-                    continue
-                sgn = -1.0 if k == 0 else 1.0
-                vx = -vel[i, 0]
-                if d == 2:
-                    nx, ny, nz = 0.0, sgn, 0.0
-                    vy = -vel[i, 1] + (vp if k == 1 else 0.0)
-                    vz = 0.0
-                else:
-                    nx, ny, nz = 0.0, 0.0, sgn
-                    vy = -vel[i, 1]
-                    vz = -vel[i, 2] + (vp if k == 1 else 0.0)
-                ai = R - delta
-                if r > 0:
-                    if r == 1:
-                        wx = 0.0
-                        wy = 0.0
-                        wz = ai * omega[i, 0]
-                    else:
-                        wx = ai * omega[i, 0]
-                        wy = ai * omega[i, 1]
-                        wz = ai * omega[i, 2]
-                    vx -= wy * nz - wz * ny
-                    vy -= wz * nx - wx * nz
-                    vz -= wx * ny - wy * nx
-                hx = hy = hz = 0.0
-                # the grain pair's steps on the wall's own history slots (wall_ft, wall_ov) with
-                # R12 = R, the wall moduli and the grain's mass (the law is contact_force3)
-                if mu > 0.0:
-                    hx = wall_ft[w, 0]
-                    hy = wall_ft[w, 1]
-                    if d == 3:
-                        hz = wall_ft[w, 2]
-                fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall,
-                                                             mass[i], vx, vy, vz, hx, hy, hz, wall_ov[w],
-                                                             dt, zeta, mu, rescale)
-                if mu > 0.0:
-                    wall_ft[w, 0] = hx
-                    wall_ft[w, 1] = hy
-                    if d == 3:
-                        wall_ft[w, 2] = hz
-                wall_ov[w] = delta
-                f0 += fx
-                f1 += fy
-                if d == 3:
-                    f2 += fz
-                if r == 1:
-                    t0 += ai * (nx * fy - ny * fx)
-                elif r == 3:
-                    t0 += ai * (ny * fz - nz * fy)
-                    t1 += ai * (nz * fx - nx * fz)
-                    t2 += ai * (nx * fy - ny * fx)
-                if k == 1:
-                    top_f[b * GRAIN_BLOCK + ntop] = fz if d == 3 else fy
-                    ntop += 1
-                if delta > dmax:
-                    dmax = delta
-                ncontact += 1
-            if gamma > 0.0:
-                f0 -= gamma * mass[i] * vel[i, 0]
-                f1 -= gamma * mass[i] * vel[i, 1]
-                if d == 3:
-                    f2 -= gamma * mass[i] * vel[i, 2]
-                if r >= 1:
-                    t0 -= gamma * inertia[i] * omega[i, 0]
-                if r == 3:
-                    t1 -= gamma * inertia[i] * omega[i, 1]
-                    t2 -= gamma * inertia[i] * omega[i, 2]
-            acc[i, 0] = f0
-            acc[i, 1] = f1
+    dmax = 0.0
+    ncontact = 0
+    ntop = 0
+    amax = 0.0
+    almax = 0.0
+    vmax = 0.0
+    wmax = 0.0
+    kin = 0.0
+    dvmax = 0.0
+    disp = 0.0
+    for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+        t0 = 0.0
+        t1 = 0.0
+        t2 = 0.0
+        lo = nlo[i]
+        for t in range(lo):  # pairs where i is the j (lower pair indices first)
+            p = nbr_gl[i, t]
+            f0 -= pair_w[p, 0]
+            f1 -= pair_w[p, 1]
             if d == 3:
-                acc[i, 2] = f2
+                f2 -= pair_w[p, 2]
+            if r == 1:
+                t0 += pair_w[p, d + 1]
+            elif r == 3:
+                t0 += pair_w[p, d + 3]
+                t1 += pair_w[p, d + 4]
+                t2 += pair_w[p, d + 5]
+        for t in range(lo, ncnt[i]):  # pairs where i is the i
+            p = nbr_gl[i, t]
+            f0 += pair_w[p, 0]
+            f1 += pair_w[p, 1]
+            if d == 3:
+                f2 += pair_w[p, 2]
             if r >= 1:
-                alpha[i, 0] = t0
+                t0 += pair_w[p, d]
             if r == 3:
-                alpha[i, 1] = t1
-                alpha[i, 2] = t2
-            if kick:
-                inv = 1.0 / mass[i]
-                for a in range(d):
-                    acc[i, a] *= inv
-                    vel[i, a] += 0.5 * dt * acc[i, a]
-                inv = 1.0 / inertia[i]
-                for a in range(r):
-                    alpha[i, a] *= inv
-                    omega[i, a] += 0.5 * dt * alpha[i, a]
-            if stats:
-                a2 = 0.0
-                v2 = 0.0
-                for a in range(d):
-                    a2 += acc[i, a] * acc[i, a]
-                    v2 += vel[i, a] * vel[i, a]
-                al2 = 0.0
-                w2 = 0.0
-                for a in range(r):
-                    al2 += alpha[i, a] * alpha[i, a]
-                    w2 += omega[i, a] * omega[i, a]
-                amax = max(amax, a2)
-                almax = max(almax, al2)
-                vmax = max(vmax, v2)
-                wmax = max(wmax, w2 * rad[i] * rad[i])
-                kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
-            if drift:
-                v2 = 0.0
-                s = 0.0
-                for a in range(d):
-                    vel[i, a] += 0.5 * dt * acc[i, a]
-                    pos[i, a] += dt * vel[i, a]
-                    v2 += vel[i, a] * vel[i, a]
-                    x = pos[i, a] - pos0[i, a]
-                    s += x * x
-                dvmax = max(dvmax, v2)
-                disp = max(disp, s)
-                for a in range(r):
-                    omega[i, a] += 0.5 * dt * alpha[i, a]
-        blk_g[b, G_DMAX] = dmax
-        blk_g[b, G_NC] = ncontact
-        blk_g[b, G_NTOP] = ntop
-        blk_g[b, G_AMAX] = amax
-        blk_g[b, G_ALMAX] = almax
-        blk_g[b, G_VMAX] = vmax
-        blk_g[b, G_WMAX] = wmax
-        blk_g[b, G_KIN] = kin
-        blk_g[b, G_DVMAX] = dvmax
-        blk_g[b, G_DISP] = disp
+                t1 += pair_w[p, d + 1]
+                t2 += pair_w[p, d + 2]
+        # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+        y = pos[i, d - 1]
+        R = rad[i]
+        for k in range(2):
+            delta = R - y if k == 0 else R - (h - y)
+            w = 2 * i + k
+            if delta <= 0.0:
+                if wall_ov[w] != 0.0:
+                    wall_ov[w] = 0.0
+                    for a in range(d):
+                        wall_ft[w, a] = 0.0
+                continue
+            sgn = -1.0 if k == 0 else 1.0
+            vx = -vel[i, 0]
+            if d == 2:
+                nx, ny, nz = 0.0, sgn, 0.0
+                vy = -vel[i, 1] + (vp if k == 1 else 0.0)
+                vz = 0.0
+            else:
+                nx, ny, nz = 0.0, 0.0, sgn
+                vy = -vel[i, 1]
+                vz = -vel[i, 2] + (vp if k == 1 else 0.0)
+            ai = R - delta
+            if r > 0:
+                if r == 1:
+                    wx = 0.0
+                    wy = 0.0
+                    wz = ai * omega[i, 0]
+                else:
+                    wx = ai * omega[i, 0]
+                    wy = ai * omega[i, 1]
+                    wz = ai * omega[i, 2]
+                vx -= wy * nz - wz * ny
+                vy -= wz * nx - wx * nz
+                vz -= wx * ny - wy * nx
+            hx = hy = hz = 0.0
+            # the grain pair's steps on the wall's own history slots (wall_ft, wall_ov) with
+            # R12 = R, the wall moduli and the grain's mass (the law is contact_force3)
+            if mu > 0.0:
+                hx = wall_ft[w, 0]
+                hy = wall_ft[w, 1]
+                if d == 3:
+                    hz = wall_ft[w, 2]
+            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall,
+                                                         mass[i], vx, vy, vz, hx, hy, hz, wall_ov[w],
+                                                         dt, zeta, mu, rescale)
+            if mu > 0.0:
+                wall_ft[w, 0] = hx
+                wall_ft[w, 1] = hy
+                if d == 3:
+                    wall_ft[w, 2] = hz
+            wall_ov[w] = delta
+            f0 += fx
+            f1 += fy
+            if d == 3:
+                f2 += fz
+            if r == 1:
+                t0 += ai * (nx * fy - ny * fx)
+            elif r == 3:
+                t0 += ai * (ny * fz - nz * fy)
+                t1 += ai * (nz * fx - nx * fz)
+                t2 += ai * (nx * fy - ny * fx)
+            if k == 1:
+                top_f[b * GRAIN_BLOCK + ntop] = fz if d == 3 else fy
+                ntop += 1
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+        if gamma > 0.0:
+            f0 -= gamma * mass[i] * vel[i, 0]
+            f1 -= gamma * mass[i] * vel[i, 1]
+            if d == 3:
+                f2 -= gamma * mass[i] * vel[i, 2]
+            if r >= 1:
+                t0 -= gamma * inertia[i] * omega[i, 0]
+            if r == 3:
+                t1 -= gamma * inertia[i] * omega[i, 1]
+                t2 -= gamma * inertia[i] * omega[i, 2]
+        acc[i, 0] = f0
+        acc[i, 1] = f1
+        if d == 3:
+            acc[i, 2] = f2
+        if r >= 1:
+            alpha[i, 0] = t0
+        if r == 3:
+            alpha[i, 1] = t1
+            alpha[i, 2] = t2
+        if kick:
+            inv = 1.0 / mass[i]
+            for a in range(d):
+                acc[i, a] *= inv
+                vel[i, a] += 0.5 * dt * acc[i, a]
+            inv = 1.0 / inertia[i]
+            for a in range(r):
+                alpha[i, a] *= inv
+                omega[i, a] += 0.5 * dt * alpha[i, a]
+        if stats:
+            a2 = 0.0
+            v2 = 0.0
+            for a in range(d):
+                a2 += acc[i, a] * acc[i, a]
+                v2 += vel[i, a] * vel[i, a]
+            al2 = 0.0
+            w2 = 0.0
+            for a in range(r):
+                al2 += alpha[i, a] * alpha[i, a]
+                w2 += omega[i, a] * omega[i, a]
+            amax = max(amax, a2)
+            almax = max(almax, al2)
+            vmax = max(vmax, v2)
+            wmax = max(wmax, w2 * rad[i] * rad[i])
+            kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+        if drift:
+            v2 = 0.0
+            s = 0.0
+            for a in range(d):
+                vel[i, a] += 0.5 * dt * acc[i, a]
+                pos[i, a] += dt * vel[i, a]
+                v2 += vel[i, a] * vel[i, a]
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            dvmax = max(dvmax, v2)
+            disp = max(disp, s)
+            for a in range(r):
+                omega[i, a] += 0.5 * dt * alpha[i, a]
+    blk_g[b, G_DMAX] = dmax
+    blk_g[b, G_NC] = ncontact
+    blk_g[b, G_NTOP] = ntop
+    blk_g[b, G_AMAX] = amax
+    blk_g[b, G_ALMAX] = almax
+    blk_g[b, G_VMAX] = vmax
+    blk_g[b, G_WMAX] = wmax
+    blk_g[b, G_KIN] = kin
+    blk_g[b, G_DVMAX] = dvmax
+    blk_g[b, G_DISP] = disp
 
 
 @numba.njit(cache=True, parallel=True)
@@ -773,7 +792,9 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     return 2
                 ipar[I_NPAIRS] = np_new
                 ipar[I_REBUILDS] += 1
-                pos0[:, :] = pos
+                for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
+                    for a in range(d):
+                        pos0[i, a] = pos[i, a]
                 disp2 = 0.0
             _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
             fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))

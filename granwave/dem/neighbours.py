@@ -104,37 +104,44 @@ def find_neighbours(pos, rad, lateral, h, skin, nbr, ncnt, nlo):
     for i in range(n):
         members[fill[cell[i]]] = i
         fill[cell[i]] += 1
-    n_off = 1 if brute else 3**d
     for i in numba.prange(n):
-        cnt = 0
-        lo = 0
-        for o in range(n_off):
-            rest = o
-            idx = 0
-            ok = True
-            for a in range(d):
-                shift = rest % 3 - 1 if not brute else 0
-                rest //= 3
-                c = coord[i, a] + shift
-                if a < d - 1:
-                    c = c % nc[a]
-                elif c < 0 or c >= nc[a]:
-                    ok = False
-                idx = idx * nc[a] + c
-            if not ok:
+        _search(np.int64(i), pos, rad, lateral, skin, coord, nc, start, members, brute, nbr, ncnt, nlo)
+
+
+@numba.njit(cache=True)
+def _search(i, pos, rad, lateral, skin, coord, nc, start, members, brute, nbr, ncnt, nlo):
+    """Grain i's neighbours in the cells around its own (all grains when ``brute``), sorted."""
+    d = pos.shape[1]
+    n_off = 1 if brute else 3**d
+    cnt = 0
+    lo = 0
+    for o in range(n_off):
+        rest = o
+        idx = 0
+        ok = True
+        for a in range(d):
+            shift = rest % 3 - 1 if not brute else 0
+            rest //= 3
+            c = coord[i, a] + shift
+            if a < d - 1:
+                c = c % nc[a]
+            elif c < 0 or c >= nc[a]:
+                ok = False
+            idx = idx * nc[a] + c
+        if not ok:
+            continue
+        for q in range(start[idx], start[idx + 1]):
+            j = members[q]
+            if j == i:
                 continue
-            for q in range(start[idx], start[idx + 1]):
-                j = members[q]
-                if j == i:
-                    continue
-                r2, lim2 = _pair_distance2(pos, rad, lateral, skin, i, j)
-                if r2 < lim2:
-                    _insert(nbr, i, cnt, j)
-                    cnt += 1
-                    if j < i:
-                        lo += 1
-        ncnt[i] = cnt
-        nlo[i] = lo
+            r2, lim2 = _pair_distance2(pos, rad, lateral, skin, i, j)
+            if r2 < lim2:
+                _insert(nbr, i, cnt, j)
+                cnt += 1
+                if j < i:
+                    lo += 1
+    ncnt[i] = cnt
+    nlo[i] = lo
 
 
 @numba.njit(cache=True, parallel=True)
@@ -168,39 +175,53 @@ def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old,
     new_ft = np.zeros((m, d))
     new_ov = np.zeros(m)
     for i in numba.prange(n):
-        q = row[i]
-        q_end = row[i + 1] if n_old > 0 else 0
-        lo = nlo[i]
-        for t in range(ncnt[i] - lo):
-            p = new_row[i] + t
-            j = nbr[i, lo + t]
-            new_j[p] = j
-            while q < q_end and pair_j[q] < j:
-                q += 1
-            if q < q_end and pair_j[q] == j:
-                new_ov[p] = pair_ov[q]
-                for a in range(d):
-                    new_ft[p, a] = pair_ft[q, a]
+        _merge(np.int64(i), n_old, row, new_row, nbr, ncnt, nlo, pair_j, pair_ft, pair_ov, new_j, new_ft, new_ov)
     for i in numba.prange(n + 1):
         row[i] = new_row[i]
     for i in numba.prange(n):
-        for p in range(new_row[i], new_row[i + 1]):
-            pair_i[p] = i
-            pair_j[p] = new_j[p]
-            pair_ov[p] = new_ov[p]
-            for a in range(d):
-                pair_ft[p, a] = new_ft[p, a]
-        # gather list: pairs (j, i), j < i, at row[j] + (place of i among j's partners above j)
-        lo = nlo[i]
-        for t in range(lo):
-            j = nbr[i, t]
-            q = nlo[j]
-            while nbr[j, q] != i:
-                q += 1
-            gl[i, t] = new_row[j] + q - nlo[j]
-        for t in range(lo, ncnt[i]):
-            gl[i, t] = new_row[i] + t - lo
+        _store(np.int64(i), new_row, nbr, ncnt, nlo, new_j, new_ft, new_ov, pair_i, pair_j, pair_ft, pair_ov, gl)
     return m
+
+
+@numba.njit(cache=True)
+def _merge(i, n_old, row, new_row, nbr, ncnt, nlo, pair_j, pair_ft, pair_ov, new_j, new_ft, new_ov):
+    """Grain i's new block of pairs (its partners above i) with the history of its old block."""
+    d = pair_ft.shape[1]
+    q = row[i]
+    q_end = row[i + 1] if n_old > 0 else 0
+    lo = nlo[i]
+    for t in range(ncnt[i] - lo):
+        p = new_row[i] + t
+        j = nbr[i, lo + t]
+        new_j[p] = j
+        while q < q_end and pair_j[q] < j:
+            q += 1
+        if q < q_end and pair_j[q] == j:
+            new_ov[p] = pair_ov[q]
+            for a in range(d):
+                new_ft[p, a] = pair_ft[q, a]
+
+
+@numba.njit(cache=True)
+def _store(i, new_row, nbr, ncnt, nlo, new_j, new_ft, new_ov, pair_i, pair_j, pair_ft, pair_ov, gl):
+    """Grain i's block into the pair list, and its gather list."""
+    d = pair_ft.shape[1]
+    for p in range(new_row[i], new_row[i + 1]):
+        pair_i[p] = i
+        pair_j[p] = new_j[p]
+        pair_ov[p] = new_ov[p]
+        for a in range(d):
+            pair_ft[p, a] = new_ft[p, a]
+    # gather list: pairs (j, i), j < i, at row[j] + (place of i among j's partners above j)
+    lo = nlo[i]
+    for t in range(lo):
+        j = nbr[i, t]
+        q = nlo[j]
+        while nbr[j, q] != i:
+            q += 1
+        gl[i, t] = new_row[j] + q - nlo[j]
+    for t in range(lo, ncnt[i]):
+        gl[i, t] = new_row[i] + t - lo
 
 
 def candidate_keys(pos, rad, lateral, h, skin) -> np.ndarray:
