@@ -238,7 +238,7 @@ def large_spec(name: str, tiny: bool):
     from granwave.dem.params import PrepareParams
 
     if name == "column":
-        n, aspect = (200, 32.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
+        n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
         return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect),
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":

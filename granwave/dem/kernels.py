@@ -558,6 +558,22 @@ def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
         blk_g[b, G_DISP] = disp
 
 
+@numba.njit(cache=True, parallel=True)
+def _displacement_pass(pos, pos0, blk_g):
+    """Block maxima of the squared displacement since ``pos0`` into ``blk_g[:, G_DISP]``."""
+    n, d = pos.shape
+    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    for b in numba.prange(nblk):
+        disp = 0.0
+        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+            s = 0.0
+            for a in range(d):
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            disp = max(disp, s)
+        blk_g[b, G_DISP] = disp
+
+
 @numba.njit(cache=True)
 def _block_max(blk, nblk, col):
     m = 0.0
@@ -766,13 +782,9 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
-    disp2 = 0.0  # largest squared displacement since the last build (kept by the drift)
-    for i in range(n):
-        s = 0.0
-        for a in range(d):
-            x = pos[i, a] - pos0[i, a]
-            s += x * x
-        disp2 = max(disp2, s)
+    # largest squared displacement since the last build (then kept by the drift)
+    _displacement_pass(pos, pos0, blk_g)
+    disp2 = _block_max(blk_g, nblk_g, G_DISP)
     drifted = False
     for step in range(n_steps):
         dt = fpar[F_DT]
