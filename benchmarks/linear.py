@@ -68,10 +68,9 @@ def kernel_step_time(system, dt: float, n_steps: int = 200) -> float:
     u = np.zeros(system.n_dof)
     v = system.source_velocity.copy()
     a = np.zeros(system.n_dof)
-    work = np.zeros(system.n_dof)
-    verlet_steps(*args, u, v, a, dt, 1, 1e-200, work)  # compile / warm up
+    verlet_steps(*args, u, v, a, dt, 1, 1e-200)  # compile / warm up
     t = time.perf_counter()
-    verlet_steps(*args, u, v, a, dt, n_steps, 1e-200, work)
+    verlet_steps(*args, u, v, a, dt, n_steps, 1e-200)
     return (time.perf_counter() - t) / n_steps
 
 

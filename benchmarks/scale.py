@@ -118,10 +118,9 @@ def time_threads(n_grains: int, steps: int, threads=(1, 2)) -> dict:
         u = np.zeros(system.n_dof)
         v = system.source_velocity.copy()
         a = np.zeros(system.n_dof)
-        work = np.zeros(system.n_dof)
-        verlet_steps(*args, u, v, a, dt, 2, 1e-200, work)  # compile / warm up
+        verlet_steps(*args, u, v, a, dt, 2, 1e-200)  # compile / warm up
         w0 = time.perf_counter()
-        verlet_steps(*args, u, v, a, dt, steps, 1e-200, work)
+        verlet_steps(*args, u, v, a, dt, steps, 1e-200)
         per_step[t] = (time.perf_counter() - w0) / steps
         finals[t] = u.tobytes() + v.tobytes()
     numba.set_num_threads(max(threads))
@@ -213,7 +212,7 @@ def main_table(quick: bool, write_docs: bool) -> None:
     for name, vals, ratio, goal, note_ in rows:
         lines.append(f"| {name:<{width}} | {vals:<22} | {ratio:5.2f} | {goal:4.1f} | {note_} |")
     lines += ["", "Cost of one empty parallel region per threading layer (the engine runs two per step, "
-              "the time domain one):", ""]
+              "the time domain two):", ""]
     lines += [f"- {name}: {cost}" for name, cost in layers]
     table = "\n".join(lines)
     print(table)

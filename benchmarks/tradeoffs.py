@@ -464,7 +464,6 @@ def precision_table(cfg, res):
     dt = h / sub
     import inspect
     extra = (0.0,) if "flush" in inspect.signature(verlet_steps.py_func).parameters else ()  # no flushing
-    has_work = "work" in inspect.signature(verlet_steps.py_func).parameters
     for dtype in (np.float64, np.float32):
         data = D.data.astype(dtype)
         minv = (1.0 / system.mass).astype(dtype)
@@ -474,14 +473,13 @@ def precision_table(cfg, res):
         det = system.detector.astype(dtype)
         f = np.empty(len(t))
         f[0] = 0.0
-        work = (np.zeros(system.n_dof, dtype),) if has_work else ()
         verlet_steps(D.indptr.astype(np.int64), D.indices.astype(np.int64), data, minv, u, v, a, dtype(dt), 1,
-                     *(dtype(x) for x in extra), *work)
+                     *(dtype(x) for x in extra))
         u[:] = 0; v[:] = system.source_velocity.astype(dtype); a[:] = 0  # noqa: E702  (compile, then reset)
         t0 = T()
         for k in range(1, len(t)):
             verlet_steps(D.indptr.astype(np.int64), D.indices.astype(np.int64), data, minv, u, v, a,
-                         dtype(dt), sub, *(dtype(x) for x in extra), *work)
+                         dtype(dt), sub, *(dtype(x) for x in extra))
             f[k] = float(det @ u)
         wall = T() - t0
         ff = front_features(t, f)

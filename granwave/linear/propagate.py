@@ -156,71 +156,49 @@ MIN_PARALLEL_ROWS = 20000
 
 
 @numba.njit(cache=True, parallel=True)
-def _drift(u, v, a, u_next, dt, flush):
-    """First half kick and drift: v += dt/2 a, u_next = u + dt v (flushed)."""
+def _drift(u, v, a, dt, flush):
+    """First half kick and drift of every row: v += dt/2 a, u += dt v (flushed)."""
     half = 0.5 * dt
     for i in numba.prange(u.shape[0]):
         v[i] += half * a[i]
-        x = u[i] + dt * v[i]
-        if abs(x) < flush:
-            x = 0.0
-        u_next[i] = x
+        u[i] += dt * v[i]
+        if abs(u[i]) < flush:
+            u[i] = 0.0
 
 
 @numba.njit(cache=True, parallel=True)
-def _force_kick(indptr, indices, data, minv, u, v, a, u_next, dt, flush, drift):
-    """a = -M^-1 D u, second half kick (v flushed); with ``drift`` also the next step's first
-    half kick and drift of each row into ``u_next`` (each row reads only ``u``: no race)."""
+def _kick(indptr, indices, data, minv, u, v, a, dt, flush):
+    """a = -M^-1 D u and the second half kick of every row (v flushed); rows read u only."""
     half = 0.5 * dt
     for i in numba.prange(u.shape[0]):
         acc = 0.0
         for k in range(indptr[i], indptr[i + 1]):
             acc += data[k] * u[indices[k]]
-        ai = -acc * minv[i]
-        a[i] = ai
-        vi = v[i] + half * ai
-        if abs(vi) < flush:
-            vi = 0.0
-        if drift:
-            vi += half * ai
-            x = u[i] + dt * vi
-            if abs(x) < flush:
-                x = 0.0
-            u_next[i] = x
-        v[i] = vi
-
-
-@numba.njit(cache=True, parallel=True)
-def _copy(src, dst):
-    for i in numba.prange(src.shape[0]):
-        dst[i] = src[i]
+        a[i] = -acc * minv[i]
+        v[i] += half * a[i]
+        if abs(v[i]) < flush:
+            v[i] = 0.0
 
 
 @numba.njit(cache=True)
 def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv: np.ndarray,
                  u: np.ndarray, v: np.ndarray, a: np.ndarray, dt: float, n_steps: int,
-                 flush: float, work: np.ndarray) -> None:
+                 flush: float) -> None:
     """``n_steps`` velocity-Verlet steps of u'' = -M^-1 D u in place (D in CSR arrays).
 
-    One parallel pass over the rows per step (:func:`_force_kick`: the matvec and the
-    second half kick of a step fused with the first half kick and drift of the next),
-    the displacements double-buffered between ``u`` and ``work`` (same length): each
-    row's arithmetic is that of the serial loop, so the result is bit for bit the same
-    for any thread count. Entries of u and v below ``flush`` in magnitude are set to 0:
-    ahead of the front the field decays super-exponentially, and products of
-    such values (energies, detector) fall into denormal floating point, which
+    Two parallel passes over the rows per step: kick-drift (:func:`_drift`), then the
+    matvec and the second half kick (:func:`_kick`); one pass over D per step and no
+    temporaries. Each row's arithmetic is that of the former serial loops, so the result
+    is bit for bit the same for any thread count. (A single fused pass with the drift of
+    the next step and a second displacement buffer was measured 30 % slower per step on one
+    thread: 0.46 against 0.35-0.38 ms CPU at 3e4 dofs.) Entries of u and v below ``flush``
+    in magnitude are set to 0: ahead of the front the field decays super-exponentially, and
+    products of such values (energies, detector) fall into denormal floating point, which
     made the run 5-8x slower on a 28665-dof lattice (measured).
     """
-    if n_steps <= 0:
-        return
-    cur = u
-    nxt = work
-    _drift(cur, v, a, nxt, dt, flush)
-    for s in range(n_steps):
-        cur, nxt = nxt, cur
-        _force_kick(indptr, indices, data, minv, cur, v, a, nxt, dt, flush, s + 1 < n_steps)
-    if n_steps % 2 == 1:  # the last displacements are in ``work``
-        _copy(work, u)
+    for _ in range(n_steps):
+        _drift(u, v, a, dt, flush)
+        _kick(indptr, indices, data, minv, u, v, a, dt, flush)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -335,7 +313,6 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     det_index = np.flatnonzero(det).astype(np.int64)
     det_value = np.ascontiguousarray(det[det_index])
     blocks = np.zeros(((system.n_dof + SUM_BLOCK - 1) // SUM_BLOCK, 3))
-    work = np.zeros(system.n_dof)
     u = np.zeros(system.n_dof)
     v = np.zeros(system.n_dof)
     if ic == "A":
@@ -370,11 +347,11 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     for k in range(1, samples):
         with at_most(system.n_dof, MIN_PARALLEL_ROWS):
             if snap_k is None or not np.any((snap_k > step) & (snap_k <= step + sub)):
-                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush, work)
+                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush)
                 step += sub
             else:  # a snapshot falls inside this sample interval: go step by step
                 for _ in range(sub):
-                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush, work)
+                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush)
                     step += 1
                     for s_idx in np.flatnonzero(snap_k == step):
                         snap_u[s_idx] = u
