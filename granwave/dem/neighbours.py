@@ -84,7 +84,7 @@ def find_neighbours(pos, rad, lateral, h, skin, nbr, ncnt, nlo):
         ncell *= nc[a]
     coord = np.empty((n, d), np.int64)
     cell = np.empty(n, np.int64)
-    for i in numba.prange(n):
+    for i in range(n):  # O(n): serial (a parallel loop costs more compilation than it saves)
         idx = 0
         for a in range(d):
             length = lateral[a] if a < d - 1 else h
@@ -155,7 +155,7 @@ def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old,
     offsets per grain i (old ones on entry, new ones on exit).
     """
     n, d = pos.shape
-    for i in numba.prange(n):
+    for i in range(n):  # O(n) loops stay serial: each parallel loop lengthens compilation
         for a in range(d - 1):
             x = pos[i, a] % lateral[a]
             pos[i, a] = x if x < lateral[a] else 0.0
@@ -176,7 +176,7 @@ def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old,
     new_ov = np.zeros(m)
     for i in numba.prange(n):
         _merge(np.int64(i), n_old, row, new_row, nbr, ncnt, nlo, pair_j, pair_ft, pair_ov, new_j, new_ft, new_ov)
-    for i in numba.prange(n + 1):
+    for i in range(n + 1):
         row[i] = new_row[i]
     for i in numba.prange(n):
         _store(np.int64(i), new_row, nbr, ncnt, nlo, new_j, new_ft, new_ov, pair_i, pair_j, pair_ft, pair_ov, gl)
