@@ -69,7 +69,6 @@ def test_narrow_neighbour_lists_grow_to_the_same_result(monkeypatch):
         keep(self, needed, width)
 
     monkeypatch.setattr(integrator.Engine, "grow", spy)
-    monkeypatch.setattr(integrator.Engine, "_grow", spy)
     again = prepare_packing(params)
     assert any(w > 2 for _, w in grown)
     assert _bytes(again) == _bytes(ref)

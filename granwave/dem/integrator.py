@@ -143,8 +143,6 @@ class Engine:
         self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width)
         self.ws[4][:] = row  # the pair list's offsets per grain (history carried by the rebuild)
 
-    _grow = grow
-
     def _rebuild(self) -> None:
         while True:
             w = self.ws
