@@ -59,6 +59,9 @@ reduced_mass = DF.reduced_mass
 BLOCK = 8 if simulated() else 128
 RBLOCK = 8 if simulated() else 256
 
+# The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba-cuda 0.30
+# fails to type the builtin max() of two floats inside a kernel (found by tests/test_gpu_ptx.py).
+
 # indices of the per-step reduction (``red``)
 R_FPISTON, R_NTOP, R_NCONTACT, R_DMAX, R_VMAX2, R_DISP2 = range(6)
 N_RED = 6
@@ -310,14 +313,18 @@ def finish(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, piston, fpar, 
         fp += gfp[i]
         top += gtop[i]
         cnt += gcount[i]
-        dmax = max(dmax, gdmax[i])
-        v2 = max(v2, gv2[i])
-        disp = max(disp, gdisp2[i])
+        if gdmax[i] > dmax:
+            dmax = gdmax[i]
+        if gv2[i] > v2:
+            v2 = gv2[i]
+        if gdisp2[i] > disp:
+            disp = gdisp2[i]
     for p in range(t, npairs, RBLOCK):
         x = pdelta[p]
         if x >= 0.0:
             cnt += 1.0
-            dmax = max(dmax, x)
+            if x > dmax:
+                dmax = x
     s_fp[t] = fp
     s_top[t] = top
     s_cnt[t] = cnt
@@ -331,9 +338,12 @@ def finish(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, piston, fpar, 
             s_fp[t] += s_fp[t + half]
             s_top[t] += s_top[t + half]
             s_cnt[t] += s_cnt[t + half]
-            s_dmax[t] = max(s_dmax[t], s_dmax[t + half])
-            s_v2[t] = max(s_v2[t], s_v2[t + half])
-            s_disp[t] = max(s_disp[t], s_disp[t + half])
+            if s_dmax[t + half] > s_dmax[t]:
+                s_dmax[t] = s_dmax[t + half]
+            if s_v2[t + half] > s_v2[t]:
+                s_v2[t] = s_v2[t + half]
+            if s_disp[t + half] > s_disp[t]:
+                s_disp[t] = s_disp[t + half]
         cuda.syncthreads()
         half //= 2
     if t == 0:
@@ -376,10 +386,14 @@ def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
         for a in range(r):
             al2 += alpha[i, a] * alpha[i, a]
             w2 += omega[i, a] * omega[i, a]
-        amax = max(amax, a2)
-        almax = max(almax, al2)
-        vmax = max(vmax, v2)
-        wmax = max(wmax, w2 * rad[i] * rad[i])
+        if a2 > amax:
+            amax = a2
+        if al2 > almax:
+            almax = al2
+        if v2 > vmax:
+            vmax = v2
+        if w2 * rad[i] * rad[i] > wmax:
+            wmax = w2 * rad[i] * rad[i]
         kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
     s_a[t] = amax
     s_al[t] = almax
@@ -390,10 +404,14 @@ def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
     half = RBLOCK // 2
     while half > 0:
         if t < half:
-            s_a[t] = max(s_a[t], s_a[t + half])
-            s_al[t] = max(s_al[t], s_al[t + half])
-            s_v[t] = max(s_v[t], s_v[t + half])
-            s_w[t] = max(s_w[t], s_w[t + half])
+            if s_a[t + half] > s_a[t]:
+                s_a[t] = s_a[t + half]
+            if s_al[t + half] > s_al[t]:
+                s_al[t] = s_al[t + half]
+            if s_v[t + half] > s_v[t]:
+                s_v[t] = s_v[t + half]
+            if s_w[t + half] > s_w[t]:
+                s_w[t] = s_w[t + half]
             s_k[t] += s_k[t + half]
         cuda.syncthreads()
         half //= 2
