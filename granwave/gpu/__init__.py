@@ -48,7 +48,7 @@ def require_gpu() -> None:
         ok = False
     if not ok:
         raise InputError("--device gpu: no usable CUDA GPU found (no NVIDIA driver or device on "
-                         f"this machine); use --device cpu, or {INSTALL_HINT} on a GPU machine")
+                         "this machine); use --device cpu")
 
 
 def backend(device: str | None) -> SimpleNamespace:
