@@ -59,14 +59,16 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     v = np.zeros(n)
     i64 = np.zeros(m, np.int64)
     sigs = {
-        G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), f2(dim), np.zeros(6), 1.0, v, v),
+        G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), f2(dim), np.zeros(6), 1.0, v,
+                             v),
         G.pair_forces: _types(f2(dim), f2(dim), f2(rot), v, v, v, np.zeros(dim - 1), i64, i64, 1,
                               p2(dim), np.zeros(m), np.zeros(14), p2(3), p2(max(rot, 1)),
                               p2(max(rot, 1)), np.zeros(m)),
-        G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(n + 1, np.int64),
-                               i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)), np.zeros((2 * n, dim)),
-                               np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v, v),
-        G.finish: _types(v, v, v, v, v, v, np.zeros(m), 1, np.zeros(6), np.zeros(14), np.zeros(6)),
+        G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
+                               np.zeros(n + 1, np.int64), i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)),
+                               np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v, v),
+        G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), 1, np.zeros((3, 6))),
+        G.finish: _types(np.zeros((3, 6)), np.zeros(6), np.zeros(14), np.zeros(6)),
         G.measure_kernel: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(5)),
     }
     assert set(sigs) == set(G.KERNELS)
@@ -83,7 +85,8 @@ def test_gpu_linear_kernels_compile_to_ptx():
     sigs = {
         L.verlet_step: _types(np.zeros(6, np.int64), np.zeros(9, np.int32), np.zeros(9), v, v, v, v, v, v,
                               1.0, 1.0, True),
-        L.sample_sums: _types(v, v, v, v, v, np.zeros((3, 4)), 1),
+        L.sample_partials: _types(v, v, v, v, v, np.zeros((3, 4))),
+        L.sample_sums: _types(np.zeros((3, 4)), np.zeros((3, 4)), 1),
     }
     assert set(sigs) == set(L.KERNELS)
     for kernel, sig in sigs.items():

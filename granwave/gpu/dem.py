@@ -16,8 +16,9 @@ One step on the device (four kernels, no floating-point atomics):
 3. ``grain_forces`` (a thread per grain): sums its pairs' forces over a per-grain incidence
    list in increasing pair order (the order in which the CPU loop adds them), then the two
    wall contacts, the background damping, the accelerations and the second half kick;
-4. ``finish`` (one block): the piston force, largest overlap, contact counts, largest speed and
-   displacement by a fixed-shape tree reduction, then the piston's half kick.
+4. ``step_partials`` (NPART blocks) and ``finish`` (one block): the piston force, largest
+   overlap, contact counts, largest speed and displacement by a two-stage reduction of fixed
+   shape (grid stride, then trees), then the piston's half kick.
 
 Hence repeated runs give identical bytes, and each grain's force is summed in the CPU's order;
 only the piston force, kinetic energy and the maxima are reduced in a different (fixed) order.
@@ -58,6 +59,8 @@ reduced_mass = DF.reduced_mass
 #: order depends on RBLOCK, fixed within a process).
 BLOCK = 8 if simulated() else 128
 RBLOCK = 8 if simulated() else 256
+#: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
+NPART = 2 if simulated() else 264
 
 # The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba-cuda 0.30
 # fails to type the builtin max() of two floats inside a kernel (found by tests/test_gpu_ptx.py).
@@ -291,12 +294,34 @@ def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_p
     gcount[i] = count
 
 
+@cuda.jit(device=True)
+def _tree(t, s_sum0, s_sum1, s_sum2, s_max0, s_max1, s_max2):
+    """Tree reduction over a block's shared arrays: three sums and three maxima into slot 0."""
+    cuda.syncthreads()
+    half = RBLOCK // 2
+    while half > 0:
+        if t < half:
+            s_sum0[t] += s_sum0[t + half]
+            s_sum1[t] += s_sum1[t + half]
+            s_sum2[t] += s_sum2[t + half]
+            if s_max0[t + half] > s_max0[t]:
+                s_max0[t] = s_max0[t + half]
+            if s_max1[t + half] > s_max1[t]:
+                s_max1[t] = s_max1[t + half]
+            if s_max2[t + half] > s_max2[t]:
+                s_max2[t] = s_max2[t + half]
+        cuda.syncthreads()
+        half //= 2
+
+
 @cuda.jit
-def finish(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, piston, fpar, red):
-    """One block of RBLOCK threads: the step's sums and maxima in a fixed order (each thread a
-    fixed stride, then a tree), then the piston's acceleration and second half kick."""
+def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
+    """NPART blocks: block b's share (a fixed grid stride) of the step's sums and maxima into
+    ``part[b]`` (piston force, top contacts, contacts, largest overlap, |v|^2, displacement^2)."""
     t = cuda.threadIdx.x
+    b = cuda.blockIdx.x
     n = gfp.shape[0]
+    stride = RBLOCK * NPART
     s_fp = cuda.shared.array(RBLOCK, np.float64)
     s_top = cuda.shared.array(RBLOCK, np.float64)
     s_cnt = cuda.shared.array(RBLOCK, np.float64)
@@ -309,7 +334,7 @@ def finish(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, piston, fpar, 
     dmax = 0.0
     v2 = 0.0
     disp = 0.0
-    for i in range(t, n, RBLOCK):
+    for i in range(b * RBLOCK + t, n, stride):
         fp += gfp[i]
         top += gtop[i]
         cnt += gcount[i]
@@ -319,7 +344,7 @@ def finish(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, piston, fpar, 
             v2 = gv2[i]
         if gdisp2[i] > disp:
             disp = gdisp2[i]
-    for p in range(t, npairs, RBLOCK):
+    for p in range(b * RBLOCK + t, npairs, stride):
         x = pdelta[p]
         if x >= 0.0:
             cnt += 1.0
@@ -331,21 +356,50 @@ def finish(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, piston, fpar, 
     s_dmax[t] = dmax
     s_v2[t] = v2
     s_disp[t] = disp
-    cuda.syncthreads()
-    half = RBLOCK // 2
-    while half > 0:
-        if t < half:
-            s_fp[t] += s_fp[t + half]
-            s_top[t] += s_top[t + half]
-            s_cnt[t] += s_cnt[t + half]
-            if s_dmax[t + half] > s_dmax[t]:
-                s_dmax[t] = s_dmax[t + half]
-            if s_v2[t + half] > s_v2[t]:
-                s_v2[t] = s_v2[t + half]
-            if s_disp[t + half] > s_disp[t]:
-                s_disp[t] = s_disp[t + half]
-        cuda.syncthreads()
-        half //= 2
+    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
+    if t == 0:
+        part[b, R_FPISTON] = s_fp[0]
+        part[b, R_NTOP] = s_top[0]
+        part[b, R_NCONTACT] = s_cnt[0]
+        part[b, R_DMAX] = s_dmax[0]
+        part[b, R_VMAX2] = s_v2[0]
+        part[b, R_DISP2] = s_disp[0]
+
+
+@cuda.jit
+def finish(part, piston, fpar, red):
+    """One block: the NPART partial results combined in a fixed order into ``red``, then the
+    piston's acceleration and second half kick."""
+    t = cuda.threadIdx.x
+    s_fp = cuda.shared.array(RBLOCK, np.float64)
+    s_top = cuda.shared.array(RBLOCK, np.float64)
+    s_cnt = cuda.shared.array(RBLOCK, np.float64)
+    s_dmax = cuda.shared.array(RBLOCK, np.float64)
+    s_v2 = cuda.shared.array(RBLOCK, np.float64)
+    s_disp = cuda.shared.array(RBLOCK, np.float64)
+    fp = 0.0
+    top = 0.0
+    cnt = 0.0
+    dmax = 0.0
+    v2 = 0.0
+    disp = 0.0
+    for b in range(t, part.shape[0], RBLOCK):
+        fp += part[b, R_FPISTON]
+        top += part[b, R_NTOP]
+        cnt += part[b, R_NCONTACT]
+        if part[b, R_DMAX] > dmax:
+            dmax = part[b, R_DMAX]
+        if part[b, R_VMAX2] > v2:
+            v2 = part[b, R_VMAX2]
+        if part[b, R_DISP2] > disp:
+            disp = part[b, R_DISP2]
+    s_fp[t] = fp
+    s_top[t] = top
+    s_cnt[t] = cnt
+    s_dmax[t] = dmax
+    s_v2[t] = v2
+    s_disp[t] = disp
+    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
     if t == 0:
         red[R_FPISTON] = s_fp[0]
         red[R_NTOP] = s_top[0]
@@ -424,7 +478,7 @@ def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
 
 
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
-KERNELS = (kick_drift, pair_forces, grain_forces, finish, measure_kernel)
+KERNELS = (kick_drift, pair_forces, grain_forces, step_partials, finish, measure_kernel)
 
 
 def incidence(pair_i: np.ndarray, pair_j: np.ndarray, npairs: int, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -484,6 +538,7 @@ class GpuEngine(Engine):
         r = self.angular_velocity.shape[1]
         gv2, gdisp2, gfp, gtop, gdmax, gcount = (cuda.device_array(n) for _ in range(6))
         d_red = cuda.device_array(N_RED)
+        d_part = cuda.device_array((NPART, N_RED))
         d_stat = cuda.device_array(N_STAT)
         pairs = {}
 
@@ -542,8 +597,9 @@ class GpuEngine(Engine):
                                         g["mass"], g["inertia"], pairs["ptr"], pairs["code"], pairs["pf"],
                                         pairs["tqi"], pairs["tqj"], g["wall_ft"], g["wall_ov"],
                                         g["piston"], g_fpar, gfp, gtop, gdmax, gcount)
-                finish[1, RBLOCK](gfp, gtop, gdmax, gcount, gv2, gdisp2, pairs["delta"], m, g["piston"],
-                                  g_fpar, d_red)
+                step_partials[NPART, RBLOCK](gfp, gtop, gdmax, gcount, gv2, gdisp2, pairs["delta"], m,
+                                             d_part)
+                finish[1, RBLOCK](d_part, g["piston"], g_fpar, d_red)
                 red = d_red.copy_to_host()
                 fpar[K.F_VMAX] = math.sqrt(red[R_VMAX2])
                 disp2 = red[R_DISP2]

@@ -14,8 +14,9 @@ stored order, as on the CPU, and the arithmetic of each row is the CPU kernel's
 (:func:`granwave.linear.propagate.verlet_steps`) in the same order: no atomics, so repeated
 runs give identical bytes, and the signal agrees with the CPU one to rounding (the CUDA
 compiler may fuse multiply-adds). The whole time loop stays on the device; at each output
-sample a one-block kernel reduces (kinetic, potential, a.M.a, detector.u) in a fixed order into
-a device array, and only those samples (and requested snapshots) come back to the host.
+sample a two-stage reduction (NPART blocks, then one) sums (kinetic, potential, a.M.a,
+detector.u) in a fixed order into a device array, and only those samples (and requested
+snapshots) come back to the host.
 """
 
 from __future__ import annotations
@@ -35,8 +36,12 @@ from ..model import LinearSystem, Signal
 from ..resources import check_propagate
 from . import simulated
 
+#: Threads per block of the step and of the reductions, and blocks of the first reduction stage
+#: (fixed numbers: the order of the sums is fixed; small in the simulator, which runs every
+#: thread as a Python thread).
 BLOCK = 8 if simulated() else 256
-RBLOCK = 8 if simulated() else 512
+RBLOCK = 8 if simulated() else 256
+NPART = 2 if simulated() else 264
 
 
 @cuda.jit
@@ -67,10 +72,26 @@ def verlet_step(indptr, indices, data, minv, u, u_next, v, a, v_end, dt, flush, 
     u_next[i] = ui
 
 
+@cuda.jit(device=True)
+def _tree4(t, s0, s1, s2, s3):
+    """Tree sum of a block's four shared arrays into slot 0."""
+    cuda.syncthreads()
+    half = RBLOCK // 2
+    while half > 0:
+        if t < half:
+            s0[t] += s0[t + half]
+            s1[t] += s1[t + half]
+            s2[t] += s2[t + half]
+            s3[t] += s3[t + half]
+        cuda.syncthreads()
+        half //= 2
+
+
 @cuda.jit
-def sample_sums(u, v, a, m, det, out, k):
-    """One block: out[k] = (1/2 v.M v, -1/2 u.M a, a.M a, detector.u) in a fixed order."""
+def sample_partials(u, v, a, m, det, part):
+    """NPART blocks: block b's share (fixed grid stride) of (v.M v, -u.M a, a.M a, detector.u)."""
     t = cuda.threadIdx.x
+    b = cuda.blockIdx.x
     s_kin = cuda.shared.array(RBLOCK, np.float64)
     s_pot = cuda.shared.array(RBLOCK, np.float64)
     s_ama = cuda.shared.array(RBLOCK, np.float64)
@@ -79,7 +100,7 @@ def sample_sums(u, v, a, m, det, out, k):
     pot = 0.0
     ama = 0.0
     f = 0.0
-    for i in range(t, u.shape[0], RBLOCK):
+    for i in range(b * RBLOCK + t, u.shape[0], RBLOCK * NPART):
         mv = m[i] * v[i]
         ma = m[i] * a[i]
         kin += mv * v[i]
@@ -90,16 +111,37 @@ def sample_sums(u, v, a, m, det, out, k):
     s_pot[t] = pot
     s_ama[t] = ama
     s_f[t] = f
-    cuda.syncthreads()
-    half = RBLOCK // 2
-    while half > 0:
-        if t < half:
-            s_kin[t] += s_kin[t + half]
-            s_pot[t] += s_pot[t + half]
-            s_ama[t] += s_ama[t + half]
-            s_f[t] += s_f[t + half]
-        cuda.syncthreads()
-        half //= 2
+    _tree4(t, s_kin, s_pot, s_ama, s_f)
+    if t == 0:
+        part[b, 0] = s_kin[0]
+        part[b, 1] = s_pot[0]
+        part[b, 2] = s_ama[0]
+        part[b, 3] = s_f[0]
+
+
+@cuda.jit
+def sample_sums(part, out, k):
+    """One block: out[k] = (1/2 v.M v, -1/2 u.M a, a.M a, detector.u) from the partial sums,
+    combined in a fixed order."""
+    t = cuda.threadIdx.x
+    s_kin = cuda.shared.array(RBLOCK, np.float64)
+    s_pot = cuda.shared.array(RBLOCK, np.float64)
+    s_ama = cuda.shared.array(RBLOCK, np.float64)
+    s_f = cuda.shared.array(RBLOCK, np.float64)
+    kin = 0.0
+    pot = 0.0
+    ama = 0.0
+    f = 0.0
+    for b in range(t, part.shape[0], RBLOCK):
+        kin += part[b, 0]
+        pot += part[b, 1]
+        ama += part[b, 2]
+        f += part[b, 3]
+    s_kin[t] = kin
+    s_pot[t] = pot
+    s_ama[t] = ama
+    s_f[t] = f
+    _tree4(t, s_kin, s_pot, s_ama, s_f)
     if t == 0:
         out[k, 0] = 0.5 * s_kin[0]
         out[k, 1] = 0.5 * s_pot[0]
@@ -108,7 +150,7 @@ def sample_sums(u, v, a, m, det, out, k):
 
 
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
-KERNELS = (verlet_step, sample_sums)
+KERNELS = (verlet_step, sample_partials, sample_sums)
 
 
 def bytes_per_step(n_rows: int, nnz: int) -> int:
@@ -177,6 +219,7 @@ def time_domain_signal_gpu(system: LinearSystem, *, ic: str, t_max: float, dt: f
     bufs = [cuda.to_device(ud), cuda.device_array(n)]
     g_v, g_a, g_vend = cuda.to_device(vh), cuda.to_device(a), cuda.to_device(v)
     g_out = cuda.device_array((samples, 4))
+    g_part = cuda.device_array((NPART, 4))
     blocks = max(1, (n + BLOCK - 1) // BLOCK)
     n_steps = sub * (samples - 1)
     snap_steps = set() if snap_k is None else set(int(s) for s in snap_k if s > 0)
@@ -192,7 +235,8 @@ def time_domain_signal_gpu(system: LinearSystem, *, ic: str, t_max: float, dt: f
             if step in snap_steps:
                 snap_u[snap_k == step] = cur.copy_to_host()
             if store:
-                sample_sums[1, RBLOCK](cur, g_vend, g_a, g_m, g_det, g_out, k)
+                sample_partials[NPART, RBLOCK](cur, g_vend, g_a, g_m, g_det, g_part)
+                sample_sums[1, RBLOCK](g_part, g_out, k)
         if progress is not None:
             now = _time.perf_counter()
             if now - t_last >= progress_interval:
