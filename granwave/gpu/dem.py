@@ -516,125 +516,157 @@ class GpuEngine(Engine):
     """:class:`~granwave.dem.integrator.Engine` whose :meth:`run` steps on the GPU.
 
     Between calls of :meth:`run` the state lives in the host arrays, exactly as for the CPU
-    engine; a call copies it to the device, steps, and copies it back.
+    engine; a call copies it to the device (:meth:`upload`), steps (:meth:`step`), and copies
+    it back (:meth:`download`). ``on_rebuild`` (None or a callable taking the old pair keys
+    (i, j) and their count) is called after every host rebuild, before the new list is
+    uploaded: the pulse runner carries its contact flags with it.
     """
 
     device = "gpu"
+    on_rebuild = None
 
+    # ------------------------------------------------------------ device session
+    def upload(self) -> None:
+        """Copy the state to the device and allocate the per-step work arrays."""
+        n = self.position.shape[0]
+        to = cuda.to_device
+        self.g = {name: to(getattr(self, name)) for name in
+                  ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
+                   "radius", "mass", "inertia", "lateral", "pos0", "wall_ft", "wall_ov", "piston",
+                   "fpar")}
+        self.g["inv_rad"] = to(1.0 / self.radius)
+        for name in ("v2", "disp2", "fp", "top", "dmax", "count"):
+            self.g[name] = cuda.device_array(n)
+        self.g["red"] = cuda.device_array(N_RED)
+        self.g["part"] = cuda.device_array((NPART, N_RED))
+        self.g["stat"] = cuda.device_array(N_STAT)
+        self._upload_pairs()
+        x = self.position - self.pos0
+        self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
+
+    def _upload_pairs(self) -> None:
+        n = self.position.shape[0]
+        m = int(self.ipar[K.I_NPAIRS])
+        r = max(self.angular_velocity.shape[1], 1)
+        ptr, code = incidence(self.pair_i, self.pair_j, m, n)
+        cap = max(m, 1)
+        to = cuda.to_device
+        self.gp = dict(i=to(self.pair_i[:cap]), j=to(self.pair_j[:cap]), ft=to(self.pair_ft[:cap]),
+                       ov=to(self.pair_ov[:cap]), ptr=to(ptr),
+                       code=to(code if len(code) else np.zeros(1, np.int64)),
+                       pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
+                       tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), m=m)
+
+    def _download_pairs(self) -> None:
+        m = self.gp["m"]
+        if m:
+            self.pair_ft[:m] = self.gp["ft"].copy_to_host()[:m]
+            self.pair_ov[:m] = self.gp["ov"].copy_to_host()[:m]
+
+    def download(self) -> None:
+        """Copy the state back to the host arrays."""
+        for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
+                     "pos0", "wall_ft", "wall_ov", "piston"):
+            getattr(self, name)[...] = self.g[name].copy_to_host()
+        self._download_pairs()
+
+    def set_dt(self, dt: float) -> None:
+        """Change the time step (host and device copies of the parameters)."""
+        self.fpar[K.F_DT] = dt
+        self.g["fpar"].copy_to_device(self.fpar)
+
+    def step(self) -> int:
+        """One velocity-Verlet step on the device (between :meth:`upload` and :meth:`download`):
+        0, or 3 when the state blew up (non-finite reach before a rebuild)."""
+        fpar, ipar, out, g = self.fpar, self.ipar, self.out, self.g
+        n = self.position.shape[0]
+        dt = fpar[K.F_DT]
+        reach = math.sqrt(self._disp2) + 2.0 * fpar[K.F_VMAX] * dt
+        if not math.isfinite(reach):
+            return 3
+        if reach > 0.5 * fpar[K.F_SKIN]:  # host rebuild (first version; module docstring)
+            self.position[...] = g["position"].copy_to_host()
+            self._download_pairs()
+            m_old = int(ipar[K.I_NPAIRS])
+            old = (self.pair_i[:m_old].copy(), self.pair_j[:m_old].copy())
+            self._rebuild()  # wraps positions, grows the arrays if needed, pos0 = position
+            ipar[K.I_REBUILDS] += 1
+            if self.on_rebuild is not None:
+                self.on_rebuild(old[0], old[1], m_old)
+            g["position"].copy_to_device(self.position)
+            g["pos0"].copy_to_device(self.pos0)
+            self._upload_pairs()
+        gp = self.gp
+        m = gp["m"]
+        nb = _blocks(n)
+        kick_drift[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
+                              g["angular_acceleration"], g["pos0"], g["piston"], dt, g["v2"], g["disp2"])
+        if m:
+            pair_forces[_blocks(m), BLOCK](g["position"], g["velocity"], g["angular_velocity"], g["radius"],
+                                           g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], m,
+                                           gp["ft"], gp["ov"], g["fpar"], gp["pf"], gp["tqi"], gp["tqj"],
+                                           gp["delta"])
+        grain_forces[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
+                                g["angular_acceleration"], g["radius"], g["mass"], g["inertia"], gp["ptr"],
+                                gp["code"], gp["pf"], gp["tqi"], gp["tqj"], g["wall_ft"], g["wall_ov"],
+                                g["piston"], g["fpar"], g["fp"], g["top"], g["dmax"], g["count"])
+        step_partials[NPART, RBLOCK](g["fp"], g["top"], g["dmax"], g["count"], g["v2"], g["disp2"],
+                                     gp["delta"], m, g["part"])
+        finish[1, RBLOCK](g["part"], g["piston"], g["fpar"], g["red"])
+        red = g["red"].copy_to_host()
+        fpar[K.F_VMAX] = math.sqrt(red[R_VMAX2])
+        self._disp2 = red[R_DISP2]
+        self.piston[K.P_FCON] = red[R_FPISTON]
+        out[K.O_DMAX] = red[R_DMAX]
+        out[K.O_NTOP] = red[R_NTOP]
+        out[K.O_NCONTACT] = red[R_NCONTACT]
+        ipar[K.I_STEPS] += 1
+        return 0
+
+    def _check(self) -> int:
+        """The CPU engine's check (every ``check_every`` steps): 3 blown up, 1 converged
+        candidate, else 0; adapts the time step."""
+        fpar, ipar, out, piston, g = self.fpar, self.ipar, self.out, self.piston, self.g
+        measure_kernel[1, RBLOCK](g["velocity"], g["acceleration"], g["angular_velocity"],
+                                  g["angular_acceleration"], g["mass"], g["inertia"], g["radius"], g["stat"])
+        stat = g["stat"].copy_to_host()
+        piston[...] = g["piston"].copy_to_host()
+        out[K.O_AMAX] = math.sqrt(stat[S_AMAX2])
+        out[K.O_ALPHAMAX] = math.sqrt(stat[S_ALMAX2])
+        out[K.O_VMAX] = math.sqrt(stat[S_VMAX2])
+        out[K.O_WMAX] = math.sqrt(stat[S_WMAX2])
+        kin = stat[S_KIN]
+        if piston[K.P_MASS] < np.inf:
+            out[K.O_APISTON] = abs(piston[K.P_A])
+            kin += 0.5 * piston[K.P_MASS] * piston[K.P_V] * piston[K.P_V]
+        else:
+            out[K.O_APISTON] = 0.0
+        out[K.O_KIN] = kin
+        if not (out[K.O_DMAX] < fpar[K.F_RMAX] and math.isfinite(out[K.O_KIN])):
+            return 3
+        if ipar[K.I_ADAPTIVE]:
+            self.set_dt(K.stable_dt_at(fpar, out[K.O_DMAX]))
+        tol_a, tol_v = fpar[K.F_TOLA], fpar[K.F_TOLV]
+        if (out[K.O_NTOP] > 0 and out[K.O_AMAX] < tol_a and out[K.O_ALPHAMAX] < tol_a
+                and out[K.O_APISTON] < tol_a and out[K.O_VMAX] < tol_v and out[K.O_WMAX] < tol_v
+                and abs(piston[K.P_V]) < tol_v):
+            return 1
+        return 0
+
+    # ------------------------------------------------------------ the engine's interface
     def run(self, n_steps: int) -> int:
         """Advance up to ``n_steps`` steps; same statuses as :meth:`Engine.run` (0, 1 converged
         candidate, 3 blown up)."""
-        fpar, ipar, out, piston = self.fpar, self.ipar, self.out, self.piston
-        n, d = self.position.shape
-        check = int(ipar[K.I_CHECK])
-        half_skin = 0.5 * fpar[K.F_SKIN]
-        inv_rad = 1.0 / self.radius
-        to = cuda.to_device
-        g = {name: to(getattr(self, name)) for name in
-             ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
-              "radius", "mass", "inertia", "lateral", "pos0", "wall_ft", "wall_ov", "piston")}
-        g_inv_rad = to(inv_rad)
-        g_fpar = to(fpar)
-        r = self.angular_velocity.shape[1]
-        gv2, gdisp2, gfp, gtop, gdmax, gcount = (cuda.device_array(n) for _ in range(6))
-        d_red = cuda.device_array(N_RED)
-        d_part = cuda.device_array((NPART, N_RED))
-        d_stat = cuda.device_array(N_STAT)
-        pairs = {}
-
-        def upload_pairs():
-            m = int(ipar[K.I_NPAIRS])
-            ptr, code = incidence(self.pair_i, self.pair_j, m, n)
-            cap = max(m, 1)
-            pairs.update(i=to(self.pair_i[:cap]), j=to(self.pair_j[:cap]), ft=to(self.pair_ft[:cap]),
-                         ov=to(self.pair_ov[:cap]), ptr=to(ptr), code=to(code if len(code) else
-                                                                         np.zeros(1, np.int64)),
-                         pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, max(r, 1))),
-                         tqj=cuda.device_array((cap, max(r, 1))), delta=cuda.device_array(cap), m=m)
-
-        def download_pairs():
-            m = pairs["m"]
-            if m:
-                self.pair_ft[:m] = pairs["ft"].copy_to_host()[:m]
-                self.pair_ov[:m] = pairs["ov"].copy_to_host()[:m]
-
-        def download():
-            for name in ("position", "velocity", "acceleration", "angular_velocity",
-                         "angular_acceleration", "pos0", "wall_ft", "wall_ov", "piston"):
-                getattr(self, name)[...] = g[name].copy_to_host()
-            download_pairs()
-
-        upload_pairs()
-        x = self.position - self.pos0
-        disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
-        nb = _blocks(n)
+        check = int(self.ipar[K.I_CHECK])
+        self.upload()
         try:
             for _ in range(int(n_steps)):
-                dt = fpar[K.F_DT]
-                reach = math.sqrt(disp2) + 2.0 * fpar[K.F_VMAX] * dt
-                if not math.isfinite(reach):
+                if self.step() == 3:
                     return 3
-                if reach > half_skin:  # host rebuild (first version; module docstring)
-                    self.position[...] = g["position"].copy_to_host()
-                    download_pairs()
-                    self._rebuild()  # wraps positions, grows the arrays if needed, pos0 = position
-                    ipar[K.I_REBUILDS] += 1
-                    g["position"].copy_to_device(self.position)
-                    g["pos0"].copy_to_device(self.pos0)
-                    upload_pairs()
-                m = pairs["m"]
-                kick_drift[nb, BLOCK](g["position"], g["velocity"], g["acceleration"],
-                                      g["angular_velocity"], g["angular_acceleration"], g["pos0"],
-                                      g["piston"], dt, gv2, gdisp2)
-                if m:
-                    pair_forces[_blocks(m), BLOCK](g["position"], g["velocity"], g["angular_velocity"],
-                                                   g["radius"], g_inv_rad, g["mass"], g["lateral"],
-                                                   pairs["i"], pairs["j"], m, pairs["ft"], pairs["ov"],
-                                                   g_fpar, pairs["pf"], pairs["tqi"], pairs["tqj"],
-                                                   pairs["delta"])
-                grain_forces[nb, BLOCK](g["position"], g["velocity"], g["acceleration"],
-                                        g["angular_velocity"], g["angular_acceleration"], g["radius"],
-                                        g["mass"], g["inertia"], pairs["ptr"], pairs["code"], pairs["pf"],
-                                        pairs["tqi"], pairs["tqj"], g["wall_ft"], g["wall_ov"],
-                                        g["piston"], g_fpar, gfp, gtop, gdmax, gcount)
-                step_partials[NPART, RBLOCK](gfp, gtop, gdmax, gcount, gv2, gdisp2, pairs["delta"], m,
-                                             d_part)
-                finish[1, RBLOCK](d_part, g["piston"], g_fpar, d_red)
-                red = d_red.copy_to_host()
-                fpar[K.F_VMAX] = math.sqrt(red[R_VMAX2])
-                disp2 = red[R_DISP2]
-                out[K.O_DMAX] = red[R_DMAX]
-                out[K.O_NTOP] = red[R_NTOP]
-                out[K.O_NCONTACT] = red[R_NCONTACT]
-                ipar[K.I_STEPS] += 1
-                if check > 0 and ipar[K.I_STEPS] % check == 0:
-                    measure_kernel[1, RBLOCK](g["velocity"], g["acceleration"], g["angular_velocity"],
-                                              g["angular_acceleration"], g["mass"], g["inertia"],
-                                              g["radius"], d_stat)
-                    stat = d_stat.copy_to_host()
-                    p_host = g["piston"].copy_to_host()
-                    piston[...] = p_host
-                    out[K.O_AMAX] = math.sqrt(stat[S_AMAX2])
-                    out[K.O_ALPHAMAX] = math.sqrt(stat[S_ALMAX2])
-                    out[K.O_VMAX] = math.sqrt(stat[S_VMAX2])
-                    out[K.O_WMAX] = math.sqrt(stat[S_WMAX2])
-                    kin = stat[S_KIN]
-                    if piston[K.P_MASS] < np.inf:
-                        out[K.O_APISTON] = abs(piston[K.P_A])
-                        kin += 0.5 * piston[K.P_MASS] * piston[K.P_V] * piston[K.P_V]
-                    else:
-                        out[K.O_APISTON] = 0.0
-                    out[K.O_KIN] = kin
-                    if not (out[K.O_DMAX] < fpar[K.F_RMAX] and math.isfinite(out[K.O_KIN])):
-                        return 3
-                    if ipar[K.I_ADAPTIVE]:
-                        fpar[K.F_DT] = K.stable_dt_at(fpar, out[K.O_DMAX])
-                        g_fpar.copy_to_device(fpar)
-                    tol_a, tol_v = fpar[K.F_TOLA], fpar[K.F_TOLV]
-                    if (out[K.O_NTOP] > 0 and out[K.O_AMAX] < tol_a and out[K.O_ALPHAMAX] < tol_a
-                            and out[K.O_APISTON] < tol_a and out[K.O_VMAX] < tol_v
-                            and out[K.O_WMAX] < tol_v and abs(piston[K.P_V]) < tol_v):
-                        return 1
+                if check > 0 and self.ipar[K.I_STEPS] % check == 0:
+                    status = self._check()
+                    if status:
+                        return status
             return 0
         finally:
-            download()
+            self.download()
