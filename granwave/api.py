@@ -238,7 +238,7 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
     (its dof map). The signal's attrs record the method, for "auto" also
     ``method_requested`` and ``method_reason``, and the sampling check
     (``nyquist_ratio``, ``aliased``; an AliasingWarning when aliased).
-    ``device``: "cpu" (default) or "gpu" (``method`` "time" only so far; docs/gpu.md).
+    ``device``: "cpu" (default) or "gpu" (``method`` "time" or "dem"; docs/gpu.md).
     """
     from .gpu import check_device
     from .linear.propagate import modal_propagate
@@ -258,11 +258,9 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
         raise InputError(f"cannot run --method {method} on {what[kind]}")
     p.check_method(method)
     device = check_device(device)
-    if device != "cpu" and method != "time":
-        what = ("the nonlinear DEM pulse (--method dem) has no GPU kernels yet" if method == "dem"
-                else f"--method {method} runs on the CPU only")
-        raise InputError(f"--device {device}: {what}; use --device cpu, or --method time on a "
-                         "linear file")
+    if device != "cpu" and method not in ("time", "dem"):
+        raise InputError(f"--device {device}: --method {method} runs on the CPU only; use --device "
+                         "cpu, or --method time (linear file) or dem (packing file)")
     from .gpu import backend
 
     time_domain_signal = backend(device).time_domain_signal
@@ -299,10 +297,12 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
 
         sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
                             amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
-                            damping=p.damping or 0.0, progress=progress)
+                            damping=p.damping or 0.0, progress=progress, device=device)
         omega_max = _dem_omega_max(source)
     if reason is not None:
         sig.attrs.update(method_requested="auto", method_reason=reason)
+    if device != "cpu":
+        sig.attrs["device"] = device
     p.record(sig.attrs)
     if omega_max > 0:
         _check_band(sig, omega_max)

@@ -66,12 +66,23 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
                               p2(max(rot, 1)), np.zeros(m)),
         G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
                                np.zeros(n + 1, np.int64), i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)),
-                               np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v, v),
+                               np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v,
+                               v),
         G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), 1, np.zeros((3, 6))),
         G.finish: _types(np.zeros((3, 6)), np.zeros(6), np.zeros(14), np.zeros(6)),
         G.measure_kernel: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(5)),
     }
     assert set(sigs) == set(G.KERNELS)
+    from granwave.gpu import pulse as P
+
+    s8 = np.zeros(m, np.int8)
+    sigs.update({
+        P.classify_pairs: _types(v, i64, i64, 1, p2(dim), np.zeros(m), 0.5, s8, False),
+        P.classify_walls: _types(v, np.zeros((2 * n, dim)), np.zeros(2 * n), 0.5, np.zeros(2 * n, np.int8),
+                                 False),
+        P.track_displacement: _types(f2(dim), f2(dim), np.zeros(dim - 1), v),
+    })
+    assert set(P.KERNELS) <= set(sigs)
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx

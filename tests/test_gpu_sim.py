@@ -58,3 +58,13 @@ def test_gpu_prepared_tiny_packing_equals_cpu(results):
     assert r["steps_gpu"] == r["steps_cpu"]
     assert r["contacts_gpu"] == r["contacts_cpu"]
     assert r["position_abs"] < 1e-9 and r["height_abs"] < 1e-9
+
+
+@pytest.mark.slow
+def test_gpu_dem_pulse_equals_cpu(results):
+    r = results["pulse"]
+    for k in ("n_opened", "n_formed", "n_sliding"):
+        assert r[f"{k}_cpu"] > 0 and r[f"{k}_gpu"] == r[f"{k}_cpu"], k
+    assert r["neighbour_rebuilds_gpu"] == r["neighbour_rebuilds_cpu"] > 5
+    assert r["n_contacts_initial_gpu"] == r["n_contacts_initial_cpu"]
+    assert r["signal_rel"] < 1e-10 and r["max_displacement_rel"] < 1e-12

@@ -52,7 +52,8 @@ def require_gpu() -> None:
 
 
 def backend(device: str | None) -> SimpleNamespace:
-    """The kernels of ``device``: ``engine`` (the DEM engine class), ``time_domain_signal``.
+    """The kernels of ``device``: ``engine`` (the DEM engine class), ``time_domain_signal`` and
+    ``pulse_samples`` (the stepping loop of the nonlinear DEM pulse).
 
     ``cpu`` imports only the CPU modules; ``gpu`` first checks that a GPU is usable
     (:func:`require_gpu`), so a missing GPU fails before any work or output.
@@ -60,11 +61,15 @@ def backend(device: str | None) -> SimpleNamespace:
     device = check_device(device)
     if device == "cpu":
         from ..dem.integrator import Engine
+        from ..dem.pulse_kernels import pulse_samples
         from ..linear.propagate import time_domain_signal
 
-        return SimpleNamespace(device="cpu", engine=Engine, time_domain_signal=time_domain_signal)
+        return SimpleNamespace(device="cpu", engine=Engine, time_domain_signal=time_domain_signal,
+                               pulse_samples=pulse_samples)
     require_gpu()
     from .dem import GpuEngine
     from .linear import time_domain_signal_gpu
+    from .pulse import pulse_samples_gpu
 
-    return SimpleNamespace(device="gpu", engine=GpuEngine, time_domain_signal=time_domain_signal_gpu)
+    return SimpleNamespace(device="gpu", engine=GpuEngine, time_domain_signal=time_domain_signal_gpu,
+                           pulse_samples=pulse_samples_gpu)
