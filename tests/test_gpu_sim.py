@@ -4,7 +4,7 @@ The simulator executes the kernels (threads, blocks, shared memory, barriers) as
 the CPU, so these tests need no GPU; they cannot tell whether a kernel compiles for a real one
 (tests/test_gpu_ptx.py does). They run in a subprocess: the simulator is chosen when
 numba.cuda is first imported, and the rest of the suite must not see it. All checks run in
-one subprocess (granwave.gpu.checks, ~40 s on a loaded 2-core machine).
+one subprocess (granwave.gpu.checks: ~30 s of CPU time, 55 s wall on a loaded 2-core machine).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def test_gpu_two_body_frictional_collision_equals_cpu(results):
 @pytest.mark.slow
 def test_gpu_repeated_runs_give_identical_bytes(results):
     assert results["two_body"]["identical"]
-    assert results["time_domain"]["identical_A"] and results["time_domain"]["identical_B"]
+    assert results["time_domain"]["identical"]
 
 
 @pytest.mark.slow

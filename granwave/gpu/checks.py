@@ -23,7 +23,7 @@ def _rel(a, b) -> float:
 
 def time_domain(rows: int = 4, width: int = 3) -> dict:
     """Frictional triangular lattice, both initial conditions, with snapshots: signal and
-    snapshots of the GPU time domain against the CPU one; two GPU runs compared bytewise."""
+    snapshots of the GPU time domain against the CPU one; two GPU runs (IC A) compared bytewise."""
     from ..linear.assemble import linearize
     from ..linear.check import reference_lattice
     from ..linear.propagate import time_domain_signal
@@ -35,11 +35,12 @@ def time_domain(rows: int = 4, width: int = 3) -> dict:
     for ic in "AB":
         cpu = time_domain_signal(system, ic=ic, **kw)
         gpu = time_domain_signal_gpu(system, ic=ic, **kw)
-        again = time_domain_signal_gpu(system, ic=ic, **kw)
+        again = time_domain_signal_gpu(system, ic=ic, **kw) if ic == "A" else gpu
         out[f"signal_rel_{ic}"] = _rel(cpu.force, gpu.force)
         out[f"snapshot_rel_{ic}"] = _rel(cpu.snapshot_displacement, gpu.snapshot_displacement)
         out[f"steps_{ic}"] = int(gpu.attrs["n_steps"])
-        out[f"identical_{ic}"] = bool(gpu.force.tobytes() == again.force.tobytes())
+        if ic == "A":
+            out["identical"] = bool(gpu.force.tobytes() == again.force.tobytes())
         out[f"energy_dev_cpu_{ic}"] = float(cpu.attrs["modified_energy_max_rel_deviation"])
         out[f"energy_dev_gpu_{ic}"] = float(gpu.attrs["modified_energy_max_rel_deviation"])
     return out
@@ -77,7 +78,7 @@ def prepare(grains: int = 10, seed: int = 1) -> dict:
     of a tiny 2D frictional packing at a loose tolerance, on both devices."""
     from .. import api
 
-    kw = dict(grains=grains, seed=seed, tol=1e-3, pressure=1e-2)
+    kw = dict(grains=grains, seed=seed, tol=1e-2, pressure=1e-2)
     t0 = time.perf_counter()
     cpu = api.prepare_packing(**kw)
     t1 = time.perf_counter()

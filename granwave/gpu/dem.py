@@ -58,7 +58,7 @@ reduced_mass = DF.reduced_mass
 #: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
 #: order depends on RBLOCK, fixed within a process).
 BLOCK = 8 if simulated() else 128
-RBLOCK = 8 if simulated() else 256
+RBLOCK = 4 if simulated() else 256
 #: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
 NPART = 2 if simulated() else 264
 

@@ -40,7 +40,7 @@ from . import simulated
 #: (fixed numbers: the order of the sums is fixed; small in the simulator, which runs every
 #: thread as a Python thread).
 BLOCK = 8 if simulated() else 256
-RBLOCK = 8 if simulated() else 256
+RBLOCK = 4 if simulated() else 256
 NPART = 2 if simulated() else 264
 
 
