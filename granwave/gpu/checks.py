@@ -46,10 +46,15 @@ def time_domain(rows: int = 4, width: int = 3) -> dict:
     return out
 
 
-def _two_body(cls, steps: int):
-    e = cls(np.array([[5.0, 3.0], [5.9, 3.3]]), np.array([0.5, 0.45]), [12.0], 8.0, friction=0.5,
-            damping=0.3, dt=2e-3, velocity=[[0.3, 0.05], [-0.2, 0.0]],
-            angular_velocity=[[0.4], [-1.0]])
+def _two_body(cls, steps: int, friction: float = 0.5, dim: int = 2):
+    if dim == 2:
+        pos, lateral = [[5.0, 3.0], [5.9, 3.3]], [12.0]
+        vel, spin = [[0.3, 0.05], [-0.2, 0.0]], [[0.4], [-1.0]]
+    else:
+        pos, lateral = [[5.0, 5.0, 3.0], [5.9, 5.1, 3.3]], [12.0, 12.0]
+        vel, spin = [[0.3, 0.0, 0.05], [-0.2, 0.1, 0.0]], [[0.4, 0.0, 0.1], [-1.0, 0.2, 0.0]]
+    e = cls(np.array(pos), np.array([0.5, 0.45]), lateral, 8.0, friction=friction, damping=0.3, dt=2e-3,
+            velocity=vel, angular_velocity=spin if friction > 0 else None)
     e.run(steps)
     return e
 
@@ -59,7 +64,8 @@ STATE = ("position", "velocity", "acceleration", "angular_velocity", "angular_ac
 
 def two_body(steps: int = 40) -> dict:
     """Head-on-and-sliding collision of two grains (Hertz-Mindlin with friction 0.5, damping 0.3,
-    spins): largest absolute difference of the state and tangential history after ``steps``."""
+    spins): largest absolute difference of the state and tangential history after ``steps``;
+    also (``steps // 2``) frictionless in 2D and frictional in 3D."""
     from ..dem.integrator import Engine
     from .dem import GpuEngine
 
@@ -68,6 +74,10 @@ def two_body(steps: int = 40) -> dict:
     diff = max(float(np.max(np.abs(getattr(cpu, k) - getattr(gpu, k)))) for k in STATE)
     diff = max(diff, float(np.max(np.abs(cpu.pair_ft[:m] - gpu.pair_ft[:m]), initial=0.0)))
     same = all(getattr(gpu, k).tobytes() == getattr(again, k).tobytes() for k in STATE)
+    for friction, dim in ((0.0, 2), (0.5, 3)):  # the frictionless (no rotation) and 3D paths
+        a, b = _two_body(Engine, steps // 2, friction, dim), _two_body(GpuEngine, steps // 2, friction, dim)
+        diff = max(diff, *(float(np.max(np.abs(getattr(a, k) - getattr(b, k)), initial=0.0))
+                           for k in (*STATE, "pair_ft")))
     return {"state_abs": diff, "tangential_force": float(np.abs(cpu.pair_ft[:m]).max(initial=0.0)),
             "overlap": float(cpu.pair_ov[:m].max(initial=0.0)), "identical": bool(same),
             "steps": steps}
