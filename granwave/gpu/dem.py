@@ -62,8 +62,8 @@ RBLOCK = 4 if simulated() else 256
 #: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
 NPART = 2 if simulated() else 264
 
-# The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba-cuda 0.30
-# fails to type the builtin max() of two floats inside a kernel (found by tests/test_gpu_ptx.py).
+# The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba 0.68's CUDA
+# target failed to type the builtin max() of two floats in these kernels (tests/test_gpu_ptx.py).
 
 # indices of the per-step reduction (``red``)
 R_FPISTON, R_NTOP, R_NCONTACT, R_DMAX, R_VMAX2, R_DISP2 = range(6)
