@@ -2,8 +2,8 @@
 
 This module is the one place where a stage's kernels are picked (:func:`backend`). It
 imports nothing beyond the standard library: the GPU modules (``granwave.gpu.dem``,
-``granwave.gpu.linear``, which import ``numba.cuda``) are loaded only when ``device="gpu"``
-is asked for, so the CPU path never loads a GPU package (tests/test_gpu_device.py checks it).
+``granwave.gpu.linear``, ``granwave.gpu.pulse``, which import ``numba.cuda``) are loaded only
+when ``device="gpu"`` is asked for, so the CPU path never loads a GPU package (tests/test_gpu_device.py checks it).
 
 The GPU path needs the ``gpu`` extra (``pip install -e '.[gpu]'``: numba-cuda with the CUDA 12
 libraries) and a CUDA device. Tests run the same kernels in numba's CUDA simulator
