@@ -122,11 +122,11 @@ class Compression:
     One home for the protocol's scales (pressure scales, inertial time, background
     damping rate, velocity threshold, piston mass and force) shared by the
     preparation from a gas and the relaxation of grains made elsewhere
-    (:func:`granwave.interop.relax.relax_grains`).
+    (:func:`granwave.interop.relax.relax_grains`). ``engine``: the engine class (CPU or GPU).
     """
 
     def __init__(self, position, radius, lateral, height: float, params: PrepareParams, *,
-                 velocity=None, angular_velocity=None):
+                 velocity=None, angular_velocity=None, engine=Engine):
         p = self.params = params
         self.radius, self.lateral = radius, lateral
         self.mass = grain_mass(radius)
@@ -137,7 +137,7 @@ class Compression:
         self.inertial_time = math.sqrt(mean_mass / p.pressure)  # sqrt(m / (p d))
         self.gamma = p.background_damping / self.inertial_time
         self.tol_v = impact_velocity(p.tol, mean_mass)
-        self.engine = Engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
+        self.engine = engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
                              damping=p.damping, background_damping=self.gamma,
                              piston_mass=self.piston_mass, piston_force=self.piston_force,
                              safety=p.safety, overlap_floor=delta_p, skin=p.skin,
@@ -210,11 +210,12 @@ class Compression:
                                + non_convergence_hint(history, m, p, engine.dt))
 
 
-def prepare_packing(params: PrepareParams, progress=None) -> Packing:
+def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Packing:
     """Prepare one disordered packing in mechanical equilibrium (docs/method.md §3).
 
     ``progress``: optional callable taking one line of text, called about once
-    a second. Raises :class:`granwave.errors.ConvergenceError` when
+    a second. ``engine``: the engine class (the CPU :class:`Engine`, or
+    :class:`granwave.gpu.dem.GpuEngine`; granwave.gpu.backend picks it). Raises :class:`granwave.errors.ConvergenceError` when
     ``params.max_steps`` steps do not converge. The returned packing lists the
     force-carrying contacts at the final positions (walls: j = -1 bottom,
     -2 top) and records the protocol in ``attrs``.
@@ -230,7 +231,7 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     gas_density = p.gas_density if p.gas_density is not None else default_gas_density(p.dim)
     position, height = granular_gas(radius, lateral, gas_density, rng)
     actual_gas_density = float(np.sum(grain_measure(radius, p.dim))) / (height * float(np.prod(lateral)))
-    run = Compression(position, radius, lateral, height, p)
+    run = Compression(position, radius, lateral, height, p, engine=engine)
     attrs = dict(kind="disordered", grains=p.grains, polydispersity=p.polydispersity, aspect=p.aspect,
                  gas_density=actual_gas_density, gas_height=height)
     return run.relax(attrs, progress=progress,

@@ -211,7 +211,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
                   damping: float = 0.0, t_max: float, samples: int = DEFAULT_SAMPLES,
                   dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = 0.2,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
-                  progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING) -> Signal:
+                  progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
+                  device: str = "cpu") -> Signal:
     """Kick the packing at the bottom wall in the nonlinear DEM; the top-wall signal.
 
     Parameters
@@ -237,6 +238,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         amplitude the signal converges to ``linearize(prestress=True)``) or "rescale"
         (F_t scaled by sqrt(n_new/n_old) on unloading, as in preparation: a first-order
         one-sided term for prestressed contacts; granwave/contact.py docstring).
+    device : "cpu" or "gpu" (the steps on one GPU: granwave.gpu.pulse; docs/gpu.md).
 
     Returns
     -------
@@ -275,7 +277,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     c = packing.contacts
     f_static = float(np.sum(c.force_normal[c.is_top]))
     run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
-               progress=progress, progress_interval=progress_interval, unloading=unloading)
+               progress=progress, progress_interval=progress_interval, unloading=unloading,
+               device=device)
     t_wall0 = _time.perf_counter()
     # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains)
     values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
@@ -319,7 +322,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
 
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
-         skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str) -> dict:
+         skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str,
+         device: str = "cpu") -> dict:
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
     values are the initial velocities (A) or imposed displacements (B), vertical.
 
@@ -363,13 +367,16 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)
     k = 1
     chunk = max(1, min(samples - 1, 20_000 // sub))
+    from ..gpu import backend
+
+    samples_kernel = backend(device).pulse_samples  # PK.pulse_samples on the CPU
     t_wall0 = t_last = _time.perf_counter()
     n_total = sub * (samples - 1)
     while k < samples:
         k_stop = min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
-            r = PK.pulse_samples(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+            r = samples_kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
                                  engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
                                  engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
                                  engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
