@@ -173,6 +173,41 @@ G_DMAX, G_NC, G_NTOP, G_AMAX, G_ALMAX, G_VMAX, G_WMAX, G_KIN, G_DVMAX, G_DISP = 
 N_GCOL = 10
 
 
+# Geometry pieces of one contact, shared with the GPU kernels (granwave.gpu.compile compiles
+# these same functions for the device).
+@numba.njit(cache=True, inline="always")
+def _pair_geometry(pos, lateral, i, j):
+    """(dx, dy, dz): nearest-image separation r_j - r_i (dz = 0 in 2D)."""
+    d = pos.shape[1]
+    dx = nearest_image(pos[j, 0] - pos[i, 0], lateral[0])
+    if d == 2:
+        return dx, pos[j, 1] - pos[i, 1], 0.0
+    return dx, nearest_image(pos[j, 1] - pos[i, 1], lateral[1]), pos[j, 2] - pos[i, 2]
+
+
+@numba.njit(cache=True, inline="always")
+def _spin(omega, k, arm):
+    """arm * w_k as (wx, wy, wz) (2D: only wz; frictionless: zeros)."""
+    r = omega.shape[1]
+    if r == 1:
+        return 0.0, 0.0, arm * omega[k, 0]
+    if r == 3:
+        return arm * omega[k, 0], arm * omega[k, 1], arm * omega[k, 2]
+    return 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
+    """torque[k] += (arm n) x f (only the tangential part of f contributes)."""
+    r = torque.shape[1]
+    if r == 1:
+        torque[k, 0] += arm * (nx * fy - ny * fx)
+    elif r == 3:
+        torque[k, 0] += arm * (ny * fz - nz * fy)
+        torque[k, 1] += arm * (nz * fx - nx * fz)
+        torque[k, 2] += arm * (nx * fy - ny * fx)
+
+
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains and room for ``cap`` pairs,
     ``width`` neighbours per grain: (nbr, gl, ncnt, nlo, row, need, pair_w, blk_p, blk_g, top_f);
@@ -222,20 +257,12 @@ def _pair_block(b, pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, 
     rescale = fpar[F_RESCALE] != 0.0
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar[F_POISSON], False)
-    lx = lateral[0]
-    ly = lateral[1] if d == 3 else 0.0
     dmax = 0.0
     ncontact = 0
     for p in range(b * PAIR_BLOCK, min(npairs, (b + 1) * PAIR_BLOCK)):
         i = pair_i[p]
         j = pair_j[p]
-        dx = nearest_image(pos[j, 0] - pos[i, 0], lx)
-        if d == 2:
-            dy = pos[j, 1] - pos[i, 1]
-            dz = 0.0
-        else:
-            dy = nearest_image(pos[j, 1] - pos[i, 1], ly)
-            dz = pos[j, 2] - pos[i, 2]
+        dx, dy, dz = _pair_geometry(pos, lateral, i, j)
         r2 = dx * dx + dy * dy + dz * dz
         ri = rad[i]
         rj = rad[j]
