@@ -62,20 +62,25 @@ def _threads(threads: int | None) -> None:
 
 # ----------------------------------------------------------------- packings
 def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callable[[str], None] | None = None,
-                    threads: int | None = None, **fields) -> Packing:
+                    threads: int | None = None, device: str | None = None, **fields) -> Packing:
     """A disordered packing by piston compression of a granular gas (docs/method.md §3).
 
     ``progress`` receives one line of text about once a second. Raises
     ConvergenceError when ``max_steps`` do not converge. The protocol is
     recorded in ``packing.attrs`` (one attribute per parameter, and the whole
-    parameter object as JSON in ``prepare_params``).
+    parameter object as JSON in ``prepare_params``). ``device``: "cpu" (default)
+    or "gpu" (docs/gpu.md; recorded as the attribute ``device`` when "gpu").
     """
     from .dem.protocol import prepare_packing as run
+    from .gpu import backend
 
     p = _params(PrepareParams, params, fields)
+    kernels = backend(device)
     _threads(threads)
-    packing = run(p, progress=progress)
+    packing = run(p, progress=progress, engine=kernels.engine)
     p.record(packing.attrs)
+    if kernels.device != "cpu":
+        packing.attrs["device"] = kernels.device
     return packing
 
 
@@ -222,7 +227,7 @@ def _check_band(signal: Signal, omega_max: float) -> None:
 
 def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | None = None, /, *,
               system: LinearSystem | None = None, progress: Callable[[str], None] | None = None,
-              threads: int | None = None, **fields) -> Signal:
+              threads: int | None = None, device: str | None = None, **fields) -> Signal:
     """The signal on the top wall after a kick at the bottom (docs/method.md §8).
 
     ``source``: a Modes (modal sum), a LinearSystem (``method`` "time", "modal"
@@ -233,8 +238,10 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
     (its dof map). The signal's attrs record the method, for "auto" also
     ``method_requested`` and ``method_reason``, and the sampling check
     (``nyquist_ratio``, ``aliased``; an AliasingWarning when aliased).
+    ``device``: "cpu" (default) or "gpu" (``method`` "time" or "dem"; docs/gpu.md).
     """
-    from .linear.propagate import modal_propagate, time_domain_signal
+    from .gpu import check_device
+    from .linear.propagate import modal_propagate
 
     kind = ("modes" if isinstance(source, Modes) else "linear" if isinstance(source, LinearSystem)
             else "packing" if isinstance(source, Packing) else None)
@@ -250,6 +257,13 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                 "packing": "a packing file (granwave.packing): linearize it first, or use --method dem"}
         raise InputError(f"cannot run --method {method} on {what[kind]}")
     p.check_method(method)
+    device = check_device(device)
+    if device != "cpu" and method not in ("time", "dem"):
+        raise InputError(f"--device {device}: --method {method} runs on the CPU only; use --device "
+                         "cpu, or --method time (linear file) or dem (packing file)")
+    from .gpu import backend
+
+    time_domain_signal = backend(device).time_domain_signal
     _threads(threads)
     reason = None
     if kind == "modes":
@@ -283,10 +297,12 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
 
         sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
                             amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
-                            damping=p.damping or 0.0, progress=progress)
+                            damping=p.damping or 0.0, progress=progress, device=device)
         omega_max = _dem_omega_max(source)
     if reason is not None:
         sig.attrs.update(method_requested="auto", method_reason=reason)
+    if device != "cpu":
+        sig.attrs["device"] = device
     p.record(sig.attrs)
     if omega_max > 0:
         _check_band(sig, omega_max)

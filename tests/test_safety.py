@@ -248,7 +248,7 @@ def test_library_guards_use_the_available_memory(monkeypatch):
     from granwave.dem.params import PrepareParams
     from granwave.dem.protocol import prepare_packing
 
-    with pytest.raises(ResourceError, match="a packing of 100000 grains needs about 30 MB"):
+    with pytest.raises(ResourceError, match="a packing of 100000 grains needs about 100 MB"):
         prepare_packing(PrepareParams(grains=100_000))
     with pytest.raises(ResourceError, match="a dense eigensolve of 1000 dofs needs about 32 MB"):
         resources.check_eigensolve(1000)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import POSITIVE, FiniteFloat, output_option, progress_printer
+from .common import POSITIVE, FiniteFloat, output_option, progress_printer, threads_option
 from .export import NON_NEGATIVE
 from .export import bad_input_exits_2
 
@@ -40,10 +40,11 @@ def import_group():
 @click.option("--length-scale", type=POSITIVE, default=1.0, show_default=True,
               help="Multiply the file's lengths by this to measure them in mean diameters "
                    "(velocities are then ignored).")
+@threads_option
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @bad_input_exits_2
 def import_lammps_cmd(source, output, pressure, friction, poisson, damping, background_damping, piston_mass,
-                      tol, max_steps, safety, dim, length_scale, quiet):
+                      tol, max_steps, safety, dim, length_scale, threads, quiet):
     """Relax grains from a LAMMPS data file or text dump with granwave's engine.
 
     Reads positions, radii (data file: atom_style sphere; dump: a radius or diameter
@@ -58,7 +59,9 @@ def import_lammps_cmd(source, output, pressure, friction, poisson, damping, back
     from ..interop.lammps import grains_of_state, read_lammps
     from ..interop.relax import relax_grains
     from ..io.files import check_writable, write_packing
+    from ..threads import set_threads
 
+    set_threads(threads)
     check_writable(output)
     state = read_lammps(source)
     g = grains_of_state(state, None if dim == "auto" else int(dim), length_scale=length_scale)

@@ -7,14 +7,20 @@ import click
 from ..params import PrepareParams
 from .common import options_from, output_option, params_from, progress_printer, stage, threads_option
 
+#: ``--device cpu|gpu`` (also used by ``propagate``): where the stage's kernels run (docs/gpu.md).
+device_option = click.option(
+    "--device", type=click.Choice(["cpu", "gpu"]), default="cpu", show_default=True,
+    help="Run the kernels on the CPU or on one NVIDIA GPU (needs the gpu extra; docs/gpu.md).")
+
 
 @click.command("prepare-packing")
 @options_from(PrepareParams)
 @output_option
 @threads_option
+@device_option
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
 @stage
-def prepare_packing(output, threads, quiet, **options):
+def prepare_packing(output, threads, device, quiet, **options):
     """Prepare a packing in mechanical equilibrium by piston compression of a granular gas.
 
     Hertz-Mindlin contacts with Coulomb friction and damping; converged when every
@@ -28,7 +34,8 @@ def prepare_packing(output, threads, quiet, **options):
 
     params = params_from(PrepareParams, options)
     check_writable(output)
-    packing = api.prepare_packing(params, progress=progress_printer(not quiet), threads=threads)
+    packing = api.prepare_packing(params, progress=progress_printer(not quiet), threads=threads,
+                                  device=device)
     write_packing(output, packing)
     if not quiet:
         a = packing.attrs

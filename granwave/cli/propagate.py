@@ -15,6 +15,7 @@ import click
 from ..params import PropagateParams
 from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
                      progress_printer, stage, threads_option)
+from .prepare import device_option
 
 ROWS = ("ic", "method", "method_reason", "height", "t_max", "samples", "dt", "omega_max_dt",
         "nyquist_ratio", "modified_energy_max_rel_deviation", "amplitude", "damping", "n_opened",
@@ -56,10 +57,11 @@ def _read_source(path: str, kind: str, params: PropagateParams):
 @output_option
 @options_from(PropagateParams)
 @threads_option
+@device_option
 @click.option("--quiet", is_flag=True, help="No progress lines on stderr.")
 @json_option
 @stage
-def propagate(source, output, threads, quiet, as_json, **options):
+def propagate(source, output, threads, device, quiet, as_json, **options):
     """Signal F_sig(t) on the top wall, in E* d^2, after a kick at the bottom (docs/method.md §8).
 
     Reads a granwave.modes file (modal sum), a granwave.linear file (time
@@ -82,7 +84,7 @@ def propagate(source, output, threads, quiet, as_json, **options):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", api.AliasingWarning)
         signal = api.propagate(obj, params, system=system, progress=progress_printer(not quiet),
-                               threads=threads)
+                               threads=threads, device=device)
     echo_warnings(caught)
     signal.attrs["source_file"] = str(source)
     files.write_signal(output, signal)

@@ -28,8 +28,12 @@ import numpy as np
 from .. import contact as C
 from ..errors import InputError
 from ..geometry import grain_inertia, grain_mass, n_rotations
+from ..threads import at_most
 from . import kernels as K
 from .neighbours import rebuild
+
+#: Neighbours per grain the lists start with (2D, 3D); grown when a grain has more.
+NEIGHBOUR_WIDTH = {2: 16, 3: 40}
 
 #: Tangential unloading rules (contact.update_tangential's ``rescale_on_unloading`` True / False).
 UNLOADING_RULES = ("rescale", "incremental")
@@ -85,6 +89,9 @@ class Engine:
         self.pair_j = np.zeros(cap, np.int64)
         self.pair_ft = np.zeros((cap, d))
         self.pair_ov = np.zeros(cap)
+        #: arrays of the parallel kernels (kernels.workspace): neighbour and gather lists,
+        #: per-pair forces, per-block statistics
+        self.ws = K.workspace(n, d, n_rot, cap, NEIGHBOUR_WIDTH[d])
         self.wall_ft = np.zeros((2 * n, d))
         self.wall_ov = np.zeros(2 * n)
         self.piston = np.zeros(K.N_PISTON)
@@ -118,31 +125,41 @@ class Engine:
         self.fpar[K.F_DT] = dt if dt is not None else K.stable_dt_at(self.fpar, self.out[K.O_DMAX])
 
     # ------------------------------------------------------------------ internals
-    def _grow(self, needed: int) -> None:
-        cap = int(needed * 1.5) + 64
+    def grow(self, needed: int, width: int = 0) -> None:
+        """Room for ``needed`` pairs and ``width`` neighbours per grain (contents kept;
+        the neighbour and gather lists are rebuilt by the next rebuild)."""
+        cap = max(int(needed * 1.5) + 64, len(self.pair_i))
         d = self.dim
-        for name, shape, dtype in (("pair_i", (cap,), np.int64), ("pair_j", (cap,), np.int64),
-                                   ("pair_ft", (cap, d), np.float64), ("pair_ov", (cap,), np.float64)):
-            old = getattr(self, name)
-            new = np.zeros(shape, dtype)
-            new[: len(old)] = old
-            setattr(self, name, new)
+        if cap > len(self.pair_i):
+            for name, shape, dtype in (("pair_i", (cap,), np.int64), ("pair_j", (cap,), np.int64),
+                                       ("pair_ft", (cap, d), np.float64), ("pair_ov", (cap,), np.float64)):
+                old = getattr(self, name)
+                new = np.zeros(shape, dtype)
+                new[: len(old)] = old
+                setattr(self, name, new)
+        old_width = self.ws[0].shape[1]
+        width = old_width if width <= old_width else int(width * 1.5) + 2
+        row = self.ws[4]
+        self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width)
+        self.ws[4][:] = row  # the pair list's offsets per grain (history carried by the rebuild)
 
     def _rebuild(self) -> None:
         while True:
+            w = self.ws
             m = rebuild(self.position, self.radius, self.lateral, self.piston[K.P_H], self.fpar[K.F_SKIN],
-                        self.pair_i, self.pair_j, self.pair_ft, self.pair_ov, self.ipar[K.I_NPAIRS])
+                        self.pair_i, self.pair_j, self.pair_ft, self.pair_ov, self.ipar[K.I_NPAIRS],
+                        w[0], w[2], w[3], w[4], w[1], w[5])
             if m >= 0:
                 break
-            self._grow(-m)
+            self.grow(int(w[5][0]), int(w[5][1]))
         self.ipar[K.I_NPAIRS] = m
         self.pos0[:] = self.position
 
     def _forces(self) -> None:
         K.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius, self.mass,
-                         self.inertia, self.lateral, self.pair_i, self.pair_j, self.ipar[K.I_NPAIRS],
-                         self.pair_ft, self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
-                         self.acceleration, self.angular_acceleration, self.out)
+                         self.inertia, self.lateral, self.pair_i, self.pair_j, self.pair_ft, self.pair_ov,
+                         self.wall_ft, self.wall_ov, self.piston, self.fpar, self.ipar, self.acceleration,
+                         self.angular_acceleration, self.out, self.ws)
         K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
         self.piston[K.P_A] = K.piston_acceleration(self.piston, self.fpar[K.F_GAMMA])
 
@@ -152,18 +169,19 @@ class Engine:
         test passed, 3 if the state blew up (unstable time step; see
         :func:`kernels.run_chunk`), else 0."""
         target = self.steps + int(n_steps)
-        while self.steps < target:
-            self.ipar[K.I_NSTEPS] = target - self.steps
-            status = K.run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
-                                 self.angular_acceleration, self.radius, self.mass, self.inertia,
-                                 self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
-                                 self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
-                                 self.ipar, self.out)
-            if status == 2:
-                self._grow(int(self.ipar[K.I_NEEDED]))
-                continue
-            if status in (1, 3):
-                return status
+        with at_most(len(self.radius), K.MIN_PARALLEL_GRAINS):
+            while self.steps < target:
+                self.ipar[K.I_NSTEPS] = target - self.steps
+                status = K.run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
+                                     self.angular_acceleration, self.radius, self.mass, self.inertia,
+                                     self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
+                                     self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
+                                     self.ipar, self.out, self.ws)
+                if status == 2:
+                    self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
+                    continue
+                if status in (1, 3):
+                    return status
         return 0
 
     def measure(self) -> dict:
@@ -224,3 +242,28 @@ def elastic_energy_kernel(engine: Engine) -> float:
         if engine.friction > 0.0 and kt > 0.0:
             e += float(np.dot(c.force_tangential[k], c.force_tangential[k])) / (2.0 * kt)
     return e
+
+
+def eta_seconds(history, tol: float, steps_per_second: float, window: int = 8) -> float | None:
+    """Seconds until max |a| reaches ``tol`` at the decay rate of the recent chunks, or None.
+
+    ``history``: (steps, max |a|) after each chunk. The rate is the least-squares slope of
+    log max |a| against steps over the last ``window`` chunks; None (unknown) with fewer
+    than 3 chunks, a slope that is not a decay, or no rate yet. An estimate, not a promise:
+    the end game of a relaxation often slows down (max |a| decays in bursts).
+    """
+    pts = [(s, a) for s, a in history[-window:] if a > 0 and math.isfinite(a)]
+    if len(pts) < 3 or not steps_per_second > 0:
+        return None
+    s = np.array([p[0] for p in pts], float)
+    y = np.log([p[1] for p in pts])
+    s -= s.mean()
+    if not np.any(s):
+        return None
+    slope = float(np.dot(s, y - y.mean()) / np.dot(s, s))
+    a_now = pts[-1][1]
+    if a_now <= tol:
+        return 0.0
+    if not slope < 0:
+        return None
+    return math.log(tol / a_now) / slope / steps_per_second

@@ -6,13 +6,19 @@ rotation arrays then have zero columns), so each kernel compiles once.
 
 Every piece of the contact law is called from :mod:`granwave.contact`; the
 geometry follows docs/conventions.md. :func:`contact_force3` is the single
-per-contact routine (scalars in and out): the engine's force loop calls it with
+per-contact routine (scalars in and out): the engine's pair pass calls it with
 velocities and the real Coulomb law; :func:`granwave.dem.forces.frozen_history_forces`
 calls its array form :func:`contact_force` with displacements (``dt = 1``), no
-unloading rescale and no Coulomb cap. The force loop :func:`_force_loop` is
-compiled without NRT reference counting (``_nrt=False``): inlined helpers with
-array arguments otherwise cost an atomic incref/decref pair per contact and
-argument, which was most of the per-contact time (docs/dem.md).
+unloading rescale and no Coulomb cap.
+
+Parallel and deterministic (docs/dem.md, "Parallel engine"): a step is two
+parallel passes, :func:`_pair_pass` (each pair's force and torques once, into
+its own slots) and :func:`_grain_pass` (each grain adds its pairs' contributions
+in increasing pair order from the gather list built with the pair list, then its
+walls and damping, then kicks and drifts). Sums run in the order of the former
+serial loop, and maxima and sums over grains are taken per fixed block, so the
+results are bit for bit the same for any number of threads. No floating-point
+atomics.
 
 Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
@@ -30,6 +36,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from ..geometry import nearest_image
 from . import neighbours
 
@@ -42,8 +49,8 @@ N_FPAR = 14
 P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
 N_PISTON = 6
 # ipar indices
-I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED = range(7)
-N_IPAR = 7
+I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED, I_WIDTH = range(8)
+N_IPAR = 8
 # out (statistics) indices
 O_AMAX, O_ALPHAMAX, O_APISTON, O_VMAX, O_WMAX, O_KIN, O_NTOP, O_DMAX, O_NCONTACT = range(9)
 N_OUT = 9
@@ -156,6 +163,18 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     return fel
 
 
+#: Grains per block of the grain passes and pairs per block of the pair pass: the blocks
+#: (not the threads) hold the partial maxima and sums, so results do not depend on the
+#: thread count.
+GRAIN_BLOCK = 128
+PAIR_BLOCK = 512
+# columns of the per-block statistics of the grain pass (``blk_g``)
+G_DMAX, G_NC, G_NTOP, G_AMAX, G_ALMAX, G_VMAX, G_WMAX, G_KIN, G_DVMAX, G_DISP = range(10)
+N_GCOL = 10
+
+
+# Geometry pieces of one contact, shared with the GPU kernels (granwave.gpu.compile compiles
+# these same functions for the device).
 @numba.njit(cache=True, inline="always")
 def _pair_geometry(pos, lateral, i, j):
     """(dx, dy, dz): nearest-image separation r_j - r_i (dz = 0 in 2D)."""
@@ -189,49 +208,58 @@ def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
         torque[k, 2] += arm * (nx * fy - ny * fx)
 
 
-@numba.njit(cache=True)
-def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                   pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
-    """Total force and torque on every grain; see :func:`_force_loop`."""
-    inv_rad = 1.0 / rad
-    _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out)
+def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
+    """Arrays of the parallel kernels for ``n_grains`` grains and room for ``cap`` pairs,
+    ``width`` neighbours per grain: (nbr, gl, ncnt, nlo, row, need, pair_w, blk_p, blk_g, top_f);
+    ``pair_w`` holds per pair the force on i (d columns), then the torques on i and on j
+    (r columns each), in one row so that a grain's gather reads one cache line per pair."""
+    nblk_g = (n_grains + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    nblk_p = (cap + PAIR_BLOCK - 1) // PAIR_BLOCK
+    return (np.zeros((n_grains, width), np.int64), np.zeros((n_grains, width), np.int64),
+            np.zeros(n_grains, np.int64), np.zeros(n_grains, np.int64), np.zeros(n_grains + 1, np.int64),
+            np.zeros(2, np.int64), np.zeros((cap, dim + 2 * n_rot)),
+            np.zeros((max(1, nblk_p), 2)), np.zeros((max(1, nblk_g), N_GCOL)),
+            np.zeros(max(1, nblk_g) * GRAIN_BLOCK))
 
 
-@numba.njit(cache=True, _nrt=False)
-def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
-    """Total force and torque on every grain and the contact force on the piston.
+@numba.njit(cache=True, parallel=True)
+def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
+               pair_w, blk_p):
+    """Force of every pair on its grain i into ``pair_w[:, :d]`` (j receives minus it), the
+    torques a_i (n x f) on i and a_j (n x f) on j into columns d:d+r and d+r:d+2r (zeros where
+    the grains do not touch: adding them changes no bit of a sum that starts from +0);
+    tangential histories updated. Largest overlap and
+    contact count of each block of PAIR_BLOCK pairs into ``blk_p``.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
     (velocities at the half step of velocity Verlet, i.e. exactly the
-    displacement of the step). Also adds the background damping -gamma m v,
-    -gamma I w. Statistics into ``out``: largest overlap, number of
-    top-wall contacts and of contacts.
-
-    Written with scalars (three components, the third 0 in 2D) so that nothing
-    is allocated per contact and the compiler keeps the contact, its tangential
-    history included, in registers (contact.py's scalar forms of the law).
+    displacement of the step). Written with scalars (three components, the third 0 in 2D)
+    so that nothing is allocated per contact and the contact, its tangential history
+    included, stays in registers (contact.py's scalar forms of the law). Each pair writes
+    only its own slots: no two threads touch the same memory.
     """
-    n_grains, d = pos.shape
+    nblk = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
+    for b in numba.prange(nblk):
+        _pair_block(np.int64(b), pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
+                    pair_w, blk_p)
+
+
+@numba.njit(cache=True)
+def _pair_block(b, pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
+                pair_w, blk_p):
+    """Block b of :func:`_pair_pass` (a plain function: the parallel one stays small, which
+    keeps its compilation short)."""
+    d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar[F_DT]
     zeta = fpar[F_ZETA]
     mu = fpar[F_MU]
-    poisson = fpar[F_POISSON]
-    gamma = fpar[F_GAMMA]
     rescale = fpar[F_RESCALE] != 0.0
     e_pair = C.effective_young(False)
-    e_wall = C.effective_young(True)
-    g_pair = C.effective_shear(poisson, False)
-    g_wall = C.effective_shear(poisson, True)
-    h = piston[P_H]
-    vp = piston[P_V]
-    force[:, :] = 0.0
-    torque[:, :] = 0.0
+    g_pair = C.effective_shear(fpar[F_POISSON], False)
     dmax = 0.0
     ncontact = 0
-    for p in range(npairs):
+    for p in range(b * PAIR_BLOCK, min(npairs, (b + 1) * PAIR_BLOCK)):
         i = pair_i[p]
         j = pair_j[p]
         dx, dy, dz = _pair_geometry(pos, lateral, i, j)
@@ -240,6 +268,8 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
         rj = rad[j]
         rs = ri + rj
         if r2 >= rs * rs:
+            for a in range(d + 2 * r):
+                pair_w[p, a] = 0.0
             if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
                 pair_ov[p] = 0.0
                 for a in range(d):
@@ -257,15 +287,18 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
         aj = rj - 0.5 * delta
         if r > 0:
             # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-            wx, wy, wz = _spin(omega, i, ai)
-            ux, uy, uz = _spin(omega, j, aj)
-            wx += ux
-            wy += uy
-            wz += uz
+            if r == 1:
+                wx = 0.0
+                wy = 0.0
+                wz = ai * omega[i, 0] + aj * omega[j, 0]
+            else:
+                wx = ai * omega[i, 0] + aj * omega[j, 0]
+                wy = ai * omega[i, 1] + aj * omega[j, 1]
+                wz = ai * omega[i, 2] + aj * omega[j, 2]
             vx -= wy * nz - wz * ny
             vy -= wz * nx - wx * nz
             vz -= wx * ny - wy * nx
-        r12 = C.effective_radius(inv_rad[i], inv_rad[j])
+        r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
         meff = C.reduced_mass(mass[i], mass[j], False)
         hx = hy = hz = 0.0
         if mu > 0.0:
@@ -282,23 +315,113 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
             if d == 3:
                 pair_ft[p, 2] = hz
         pair_ov[p] = delta
-        force[i, 0] += fx
-        force[i, 1] += fy
-        force[j, 0] -= fx
-        force[j, 1] -= fy
+        pair_w[p, 0] = fx
+        pair_w[p, 1] = fy
         if d == 3:
-            force[i, 2] += fz
-            force[j, 2] -= fz
-        if r > 0:
-            _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
-            _add_torque3(torque, j, aj, nx, ny, nz, fx, fy, fz)
+            pair_w[p, 2] = fz
+        if r == 1:
+            c = nx * fy - ny * fx
+            pair_w[p, d] = ai * c
+            pair_w[p, d + 1] = aj * c
+        elif r == 3:
+            c0 = ny * fz - nz * fy
+            c1 = nz * fx - nx * fz
+            c2 = nx * fy - ny * fx
+            pair_w[p, d] = ai * c0
+            pair_w[p, d + 1] = ai * c1
+            pair_w[p, d + 2] = ai * c2
+            pair_w[p, d + 3] = aj * c0
+            pair_w[p, d + 4] = aj * c1
+            pair_w[p, d + 5] = aj * c2
         if delta > dmax:
             dmax = delta
         ncontact += 1
-    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
-    fpiston = 0.0
+    blk_p[b, 0] = dmax
+    blk_p[b, 1] = ncontact
+
+
+@numba.njit(cache=True, parallel=True)
+def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
+                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
+    """Per grain: its pair forces gathered in increasing pair order, then its two wall
+    contacts (bottom, top), then the background damping -gamma m v, -gamma I w: the
+    order of the former serial force loop, so sums are bit for bit those of one thread.
+
+    ``kick`` 0: total force and torque into ``acc``, ``alpha``; 1: accelerations into
+    ``acc``, ``alpha`` and the second half kick of velocity Verlet. ``stats``: also the
+    block maxima of |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the block sums of the kinetic
+    energy (after the kick). ``drift``: then also the first half kick and drift of the
+    next step (the state between steps is the same as with a separate pass), with the
+    block maxima of |v|^2 and of the squared displacement since ``pos0``.
+    Per block (GRAIN_BLOCK grains) into ``blk_g``: largest wall overlap, wall contacts,
+    top-wall contacts (their forces on the piston, grain order, into ``top_f`` from
+    b * GRAIN_BLOCK).
+    """
+    n, d = pos.shape
+    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    for b in numba.prange(nblk):
+        _grain_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston,
+                     fpar, nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
+
+
+@numba.njit(cache=True)
+def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
+                 nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
+    """Block b of :func:`_grain_pass` (a plain function: the parallel one stays small, which
+    keeps its compilation short)."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    dt = fpar[F_DT]
+    zeta = fpar[F_ZETA]
+    mu = fpar[F_MU]
+    gamma = fpar[F_GAMMA]
+    rescale = fpar[F_RESCALE] != 0.0
+    e_wall = C.effective_young(True)
+    g_wall = C.effective_shear(fpar[F_POISSON], True)
+    h = piston[P_H]
+    vp = piston[P_V]
+    dmax = 0.0
+    ncontact = 0
     ntop = 0
-    for i in range(n_grains):
+    amax = 0.0
+    almax = 0.0
+    vmax = 0.0
+    wmax = 0.0
+    kin = 0.0
+    dvmax = 0.0
+    disp = 0.0
+    for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+        t0 = 0.0
+        t1 = 0.0
+        t2 = 0.0
+        lo = nlo[i]
+        for t in range(lo):  # pairs where i is the j (lower pair indices first)
+            p = nbr_gl[i, t]
+            f0 -= pair_w[p, 0]
+            f1 -= pair_w[p, 1]
+            if d == 3:
+                f2 -= pair_w[p, 2]
+            if r == 1:
+                t0 += pair_w[p, d + 1]
+            elif r == 3:
+                t0 += pair_w[p, d + 3]
+                t1 += pair_w[p, d + 4]
+                t2 += pair_w[p, d + 5]
+        for t in range(lo, ncnt[i]):  # pairs where i is the i
+            p = nbr_gl[i, t]
+            f0 += pair_w[p, 0]
+            f1 += pair_w[p, 1]
+            if d == 3:
+                f2 += pair_w[p, 2]
+            if r >= 1:
+                t0 += pair_w[p, d]
+            if r == 3:
+                t1 += pair_w[p, d + 1]
+                t2 += pair_w[p, d + 2]
+        # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
         y = pos[i, d - 1]
         R = rad[i]
         for k in range(2):
@@ -322,50 +445,240 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
                 vz = -vel[i, 2] + (vp if k == 1 else 0.0)
             ai = R - delta
             if r > 0:
-                wx, wy, wz = _spin(omega, i, ai)
+                if r == 1:
+                    wx = 0.0
+                    wy = 0.0
+                    wz = ai * omega[i, 0]
+                else:
+                    wx = ai * omega[i, 0]
+                    wy = ai * omega[i, 1]
+                    wz = ai * omega[i, 2]
                 vx -= wy * nz - wz * ny
                 vy -= wz * nx - wx * nz
                 vz -= wx * ny - wy * nx
             hx = hy = hz = 0.0
-            # Same steps as the grain pair above, on the wall's own history slots (wall_ft,
-            # wall_ov) with R12 = R, the wall moduli and the grain's mass: the law itself is
-            # written once (contact_force3); only this load/store of the history repeats.
+            # the grain pair's steps on the wall's own history slots (wall_ft, wall_ov) with
+            # R12 = R, the wall moduli and the grain's mass (the law is contact_force3)
             if mu > 0.0:
                 hx = wall_ft[w, 0]
                 hy = wall_ft[w, 1]
                 if d == 3:
                     hz = wall_ft[w, 2]
-            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i],
-                                                         vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta,
-                                                         mu, rescale)
+            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall,
+                                                         mass[i], vx, vy, vz, hx, hy, hz, wall_ov[w],
+                                                         dt, zeta, mu, rescale)
             if mu > 0.0:
                 wall_ft[w, 0] = hx
                 wall_ft[w, 1] = hy
                 if d == 3:
                     wall_ft[w, 2] = hz
             wall_ov[w] = delta
-            force[i, 0] += fx
-            force[i, 1] += fy
+            f0 += fx
+            f1 += fy
             if d == 3:
-                force[i, 2] += fz
-            if r > 0:
-                _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
+                f2 += fz
+            if r == 1:
+                t0 += ai * (nx * fy - ny * fx)
+            elif r == 3:
+                t0 += ai * (ny * fz - nz * fy)
+                t1 += ai * (nz * fx - nx * fz)
+                t2 += ai * (nx * fy - ny * fx)
             if k == 1:
-                fpiston -= fz if d == 3 else fy
+                top_f[b * GRAIN_BLOCK + ntop] = fz if d == 3 else fy
                 ntop += 1
             if delta > dmax:
                 dmax = delta
             ncontact += 1
-    if gamma > 0.0:
-        for i in range(n_grains):
+        if gamma > 0.0:
+            f0 -= gamma * mass[i] * vel[i, 0]
+            f1 -= gamma * mass[i] * vel[i, 1]
+            if d == 3:
+                f2 -= gamma * mass[i] * vel[i, 2]
+            if r >= 1:
+                t0 -= gamma * inertia[i] * omega[i, 0]
+            if r == 3:
+                t1 -= gamma * inertia[i] * omega[i, 1]
+                t2 -= gamma * inertia[i] * omega[i, 2]
+        acc[i, 0] = f0
+        acc[i, 1] = f1
+        if d == 3:
+            acc[i, 2] = f2
+        if r >= 1:
+            alpha[i, 0] = t0
+        if r == 3:
+            alpha[i, 1] = t1
+            alpha[i, 2] = t2
+    # kick, measures and drift in separate short loops over the block (they vectorize and keep
+    # the force loop's registers free; the same operations per grain as one loop)
+    lo = b * GRAIN_BLOCK
+    hi = min(n, (b + 1) * GRAIN_BLOCK)
+    if kick:
+        half = 0.5 * dt
+        for i in range(lo, hi):
+            inv = 1.0 / mass[i]
             for a in range(d):
-                force[i, a] -= gamma * mass[i] * vel[i, a]
+                acc[i, a] *= inv
+                vel[i, a] += half * acc[i, a]
+            inv = 1.0 / inertia[i]
             for a in range(r):
-                torque[i, a] -= gamma * inertia[i] * omega[i, a]
+                alpha[i, a] *= inv
+                omega[i, a] += half * alpha[i, a]
+    if stats:
+        for i in range(lo, hi):
+            a2 = 0.0
+            v2 = 0.0
+            for a in range(d):
+                a2 += acc[i, a] * acc[i, a]
+                v2 += vel[i, a] * vel[i, a]
+            al2 = 0.0
+            w2 = 0.0
+            for a in range(r):
+                al2 += alpha[i, a] * alpha[i, a]
+                w2 += omega[i, a] * omega[i, a]
+            amax = max(amax, a2)
+            almax = max(almax, al2)
+            vmax = max(vmax, v2)
+            wmax = max(wmax, w2 * rad[i] * rad[i])
+            kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+    if drift:
+        half = 0.5 * dt
+        for i in range(lo, hi):
+            v2 = 0.0
+            s = 0.0
+            for a in range(d):
+                vel[i, a] += half * acc[i, a]
+                pos[i, a] += dt * vel[i, a]
+                v2 += vel[i, a] * vel[i, a]
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            dvmax = max(dvmax, v2)
+            disp = max(disp, s)
+            for a in range(r):
+                omega[i, a] += half * alpha[i, a]
+    blk_g[b, G_DMAX] = dmax
+    blk_g[b, G_NC] = ncontact
+    blk_g[b, G_NTOP] = ntop
+    blk_g[b, G_AMAX] = amax
+    blk_g[b, G_ALMAX] = almax
+    blk_g[b, G_VMAX] = vmax
+    blk_g[b, G_WMAX] = wmax
+    blk_g[b, G_KIN] = kin
+    blk_g[b, G_DVMAX] = dvmax
+    blk_g[b, G_DISP] = disp
+
+
+@numba.njit(cache=True, parallel=True)
+def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
+    """First half kick and drift of velocity Verlet; block maxima of |v|^2 and of the squared
+    displacement since ``pos0`` into ``blk_g`` (columns G_DVMAX, G_DISP)."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    for b in numba.prange(nblk):
+        dvmax = 0.0
+        disp = 0.0
+        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+            v2 = 0.0
+            s = 0.0
+            for a in range(d):
+                vel[i, a] += 0.5 * dt * acc[i, a]
+                pos[i, a] += dt * vel[i, a]
+                v2 += vel[i, a] * vel[i, a]
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            dvmax = max(dvmax, v2)
+            disp = max(disp, s)
+            for a in range(r):
+                omega[i, a] += 0.5 * dt * alpha[i, a]
+        blk_g[b, G_DVMAX] = dvmax
+        blk_g[b, G_DISP] = disp
+
+
+@numba.njit(cache=True, parallel=True)
+def _displacement_pass(pos, pos0, blk_g):
+    """Block maxima of the squared displacement since ``pos0`` into ``blk_g[:, G_DISP]``."""
+    n, d = pos.shape
+    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    for b in numba.prange(nblk):
+        disp = 0.0
+        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+            s = 0.0
+            for a in range(d):
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            disp = max(disp, s)
+        blk_g[b, G_DISP] = disp
+
+
+@numba.njit(cache=True)
+def _block_max(blk, nblk, col):
+    m = 0.0
+    for b in range(nblk):
+        m = max(m, blk[b, col])
+    return m
+
+
+@numba.njit(cache=True)
+def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, kick, stats, drift):
+    """Pair pass, then grain pass (see both); reduce the blocks into ``out`` and the piston's
+    contact force (its grains' forces summed in grain order) and acceleration; with
+    ``stats`` the convergence measures as :func:`measure` (the kinetic energy summed by
+    blocks: only its finiteness is used)."""
+    nbr_gl, ncnt, nlo, pair_w, blk_p, blk_g, top_f = ws[1], ws[2], ws[3], ws[6], ws[7], ws[8], ws[9]
+    npairs = ipar[I_NPAIRS]
+    _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
+               pair_w, blk_p)
+    _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
+                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
+    n = pos.shape[0]
+    nblk_p = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
+    nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    dmax = 0.0
+    ncontact = 0
+    for b in range(nblk_p):
+        dmax = max(dmax, blk_p[b, 0])
+        ncontact += int(blk_p[b, 1])
+    fpiston = 0.0
+    ntop = 0
+    kin = 0.0
+    for b in range(nblk_g):
+        dmax = max(dmax, blk_g[b, G_DMAX])
+        ncontact += int(blk_g[b, G_NC])
+        nt = int(blk_g[b, G_NTOP])
+        for c in range(nt):
+            fpiston -= top_f[b * GRAIN_BLOCK + c]
+        ntop += nt
+        kin += blk_g[b, G_KIN]
     piston[P_FCON] = fpiston
+    piston[P_A] = piston_acceleration(piston, fpar[F_GAMMA])
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop
     out[O_NCONTACT] = ncontact
+    if stats:
+        out[O_AMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_AMAX))
+        out[O_ALPHAMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_ALMAX))
+        out[O_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_VMAX))
+        out[O_WMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_WMAX))
+        if piston[P_MASS] < np.inf:
+            out[O_APISTON] = abs(piston[P_A])
+            kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
+        else:
+            out[O_APISTON] = 0.0
+        out[O_KIN] = kin
+
+
+@numba.njit(cache=True)
+def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft,
+                   wall_ov, piston, fpar, ipar, force, torque, out, ws):
+    """Total force and torque on every grain (into ``force``, ``torque``), the contact force on
+    the piston (``piston[P_FCON]``), largest overlap, top-wall and total contact counts (``out``).
+
+    Also adds the background damping -gamma m v, -gamma I w. Contacts update their
+    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced).
+    """
+    _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, False, False, False)
 
 
 @numba.njit(cache=True)
@@ -472,9 +785,15 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
     out[O_KIN] = kin
 
 
+#: Below this many grains the engine runs on one thread (the same results): two parallel
+#: regions per step cost more than they save on a small system (applied by the callers,
+#: :func:`granwave.threads.at_most`: numba.set_num_threads inside a kernel stops caching).
+MIN_PARALLEL_GRAINS = 1000
+
+
 @numba.njit(cache=True)
 def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-              pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out):
+              pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws):
     """Advance ``ipar[I_NSTEPS]`` velocity-Verlet steps (or stop early).
 
     State on entry and exit: positions, velocities and accelerations at the same
@@ -482,81 +801,72 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     convergence candidate test passed at a check (every ``ipar[I_CHECK]``
     steps: piston touching grains, every |a|, |alpha| and |a_piston| below
     F_TOLA, every |v|, |w| R and |v_piston| below F_TOLV), 2 when the pair list
-    needs more room (``ipar[I_NEEDED]`` pairs; the state is between steps), 3 when the
+    needs more room (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours per grain;
+    the state is between steps), 3 when the
     state blew up (an overlap larger than the largest radius or non-finite motion at a
     check, or non-finite positions before a rebuild): the time step is unstable.
     With ``ipar[I_ADAPTIVE]`` the time step is reset at every check from
     :func:`stable_dt`.
+
+    Two parallel passes per step (:func:`_pair_pass`, :func:`_grain_pass`); the first half
+    kick and drift of the next step ride on the grain pass unless that step rebuilds the
+    pair list or follows a check (then :func:`_drift_pass`).
     """
     n, d = pos.shape
-    r = omega.shape[1]
-    gamma = fpar[F_GAMMA]
+    nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    blk_g = ws[8]
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
-    disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
-    for i in range(n):
-        s = 0.0
-        for a in range(d):
-            x = pos[i, a] - pos0[i, a]
-            s += x * x
-        disp2 = max(disp2, s)
-    for step in range(ipar[I_NSTEPS]):
+    n_steps = ipar[I_NSTEPS]
+    # largest squared displacement since the last build (then kept by the drift)
+    _displacement_pass(pos, pos0, blk_g)
+    disp2 = _block_max(blk_g, nblk_g, G_DISP)
+    drifted = False
+    for step in range(n_steps):
         dt = fpar[F_DT]
-        # rebuild when a grain may come within reach of a pair not in the list
-        # before the next rebuild check (factor 2: the speed may grow in a step)
+        if not drifted:
+            # rebuild when a grain may come within reach of a pair not in the list
+            # before the next rebuild check (factor 2: the speed may grow in a step)
+            reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
+            if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
+                return 3
+            if reach > half_skin:
+                np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
+                                            pair_ft, pair_ov, ipar[I_NPAIRS], ws[0], ws[2], ws[3],
+                                            ws[4], ws[1], ws[5])
+                if np_new < 0:
+                    ipar[I_NEEDED] = ws[5][0]
+                    ipar[I_WIDTH] = ws[5][1]
+                    return 2
+                ipar[I_NPAIRS] = np_new
+                ipar[I_REBUILDS] += 1
+                for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
+                    for a in range(d):
+                        pos0[i, a] = pos[i, a]
+                disp2 = 0.0
+            _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
+            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))
+            disp2 = _block_max(blk_g, nblk_g, G_DISP)
+            if piston[P_MASS] < np.inf:
+                piston[P_V] += 0.5 * dt * piston[P_A]
+                piston[P_H] += dt * piston[P_V]
+        is_check = check > 0 and (ipar[I_STEPS] + 1) % check == 0
+        # the next step's rebuild test is known now unless dt may change (a check)
         reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
-        if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
-            return 3
-        if reach > half_skin:
-            np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
-                                        pair_ft, pair_ov, ipar[I_NPAIRS])
-            if np_new < 0:
-                ipar[I_NEEDED] = -np_new
-                return 2
-            ipar[I_NPAIRS] = np_new
-            ipar[I_REBUILDS] += 1
-            for i in range(n):
-                for a in range(d):
-                    pos0[i, a] = pos[i, a]
-            disp2 = 0.0
-        # half kick, drift
-        vmax2 = 0.0
-        disp2 = 0.0
-        for i in range(n):
-            v2 = 0.0
-            s = 0.0
-            for a in range(d):
-                vel[i, a] += 0.5 * dt * acc[i, a]
-                pos[i, a] += dt * vel[i, a]
-                v2 += vel[i, a] * vel[i, a]
-                x = pos[i, a] - pos0[i, a]
-                s += x * x
-            vmax2 = max(vmax2, v2)
-            disp2 = max(disp2, s)
-            for a in range(r):
-                omega[i, a] += 0.5 * dt * alpha[i, a]
-        fpar[F_VMAX] = math.sqrt(vmax2)
-        if piston[P_MASS] < np.inf:
-            piston[P_V] += 0.5 * dt * piston[P_A]
-            piston[P_H] += dt * piston[P_V]
-        compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
-                       pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out)
-        piston[P_A] = piston_acceleration(piston, gamma)
-        # accelerations (as to_accelerations) and the second half kick, in one pass
-        for i in range(n):
-            inv = 1.0 / mass[i]
-            for a in range(d):
-                acc[i, a] *= inv
-                vel[i, a] += 0.5 * dt * acc[i, a]
-            inv = 1.0 / inertia[i]
-            for a in range(r):
-                alpha[i, a] *= inv
-                omega[i, a] += 0.5 * dt * alpha[i, a]
+        drifted = (not is_check and step + 1 < n_steps and math.isfinite(reach)
+                   and not (reach > half_skin))
+        _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, True, is_check, drifted)
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]
         ipar[I_STEPS] += 1
-        if check > 0 and ipar[I_STEPS] % check == 0:
-            measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
+        if drifted:
+            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))
+            disp2 = _block_max(blk_g, nblk_g, G_DISP)
+            if piston[P_MASS] < np.inf:
+                piston[P_V] += 0.5 * dt * piston[P_A]
+                piston[P_H] += dt * piston[P_V]
+        if is_check:
             if not (out[O_DMAX] < fpar[F_RMAX] and math.isfinite(out[O_KIN])):
                 return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable
             if ipar[I_ADAPTIVE]:

@@ -1,4 +1,4 @@
-"""Verlet pair list built with a cell list; contact history carried across rebuilds.
+"""Verlet pair list built with a cell list, in parallel; contact history carried across rebuilds.
 
 The list holds every pair (i < j) whose surfaces are closer than ``skin``
 (nearest periodic image along the lateral axes). It stays valid while no grain
@@ -6,6 +6,17 @@ has moved more than skin/2 since the build (the engine checks that before each
 step). Pairs are kept sorted by the key i*N + j, so the tangential force and
 last overlap of each pair are carried from the old list to the new one by a
 merge on that key: contact history survives rebuilds.
+
+Parallel and deterministic (the result does not depend on the thread count):
+every grain finds all its neighbours (both directions) independently and keeps
+them sorted (``nbr[i, :ncnt[i]]``, the ``nlo[i]`` ones below i first); a
+prefix sum over the counts of partners above i gives each grain's block of
+pairs (``row[i]:row[i+1]``, the pair list's CSR offsets), which that grain
+fills and merges with its old block. The same rebuild writes each grain's
+*gather list* ``gl[i, :ncnt[i]]``: the indices of its pairs in increasing
+pair order (first those where it is j, then those where it is i), through
+which the force kernel adds each grain's pair forces in the order of the
+former serial loop (docs/dem.md, "Parallel engine").
 """
 
 from __future__ import annotations
@@ -16,34 +27,48 @@ import numba
 import numpy as np
 
 from ..geometry import periodic_distance2
+from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 
 
-@numba.njit(cache=True)
-def _push(keys, m, key):
-    if m == keys.shape[0]:
-        bigger = np.empty(2 * keys.shape[0], np.int64)
-        for k in range(m):  # an explicit loop: slice assignment compiles shape-check machinery
-            bigger[k] = keys[k]
-        keys = bigger
-    keys[m] = key
-    return keys
+@numba.njit(cache=True, inline="always")
+def _pair_distance2(pos, rad, lateral, skin, i, j):
+    """(r^2, reach^2) of grains i and j, evaluated as (min, max) so that both grains agree."""
+    a = np.int64(i)  # a prange index may be unsigned: mixed with int64 it would give a float
+    b = np.int64(j)
+    lo = min(a, b)
+    hi = max(a, b)
+    lim = rad[lo] + rad[hi] + skin
+    return periodic_distance2(pos, hi, pos, lo, lateral), lim * lim
 
 
-@numba.njit(cache=True)
-def candidate_keys(pos, rad, lateral, h, skin):
-    """Sorted keys i*N + j (i < j) of the pairs with surface gap below ``skin``.
+@numba.njit(cache=True, inline="always")
+def _insert(nbr, i, cnt, j):
+    """Insert j into the sorted row nbr[i, :cnt] (only the slots that exist)."""
+    width = nbr.shape[1]
+    q = cnt
+    while q > 0 and nbr[i, q - 1] > j:
+        if q < width:
+            nbr[i, q] = nbr[i, q - 1]
+        q -= 1
+    if q < width:
+        nbr[i, q] = j
 
-    Cell list with cells at least 2 R_max + skin wide (periodic lateral axes,
-    the vertical axis clamped to [0, h]); all pairs when a lateral axis has
-    fewer than 3 cells (tiny boxes). Positions must be wrapped into [0, L).
+
+@numba.njit(cache=True, parallel=True)
+def find_neighbours(pos, rad, lateral, h, skin, nbr, ncnt, nlo):
+    """Every grain's neighbours within ``skin`` (gap), sorted, into ``nbr``; counts into
+    ``ncnt`` (may exceed the width of ``nbr``: then the caller must grow it) and ``nlo``
+    (those below i). Positions must be wrapped into [0, L).
+
+    Cell list with cells at least 2 R_max + skin wide (periodic lateral axes, the
+    vertical axis clamped to [0, h]); all grains when a lateral axis has fewer than 3
+    cells (tiny boxes).
     """
     n, d = pos.shape
     rmax = 0.0
     for i in range(n):
         rmax = max(rmax, rad[i])
     cs = 2.0 * rmax + skin
-    keys = np.empty(max(16, 8 * n), np.int64)
-    m = 0
     nc = np.empty(d, np.int64)
     brute = False
     for a in range(d - 1):
@@ -52,21 +77,14 @@ def candidate_keys(pos, rad, lateral, h, skin):
             brute = True
     nc[d - 1] = max(1, int(h // cs))
     if brute:
-        for i in range(n):
-            for j in range(i + 1, n):
-                r2 = periodic_distance2(pos, j, pos, i, lateral)
-                lim = rad[i] + rad[j] + skin
-                if r2 < lim * lim:
-                    keys = _push(keys, m, i * n + j)
-                    m += 1
-        return keys[:m]
+        for a in range(d):
+            nc[a] = 1
     ncell = 1
     for a in range(d):
         ncell *= nc[a]
-    head = np.full(ncell, -1, np.int64)
-    nxt = np.empty(n, np.int64)
     coord = np.empty((n, d), np.int64)
-    for i in range(n):
+    cell = np.empty(n, np.int64)
+    for i in range(n):  # O(n): serial (a parallel loop costs more compilation than it saves)
         idx = 0
         for a in range(d):
             length = lateral[a] if a < d - 1 else h
@@ -74,81 +92,151 @@ def candidate_keys(pos, rad, lateral, h, skin):
             c = min(max(c, 0), nc[a] - 1)
             coord[i, a] = c
             idx = idx * nc[a] + c
-        nxt[i] = head[idx]
-        head[idx] = i
-    n_off = 3**d
-    cc = np.empty(d, np.int64)
-    # the partners j > i of one grain i, sorted by insertion (a handful): the keys then come
-    # out sorted without a global sort (np.sort costs seconds of compilation)
-    mine = np.empty(n, np.int64)
+        cell[i] = idx
+    # grains of each cell, contiguous (counting sort; serial, O(n))
+    start = np.zeros(ncell + 1, np.int64)
     for i in range(n):
-        cnt = 0
-        for o in range(n_off):
-            rest = o
-            idx = 0
-            ok = True
-            for a in range(d):
-                shift = rest % 3 - 1
-                rest //= 3
-                c = coord[i, a] + shift
-                if a < d - 1:
-                    c = c % nc[a]
-                elif c < 0 or c >= nc[a]:
-                    ok = False
-                cc[a] = c
-                idx = idx * nc[a] + c
-            if not ok:
-                continue
-            j = head[idx]
-            while j >= 0:
-                if j > i:
-                    r2 = periodic_distance2(pos, j, pos, i, lateral)
-                    lim = rad[i] + rad[j] + skin
-                    if r2 < lim * lim:
-                        q = cnt
-                        while q > 0 and mine[q - 1] > j:
-                            mine[q] = mine[q - 1]
-                            q -= 1
-                        mine[q] = j
-                        cnt += 1
-                j = nxt[j]
-        for q in range(cnt):
-            keys = _push(keys, m, i * n + mine[q])
-            m += 1
-    return keys[:m]
+        start[cell[i] + 1] += 1
+    for c in range(ncell):
+        start[c + 1] += start[c]
+    fill = start[:-1].copy()
+    members = np.empty(n, np.int64)
+    for i in range(n):
+        members[fill[cell[i]]] = i
+        fill[cell[i]] += 1
+    for i in numba.prange(n):
+        _search(np.int64(i), pos, rad, lateral, skin, coord, nc, start, members, brute, nbr, ncnt, nlo)
 
 
 @numba.njit(cache=True)
-def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old):
-    """Wrap positions, rebuild the pair list in place, carry history by (i, j).
+def _search(i, pos, rad, lateral, skin, coord, nc, start, members, brute, nbr, ncnt, nlo):
+    """Grain i's neighbours in the cells around its own (all grains when ``brute``), sorted."""
+    d = pos.shape[1]
+    n_off = 1 if brute else 3**d
+    cnt = 0
+    lo = 0
+    for o in range(n_off):
+        rest = o
+        idx = 0
+        ok = True
+        for a in range(d):
+            shift = rest % 3 - 1 if not brute else 0
+            rest //= 3
+            c = coord[i, a] + shift
+            if a < d - 1:
+                c = c % nc[a]
+            elif c < 0 or c >= nc[a]:
+                ok = False
+            idx = idx * nc[a] + c
+        if not ok:
+            continue
+        for q in range(start[idx], start[idx + 1]):
+            j = members[q]
+            if j == i:
+                continue
+            r2, lim2 = _pair_distance2(pos, rad, lateral, skin, i, j)
+            if r2 < lim2:
+                _insert(nbr, i, cnt, j)
+                cnt += 1
+                if j < i:
+                    lo += 1
+    ncnt[i] = cnt
+    nlo[i] = lo
 
-    Returns the new number of pairs, or minus the number needed when the
-    arrays are too small (then the list and its history are left untouched).
+
+@numba.njit(cache=True, parallel=True)
+def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old, nbr, ncnt, nlo, row, gl,
+            need):
+    """Wrap positions, rebuild the pair list and the gather lists in place, carry history by (i, j).
+
+    Returns the new number of pairs, or -1 when the arrays are too small
+    (``need[0]``: pairs needed, ``need[1]``: neighbours per grain; the pair list and
+    its history are then left untouched). ``row`` (N + 1) holds the pair list's
+    offsets per grain i (old ones on entry, new ones on exit).
     """
     n, d = pos.shape
-    for i in range(n):
+    for i in range(n):  # O(n) loops stay serial: each parallel loop lengthens compilation
         for a in range(d - 1):
             x = pos[i, a] % lateral[a]
             pos[i, a] = x if x < lateral[a] else 0.0
-    keys = candidate_keys(pos, rad, lateral, h, skin)
-    m = keys.shape[0]
-    if m > pair_i.shape[0]:
-        return -m
+    find_neighbours(pos, rad, lateral, h, skin, nbr, ncnt, nlo)
+    width = 0
+    new_row = np.empty(n + 1, np.int64)
+    new_row[0] = 0
+    for i in range(n):
+        width = max(width, ncnt[i])
+        new_row[i + 1] = new_row[i] + ncnt[i] - nlo[i]
+    m = new_row[n]
+    need[0] = m
+    need[1] = width
+    if m > pair_i.shape[0] or width > nbr.shape[1]:
+        return -1
+    new_j = np.empty(m, np.int64)
     new_ft = np.zeros((m, d))
     new_ov = np.zeros(m)
-    q = 0
-    for p in range(m):
-        key = keys[p]
-        while q < n_old and pair_i[q] * n + pair_j[q] < key:
+    for i in numba.prange(n):
+        _merge(np.int64(i), n_old, row, new_row, nbr, ncnt, nlo, pair_j, pair_ft, pair_ov, new_j, new_ft, new_ov)
+    for i in range(n + 1):
+        row[i] = new_row[i]
+    for i in numba.prange(n):
+        _store(np.int64(i), new_row, nbr, ncnt, nlo, new_j, new_ft, new_ov, pair_i, pair_j, pair_ft, pair_ov, gl)
+    return m
+
+
+@numba.njit(cache=True)
+def _merge(i, n_old, row, new_row, nbr, ncnt, nlo, pair_j, pair_ft, pair_ov, new_j, new_ft, new_ov):
+    """Grain i's new block of pairs (its partners above i) with the history of its old block."""
+    d = pair_ft.shape[1]
+    q = row[i]
+    q_end = row[i + 1] if n_old > 0 else 0
+    lo = nlo[i]
+    for t in range(ncnt[i] - lo):
+        p = new_row[i] + t
+        j = nbr[i, lo + t]
+        new_j[p] = j
+        while q < q_end and pair_j[q] < j:
             q += 1
-        if q < n_old and pair_i[q] * n + pair_j[q] == key:
+        if q < q_end and pair_j[q] == j:
             new_ov[p] = pair_ov[q]
             for a in range(d):
                 new_ft[p, a] = pair_ft[q, a]
-    for p in range(m):
-        pair_i[p] = keys[p] // n
-        pair_j[p] = keys[p] % n
+
+
+@numba.njit(cache=True)
+def _store(i, new_row, nbr, ncnt, nlo, new_j, new_ft, new_ov, pair_i, pair_j, pair_ft, pair_ov, gl):
+    """Grain i's block into the pair list, and its gather list."""
+    d = pair_ft.shape[1]
+    for p in range(new_row[i], new_row[i + 1]):
+        pair_i[p] = i
+        pair_j[p] = new_j[p]
         pair_ov[p] = new_ov[p]
         for a in range(d):
             pair_ft[p, a] = new_ft[p, a]
-    return m
+    # gather list: pairs (j, i), j < i, at row[j] + (place of i among j's partners above j)
+    lo = nlo[i]
+    for t in range(lo):
+        j = nbr[i, t]
+        q = nlo[j]
+        while nbr[j, q] != i:
+            q += 1
+        gl[i, t] = new_row[j] + q - nlo[j]
+    for t in range(lo, ncnt[i]):
+        gl[i, t] = new_row[i] + t - lo
+
+
+def candidate_keys(pos, rad, lateral, h, skin) -> np.ndarray:
+    """Sorted keys i*N + j (i < j) of the pairs with surface gap below ``skin`` (the pair
+    list :func:`rebuild` makes; positions wrapped into [0, L))."""
+    pos = np.ascontiguousarray(pos, dtype=np.float64)
+    n = pos.shape[0]
+    width = 16
+    while True:
+        nbr = np.zeros((n, width), np.int64)
+        ncnt = np.zeros(n, np.int64)
+        nlo = np.zeros(n, np.int64)
+        find_neighbours(pos, np.ascontiguousarray(rad, dtype=np.float64),
+                        np.ascontiguousarray(lateral, dtype=np.float64), float(h), float(skin), nbr, ncnt, nlo)
+        if n == 0 or ncnt.max() <= width:
+            break
+        width = int(ncnt.max())
+    return np.concatenate([i * n + nbr[i, nlo[i]:ncnt[i]] for i in range(n)] + [np.zeros(0, np.int64)])

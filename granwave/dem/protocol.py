@@ -50,7 +50,7 @@ from ..geometry import (EXPECTED_SOLID_FRACTION_2D, EXPECTED_SOLID_FRACTION_3D, 
 from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
-from .integrator import Engine
+from .integrator import Engine, eta_seconds
 from ..params import PrepareParams, default_gas_density
 
 DT_RULE = ("(safety/0.1) * min over the normal and (friction) rotational mode of the stiffest contact "
@@ -154,11 +154,11 @@ class Compression:
     One home for the protocol's scales (pressure scales, inertial time, background
     damping rate, velocity threshold, piston mass and force) shared by the
     preparation from a gas and the relaxation of grains made elsewhere
-    (:func:`granwave.interop.relax.relax_grains`).
+    (:func:`granwave.interop.relax.relax_grains`). ``engine``: the engine class (CPU or GPU).
     """
 
     def __init__(self, position, radius, lateral, height: float, params: PrepareParams, *,
-                 velocity=None, angular_velocity=None):
+                 velocity=None, angular_velocity=None, engine=Engine):
         p = self.params = params
         self.radius, self.lateral = radius, lateral
         self.mass = grain_mass(radius)
@@ -171,7 +171,7 @@ class Compression:
         self.damping_scale = damping_scale(p, self.expected_height)
         self.gamma = p.background_damping * self.damping_scale / self.inertial_time
         self.tol_v = impact_velocity(p.tol, mean_mass)
-        self.engine = Engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
+        self.engine = engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
                              damping=p.damping, background_damping=self.gamma,
                              piston_mass=self.piston_mass, piston_force=self.piston_force,
                              safety=p.safety, overlap_floor=delta_p, skin=p.skin,
@@ -236,20 +236,23 @@ class Compression:
             if progress is not None and now - last > 1.0:
                 m = engine.measure()
                 rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
+                eta = eta_seconds(history, p.tol, rate / engine.position.shape[0])
                 progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
                          f"  max|v| {m['max_speed']:.3e}  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
-                         f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s")
+                         f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
+                         f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
         m = engine.measure()
         raise ConvergenceError(f"{p.max_steps} steps {failure}: "
                                + non_convergence_hint(history, m, p, engine.dt))
 
 
-def prepare_packing(params: PrepareParams, progress=None) -> Packing:
+def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Packing:
     """Prepare one disordered packing in mechanical equilibrium (docs/method.md §3).
 
     ``progress``: optional callable taking one line of text, called about once
-    a second. Raises :class:`granwave.errors.ConvergenceError` when
+    a second. ``engine``: the engine class (the CPU :class:`Engine`, or
+    :class:`granwave.gpu.dem.GpuEngine`; granwave.gpu.backend picks it). Raises :class:`granwave.errors.ConvergenceError` when
     ``params.max_steps`` steps do not converge. The returned packing lists the
     force-carrying contacts at the final positions (walls: j = -1 bottom,
     -2 top) and records the protocol in ``attrs``.
@@ -265,7 +268,7 @@ def prepare_packing(params: PrepareParams, progress=None) -> Packing:
     gas_density = p.gas_density if p.gas_density is not None else default_gas_density(p.dim)
     position, height = granular_gas(radius, lateral, gas_density, rng)
     actual_gas_density = float(np.sum(grain_measure(radius, p.dim))) / (height * float(np.prod(lateral)))
-    run = Compression(position, radius, lateral, height, p)
+    run = Compression(position, radius, lateral, height, p, engine=engine)
     attrs = dict(kind="disordered", grains=p.grains, polydispersity=p.polydispersity, aspect=p.aspect,
                  gas_density=actual_gas_density, gas_height=height)
     return run.relax(attrs, progress=progress,

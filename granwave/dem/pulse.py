@@ -65,6 +65,7 @@ import numpy as np
 from ..errors import InputError
 from ..model import Packing, Signal
 from ..resources import check_propagate
+from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
 from . import kernels as K
 from . import pulse_kernels as PK
@@ -146,9 +147,9 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     engine.fpar[K.F_DT] = dt
     K.compute_forces(engine.position, engine.velocity, engine.angular_velocity, engine.radius,
                      engine.mass, engine.inertia, engine.lateral, engine.pair_i, engine.pair_j,
-                     engine.ipar[K.I_NPAIRS], engine.pair_ft, engine.pair_ov, engine.wall_ft,
-                     engine.wall_ov, engine.piston, engine.fpar, engine.acceleration,
-                     engine.angular_acceleration, engine.out)
+                     engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                     engine.fpar, engine.ipar, engine.acceleration, engine.angular_acceleration,
+                     engine.out, engine.ws)
     K.to_accelerations(engine.acceleration, engine.angular_acceleration, engine.mass, engine.inertia)
     engine.fpar[K.F_DT] = keep
 
@@ -210,7 +211,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
                   damping: float = 0.0, t_max: float, samples: int = DEFAULT_SAMPLES,
                   dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = 0.2,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
-                  progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING) -> Signal:
+                  progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
+                  device: str = "cpu") -> Signal:
     """Kick the packing at the bottom wall in the nonlinear DEM; the top-wall signal.
 
     Parameters
@@ -236,6 +238,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         amplitude the signal converges to ``linearize(prestress=True)``) or "rescale"
         (F_t scaled by sqrt(n_new/n_old) on unloading, as in preparation: a first-order
         one-sided term for prestressed contacts; granwave/contact.py docstring).
+    device : "cpu" or "gpu" (the steps on one GPU: granwave.gpu.pulse; docs/gpu.md).
 
     Returns
     -------
@@ -274,7 +277,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     c = packing.contacts
     f_static = float(np.sum(c.force_normal[c.is_top]))
     run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
-               progress=progress, progress_interval=progress_interval, unloading=unloading)
+               progress=progress, progress_interval=progress_interval, unloading=unloading,
+               device=device)
     t_wall0 = _time.perf_counter()
     # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains)
     values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
@@ -318,7 +322,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
 
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
-         skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str) -> dict:
+         skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str,
+         device: str = "cpu") -> dict:
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
     values are the initial velocities (A) or imposed displacements (B), vertical.
 
@@ -362,20 +367,24 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)
     k = 1
     chunk = max(1, min(samples - 1, 20_000 // sub))
+    from ..gpu import backend
+
+    samples_kernel = backend(device).pulse_samples  # PK.pulse_samples on the CPU
     t_wall0 = t_last = _time.perf_counter()
     n_total = sub * (samples - 1)
     while k < samples:
         k_stop = min(samples, k + chunk)
         t0 = _time.perf_counter()
-        r = PK.pulse_samples(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
-                             engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
-                             engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
-                             engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
-                             engine.fpar, engine.ipar, engine.out, pair_state, wall_state, k, k_stop, sub,
-                             top, stats)
+        with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
+            r = samples_kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+                                 engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
+                                 engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
+                                 engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                                 engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
+                                 k_stop, sub, top, stats)
         if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
             k = -r
-            _grow(engine, int(engine.ipar[K.I_NEEDED]))
+            engine.grow(int(engine.ipar[K.I_NEEDED]), int(engine.ipar[K.I_WIDTH]))
             grown = np.zeros(engine.pair_i.shape[0], np.int8)
             grown[: len(pair_state)] = pair_state
             pair_state = grown
@@ -400,16 +409,6 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.CONE0))),
                 n_at_cone_initial=count(PK.CONE0), max_displacement=float(stats[0]),
                 rebuilds=int(engine.rebuilds))
-
-
-def _grow(engine: Engine, needed: int) -> None:
-    """Room for ``needed`` pairs in the engine's pair arrays (contents kept)."""
-    cap = int(needed * 1.5) + 64
-    for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
-        old = getattr(engine, name)
-        new = np.zeros((cap, *old.shape[1:]), old.dtype)
-        new[: len(old)] = old
-        setattr(engine, name, new)
 
 
 # ---------------------------------------------------------------- damping series

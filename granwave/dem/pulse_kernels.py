@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 # numba's cache=True keys a function's cache on *this* file only: pulse_samples inlines
 # kernels.run_chunk / compute_forces, so after editing kernels.py or contact.py delete
@@ -67,41 +68,51 @@ def _touching_state(s, cone, initial):
     return s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state,
              wall_state, initial):
     """Update the contact flags from the current history arrays (after a force evaluation).
 
     ``initial``: set INITIAL / CONE0 from the current state instead of the run flags.
+    Parallel over contacts (each writes only its own flag).
     """
+    for p in numba.prange(npairs):
+        _classify_pair(np.int64(p), rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial)
+    for w in numba.prange(wall_ov.shape[0]):
+        _classify_wall(np.int64(w), rad, wall_ft, wall_ov, mu, wall_state, initial)
+
+
+@numba.njit(cache=True)
+def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial):
     d = pair_ft.shape[1]
-    e_pair = C.effective_young(False)
-    e_wall = C.effective_young(True)
-    for p in range(npairs):
-        ov = pair_ov[p]
-        s = pair_state[p]
-        if ov > 0.0:
-            fel = 0.0
-            if mu > 0.0:
-                i = pair_i[p]
-                j = pair_j[p]
-                r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
-                fel = C.normal_force(ov, r12, e_pair)
-            s = _touching_state(s, mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu), initial)
-        elif (s & INITIAL) and not initial:
-            s |= OPENED
-        pair_state[p] = s
-    for w in range(wall_ov.shape[0]):
-        ov = wall_ov[w]
-        s = wall_state[w]
-        if ov > 0.0:
-            fel = 0.0
-            if mu > 0.0:
-                fel = C.normal_force(ov, rad[w // 2], e_wall)
-            s = _touching_state(s, mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu), initial)
-        elif (s & INITIAL) and not initial:
-            s |= OPENED
-        wall_state[w] = s
+    ov = pair_ov[p]
+    s = pair_state[p]
+    if ov > 0.0:
+        fel = 0.0
+        if mu > 0.0:
+            i = pair_i[p]
+            j = pair_j[p]
+            r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
+            fel = C.normal_force(ov, r12, C.effective_young(False))
+        s = _touching_state(s, mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu), initial)
+    elif (s & INITIAL) and not initial:
+        s |= OPENED
+    pair_state[p] = s
+
+
+@numba.njit(cache=True)
+def _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial):
+    d = wall_ft.shape[1]
+    ov = wall_ov[w]
+    s = wall_state[w]
+    if ov > 0.0:
+        fel = 0.0
+        if mu > 0.0:
+            fel = C.normal_force(ov, rad[w // 2], C.effective_young(True))
+        s = _touching_state(s, mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu), initial)
+    elif (s & INITIAL) and not initial:
+        s |= OPENED
+    wall_state[w] = s
 
 
 @numba.njit(cache=True)
@@ -118,21 +129,38 @@ def carry_flags(n_grains, old_i, old_j, old_state, n_old, pair_i, pair_j, npairs
             pair_state[p] = 0
 
 
-@numba.njit(cache=True)
+#: Grains per block of the largest-displacement maximum (a size independent of the threads).
+DISP_BLOCK = 256
+
+
+@numba.njit(cache=True, parallel=True)
 def max_displacement(pos, pos_ref, lateral):
-    """Largest |r_i - r_i(0)| over the grains (nearest periodic image)."""
-    n, d = pos.shape
+    """Largest |r_i - r_i(0)| over the grains (nearest periodic image); parallel over fixed
+    blocks (a maximum: the same value for any thread count)."""
+    n = pos.shape[0]
+    nblk = (n + DISP_BLOCK - 1) // DISP_BLOCK
+    part = np.zeros(max(1, nblk))
+    for b in numba.prange(nblk):
+        part[b] = _block_displacement2(np.int64(b), pos, pos_ref, lateral)
     best = 0.0
-    for i in range(n):
-        s = periodic_distance2(pos, i, pos_ref, i, lateral)
-        if s > best:
-            best = s
+    for b in range(nblk):
+        best = max(best, part[b])
     return math.sqrt(best)
 
 
 @numba.njit(cache=True)
+def _block_displacement2(b, pos, pos_ref, lateral):
+    best = 0.0
+    for i in range(b * DISP_BLOCK, min(pos.shape[0], (b + 1) * DISP_BLOCK)):
+        s = periodic_distance2(pos, i, pos_ref, i, lateral)
+        if s > best:
+            best = s
+    return best
+
+
+@numba.njit(cache=True)
 def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
-                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, pair_state,
+                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
                   wall_state, k_start, k_stop, sub, force_out, stats):
     """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample.
 
@@ -140,7 +168,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     normal forces of the top-wall contacts) at sample k. ``stats[0]`` holds
     the largest grain displacement so far. Returns the next sample to run
     (``k_stop`` when done), or minus it when the pair list needs more room
-    (``ipar[I_NEEDED]`` pairs; the state is then between steps of that
+    (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours; the state is then between steps of that
     sample, which the caller resumes after growing the arrays: the steps
     already done inside the sample are kept in ``stats[1]``).
     """
@@ -156,7 +184,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
         for _ in range(done, sub):
             rebuilds = ipar[K.I_REBUILDS]
             status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
-                                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out)
+                                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
             if status == 2:
                 return -k
             if ipar[K.I_REBUILDS] != rebuilds:

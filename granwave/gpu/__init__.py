@@ -1,0 +1,75 @@
+"""The compute device of a stage: ``cpu`` (the numba CPU kernels) or ``gpu`` (one NVIDIA GPU).
+
+This module is the one place where a stage's kernels are picked (:func:`backend`). It
+imports nothing beyond the standard library: the GPU modules (``granwave.gpu.dem``,
+``granwave.gpu.linear``, ``granwave.gpu.pulse``, which import ``numba.cuda``) are loaded only
+when ``device="gpu"`` is asked for, so the CPU path never loads a GPU package (tests/test_gpu_device.py checks it).
+
+The GPU path needs the ``gpu`` extra (``pip install -e '.[gpu]'``: numba-cuda with the CUDA 12
+libraries) and a CUDA device. Tests run the same kernels in numba's CUDA simulator
+(``NUMBA_ENABLE_CUDASIM=1``), which executes them as Python on the CPU (docs/gpu.md).
+"""
+
+from __future__ import annotations
+
+import os
+from types import SimpleNamespace
+
+from ..errors import InputError
+
+DEVICES = ("cpu", "gpu")
+
+INSTALL_HINT = "install the GPU extra: pip install 'granwave[gpu]' (docs/gpu.md)"
+
+
+def check_device(device: str | None) -> str:
+    """The device name, validated (None: ``cpu``)."""
+    device = "cpu" if device is None else str(device).lower()
+    if device not in DEVICES:
+        raise InputError(f"device must be one of {', '.join(DEVICES)} (got {device!r})")
+    return device
+
+
+def simulated() -> bool:
+    """True when numba's CUDA simulator is on (kernels run as Python, for tests only)."""
+    return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") not in ("", "0")
+
+
+def require_gpu() -> None:
+    """Raise InputError (one line) unless numba's CUDA target and a CUDA device are usable."""
+    try:
+        from numba import cuda
+    except Exception as exc:  # ImportError, or a broken CUDA installation
+        raise InputError(f"--device gpu: numba's CUDA target cannot be loaded ({exc}); "
+                         f"{INSTALL_HINT}") from None
+    try:
+        ok = bool(cuda.is_available())
+    except Exception:  # noqa: BLE001 - a missing driver raises in some versions
+        ok = False
+    if not ok:
+        raise InputError("--device gpu: no usable CUDA GPU found (no NVIDIA driver or device on "
+                         "this machine); use --device cpu")
+
+
+def backend(device: str | None) -> SimpleNamespace:
+    """The kernels of ``device``: ``engine`` (the DEM engine class), ``time_domain_signal`` and
+    ``pulse_samples`` (the stepping loop of the nonlinear DEM pulse).
+
+    ``cpu`` imports only the CPU modules; ``gpu`` first checks that a GPU is usable
+    (:func:`require_gpu`), so a missing GPU fails before any work or output.
+    """
+    device = check_device(device)
+    if device == "cpu":
+        from ..dem.integrator import Engine
+        from ..dem.pulse_kernels import pulse_samples
+        from ..linear.propagate import time_domain_signal
+
+        return SimpleNamespace(device="cpu", engine=Engine, time_domain_signal=time_domain_signal,
+                               pulse_samples=pulse_samples)
+    require_gpu()
+    from .dem import GpuEngine
+    from .linear import time_domain_signal_gpu
+    from .pulse import pulse_samples_gpu
+
+    return SimpleNamespace(device="gpu", engine=GpuEngine, time_domain_signal=time_domain_signal_gpu,
+                           pulse_samples=pulse_samples_gpu)

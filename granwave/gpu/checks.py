@@ -1,0 +1,131 @@
+"""GPU-against-CPU checks on tiny systems, small enough for numba's CUDA simulator.
+
+Run by tests/test_gpu_sim.py (in a subprocess with ``NUMBA_ENABLE_CUDASIM=1``) and by
+``benchmarks/gpu.py --tiny``; on a real GPU they run unchanged. Each check returns a dict of
+plain numbers: the largest relative or absolute difference to the CPU kernels and whether two
+GPU runs gave identical bytes. ``python -m granwave.gpu.checks`` prints them as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import numpy as np
+
+
+def _rel(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    scale = float(np.max(np.abs(a), initial=0.0))
+    return float(np.max(np.abs(a - b), initial=0.0) / scale) if scale > 0 else float(np.max(np.abs(b)))
+
+
+def time_domain(rows: int = 4, width: int = 3) -> dict:
+    """Frictional triangular lattice, both initial conditions, with snapshots: signal and
+    snapshots of the GPU time domain against the CPU one; two GPU runs (IC A) compared bytewise."""
+    from ..linear.assemble import linearize
+    from ..linear.check import reference_lattice
+    from ..linear.propagate import time_domain_signal
+    from .linear import time_domain_signal_gpu
+
+    system = linearize(reference_lattice(rows, width, pressure=1e-4, friction=0.5))
+    out = {"n_dof": system.n_dof, "nnz": int(system.stiffness.nnz)}
+    kw = dict(t_max=6.0, samples=7, snapshots=[0.0, 2.5])
+    for ic in "AB":
+        cpu = time_domain_signal(system, ic=ic, **kw)
+        gpu = time_domain_signal_gpu(system, ic=ic, **kw)
+        again = time_domain_signal_gpu(system, ic=ic, **kw) if ic == "A" else gpu
+        out[f"signal_rel_{ic}"] = _rel(cpu.force, gpu.force)
+        out[f"snapshot_rel_{ic}"] = _rel(cpu.snapshot_displacement, gpu.snapshot_displacement)
+        out[f"steps_{ic}"] = int(gpu.attrs["n_steps"])
+        if ic == "A":
+            out["identical"] = bool(gpu.force.tobytes() == again.force.tobytes())
+        out[f"energy_dev_cpu_{ic}"] = float(cpu.attrs["modified_energy_max_rel_deviation"])
+        out[f"energy_dev_gpu_{ic}"] = float(gpu.attrs["modified_energy_max_rel_deviation"])
+    return out
+
+
+def _two_body(cls, steps: int, friction: float = 0.5, dim: int = 2):
+    if dim == 2:
+        pos, lateral = [[5.0, 3.0], [5.9, 3.3]], [12.0]
+        vel, spin = [[0.3, 0.05], [-0.2, 0.0]], [[0.4], [-1.0]]
+    else:
+        pos, lateral = [[5.0, 5.0, 3.0], [5.9, 5.1, 3.3]], [12.0, 12.0]
+        vel, spin = [[0.3, 0.0, 0.05], [-0.2, 0.1, 0.0]], [[0.4, 0.0, 0.1], [-1.0, 0.2, 0.0]]
+    e = cls(np.array(pos), np.array([0.5, 0.45]), lateral, 8.0, friction=friction, damping=0.3, dt=2e-3,
+            velocity=vel, angular_velocity=spin if friction > 0 else None)
+    e.run(steps)
+    return e
+
+
+STATE = ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration")
+
+
+def two_body(steps: int = 40) -> dict:
+    """Head-on-and-sliding collision of two grains (Hertz-Mindlin with friction 0.5, damping 0.3,
+    spins): largest absolute difference of the state and tangential history after ``steps``;
+    also (``steps // 2``) frictionless in 2D and frictional in 3D."""
+    from ..dem.integrator import Engine
+    from .dem import GpuEngine
+
+    cpu, gpu, again = _two_body(Engine, steps), _two_body(GpuEngine, steps), _two_body(GpuEngine, steps)
+    m = cpu.n_pairs
+    diff = max(float(np.max(np.abs(getattr(cpu, k) - getattr(gpu, k)))) for k in STATE)
+    diff = max(diff, float(np.max(np.abs(cpu.pair_ft[:m] - gpu.pair_ft[:m]), initial=0.0)))
+    same = all(getattr(gpu, k).tobytes() == getattr(again, k).tobytes() for k in STATE)
+    for friction, dim in ((0.0, 2), (0.5, 3)):  # the frictionless (no rotation) and 3D paths
+        a, b = _two_body(Engine, steps // 2, friction, dim), _two_body(GpuEngine, steps // 2, friction, dim)
+        diff = max(diff, *(float(np.max(np.abs(getattr(a, k) - getattr(b, k)), initial=0.0))
+                           for k in (*STATE, "pair_ft")))
+    return {"state_abs": diff, "tangential_force": float(np.abs(cpu.pair_ft[:m]).max(initial=0.0)),
+            "overlap": float(cpu.pair_ov[:m].max(initial=0.0)), "identical": bool(same),
+            "steps": steps}
+
+
+def prepare(grains: int = 10, seed: int = 1) -> dict:
+    """A whole preparation (piston compression to equilibrium, host neighbour rebuilds included)
+    of a tiny 2D frictional packing at a loose tolerance, on both devices."""
+    from .. import api
+
+    kw = dict(grains=grains, seed=seed, tol=1e-2, pressure=1e-2)
+    t0 = time.perf_counter()
+    cpu = api.prepare_packing(**kw)
+    t1 = time.perf_counter()
+    gpu = api.prepare_packing(**kw, device="gpu")
+    t2 = time.perf_counter()
+    return {"grains": grains, "steps_cpu": int(cpu.attrs["steps"]), "steps_gpu": int(gpu.attrs["steps"]),
+            "rebuilds": int(gpu.attrs["rebuilds"]),
+            "position_abs": float(np.max(np.abs(cpu.position - gpu.position))),
+            "height_abs": abs(cpu.height - gpu.height), "contacts_cpu": len(cpu.contacts),
+            "contacts_gpu": len(gpu.contacts), "device_attr": gpu.attrs.get("device"),
+            "seconds_cpu": t1 - t0, "seconds_gpu": t2 - t1}
+
+
+def pulse() -> dict:
+    """A strong nonlinear DEM pulse (contacts open, form and slide; a rebuild every step) through
+    a 20-grain frictional packing prepared on the CPU: GPU signal and counts against the CPU."""
+    from .. import api
+    from ..dem.pulse import propagate_dem
+
+    packing = api.prepare_packing(grains=20, seed=2, tol=1e-6, pressure=1e-3)
+    kw = dict(ic="A", t_max=2.0, samples=3, dt=0.1, damping=0.2, skin=1e-3, amplitude=3.0, baseline=False)
+    cpu = propagate_dem(packing, **kw)
+    gpu = propagate_dem(packing, device="gpu", **kw)
+    keys = ("n_opened", "n_formed", "n_sliding", "neighbour_rebuilds", "n_contacts_initial")
+    return {"signal_rel": _rel(cpu.force, gpu.force),
+            "max_displacement_rel": _rel(cpu.attrs["max_displacement"], gpu.attrs["max_displacement"]),
+            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
+
+
+CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse}
+
+
+def main(argv=None) -> None:
+    """Print the named checks' results (all by default) as one JSON object."""
+    names = list(argv if argv is not None else sys.argv[1:]) or list(CHECKS)
+    print(json.dumps({name: CHECKS[name]() for name in names}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,64 @@
+"""CUDA device functions made from the CPU kernels' own source: the contact law is written once.
+
+:func:`device_functions` takes the Python functions behind the ``numba.njit`` kernels of
+:mod:`granwave.contact` (the scalar Hertz-Mindlin law) and the per-contact routine
+:func:`granwave.dem.kernels.contact_force3` (``.py_func``: the very code the CPU compiles)
+and compiles them with ``cuda.jit(device=True)``. Only their global names are rebound: inside
+the device copies, a call to another contact function (``C.normal_force`` in
+``contact_force3``, ``shear_modulus_star`` in ``effective_shear``) resolves to its device
+copy instead of the CPU dispatcher, which CUDA kernels cannot call. No arithmetic is
+re-written, so the GPU evaluates the same expressions in the same order as the CPU (up to
+fused multiply-adds, which the CUDA compiler may contract; docs/gpu.md).
+"""
+
+from __future__ import annotations
+
+import functools
+import types
+
+from numba import cuda
+
+from .. import contact, geometry
+from ..dem import kernels as K
+
+#: The scalar functions of granwave.contact used by the per-contact routine (and each other).
+CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius", "effective_young",
+                     "effective_shear", "normal_force", "normal_energy", "normal_stiffness",
+                     "tangential_stiffness", "damping_coefficient", "reduced_mass",
+                     "total_normal_force", "project_tangential3", "update_tangential3")
+
+#: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
+ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_add_torque3", "piston_acceleration")
+
+
+def _rebound(py_func, namespace: dict):
+    """A copy of ``py_func`` whose global names are looked up in ``namespace`` first."""
+    g = dict(py_func.__globals__)
+    g.update(namespace)
+    return types.FunctionType(py_func.__code__, g, py_func.__name__, py_func.__defaults__,
+                              py_func.__closure__)
+
+
+@functools.lru_cache(maxsize=None)
+def device_functions() -> types.ModuleType:
+    """Device versions of the contact law and of ``contact_force3`` (built once per process).
+
+    Returns a module object with one attribute per name of :data:`CONTACT_FUNCTIONS` and
+    :data:`ENGINE_FUNCTIONS`, plus ``nearest_image``.
+    """
+    names: dict = {}
+    # a module object: numba resolves ``C.name`` on modules at compile time (not on namespaces)
+    ns = types.ModuleType("granwave_contact_device")
+    for name in CONTACT_FUNCTIONS:
+        fn = cuda.jit(device=True)(_rebound(getattr(contact, name).py_func, names))
+        names[name] = fn
+        setattr(ns, name, fn)
+    # contact_force3 calls the law through the module alias ``C``: give it the device namespace
+    names["C"] = ns
+    names["nearest_image"] = ns.nearest_image = cuda.jit(device=True)(
+        _rebound(geometry.nearest_image.py_func, names))
+    for name in ENGINE_FUNCTIONS:
+        fn = cuda.jit(device=True)(_rebound(getattr(K, name).py_func, names))
+        names[name] = fn
+        setattr(ns, name, fn)
+    return ns

@@ -1,0 +1,672 @@
+"""The DEM engine on one GPU: :class:`GpuEngine`, a drop-in for :class:`granwave.dem.integrator.Engine`.
+
+Same state, same parameters, same velocity-Verlet step and convergence checks as the CPU
+engine (:func:`granwave.dem.kernels.run_chunk`); only :meth:`GpuEngine.run` differs: it moves
+the state to the device, runs the steps there, and brings it back, so everything else
+(:class:`granwave.dem.protocol.Compression`, measurements, the packing written) is the CPU code.
+
+One step on the device (four kernels, no floating-point atomics):
+
+1. ``kick_drift`` (a thread per grain): half kick and drift, as the CPU loop; thread 0 moves the
+   piston;
+2. ``pair_forces`` (a thread per pair of the Verlet list): the contact law
+   (:func:`granwave.dem.kernels.contact_force3` compiled for the device from its own source,
+   :mod:`granwave.gpu.compile`), history updated in place; the pair's force and the two
+   torques are stored per pair;
+3. ``grain_forces`` (a thread per grain): sums its pairs' forces over a per-grain incidence
+   list in increasing pair order (the order in which the CPU loop adds them), then the two
+   wall contacts, the background damping, the accelerations and the second half kick;
+4. ``step_partials`` (NPART blocks) and ``finish`` (one block): the piston force, largest
+   overlap, contact counts, largest speed and displacement by a two-stage reduction of fixed
+   shape (grid stride, then trees), then the piston's half kick.
+
+Hence repeated runs give identical bytes, and each grain's force is summed in the CPU's order;
+only the piston force, kinetic energy and the maxima are reduced in a different (fixed) order.
+
+Neighbour list, first version: the rebuild runs on the host. When a grain may have moved half
+a skin, the positions and pair histories are copied back, the CPU rebuild
+(:func:`granwave.dem.neighbours.rebuild`) runs, and the new pairs, histories and incidence list
+are copied to the device. After every step the host reads six numbers (the rebuild test needs
+the largest speed and displacement); every ``check_every`` steps the convergence statistics
+(nine numbers). Costs are estimated in docs/gpu.md.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import cuda
+
+from ..dem import kernels as K
+from ..dem.integrator import Engine
+from . import simulated
+from .compile import device_functions
+
+DF = device_functions()
+contact_force3 = DF.contact_force3
+pair_geometry = DF._pair_geometry
+spin = DF._spin
+add_torque3 = DF._add_torque3
+piston_acceleration = DF.piston_acceleration
+effective_radius = DF.effective_radius
+effective_young = DF.effective_young
+effective_shear = DF.effective_shear
+reduced_mass = DF.reduced_mass
+
+#: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
+#: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
+#: order depends on RBLOCK, fixed within a process).
+BLOCK = 8 if simulated() else 128
+RBLOCK = 4 if simulated() else 256
+#: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
+NPART = 2 if simulated() else 264
+
+# The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba 0.68's CUDA
+# target failed to type the builtin max() of two floats in these kernels (tests/test_gpu_ptx.py).
+
+# indices of the per-step reduction (``red``)
+R_FPISTON, R_NTOP, R_NCONTACT, R_DMAX, R_VMAX2, R_DISP2 = range(6)
+N_RED = 6
+# indices of the check statistics (``stat``)
+S_AMAX2, S_ALMAX2, S_VMAX2, S_WMAX2, S_KIN = range(5)
+N_STAT = 5
+
+
+@cuda.jit
+def kick_drift(pos, vel, acc, omega, alpha, pos0, piston, dt, gv2, gdisp2):
+    """Half kick and drift of every grain (and of the piston, thread 0); per-grain |v|^2 and
+    squared displacement since the last rebuild into ``gv2``, ``gdisp2``."""
+    i = cuda.grid(1)
+    n, d = pos.shape
+    if i == 0 and piston[K.P_MASS] < math.inf:
+        piston[K.P_V] += 0.5 * dt * piston[K.P_A]
+        piston[K.P_H] += dt * piston[K.P_V]
+    if i >= n:
+        return
+    r = omega.shape[1]
+    v2 = 0.0
+    s = 0.0
+    for a in range(d):
+        vel[i, a] += 0.5 * dt * acc[i, a]
+        pos[i, a] += dt * vel[i, a]
+        v2 += vel[i, a] * vel[i, a]
+        x = pos[i, a] - pos0[i, a]
+        s += x * x
+    for a in range(r):
+        omega[i, a] += 0.5 * dt * alpha[i, a]
+    gv2[i] = v2
+    gdisp2[i] = s
+
+
+@cuda.jit
+def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov,
+                fpar, pf, tq_i, tq_j, pdelta):
+    """Force on i of every listed pair (the CPU force loop's pair body), its torques on i and j,
+    and its overlap (-1: not touching); tangential history updated in place."""
+    p = cuda.grid(1)
+    if p >= npairs:
+        return
+    d = pos.shape[1]
+    r = omega.shape[1]
+    dt = fpar[K.F_DT]
+    zeta = fpar[K.F_ZETA]
+    mu = fpar[K.F_MU]
+    poisson = fpar[K.F_POISSON]
+    rescale = fpar[K.F_RESCALE] != 0.0
+    for a in range(3):
+        pf[p, a] = 0.0
+    for a in range(r):
+        tq_i[p, a] = 0.0
+        tq_j[p, a] = 0.0
+    pdelta[p] = -1.0
+    i = pair_i[p]
+    j = pair_j[p]
+    dx, dy, dz = pair_geometry(pos, lateral, i, j)
+    r2 = dx * dx + dy * dy + dz * dz
+    ri = rad[i]
+    rj = rad[j]
+    rs = ri + rj
+    if r2 >= rs * rs:
+        if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+            pair_ov[p] = 0.0
+            for a in range(d):
+                pair_ft[p, a] = 0.0
+        return
+    dist = math.sqrt(r2)
+    delta = rs - dist
+    nx = dx / dist
+    ny = dy / dist
+    nz = dz / dist if d == 3 else 0.0
+    vx = vel[j, 0] - vel[i, 0]
+    vy = vel[j, 1] - vel[i, 1]
+    vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+    ai = ri - 0.5 * delta
+    aj = rj - 0.5 * delta
+    if r > 0:
+        wx, wy, wz = spin(omega, i, ai)
+        ux, uy, uz = spin(omega, j, aj)
+        wx += ux
+        wy += uy
+        wz += uz
+        vx -= wy * nz - wz * ny
+        vy -= wz * nx - wx * nz
+        vz -= wx * ny - wy * nx
+    r12 = effective_radius(inv_rad[i], inv_rad[j])
+    meff = reduced_mass(mass[i], mass[j], False)
+    hx = hy = hz = 0.0
+    if mu > 0.0:
+        hx = pair_ft[p, 0]
+        hy = pair_ft[p, 1]
+        if d == 3:
+            hz = pair_ft[p, 2]
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, effective_young(False),
+                                                 effective_shear(poisson, False), meff, vx, vy, vz,
+                                                 hx, hy, hz, pair_ov[p], dt, zeta, mu, rescale)
+    if mu > 0.0:
+        pair_ft[p, 0] = hx
+        pair_ft[p, 1] = hy
+        if d == 3:
+            pair_ft[p, 2] = hz
+    pair_ov[p] = delta
+    pf[p, 0] = fx
+    pf[p, 1] = fy
+    pf[p, 2] = fz
+    if r > 0:
+        add_torque3(tq_i, p, ai, nx, ny, nz, fx, fy, fz)
+        add_torque3(tq_j, p, aj, nx, ny, nz, fx, fy, fz)
+    pdelta[p] = delta
+
+
+@cuda.jit
+def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
+                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount):
+    """Total force and torque of each grain (pairs in increasing pair order, then the bottom and
+    top wall, then background damping), accelerations and the second half kick of velocity
+    Verlet; per-grain piston force, top contacts, largest wall overlap and wall contacts.
+
+    ``inc_pair`` holds p + 1 where the grain is the pair's i, -(p + 1) where it is its j."""
+    i = cuda.grid(1)
+    n, d = pos.shape
+    if i >= n:
+        return
+    r = omega.shape[1]
+    dt = fpar[K.F_DT]
+    zeta = fpar[K.F_ZETA]
+    mu = fpar[K.F_MU]
+    poisson = fpar[K.F_POISSON]
+    gamma = fpar[K.F_GAMMA]
+    rescale = fpar[K.F_RESCALE] != 0.0
+    h = piston[K.P_H]
+    vp = piston[K.P_V]
+    for a in range(d):
+        acc[i, a] = 0.0
+    for a in range(r):
+        alpha[i, a] = 0.0
+    for k in range(inc_ptr[i], inc_ptr[i + 1]):
+        q = inc_pair[k]
+        if q > 0:
+            p = q - 1
+            for a in range(d):
+                acc[i, a] += pf[p, a]
+            for a in range(r):
+                alpha[i, a] += tq_i[p, a]
+        else:
+            p = -q - 1
+            for a in range(d):
+                acc[i, a] -= pf[p, a]
+            for a in range(r):
+                alpha[i, a] += tq_j[p, a]
+    fpiston = 0.0
+    ntop = 0
+    dmax = 0.0
+    count = 0
+    y = pos[i, d - 1]
+    R = rad[i]
+    for k in range(2):
+        delta = R - y if k == 0 else R - (h - y)
+        w = 2 * i + k
+        if delta <= 0.0:
+            if wall_ov[w] != 0.0:
+                wall_ov[w] = 0.0
+                for a in range(d):
+                    wall_ft[w, a] = 0.0
+            continue
+        sgn = -1.0 if k == 0 else 1.0
+        vx = -vel[i, 0]
+        if d == 2:
+            nx, ny, nz = 0.0, sgn, 0.0
+            vy = -vel[i, 1] + (vp if k == 1 else 0.0)
+            vz = 0.0
+        else:
+            nx, ny, nz = 0.0, 0.0, sgn
+            vy = -vel[i, 1]
+            vz = -vel[i, 2] + (vp if k == 1 else 0.0)
+        ai = R - delta
+        if r > 0:
+            wx, wy, wz = spin(omega, i, ai)
+            vx -= wy * nz - wz * ny
+            vy -= wz * nx - wx * nz
+            vz -= wx * ny - wy * nx
+        hx = hy = hz = 0.0
+        if mu > 0.0:
+            hx = wall_ft[w, 0]
+            hy = wall_ft[w, 1]
+            if d == 3:
+                hz = wall_ft[w, 2]
+        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, effective_young(True),
+                                                     effective_shear(poisson, True), mass[i], vx, vy,
+                                                     vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale)
+        if mu > 0.0:
+            wall_ft[w, 0] = hx
+            wall_ft[w, 1] = hy
+            if d == 3:
+                wall_ft[w, 2] = hz
+        wall_ov[w] = delta
+        acc[i, 0] += fx
+        acc[i, 1] += fy
+        if d == 3:
+            acc[i, 2] += fz
+        if r > 0:
+            add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
+        if k == 1:
+            fpiston -= fz if d == 3 else fy
+            ntop += 1
+        if delta > dmax:
+            dmax = delta
+        count += 1
+    if gamma > 0.0:
+        for a in range(d):
+            acc[i, a] -= gamma * mass[i] * vel[i, a]
+        for a in range(r):
+            alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+    inv = 1.0 / mass[i]
+    for a in range(d):
+        acc[i, a] *= inv
+        vel[i, a] += 0.5 * dt * acc[i, a]
+    inv = 1.0 / inertia[i]
+    for a in range(r):
+        alpha[i, a] *= inv
+        omega[i, a] += 0.5 * dt * alpha[i, a]
+    gfp[i] = fpiston
+    gtop[i] = ntop
+    gdmax[i] = dmax
+    gcount[i] = count
+
+
+@cuda.jit(device=True)
+def _tree(t, s_sum0, s_sum1, s_sum2, s_max0, s_max1, s_max2):
+    """Tree reduction over a block's shared arrays: three sums and three maxima into slot 0."""
+    cuda.syncthreads()
+    half = RBLOCK // 2
+    while half > 0:
+        if t < half:
+            s_sum0[t] += s_sum0[t + half]
+            s_sum1[t] += s_sum1[t + half]
+            s_sum2[t] += s_sum2[t + half]
+            if s_max0[t + half] > s_max0[t]:
+                s_max0[t] = s_max0[t + half]
+            if s_max1[t + half] > s_max1[t]:
+                s_max1[t] = s_max1[t + half]
+            if s_max2[t + half] > s_max2[t]:
+                s_max2[t] = s_max2[t + half]
+        cuda.syncthreads()
+        half //= 2
+
+
+@cuda.jit
+def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
+    """NPART blocks: block b's share (a fixed grid stride) of the step's sums and maxima into
+    ``part[b]`` (piston force, top contacts, contacts, largest overlap, |v|^2, displacement^2)."""
+    t = cuda.threadIdx.x
+    b = cuda.blockIdx.x
+    n = gfp.shape[0]
+    stride = RBLOCK * NPART
+    s_fp = cuda.shared.array(RBLOCK, np.float64)
+    s_top = cuda.shared.array(RBLOCK, np.float64)
+    s_cnt = cuda.shared.array(RBLOCK, np.float64)
+    s_dmax = cuda.shared.array(RBLOCK, np.float64)
+    s_v2 = cuda.shared.array(RBLOCK, np.float64)
+    s_disp = cuda.shared.array(RBLOCK, np.float64)
+    fp = 0.0
+    top = 0.0
+    cnt = 0.0
+    dmax = 0.0
+    v2 = 0.0
+    disp = 0.0
+    for i in range(b * RBLOCK + t, n, stride):
+        fp += gfp[i]
+        top += gtop[i]
+        cnt += gcount[i]
+        if gdmax[i] > dmax:
+            dmax = gdmax[i]
+        if gv2[i] > v2:
+            v2 = gv2[i]
+        if gdisp2[i] > disp:
+            disp = gdisp2[i]
+    for p in range(b * RBLOCK + t, npairs, stride):
+        x = pdelta[p]
+        if x >= 0.0:
+            cnt += 1.0
+            if x > dmax:
+                dmax = x
+    s_fp[t] = fp
+    s_top[t] = top
+    s_cnt[t] = cnt
+    s_dmax[t] = dmax
+    s_v2[t] = v2
+    s_disp[t] = disp
+    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
+    if t == 0:
+        part[b, R_FPISTON] = s_fp[0]
+        part[b, R_NTOP] = s_top[0]
+        part[b, R_NCONTACT] = s_cnt[0]
+        part[b, R_DMAX] = s_dmax[0]
+        part[b, R_VMAX2] = s_v2[0]
+        part[b, R_DISP2] = s_disp[0]
+
+
+@cuda.jit
+def finish(part, piston, fpar, red):
+    """One block: the NPART partial results combined in a fixed order into ``red``, then the
+    piston's acceleration and second half kick."""
+    t = cuda.threadIdx.x
+    s_fp = cuda.shared.array(RBLOCK, np.float64)
+    s_top = cuda.shared.array(RBLOCK, np.float64)
+    s_cnt = cuda.shared.array(RBLOCK, np.float64)
+    s_dmax = cuda.shared.array(RBLOCK, np.float64)
+    s_v2 = cuda.shared.array(RBLOCK, np.float64)
+    s_disp = cuda.shared.array(RBLOCK, np.float64)
+    fp = 0.0
+    top = 0.0
+    cnt = 0.0
+    dmax = 0.0
+    v2 = 0.0
+    disp = 0.0
+    for b in range(t, part.shape[0], RBLOCK):
+        fp += part[b, R_FPISTON]
+        top += part[b, R_NTOP]
+        cnt += part[b, R_NCONTACT]
+        if part[b, R_DMAX] > dmax:
+            dmax = part[b, R_DMAX]
+        if part[b, R_VMAX2] > v2:
+            v2 = part[b, R_VMAX2]
+        if part[b, R_DISP2] > disp:
+            disp = part[b, R_DISP2]
+    s_fp[t] = fp
+    s_top[t] = top
+    s_cnt[t] = cnt
+    s_dmax[t] = dmax
+    s_v2[t] = v2
+    s_disp[t] = disp
+    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
+    if t == 0:
+        red[R_FPISTON] = s_fp[0]
+        red[R_NTOP] = s_top[0]
+        red[R_NCONTACT] = s_cnt[0]
+        red[R_DMAX] = s_dmax[0]
+        red[R_VMAX2] = s_v2[0]
+        red[R_DISP2] = s_disp[0]
+        piston[K.P_FCON] = s_fp[0]
+        piston[K.P_A] = piston_acceleration(piston, fpar[K.F_GAMMA])
+        if piston[K.P_MASS] < math.inf:
+            piston[K.P_V] += 0.5 * fpar[K.F_DT] * piston[K.P_A]
+
+
+@cuda.jit
+def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
+    """One block: largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the grains' kinetic energy."""
+    t = cuda.threadIdx.x
+    n, d = vel.shape
+    r = omega.shape[1]
+    s_a = cuda.shared.array(RBLOCK, np.float64)
+    s_al = cuda.shared.array(RBLOCK, np.float64)
+    s_v = cuda.shared.array(RBLOCK, np.float64)
+    s_w = cuda.shared.array(RBLOCK, np.float64)
+    s_k = cuda.shared.array(RBLOCK, np.float64)
+    amax = 0.0
+    almax = 0.0
+    vmax = 0.0
+    wmax = 0.0
+    kin = 0.0
+    for i in range(t, n, RBLOCK):
+        a2 = 0.0
+        v2 = 0.0
+        for a in range(d):
+            a2 += acc[i, a] * acc[i, a]
+            v2 += vel[i, a] * vel[i, a]
+        al2 = 0.0
+        w2 = 0.0
+        for a in range(r):
+            al2 += alpha[i, a] * alpha[i, a]
+            w2 += omega[i, a] * omega[i, a]
+        if a2 > amax:
+            amax = a2
+        if al2 > almax:
+            almax = al2
+        if v2 > vmax:
+            vmax = v2
+        if w2 * rad[i] * rad[i] > wmax:
+            wmax = w2 * rad[i] * rad[i]
+        kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+    s_a[t] = amax
+    s_al[t] = almax
+    s_v[t] = vmax
+    s_w[t] = wmax
+    s_k[t] = kin
+    cuda.syncthreads()
+    half = RBLOCK // 2
+    while half > 0:
+        if t < half:
+            if s_a[t + half] > s_a[t]:
+                s_a[t] = s_a[t + half]
+            if s_al[t + half] > s_al[t]:
+                s_al[t] = s_al[t + half]
+            if s_v[t + half] > s_v[t]:
+                s_v[t] = s_v[t + half]
+            if s_w[t + half] > s_w[t]:
+                s_w[t] = s_w[t + half]
+            s_k[t] += s_k[t + half]
+        cuda.syncthreads()
+        half //= 2
+    if t == 0:
+        stat[S_AMAX2] = s_a[0]
+        stat[S_ALMAX2] = s_al[0]
+        stat[S_VMAX2] = s_v[0]
+        stat[S_WMAX2] = s_w[0]
+        stat[S_KIN] = s_k[0]
+
+
+#: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
+KERNELS = (kick_drift, pair_forces, grain_forces, step_partials, finish, measure_kernel)
+
+
+def incidence(pair_i: np.ndarray, pair_j: np.ndarray, npairs: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(inc_ptr (n+1,), inc_pair): for each grain its pairs in increasing pair index, stored as
+    p + 1 where it is the pair's i and -(p + 1) where it is its j (host, numpy)."""
+    p = np.arange(npairs, dtype=np.int64)
+    grain = np.concatenate([pair_i[:npairs], pair_j[:npairs]])
+    code = np.concatenate([p + 1, -(p + 1)])
+    order = np.lexsort((np.concatenate([p, p]), grain))
+    ptr = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(grain, minlength=n), out=ptr[1:])
+    return ptr, np.ascontiguousarray(code[order])
+
+
+def bytes_per_step(n: int, npairs: int, dim: int, rot: int) -> int:
+    """Bytes one step must move at least (a model for the roofline, 8-byte words): per grain the
+    state read and written by the kick-drift and force kernels and the reductions; per pair its
+    indices, history, stored force and torques (written once, read twice: once per grain) and
+    its incidence entries. Gathers of neighbours' state are counted once (cached)."""
+    d, r = dim, rot
+    grain = (4 * d + 2 * r) + (2 * d + r + 2)          # kick_drift: read, write
+    grain += (2 * d + r + 3)                            # pair_forces' gathers, once per grain
+    grain += 1 + (3 * d + 2 * r + 4) + (d + r + 4)      # grain_forces: pointer, reads, writes
+    grain += 2 * (2 * d + 1) + 6                        # wall history read and write, reduction
+    pair = 2 + 2 * (d + 1) + (3 + 2 * r + 1)            # pair_forces: i, j, history r/w, outputs
+    pair += 2 * (1 + 3 + r)                             # grain_forces: 2 incidence entries, reads
+    return 8 * (grain * n + pair * npairs)
+
+
+def _blocks(n: int) -> int:
+    return max(1, (n + BLOCK - 1) // BLOCK)
+
+
+class GpuEngine(Engine):
+    """:class:`~granwave.dem.integrator.Engine` whose :meth:`run` steps on the GPU.
+
+    Between calls of :meth:`run` the state lives in the host arrays, exactly as for the CPU
+    engine; a call copies it to the device (:meth:`upload`), steps (:meth:`step`), and copies
+    it back (:meth:`download`). ``on_rebuild`` (None or a callable taking the old pair keys
+    (i, j) and their count) is called after every host rebuild, before the new list is
+    uploaded: the pulse runner carries its contact flags with it.
+    """
+
+    device = "gpu"
+    on_rebuild = None
+
+    # ------------------------------------------------------------ device session
+    def upload(self) -> None:
+        """Copy the state to the device and allocate the per-step work arrays."""
+        n = self.position.shape[0]
+        to = cuda.to_device
+        self.g = {name: to(getattr(self, name)) for name in
+                  ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
+                   "radius", "mass", "inertia", "lateral", "pos0", "wall_ft", "wall_ov", "piston",
+                   "fpar")}
+        self.g["inv_rad"] = to(1.0 / self.radius)
+        for name in ("v2", "disp2", "fp", "top", "dmax", "count"):
+            self.g[name] = cuda.device_array(n)
+        self.g["red"] = cuda.device_array(N_RED)
+        self.g["part"] = cuda.device_array((NPART, N_RED))
+        self.g["stat"] = cuda.device_array(N_STAT)
+        self._upload_pairs()
+        x = self.position - self.pos0
+        self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
+
+    def _upload_pairs(self) -> None:
+        n = self.position.shape[0]
+        m = int(self.ipar[K.I_NPAIRS])
+        r = max(self.angular_velocity.shape[1], 1)
+        ptr, code = incidence(self.pair_i, self.pair_j, m, n)
+        cap = max(m, 1)
+        to = cuda.to_device
+        self.gp = dict(i=to(self.pair_i[:cap]), j=to(self.pair_j[:cap]), ft=to(self.pair_ft[:cap]),
+                       ov=to(self.pair_ov[:cap]), ptr=to(ptr),
+                       code=to(code if len(code) else np.zeros(1, np.int64)),
+                       pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
+                       tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), m=m)
+
+    def _download_pairs(self) -> None:
+        m = self.gp["m"]
+        if m:
+            self.pair_ft[:m] = self.gp["ft"].copy_to_host()[:m]
+            self.pair_ov[:m] = self.gp["ov"].copy_to_host()[:m]
+
+    def download(self) -> None:
+        """Copy the state back to the host arrays."""
+        for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
+                     "pos0", "wall_ft", "wall_ov", "piston"):
+            getattr(self, name)[...] = self.g[name].copy_to_host()
+        self._download_pairs()
+
+    def set_dt(self, dt: float) -> None:
+        """Change the time step (host and device copies of the parameters)."""
+        self.fpar[K.F_DT] = dt
+        self.g["fpar"].copy_to_device(self.fpar)
+
+    def step(self) -> int:
+        """One velocity-Verlet step on the device (between :meth:`upload` and :meth:`download`):
+        0, or 3 when the state blew up (non-finite reach before a rebuild)."""
+        fpar, ipar, out, g = self.fpar, self.ipar, self.out, self.g
+        n = self.position.shape[0]
+        dt = fpar[K.F_DT]
+        reach = math.sqrt(self._disp2) + 2.0 * fpar[K.F_VMAX] * dt
+        if not math.isfinite(reach):
+            return 3
+        if reach > 0.5 * fpar[K.F_SKIN]:  # host rebuild (first version; module docstring)
+            self.position[...] = g["position"].copy_to_host()
+            self._download_pairs()
+            m_old = int(ipar[K.I_NPAIRS])
+            old = (self.pair_i[:m_old].copy(), self.pair_j[:m_old].copy())
+            self._rebuild()  # wraps positions, grows the arrays if needed, pos0 = position
+            ipar[K.I_REBUILDS] += 1
+            if self.on_rebuild is not None:
+                self.on_rebuild(old[0], old[1], m_old)
+            g["position"].copy_to_device(self.position)
+            g["pos0"].copy_to_device(self.pos0)
+            self._upload_pairs()
+        gp = self.gp
+        m = gp["m"]
+        nb = _blocks(n)
+        kick_drift[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
+                              g["angular_acceleration"], g["pos0"], g["piston"], dt, g["v2"], g["disp2"])
+        if m:
+            pair_forces[_blocks(m), BLOCK](g["position"], g["velocity"], g["angular_velocity"], g["radius"],
+                                           g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], m,
+                                           gp["ft"], gp["ov"], g["fpar"], gp["pf"], gp["tqi"], gp["tqj"],
+                                           gp["delta"])
+        grain_forces[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
+                                g["angular_acceleration"], g["radius"], g["mass"], g["inertia"], gp["ptr"],
+                                gp["code"], gp["pf"], gp["tqi"], gp["tqj"], g["wall_ft"], g["wall_ov"],
+                                g["piston"], g["fpar"], g["fp"], g["top"], g["dmax"], g["count"])
+        step_partials[NPART, RBLOCK](g["fp"], g["top"], g["dmax"], g["count"], g["v2"], g["disp2"],
+                                     gp["delta"], m, g["part"])
+        finish[1, RBLOCK](g["part"], g["piston"], g["fpar"], g["red"])
+        red = g["red"].copy_to_host()
+        fpar[K.F_VMAX] = math.sqrt(red[R_VMAX2])
+        self._disp2 = red[R_DISP2]
+        self.piston[K.P_FCON] = red[R_FPISTON]
+        out[K.O_DMAX] = red[R_DMAX]
+        out[K.O_NTOP] = red[R_NTOP]
+        out[K.O_NCONTACT] = red[R_NCONTACT]
+        ipar[K.I_STEPS] += 1
+        return 0
+
+    def _check(self) -> int:
+        """The CPU engine's check (every ``check_every`` steps): 3 blown up, 1 converged
+        candidate, else 0; adapts the time step."""
+        fpar, ipar, out, piston, g = self.fpar, self.ipar, self.out, self.piston, self.g
+        measure_kernel[1, RBLOCK](g["velocity"], g["acceleration"], g["angular_velocity"],
+                                  g["angular_acceleration"], g["mass"], g["inertia"], g["radius"], g["stat"])
+        stat = g["stat"].copy_to_host()
+        piston[...] = g["piston"].copy_to_host()
+        out[K.O_AMAX] = math.sqrt(stat[S_AMAX2])
+        out[K.O_ALPHAMAX] = math.sqrt(stat[S_ALMAX2])
+        out[K.O_VMAX] = math.sqrt(stat[S_VMAX2])
+        out[K.O_WMAX] = math.sqrt(stat[S_WMAX2])
+        kin = stat[S_KIN]
+        if piston[K.P_MASS] < np.inf:
+            out[K.O_APISTON] = abs(piston[K.P_A])
+            kin += 0.5 * piston[K.P_MASS] * piston[K.P_V] * piston[K.P_V]
+        else:
+            out[K.O_APISTON] = 0.0
+        out[K.O_KIN] = kin
+        if not (out[K.O_DMAX] < fpar[K.F_RMAX] and math.isfinite(out[K.O_KIN])):
+            return 3
+        if ipar[K.I_ADAPTIVE]:
+            self.set_dt(K.stable_dt_at(fpar, out[K.O_DMAX]))
+        tol_a, tol_v = fpar[K.F_TOLA], fpar[K.F_TOLV]
+        if (out[K.O_NTOP] > 0 and out[K.O_AMAX] < tol_a and out[K.O_ALPHAMAX] < tol_a
+                and out[K.O_APISTON] < tol_a and out[K.O_VMAX] < tol_v and out[K.O_WMAX] < tol_v
+                and abs(piston[K.P_V]) < tol_v):
+            return 1
+        return 0
+
+    # ------------------------------------------------------------ the engine's interface
+    def run(self, n_steps: int) -> int:
+        """Advance up to ``n_steps`` steps; same statuses as :meth:`Engine.run` (0, 1 converged
+        candidate, 3 blown up)."""
+        check = int(self.ipar[K.I_CHECK])
+        self.upload()
+        try:
+            for _ in range(int(n_steps)):
+                if self.step() == 3:
+                    return 3
+                if check > 0 and self.ipar[K.I_STEPS] % check == 0:
+                    status = self._check()
+                    if status:
+                        return status
+            return 0
+        finally:
+            self.download()

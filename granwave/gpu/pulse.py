@@ -1,0 +1,162 @@
+"""The nonlinear DEM pulse on one GPU: :func:`pulse_samples_gpu`, the device twin of
+:func:`granwave.dem.pulse_kernels.pulse_samples` (same arguments, same results).
+
+Each step is :meth:`granwave.gpu.dem.GpuEngine.step` (the engine's own step on the device),
+followed by the contact bookkeeping of the CPU loop as two kernels: the contact flags of every
+pair and wall slot (the CPU's ``_on_cone`` and ``_touching_state`` compiled for the device from
+their source, :mod:`granwave.gpu.compile`), and every grain's largest displacement so far
+(kept per grain on the device, reduced once per call). After a host neighbour rebuild the
+flags are carried to the new list by the CPU's ``carry_flags``. When the pair arrays need more
+room, the call returns minus the sample to resume, as the CPU loop does.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import cuda
+
+from .. import geometry
+from ..dem import kernels as K
+from ..dem import pulse_kernels as PK
+from .compile import _rebound, device_functions
+from .dem import BLOCK, GpuEngine, _blocks
+
+_DF = device_functions()
+_names = {"C": _DF, "nearest_image": _DF.nearest_image}
+on_cone = cuda.jit(device=True)(_rebound(PK._on_cone.py_func, _names))
+touching_state = cuda.jit(device=True)(_rebound(PK._touching_state.py_func, _names))
+periodic_distance2 = cuda.jit(device=True)(_rebound(geometry.periodic_distance2.py_func, _names))
+effective_radius = _DF.effective_radius
+effective_young = _DF.effective_young
+normal_force = _DF.normal_force
+
+
+@cuda.jit
+def classify_pairs(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, mu, pair_state, initial):
+    """The pair loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per pair."""
+    p = cuda.grid(1)
+    if p >= npairs:
+        return
+    d = pair_ft.shape[1]
+    ov = pair_ov[p]
+    s = pair_state[p]
+    if ov > 0.0:
+        fel = 0.0
+        if mu > 0.0:
+            i = pair_i[p]
+            j = pair_j[p]
+            r12 = effective_radius(1.0 / rad[i], 1.0 / rad[j])
+            fel = normal_force(ov, r12, effective_young(False))
+        s = touching_state(s, mu > 0.0 and on_cone(pair_ft, p, d, fel, mu), initial)
+    elif (s & PK.INITIAL) and not initial:
+        s |= PK.OPENED
+    pair_state[p] = s
+
+
+@cuda.jit
+def classify_walls(rad, wall_ft, wall_ov, mu, wall_state, initial):
+    """The wall loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per wall slot."""
+    w = cuda.grid(1)
+    if w >= wall_ov.shape[0]:
+        return
+    d = wall_ft.shape[1]
+    ov = wall_ov[w]
+    s = wall_state[w]
+    if ov > 0.0:
+        fel = 0.0
+        if mu > 0.0:
+            fel = normal_force(ov, rad[w // 2], effective_young(True))
+        s = touching_state(s, mu > 0.0 and on_cone(wall_ft, w, d, fel, mu), initial)
+    elif (s & PK.INITIAL) and not initial:
+        s |= PK.OPENED
+    wall_state[w] = s
+
+
+@cuda.jit
+def track_displacement(pos, pos_ref, lateral, best2):
+    """best2[i] = max(best2[i], |r_i - r_i(0)|^2) (nearest periodic image)."""
+    i = cuda.grid(1)
+    if i >= pos.shape[0]:
+        return
+    s = periodic_distance2(pos, i, pos_ref, i, lateral)
+    if s > best2[i]:
+        best2[i] = s
+
+
+#: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
+KERNELS = (classify_pairs, classify_walls, track_displacement)
+
+
+class _NeedRoom(Exception):
+    def __init__(self, needed: int, width: int):
+        self.needed, self.width = needed, width
+
+
+class _Session(GpuEngine):
+    """A GpuEngine over the arrays of a CPU engine (the same objects): growing them is left to
+    the caller, as with the CPU loop."""
+
+    def grow(self, needed: int, width: int = 0) -> None:
+        raise _NeedRoom(needed, width)
+
+
+_ARRAYS = ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration", "radius",
+           "mass", "inertia", "lateral", "pos0", None, "pair_i", "pair_j", "pair_ft", "pair_ov", "wall_ft",
+           "wall_ov", "piston", "fpar", "ipar", "out", "ws")
+
+
+def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
+                      pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
+                      wall_state, k_start, k_stop, sub, force_out, stats):
+    """:func:`granwave.dem.pulse_kernels.pulse_samples` with the steps on the GPU (module
+    docstring); the host arrays are updated in place when it returns."""
+    eng = object.__new__(_Session)
+    values = (pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i, pair_j,
+              pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
+    for name, value in zip(_ARRAYS, values):
+        if name is not None:
+            setattr(eng, name, value)
+    n, d = pos.shape
+    eng.dim = d
+    mu = fpar[K.F_MU]
+    eng.upload()
+    dev = {"state": cuda.to_device(pair_state), "wall": cuda.to_device(wall_state),
+           "ref": cuda.to_device(pos_ref), "best": cuda.to_device(np.zeros(n))}
+
+    def carry(old_i, old_j, n_old):
+        old_state = dev["state"].copy_to_host()[:n_old].copy()
+        PK.carry_flags(n, old_i, old_j, old_state, n_old, eng.pair_i, eng.pair_j, int(ipar[K.I_NPAIRS]),
+                       pair_state)
+        dev["state"] = cuda.to_device(pair_state)
+
+    eng.on_rebuild = carry
+    g = eng.g
+    k = k_start
+    try:
+        while k < k_stop:
+            for _ in range(int(stats[1]), sub):
+                eng.step()
+                m = int(ipar[K.I_NPAIRS])
+                if m:
+                    classify_pairs[_blocks(m), BLOCK](g["radius"], eng.gp["i"], eng.gp["j"], m, eng.gp["ft"],
+                                                      eng.gp["ov"], mu, dev["state"], False)
+                classify_walls[_blocks(2 * n), BLOCK](g["radius"], g["wall_ft"], g["wall_ov"], mu,
+                                                      dev["wall"], False)
+                track_displacement[_blocks(n), BLOCK](g["position"], dev["ref"], g["lateral"], dev["best"])
+                stats[1] += 1.0
+            stats[1] = 0.0
+            force_out[k] = piston[K.P_FCON]
+            k += 1
+        return k_stop
+    except _NeedRoom as exc:
+        ipar[K.I_NEEDED] = exc.needed
+        ipar[K.I_WIDTH] = exc.width
+        return -k
+    finally:
+        eng.download()
+        pair_state[...] = dev["state"].copy_to_host()
+        wall_state[...] = dev["wall"].copy_to_host()
+        best = float(np.max(dev["best"].copy_to_host(), initial=0.0))
+        stats[0] = max(stats[0], math.sqrt(best))

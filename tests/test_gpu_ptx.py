@@ -1,0 +1,105 @@
+"""Every GPU kernel compiles for a real GPU (PTX for compute capability 9.0, an H100).
+
+The CUDA simulator runs kernels as Python and cannot tell whether they would compile; this
+test compiles each kernel of granwave.gpu with the CUDA compiler (libNVVM) for 2D and 3D,
+with and without friction's rotation columns. It needs no GPU, only libNVVM (the gpu extra's
+CUDA wheels provide it); without libNVVM it is skipped, saying why (docs/gpu.md).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+if os.environ.get("NUMBA_ENABLE_CUDASIM", "0") not in ("", "0"):
+    pytest.skip("the CUDA simulator is on: no compiler to test", allow_module_level=True)
+
+cuda = pytest.importorskip("numba.cuda")
+import numba  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _no_device(monkeypatch):
+    """Device functions called by a kernel are compiled for the current device's compute
+    capability; without a GPU there is none: give them cc 9.0, as the kernels."""
+    import types
+
+    from numba.cuda import dispatcher
+
+    if hasattr(dispatcher, "get_current_device"):
+        fake = types.SimpleNamespace(compute_capability=(9, 0))
+        monkeypatch.setattr(dispatcher, "get_current_device", lambda: fake)
+
+
+def _nvvm_or_skip():
+    def probe(x):
+        x[0] = 1.0
+
+    try:
+        cuda.compile_ptx(probe, (numba.float64[::1],), cc=(9, 0))
+    except Exception as exc:  # noqa: BLE001 - NvvmSupportError and kin, by version
+        pytest.skip(f"libNVVM not available, cannot compile for a GPU ({type(exc).__name__}: "
+                    f"{str(exc).splitlines()[0] if str(exc) else ''}); pip install 'granwave[gpu]'")
+
+
+def _types(*values):
+    return tuple(numba.typeof(v) for v in values)
+
+
+@pytest.mark.parametrize("dim,rot", [(2, 1), (2, 0), (3, 3)])
+def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
+    _nvvm_or_skip()
+    from granwave.gpu import dem as G
+
+    n, m = 4, 6
+    f2 = lambda c: np.zeros((n, c))  # noqa: E731
+    p2 = lambda c: np.zeros((m, c))  # noqa: E731
+    v = np.zeros(n)
+    i64 = np.zeros(m, np.int64)
+    sigs = {
+        G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), f2(dim), np.zeros(6), 1.0, v,
+                             v),
+        G.pair_forces: _types(f2(dim), f2(dim), f2(rot), v, v, v, np.zeros(dim - 1), i64, i64, 1,
+                              p2(dim), np.zeros(m), np.zeros(14), p2(3), p2(max(rot, 1)),
+                              p2(max(rot, 1)), np.zeros(m)),
+        G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
+                               np.zeros(n + 1, np.int64), i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)),
+                               np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v,
+                               v),
+        G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), 1, np.zeros((3, 6))),
+        G.finish: _types(np.zeros((3, 6)), np.zeros(6), np.zeros(14), np.zeros(6)),
+        G.measure_kernel: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(5)),
+    }
+    assert set(sigs) == set(G.KERNELS)
+    from granwave.gpu import pulse as P
+
+    s8 = np.zeros(m, np.int8)
+    sigs.update({
+        P.classify_pairs: _types(v, i64, i64, 1, p2(dim), np.zeros(m), 0.5, s8, False),
+        P.classify_walls: _types(v, np.zeros((2 * n, dim)), np.zeros(2 * n), 0.5, np.zeros(2 * n, np.int8),
+                                 False),
+        P.track_displacement: _types(f2(dim), f2(dim), np.zeros(dim - 1), v),
+    })
+    assert set(P.KERNELS) <= set(sigs)
+    for kernel, sig in sigs.items():
+        ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
+        assert ".target sm_90" in ptx
+
+
+def test_gpu_linear_kernels_compile_to_ptx():
+    _nvvm_or_skip()
+    from granwave.gpu import linear as L
+
+    v = np.zeros(5)
+    sigs = {
+        L.verlet_step: _types(np.zeros(6, np.int64), np.zeros(9, np.int32), np.zeros(9), v, v, v, v, v, v,
+                              1.0, 1.0, True),
+        L.sample_partials: _types(v, v, v, v, v, np.zeros((3, 4))),
+        L.sample_sums: _types(np.zeros((3, 4)), np.zeros((3, 4)), 1),
+    }
+    assert set(sigs) == set(L.KERNELS)
+    for kernel, sig in sigs.items():
+        ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
+        assert ".target sm_90" in ptx

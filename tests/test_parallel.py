@@ -1,0 +1,150 @@
+"""Threads change nothing: same bytes for 1 and 2 threads (DEM preparation 2D and 3D, time
+domain), the neighbour lists' growth path, the progress ETA, and SIGTERM leaving no file."""
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numba
+import numpy as np
+import pytest
+
+from granwave import threads
+from granwave.dem import integrator
+from granwave.dem import kernels as K
+from granwave.dem.params import PrepareParams
+from granwave.dem.protocol import prepare_packing
+from granwave.errors import ResourceError
+from granwave.linear import propagate
+from granwave.linear.assemble import linearize
+from granwave.linear.check import reference_lattice
+
+two_threads = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 threads")
+
+
+def _bytes(packing) -> bytes:
+    c = packing.contacts
+    return b"".join(np.ascontiguousarray(x).tobytes() for x in (
+        packing.position, packing.box, c.i, c.j, c.overlap, c.force_normal, c.force_tangential))
+
+
+def _at(n_threads, fn):
+    keep = numba.get_num_threads()
+    threads.set_threads(n_threads)
+    try:
+        return fn()
+    finally:
+        numba.set_num_threads(keep)
+
+
+@two_threads
+@pytest.mark.parametrize("params", [
+    PrepareParams(grains=90, seed=11, tol=1e-9),
+    PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
+], ids=["2d-frictional", "3d-frictional"])
+def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
+    """The parallel passes run even on these small systems (threshold lowered): positions,
+    contacts, forces and tangential forces byte for byte equal."""
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    one = _at(1, lambda: prepare_packing(params))
+    two = _at(2, lambda: prepare_packing(params))
+    assert one.attrs["steps"] == two.attrs["steps"] > 1000
+    assert _bytes(one) == _bytes(two)
+
+
+def test_narrow_neighbour_lists_grow_to_the_same_result(monkeypatch):
+    """Lists started with room for 2 neighbours per grain and few pairs must grow (engine and
+    kernel paths) and give exactly the packing of the default sizes."""
+    params = PrepareParams(grains=50, seed=4, tol=1e-9)
+    ref = prepare_packing(params)
+    monkeypatch.setattr(integrator, "NEIGHBOUR_WIDTH", {2: 2, 3: 2})
+    grown = []
+    keep = integrator.Engine.grow
+
+    def spy(self, needed, width=0):
+        grown.append((needed, width))
+        keep(self, needed, width)
+
+    monkeypatch.setattr(integrator.Engine, "grow", spy)
+    again = prepare_packing(params)
+    assert any(w > 2 for _, w in grown)
+    assert _bytes(again) == _bytes(ref)
+
+
+@two_threads
+def test_time_domain_same_bytes_for_1_and_2_threads(monkeypatch):
+    """Signal, snapshots and energy records byte for byte equal (threshold lowered)."""
+    monkeypatch.setattr(propagate, "MIN_PARALLEL_ROWS", 0)
+    system = linearize(reference_lattice(8, 5, pressure=1e-4, friction=0.5))
+
+    def run():
+        return propagate.time_domain_signal(system, ic="B", t_max=30.0, samples=61, snapshots=[3.0, 10.0])
+
+    one, two = _at(1, run), _at(2, run)
+    assert one.force.tobytes() == two.force.tobytes()
+    assert one.snapshot_displacement.tobytes() == two.snapshot_displacement.tobytes()
+    for key in ("energy_max_rel_deviation", "modified_energy_max_rel_deviation"):
+        assert one.attrs[key] == two.attrs[key]
+    assert np.abs(one.force).max() > 0
+
+
+def test_state_sums_match_the_plain_sums():
+    """Blocked energies agree with numpy to roundoff; the detector sum over its nonzero
+    entries is bit for bit the full sequential sum."""
+    rng = np.random.default_rng(0)
+    n = 3 * propagate.SUM_BLOCK + 17
+    u, v, a, m = (rng.normal(size=n) for _ in range(4))
+    det = np.zeros(n)
+    det[rng.choice(n, 30, replace=False)] = rng.normal(size=30)
+    idx = np.flatnonzero(det)
+    blocks = np.zeros(((n + propagate.SUM_BLOCK - 1) // propagate.SUM_BLOCK, 3))
+    kin, pot, ama, force = propagate.state_sums(u, v, a, m, idx, det[idx], blocks)
+    np.testing.assert_allclose([kin, pot, ama], [0.5 * np.dot(m * v, v), -0.5 * np.dot(u, m * a),
+                                                 np.dot(a, m * a)], rtol=1e-12)
+    full = 0.0
+    for i in range(n):
+        full += det[i] * u[i]
+    assert force == full
+
+
+def test_eta_from_the_decay_of_max_acceleration():
+    """An exact exponential decay gives the exact time to tol; growth or too few chunks: None."""
+    k, tol, sps = 1e-4, 1e-10, 500.0
+    hist = [(s, 1e-3 * math.exp(-k * s)) for s in range(0, 10_000, 1000)]
+    want = math.log(tol / hist[-1][1]) / -k / sps
+    assert integrator.eta_seconds(hist, tol, sps) == pytest.approx(want, rel=1e-9)
+    assert integrator.eta_seconds([(s, 1e-3 * math.exp(k * s)) for s, _ in hist], tol, sps) is None
+    assert integrator.eta_seconds(hist[:2], tol, sps) is None
+
+
+def test_time_domain_refused_when_it_cannot_fit(monkeypatch):
+    from granwave import resources
+
+    system = linearize(reference_lattice(4, 4, pressure=1e-4, friction=0.5))
+    monkeypatch.setattr(resources, "available_memory", lambda: 1000)
+    with pytest.raises(ResourceError, match=r"time-domain run of \d+ dofs .* needs about"):
+        propagate.time_domain_signal(system, ic="A", t_max=5.0, samples=11)
+
+
+def test_sigterm_mid_run_leaves_no_file(tmp_path):
+    """A preparation stopped by SIGTERM (a scheduler's limit) exits 130 and leaves nothing."""
+    out = tmp_path / "p.h5"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "granwave", "prepare-packing", "--grains", "3000",
+                             "--threads", "1", "-o", str(out)], stderr=subprocess.PIPE, text=True,
+                            env=env, cwd=tmp_path)
+    deadline = time.monotonic() + 120
+    line = ""
+    while time.monotonic() < deadline:  # wait for the first progress line: the run is under way
+        line = proc.stderr.readline()
+        if line.startswith("step") or not line:
+            break
+    assert line.startswith("step") and "ETA" in line, line
+    proc.send_signal(signal.SIGTERM)
+    rest = proc.communicate(timeout=60)[1]
+    assert proc.returncode == 130, rest
+    assert "interrupted; no output written" in rest
+    assert list(tmp_path.iterdir()) == []
