@@ -1,0 +1,48 @@
+"""The front against distance: local speeds, exponents and the approach fit (exact cases)."""
+
+import numpy as np
+import pytest
+
+from granwave.analysis.continuum import approach_fit, continuum_from_features
+from granwave.errors import InputError
+
+
+def test_approach_fit_recovers_known_beta_and_L_star():
+    L = np.geomspace(8, 1000, 8)
+    r = approach_fit(L, 1 + 2.0 * L**-0.5, np.full(L.size, 1e-3))
+    assert r["beta"] == pytest.approx(0.5, abs=1e-9)
+    assert r["a"] == pytest.approx(2.0, abs=1e-9)
+    assert r["L_star"] == pytest.approx(1600.0, rel=1e-8)  # (2 / 0.05)^2
+    assert r["status"] == "beyond" and r["L_star_lower_bound"] == pytest.approx(1000.0)
+    assert r["L_star_ci"][0] < 1600 < r["L_star_ci"][1]
+    assert r["free_limit"]["r_inf"] == pytest.approx(1.0, abs=1e-8)
+
+
+def test_approach_fit_noisy_ci_covers_beta_and_reached_status():
+    rng = np.random.default_rng(0)
+    L = np.geomspace(8, 4000, 9)
+    e = np.full(L.size, 5e-3)
+    r = approach_fit(L, 1 + 0.5 * L**-0.7 + e * rng.standard_normal(L.size), e)
+    assert r["beta_ci"][0] < 0.7 < r["beta_ci"][1]
+    assert r["status"] == "reached"  # 0.5 * 4000^-0.7 = 0.0015 < 0.05
+    assert r["L_star"] == pytest.approx((0.5 / 0.05) ** (1 / 0.7), rel=0.3)
+    with pytest.raises(InputError, match="at least 3"):
+        approach_fit([8, 16], [1.2, 1.1])
+
+
+def test_local_speeds_ratio_and_exponents_exact():
+    # arrivals t = L / c(L_mid) on a line of speed 2 after an offset, c_l = 1.6, A ~ L^-0.5, W ~ L^0.25
+    heights = np.repeat([8.0, 16.0, 32.0, 64.0], 3)
+    feats = [{"t_lead10": 1.0 + h / 2.0, "t_peak": 2.0 + h / 1.8, "t_zero": 3.0 + h / 1.5,
+              "amplitude": h**-0.5, "width": h**0.25} for h in heights]
+    r = continuum_from_features(heights, feats, np.full(heights.size, 1.6))
+    loc = r["local"]
+    np.testing.assert_allclose(loc["height"], [8 * 2**0.5, 16 * 2**0.5, 32 * 2**0.5])
+    np.testing.assert_allclose(loc["c_tof"], 2.0)
+    np.testing.assert_allclose(loc["c_peak"], 1.8)
+    np.testing.assert_allclose(loc["c_zero"], 1.5)
+    np.testing.assert_allclose(loc["ratio"], 1.25)
+    np.testing.assert_allclose(loc["gamma_eff"], 0.5)
+    np.testing.assert_allclose(loc["alpha_eff"], 0.25)
+    np.testing.assert_allclose(r["per_height"]["c_tof_apparent"], [8 / 5, 16 / 9, 32 / 17, 64 / 33])
+    assert r["global"]["c_tof_all"] == pytest.approx(2.0)
