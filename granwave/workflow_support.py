@@ -53,7 +53,7 @@ def _write_json(path, obj) -> None:
 
 def make_sample(kind: str, make: dict):
     """The sample's packing: DEM preparation, perfect lattice or chain (``make``: their options)."""
-    if kind == "disordered":
+    if kind in ("disordered", "continuum"):
         from .dem.params import PrepareParams
         from .dem.protocol import prepare_packing
 
@@ -96,10 +96,11 @@ def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, s
 def run_sample(sample: dict, log=print) -> list[dict]:
     """Run one sample's pipeline and write its files; return the timing of each stage.
 
-    ``sample``: ``kind`` (disordered | lattices | chains), ``scene``, ``make`` (options of
+    ``sample``: ``kind`` (disordered | lattices | chains | continuum), ``scene``, ``make`` (options of
     :func:`make_sample`), ``signal`` (method, ic, t_max, samples) and ``out``, the paths
     to write: packing, linear, signal, front, summary, and optionally statics and moduli
-    (the stages a scene has). Each file is written atomically as soon as it is made.
+    (the stages a scene has); ``local_moduli`` (default True): False for global moduli only.
+    Each file is written atomically as soon as it is made.
     Downstream stages read the files back, so they see exactly what a separate
     `granwave` command would. Timings: one dict per stage with CPU and wall seconds.
     """
@@ -150,7 +151,8 @@ def run_sample(sample: dict, log=print) -> list[dict]:
         sections["statics"] = timed("statics", lambda: statics(packing, layer=STATICS_LAYER))
         _write_json(out["statics"], sections["statics"])
     if "moduli" in out:
-        sections["moduli"] = timed("moduli", lambda: moduli(packing, local=True, layer=STATICS_LAYER))
+        local = sample.get("local_moduli", True)  # continuum columns: global moduli only
+        sections["moduli"] = timed("moduli", lambda: moduli(packing, local=local, layer=STATICS_LAYER))
         _write_json(out["moduli"], sections["moduli"])
     sections["front"] = timed("front", lambda: front_section(sig))
     _write_json(out["front"], sections["front"])
@@ -163,7 +165,7 @@ def run_sample(sample: dict, log=print) -> list[dict]:
     return timings
 
 
-SCENE_KINDS = ("disordered", "lattices", "chains")
+SCENE_KINDS = ("disordered", "lattices", "chains", "continuum")
 
 
 def _key(path) -> str:
