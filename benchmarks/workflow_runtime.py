@@ -28,6 +28,11 @@ Models fitted to them (classes: dimension x frictional or not):
   class; modal cpu = km n^3 (chains: the tridiagonal solver, km2 n^2); for `auto` scenes
   the cheaper of the two, as the workflow chooses.
 - statics, moduli, front: power laws in N fitted per stage.
+
+Continuum scenes (config/continuum.yaml) are costed as disordered packings with time-domain
+signals at their own time_safety / samples / t_max_factor, global moduli (costed with the
+fitted moduli model, which includes local moduli: an overestimate) and no statics. Their DEM
+cost is the fitted H^g law extrapolated to the tallest columns: a prediction, not a measurement.
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ from granwave.workflow_support import crossing_time  # noqa: E402
 DENSE_CHECK_MAX_DOF = 3000  # linearize's dense eigenvalue check (granwave linearize --help)
 SCENE_DEFAULTS = {"dim": 2, "friction": 0.5, "width": 24, "polydispersity": 0.2, "poisson": 0.0,
                   "tol": 1e-10}  # the schema's defaults (workflow/schemas/config.schema.yaml)
+CONTINUUM_DEFAULTS = {**SCENE_DEFAULTS, "width": 25, "tol": 1e-8}  # the continuum section's
 
 
 # ------------------------------------------------------------------ measured
@@ -86,6 +92,8 @@ def bench_cpu(path: Path) -> float:
 
 
 def kind_of(scene: str, results: Path) -> str:
+    """disordered, lattices or chains: a continuum column is a disordered packing (same DEM and
+    signal models; its tall heights extend the fit of the DEM steps against H)."""
     with h5py.File(next((results / "packing" / scene).rglob("*.h5"))) as f:
         kind = f.attrs.get("kind", "")
     kind = kind.decode() if isinstance(kind, bytes) else str(kind)
@@ -242,8 +250,14 @@ def load_config(path: Path) -> dict:
 
 def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
     """Predicted CPU seconds of one sample's stages."""
-    kind = next(k for k in ("disordered", "lattices", "chains") if scene in (cfg.get(k) or {}))
-    spec = {**SCENE_DEFAULTS, **({"friction": 0.0} if kind == "lattices" else {}), **cfg[kind][scene]}
+    kind = next(k for k in ("disordered", "lattices", "chains", "continuum") if scene in (cfg.get(k) or {}))
+    spec = {**(CONTINUUM_DEFAULTS if kind == "continuum" else SCENE_DEFAULTS),
+            **({"friction": 0.0} if kind == "lattices" else {}), **cfg[kind][scene]}
+    cfg = dict(cfg)
+    if kind == "continuum":  # time-domain signals, the scene's own step and record, no statics
+        spec = {**spec, "solver": "time", "no_statics": True}
+        cfg.update({k: spec[k] for k in ("time_safety", "samples", "t_max_factor") if k in spec})
+        kind = "disordered"
     H = float(size[1:])
     if kind == "disordered":
         w = spec["width"]
@@ -276,7 +290,8 @@ def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
         time = m["kt"] * c["nnz_per_grain"] * N * sub * (cfg["samples"] - 1)
     out["signal"] = {"modal": modal, "time": time}.get(method, min(modal, time))
     if kind != "chains":
-        if H * (math.sqrt(3) / 2 if kind == "lattices" else 1) > 7 and "statics" in m:
+        if H * (math.sqrt(3) / 2 if kind == "lattices" else 1) > 7 and "statics" in m \
+                and not spec.get("no_statics"):
             out["statics"] = m["statics"][0] * N ** m["statics"][1]
         if spec.get("moduli", True) and "moduli" in m:
             out["moduli"] = m["moduli"][0] * N ** m["moduli"][1]

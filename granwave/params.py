@@ -504,14 +504,17 @@ class AttenuationParams(Params):
 
     ATTR = "attenuation_params"
 
-    window_widths: float = param(10.0, help="Each height's ensemble-mean signal is kept from t = 0 to "
+    window_widths: float = param(5.0, help="Each height's ensemble-mean signal is kept from t = 0 to "
                                  "its front's zero crossing plus this many front widths "
-                                 "(t_zero - t_lead10), with a cosine taper over the last width.",
+                                 "(t_zero - t_lead10), or to the end of its shortest record, with a cosine taper over the "
+                                 "last width.",
                                  lo=0.0, lo_open=True)
     threshold: float = param(0.05, help="Reliable band: the frequencies, around the spectral peak of "
                              "the tallest height, where every height's spectral amplitude is at least "
                              "this fraction of its own maximum.", lo=0.0, lo_open=True, hi=1.0,
                              hi_open=True)
+    max_error: float = param(0.1, help="Reliable band: also the relative error of c(omega) at most "
+                             "this.", lo=0.0, lo_open=True)
     bootstrap: int = param(200, help="Bootstrap resamplings of the packings at each height for the "
                            "error bars (0: fit errors only).", lo=0)
     seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0)

@@ -9,8 +9,9 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    fluctuations average out, the coherent part stays.
 2. **Window.** Each mean signal is kept from its first sample to
    ``t_end = t_zero + window_widths × W`` (front of the mean signal,
-   :func:`granwave.analysis.front.front_features`; W = t_zero - t_lead10), the last
-   W of it tapered by a half cosine, zero after. The window excludes the late coda,
+   :func:`granwave.analysis.front.front_features`; W = t_zero - t_lead10), or the end of
+   the shortest record at that height if it comes first (``window_clipped``), the last W
+   of it (at most half the time from the peak to t_end) tapered by a half cosine, zero after. The window excludes the late coda,
    which the few packings of an ensemble do not average out.
 3. **Spectra.** S(ω, L) = Σ_n F(t_n) e^{-iω t_n} Δt (``numpy.fft.rfft``, zero-padded to
    at least 4 × the longest window, on the common sampling step of all heights).
@@ -27,10 +28,12 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    packings at every height (with replacement; windows and t_ref kept), NaN with one
    packing per height. ``*_err`` is the larger of the two.
 8. **Reliable band.** The contiguous run of frequencies around the reference frequency
-   where every height's |S(ω, L)| is at least ``threshold`` of its own maximum and ω > 0.
+   where ω > 0, every height's |S(ω, L)| is at least ``threshold`` of its own maximum, and
+   the phase velocity is known to ``max_error`` (relative error of c, default 0.1; at the
+   lowest frequencies the phase differences between heights are too small to give k).
 9. **Low-frequency limit.** c(ω) = c0 + c2 ω² fitted over the lower half of the reliable
-   band (every frequency point, unweighted); ``c0`` and its standard error, and
-   ``c0 / c_l`` when the effective-medium c_l is given.
+   band (weighted by 1/c_err², ``numpy.polyfit`` with its covariance); ``c0`` and its
+   standard error, and ``c0 / c_l`` when the effective-medium c_l is given.
 
 Units: times d/sqrt(E*/rho), ω rad per that time unit, lengths d, α per d, speeds
 sqrt(E*/rho). The functions do not care: they return the units they are given.
@@ -45,14 +48,13 @@ import numpy as np
 
 from ..errors import InputError
 from .ensemble import ensemble_average
-from .fits import linear_fit
 from .front import front_features
 from .heights import group_heights
 
 if TYPE_CHECKING:
     from ..model import Signal
 
-DEFAULT_WINDOW_WIDTHS = 10.0
+DEFAULT_WINDOW_WIDTHS = 5.0
 DEFAULT_THRESHOLD = 0.05
 
 
@@ -121,10 +123,16 @@ def _alpha_c(L, omega, S, t_ref, i_ref):
     return -a_slope, a_err, c, np.abs(c_err), k, p_err
 
 
-def reliable_band(omega, S, threshold: float, i_ref: int) -> np.ndarray:
+DEFAULT_MAX_ERROR = 0.1
+
+
+def reliable_band(omega, S, threshold: float, i_ref: int, rel_err=None,
+                  max_error: float = DEFAULT_MAX_ERROR) -> np.ndarray:
     """Boolean mask of the reliable band (rule 8 of the module docstring)."""
     amp = np.abs(S)
     ok = np.all(amp >= threshold * amp.max(axis=1, keepdims=True), axis=0) & (omega > 0)
+    if rel_err is not None:
+        ok &= ~(np.asarray(rel_err) > max_error)  # NaN (undetermined) errors do not exclude
     mask = np.zeros(omega.size, bool)
     if not ok[i_ref]:
         return mask
@@ -138,20 +146,23 @@ def reliable_band(omega, S, threshold: float, i_ref: int) -> np.ndarray:
     return mask
 
 
-def low_frequency_limit(omega, c, band) -> dict:
+def low_frequency_limit(omega, c, band, c_err=None) -> dict:
     """c0 of c(ω) = c0 + c2 ω² over the lower half of the band (rule 9)."""
     idx = np.flatnonzero(band & np.isfinite(c))
-    if idx.size < 3:
+    if idx.size < 4:
         return {"c0": math.nan, "c0_err": math.nan, "c2": math.nan, "omega_fit": [math.nan, math.nan]}
-    lower = idx[: max(3, idx.size // 2)]
-    fit = linear_fit(omega[lower] ** 2, c[lower], what="c(omega) against omega^2")
-    return {"c0": fit.intercept, "c0_err": fit.intercept_err, "c2": fit.slope,
+    lower = idx[: max(4, idx.size // 2)]
+    e = None if c_err is None else np.asarray(c_err)[lower]
+    w = 1.0 / e if e is not None and np.all(np.isfinite(e) & (e > 0)) else None
+    coef, cov = np.polyfit(omega[lower] ** 2, c[lower], 1, w=w, cov=True)  # errors scaled by the misfit
+    return {"c0": float(coef[1]), "c0_err": float(math.sqrt(cov[1, 1])), "c2": float(coef[0]),
             "omega_fit": [float(omega[lower[0]]), float(omega[lower[-1]])]}
 
 
 def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                             window_widths: float = DEFAULT_WINDOW_WIDTHS,
-                            threshold: float = DEFAULT_THRESHOLD, bootstrap: int = 200,
+                            threshold: float = DEFAULT_THRESHOLD, max_error: float = DEFAULT_MAX_ERROR,
+                            bootstrap: int = 200,
                             seed: int = 0, c_l: float | None = None,
                             labels: Sequence[Sequence[str]] | None = None, **front_kw) -> dict:
     """α(ω), Q(ω), c(ω) from signals already grouped by nominal height (rule: module docstring).
@@ -183,12 +194,14 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     means = np.array([on_grid(e.time, e.mean) for e in ens])
     win = [front_window(grid, m, window_widths=window_widths, **front_kw) for m in means]
     t_ref = np.array([w[0] for w in win])
-    t_end = np.array([min(w[1], grid[-1]) for w in win])
-    taper = np.array([w[2] for w in win])
+    record_end = np.array([min(float(s.time[-1]) for s in g) for g in groups])
+    clipped = np.array([w[1] > r for w, r in zip(win, record_end)])
+    t_end = np.array([min(w[1], r) for w, r in zip(win, record_end)])
+    # the taper (one front width) stays behind the peak when the record cuts the window
+    taper = np.array([min(w[2], 0.5 * (te - tr)) for w, te, tr in zip(win, t_end, t_ref)])
     omega, S = spectra(grid, means, t_end, taper)
     i_ref = int(np.argmax(np.abs(S[-1])))
     alpha, alpha_fit, c, c_fit, k, k_fit = _alpha_c(L, omega, S, t_ref, i_ref)
-    band = reliable_band(omega, S, threshold, i_ref)
 
     n_boot = int(bootstrap) if all(len(g) > 1 for g in groups) else 0
     boot_a, boot_c = [], []
@@ -209,12 +222,15 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         Q = omega / (2.0 * alpha * c)
         Q_err = np.abs(Q) * np.hypot(alpha_err / alpha, c_err / c)
 
-    low = low_frequency_limit(omega, c, band)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        band = reliable_band(omega, S, threshold, i_ref, c_err / np.abs(c), max_error)
+    low = low_frequency_limit(omega, c, band, c_err)
     out = {
         "n_signals": int(sum(len(g) for g in groups)),
         "heights": L, "counts": np.array([len(g) for g in groups]),
-        "t_ref": t_ref, "t_end": t_end, "taper": taper,
+        "t_ref": t_ref, "t_end": t_end, "taper": taper, "window_clipped": clipped,
         "window_widths": float(window_widths), "threshold": float(threshold),
+        "max_error": float(max_error),
         "bootstrap": n_boot, "seed": int(seed), "front_options": dict(front_kw),
         "omega_ref": float(omega[i_ref]),
         "band": [float(omega[band][0]), float(omega[band][-1])] if band.any() else [math.nan, math.nan],

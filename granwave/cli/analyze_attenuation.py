@@ -25,7 +25,7 @@ def attenuation(signals, as_json, **options):
     c(omega) = omega/k in sqrt(E*/rho), Q = omega / (2 alpha c). Error bars: the larger of
     the fit's standard error and the bootstrap over packings (--bootstrap). Reliable band:
     around the tallest height's spectral peak, where every height's |S| is at least
-    --threshold of its maximum. c0: c = c0 + c2 omega^2 over the lower half of the band,
+    --threshold of its maximum and c is known to --max-error (relative). c0: c = c0 + c2 omega^2 over the lower half of the band,
     compared with --c-l when given. See docs/continuum.md.
     """
     from ..analysis.attenuation import attenuation as run
@@ -37,7 +37,7 @@ def attenuation(signals, as_json, **options):
         raise InputError("no signal files given")
     res = run([read_signal(p) for p in signals], labels=list(signals),
               group_rtol=params.group_tolerance, window_widths=params.window_widths,
-              threshold=params.threshold, bootstrap=params.bootstrap, seed=params.seed,
+              threshold=params.threshold, max_error=params.max_error, bootstrap=params.bootstrap, seed=params.seed,
               c_l=params.c_l, **params.front_kw())
     res["params"] = params.as_dict()
     if as_json:
