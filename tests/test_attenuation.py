@@ -29,7 +29,8 @@ def synthetic(L, noise=0.0, rng=None):
     if noise:
         # packing-to-packing scatter after the arrival (the signal is quiet before it)
         f = f + noise * np.abs(f).max() * rng.standard_normal(N) * (T > T0 + L)
-    return Signal(time=T, force=f, attrs={"height": float(L), "pressure": 1e-4, "ic": "A"})
+    return Signal(time=T, force=f, attrs={"height": float(L), "pressure": 1e-4, "ic": "A",
+                                         "method": "synthetic"})
 
 
 def test_known_alpha_and_c_recovered_exactly_with_a_wide_window():

@@ -46,3 +46,62 @@ def test_local_speeds_ratio_and_exponents_exact():
     np.testing.assert_allclose(loc["alpha_eff"], 0.25)
     np.testing.assert_allclose(r["per_height"]["c_tof_apparent"], [8 / 5, 16 / 9, 32 / 17, 64 / 33])
     assert r["global"]["c_tof_all"] == pytest.approx(2.0)
+
+
+# ------------------------------------------------------------ CLI, figure and report section
+def _signal_files(tmp_path):
+    """Signals of a front of speed 1.25 c_l (c_l = 0.8) at four heights, two packings each."""
+    import json
+
+    from granwave.io.files import write_signal
+    from test_attenuation import synthetic
+
+    paths, moduli = [], []
+    for L in (10, 20, 40, 80):
+        for s in range(2):
+            sig = synthetic(L)
+            sig.force = sig.force * (1 + 0.01 * s)
+            p = tmp_path / f"h{L}_s{s}.h5"
+            write_signal(p, sig)
+            m = tmp_path / f"h{L}_s{s}.json"
+            m.write_text(json.dumps({"c_l": 0.8, "c_t": 0.5}))
+            paths.append(str(p))
+            moduli.append(str(m))
+    return paths, moduli
+
+
+def test_cli_figure_and_report_section(tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from granwave.cli import main
+    from granwave.report.continuum import continuum_inputs, continuum_section
+
+    paths, moduli = _signal_files(tmp_path)
+    runner = CliRunner()
+    args = ["analyze", "continuum", *paths]
+    for m in moduli:
+        args += ["--moduli", m]
+    front = runner.invoke(main, args + ["--json"])
+    assert front.exit_code == 0, front.output
+    res = json.loads(front.output)
+    # the synthetic front moves at the speed of its lowest frequencies, c = 1 = 1.25 c_l
+    assert res["c_l"]["mean"] == pytest.approx(0.8)
+    assert res["local"]["ratio"][-1] == pytest.approx(1.25, rel=0.02)
+    att = runner.invoke(main, ["analyze", "attenuation", *paths, "--bootstrap", "5", "--json"])
+    assert att.exit_code == 0, att.output
+    bad = runner.invoke(main, ["analyze", "continuum", *paths, "--moduli", moduli[0]])
+    assert bad.exit_code == 2 and "one --moduli file per signal" in bad.output
+    (tmp_path / "sc").mkdir()
+    (tmp_path / "sc" / "front.json").write_text(front.output)
+    (tmp_path / "sc" / "attenuation.json").write_text(att.output)
+    fig = runner.invoke(main, ["plot", "continuum", str(tmp_path / "sc" / "front.json"),
+                               "--attenuation", str(tmp_path / "sc" / "attenuation.json"),
+                               "-o", str(tmp_path / "continuum_sc.png")])
+    assert fig.exit_code == 0, fig.output
+    assert (tmp_path / "continuum_sc.png").stat().st_size > 10000
+    items = [(tmp_path / "sc" / n, json.loads((tmp_path / "sc" / n).read_text()), None)
+             for n in ("front.json", "attenuation.json")]
+    md = "\n".join(continuum_section(continuum_inputs(items)))
+    assert "### sc" in md and "c0/c_ℓ" in md and "L*" in md

@@ -33,7 +33,8 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    lowest frequencies the phase differences between heights are too small to give k).
 9. **Low-frequency limit.** c(ω) = c0 + c2 ω² fitted over the lower half of the reliable
    band (weighted by 1/c_err², ``numpy.polyfit`` with its covariance); ``c0`` and its
-   standard error, and ``c0 / c_l`` when the effective-medium c_l is given.
+   error, the larger of the fit's and the bootstrap's (the same fit on every resampling),
+   and ``c0 / c_l`` when the effective-medium c_l is given.
 
 Units: times d/sqrt(E*/rho), ω rad per that time unit, lengths d, α per d, speeds
 sqrt(E*/rho). The functions do not care: they return the units they are given.
@@ -225,6 +226,12 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     with np.errstate(invalid="ignore", divide="ignore"):
         band = reliable_band(omega, S, threshold, i_ref, c_err / np.abs(c), max_error)
     low = low_frequency_limit(omega, c, band, c_err)
+    # neighbouring frequencies of a zero-padded spectrum are not independent: the bootstrap
+    # over packings gives the honest error of c0 (the larger of the two is kept)
+    c0_boot = [low_frequency_limit(omega, cb, band, c_err)["c0"] for cb in boot_c]
+    low["c0_fit_err"] = low["c0_err"]
+    low["c0_boot_err"] = float(np.nanstd(c0_boot, ddof=1)) if len(c0_boot) > 1 else math.nan
+    low["c0_err"] = float(np.fmax(low["c0_fit_err"], low["c0_boot_err"]))
     out = {
         "n_signals": int(sum(len(g) for g in groups)),
         "heights": L, "counts": np.array([len(g) for g in groups]),

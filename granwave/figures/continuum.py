@@ -88,7 +88,9 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
             y = np.asarray(attenuation[key], float)
             e = np.asarray(attenuation[key + "_err"], float)
             ax.plot(om, y, "-", color="0.7", lw=0.8, label="all frequencies")
-            _errorbar(ax, om[rel], y[rel], e[rel], fmt=".", color="C0", ms=3, label="reliable band")
+            ax.plot(om[rel], y[rel], "-", color="C0", label="reliable band")
+            ax.fill_between(om[rel], (y - e)[rel], (y + e)[rel], color="C0", alpha=0.25, lw=0,
+                            label="± error")
             if rel.any():
                 ax.axvspan(om[rel][0], om[rel][-1], color="0.93", zorder=0)
                 lo, hi = np.nanmin(y[rel] - np.nan_to_num(e[rel])), np.nanmax(y[rel] + np.nan_to_num(e[rel]))
