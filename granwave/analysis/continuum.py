@@ -64,7 +64,8 @@ def approach_fit(L, ratio, err=None, *, tolerance: float = DEFAULT_TOLERANCE,
     (level ``confidence``) of a and beta from the Student t of n − 2 degrees of freedom
     times the standard errors (errors taken as absolute when every err is known, else
     scaled by the scatter). L* = (|a| / tolerance)^(1/beta); its interval from ``draws``
-    parameter sets drawn from the fit's normal distribution (percentiles, seeded).
+    parameter sets drawn from the fit's normal distribution, its covariance widened by
+    (t/z)² to the Student-t width (percentiles, seeded).
     With four or more points also ratio = r_inf + a L^-beta (the limit free).
 
     ``status``: ``reached`` when the measured ratio at the largest L is within tolerance of
@@ -114,7 +115,10 @@ def approach_fit(L, ratio, err=None, *, tolerance: float = DEFAULT_TOLERANCE,
         out["L_star"] = float(np.power(abs(a) / tolerance, 1.0 / beta)) if beta > 0 else math.inf
     if np.all(np.isfinite(cov)):
         rng = np.random.default_rng(seed)
-        draw = rng.multivariate_normal(p, cov, size=draws)
+        # widened by (t / z)^2 so that the interval has the Student-t width of a and beta's
+        z = float(stats.norm.ppf(0.5 + confidence / 2))
+        widen = (tq / z) ** 2 if math.isfinite(tq) else 1.0
+        draw = rng.multivariate_normal(p, cov * widen, size=draws)
         good = draw[:, 1] > 0
         with np.errstate(over="ignore", divide="ignore"):
             ls = (np.abs(draw[good, 0]) / tolerance) ** (1.0 / draw[good, 1])
