@@ -99,12 +99,16 @@ def run_sample(sample: dict, log=print) -> list[dict]:
     ``sample``: ``kind`` (disordered | lattices | chains | continuum), ``scene``, ``make`` (options of
     :func:`make_sample`), ``signal`` (method, ic, t_max, samples) and ``out``, the paths
     to write: packing, linear, signal, front, summary, and optionally statics and moduli
-    (the stages a scene has); ``local_moduli`` (default True): False for global moduli only.
+    (the stages a scene has); ``local_moduli`` (default True): False for global moduli only;
+    ``moduli_may_fail`` (default False): a moduli solve that fails (no accurate solution of
+    D u = f, e.g. a floppy mode under the imposed strain) writes
+    ``{"c_l": null, "c_t": null, "error": ...}`` instead of stopping the batch.
     Each file is written atomically as soon as it is made.
     Downstream stages read the files back, so they see exactly what a separate
     `granwave` command would. Timings: one dict per stage with CPU and wall seconds.
     """
     from .analysis.statics import statics
+    from .errors import ConvergenceError, InputError
     from .analysis.sweep import merge_summary, write_summary
     from .io import files
     from .linear.assemble import linearize
@@ -152,7 +156,19 @@ def run_sample(sample: dict, log=print) -> list[dict]:
         _write_json(out["statics"], sections["statics"])
     if "moduli" in out:
         local = sample.get("local_moduli", True)  # continuum columns: global moduli only
-        sections["moduli"] = timed("moduli", lambda: moduli(packing, local=local, layer=STATICS_LAYER))
+
+        def moduli_stage():
+            try:
+                return moduli(packing, local=local, layer=STATICS_LAYER)
+            except (ConvergenceError, InputError) as exc:
+                if not sample.get("moduli_may_fail"):
+                    raise
+                # a tall column whose stiffness matrix has a floppy mode under the imposed
+                # strain: no c_l for this packing (NaN in the continuum analysis), the batch goes on
+                log(f"{out['moduli']}: no moduli: {exc}")
+                return {"c_l": None, "c_t": None, "error": str(exc)}
+
+        sections["moduli"] = timed("moduli", moduli_stage)
         _write_json(out["moduli"], sections["moduli"])
     sections["front"] = timed("front", lambda: front_section(sig))
     _write_json(out["front"], sections["front"])

@@ -105,3 +105,30 @@ def test_cli_figure_and_report_section(tmp_path):
              for n in ("front.json", "attenuation.json")]
     md = "\n".join(continuum_section(continuum_inputs(items)))
     assert "### sc" in md and "c0/c_ℓ" in md and "L*" in md
+
+
+def test_a_failed_moduli_solve_costs_the_packing_its_c_l_not_the_batch(tmp_path, monkeypatch):
+    import json
+
+    import granwave.linear.moduli as M
+    from granwave.workflow_support import run_sample
+
+    def floppy(*args, **kw):
+        raise InputError("the linear system D u = f could not be solved accurately")
+
+    monkeypatch.setattr(M, "moduli", floppy)
+
+    def sample(folder, **extra):
+        out = {k: str(tmp_path / folder / f"{k}.h5") for k in ("packing", "linear", "signal")}
+        out.update({k: str(tmp_path / folder / f"{k}.json") for k in ("moduli", "front", "summary")})
+        return {"kind": "lattices", "scene": "lat", "make": dict(rows=6, width=4, pressure=1e-4),
+                "signal": {"method": "time", "ic": "A", "t_max": 40.0, "samples": 400, "safety": 0.1},
+                "out": out, "local_moduli": False, **extra}
+
+    with pytest.raises(InputError, match="could not be solved"):
+        run_sample(sample("a"), log=lambda line: None)
+    lines = []
+    run_sample(sample("b", moduli_may_fail=True), log=lines.append)
+    m = json.loads((tmp_path / "b" / "moduli.json").read_text())
+    assert m["c_l"] is None and "could not be solved" in m["error"]
+    assert any("no moduli" in line for line in lines)

@@ -215,6 +215,7 @@ def batch_sample(scene, p, size, seed):
         sample["signal"].update(samples=spec.get("samples", config["samples"]),
                                 safety=spec.get("time_safety", config["time_safety"]))
         sample["local_moduli"] = False
+        sample["moduli_may_fail"] = True  # a floppy tall column loses its c_l, not its batch
     return sample
 
 
