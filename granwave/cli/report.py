@@ -45,7 +45,8 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     height and c_tof, c_peak, c_zero per pressure (± one standard error) with fitted
     exponents and c_tof/c_l; gamma and alpha of every height series against the
     chain's exact values; lattice speeds against the formula of docs/method.md §12;
-    the damping table; the sweep fits; every figure; the config name, the granwave
+    the damping table; the continuum section (--continuum: speeds, c_tof/c_l and its
+    approach, alpha(omega), c(omega), docs/continuum.md); the sweep fits; every figure; the config name, the granwave
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
