@@ -36,6 +36,9 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    error, the larger of the fit's and the bootstrap's (the same fit on every resampling),
    and ``c0 / c_l`` when the effective-medium c_l is given.
 
+``c_ref``, ``alpha_ref``: the values at the reference frequency (the tallest height's
+spectral peak), the best-determined point of the band.
+
 Units: times d/sqrt(E*/rho), ω rad per that time unit, lengths d, α per d, speeds
 sqrt(E*/rho). The functions do not care: they return the units they are given.
 """
@@ -239,7 +242,8 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         "window_widths": float(window_widths), "threshold": float(threshold),
         "max_error": float(max_error),
         "bootstrap": n_boot, "seed": int(seed), "front_options": dict(front_kw),
-        "omega_ref": float(omega[i_ref]),
+        "omega_ref": float(omega[i_ref]), "c_ref": float(c[i_ref]), "c_ref_err": float(c_err[i_ref]),
+        "alpha_ref": float(alpha[i_ref]), "alpha_ref_err": float(alpha_err[i_ref]),
         "band": [float(omega[band][0]), float(omega[band][-1])] if band.any() else [math.nan, math.nan],
         **low,
     }

@@ -125,6 +125,9 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                                          float(cl.get("sem") or 0.0) / float(cl["mean"])) \
                     if att.get("c0") else math.nan
                 md[-1] += f", c0/c_ℓ = {fmt(r, re)}"
+            md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
+                       f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
+                       f"α = {fmt(att.get('alpha_ref'), att.get('alpha_ref_err'), 3)} /d̄")
             md[-1] += (f" (error bars: the larger of the fit's standard error and the bootstrap over "
                        f"packings, {att.get('bootstrap', 0)} resamplings).")
             md += ["", "| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"]
