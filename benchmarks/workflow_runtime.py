@@ -28,6 +28,13 @@ Models fitted to them (classes: dimension x frictional or not):
   class; modal cpu = km n^3 (chains: the tridiagonal solver, km2 n^2); for `auto` scenes
   the cheaper of the two, as the workflow chooses.
 - statics, moduli, front: power laws in N fitted per stage.
+
+Continuum scenes (config/continuum.yaml) are costed as disordered packings with time-domain
+signals at their own time_safety / samples / t_max_factor, global moduli (costed with the
+fitted moduli model, which includes local moduli: an overestimate) and no statics. Their DEM
+steps follow the tall-column law (steps = a_tall H^g_tall p^e, fitted to the packings of
+H >= 30 d of the same class) extrapolated to the tallest columns: a prediction, not a
+measurement. The time on N cores is at least the longest batch (one process, one core).
 """
 
 from __future__ import annotations
@@ -56,6 +63,8 @@ from granwave.workflow_support import crossing_time  # noqa: E402
 DENSE_CHECK_MAX_DOF = 3000  # linearize's dense eigenvalue check (granwave linearize --help)
 SCENE_DEFAULTS = {"dim": 2, "friction": 0.5, "width": 24, "polydispersity": 0.2, "poisson": 0.0,
                   "tol": 1e-10}  # the schema's defaults (workflow/schemas/config.schema.yaml)
+TALL_FROM = 30.0  # heights (d) of the tall-column steps law
+CONTINUUM_DEFAULTS = {**SCENE_DEFAULTS, "width": 25, "tol": 1e-8}  # the continuum section's
 
 
 # ------------------------------------------------------------------ measured
@@ -86,6 +95,8 @@ def bench_cpu(path: Path) -> float:
 
 
 def kind_of(scene: str, results: Path) -> str:
+    """disordered, lattices or chains: a continuum column is a disordered packing (same DEM and
+    signal models; its tall heights extend the fit of the DEM steps against H)."""
     with h5py.File(next((results / "packing" / scene).rglob("*.h5"))) as f:
         kind = f.attrs.get("kind", "")
     kind = kind.decode() if isinstance(kind, bytes) else str(kind)
@@ -147,6 +158,17 @@ def fit_models(results: Path) -> dict:
         m["classes"].setdefault(c, {})["steps_a"] = math.exp(a)
         m["classes"][c]["k_step"] = statistics.median(s["packing"] / (s["N"] * s["steps"])
                                                       for s in dem if s["class"] == c)
+    # Tall columns: the steps grow faster with H at the tall end than the all-height law says
+    # (measured: x3 from 32 to 64 d, x2.1 from 64 to 100 d at p = 1e-4). Per class with at
+    # least three packings at H >= TALL_FROM over two heights, steps = a_tall H^g_tall p^e (e
+    # from above); continuum scenes use it (sample_cost).
+    for c in names:
+        tall = [s for s in dem if s["class"] == c and s["H"] >= TALL_FROM]
+        if len(tall) >= 3 and len({s["H"] for s in tall}) >= 2:
+            y = [math.log(s["steps"] / steps_factor(s["tol"])) - m["steps_e"] * math.log(s["pressure"])
+                 for s in tall]
+            g, a = np.polyfit(np.log([s["H"] for s in tall]), y, 1)
+            m["classes"][c].update(steps_g_tall=float(g), steps_a_tall=math.exp(a))
     for kind in ("lattices", "chains"):
         made = [s["packing"] / s["N"] for s in rows if s["kind"] == kind]
         if made:
@@ -242,8 +264,14 @@ def load_config(path: Path) -> dict:
 
 def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
     """Predicted CPU seconds of one sample's stages."""
-    kind = next(k for k in ("disordered", "lattices", "chains") if scene in (cfg.get(k) or {}))
-    spec = {**SCENE_DEFAULTS, **({"friction": 0.0} if kind == "lattices" else {}), **cfg[kind][scene]}
+    kind = next(k for k in ("disordered", "lattices", "chains", "continuum") if scene in (cfg.get(k) or {}))
+    spec = {**(CONTINUUM_DEFAULTS if kind == "continuum" else SCENE_DEFAULTS),
+            **({"friction": 0.0} if kind == "lattices" else {}), **cfg[kind][scene]}
+    cfg = dict(cfg)
+    if kind == "continuum":  # time-domain signals, the scene's own step and record, no statics
+        spec = {**spec, "solver": "time", "no_statics": True, "tall": True}
+        cfg.update({k: spec[k] for k in ("time_safety", "samples", "t_max_factor") if k in spec})
+        kind = "disordered"
     H = float(size[1:])
     if kind == "disordered":
         w = spec["width"]
@@ -258,7 +286,11 @@ def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
     if c is None:  # no measured sample of this class: the nearest measured one of the same kind
         c = next(v for k, v in m["classes"].items() if k.startswith(kind))
     out = {}
-    if kind == "disordered":
+    if kind == "disordered" and spec.get("tall") and "steps_g_tall" in c and H >= TALL_FROM:
+        steps = c["steps_a_tall"] * H ** c["steps_g_tall"] * p ** m["steps_e"] * steps_factor(spec["tol"])
+        out["packing"] = c["k_step"] * N * steps
+        out["dem_steps"] = steps  # not a cost: reported against max_steps
+    elif kind == "disordered":
         steps = c["steps_a"] * H ** m["steps_g"] * p ** m["steps_e"] * steps_factor(spec["tol"])
         out["packing"] = c["k_step"] * N * steps
     else:
@@ -276,7 +308,8 @@ def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
         time = m["kt"] * c["nnz_per_grain"] * N * sub * (cfg["samples"] - 1)
     out["signal"] = {"modal": modal, "time": time}.get(method, min(modal, time))
     if kind != "chains":
-        if H * (math.sqrt(3) / 2 if kind == "lattices" else 1) > 7 and "statics" in m:
+        if H * (math.sqrt(3) / 2 if kind == "lattices" else 1) > 7 and "statics" in m \
+                and not spec.get("no_statics"):
             out["statics"] = m["statics"][0] * N ** m["statics"][1]
         if spec.get("moduli", True) and "moduli" in m:
             out["moduli"] = m["moduli"][0] * N ** m["moduli"][1]
@@ -289,25 +322,36 @@ SAMPLE = re.compile(r"/packing/(\w+)/p([0-9.e+-]+)/([hrn][0-9.]+)/s\d+\.h5$")
 
 
 def estimate(config: Path, m: dict, light: float) -> tuple[Counter, Counter]:
+    """(CPU seconds per stage or rule, job counts); also ``seconds["_longest_batch"]`` (one
+    batch job runs on one core: no run is shorter than it), ``seconds["_longest_sample"]`` and
+    ``seconds["_max_dem_steps"]`` (not costs)."""
     cfg = load_config(config)
     seconds, counts = Counter(), Counter()
+    longest = longest_sample = max_steps = 0.0
     for job in planned_jobs(config):
         rule = job["rule"]
         if rule.startswith("batch_"):
             counts["batch (per-sample pipelines)"] += 1
             seconds["batch start-up"] += m["batch_overhead"]
+            batch = m["batch_overhead"]
             for path in job["output"]:
                 mt = SAMPLE.search(path)
                 if mt:
-                    for stage, t in sample_cost(m, cfg, mt.group(1), float(mt.group(2)), mt.group(3)).items():
+                    cost = sample_cost(m, cfg, mt.group(1), float(mt.group(2)), mt.group(3))
+                    max_steps = max(max_steps, cost.pop("dem_steps", 0.0))
+                    for stage, t in cost.items():
                         seconds[f"  {stage}"] += t
+                    batch += sum(cost.values())
+                    longest_sample = max(longest_sample, sum(cost.values()))
+            longest = max(longest, batch)
             continue
         counts[rule] += 1
         if rule == "damping_signal" and "damping_signal" in m:
             seconds[rule] += m["damping_signal"]
         else:
             seconds[rule] += light
-    return seconds, counts
+    return seconds, counts, {"longest_batch": longest, "longest_sample": longest_sample,
+                             "max_dem_steps": max_steps}
 
 
 def main(argv=None):
@@ -330,7 +374,7 @@ def main(argv=None):
             v = m[k]
             print(f"  {k}: " + (", ".join(f"{x:.3g}" for x in v) if isinstance(v, tuple) else f"{v:.3g}"))
     print(f"  light job (a granwave command, measured here): {light:.2f} s")
-    seconds, counts = estimate(args.config, m, light)
+    seconds, counts, extremes = estimate(args.config, m, light)
     total = sum(seconds.values())
     name = load_config(args.config).get("name", args.config.stem)
     print(f"\nexpected cost of {args.config} ({sum(counts.values())} jobs):")
@@ -343,7 +387,12 @@ def main(argv=None):
         predicted = sum(t for k, t in seconds.items() if k.startswith("  ") or k == "batch start-up")
         print(f"\ncheck against {args.check}: batch jobs measured {measured:.1f} CPU-s, "
               f"predicted {predicted:.1f} CPU-s ({predicted / measured - 1:+.0%})")
-    print(f"{name} config: {total / 3600:.2f} CPU-h, {total / 3600 / args.cores:.2f} h on {args.cores} cores")
+    if extremes["max_dem_steps"]:
+        print(f"\ntall columns: the longest batch {extremes['longest_batch'] / 3600:.2f} CPU-h and the "
+              f"longest sample {extremes['longest_sample'] / 3600:.2f} CPU-h run on one core each "
+              f"(no run is shorter); largest predicted DEM step count {extremes['max_dem_steps']:.3g}")
+    wall = max(total / args.cores, extremes["longest_batch"])
+    print(f"{name} config: {total / 3600:.2f} CPU-h, {wall / 3600:.2f} h on {args.cores} cores")
 
 
 if __name__ == "__main__":

@@ -509,3 +509,50 @@ class SweepParams(Params):
     ATTR = "sweep_params"
 
     poisson: float = _poisson()
+
+
+@dataclass(frozen=True, kw_only=True)
+class AttenuationParams(Params):
+    """Attenuation alpha(omega) and phase velocity c(omega) of the coherent signal over heights."""
+
+    ATTR = "attenuation_params"
+
+    window_widths: float = param(5.0, help="Each height's ensemble-mean signal is kept from t = 0 to "
+                                 "its front's zero crossing plus this many front widths "
+                                 "(t_zero - t_lead10), or to the end of its shortest record, with a cosine taper over the "
+                                 "last width.",
+                                 lo=0.0, lo_open=True)
+    threshold: float = param(0.05, help="Reliable band: the frequencies, around the spectral peak of "
+                             "the tallest height, where every height's spectral amplitude is at least "
+                             "this fraction of its own maximum.", lo=0.0, lo_open=True, hi=1.0,
+                             hi_open=True)
+    max_error: float = param(0.1, help="Reliable band: also the relative error of c(omega) at most "
+                             "this.", lo=0.0, lo_open=True)
+    bootstrap: int = param(200, help="Bootstrap resamplings of the packings at each height for the "
+                           "error bars (0: fit errors only).", lo=0)
+    seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0)
+    group_tolerance: float = param(0.05, help="Heights within this relative gap of each other form "
+                                   "one nominal height.", lo=0.0, hi=1.0, hi_open=True)
+    c_l: float | None = param(None, help="Effective-medium longitudinal speed to compare the "
+                              "low-frequency phase velocity with.", units="sqrt(E*/rho)", lo=0.0,
+                              lo_open=True)
+    peak_fraction: float | None = _front_override()
+
+    def front_kw(self) -> dict:
+        return {} if self.peak_fraction is None else {"peak_fraction": self.peak_fraction}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ContinuumParams(Params):
+    """Front speeds, amplitude and width against distance, and their approach to c_l."""
+
+    ATTR = "continuum_params"
+
+    tolerance: float = param(0.05, help="L* is the distance beyond which c_tof is within this "
+                             "fraction of c_l.", lo=0.0, lo_open=True, hi=1.0, hi_open=True)
+    group_tolerance: float = param(0.05, help="Heights within this relative gap of each other form "
+                                   "one nominal height.", lo=0.0, hi=1.0, hi_open=True)
+    peak_fraction: float | None = _front_override()
+
+    def front_kw(self) -> dict:
+        return {} if self.peak_fraction is None else {"peak_fraction": self.peak_fraction}

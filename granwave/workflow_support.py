@@ -53,7 +53,7 @@ def _write_json(path, obj) -> None:
 
 def make_sample(kind: str, make: dict):
     """The sample's packing: DEM preparation, perfect lattice or chain (``make``: their options)."""
-    if kind == "disordered":
+    if kind in ("disordered", "continuum"):
         from .dem.params import PrepareParams
         from .dem.protocol import prepare_packing
 
@@ -96,14 +96,19 @@ def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, s
 def run_sample(sample: dict, log=print) -> list[dict]:
     """Run one sample's pipeline and write its files; return the timing of each stage.
 
-    ``sample``: ``kind`` (disordered | lattices | chains), ``scene``, ``make`` (options of
+    ``sample``: ``kind`` (disordered | lattices | chains | continuum), ``scene``, ``make`` (options of
     :func:`make_sample`), ``signal`` (method, ic, t_max, samples) and ``out``, the paths
     to write: packing, linear, signal, front, summary, and optionally statics and moduli
-    (the stages a scene has). Each file is written atomically as soon as it is made.
+    (the stages a scene has); ``local_moduli`` (default True): False for global moduli only;
+    ``moduli_may_fail`` (default False): a moduli solve that fails (no accurate solution of
+    D u = f, e.g. a floppy mode under the imposed strain) writes
+    ``{"c_l": null, "c_t": null, "error": ...}`` instead of stopping the batch.
+    Each file is written atomically as soon as it is made.
     Downstream stages read the files back, so they see exactly what a separate
     `granwave` command would. Timings: one dict per stage with CPU and wall seconds.
     """
     from .analysis.statics import statics
+    from .errors import ConvergenceError, InputError
     from .analysis.sweep import merge_summary, write_summary
     from .io import files
     from .linear.assemble import linearize
@@ -150,7 +155,20 @@ def run_sample(sample: dict, log=print) -> list[dict]:
         sections["statics"] = timed("statics", lambda: statics(packing, layer=STATICS_LAYER))
         _write_json(out["statics"], sections["statics"])
     if "moduli" in out:
-        sections["moduli"] = timed("moduli", lambda: moduli(packing, local=True, layer=STATICS_LAYER))
+        local = sample.get("local_moduli", True)  # continuum columns: global moduli only
+
+        def moduli_stage():
+            try:
+                return moduli(packing, local=local, layer=STATICS_LAYER)
+            except (ConvergenceError, InputError) as exc:
+                if not sample.get("moduli_may_fail"):
+                    raise
+                # a tall column whose stiffness matrix has a floppy mode under the imposed
+                # strain: no c_l for this packing (NaN in the continuum analysis), the batch goes on
+                log(f"{out['moduli']}: no moduli: {exc}")
+                return {"c_l": None, "c_t": None, "error": str(exc)}
+
+        sections["moduli"] = timed("moduli", moduli_stage)
         _write_json(out["moduli"], sections["moduli"])
     sections["front"] = timed("front", lambda: front_section(sig))
     _write_json(out["front"], sections["front"])
@@ -163,7 +181,7 @@ def run_sample(sample: dict, log=print) -> list[dict]:
     return timings
 
 
-SCENE_KINDS = ("disordered", "lattices", "chains")
+SCENE_KINDS = ("disordered", "lattices", "chains", "continuum")
 
 
 def _key(path) -> str:

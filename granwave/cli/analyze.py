@@ -12,6 +12,8 @@ ANALYSES = {
     "ensemble": "granwave.cli.analyze_ensemble:ensemble",
     "spectrum": "granwave.cli.analyze_spectrum:spectrum",
     "damping": "granwave.cli.analyze_damping:damping",
+    "continuum": "granwave.cli.analyze_continuum:continuum",
+    "attenuation": "granwave.cli.analyze_attenuation:attenuation",
 }
 
 

@@ -371,3 +371,20 @@ def airy(n_balls, ic, output, pdf):
     figs = _figures()
     figs.output_paths(output, pdf)
     _done(figs.chain_airy(output, n_balls=list(n_balls) or (25, 50, 100, 200), ic=ic, pdf=pdf))
+
+
+@plot.command()
+@click.argument("front_json", type=click.Path(dir_okay=False))
+@click.option("--attenuation", "attenuation_json", type=click.Path(dir_okay=False), default=None,
+              help="`analyze attenuation --json` output: adds the alpha(omega) and c(omega) panels.")
+@fig_output
+@pdf_option
+@stage
+def continuum(front_json, attenuation_json, output, pdf):
+    """The continuum scene from `analyze continuum --json`: local speeds and c_l against L,
+    c_tof/c_l with its fit, amplitude and width with local exponents, and (with
+    --attenuation) alpha(omega), c(omega) with the reliable band."""
+    figs = _figures()
+    figs.output_paths(output, pdf)
+    att = load_json(attenuation_json) if attenuation_json else None
+    _done(figs.continuum_panels(load_json(front_json), att, output, pdf=pdf))

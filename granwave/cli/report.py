@@ -25,9 +25,12 @@ from .common import stage
                    "named <plot subcommand>[_suffix].png for a caption).")
 @click.option("--damping", "damping_json", type=click.Path(dir_okay=False),
               help="`analyze damping --json` output: the damping-series table.")
+@click.option("--continuum", multiple=True, type=click.Path(),
+              help="`analyze continuum --json` and `analyze attenuation --json` files or folders "
+                   "(results/continuum/<scene>/{front,attenuation}.json): the continuum section.")
 @click.option("--title", default="granwave report", show_default=True)
 @stage
-def report(output, config, summaries, heights, sweeps, figures, damping_json, title):
+def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, title):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
 
@@ -42,7 +45,8 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, ti
     height and c_tof, c_peak, c_zero per pressure (± one standard error) with fitted
     exponents and c_tof/c_l; gamma and alpha of every height series against the
     chain's exact values; lattice speeds against the formula of docs/method.md §12;
-    the damping table; the sweep fits; every figure; the config name, the granwave
+    the damping table; the continuum section (--continuum: speeds, c_tof/c_l and its
+    approach, alpha(omega), c(omega), docs/continuum.md); the sweep fits; every figure; the config name, the granwave
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
@@ -59,7 +63,8 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, ti
         if not isinstance(damping, list):
             raise InputError(f"{damping_json}: expected the list printed by `analyze damping --json`")
     inputs = dict(summaries=collect_json(summaries), heights=collect_json(heights),
-                  sweeps=collect_json(sweeps), figures=find_figures(figures))
+                  sweeps=collect_json(sweeps), figures=find_figures(figures),
+                  continuum=collect_json(continuum))
     if not (any(inputs.values()) or damping):
         refused = click.ClickException("nothing to report: give --summaries, --heights, --sweep, "
                                        "--figures or --damping (files, or folders that hold some)")

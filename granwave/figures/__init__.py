@@ -18,10 +18,12 @@ statistics of their own: averages, fits and exponents come from
 | :mod:`.spectrum` | eigen-spectrum and weights |
 | :mod:`.damping` | the damping series |
 | :mod:`.chain` | the chain against the Airy shape |
+| :mod:`.continuum` | the continuum scene: speeds, c_tof/c_l, A, W, alpha(omega), c(omega) against L |
 | :mod:`.registry` | figure names and captions |
 """
 
 from .chain import chain_airy
+from .continuum import continuum_panels
 from .common import DPI, output_paths, save_figure
 from .damping import damping_series
 from .fields import displacement_snapshot, mode_shapes, select_modes
@@ -33,7 +35,7 @@ from .spectrum import spectrum
 from .statics import contact_angles, contact_roses, contact_segments, force_network
 
 __all__ = ["DPI", "FIGURES", "amplitude_width", "arrival_times", "caption_for", "chain_airy",
-           "coherent_heights", "contact_angles", "contact_roses", "contact_segments",
+           "coherent_heights", "contact_angles", "continuum_panels", "contact_roses", "contact_segments",
            "damping_series", "displacement_snapshot", "force_network", "mode_shapes",
            "output_paths", "save_figure", "select_modes", "signal_comparison", "signal_label",
            "signals_overlay", "spectrum", "speeds_vs_pressure"]

@@ -22,6 +22,9 @@ FIGURES: dict[str, str] = {
     "modes": "Selected mode shapes",
     "damping": "Nonlinear DEM signals for several contact dampings ζ, the linear model dashed",
     "airy": "Chain signals against the Airy shape in the co-moving frame",
+    "continuum": "Continuum scene: local speeds and c_l against L, c_tof/c_l with the fit "
+                 "1 + a L^-beta, amplitude and width with local exponents, attenuation and phase "
+                 "velocity of the coherent signal",
 }
 """Figure name (the ``granwave plot`` subcommand) -> caption used by the report."""
 

@@ -14,6 +14,8 @@ computed from the inputs:
 * **the theory** (:mod:`granwave.theory`): lattice speeds, the p^{1/6}
   exponent, the chain's exact γ and α;
 * **the damping table** (``granwave analyze damping --json``);
+* **the continuum scenes** (``granwave analyze continuum`` and ``attenuation --json``,
+  :mod:`granwave.report.continuum`);
 * **figures**: every PNG given, linked relative to the page, captioned from its
   file name (:func:`granwave.figures.caption_for`).
 """
@@ -29,6 +31,7 @@ from ..errors import InputError
 from ..io.files import atomic_text
 from . import tables as T
 from .html import markdown_to_html
+from .continuum import continuum_inputs, continuum_section
 from .inputs import Scenes, scene_of
 
 
@@ -37,12 +40,14 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
                  sweeps: Sequence[tuple[Path, object, str | None]] = (),
                  figures: Sequence[Path] = (), out_dir: Path = Path("."),
                  config: Mapping | None = None, config_path: str | None = None,
-                 title: str = "granwave report", damping: Sequence[Mapping] = ()) -> str:
+                 title: str = "granwave report", damping: Sequence[Mapping] = (),
+                 continuum: Sequence[tuple[Path, object, str | None]] = ()) -> str:
     """The report as Markdown (sources: module docstring).
 
     ``summaries``, ``heights``, ``sweeps``: (path, object, scene guess) from
     :func:`granwave.report.collect_json`; ``damping``: rows of
-    ``granwave analyze damping --json``. Refuses (InputError) a call with no
+    ``granwave analyze damping --json``; ``continuum``: (path, object, guess) of the
+    continuum scenes' analyses (:mod:`granwave.report.continuum`). Refuses (InputError) a call with no
     input at all: an empty report would look like a finished study.
     """
     from .. import __version__
@@ -50,7 +55,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     from ..figures.registry import caption_for
     from ..provenance import git_revision
 
-    if not (summaries or heights or sweeps or figures or damping):
+    if not (summaries or heights or sweeps or figures or damping or continuum):
         raise InputError("nothing to report: give --summaries, --heights, --sweep, --figures "
                          "or --damping (files or folders that hold some)")
     sums = []
@@ -91,6 +96,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     md += T.lattice_section(h_by_scene, scenes)
     if damping:
         md += T.damping_section(damping)
+    md += continuum_section(continuum_inputs(continuum))
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
                "The fitted exponents c ∝ p^α of each sweep file, as computed by `pressure-sweep` "

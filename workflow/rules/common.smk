@@ -63,7 +63,7 @@ def _disordered_entries(spec):
 
 
 def scene_kind(scene):
-    for kind in ("disordered", "lattices", "chains"):
+    for kind in ("disordered", "lattices", "chains", "continuum"):
         if scene in config[kind]:
             return kind
     raise ValueError(f"unknown scene {scene!r}")
@@ -81,10 +81,23 @@ def samples(scene):
                 for s in range(n)]
     if kind == "lattices":
         return [(fmt_p(p), f"r{r}", 0) for p in spec["pressures"] for r in spec["rows"]]
+    if kind == "continuum":
+        return [(fmt_p(spec["pressure"]), f"h{h:g}", s) for h in sorted(spec["heights"])
+                for s in range(continuum_seeds(spec, h))]
     return [(fmt_p(spec["pressure"]), f"n{n}", s) for n in spec["balls"] for s in range(spec["seeds"])]
 
 
+def continuum_seeds(spec, height):
+    """Packings of a continuum scene at one height (more at the short heights: seeds_below)."""
+    below = spec.get("seeds_below")
+    if below and height <= below["height"]:
+        return max(spec["seeds"], below["seeds"])
+    return spec["seeds"]
+
+
 def scenes(kind=None):
+    """Scenes of one kind, or of the three kinds of the main study (continuum scenes have
+    their own analyses and report section: scenes("continuum"))."""
     kinds = [kind] if kind else ["disordered", "lattices", "chains"]
     return [s for k in kinds for s in config[k]]
 
@@ -119,24 +132,29 @@ def ic_of(scene):
 
 def solver_of(scene):
     """The per-sample propagate rule's method (a lone sample asked for outside a batch)."""
+    if scene_kind(scene) == "continuum":
+        return "time"
     return "time" if scene_spec(scene).get("solver", "auto") == "time" else "modal"
 
 
 def signal_method(scene):
     """How the batches compute a scene's signals (granwave.workflow_support.signal_of):
     modal, time or auto (the cheaper by predicted cost). Chains: modal, by the tridiagonal
-    eigensolver (no dense n^3 cost)."""
+    eigensolver (no dense n^3 cost); continuum columns: time domain."""
     if scene_kind(scene) == "chains":
         return "modal"
+    if scene_kind(scene) == "continuum":
+        return "time"
     return scene_spec(scene).get("solver", "auto")
 
 
 def t_max(wildcards):
-    """Record length: t_max_factor crossings at the perfect-lattice speed (docs/method.md §12), which is
+    """Record length: t_max_factor crossings (a continuum scene may set its own) at the perfect-lattice speed (docs/method.md §12), which is
     faster than the disordered front, so the first arrival is always inside the record."""
     from granwave.workflow_support import crossing_time
     kind = scene_kind(wildcards.scene)
-    return config["t_max_factor"] * crossing_time(kind, scene_spec(wildcards.scene),
+    factor = scene_spec(wildcards.scene).get("t_max_factor", config["t_max_factor"])
+    return factor * crossing_time(kind, scene_spec(wildcards.scene),
                                                   float(wildcards.pressure), wildcards.size)
 
 
@@ -170,7 +188,7 @@ def batch_sample(scene, p, size, seed):
     """What workflow/scripts/sample_batch.py needs for one sample (options and paths)."""
     kind, spec = scene_kind(scene), scene_spec(scene)
     tail = f"{scene}/p{p}/{size}/s{seed}"
-    if kind == "disordered":
+    if kind in ("disordered", "continuum"):
         height = float(size[1:])
         make = dict(dim=spec["dim"], grains=grain_count(spec, height),
                     aspect=float(f"{height / spec['width']:.6g}"), pressure=float(p),
@@ -188,11 +206,17 @@ def batch_sample(scene, p, size, seed):
     for stage in summary_inputs(wc):  # front, and statics / moduli where the scene has them
         out[stage] = f"{R}/{stage}/{tail}.json"
     out["summary"] = f"{R}/summary/{tail}.json"
-    return {"kind": kind, "scene": scene, "pressure": p, "size": size, "seed": seed, "make": make,
-            "signal": {"method": signal_method(scene), "ic": ic_of(scene),
-                       "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
-                       "safety": config["time_safety"]},
-            "out": out}
+    sample = {"kind": kind, "scene": scene, "pressure": p, "size": size, "seed": seed, "make": make,
+              "signal": {"method": signal_method(scene), "ic": ic_of(scene),
+                         "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
+                         "safety": config["time_safety"]},
+              "out": out}
+    if kind == "continuum":  # time domain, the scene's own step and record, global moduli only
+        sample["signal"].update(samples=spec.get("samples", config["samples"]),
+                                safety=spec.get("time_safety", config["time_safety"]))
+        sample["local_moduli"] = False
+        sample["moduli_may_fail"] = True  # a floppy tall column loses its c_l, not its batch
+    return sample
 
 
 def batches():
@@ -203,7 +227,23 @@ def batches():
         for k in range(0, len(items), config["batch_size"]):
             out.append((f"batch_{scene}_{k // config['batch_size']}", scene,
                         [batch_sample(scene, *s) for s in items[k:k + config["batch_size"]]]))
+    for scene in scenes("continuum"):
+        for k, part in enumerate(continuum_batches(samples(scene))):
+            out.append((f"batch_{scene}_{k}", scene, [batch_sample(scene, *s) for s in part]))
     return out
+
+
+def continuum_batches(items):
+    """Samples of a continuum scene in batches of about equal cost: the tallest first, each to
+    the batch with the least predicted DEM CPU so far (∝ H^1.6 at fixed width, config/README.md);
+    as many batches as batch_size asks for."""
+    n = max(1, math.ceil(len(items) / config["batch_size"]))
+    parts, load = [[] for _ in range(n)], [0.0] * n
+    for item in sorted(items, key=lambda s: (-float(s[1][1:]), s[2])):
+        k = load.index(min(load))
+        parts[k].append(item)
+        load[k] += float(item[1][1:]) ** 1.6
+    return [sorted(p, key=lambda s: (float(s[1][1:]), s[2])) for p in parts if p]
 
 
 # ---- helpers of rules/linear.smk
@@ -231,7 +271,9 @@ def summary_inputs(wildcards):
     kind = scene_kind(wildcards.scene)
     tail = f"{wildcards.scene}/p{wildcards.pressure}/{wildcards.size}/s{wildcards.seed}"
     inputs = {"front": f"{R}/front/{tail}.json"}
-    if kind in ("disordered", "lattices"):
+    if kind == "continuum":  # the packing's own global moduli give its c_l, c_t
+        inputs["moduli"] = f"{R}/moduli/{tail}.json"
+    elif kind in ("disordered", "lattices"):
         # Bulk statics exclude 3 d at each wall (docs/method.md §4): only containers with a bulk have them.
         if sample_height(wildcards.scene, wildcards.size) > 2 * STATICS_LAYER + 1:
             inputs["statics"] = f"{R}/statics/{tail}.json"
@@ -300,12 +342,19 @@ def figure_targets():
         figs.append(f"{F}/exponents.png")
     if config["damping"]["enabled"]:
         figs.append(f"{F}/damping.png")
+    figs += [f"{F}/continuum_{s}.png" for s in scenes("continuum")]
     return figs
 
 
 def report_inputs():
     inputs = [f"{R}/report/index.md"]
     return inputs
+
+
+def continuum_outputs():
+    """The continuum analyses of every continuum scene (front and attenuation JSON)."""
+    return [f"{R}/continuum/{s}/{what}.json" for s in scenes("continuum")
+            for what in ("front", "attenuation")]
 
 
 def exponent_series():

@@ -210,6 +210,7 @@ rule report:
         spectra=[first_sample_path("spectrum", s, ext="json") for s in scenes("disordered")
                  if scene_spec(s).get("spectrum")],
         damping=[f"{R}/damping/table.json"] if config["damping"]["enabled"] else [],
+        continuum=continuum_outputs(),
     output:
         md=f"{R}/report/index.md",
         html=f"{R}/report/index.html",
@@ -221,7 +222,8 @@ rule report:
                                         flags("--heights", input.heights),
                                         flags("--sweep", input.sweeps),
                                         flags("--figures", input.figures),
-                                        flags("--damping", input.damping)]),
+                                        flags("--damping", input.damping),
+                                        flags("--continuum", input.continuum)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
 

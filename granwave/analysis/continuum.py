@@ -1,0 +1,258 @@
+"""The front against distance L and its approach to the effective-medium speed c_l.
+
+Input: signals of containers of several heights L (one pressure, one initial condition,
+one or more packings per height) and, per signal, the packing's own effective-medium
+speeds c_l = sqrt(C22/Phi3*) and c_t (``granwave analyze moduli``).
+
+The rule (also in ``docs/continuum.md`` and ``granwave analyze continuum --help``)
+---------------------------------------------------------------------------------
+* **Front features** of every signal: :func:`granwave.analysis.front.front_features`
+  (10 % edge t_lead10, peak t_peak, zero crossing t_zero, amplitude, width).
+* **Nominal heights**: :func:`granwave.analysis.heights.group_heights`; per height the
+  mean, std and standard error (:func:`granwave.analysis.ensemble.describe`) of every
+  feature, of L, c_l and c_t, and of the *apparent* speeds L / t of each packing
+  (``c_tof_apparent`` = L / t_lead10, ``c_peak_apparent``, ``c_zero_apparent``).
+* **Local speeds against L**: between consecutive nominal heights,
+  c = (L2 − L1) / (t2 − t1) from the group means, at the geometric mean height;
+  δc = c sqrt(δt1² + δt2² + (δL1² + δL2²) c^-2) / (t2 − t1) with the standard errors
+  (independent packings). ``ratio`` = c_tof_local / c_l with c_l the mean of every
+  packing of the two heights, its error both errors propagated.
+* **Local exponents**: γ_eff(L) = −d ln|A| / d ln L and α_eff(L) = d ln W / d ln L
+  between consecutive heights with errors
+  (:func:`granwave.analysis.ensemble.local_exponents_of_means`).
+* **Global fits**: :func:`granwave.analysis.heights.height_series_from_features`
+  (c_tof, c_peak, c_zero between the two smallest heights and over all heights, γ, α).
+* **Approach to c_l**: :func:`approach_fit` of the local ratio against L.
+
+Units: lengths d, times d/sqrt(E*/rho), speeds sqrt(E*/rho), forces E* d^2.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+from scipy import optimize, stats
+
+from ..errors import InputError
+from .ensemble import describe, local_exponents_of_means
+from .front import features_of_signals
+from .heights import FEATURES, common_attr, group_heights, height_series_from_features
+
+if TYPE_CHECKING:
+    from ..model import Signal
+
+DEFAULT_TOLERANCE = 0.05
+SPEEDS = (("tof", "t_lead10"), ("peak", "t_peak"), ("zero", "t_zero"))
+
+
+def _power_approach(L, a, beta):
+    return 1.0 + a * np.power(L, -beta)
+
+
+def _free_limit(L, r_inf, a, beta):
+    return r_inf + a * np.power(L, -beta)
+
+
+def approach_fit(L, ratio, err=None, *, tolerance: float = DEFAULT_TOLERANCE,
+                 confidence: float = 0.95, draws: int = 4000, seed: int = 0) -> dict:
+    """Fit ratio(L) = 1 + a L^-beta and give L*, where |ratio − 1| = tolerance.
+
+    ``L``, ``ratio``, ``err``: distances (d), the measured c_tof / c_l and its standard
+    error (None or NaN: unweighted). ``scipy.optimize.curve_fit``; confidence intervals
+    (level ``confidence``) of a and beta from the Student t of n − 2 degrees of freedom
+    times the standard errors (errors taken as absolute when every err is known, else
+    scaled by the scatter). L* = (|a| / tolerance)^(1/beta); its interval from ``draws``
+    parameter sets drawn from the fit's normal distribution, its covariance widened by
+    (t/z)² to the Student-t width (percentiles, seeded).
+    With four or more points also ratio = r_inf + a L^-beta (the limit free).
+
+    ``status``: ``reached`` when the measured ratio at the largest L is within tolerance of
+    1 by more than two standard errors (then L* <= L_max); ``beyond`` when it is above
+    tolerance there by more than two errors: ``L_star_lower_bound`` = the largest L
+    measured (L* lies beyond it, and L* from the fit is an extrapolation);
+    ``undecided`` otherwise (the error bar at L_max straddles the tolerance).
+    """
+    L = np.asarray(L, float)
+    r = np.asarray(ratio, float)
+    e = np.full(L.shape, np.nan) if err is None else np.asarray(err, float)
+    ok = np.isfinite(L) & np.isfinite(r) & (L > 0)
+    L, r, e = L[ok], r[ok], e[ok]
+    if L.size < 3:
+        raise InputError(f"the approach fit needs at least 3 distances (got {L.size})")
+    known = bool(np.all(np.isfinite(e) & (e > 0)))
+    sigma = e if known else None
+    out = {"model": "c_tof/c_l = 1 + a L^-beta", "tolerance": float(tolerance),
+           "confidence": float(confidence), "n": int(L.size), "weighted": known,
+           "L_max": float(L.max())}
+    # status from the data alone
+    i = int(np.argmax(L))
+    dev, de = abs(r[i] - 1.0), (e[i] if np.isfinite(e[i]) else 0.0)
+    if dev + 2 * de < tolerance:
+        out["status"] = "reached"
+    elif dev - 2 * de > tolerance:
+        out["status"] = "beyond"
+        out["L_star_lower_bound"] = float(L.max())
+    else:
+        out["status"] = "undecided"
+    dof = L.size - 2
+    tq = float(stats.t.ppf(0.5 + confidence / 2, dof)) if dof > 0 else math.nan
+    a0 = float((r[0] - 1.0) * L[0] ** 0.5)
+    try:
+        p, cov = optimize.curve_fit(_power_approach, L, r, p0=(a0 if a0 else 0.1, 0.5),
+                                    sigma=sigma, absolute_sigma=known, maxfev=20000)
+    except (RuntimeError, ValueError, optimize.OptimizeWarning) as exc:
+        out.update(fit_error=str(exc), a=math.nan, beta=math.nan, L_star=math.nan)
+        return out
+    perr = np.sqrt(np.diag(cov)) if np.all(np.isfinite(cov)) else np.full(2, np.nan)
+    a, beta = (float(v) for v in p)
+    out.update(a=a, a_err=float(perr[0]), beta=beta, beta_err=float(perr[1]),
+               beta_ci=[float(beta - tq * perr[1]), float(beta + tq * perr[1])],
+               a_ci=[float(a - tq * perr[0]), float(a + tq * perr[0])],
+               chi2=float(np.sum(((r - _power_approach(L, a, beta)) / (e if known else 1.0)) ** 2)))
+    with np.errstate(over="ignore", divide="ignore"):
+        out["L_star"] = float(np.power(abs(a) / tolerance, 1.0 / beta)) if beta > 0 else math.inf
+    if np.all(np.isfinite(cov)):
+        rng = np.random.default_rng(seed)
+        # widened by (t / z)^2 so that the interval has the Student-t width of a and beta's
+        z = float(stats.norm.ppf(0.5 + confidence / 2))
+        widen = (tq / z) ** 2 if math.isfinite(tq) else 1.0
+        draw = rng.multivariate_normal(p, cov * widen, size=draws)
+        good = draw[:, 1] > 0
+        with np.errstate(over="ignore", divide="ignore"):
+            ls = (np.abs(draw[good, 0]) / tolerance) ** (1.0 / draw[good, 1])
+        q = (1 - confidence) / 2
+        out["L_star_ci"] = [float(np.quantile(ls, q)), float(np.quantile(ls, 1 - q))] if ls.size else \
+            [math.nan, math.nan]
+        out["L_star_ci_draws_with_beta_positive"] = int(good.sum())
+    out["L_star_extrapolated"] = bool(out["L_star"] > L.max())
+    if L.size >= 4:
+        try:
+            pf, cf = optimize.curve_fit(_free_limit, L, r, p0=(1.0, a, max(beta, 0.1)), sigma=sigma,
+                                        absolute_sigma=known, maxfev=20000)
+            ef = np.sqrt(np.diag(cf))
+            tf = float(stats.t.ppf(0.5 + confidence / 2, L.size - 3)) if L.size > 3 else math.nan
+            out["free_limit"] = {"r_inf": float(pf[0]), "r_inf_err": float(ef[0]),
+                                 "r_inf_ci": [float(pf[0] - tf * ef[0]), float(pf[0] + tf * ef[0])],
+                                 "a": float(pf[1]), "beta": float(pf[2]), "beta_err": float(ef[2])}
+        except (RuntimeError, ValueError, optimize.OptimizeWarning) as exc:
+            out["free_limit"] = {"fit_error": str(exc)}
+    return out
+
+
+def _local_speed(L, Lerr, t, terr):
+    """Speeds between consecutive rows: (L_mid, c, c_err) from means and standard errors."""
+    dL, dt = np.diff(L), np.diff(t)
+    c = dL / dt
+    with np.errstate(invalid="ignore"):
+        err = np.abs(c) / np.abs(dt) * np.sqrt(terr[1:] ** 2 + terr[:-1] ** 2
+                                               + (Lerr[1:] ** 2 + Lerr[:-1] ** 2) / c**2)
+    return np.sqrt(L[1:] * L[:-1]), c, err
+
+
+def _nan0(x):
+    return np.where(np.isfinite(x), x, 0.0)
+
+
+def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
+                            tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05) -> dict:
+    """The analysis of the module docstring from per-sample front features.
+
+    ``heights``: L of each sample (d); ``features``: :meth:`FrontFeatures.as_dict` per
+    sample; ``c_l``, ``c_t``: each sample's effective-medium speeds (NaN where unknown).
+    """
+    L = np.asarray(heights, float)
+    cl = np.asarray(c_l, float)
+    ct = np.full(L.shape, np.nan) if c_t is None else np.asarray(c_t, float)
+    if not (L.shape == cl.shape == ct.shape) or len(features) != L.size:
+        raise InputError("one height, one c_l (and c_t) and one feature set per signal are needed")
+    feats = {k: np.array([abs(float(f[k])) if k == "amplitude" else float(f[k]) for f in features])
+             for k in FEATURES}
+    g = group_heights(L, group_rtol)
+    n_g = int(g.max()) + 1
+    if n_g < 2:
+        raise InputError("need signals from at least two different heights")
+    per = {}
+
+    def put(name, values):
+        d = [describe(values[g == k]) for k in range(n_g)]
+        per[name] = np.array([x["mean"] for x in d])
+        per[name + "_std"] = np.array([x["std"] for x in d])
+        per[name + "_sem"] = np.array([x["sem"] for x in d])
+        return d
+
+    counts = np.array([x["count"] for x in put("height", L)])
+    per["count"] = counts
+    for k in FEATURES:
+        put(k, feats[k])
+    put("c_l", cl)
+    put("c_t", ct)
+    for name, key in SPEEDS:
+        put(f"c_{name}_apparent", L / feats[key])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        per["ratio_apparent"] = per["c_tof_apparent"] / per["c_l"]
+        per["ratio_apparent_err"] = np.abs(per["ratio_apparent"]) * np.hypot(
+            _nan0(per["c_tof_apparent_sem"] / per["c_tof_apparent"]), _nan0(per["c_l_sem"] / per["c_l"]))
+
+    local = {}
+    Lm, Le = per["height"], _nan0(per["height_sem"])
+    for name, key in SPEEDS:
+        mid, c, ce = _local_speed(Lm, Le, per[key], _nan0(per[key + "_sem"]))
+        local["height"] = mid
+        local[f"c_{name}"] = c
+        local[f"c_{name}_err"] = ce
+    pair_cl = np.array([cl[(g == k) | (g == k + 1)] for k in range(n_g - 1)], dtype=object)
+    cl_pair = [describe(v) for v in pair_cl]
+    local["c_l"] = np.array([d["mean"] for d in cl_pair])
+    local["c_l_err"] = np.array([d["sem"] for d in cl_pair])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        local["ratio"] = local["c_tof"] / local["c_l"]
+        local["ratio_err"] = np.abs(local["ratio"]) * np.hypot(
+            local["c_tof_err"] / np.abs(local["c_tof"]), _nan0(local["c_l_err"] / local["c_l"]))
+    amp = local_exponents_of_means(Lm, per["amplitude"], per["amplitude_sem"])
+    wid = local_exponents_of_means(Lm, per["width"], per["width_sem"])
+    local["gamma_eff"] = -amp["exponent"]
+    local["gamma_eff_err"] = amp["exponent_err"]
+    local["alpha_eff"] = wid["exponent"]
+    local["alpha_eff_err"] = wid["exponent_err"]
+
+    series = height_series_from_features(L, features, edge_heights=(float(Lm[0]), float(Lm[1])),
+                                         group_rtol=group_rtol)
+    out = {"n_signals": int(L.size), "n_heights": n_g,
+           "c_l": describe(cl), "c_t": describe(ct),
+           "global": {k: v for k, v in series.items() if k not in ("per_height", "samples")},
+           "per_height": per, "local": local}
+    err = local["ratio_err"] if np.all(np.isfinite(local["ratio_err"])) else None
+    try:
+        out["approach"] = approach_fit(local["height"], local["ratio"], err, tolerance=tolerance)
+    except InputError as exc:
+        out["approach"] = {"fit_error": str(exc), "status": "undecided"}
+    out["approach_apparent"] = _safe_fit(per["height"], per["ratio_apparent"],
+                                         per["ratio_apparent_err"], tolerance)
+    return out
+
+
+def _safe_fit(L, r, e, tolerance):
+    try:
+        return approach_fit(L, r, e if np.all(np.isfinite(e) & (e > 0)) else None, tolerance=tolerance)
+    except InputError as exc:
+        return {"fit_error": str(exc), "status": "undecided"}
+
+
+def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[str] | None = None,
+              tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05, **front_kw) -> dict:
+    """:func:`continuum_from_features` of signals (one pressure, one initial condition)."""
+    signals = list(signals)
+    if not signals:
+        raise InputError("no signals given")
+    labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
+    pressure = common_attr(signals, labels, "pressure", rtol=1e-9)
+    ic = common_attr(signals, labels, "ic")
+    feats = features_of_signals(signals, labels, **front_kw)
+    out = continuum_from_features([s.height for s in signals], feats, c_l, c_t,
+                                  tolerance=tolerance, group_rtol=group_rtol)
+    return {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out,
+            "samples": [{"source": str(lab), "height": s.height, "c_l": float(a),
+                         **{k: float(f[k]) for k in FEATURES}}
+                        for lab, s, a, f in zip(labels, signals, np.asarray(c_l, float), feats)]}

@@ -1,0 +1,54 @@
+"""``granwave analyze attenuation``: alpha(omega), Q(omega) and c(omega) of the coherent signal."""
+
+from __future__ import annotations
+
+import click
+
+from ..params import AttenuationParams
+from .common import echo_json, echo_table, options_from, params_from, stage
+
+
+@click.command()
+@click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
+@options_from(AttenuationParams, json=True)
+@stage
+def attenuation(signals, as_json, **options):
+    """Attenuation and phase velocity against frequency from signals at several heights.
+
+    SIGNALS are signal files (from `granwave propagate`, or any granwave.signal file) of
+    containers of two or more heights L (attribute `height`, in d), one or more packings
+    per height, one pressure and one initial condition. Per nominal height the signals are
+    averaged (the coherent signal), windowed from t = 0 to the front's zero crossing plus
+    --window-widths front widths (cosine taper over the last width) and Fourier
+    transformed. At every frequency omega: ln|S(omega, L)| = const - alpha L and the
+    unwrapped phase = const - k L are straight lines over the heights; alpha(omega) in 1/d,
+    c(omega) = omega/k in sqrt(E*/rho), Q = omega / (2 alpha c). Error bars: the larger of
+    the fit's standard error and the bootstrap over packings (--bootstrap). Reliable band:
+    around the tallest height's spectral peak, where every height's |S| is at least
+    --threshold of its maximum and c is known to --max-error (relative). c0: c = c0 + c2 omega^2 over the lower half of the band,
+    compared with --c-l when given. See docs/continuum.md.
+    """
+    from ..analysis.attenuation import attenuation as run
+    from ..errors import InputError
+    from ..io.files import read_signal
+
+    params = params_from(AttenuationParams, options)
+    if not signals:
+        raise InputError("no signal files given")
+    res = run([read_signal(p) for p in signals], labels=list(signals),
+              group_rtol=params.group_tolerance, window_widths=params.window_widths,
+              threshold=params.threshold, max_error=params.max_error, bootstrap=params.bootstrap, seed=params.seed,
+              c_l=params.c_l, **params.front_kw())
+    res["params"] = params.as_dict()
+    if as_json:
+        echo_json(res)
+        return
+    scalars = {k: v for k, v in res.items() if not hasattr(v, "__len__") or isinstance(v, str)}
+    scalars["band"] = res["band"]
+    echo_table(scalars, title=f"attenuation: {res['n_signals']} signals, {len(res['heights'])} heights")
+    m = res["reliable"]
+    click.echo(f"  {'omega':>10} {'alpha':>12} {'err':>10} {'c':>10} {'err':>10} {'Q':>10}")
+    idx = [i for i in range(len(m)) if m[i]]
+    for i in idx[:: max(1, len(idx) // 12)]:
+        click.echo(f"  {res['omega'][i]:10.4g} {res['alpha'][i]:12.4g} {res['alpha_err'][i]:10.2g} "
+                   f"{res['c'][i]:10.4g} {res['c_err'][i]:10.2g} {res['Q'][i]:10.4g}")

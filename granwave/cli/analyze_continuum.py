@@ -1,0 +1,68 @@
+"""``granwave analyze continuum``: the front against distance and its approach to c_l."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from ..params import ContinuumParams
+from .common import echo_json, echo_table, options_from, params_from, stage
+
+
+@click.command()
+@click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
+@click.option("--moduli", "moduli_paths", multiple=True, type=click.Path(dir_okay=False),
+              help="`granwave analyze moduli --json` output of each signal's packing, in the "
+                   "order of SIGNALS (gives each packing's own c_l and c_t).")
+@options_from(ContinuumParams, json=True)
+@stage
+def continuum(signals, moduli_paths, as_json, **options):
+    """Speeds, amplitude and width of the front against distance L, and c_tof/c_l.
+
+    SIGNALS are signal files of containers of several heights L (one pressure, one initial
+    condition), one --moduli file per signal in the same order. Per nominal height: means
+    and standard errors of the front features (granwave analyze front), of c_l and c_t and
+    of the apparent speeds L/t. Between consecutive heights: the local speeds c_tof (10%
+    edge), c_peak, c_zero = dL/dt of the means, c_tof/c_l, and the local exponents
+    gamma_eff = -dln|A|/dlnL, alpha_eff = dlnW/dlnL, all with error bars from the standard
+    errors. The approach c_tof/c_l = 1 + a L^-beta is fitted (95% intervals) and L*, where
+    c_tof is within --tolerance of c_l, is given, or a lower bound when the tallest height
+    is still outside it. Units: d, sqrt(E*/rho). See docs/continuum.md.
+    """
+    from ..analysis.continuum import continuum as run
+    from ..errors import InputError
+    from ..io.files import read_signal
+
+    params = params_from(ContinuumParams, options)
+    if not signals:
+        raise InputError("no signal files given")
+    if len(moduli_paths) != len(signals):
+        raise InputError(f"one --moduli file per signal is needed ({len(signals)} signals, "
+                         f"{len(moduli_paths)} moduli files)")
+    c_l, c_t = [], []
+    for path in moduli_paths:
+        try:
+            with open(path) as f:
+                m = json.load(f)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{path}: not a moduli JSON file ({exc})") from None
+        if not isinstance(m, dict) or "c_l" not in m:
+            raise InputError(f"{path}: no c_l (expected `granwave analyze moduli --json` output)")
+        c_l.append(float("nan") if m["c_l"] is None else float(m["c_l"]))
+        c_t.append(float("nan") if m.get("c_t") is None else float(m["c_t"]))
+    res = run([read_signal(p) for p in signals], c_l, c_t, labels=list(signals),
+              tolerance=params.tolerance, group_rtol=params.group_tolerance, **params.front_kw())
+    res["params"] = params.as_dict()
+    if as_json:
+        echo_json(res)
+        return
+    echo_table({k: v for k, v in res["approach"].items() if k != "free_limit"},
+               title=f"continuum: {res['n_signals']} signals, {res['n_heights']} heights")
+    loc = res["local"]
+    click.echo(f"  {'L':>9} {'c_tof':>9} {'c_peak':>9} {'c_zero':>9} {'c_l':>9} {'ratio':>9} "
+               f"{'err':>8} {'gamma':>8} {'alpha':>8}")
+    for i in range(len(loc["height"])):
+        click.echo(f"  {loc['height'][i]:9.4g} {loc['c_tof'][i]:9.4g} {loc['c_peak'][i]:9.4g} "
+                   f"{loc['c_zero'][i]:9.4g} {loc['c_l'][i]:9.4g} {loc['ratio'][i]:9.4g} "
+                   f"{loc['ratio_err'][i]:8.2g} {loc['gamma_eff'][i]:8.3g} {loc['alpha_eff'][i]:8.3g}")

@@ -1,0 +1,111 @@
+"""The continuum scene: speeds, c_tof/c_l, amplitude and width against L, alpha(omega), c(omega)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .common import C_UNIT, L_LABEL, array, need, new_figure, save_figure
+
+
+def _errorbar(ax, x, y, e, **kw):
+    e = np.where(np.isfinite(e), e, 0.0)
+    ax.errorbar(x, y, yerr=e, capsize=2, **kw)
+
+
+def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
+                     pdf: bool = False) -> list[Path]:
+    """Six panels from `analyze continuum --json` (``front``) and `analyze attenuation --json`.
+
+    (a) local speeds c_tof, c_peak, c_zero and c_l, c_t against L; (b) c_tof/c_l (local and
+    apparent L/t) with the fit 1 + a L^-beta and the ±tolerance band; (c) amplitude and
+    (d) width against L (means ± standard error) with the local exponents γ_eff, α_eff on a
+    twin axis; (e) α(ω) and (f) c(ω) with error bars, the reliable band shaded, c_l dashed.
+    Nothing is computed here: every number comes from the two analyses.
+    """
+    loc, per = front["local"], front["per_height"]
+    Lm = array(loc["height"], "local height")
+    L = array(per["height"], "height")
+    need(Lm.size >= 1, "the continuum analysis has fewer than two heights")
+    fig = new_figure((13, 11))
+    ax = fig.add_subplot(3, 2, 1)
+    for k, name in enumerate(("tof", "peak", "zero")):
+        _errorbar(ax, Lm, np.asarray(loc[f"c_{name}"], float), np.asarray(loc[f"c_{name}_err"], float),
+                  fmt="o-", color=f"C{k}", label=f"c_{name} (local dL/dt)")
+    _errorbar(ax, L, np.asarray(per["c_l"], float), np.asarray(per["c_l_sem"], float), fmt="s--",
+              color="k", label=r"$c_\ell$ (own moduli)")
+    if np.any(np.isfinite(np.asarray(per["c_t"], float))):
+        ax.plot(L, per["c_t"], "^:", color="0.5", label=r"$c_t$")
+    ax.set_xscale("log")
+    ax.set_xlabel(L_LABEL)
+    ax.set_ylabel(f"speed  [{C_UNIT}]")
+    ax.legend(fontsize=8)
+
+    ax = fig.add_subplot(3, 2, 2)
+    _errorbar(ax, Lm, np.asarray(loc["ratio"], float), np.asarray(loc["ratio_err"], float), fmt="o",
+              color="C0", label=r"$c_{\rm tof}/c_\ell$ local")
+    _errorbar(ax, L, np.asarray(per["ratio_apparent"], float),
+              np.asarray(per["ratio_apparent_err"], float), fmt="s", color="C1", mfc="none",
+              label=r"apparent $L/t_{10}$ over $c_\ell$")
+    app = front.get("approach", {})
+    tol = float(app.get("tolerance", 0.05))
+    xs = np.geomspace(min(Lm.min(), L.min()), max(L.max(), min(float(app.get("L_star") or 0), 1e5)) * 1.2, 100)
+    if np.isfinite(app.get("beta", np.nan) or np.nan):
+        lab = (rf"$1 + a L^{{-\beta}}$, $\beta$ = {app['beta']:.3g} ± {app.get('beta_err', np.nan):.2g}, "
+               rf"$L^*$ = {app['L_star']:.3g}")
+        ax.plot(xs, 1 + app["a"] * xs ** -app["beta"], "-", color="C0", lw=1, label=lab)
+    ax.axhspan(1 - tol, 1 + tol, color="0.9", zorder=0, label=f"±{tol:g}")
+    ax.axhline(1.0, color="k", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_xlabel(L_LABEL)
+    ax.set_ylabel(r"$c_{\rm tof}/c_\ell$")
+    ax.legend(fontsize=8)
+
+    for k, (key, eff, sign, label) in enumerate((("amplitude", "gamma_eff", r"$\gamma_{\rm eff}$", "|A|"),
+                                                 ("width", "alpha_eff", r"$\alpha_{\rm eff}$", "W"))):
+        ax = fig.add_subplot(3, 2, 3 + k)
+        _errorbar(ax, L, np.asarray(per[key], float), np.asarray(per[key + "_sem"], float), fmt="o-",
+                  color="C0", label=f"{label} (mean ± s.e.)")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(L_LABEL)
+        ax.set_ylabel(label)
+        tw = ax.twinx()
+        _errorbar(tw, Lm, np.asarray(loc[eff], float), np.asarray(loc[eff + "_err"], float), fmt="s--",
+                  color="C3", label=sign)
+        tw.set_ylabel(f"local exponent {sign}", color="C3")
+        ax.legend(fontsize=8, loc="upper left")
+        tw.legend(fontsize=8, loc="lower right")
+
+    if attenuation:
+        om = array(attenuation["omega"], "omega")
+        rel = np.asarray(attenuation["reliable"], bool)
+        for k, (key, ylabel) in enumerate((("alpha", r"attenuation $\alpha(\omega)$  [1/$\bar d$]"),
+                                           ("c", f"phase velocity $c(\\omega)$  [{C_UNIT}]"))):
+            ax = fig.add_subplot(3, 2, 5 + k)
+            y = np.asarray(attenuation[key], float)
+            e = np.asarray(attenuation[key + "_err"], float)
+            ax.plot(om, y, "-", color="0.7", lw=0.8, label="all frequencies")
+            ax.plot(om[rel], y[rel], "-", color="C0", label="reliable band")
+            ax.fill_between(om[rel], (y - e)[rel], (y + e)[rel], color="C0", alpha=0.25, lw=0,
+                            label="± error")
+            if rel.any():
+                ax.axvspan(om[rel][0], om[rel][-1], color="0.93", zorder=0)
+                lo, hi = np.nanmin(y[rel] - np.nan_to_num(e[rel])), np.nanmax(y[rel] + np.nan_to_num(e[rel]))
+                pad = 0.2 * (hi - lo) if hi > lo else 1.0
+                ax.set_ylim(lo - pad, hi + pad)
+                ax.set_xlim(0, min(om[-1], 1.5 * om[rel][-1]))
+            if key == "c":
+                cl = front.get("c_l", {}).get("mean")
+                if cl:
+                    ax.axhline(cl, color="k", ls="--", lw=1, label=r"$c_\ell$ (mean)")
+                c0 = attenuation.get("c0")
+                if c0 is not None and np.isfinite(c0):
+                    ax.plot([0], [c0], "D", color="C3", label=f"c0 = {c0:.4g}")
+            ax.set_xlabel(r"$\omega$  [$\sqrt{E^*/\rho}/\bar d$]")
+            ax.set_ylabel(ylabel)
+            ax.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, path, pdf=pdf)

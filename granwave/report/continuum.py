@@ -1,0 +1,139 @@
+"""The report's continuum section: the front against distance, c_tof/c_l and its approach to
+1, and the attenuation and phase velocity of the coherent signal (docs/continuum.md).
+
+Inputs: `granwave analyze continuum --json` (``front``) and `granwave analyze attenuation
+--json` (``attenuation``) of each continuum scene; the workflow writes them to
+``results/continuum/<scene>/{front,attenuation}.json``. Every number is copied or (c0/c_l)
+divided from them; error bars are one standard error unless a confidence interval is named.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from .tables import fmt
+
+
+def _kind(obj) -> str | None:
+    if isinstance(obj, Mapping) and "local" in obj and "approach" in obj:
+        return "front"
+    if isinstance(obj, Mapping) and "omega" in obj and "alpha" in obj:
+        return "attenuation"
+    return None
+
+
+def continuum_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, dict]:
+    """{scene: {"front": obj, "attenuation": obj}}: the scene is the file's folder name."""
+    out: dict[str, dict] = {}
+    for path, obj, _ in items:
+        kind = _kind(obj)
+        if kind:
+            out.setdefault(Path(path).parent.name, {})[kind] = obj
+    return out
+
+
+def _ci(pair, digits=3) -> str:
+    if not pair or any(v is None or not math.isfinite(float(v)) for v in pair):
+        return "—"
+    return f"[{float(pair[0]):.{digits}g}, {float(pair[1]):.{digits}g}]"
+
+
+def approach_sentence(app: Mapping) -> str:
+    """One plain sentence on L* (where c_tof is within the tolerance of c_l)."""
+    tol = float(app.get("tolerance", 0.05))
+    lmax = app.get("L_max")
+    status = app.get("status")
+    fit = ""
+    if app.get("L_star") is not None and math.isfinite(float(app.get("L_star", math.nan))):
+        fit = (f" The fit puts L* at {float(app['L_star']):.3g} d (95 % interval "
+               f"{_ci(app.get('L_star_ci'))} d)"
+               + (", an extrapolation beyond the tallest column." if app.get("L_star_extrapolated")
+                  else "."))
+    if status == "beyond":
+        return (f"**L* > {float(lmax):.3g} d (lower bound)**: at the tallest distance measured "
+                f"c_tof/c_l is still more than {tol:.0%} from 1 by over two standard errors." + fit)
+    if status == "reached":
+        return (f"**L* ≤ {float(lmax):.3g} d**: at the tallest distance c_tof is within {tol:.0%} of "
+                f"c_l by over two standard errors." + fit)
+    return (f"**L* undecided**: at the tallest distance ({float(lmax):.3g} d) the error bar of "
+            f"c_tof/c_l straddles 1 ± {tol:g}." + fit if lmax is not None else "**L* undecided**.")
+
+
+def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
+    """Markdown lines of the continuum section (one subsection per scene)."""
+    if not scenes:
+        return []
+    md = ["## Continuum: the front against distance and its approach to c_ℓ", "",
+          "Columns of several heights L (source–detector distance, d̄); time-domain signals; c_ℓ "
+          "and c_t from each packing's own global moduli. Local speeds are dL/dt between "
+          "consecutive heights (group means), at the geometric mean height; the apparent speed is "
+          "L/t of each packing. Error bars: one standard error over packings (docs/continuum.md).",
+          ""]
+    for scene, d in sorted(scenes.items()):
+        front, att = d.get("front"), d.get("attenuation")
+        md += [f"### {scene}", ""]
+        if front:
+            cl, ct = front.get("c_l", {}), front.get("c_t", {})
+            md += [f"- pressure {front.get('pressure')}, {front['n_signals']} packings at "
+                   f"{front['n_heights']} heights; c_ℓ = {fmt(cl.get('mean'), cl.get('sem'))}, "
+                   f"c_t = {fmt(ct.get('mean'), ct.get('sem'))} √(E*/ρ) (mean ± s.e. over all packings)",
+                   ""]
+            per = front["per_height"]
+            md += ["| L (d̄) | n | c_ℓ | L/t₁₀ | (L/t₁₀)/c_ℓ | \\|A\\| (E* d̄²) | W (d̄/√(E*/ρ)) |",
+                   "|---|---|---|---|---|---|---|"]
+            for i in range(len(per["height"])):
+                md.append(f"| {fmt(per['height'][i])} | {int(per['count'][i])} | "
+                          f"{fmt(per['c_l'][i], per['c_l_sem'][i])} | "
+                          f"{fmt(per['c_tof_apparent'][i], per['c_tof_apparent_sem'][i])} | "
+                          f"{fmt(per['ratio_apparent'][i], per['ratio_apparent_err'][i])} | "
+                          f"{fmt(per['amplitude'][i], per['amplitude_sem'][i])} | "
+                          f"{fmt(per['width'][i], per['width_sem'][i])} |")
+            loc = front["local"]
+            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | α_eff |",
+                   "|---|---|---|---|---|---|---|"]
+            for i in range(len(loc["height"])):
+                md.append(f"| {fmt(loc['height'][i])} | {fmt(loc['c_tof'][i], loc['c_tof_err'][i])} | "
+                          f"{fmt(loc['c_peak'][i], loc['c_peak_err'][i])} | "
+                          f"{fmt(loc['c_zero'][i], loc['c_zero_err'][i])} | "
+                          f"{fmt(loc['ratio'][i], loc['ratio_err'][i])} | "
+                          f"{fmt(loc['gamma_eff'][i], loc['gamma_eff_err'][i], 3)} | "
+                          f"{fmt(loc['alpha_eff'][i], loc['alpha_eff_err'][i], 3)} |")
+            app = front.get("approach", {})
+            md += ["", f"Approach of the local c_tof/c_ℓ: {app.get('model', '')} fitted over "
+                   f"{app.get('n', '—')} distances: β = {fmt(app.get('beta'), app.get('beta_err'), 3)} "
+                   f"(95 % {_ci(app.get('beta_ci'))}), a = {fmt(app.get('a'), app.get('a_err'), 3)}."]
+            free = app.get("free_limit") or {}
+            if "r_inf" in free:
+                md[-1] += (f" With the limit free: c_tof/c_ℓ → {fmt(free['r_inf'], free.get('r_inf_err'))} "
+                           f"(95 % {_ci(free.get('r_inf_ci'), 4)}).")
+            if app.get("fit_error"):
+                md[-1] += f" The fit failed: {app['fit_error']}."
+            md += ["", approach_sentence(app), ""]
+        if att:
+            band = att.get("band", [math.nan, math.nan])
+            md += [f"Attenuation and phase velocity of the coherent (ensemble-mean) signal over "
+                   f"{len(att['heights'])} heights ({att['n_signals']} signals): reliable band "
+                   f"ω = {fmt(band[0], digits=3)} … {fmt(band[1], digits=3)} √(E*/ρ)/d̄ (every "
+                   f"height's |S| ≥ {att['threshold']:g} of its maximum); low-frequency limit "
+                   f"c0 = {fmt(att.get('c0'), att.get('c0_err'))} √(E*/ρ)"]
+            if front and front.get("c_l", {}).get("mean"):
+                cl = front["c_l"]
+                r = float(att["c0"]) / float(cl["mean"]) if att.get("c0") is not None else math.nan
+                re = abs(r) * math.hypot(float(att.get("c0_err") or math.nan) / float(att["c0"]),
+                                         float(cl.get("sem") or 0.0) / float(cl["mean"])) \
+                    if att.get("c0") else math.nan
+                md[-1] += f", c0/c_ℓ = {fmt(r, re)}"
+            md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
+                       f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
+                       f"α = {fmt(att.get('alpha_ref'), att.get('alpha_ref_err'), 3)} /d̄")
+            md[-1] += (f" (error bars: the larger of the fit's standard error and the bootstrap over "
+                       f"packings, {att.get('bootstrap', 0)} resamplings).")
+            md += ["", "| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"]
+            idx = [i for i, ok in enumerate(att["reliable"]) if ok]
+            for i in idx[:: max(1, len(idx) // 8)]:
+                md.append(f"| {fmt(att['omega'][i], digits=3)} | {fmt(att['alpha'][i], att['alpha_err'][i], 3)} | "
+                          f"{fmt(att['Q'][i], att['Q_err'][i], 3)} | {fmt(att['c'][i], att['c_err'][i])} |")
+            md.append("")
+    return md
