@@ -160,12 +160,14 @@ def layer_costs() -> list[tuple[str, str]]:
     import subprocess
 
     rows = []
-    for layer, wait in (("omp", "PASSIVE"), ("omp", "ACTIVE"), ("workqueue", None), ("tbb", None)):
-        env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY",)}
+    variants = (("omp (spin 100000, granwave's default)", "omp", {"GOMP_SPINCOUNT": "100000"}),
+                ("omp (passive)", "omp", {"OMP_WAIT_POLICY": "PASSIVE"}),
+                ("omp (active)", "omp", {"OMP_WAIT_POLICY": "ACTIVE"}),
+                ("workqueue", "workqueue", {}), ("tbb", "tbb", {}))
+    for name, layer, extra in variants:
+        env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT")}
         env["NUMBA_THREADING_LAYER"] = layer
-        if wait:
-            env["OMP_WAIT_POLICY"] = wait
-        name = layer + (f" ({wait.lower()})" if wait else "")
+        env.update(extra)
         r = subprocess.run([sys.executable, "-c", LAYER_CHILD], env=env, capture_output=True, text=True)
         if r.returncode != 0:
             rows.append((name, "not available"))

@@ -5,12 +5,17 @@ on); the library sets numba's thread count here, once per process. Results
 must not depend on it: parallel kernels sum in a fixed order.
 
 The threading layer is chosen here too, on import (every module with parallel
-kernels imports this one): OpenMP with ``OMP_WAIT_POLICY=PASSIVE``. Measured on
-a shared 2-core machine (load about 4), the cost of one parallel region was
-0.6 us (1 thread) and 7 us (2 threads) with OpenMP passive, 45 us with numba's
-workqueue layer at any thread count, and 92 us with OpenMP's default (spinning)
-wait policy at 2 threads; the engine runs two regions per step. An explicit
-``NUMBA_THREADING_LAYER`` or ``OMP_WAIT_POLICY`` in the environment is kept.
+kernels imports this one): OpenMP, whose idle threads spin ``GOMP_SPINCOUNT =
+100000`` times before they sleep. The engine and the time domain open two parallel
+regions per step, so waking sleeping threads is what limits small steps: on a quiet
+2-core machine (benchmarks/scale.py, threads 1 -> 2) a passive wait policy (no
+spinning, 60 us per region) gave 1.08x (DEM, 10^4 grains) and 1.43x (time domain,
+3 * 10^4 dofs); spinning 100000 times gave 1.97x and 1.95x, 3000 times 1.89x and
+1.80x. An unbounded spin (``OMP_WAIT_POLICY=ACTIVE`` alone) made as good a ratio but
+kept the threads busy after the parallel work (a single-thread rate measured after it
+fell by half). numba's workqueue layer costs about 100 us per region. An explicit
+``NUMBA_THREADING_LAYER``, ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` in the
+environment is kept.
 """
 
 from __future__ import annotations
@@ -24,7 +29,8 @@ THREADING_LAYER = "omp"
 
 def configure_layer() -> None:
     """Select the threading layer before numba starts its threads (idempotent)."""
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    if "OMP_WAIT_POLICY" not in os.environ:
+        os.environ.setdefault("GOMP_SPINCOUNT", "100000")
     if "NUMBA_THREADING_LAYER" in os.environ:
         return
     import numba

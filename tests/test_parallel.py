@@ -15,6 +15,7 @@ import pytest
 from granwave import threads
 from granwave.dem import integrator
 from granwave.dem import kernels as K
+from granwave.dem import serial
 from granwave.dem.params import PrepareParams
 from granwave.dem.protocol import prepare_packing
 from granwave.errors import ResourceError
@@ -53,6 +54,20 @@ def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
     two = _at(2, lambda: prepare_packing(params))
     assert one.attrs["steps"] == two.attrs["steps"] > 1000
     assert _bytes(one) == _bytes(two)
+
+
+@pytest.mark.parametrize("params", [
+    PrepareParams(grains=90, seed=11, tol=1e-9),
+    PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
+], ids=["2d-frictional", "3d-frictional"])
+def test_single_pair_loop_equals_the_parallel_passes(params, monkeypatch):
+    """One thread runs the single pair loop (dem/serial.py); the two passes of the parallel
+    engine, run on one thread instead, give the same bytes."""
+    serial_run = prepare_packing(params)
+    monkeypatch.setattr(serial, "run_chunk", K.run_chunk)
+    passes = prepare_packing(params)
+    assert serial_run.attrs["steps"] == passes.attrs["steps"] > 1000
+    assert _bytes(serial_run) == _bytes(passes)
 
 
 def test_narrow_neighbour_lists_grow_to_the_same_result(monkeypatch):

@@ -1,0 +1,307 @@
+"""The DEM step on one thread: one loop over the pairs adds each force to both grains.
+
+The parallel engine (:mod:`granwave.dem.kernels`) computes each pair's force into its own
+slot and then gathers per grain; on one thread that costs a third of the rate (measured
+in benchmarks/scale.py: 1.17e7 against 1.83e7 grain-steps/s at 600 grains), so
+:class:`granwave.dem.integrator.Engine` runs this loop when it has one thread. Both add a
+grain's contributions in the same order (pairs in list order, then its walls), so they
+give the same bits; tests/test_parallel.py checks it. The pair list and its rebuild are
+the parallel engine's (:func:`granwave.dem.neighbours.rebuild`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .. import contact as C
+from . import neighbours
+from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
+                      F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
+                      I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
+                      O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, _add_torque3, _pair_geometry, _spin,
+                      contact_force3, measure, piston_acceleration, stable_dt_at)
+
+
+@numba.njit(cache=True)
+def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
+                   pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
+    """Total force and torque on every grain; see :func:`_force_loop`."""
+    inv_rad = 1.0 / rad
+    _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
+    """Total force and torque on every grain and the contact force on the piston.
+
+    Contacts update their tangential history with slip = v_rel * fpar[F_DT]
+    (velocities at the half step of velocity Verlet, i.e. exactly the
+    displacement of the step). Also adds the background damping -gamma m v,
+    -gamma I w. Statistics into ``out``: largest overlap, number of
+    top-wall contacts and of contacts.
+
+    Written with scalars (three components, the third 0 in 2D) so that nothing
+    is allocated per contact and the compiler keeps the contact, its tangential
+    history included, in registers (contact.py's scalar forms of the law).
+    """
+    n_grains, d = pos.shape
+    r = omega.shape[1]
+    dt = fpar[F_DT]
+    zeta = fpar[F_ZETA]
+    mu = fpar[F_MU]
+    poisson = fpar[F_POISSON]
+    gamma = fpar[F_GAMMA]
+    rescale = fpar[F_RESCALE] != 0.0
+    e_pair = C.effective_young(False)
+    e_wall = C.effective_young(True)
+    g_pair = C.effective_shear(poisson, False)
+    g_wall = C.effective_shear(poisson, True)
+    h = piston[P_H]
+    vp = piston[P_V]
+    force[:, :] = 0.0
+    torque[:, :] = 0.0
+    dmax = 0.0
+    ncontact = 0
+    for p in range(npairs):
+        i = pair_i[p]
+        j = pair_j[p]
+        dx, dy, dz = _pair_geometry(pos, lateral, i, j)
+        r2 = dx * dx + dy * dy + dz * dz
+        ri = rad[i]
+        rj = rad[j]
+        rs = ri + rj
+        if r2 >= rs * rs:
+            if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                pair_ov[p] = 0.0
+                for a in range(d):
+                    pair_ft[p, a] = 0.0
+            continue
+        dist = math.sqrt(r2)
+        delta = rs - dist
+        nx = dx / dist
+        ny = dy / dist
+        nz = dz / dist if d == 3 else 0.0
+        vx = vel[j, 0] - vel[i, 0]
+        vy = vel[j, 1] - vel[i, 1]
+        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+        ai = ri - 0.5 * delta
+        aj = rj - 0.5 * delta
+        if r > 0:
+            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
+            wx, wy, wz = _spin(omega, i, ai)
+            ux, uy, uz = _spin(omega, j, aj)
+            wx += ux
+            wy += uy
+            wz += uz
+            vx -= wy * nz - wz * ny
+            vy -= wz * nx - wx * nz
+            vz -= wx * ny - wy * nx
+        r12 = C.effective_radius(inv_rad[i], inv_rad[j])
+        meff = C.reduced_mass(mass[i], mass[j], False)
+        hx = hy = hz = 0.0
+        if mu > 0.0:
+            hx = pair_ft[p, 0]
+            hy = pair_ft[p, 1]
+            if d == 3:
+                hz = pair_ft[p, 2]
+        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
+                                                     vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
+                                                     mu, rescale)
+        if mu > 0.0:
+            pair_ft[p, 0] = hx
+            pair_ft[p, 1] = hy
+            if d == 3:
+                pair_ft[p, 2] = hz
+        pair_ov[p] = delta
+        force[i, 0] += fx
+        force[i, 1] += fy
+        force[j, 0] -= fx
+        force[j, 1] -= fy
+        if d == 3:
+            force[i, 2] += fz
+            force[j, 2] -= fz
+        if r > 0:
+            _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
+            _add_torque3(torque, j, aj, nx, ny, nz, fx, fy, fz)
+        if delta > dmax:
+            dmax = delta
+        ncontact += 1
+    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+    fpiston = 0.0
+    ntop = 0
+    for i in range(n_grains):
+        y = pos[i, d - 1]
+        R = rad[i]
+        for k in range(2):
+            delta = R - y if k == 0 else R - (h - y)
+            w = 2 * i + k
+            if delta <= 0.0:
+                if wall_ov[w] != 0.0:
+                    wall_ov[w] = 0.0
+                    for a in range(d):
+                        wall_ft[w, a] = 0.0
+                continue
+            sgn = -1.0 if k == 0 else 1.0
+            vx = -vel[i, 0]
+            if d == 2:
+                nx, ny, nz = 0.0, sgn, 0.0
+                vy = -vel[i, 1] + (vp if k == 1 else 0.0)
+                vz = 0.0
+            else:
+                nx, ny, nz = 0.0, 0.0, sgn
+                vy = -vel[i, 1]
+                vz = -vel[i, 2] + (vp if k == 1 else 0.0)
+            ai = R - delta
+            if r > 0:
+                wx, wy, wz = _spin(omega, i, ai)
+                vx -= wy * nz - wz * ny
+                vy -= wz * nx - wx * nz
+                vz -= wx * ny - wy * nx
+            hx = hy = hz = 0.0
+            # Same steps as the grain pair above, on the wall's own history slots (wall_ft,
+            # wall_ov) with R12 = R, the wall moduli and the grain's mass: the law itself is
+            # written once (contact_force3); only this load/store of the history repeats.
+            if mu > 0.0:
+                hx = wall_ft[w, 0]
+                hy = wall_ft[w, 1]
+                if d == 3:
+                    hz = wall_ft[w, 2]
+            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i],
+                                                         vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta,
+                                                         mu, rescale)
+            if mu > 0.0:
+                wall_ft[w, 0] = hx
+                wall_ft[w, 1] = hy
+                if d == 3:
+                    wall_ft[w, 2] = hz
+            wall_ov[w] = delta
+            force[i, 0] += fx
+            force[i, 1] += fy
+            if d == 3:
+                force[i, 2] += fz
+            if r > 0:
+                _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
+            if k == 1:
+                fpiston -= fz if d == 3 else fy
+                ntop += 1
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+    if gamma > 0.0:
+        for i in range(n_grains):
+            for a in range(d):
+                force[i, a] -= gamma * mass[i] * vel[i, a]
+            for a in range(r):
+                torque[i, a] -= gamma * inertia[i] * omega[i, a]
+    piston[P_FCON] = fpiston
+    out[O_DMAX] = dmax
+    out[O_NTOP] = ntop
+    out[O_NCONTACT] = ncontact
+
+
+@numba.njit(cache=True)
+def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+              pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws):
+    """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs (same arguments, statuses
+    and bits).
+
+    State on entry and exit: positions, velocities and accelerations at the same
+    time (``acc``/``alpha`` valid). Returns 0 when all steps ran, 1 when the
+    convergence candidate test passed at a check (every ``ipar[I_CHECK]``
+    steps: piston touching grains, every |a|, |alpha| and |a_piston| below
+    F_TOLA, every |v|, |w| R and |v_piston| below F_TOLV), 2 when the pair list
+    needs more room (``ipar[I_NEEDED]`` pairs; the state is between steps), 3 when the
+    state blew up (an overlap larger than the largest radius or non-finite motion at a
+    check, or non-finite positions before a rebuild): the time step is unstable.
+    With ``ipar[I_ADAPTIVE]`` the time step is reset at every check from
+    :func:`stable_dt`.
+    """
+    n, d = pos.shape
+    r = omega.shape[1]
+    gamma = fpar[F_GAMMA]
+    half_skin = 0.5 * fpar[F_SKIN]
+    check = ipar[I_CHECK]
+    disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
+    for i in range(n):
+        s = 0.0
+        for a in range(d):
+            x = pos[i, a] - pos0[i, a]
+            s += x * x
+        disp2 = max(disp2, s)
+    for step in range(ipar[I_NSTEPS]):
+        dt = fpar[F_DT]
+        # rebuild when a grain may come within reach of a pair not in the list
+        # before the next rebuild check (factor 2: the speed may grow in a step)
+        reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
+        if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
+            return 3
+        if reach > half_skin:
+            np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
+                                        pair_ft, pair_ov, ipar[I_NPAIRS], ws[0], ws[2], ws[3], ws[4],
+                                        ws[1], ws[5])
+            if np_new < 0:
+                ipar[I_NEEDED] = ws[5][0]
+                ipar[I_WIDTH] = ws[5][1]
+                return 2
+            ipar[I_NPAIRS] = np_new
+            ipar[I_REBUILDS] += 1
+            for i in range(n):
+                for a in range(d):
+                    pos0[i, a] = pos[i, a]
+            disp2 = 0.0
+        # half kick, drift
+        vmax2 = 0.0
+        disp2 = 0.0
+        for i in range(n):
+            v2 = 0.0
+            s = 0.0
+            for a in range(d):
+                vel[i, a] += 0.5 * dt * acc[i, a]
+                pos[i, a] += dt * vel[i, a]
+                v2 += vel[i, a] * vel[i, a]
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            vmax2 = max(vmax2, v2)
+            disp2 = max(disp2, s)
+            for a in range(r):
+                omega[i, a] += 0.5 * dt * alpha[i, a]
+        fpar[F_VMAX] = math.sqrt(vmax2)
+        if piston[P_MASS] < np.inf:
+            piston[P_V] += 0.5 * dt * piston[P_A]
+            piston[P_H] += dt * piston[P_V]
+        compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
+                       pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out)
+        piston[P_A] = piston_acceleration(piston, gamma)
+        # accelerations (as to_accelerations) and the second half kick, in one pass
+        for i in range(n):
+            inv = 1.0 / mass[i]
+            for a in range(d):
+                acc[i, a] *= inv
+                vel[i, a] += 0.5 * dt * acc[i, a]
+            inv = 1.0 / inertia[i]
+            for a in range(r):
+                alpha[i, a] *= inv
+                omega[i, a] += 0.5 * dt * alpha[i, a]
+        if piston[P_MASS] < np.inf:
+            piston[P_V] += 0.5 * dt * piston[P_A]
+        ipar[I_STEPS] += 1
+        if check > 0 and ipar[I_STEPS] % check == 0:
+            measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
+            if not (out[O_DMAX] < fpar[F_RMAX] and math.isfinite(out[O_KIN])):
+                return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable
+            if ipar[I_ADAPTIVE]:
+                fpar[F_DT] = stable_dt_at(fpar, out[O_DMAX])
+            tol_a = fpar[F_TOLA]
+            tol_v = fpar[F_TOLV]
+            if (out[O_NTOP] > 0 and out[O_AMAX] < tol_a and out[O_ALPHAMAX] < tol_a
+                    and out[O_APISTON] < tol_a and out[O_VMAX] < tol_v and out[O_WMAX] < tol_v
+                    and abs(piston[P_V]) < tol_v):
+                return 1
+    return 0
+
+
