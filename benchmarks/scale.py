@@ -242,12 +242,13 @@ def _square_steps(height: float) -> float:
     return STEPS_1E4 * (height / 100.0) ** HEIGHT_EXPONENT
 
 
-def large_spec(name: str, tiny: bool):
+def large_spec(name: str, tiny: bool, compaction: str = "fixed"):
     from granwave.dem.params import PrepareParams
 
     if name == "column":
         n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
-        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect),
+        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect, compaction=compaction,
+                                         max_steps=20_000_000),
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":
         n = 300 if tiny else 100_000
@@ -264,10 +265,10 @@ def large_spec(name: str, tiny: bool):
     raise SystemExit(f"unknown large run {name!r}")
 
 
-def large(name: str, dry_run: bool, tiny: bool, rate: float | None) -> None:
+def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str = "fixed") -> None:
     from granwave import resources
 
-    spec = large_spec(name, tiny)
+    spec = large_spec(name, tiny, compaction)
     print(f"{name}: {spec['note']}; {load()}")
     if name == "time":
         rows, width = spec["rows"], spec["width"]
@@ -308,7 +309,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None) -> None:
 
     w0 = time.perf_counter()
     pk = prepare_packing(p, progress=print)
-    print(f"  prepared in {time.perf_counter() - w0:.1f} s wall, {pk.attrs['steps']} steps; "
+    print(f"  compaction {p.compaction}: prepared in {time.perf_counter() - w0:.1f} s wall, {pk.attrs['steps']} steps; "
           f"peak memory {resources.format_bytes(peak_memory())}")
 
 
@@ -321,9 +322,11 @@ def main() -> None:
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
     ap.add_argument("--rate", type=float, default=None,
                     help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
+    ap.add_argument("--compaction", choices=("fixed", "height-scaled"), default="fixed",
+                    help="with --large column: the compaction rule (docs/dem.md)")
     args = ap.parse_args()
     if args.large:
-        large(args.large, args.dry_run, args.tiny, args.rate)
+        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction)
     else:
         main_table(args.quick, args.write_docs)
 
