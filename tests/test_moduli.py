@@ -647,3 +647,49 @@ def test_3d_frictional_packing_local_moduli_finite_and_balanced(monkeypatch):
     assert kept["n_spins_removed"] == 0 and 1e-4 < kept["body_force_unbalanced"] < 0.2
     for key in ("C33_body_n1", "C33_body_n2", "C55_body_n1", "C55_body_n2"):
         assert kept[key] == pytest.approx(res[key], rel=0.02)
+
+
+def test_large_singular_systems_use_iterated_tikhonov(monkeypatch):
+    """Above DENSE_MAX_DOF (lowered here to 0) a singular D is solved by iterated Tikhonov
+    sweeps: a consistent load gets the minimum-norm solution, fully balanced; a load with a
+    part on the zero mode (the refused LU answer of the least-squares test) falls through
+    the sweeps to LSQR and reports that part as unbalanced."""
+    from granwave.linear import moduli as M
+
+    monkeypatch.setattr(M, "DENSE_MAX_DOF", 0)
+    cell, rng = _free_chain()
+    n = cell.n_dof
+    solver = M._Solver(cell, np.zeros(n, bool))
+    f = rng.normal(size=n)
+    g = f - f.mean()  # no net force: consistent (the plain LU is accepted for it; call the sweeps)
+    u = solver._tikhonov(g)
+    assert solver._unbalanced(u, g) <= M.RESIDUAL_TOL
+    # the load's rounding-level part on the translation (~1e-17) is amplified by 1 / eps, so
+    # the minimum-norm property holds to ~1e-6 here, not 1e-9; it moves no spring
+    assert abs(u.sum()) / math.sqrt(n) < 1e-6 * np.linalg.norm(u)
+    ref = np.linalg.lstsq(cell.stiffness.toarray(), g, rcond=1e-13)[0]
+    ref_t = ref - ref.mean()
+    assert np.allclose(u - u.mean(), ref_t, rtol=0, atol=1e-8 * np.linalg.norm(ref_t))
+    u, method = solver.solve(f, consistent=False)
+    assert "LSQR" in method
+    net = abs(f.sum()) / math.sqrt(n) / np.linalg.norm(f)
+    assert solver.unbalanced == pytest.approx(net, rel=1e-6)
+
+
+def test_floppy_grain_moduli_the_same_through_iterated_tikhonov(monkeypatch):
+    """The floppy-grain lattice of the least-squares test, solved by the large-system path."""
+    from granwave.linear import moduli as M
+
+    g = 13
+    pk, _ = lattice(8, 4, pressure=1e-4)
+    c = pk.contacts
+    floppy = _drop_contacts(pk, ~(((c.i == g) | (c.j == g)) & (np.abs(c.normal[:, 1]) > 0)))
+    dense = moduli(floppy)
+    monkeypatch.setattr(M, "DENSE_MAX_DOF", 0)
+    pk, _ = lattice(8, 4, pressure=1e-4)
+    c = pk.contacts
+    floppy = _drop_contacts(pk, ~(((c.i == g) | (c.j == g)) & (np.abs(c.normal[:, 1]) > 0)))
+    sweeps = moduli(floppy)
+    assert any("Tikhonov" in s for s in sweeps["solver"])
+    for key in ("C11", "C12", "C22", "C33"):
+        assert sweeps[key] == pytest.approx(dense[key], rel=1e-8), key
