@@ -126,13 +126,18 @@ def test_state_sums_match_the_plain_sums():
 
 
 def test_eta_from_the_decay_of_max_acceleration():
-    """An exact exponential decay gives the exact time to tol; growth or too few chunks: None."""
+    """An exact exponential decay gives the exact time to tol; growth, too few chunks or
+    max |a| already below tol: None; bursts above the lowest value so far do not count."""
     k, tol, sps = 1e-4, 1e-10, 500.0
     hist = [(s, 1e-3 * math.exp(-k * s)) for s in range(0, 10_000, 1000)]
     want = math.log(tol / hist[-1][1]) / -k / sps
     assert integrator.eta_seconds(hist, tol, sps) == pytest.approx(want, rel=1e-9)
     assert integrator.eta_seconds([(s, 1e-3 * math.exp(k * s)) for s, _ in hist], tol, sps) is None
     assert integrator.eta_seconds(hist[:2], tol, sps) is None
+    assert integrator.eta_seconds(hist + [(10_000, 1e-11)], tol, sps) is None
+    bursts = [(s, a * (50.0 if i % 2 else 1.0)) for i, (s, a) in enumerate(hist)]
+    assert integrator.eta_seconds(bursts[:-1], tol, sps) == pytest.approx(
+        math.log(tol / hist[-2][1]) / -k / sps, rel=1e-9)
 
 
 def test_time_domain_refused_when_it_cannot_fit(monkeypatch):

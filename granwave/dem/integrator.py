@@ -248,26 +248,28 @@ def elastic_energy_kernel(engine: Engine) -> float:
     return e
 
 
-def eta_seconds(history, tol: float, steps_per_second: float, window: int = 8) -> float | None:
-    """Seconds until max |a| reaches ``tol`` at the decay rate of the recent chunks, or None.
+def eta_seconds(history, tol: float, steps_per_second: float, window: int = 60) -> float | None:
+    """Seconds until max |a| reaches ``tol`` at the decay rate of its envelope, or None.
 
-    ``history``: (steps, max |a|) after each chunk. The rate is the least-squares slope of
-    log max |a| against steps over the last ``window`` chunks; None (unknown) with fewer
-    than 3 chunks, a slope that is not a decay, or no rate yet. An estimate, not a promise:
-    the end game of a relaxation often slows down (max |a| decays in bursts).
+    ``history``: (steps, max |a|) after each chunk (about one a second). max |a| decays in
+    bursts, so the rate is the least-squares slope of the log of its running minimum (the
+    lowest value so far) against steps over the last ``window`` chunks. None (unknown)
+    with fewer than 3 chunks, no decay of the envelope over the window, no rate yet, or
+    max |a| already below tol (the run then waits for the speeds and the static residual).
+    Checked on the progress log of a 21 000-grain column (1.2 million steps): within a
+    factor 2 of the steps left over the second half of the run, where the slope of the
+    last 8 chunks of max |a| itself said seconds for minutes, or nothing (docs/dem.md).
     """
-    pts = [(s, a) for s, a in history[-window:] if a > 0 and math.isfinite(a)]
+    pts = [(s, a) for s, a in history if a > 0 and math.isfinite(a)]
     if len(pts) < 3 or not steps_per_second > 0:
         return None
-    s = np.array([p[0] for p in pts], float)
-    y = np.log([p[1] for p in pts])
+    envelope = np.minimum.accumulate(np.log([p[1] for p in pts]))[-window:]
+    s = np.array([p[0] for p in pts[-window:]], float)
     s -= s.mean()
     if not np.any(s):
         return None
-    slope = float(np.dot(s, y - y.mean()) / np.dot(s, s))
-    a_now = pts[-1][1]
-    if a_now <= tol:
-        return 0.0
-    if not slope < 0:
+    slope = float(np.dot(s, envelope - envelope.mean()) / np.dot(s, s))
+    a_now = math.exp(envelope[-1])
+    if a_now <= tol or not slope < 0:
         return None
     return math.log(tol / a_now) / slope / steps_per_second
