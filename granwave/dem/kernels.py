@@ -207,6 +207,62 @@ def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
         torque[k, 1] += arm * (nz * fx - nx * fz)
         torque[k, 2] += arm * (nx * fy - ny * fx)
 
+@numba.njit(cache=True, inline="always")
+def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wall, g_wall, dt, zeta,
+                 mu, rescale):
+    """Grain i against wall k (0 bottom: normal -e_z at 0; 1 top: +e_z at h, moving at vp):
+    the pair law (:func:`contact_force3`) on the wall's own history slots (``wall_ft``,
+    ``wall_ov``, updated here) with R12 = R_i, the wall moduli and the grain's mass.
+
+    Returns (delta, arm, nx, ny, nz, fx, fy, fz): the force on the grain; delta <= 0 when
+    they do not touch (the history is then cleared and the force is zero). One copy for
+    the one-thread loop, the parallel grain pass and the GPU kernel.
+    """
+    d = pos.shape[1]
+    r = omega.shape[1]
+    y = pos[i, d - 1]
+    R = rad[i]
+    delta = R - y if k == 0 else R - (h - y)
+    w = 2 * i + k
+    if delta <= 0.0:
+        if wall_ov[w] != 0.0:
+            wall_ov[w] = 0.0
+            for a in range(d):
+                wall_ft[w, a] = 0.0
+        return delta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    sgn = -1.0 if k == 0 else 1.0
+    vx = -vel[i, 0]
+    if d == 2:
+        nx, ny, nz = 0.0, sgn, 0.0
+        vy = -vel[i, 1] + (vp if k == 1 else 0.0)
+        vz = 0.0
+    else:
+        nx, ny, nz = 0.0, 0.0, sgn
+        vy = -vel[i, 1]
+        vz = -vel[i, 2] + (vp if k == 1 else 0.0)
+    ai = R - delta
+    if r > 0:
+        wx, wy, wz = _spin(omega, i, ai)
+        vx -= wy * nz - wz * ny
+        vy -= wz * nx - wx * nz
+        vz -= wx * ny - wy * nx
+    hx = hy = hz = 0.0
+    if mu > 0.0:
+        hx = wall_ft[w, 0]
+        hy = wall_ft[w, 1]
+        if d == 3:
+            hz = wall_ft[w, 2]
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i], vx, vy,
+                                                 vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale)
+    if mu > 0.0:
+        wall_ft[w, 0] = hx
+        wall_ft[w, 1] = hy
+        if d == 3:
+            wall_ft[w, 2] = hz
+    wall_ov[w] = delta
+    return delta, ai, nx, ny, nz, fx, fy, fz
+
+
 
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains and room for ``cap`` pairs,
@@ -364,7 +420,7 @@ def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, 
                      fpar, nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
                  nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
     """Block b of :func:`_grain_pass` (a plain function: the parallel one stays small, which
@@ -422,57 +478,12 @@ def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_
                 t1 += pair_w[p, d + 1]
                 t2 += pair_w[p, d + 2]
         # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
-        y = pos[i, d - 1]
-        R = rad[i]
         for k in range(2):
-            delta = R - y if k == 0 else R - (h - y)
-            w = 2 * i + k
+            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft,
+                                                             wall_ov, i, k, h, vp, e_wall, g_wall,
+                                                             dt, zeta, mu, rescale)
             if delta <= 0.0:
-                if wall_ov[w] != 0.0:
-                    wall_ov[w] = 0.0
-                    for a in range(d):
-                        wall_ft[w, a] = 0.0
                 continue
-            sgn = -1.0 if k == 0 else 1.0
-            vx = -vel[i, 0]
-            if d == 2:
-                nx, ny, nz = 0.0, sgn, 0.0
-                vy = -vel[i, 1] + (vp if k == 1 else 0.0)
-                vz = 0.0
-            else:
-                nx, ny, nz = 0.0, 0.0, sgn
-                vy = -vel[i, 1]
-                vz = -vel[i, 2] + (vp if k == 1 else 0.0)
-            ai = R - delta
-            if r > 0:
-                if r == 1:
-                    wx = 0.0
-                    wy = 0.0
-                    wz = ai * omega[i, 0]
-                else:
-                    wx = ai * omega[i, 0]
-                    wy = ai * omega[i, 1]
-                    wz = ai * omega[i, 2]
-                vx -= wy * nz - wz * ny
-                vy -= wz * nx - wx * nz
-                vz -= wx * ny - wy * nx
-            hx = hy = hz = 0.0
-            # the grain pair's steps on the wall's own history slots (wall_ft, wall_ov) with
-            # R12 = R, the wall moduli and the grain's mass (the law is contact_force3)
-            if mu > 0.0:
-                hx = wall_ft[w, 0]
-                hy = wall_ft[w, 1]
-                if d == 3:
-                    hz = wall_ft[w, 2]
-            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall,
-                                                         mass[i], vx, vy, vz, hx, hy, hz, wall_ov[w],
-                                                         dt, zeta, mu, rescale)
-            if mu > 0.0:
-                wall_ft[w, 0] = hx
-                wall_ft[w, 1] = hy
-                if d == 3:
-                    wall_ft[w, 2] = hz
-            wall_ov[w] = delta
             f0 += fx
             f1 += fy
             if d == 3:

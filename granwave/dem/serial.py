@@ -22,7 +22,7 @@ from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN,
                       F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
                       I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
                       O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, _add_torque3, _pair_geometry, _spin,
-                      contact_force3, measure, piston_acceleration, stable_dt_at)
+                      contact_force3, measure, piston_acceleration, stable_dt_at, wall_contact)
 
 
 @numba.njit(cache=True)
@@ -135,51 +135,12 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
     fpiston = 0.0
     ntop = 0
     for i in range(n_grains):
-        y = pos[i, d - 1]
-        R = rad[i]
         for k in range(2):
-            delta = R - y if k == 0 else R - (h - y)
-            w = 2 * i + k
+            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
+                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
+                                                             rescale)
             if delta <= 0.0:
-                if wall_ov[w] != 0.0:
-                    wall_ov[w] = 0.0
-                    for a in range(d):
-                        wall_ft[w, a] = 0.0
                 continue
-            sgn = -1.0 if k == 0 else 1.0
-            vx = -vel[i, 0]
-            if d == 2:
-                nx, ny, nz = 0.0, sgn, 0.0
-                vy = -vel[i, 1] + (vp if k == 1 else 0.0)
-                vz = 0.0
-            else:
-                nx, ny, nz = 0.0, 0.0, sgn
-                vy = -vel[i, 1]
-                vz = -vel[i, 2] + (vp if k == 1 else 0.0)
-            ai = R - delta
-            if r > 0:
-                wx, wy, wz = _spin(omega, i, ai)
-                vx -= wy * nz - wz * ny
-                vy -= wz * nx - wx * nz
-                vz -= wx * ny - wy * nx
-            hx = hy = hz = 0.0
-            # Same steps as the grain pair above, on the wall's own history slots (wall_ft,
-            # wall_ov) with R12 = R, the wall moduli and the grain's mass: the law itself is
-            # written once (contact_force3); only this load/store of the history repeats.
-            if mu > 0.0:
-                hx = wall_ft[w, 0]
-                hy = wall_ft[w, 1]
-                if d == 3:
-                    hz = wall_ft[w, 2]
-            fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i],
-                                                         vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta,
-                                                         mu, rescale)
-            if mu > 0.0:
-                wall_ft[w, 0] = hx
-                wall_ft[w, 1] = hy
-                if d == 3:
-                    wall_ft[w, 2] = hz
-            wall_ov[w] = delta
             force[i, 0] += fx
             force[i, 1] += fy
             if d == 3:

@@ -28,7 +28,8 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
                      "total_normal_force", "project_tangential3", "update_tangential3")
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
-ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_add_torque3", "piston_acceleration")
+ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_add_torque3", "wall_contact",
+                    "piston_acceleration")
 
 
 def _rebound(py_func, namespace: dict):

@@ -48,6 +48,7 @@ contact_force3 = DF.contact_force3
 pair_geometry = DF._pair_geometry
 spin = DF._spin
 add_torque3 = DF._add_torque3
+wall_contact = DF.wall_contact
 piston_acceleration = DF.piston_acceleration
 effective_radius = DF.effective_radius
 effective_young = DF.effective_young
@@ -221,48 +222,13 @@ def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_p
     ntop = 0
     dmax = 0.0
     count = 0
-    y = pos[i, d - 1]
-    R = rad[i]
     for k in range(2):
-        delta = R - y if k == 0 else R - (h - y)
-        w = 2 * i + k
+        delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i,
+                                                         k, h, vp, effective_young(True),
+                                                         effective_shear(poisson, True), dt, zeta, mu,
+                                                         rescale)
         if delta <= 0.0:
-            if wall_ov[w] != 0.0:
-                wall_ov[w] = 0.0
-                for a in range(d):
-                    wall_ft[w, a] = 0.0
             continue
-        sgn = -1.0 if k == 0 else 1.0
-        vx = -vel[i, 0]
-        if d == 2:
-            nx, ny, nz = 0.0, sgn, 0.0
-            vy = -vel[i, 1] + (vp if k == 1 else 0.0)
-            vz = 0.0
-        else:
-            nx, ny, nz = 0.0, 0.0, sgn
-            vy = -vel[i, 1]
-            vz = -vel[i, 2] + (vp if k == 1 else 0.0)
-        ai = R - delta
-        if r > 0:
-            wx, wy, wz = spin(omega, i, ai)
-            vx -= wy * nz - wz * ny
-            vy -= wz * nx - wx * nz
-            vz -= wx * ny - wy * nx
-        hx = hy = hz = 0.0
-        if mu > 0.0:
-            hx = wall_ft[w, 0]
-            hy = wall_ft[w, 1]
-            if d == 3:
-                hz = wall_ft[w, 2]
-        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, effective_young(True),
-                                                     effective_shear(poisson, True), mass[i], vx, vy,
-                                                     vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale)
-        if mu > 0.0:
-            wall_ft[w, 0] = hx
-            wall_ft[w, 1] = hy
-            if d == 3:
-                wall_ft[w, 2] = hz
-        wall_ov[w] = delta
         acc[i, 0] += fx
         acc[i, 1] += fy
         if d == 3:
