@@ -528,6 +528,17 @@ class AttenuationParams(Params):
                              hi_open=True)
     max_error: float = param(0.1, help="Reliable band: also the relative error of c(omega) at most "
                              "this.", lo=0.0, lo_open=True)
+    min_periods: float = param(0.5, help="A height enters the fits at omega only where the window "
+                               "after its front's arrival (t_end - t_lead10) holds at least this many "
+                               "periods 2 pi/omega.", lo=0.0)
+    min_snr: float = param(2.0, help="A height enters the fits at omega only where its coherent amplitude is at least this many times "
+                           "the noise floor (standard error of the mean spectrum over its packings).",
+                           lo=0.0)
+    min_heights: int = param(3, help="Reliable band: at least this many usable heights at omega (fewer "
+                             "when fewer heights are given, at least 2).", lo=2)
+    min_fit_p: float = param(0.01, help="Reliable band: the chi-square p-value of the ln|S| fit against "
+                             "the noise floor at least this (with three or more heights).", lo=0.0,
+                             hi=1.0, hi_open=True)
     bootstrap: int = param(200, help="Bootstrap resamplings of the packings at each height for the "
                            "error bars (0: fit errors only).", lo=0)
     seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0)

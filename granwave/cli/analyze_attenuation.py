@@ -23,10 +23,15 @@ def attenuation(signals, as_json, **options):
     transformed. At every frequency omega: ln|S(omega, L)| = const - alpha L and the
     unwrapped phase = const - k L are straight lines over the heights; alpha(omega) in 1/d,
     c(omega) = omega/k in sqrt(E*/rho), Q = omega / (2 alpha c). Error bars: the larger of
-    the fit's standard error and the bootstrap over packings (--bootstrap). Reliable band:
-    around the tallest height's spectral peak, where every height's |S| is at least
-    --threshold of its maximum and c is known to --max-error (relative). c0: c = c0 + c2 omega^2 over the lower half of the band,
-    compared with --c-l when given. See docs/continuum.md.
+    the fit's standard error and the bootstrap over packings (--bootstrap). At each omega
+    a height is used only where the window after its front's arrival holds --min-periods
+    periods and its coherent amplitude is --min-snr times its noise floor (the standard
+    error of the mean spectrum over its packings). Reliable band: around the tallest
+    height's spectral peak, where at least --min-heights heights are usable, the ln|S| fit's
+    chi-square p-value against the noise floor is at least --min-fit-p, every usable
+    height's |S| is at least --threshold of its maximum and c is known to --max-error
+    (relative). c0: c = c0 + c2 omega^2 over the band's lowest octave, compared with --c-l
+    when given. See docs/continuum.md.
     """
     from ..analysis.attenuation import attenuation as run
     from ..errors import InputError
@@ -37,7 +42,9 @@ def attenuation(signals, as_json, **options):
         raise InputError("no signal files given")
     res = run([read_signal(p) for p in signals], labels=list(signals),
               group_rtol=params.group_tolerance, window_widths=params.window_widths,
-              threshold=params.threshold, max_error=params.max_error, bootstrap=params.bootstrap, seed=params.seed,
+              threshold=params.threshold, max_error=params.max_error,
+              min_periods=params.min_periods, min_snr=params.min_snr, min_heights=params.min_heights,
+              min_fit_p=params.min_fit_p, bootstrap=params.bootstrap, seed=params.seed,
               c_l=params.c_l, **params.front_kw())
     res["params"] = params.as_dict()
     if as_json:
