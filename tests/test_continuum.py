@@ -132,3 +132,22 @@ def test_a_failed_moduli_solve_costs_the_packing_its_c_l_not_the_batch(tmp_path,
     m = json.loads((tmp_path / "b" / "moduli.json").read_text())
     assert m["c_l"] is None and "could not be solved" in m["error"]
     assert any("no moduli" in line for line in lines)
+
+
+def test_bulk_speed_from_wall_layers_in_series_exact():
+    from granwave.analysis.continuum import bulk_speed
+
+    # 1 / c^2 = 1 / 0.2^2 + 30 / L: the wall compliance in series with a bulk of speed 0.2
+    L = np.repeat([8.0, 16.0, 32.0, 64.0, 100.0], 2)
+    c = (1 / 0.2**2 + 30.0 / L) ** -0.5
+    r = bulk_speed(L, c)
+    assert r["c_l_inf"] == pytest.approx(0.2, rel=1e-12) and r["b"] == pytest.approx(30.0, rel=1e-9)
+    assert r["c_l_inf_err"] < 1e-12
+    assert np.isnan(bulk_speed([8.0, 8.0, 8.0], [0.2, 0.2, 0.2])["c_l_inf"])  # one height
+    heights = np.repeat([8.0, 16.0, 32.0, 64.0], 3)
+    cl = (1 / 0.2**2 + 30.0 / heights) ** -0.5
+    feats = [{"t_lead10": 1.0 + h / 0.25, "t_peak": 2.0 + h / 0.22, "t_zero": 3.0 + h / 0.2,
+              "amplitude": h**-0.5, "width": h**0.25} for h in heights]
+    out = continuum_from_features(heights, feats, cl)
+    np.testing.assert_allclose(out["local"]["ratio_bulk"], 0.25 / 0.2, rtol=1e-9)
+    assert out["c_l_bulk"]["c_l_inf"] == pytest.approx(0.2, rel=1e-12)

@@ -23,6 +23,10 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze continuum --help`
 * **Global fits**: :func:`granwave.analysis.heights.height_series_from_features`
   (c_tof, c_peak, c_zero between the two smallest heights and over all heights, γ, α).
 * **Approach to c_l**: :func:`approach_fit` of the local ratio against L.
+* **Bulk c_l** (reported beside, not used by default): each packing's c_l comes from its
+  global C22, which includes the softer layers at the two walls; in series with the bulk
+  they add a fixed compliance, so 1/c_l² = 1/c_l∞² + b/L (:func:`bulk_speed`, fitted over
+  the packings). ``local.ratio_bulk`` = c_tof_local / c_l∞ and ``approach_bulk`` its fit.
 
 Units: lengths d, times d/sqrt(E*/rho), speeds sqrt(E*/rho), forces E* d^2.
 """
@@ -141,6 +145,29 @@ def approach_fit(L, ratio, err=None, *, tolerance: float = DEFAULT_TOLERANCE,
     return out
 
 
+def bulk_speed(L, c_l) -> dict:
+    """c_l∞ of 1/c_l² = 1/c_l∞² + b/L fitted over packings (heights L, speeds c_l; NaN left out).
+
+    The wall layers' compliance in series with the bulk's: C22(L)⁻¹ = C22∞⁻¹ + (2δ/L)
+    (C_w⁻¹ − C22∞⁻¹) at a bulk density independent of L. ``numpy.polyfit`` in 1/L, its
+    covariance scaled by the misfit; ``c_l_inf_err`` one standard error. NaN with fewer
+    than three packings or two distinct heights.
+    """
+    L = np.asarray(L, float)
+    c = np.asarray(c_l, float)
+    ok = np.isfinite(L) & np.isfinite(c) & (L > 0) & (c > 0)
+    nan = {"model": "1/c_l^2 = 1/c_l_inf^2 + b/L", "c_l_inf": math.nan, "c_l_inf_err": math.nan,
+           "b": math.nan, "n": int(ok.sum())}
+    if ok.sum() < 3 or np.unique(np.round(L[ok], 6)).size < 2:
+        return nan
+    coef, cov = np.polyfit(1.0 / L[ok], 1.0 / c[ok] ** 2, 1, cov=True)
+    if coef[1] <= 0:
+        return nan
+    ci = float(coef[1] ** -0.5)
+    return {**nan, "c_l_inf": ci, "c_l_inf_err": float(0.5 * ci**3 * math.sqrt(cov[1, 1])),
+            "b": float(coef[0])}
+
+
 def _local_speed(L, Lerr, t, terr):
     """Speeds between consecutive rows: (L_mid, c, c_err) from means and standard errors."""
     dL, dt = np.diff(L), np.diff(t)
@@ -210,6 +237,11 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
         local["ratio"] = local["c_tof"] / local["c_l"]
         local["ratio_err"] = np.abs(local["ratio"]) * np.hypot(
             local["c_tof_err"] / np.abs(local["c_tof"]), _nan0(local["c_l_err"] / local["c_l"]))
+    bulk = bulk_speed(L, cl)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        local["ratio_bulk"] = local["c_tof"] / bulk["c_l_inf"]
+        local["ratio_bulk_err"] = np.abs(local["ratio_bulk"]) * np.hypot(
+            local["c_tof_err"] / np.abs(local["c_tof"]), bulk["c_l_inf_err"] / bulk["c_l_inf"])
     amp = local_exponents_of_means(Lm, per["amplitude"], per["amplitude_sem"])
     wid = local_exponents_of_means(Lm, per["width"], per["width_sem"])
     local["gamma_eff"] = -amp["exponent"]
@@ -220,7 +252,7 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
     series = height_series_from_features(L, features, edge_heights=(float(Lm[0]), float(Lm[1])),
                                          group_rtol=group_rtol)
     out = {"n_signals": int(L.size), "n_heights": n_g,
-           "c_l": describe(cl), "c_t": describe(ct),
+           "c_l": describe(cl), "c_t": describe(ct), "c_l_bulk": bulk,
            "global": {k: v for k, v in series.items() if k not in ("per_height", "samples")},
            "per_height": per, "local": local}
     err = local["ratio_err"] if np.all(np.isfinite(local["ratio_err"])) else None
@@ -228,6 +260,9 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
         out["approach"] = approach_fit(local["height"], local["ratio"], err, tolerance=tolerance)
     except InputError as exc:
         out["approach"] = {"fit_error": str(exc), "status": "undecided"}
+    out["approach_bulk"] = (_safe_fit(local["height"], local["ratio_bulk"], local["ratio_bulk_err"],
+                                      tolerance) if math.isfinite(bulk["c_l_inf"])
+                            else {"fit_error": "no bulk c_l", "status": "undecided"})
     out["approach_apparent"] = _safe_fit(per["height"], per["ratio_apparent"],
                                          per["ratio_apparent_err"], tolerance)
     return out

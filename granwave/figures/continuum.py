@@ -22,7 +22,8 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     (a) local speeds c_tof, c_peak, c_zero and c_l, c_t against L; (b) c_tof/c_l (local and
     apparent L/t) with the fit 1 + a L^-beta and the ±tolerance band; (c) amplitude and
     (d) width against L (means ± standard error) with the local exponents γ_eff, α_eff on a
-    twin axis; (e) α(ω) and (f) c(ω) with error bars, the reliable band shaded, c_l dashed.
+    twin axis; (e) α(ω) and (f) c(ω) with error bars, the reliable band shaded, c_l dashed
+    (the bulk c_l∞ dotted, with the local c_tof/c_l∞ in (b), when the analysis gives it).
     Nothing is computed here: every number comes from the two analyses.
     """
     loc, per = front["local"], front["per_height"]
@@ -36,6 +37,9 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
                   fmt="o-", color=f"C{k}", label=f"c_{name} (local dL/dt)")
     _errorbar(ax, L, np.asarray(per["c_l"], float), np.asarray(per["c_l_sem"], float), fmt="s--",
               color="k", label=r"$c_\ell$ (own moduli)")
+    bulk = (front.get("c_l_bulk") or {}).get("c_l_inf")
+    if bulk is not None and np.isfinite(bulk):
+        ax.axhline(bulk, color="k", ls=":", lw=1, label=r"$c_{\ell\infty}$ (walls extrapolated out)")
     if np.any(np.isfinite(np.asarray(per["c_t"], float))):
         ax.plot(L, per["c_t"], "^:", color="0.5", label=r"$c_t$")
     ax.set_xscale("log")
@@ -49,6 +53,9 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     _errorbar(ax, L, np.asarray(per["ratio_apparent"], float),
               np.asarray(per["ratio_apparent_err"], float), fmt="s", color="C1", mfc="none",
               label=r"apparent $L/t_{10}$ over $c_\ell$")
+    if "ratio_bulk" in loc and np.any(np.isfinite(np.asarray(loc["ratio_bulk"], float))):
+        _errorbar(ax, Lm, np.asarray(loc["ratio_bulk"], float), np.asarray(loc["ratio_bulk_err"], float),
+                  fmt="D", color="C2", mfc="none", label=r"$c_{\rm tof}/c_{\ell\infty}$ local")
     app = front.get("approach", {})
     tol = float(app.get("tolerance", 0.05))
     xs = np.geomspace(min(Lm.min(), L.min()), max(L.max(), min(float(app.get("L_star") or 0), 1e5)) * 1.2, 100)
@@ -101,6 +108,8 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
                 cl = front.get("c_l", {}).get("mean")
                 if cl:
                     ax.axhline(cl, color="k", ls="--", lw=1, label=r"$c_\ell$ (mean)")
+                if bulk is not None and np.isfinite(bulk):
+                    ax.axhline(bulk, color="k", ls=":", lw=1, label=r"$c_{\ell\infty}$")
                 c0 = attenuation.get("c0")
                 if c0 is not None and np.isfinite(c0):
                     ax.plot([0], [c0], "D", color="C3", label=f"c0 = {c0:.4g}")

@@ -78,8 +78,13 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
             cl, ct = front.get("c_l", {}), front.get("c_t", {})
             md += [f"- pressure {front.get('pressure')}, {front['n_signals']} packings at "
                    f"{front['n_heights']} heights; c_ℓ = {fmt(cl.get('mean'), cl.get('sem'))}, "
-                   f"c_t = {fmt(ct.get('mean'), ct.get('sem'))} √(E*/ρ) (mean ± s.e. over all packings)",
-                   ""]
+                   f"c_t = {fmt(ct.get('mean'), ct.get('sem'))} √(E*/ρ) (mean ± s.e. over all packings)"]
+            bulk = front.get("c_l_bulk") or {}
+            if bulk.get("c_l_inf") is not None and math.isfinite(float(bulk["c_l_inf"])):
+                md[-1] += (f"; the packings' c_ℓ rises with L as the walls' share falls: "
+                           f"1/c_ℓ² = 1/c_ℓ∞² + b/L over the packings gives the bulk "
+                           f"c_ℓ∞ = {fmt(bulk['c_l_inf'], bulk.get('c_l_inf_err'))} (b = {fmt(bulk.get('b'), digits=3)})")
+            md.append("")
             per = front["per_height"]
             md += ["| L (d̄) | n | c_ℓ | L/t₁₀ | (L/t₁₀)/c_ℓ | \\|A\\| (E* d̄²) | W (d̄/√(E*/ρ)) |",
                    "|---|---|---|---|---|---|---|"]
@@ -111,20 +116,45 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
             if app.get("fit_error"):
                 md[-1] += f" The fit failed: {app['fit_error']}."
             md += ["", approach_sentence(app), ""]
+            appb = front.get("approach_bulk") or {}
+            if appb.get("beta") is not None and math.isfinite(float(appb.get("beta") or math.nan)):
+                md += [f"Against the bulk c_ℓ∞ instead (local c_tof/c_ℓ∞ = "
+                       + ", ".join(fmt(r, e) for r, e in zip(loc["ratio_bulk"], loc["ratio_bulk_err"]))
+                       + f"): β = {fmt(appb.get('beta'), appb.get('beta_err'), 3)} (95 % "
+                       f"{_ci(appb.get('beta_ci'))}), L* ≈ {fmt(appb.get('L_star'), digits=3)} d (95 % "
+                       f"{_ci(appb.get('L_star_ci'))}).", ""]
         if att:
             band = att.get("band", [math.nan, math.nan])
             md += [f"Attenuation and phase velocity of the coherent (ensemble-mean) signal over "
                    f"{len(att['heights'])} heights ({att['n_signals']} signals): reliable band "
-                   f"ω = {fmt(band[0], digits=3)} … {fmt(band[1], digits=3)} √(E*/ρ)/d̄ (every "
-                   f"height's |S| ≥ {att['threshold']:g} of its maximum); low-frequency limit "
-                   f"c0 = {fmt(att.get('c0'), att.get('c0_err'))} √(E*/ρ)"]
+                   f"ω = {fmt(band[0], digits=3)} … {fmt(band[1], digits=3)} √(E*/ρ)/d̄ (a height "
+                   f"counts at ω where its window after the arrival holds ≥ {att.get('min_periods', 0):g} "
+                   f"period and its |S| is ≥ {att.get('min_snr', 0):g} × its noise floor; reliable where "
+                   f"≥ {att.get('min_heights', 2)} heights count, the ln|S| fit passes χ² at "
+                   f"p ≥ {att.get('min_fit_p', 0):g} and every counted |S| ≥ {att['threshold']:g} of its "
+                   f"maximum)"]
+            rel_idx = [i for i, ok in enumerate(att["reliable"]) if ok]
+            if rel_idx:
+                i0, i1 = rel_idx[0], rel_idx[-1]
+                md[-1] += (f"; α = {fmt(att['alpha'][i0], att['alpha_err'][i0], 3)} /d̄ at the band's "
+                           f"bottom and {fmt(att['alpha'][i1], att['alpha_err'][i1], 3)} /d̄ at its top")
+            md[-1] += (f"; low-frequency limit c0 = {fmt(att.get('c0'), att.get('c0_err'))} √(E*/ρ) "
+                       f"(c = c0 + c2 ω² over ω = {fmt((att.get('omega_fit') or [math.nan])[0], digits=3)} … "
+                       f"{fmt((att.get('omega_fit') or [math.nan, math.nan])[-1], digits=3)})")
             if front and front.get("c_l", {}).get("mean"):
                 cl = front["c_l"]
                 r = float(att["c0"]) / float(cl["mean"]) if att.get("c0") is not None else math.nan
                 re = abs(r) * math.hypot(float(att.get("c0_err") or math.nan) / float(att["c0"]),
                                          float(cl.get("sem") or 0.0) / float(cl["mean"])) \
                     if att.get("c0") else math.nan
-                md[-1] += f", c0/c_ℓ = {fmt(r, re)}"
+                md[-1] += f", c0/c_ℓ = {fmt(r, re)} (mean c_ℓ)"
+                bulk = front.get("c_l_bulk") or {}
+                cb, cbe = bulk.get("c_l_inf"), bulk.get("c_l_inf_err")
+                if cb is not None and math.isfinite(float(cb)) and att.get("c0"):
+                    rb = float(att["c0"]) / float(cb)
+                    rbe = abs(rb) * math.hypot(float(att.get("c0_err") or math.nan) / float(att["c0"]),
+                                               float(cbe or 0.0) / float(cb))
+                    md[-1] += f", c0/c_ℓ∞ = {fmt(rb, rbe)} (bulk c_ℓ∞)"
             md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
                        f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
                        f"α = {fmt(att.get('alpha_ref'), att.get('alpha_ref_err'), 3)} /d̄")
