@@ -163,14 +163,30 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     return fel
 
 
-#: Grains per block of the grain passes and pairs per block of the pair pass: the blocks
-#: (not the threads) hold the partial maxima and sums, so results do not depend on the
-#: thread count.
-GRAIN_BLOCK = 128
-PAIR_BLOCK = 512
-# columns of the per-block statistics of the grain pass (``blk_g``)
+#: The parallel engine splits the grains into contiguous index blocks (docs/dem.md, "Parallel
+#: engine"): ``block_count(N)`` blocks of about BLOCK_GRAINS grains, their number a multiple of
+#: BLOCK_MULTIPLE so that 2 or 4 threads get equal shares of the blocks. The partition depends
+#: on N alone, never on the thread count; the blocks (not the threads) hold the partial maxima
+#: and sums.
+BLOCK_GRAINS = 1024
+BLOCK_MULTIPLE = 4
+# columns of the per-block statistics (``blk_g``)
 G_DMAX, G_NC, G_NTOP, G_AMAX, G_ALMAX, G_VMAX, G_WMAX, G_KIN, G_DVMAX, G_DISP = range(10)
 N_GCOL = 10
+
+
+@numba.njit(cache=True)
+def block_count(n):
+    """Number of grain blocks for ``n`` grains: the multiple of BLOCK_MULTIPLE nearest
+    n / BLOCK_GRAINS, at least BLOCK_MULTIPLE (and at most n, at least 1)."""
+    k = int(n / (BLOCK_MULTIPLE * BLOCK_GRAINS) + 0.5)
+    return max(1, min(n, BLOCK_MULTIPLE * max(1, k)))
+
+
+@numba.njit(cache=True, inline="always")
+def block_bounds(b, n, nblk):
+    """Grains [b0, b1) of block b of ``nblk`` over ``n`` grains."""
+    return b * n // nblk, (b + 1) * n // nblk
 
 
 # Geometry pieces of one contact, shared with the GPU kernels (granwave.gpu.compile compiles
@@ -264,311 +280,374 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
 
 
+
+
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
-    """Arrays of the parallel kernels for ``n_grains`` grains and room for ``cap`` pairs,
-    ``width`` neighbours per grain: (nbr, gl, ncnt, nlo, row, need, pair_w, blk_p, blk_g, top_f);
-    ``pair_w`` holds per pair the force on i (d columns), then the torques on i and on j
-    (r columns each), in one row so that a grain's gather reads one cache line per pair."""
-    nblk_g = (n_grains + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    nblk_p = (cap + PAIR_BLOCK - 1) // PAIR_BLOCK
-    return (np.zeros((n_grains, width), np.int64), np.zeros((n_grains, width), np.int64),
-            np.zeros(n_grains, np.int64), np.zeros(n_grains, np.int64), np.zeros(n_grains + 1, np.int64),
-            np.zeros(2, np.int64), np.zeros((cap, dim + 2 * n_rot)),
-            np.zeros((max(1, nblk_p), 2)), np.zeros((max(1, nblk_g), N_GCOL)),
-            np.zeros(max(1, nblk_g) * GRAIN_BLOCK))
-
-
-@numba.njit(cache=True, parallel=True)
-def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-               pair_w, blk_p):
-    """Force of every pair on its grain i into ``pair_w[:, :d]`` (j receives minus it), the
-    torques a_i (n x f) on i and a_j (n x f) on j into columns d:d+r and d+r:d+2r (zeros where
-    the grains do not touch: adding them changes no bit of a sum that starts from +0);
-    tangential histories updated. Largest overlap and
-    contact count of each block of PAIR_BLOCK pairs into ``blk_p``.
-
-    Contacts update their tangential history with slip = v_rel * fpar[F_DT]
-    (velocities at the half step of velocity Verlet, i.e. exactly the
-    displacement of the step). Written with scalars (three components, the third 0 in 2D)
-    so that nothing is allocated per contact and the contact, its tangential history
-    included, stays in registers (contact.py's scalar forms of the law). Each pair writes
-    only its own slots: no two threads touch the same memory.
-    """
-    nblk = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
-    for b in numba.prange(nblk):
-        _pair_block(np.int64(b), pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-                    pair_w, blk_p)
+    """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain:
+    (nbr, gl, ncnt, nlo, row, need, inc_start, inc_g, blk_g, top_f): the neighbour and gather
+    lists, counts and pair-list offsets of :func:`granwave.dem.neighbours.rebuild`, its
+    size request, the incoming grains of each block (:func:`incoming_lists`), the per-block
+    statistics and the top-wall forces. (``dim``, ``n_rot``, ``cap``: kept for the callers;
+    nothing here is per pair.)"""
+    n = n_grains
+    nblk = block_count(n)
+    return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
+            np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
+            np.zeros(2, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
+            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)))
 
 
 @numba.njit(cache=True)
-def _pair_block(b, pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-                pair_w, blk_p):
-    """Block b of :func:`_pair_pass` (a plain function: the parallel one stays small, which
-    keeps its compilation short)."""
+def incoming_lists(nbr, nlo, inc_start, inc_g):
+    """For each block b, its grains with a partner below the block, increasing, into
+    ``inc_g[inc_start[b]:inc_start[b + 1]]``: they receive the forces of pairs owned by
+    earlier blocks (the *incoming* pairs; the block's other grains have all their pairs in its
+    own rows). From the sorted neighbour rows of the last rebuild; O(N), serial."""
+    n = nlo.shape[0]
+    nblk = inc_start.shape[0] - 1
+    q = 0
+    for b in range(nblk):
+        inc_start[b] = q
+        b0, b1 = block_bounds(b, n, nblk)
+        for g in range(b0, b1):
+            if nlo[g] > 0 and nbr[g, 0] < b0:
+                inc_g[q] = g
+                q += 1
+    inc_start[nblk] = q
+
+
+@numba.njit(cache=True)
+def boundary_fraction(nbr, nlo, inc_start, inc_g, npairs):
+    """Incoming pairs (computed twice per step: once read-only by the block of j) over all
+    pairs of the list."""
+    n = nlo.shape[0]
+    nblk = inc_start.shape[0] - 1
+    m = 0
+    for b in range(nblk):
+        b0 = block_bounds(b, n, nblk)[0]
+        for q in range(inc_start[b], inc_start[b + 1]):
+            g = inc_g[q]
+            for t in range(nlo[g]):
+                if nbr[g, t] >= b0:
+                    break
+                m += 1
+    return m / max(1, npairs)
+
+
+@numba.njit(cache=True, inline="always")
+def _pair_law(pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+              e_pair, g_pair):
+    """Pair p = (i, j): (touching, delta, a_i, a_j, n, force on i, new tangential history),
+    with the arithmetic of the one-thread loop (dem/serial.py) so that the bits are its own.
+    Reads the history, writes nothing."""
     d = pos.shape[1]
     r = omega.shape[1]
+    dx, dy, dz = _pair_geometry(pos, lateral, i, j)
+    r2 = dx * dx + dy * dy + dz * dz
+    ri = rad[i]
+    rj = rad[j]
+    rs = ri + rj
+    if r2 >= rs * rs:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    dist = math.sqrt(r2)
+    delta = rs - dist
+    nx = dx / dist
+    ny = dy / dist
+    nz = dz / dist if d == 3 else 0.0
+    vx = vel[j, 0] - vel[i, 0]
+    vy = vel[j, 1] - vel[i, 1]
+    vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+    ai = ri - 0.5 * delta
+    aj = rj - 0.5 * delta
+    if r > 0:
+        # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
+        wx, wy, wz = _spin(omega, i, ai)
+        ux, uy, uz = _spin(omega, j, aj)
+        wx += ux
+        wy += uy
+        wz += uz
+        vx -= wy * nz - wz * ny
+        vy -= wz * nx - wx * nz
+        vz -= wx * ny - wy * nx
+    r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
+    meff = C.reduced_mass(mass[i], mass[j], False)
+    hx = hy = hz = 0.0
+    if mu > 0.0:
+        hx = pair_ft[p, 0]
+        hy = pair_ft[p, 1]
+        if d == 3:
+            hz = pair_ft[p, 2]
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
+                                                 vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
+                                                 mu, rescale)
+    return True, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz
+
+
+@numba.njit(cache=True, parallel=True)
+def _incoming_pass(pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+                   nlo, inc_start, inc_g):
+    """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
+    (``acc``, ``alpha``) to zero and adds to each of its grains g the forces of its incoming
+    pairs (k, g), k below the block, in increasing k (g's gather list), read-only: the owner
+    row computes the same force again in phase 2 and updates the history. For every grain
+    these are the first terms of the one-thread loop's sum, in its order."""
+    nblk = inc_start.shape[0] - 1
+    for b in numba.prange(nblk):
+        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov,
+                        fpar, nbr, gl, nlo, inc_start, inc_g)
+
+
+@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
+def _incoming_block(b, pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+                    nlo, inc_start, inc_g):
+    """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
+    keeps its compilation short)."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    nblk = inc_start.shape[0] - 1
+    b0, b1 = block_bounds(b, n, nblk)
+    for g in range(b0, b1):
+        for a in range(d):
+            acc[g, a] = 0.0
+        for a in range(r):
+            alpha[g, a] = 0.0
     dt = fpar[F_DT]
     zeta = fpar[F_ZETA]
     mu = fpar[F_MU]
     rescale = fpar[F_RESCALE] != 0.0
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar[F_POISSON], False)
+    for q in range(inc_start[b], inc_start[b + 1]):
+        g = inc_g[q]
+        for t in range(nlo[g]):
+            k = nbr[g, t]
+            if k >= b0:
+                break
+            touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
+                pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, gl[g, t], k, g, dt, zeta, mu,
+                rescale, e_pair, g_pair)
+            if not touch:
+                continue
+            acc[g, 0] -= fx
+            acc[g, 1] -= fy
+            if d == 3:
+                acc[g, 2] -= fz
+            if r > 0:
+                _add_torque3(alpha, g, aj, nx, ny, nz, fx, fy, fz)
+
+
+@numba.njit(cache=True, inline="always")
+def _finish(i, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift):
+    """Grain i after its force and torque: accelerations and the second half kick; with
+    ``stats`` (|a|^2, |alpha|^2, |v|^2, |w|^2 R^2, kinetic energy) after the kick; with ``drift``
+    the next step's first half kick and drift, (|v|^2, squared displacement since ``pos0``)."""
+    d = pos.shape[1]
+    r = omega.shape[1]
+    half = 0.5 * dt
+    inv = 1.0 / mass[i]
+    for a in range(d):
+        acc[i, a] *= inv
+        vel[i, a] += half * acc[i, a]
+    inv = 1.0 / inertia[i]
+    for a in range(r):
+        alpha[i, a] *= inv
+        omega[i, a] += half * alpha[i, a]
+    a2 = 0.0
+    v2 = 0.0
+    al2 = 0.0
+    w2 = 0.0
+    if stats:
+        for a in range(d):
+            a2 += acc[i, a] * acc[i, a]
+            v2 += vel[i, a] * vel[i, a]
+        for a in range(r):
+            al2 += alpha[i, a] * alpha[i, a]
+            w2 += omega[i, a] * omega[i, a]
+    dv2 = 0.0
+    s = 0.0
+    if drift:
+        for a in range(d):
+            vel[i, a] += half * acc[i, a]
+            pos[i, a] += dt * vel[i, a]
+            dv2 += vel[i, a] * vel[i, a]
+            x = pos[i, a] - pos0[i, a]
+            s += x * x
+        for a in range(r):
+            omega[i, a] += half * alpha[i, a]
+    return a2, al2, v2, w2 * rad[i] * rad[i], 0.5 * (mass[i] * v2 + inertia[i] * w2), dv2, s
+
+
+@numba.njit(cache=True, parallel=True)
+def _row_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+              pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
+              drift):
+    """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
+    one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
+    tangential histories and adding each force to i, and to j when j is in the block (a j
+    beyond it got the same force in its own block's phase 1, :func:`_incoming_pass`); then, per grain of the block, its bottom and top wall contacts
+    and the background damping -gamma m v, -gamma I w: for every grain the terms of the
+    one-thread loop in its order, so its force is bit for bit that loop's.
+
+    ``kick`` 0: forces and torques stay in ``acc``, ``alpha``; 1: accelerations, the second
+    half kick and (``stats``, ``drift``: see :func:`_finish`) for the block's grains that no
+    earlier block reads in this phase (those without incoming pairs); the others wait for
+    :func:`_deferred_pass`. Per block into ``blk_g``: largest overlap, contacts (its rows
+    and walls), top-wall contacts (their forces on the piston, grain order, into ``top_f``
+    from the block's first grain), the measures of the grains finished here.
+    """
+    nblk = inc_start.shape[0] - 1
+    for b in numba.prange(nblk):
+        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g,
+                   top_f, kick, stats, drift)
+
+
+@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
+def _row_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+               pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
+               drift):
+    """Block b of :func:`_row_pass`."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    nblk = inc_start.shape[0] - 1
+    b0, b1 = block_bounds(b, n, nblk)
+    dt = fpar[F_DT]
+    zeta = fpar[F_ZETA]
+    mu = fpar[F_MU]
+    gamma = fpar[F_GAMMA]
+    rescale = fpar[F_RESCALE] != 0.0
+    e_pair = C.effective_young(False)
+    g_pair = C.effective_shear(fpar[F_POISSON], False)
+    e_wall = C.effective_young(True)
+    g_wall = C.effective_shear(fpar[F_POISSON], True)
     dmax = 0.0
     ncontact = 0
-    for p in range(b * PAIR_BLOCK, min(npairs, (b + 1) * PAIR_BLOCK)):
+    for p in range(row[b0], row[b1]):
         i = pair_i[p]
         j = pair_j[p]
-        dx, dy, dz = _pair_geometry(pos, lateral, i, j)
-        r2 = dx * dx + dy * dy + dz * dz
-        ri = rad[i]
-        rj = rad[j]
-        rs = ri + rj
-        if r2 >= rs * rs:
-            for a in range(d + 2 * r):
-                pair_w[p, a] = 0.0
+        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
+            pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+            e_pair, g_pair)
+        if not touch:
             if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
                 pair_ov[p] = 0.0
                 for a in range(d):
                     pair_ft[p, a] = 0.0
             continue
-        dist = math.sqrt(r2)
-        delta = rs - dist
-        nx = dx / dist
-        ny = dy / dist
-        nz = dz / dist if d == 3 else 0.0
-        vx = vel[j, 0] - vel[i, 0]
-        vy = vel[j, 1] - vel[i, 1]
-        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
-        ai = ri - 0.5 * delta
-        aj = rj - 0.5 * delta
-        if r > 0:
-            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-            if r == 1:
-                wx = 0.0
-                wy = 0.0
-                wz = ai * omega[i, 0] + aj * omega[j, 0]
-            else:
-                wx = ai * omega[i, 0] + aj * omega[j, 0]
-                wy = ai * omega[i, 1] + aj * omega[j, 1]
-                wz = ai * omega[i, 2] + aj * omega[j, 2]
-            vx -= wy * nz - wz * ny
-            vy -= wz * nx - wx * nz
-            vz -= wx * ny - wy * nx
-        r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
-        meff = C.reduced_mass(mass[i], mass[j], False)
-        hx = hy = hz = 0.0
-        if mu > 0.0:
-            hx = pair_ft[p, 0]
-            hy = pair_ft[p, 1]
-            if d == 3:
-                hz = pair_ft[p, 2]
-        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
-                                                     vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
-                                                     mu, rescale)
         if mu > 0.0:
             pair_ft[p, 0] = hx
             pair_ft[p, 1] = hy
             if d == 3:
                 pair_ft[p, 2] = hz
         pair_ov[p] = delta
-        pair_w[p, 0] = fx
-        pair_w[p, 1] = fy
+        inside = j < b1
+        acc[i, 0] += fx
+        acc[i, 1] += fy
         if d == 3:
-            pair_w[p, 2] = fz
-        if r == 1:
-            c = nx * fy - ny * fx
-            pair_w[p, d] = ai * c
-            pair_w[p, d + 1] = aj * c
-        elif r == 3:
-            c0 = ny * fz - nz * fy
-            c1 = nz * fx - nx * fz
-            c2 = nx * fy - ny * fx
-            pair_w[p, d] = ai * c0
-            pair_w[p, d + 1] = ai * c1
-            pair_w[p, d + 2] = ai * c2
-            pair_w[p, d + 3] = aj * c0
-            pair_w[p, d + 4] = aj * c1
-            pair_w[p, d + 5] = aj * c2
+            acc[i, 2] += fz
+        if inside:
+            acc[j, 0] -= fx
+            acc[j, 1] -= fy
+            if d == 3:
+                acc[j, 2] -= fz
+        if r > 0:
+            _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
+            if inside:
+                _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
         if delta > dmax:
             dmax = delta
         ncontact += 1
-    blk_p[b, 0] = dmax
-    blk_p[b, 1] = ncontact
-
-
-@numba.njit(cache=True, parallel=True)
-def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
-    """Per grain: its pair forces gathered in increasing pair order, then its two wall
-    contacts (bottom, top), then the background damping -gamma m v, -gamma I w: the
-    order of the former serial force loop, so sums are bit for bit those of one thread.
-
-    ``kick`` 0: total force and torque into ``acc``, ``alpha``; 1: accelerations into
-    ``acc``, ``alpha`` and the second half kick of velocity Verlet. ``stats``: also the
-    block maxima of |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the block sums of the kinetic
-    energy (after the kick). ``drift``: then also the first half kick and drift of the
-    next step (the state between steps is the same as with a separate pass), with the
-    block maxima of |v|^2 and of the squared displacement since ``pos0``.
-    Per block (GRAIN_BLOCK grains) into ``blk_g``: largest wall overlap, wall contacts,
-    top-wall contacts (their forces on the piston, grain order, into ``top_f`` from
-    b * GRAIN_BLOCK).
-    """
-    n, d = pos.shape
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    for b in numba.prange(nblk):
-        _grain_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston,
-                     fpar, nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
-
-
-@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
-def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                 nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
-    """Block b of :func:`_grain_pass` (a plain function: the parallel one stays small, which
-    keeps its compilation short)."""
-    n, d = pos.shape
-    r = omega.shape[1]
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    gamma = fpar[F_GAMMA]
-    rescale = fpar[F_RESCALE] != 0.0
-    e_wall = C.effective_young(True)
-    g_wall = C.effective_shear(fpar[F_POISSON], True)
+    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
     h = piston[P_H]
     vp = piston[P_V]
-    dmax = 0.0
-    ncontact = 0
     ntop = 0
-    amax = 0.0
-    almax = 0.0
-    vmax = 0.0
-    wmax = 0.0
-    kin = 0.0
-    dvmax = 0.0
-    disp = 0.0
-    for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
-        f0 = 0.0
-        f1 = 0.0
-        f2 = 0.0
-        t0 = 0.0
-        t1 = 0.0
-        t2 = 0.0
-        lo = nlo[i]
-        for t in range(lo):  # pairs where i is the j (lower pair indices first)
-            p = nbr_gl[i, t]
-            f0 -= pair_w[p, 0]
-            f1 -= pair_w[p, 1]
-            if d == 3:
-                f2 -= pair_w[p, 2]
-            if r == 1:
-                t0 += pair_w[p, d + 1]
-            elif r == 3:
-                t0 += pair_w[p, d + 3]
-                t1 += pair_w[p, d + 4]
-                t2 += pair_w[p, d + 5]
-        for t in range(lo, ncnt[i]):  # pairs where i is the i
-            p = nbr_gl[i, t]
-            f0 += pair_w[p, 0]
-            f1 += pair_w[p, 1]
-            if d == 3:
-                f2 += pair_w[p, 2]
-            if r >= 1:
-                t0 += pair_w[p, d]
-            if r == 3:
-                t1 += pair_w[p, d + 1]
-                t2 += pair_w[p, d + 2]
-        # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+    for i in range(b0, b1):
         for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft,
-                                                             wall_ov, i, k, h, vp, e_wall, g_wall,
-                                                             dt, zeta, mu, rescale)
+            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
+                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
+                                                             rescale)
             if delta <= 0.0:
                 continue
-            f0 += fx
-            f1 += fy
+            acc[i, 0] += fx
+            acc[i, 1] += fy
             if d == 3:
-                f2 += fz
-            if r == 1:
-                t0 += ai * (nx * fy - ny * fx)
-            elif r == 3:
-                t0 += ai * (ny * fz - nz * fy)
-                t1 += ai * (nz * fx - nx * fz)
-                t2 += ai * (nx * fy - ny * fx)
+                acc[i, 2] += fz
+            if r > 0:
+                _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
             if k == 1:
-                top_f[b * GRAIN_BLOCK + ntop] = fz if d == 3 else fy
+                top_f[b0 + ntop] = fz if d == 3 else fy
                 ntop += 1
             if delta > dmax:
                 dmax = delta
             ncontact += 1
-        if gamma > 0.0:
-            f0 -= gamma * mass[i] * vel[i, 0]
-            f1 -= gamma * mass[i] * vel[i, 1]
-            if d == 3:
-                f2 -= gamma * mass[i] * vel[i, 2]
-            if r >= 1:
-                t0 -= gamma * inertia[i] * omega[i, 0]
-            if r == 3:
-                t1 -= gamma * inertia[i] * omega[i, 1]
-                t2 -= gamma * inertia[i] * omega[i, 2]
-        acc[i, 0] = f0
-        acc[i, 1] = f1
-        if d == 3:
-            acc[i, 2] = f2
-        if r >= 1:
-            alpha[i, 0] = t0
-        if r == 3:
-            alpha[i, 1] = t1
-            alpha[i, 2] = t2
-    # kick, measures and drift in separate short loops over the block (they vectorize and keep
-    # the force loop's registers free; the same operations per grain as one loop)
-    lo = b * GRAIN_BLOCK
-    hi = min(n, (b + 1) * GRAIN_BLOCK)
+    if gamma > 0.0:
+        for i in range(b0, b1):
+            for a in range(d):
+                acc[i, a] -= gamma * mass[i] * vel[i, a]
+            for a in range(r):
+                alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+    amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
     if kick:
-        half = 0.5 * dt
-        for i in range(lo, hi):
-            inv = 1.0 / mass[i]
-            for a in range(d):
-                acc[i, a] *= inv
-                vel[i, a] += half * acc[i, a]
-            inv = 1.0 / inertia[i]
-            for a in range(r):
-                alpha[i, a] *= inv
-                omega[i, a] += half * alpha[i, a]
-    if stats:
-        for i in range(lo, hi):
-            a2 = 0.0
-            v2 = 0.0
-            for a in range(d):
-                a2 += acc[i, a] * acc[i, a]
-                v2 += vel[i, a] * vel[i, a]
-            al2 = 0.0
-            w2 = 0.0
-            for a in range(r):
-                al2 += alpha[i, a] * alpha[i, a]
-                w2 += omega[i, a] * omega[i, a]
+        q = inc_start[b]
+        q_end = inc_start[b + 1]
+        for i in range(b0, b1):
+            if q < q_end and inc_g[q] == i:  # read by earlier blocks' rows: finished in phase 3
+                q += 1
+                continue
+            a2, al2, v2, w2r2, e, dv2, s = _finish(i, pos, vel, acc, omega, alpha, rad, mass, inertia,
+                                                   pos0, dt, stats, drift)
             amax = max(amax, a2)
             almax = max(almax, al2)
             vmax = max(vmax, v2)
-            wmax = max(wmax, w2 * rad[i] * rad[i])
-            kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
-    if drift:
-        half = 0.5 * dt
-        for i in range(lo, hi):
-            v2 = 0.0
-            s = 0.0
-            for a in range(d):
-                vel[i, a] += half * acc[i, a]
-                pos[i, a] += dt * vel[i, a]
-                v2 += vel[i, a] * vel[i, a]
-                x = pos[i, a] - pos0[i, a]
-                s += x * x
-            dvmax = max(dvmax, v2)
+            wmax = max(wmax, w2r2)
+            kin += e
+            dvmax = max(dvmax, dv2)
             disp = max(disp, s)
-            for a in range(r):
-                omega[i, a] += half * alpha[i, a]
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
     blk_g[b, G_NTOP] = ntop
+    blk_g[b, G_AMAX] = amax
+    blk_g[b, G_ALMAX] = almax
+    blk_g[b, G_VMAX] = vmax
+    blk_g[b, G_WMAX] = wmax
+    blk_g[b, G_KIN] = kin
+    blk_g[b, G_DVMAX] = dvmax
+    blk_g[b, G_DISP] = disp
+
+
+@numba.njit(cache=True, parallel=True)
+def _deferred_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, inc_start, inc_g, blk_g,
+                   stats, drift):
+    """Phase 3 of a step (with a kick), after phase 2: :func:`_finish` for each block's grains
+    with incoming pairs, which earlier blocks' rows read during phase 2; their measures
+    combined into the block's row of ``blk_g``."""
+    nblk = inc_start.shape[0] - 1
+    for b in numba.prange(nblk):
+        _deferred_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, inc_start,
+                        inc_g, blk_g, stats, drift)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _deferred_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, inc_start, inc_g, blk_g,
+                    stats, drift):
+    """Block b of :func:`_deferred_pass`."""
+    amax = blk_g[b, G_AMAX]
+    almax = blk_g[b, G_ALMAX]
+    vmax = blk_g[b, G_VMAX]
+    wmax = blk_g[b, G_WMAX]
+    kin = blk_g[b, G_KIN]
+    dvmax = blk_g[b, G_DVMAX]
+    disp = blk_g[b, G_DISP]
+    for q in range(inc_start[b], inc_start[b + 1]):
+        a2, al2, v2, w2r2, e, dv2, s = _finish(inc_g[q], pos, vel, acc, omega, alpha, rad, mass, inertia,
+                                               pos0, dt, stats, drift)
+        amax = max(amax, a2)
+        almax = max(almax, al2)
+        vmax = max(vmax, v2)
+        wmax = max(wmax, w2r2)
+        kin += e
+        dvmax = max(dvmax, dv2)
+        disp = max(disp, s)
     blk_g[b, G_AMAX] = amax
     blk_g[b, G_ALMAX] = almax
     blk_g[b, G_VMAX] = vmax
@@ -584,11 +663,12 @@ def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
     displacement since ``pos0`` into ``blk_g`` (columns G_DVMAX, G_DISP)."""
     n, d = pos.shape
     r = omega.shape[1]
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    nblk = blk_g.shape[0]
     for b in numba.prange(nblk):
         dvmax = 0.0
         disp = 0.0
-        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+        b0, b1 = block_bounds(np.int64(b), n, nblk)
+        for i in range(b0, b1):
             v2 = 0.0
             s = 0.0
             for a in range(d):
@@ -609,10 +689,11 @@ def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
 def _displacement_pass(pos, pos0, blk_g):
     """Block maxima of the squared displacement since ``pos0`` into ``blk_g[:, G_DISP]``."""
     n, d = pos.shape
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    nblk = blk_g.shape[0]
     for b in numba.prange(nblk):
         disp = 0.0
-        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+        b0, b1 = block_bounds(np.int64(b), n, nblk)
+        for i in range(b0, b1):
             s = 0.0
             for a in range(d):
                 x = pos[i, a] - pos0[i, a]
@@ -622,9 +703,9 @@ def _displacement_pass(pos, pos0, blk_g):
 
 
 @numba.njit(cache=True)
-def _block_max(blk, nblk, col):
+def _block_max(blk, col):
     m = 0.0
-    for b in range(nblk):
+    for b in range(blk.shape[0]):
         m = max(m, blk[b, col])
     return m
 
@@ -632,33 +713,34 @@ def _block_max(blk, nblk, col):
 @numba.njit(cache=True)
 def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, kick, stats, drift):
-    """Pair pass, then grain pass (see both); reduce the blocks into ``out`` and the piston's
-    contact force (its grains' forces summed in grain order) and acceleration; with
-    ``stats`` the convergence measures as :func:`measure` (the kinetic energy summed by
-    blocks: only its finiteness is used)."""
-    nbr_gl, ncnt, nlo, pair_w, blk_p, blk_g, top_f = ws[1], ws[2], ws[3], ws[6], ws[7], ws[8], ws[9]
-    npairs = ipar[I_NPAIRS]
-    _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-               pair_w, blk_p)
-    _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
+    """Phases 1, 2 and (with ``kick``) 3 of a step (see each); reduce the blocks into ``out``
+    and the piston's contact force (its grains' forces summed in grain order) and
+    acceleration; with ``stats`` the convergence measures as :func:`measure` (the kinetic
+    energy summed by blocks: only its finiteness is used). The incoming lists
+    (:func:`incoming_lists`) must be those of the current pair list."""
+    nbr, gl, nlo, row, inc_start, inc_g, blk_g, top_f = ws[0], ws[1], ws[3], ws[4], ws[6], ws[7], ws[8], ws[9]
+    _incoming_pass(pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl, nlo,
+                   inc_start, inc_g)
+    _row_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+              pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
+              drift)
+    if kick:
+        _deferred_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, fpar[F_DT], inc_start, inc_g,
+                       blk_g, stats, drift)
     n = pos.shape[0]
-    nblk_p = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
-    nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    nblk = blk_g.shape[0]
     dmax = 0.0
     ncontact = 0
-    for b in range(nblk_p):
-        dmax = max(dmax, blk_p[b, 0])
-        ncontact += int(blk_p[b, 1])
     fpiston = 0.0
     ntop = 0
     kin = 0.0
-    for b in range(nblk_g):
+    for b in range(nblk):
+        b0 = block_bounds(b, n, nblk)[0]
         dmax = max(dmax, blk_g[b, G_DMAX])
         ncontact += int(blk_g[b, G_NC])
         nt = int(blk_g[b, G_NTOP])
         for c in range(nt):
-            fpiston -= top_f[b * GRAIN_BLOCK + c]
+            fpiston -= top_f[b0 + c]
         ntop += nt
         kin += blk_g[b, G_KIN]
     piston[P_FCON] = fpiston
@@ -667,10 +749,10 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     out[O_NTOP] = ntop
     out[O_NCONTACT] = ncontact
     if stats:
-        out[O_AMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_AMAX))
-        out[O_ALPHAMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_ALMAX))
-        out[O_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_VMAX))
-        out[O_WMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_WMAX))
+        out[O_AMAX] = math.sqrt(_block_max(blk_g, G_AMAX))
+        out[O_ALPHAMAX] = math.sqrt(_block_max(blk_g, G_ALMAX))
+        out[O_VMAX] = math.sqrt(_block_max(blk_g, G_VMAX))
+        out[O_WMAX] = math.sqrt(_block_max(blk_g, G_WMAX))
         if piston[P_MASS] < np.inf:
             out[O_APISTON] = abs(piston[P_A])
             kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
@@ -688,6 +770,7 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     Also adds the background damping -gamma m v, -gamma I w. Contacts update their
     tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced).
     """
+    incoming_lists(ws[0], ws[3], ws[6], ws[7])
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, False, False, False)
 
@@ -824,14 +907,14 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     pair list or follows a check (then :func:`_drift_pass`).
     """
     n, d = pos.shape
-    nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
     blk_g = ws[8]
+    incoming_lists(ws[0], ws[3], ws[6], ws[7])  # the lists may come from another engine path
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
     # largest squared displacement since the last build (then kept by the drift)
     _displacement_pass(pos, pos0, blk_g)
-    disp2 = _block_max(blk_g, nblk_g, G_DISP)
+    disp2 = _block_max(blk_g, G_DISP)
     drifted = False
     for step in range(n_steps):
         dt = fpar[F_DT]
@@ -851,13 +934,14 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     return 2
                 ipar[I_NPAIRS] = np_new
                 ipar[I_REBUILDS] += 1
+                incoming_lists(ws[0], ws[3], ws[6], ws[7])
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]
                 disp2 = 0.0
             _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
-            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))
-            disp2 = _block_max(blk_g, nblk_g, G_DISP)
+            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
+            disp2 = _block_max(blk_g, G_DISP)
             if piston[P_MASS] < np.inf:
                 piston[P_V] += 0.5 * dt * piston[P_A]
                 piston[P_H] += dt * piston[P_V]
@@ -872,8 +956,8 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             piston[P_V] += 0.5 * dt * piston[P_A]
         ipar[I_STEPS] += 1
         if drifted:
-            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))
-            disp2 = _block_max(blk_g, nblk_g, G_DISP)
+            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
+            disp2 = _block_max(blk_g, G_DISP)
             if piston[P_MASS] < np.inf:
                 piston[P_V] += 0.5 * dt * piston[P_A]
                 piston[P_H] += dt * piston[P_V]
