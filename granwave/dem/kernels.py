@@ -284,17 +284,27 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain:
-    (nbr, gl, ncnt, nlo, row, need, inc_start, inc_g, blk_g, top_f): the neighbour and gather
-    lists, counts and pair-list offsets of :func:`granwave.dem.neighbours.rebuild`, its
+    (nbr, gl, ncnt, nlo, row, need, inc_start, inc_g, blk_g, top_f, inv_rad): the neighbour and
+    gather lists, counts and pair-list offsets of :func:`granwave.dem.neighbours.rebuild`, its
     size request, the incoming grains of each block (:func:`incoming_lists`), the per-block
-    statistics and the top-wall forces. (``dim``, ``n_rot``, ``cap``: kept for the callers;
+    statistics, the top-wall forces and 1/R per grain (:func:`prepare_blocks`). (``dim``, ``n_rot``, ``cap``: kept for the callers;
     nothing here is per pair.)"""
     n = n_grains
     nblk = block_count(n)
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
             np.zeros(2, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
-            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)))
+            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n))
+
+
+@numba.njit(cache=True)
+def prepare_blocks(rad, ws):
+    """Fill the workspace's incoming lists (:func:`incoming_lists`) and 1/R per grain (one
+    division per grain, not two per pair and step)."""
+    incoming_lists(ws[0], ws[3], ws[6], ws[7])
+    inv_rad = ws[10]
+    for i in range(rad.shape[0]):
+        inv_rad[i] = 1.0 / rad[i]
 
 
 @numba.njit(cache=True)
@@ -335,8 +345,8 @@ def boundary_fraction(nbr, nlo, inc_start, inc_g, npairs):
 
 
 @numba.njit(cache=True, inline="always")
-def _pair_law(pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
-              e_pair, g_pair):
+def _pair_law(pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu,
+              rescale, e_pair, g_pair):
     """Pair p = (i, j): (touching, delta, a_i, a_j, n, force on i, new tangential history),
     with the arithmetic of the one-thread loop (dem/serial.py) so that the bits are its own.
     Reads the history, writes nothing."""
@@ -369,7 +379,7 @@ def _pair_law(pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt
         vx -= wy * nz - wz * ny
         vy -= wz * nx - wx * nz
         vz -= wx * ny - wy * nx
-    r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
+    r12 = C.effective_radius(inv_rad[i], inv_rad[j])
     meff = C.reduced_mass(mass[i], mass[j], False)
     hx = hy = hz = 0.0
     if mu > 0.0:
@@ -384,7 +394,7 @@ def _pair_law(pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt
 
 
 @numba.njit(cache=True, parallel=True)
-def _incoming_pass(pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
                    nlo, inc_start, inc_g):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero and adds to each of its grains g the forces of its incoming
@@ -393,12 +403,12 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pai
     these are the first terms of the one-thread loop's sum, in its order."""
     nblk = inc_start.shape[0] - 1
     for b in numba.prange(nblk):
-        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov,
+        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov,
                         fpar, nbr, gl, nlo, inc_start, inc_g)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
-def _incoming_block(b, pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
                     nlo, inc_start, inc_g):
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
     keeps its compilation short)."""
@@ -424,7 +434,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft,
             if k >= b0:
                 break
             touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-                pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, gl[g, t], k, g, dt, zeta, mu,
+                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, gl[g, t], k, g, dt, zeta, mu,
                 rescale, e_pair, g_pair)
             if not touch:
                 continue
@@ -437,48 +447,61 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft,
 
 
 @numba.njit(cache=True, inline="always")
-def _finish(i, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift):
-    """Grain i after its force and torque: accelerations and the second half kick; with
-    ``stats`` (|a|^2, |alpha|^2, |v|^2, |w|^2 R^2, kinetic energy) after the kick; with ``drift``
-    the next step's first half kick and drift, (|v|^2, squared displacement since ``pos0``)."""
+def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift):
+    """Grains lo..hi-1 after their forces and torques: accelerations and the second half kick;
+    with ``stats`` the largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the summed kinetic
+    energy, after the kick; with ``drift`` the next step's first half kick and drift, the
+    largest |v|^2 and squared displacement since ``pos0``. Returned in that order. Separate
+    short loops (they vectorize); the same operations per grain as one loop."""
     d = pos.shape[1]
     r = omega.shape[1]
     half = 0.5 * dt
-    inv = 1.0 / mass[i]
-    for a in range(d):
-        acc[i, a] *= inv
-        vel[i, a] += half * acc[i, a]
-    inv = 1.0 / inertia[i]
-    for a in range(r):
-        alpha[i, a] *= inv
-        omega[i, a] += half * alpha[i, a]
-    a2 = 0.0
-    v2 = 0.0
-    al2 = 0.0
-    w2 = 0.0
-    if stats:
+    for i in range(lo, hi):
+        inv = 1.0 / mass[i]
         for a in range(d):
-            a2 += acc[i, a] * acc[i, a]
-            v2 += vel[i, a] * vel[i, a]
-        for a in range(r):
-            al2 += alpha[i, a] * alpha[i, a]
-            w2 += omega[i, a] * omega[i, a]
-    dv2 = 0.0
-    s = 0.0
-    if drift:
-        for a in range(d):
+            acc[i, a] *= inv
             vel[i, a] += half * acc[i, a]
-            pos[i, a] += dt * vel[i, a]
-            dv2 += vel[i, a] * vel[i, a]
-            x = pos[i, a] - pos0[i, a]
-            s += x * x
+        inv = 1.0 / inertia[i]
         for a in range(r):
+            alpha[i, a] *= inv
             omega[i, a] += half * alpha[i, a]
-    return a2, al2, v2, w2 * rad[i] * rad[i], 0.5 * (mass[i] * v2 + inertia[i] * w2), dv2, s
+    amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
+    if stats:
+        for i in range(lo, hi):
+            a2 = 0.0
+            v2 = 0.0
+            for a in range(d):
+                a2 += acc[i, a] * acc[i, a]
+                v2 += vel[i, a] * vel[i, a]
+            al2 = 0.0
+            w2 = 0.0
+            for a in range(r):
+                al2 += alpha[i, a] * alpha[i, a]
+                w2 += omega[i, a] * omega[i, a]
+            amax = max(amax, a2)
+            almax = max(almax, al2)
+            vmax = max(vmax, v2)
+            wmax = max(wmax, w2 * rad[i] * rad[i])
+            kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+    if drift:
+        for i in range(lo, hi):
+            v2 = 0.0
+            s = 0.0
+            for a in range(d):
+                vel[i, a] += half * acc[i, a]
+                pos[i, a] += dt * vel[i, a]
+                v2 += vel[i, a] * vel[i, a]
+                x = pos[i, a] - pos0[i, a]
+                s += x * x
+            dvmax = max(dvmax, v2)
+            disp = max(disp, s)
+            for a in range(r):
+                omega[i, a] += half * alpha[i, a]
+    return amax, almax, vmax, wmax, kin, dvmax, disp
 
 
 @numba.njit(cache=True, parallel=True)
-def _row_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
               pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
               drift):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
@@ -497,13 +520,13 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     """
     nblk = inc_start.shape[0] - 1
     for b in numba.prange(nblk):
-        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i,
                    pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g,
                    top_f, kick, stats, drift)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
-def _row_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
                pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
                drift):
     """Block b of :func:`_row_pass`."""
@@ -526,7 +549,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
         i = pair_i[p]
         j = pair_j[p]
         touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-            pos, vel, omega, rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+            pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
             e_pair, g_pair)
         if not touch:
             if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
@@ -588,21 +611,21 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                 alpha[i, a] -= gamma * inertia[i] * omega[i, a]
     amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
     if kick:
-        q = inc_start[b]
-        q_end = inc_start[b + 1]
-        for i in range(b0, b1):
-            if q < q_end and inc_g[q] == i:  # read by earlier blocks' rows: finished in phase 3
-                q += 1
-                continue
-            a2, al2, v2, w2r2, e, dv2, s = _finish(i, pos, vel, acc, omega, alpha, rad, mass, inertia,
-                                                   pos0, dt, stats, drift)
-            amax = max(amax, a2)
-            almax = max(almax, al2)
-            vmax = max(vmax, v2)
-            wmax = max(wmax, w2r2)
-            kin += e
-            dvmax = max(dvmax, dv2)
-            disp = max(disp, s)
+        # the grains between the incoming ones (those are read by earlier blocks' rows during
+        # this phase and are finished in phase 3)
+        lo = b0
+        for q in range(inc_start[b], inc_start[b + 1] + 1):
+            hi = inc_g[q] if q < inc_start[b + 1] else b1
+            if hi > lo:
+                m = _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift)
+                amax = max(amax, m[0])
+                almax = max(almax, m[1])
+                vmax = max(vmax, m[2])
+                wmax = max(wmax, m[3])
+                kin += m[4]
+                dvmax = max(dvmax, m[5])
+                disp = max(disp, m[6])
+            lo = hi + 1
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
     blk_g[b, G_NTOP] = ntop
@@ -639,15 +662,15 @@ def _deferred_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt
     dvmax = blk_g[b, G_DVMAX]
     disp = blk_g[b, G_DISP]
     for q in range(inc_start[b], inc_start[b + 1]):
-        a2, al2, v2, w2r2, e, dv2, s = _finish(inc_g[q], pos, vel, acc, omega, alpha, rad, mass, inertia,
-                                               pos0, dt, stats, drift)
-        amax = max(amax, a2)
-        almax = max(almax, al2)
-        vmax = max(vmax, v2)
-        wmax = max(wmax, w2r2)
-        kin += e
-        dvmax = max(dvmax, dv2)
-        disp = max(disp, s)
+        g = inc_g[q]
+        m = _finish(g, g + 1, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift)
+        amax = max(amax, m[0])
+        almax = max(almax, m[1])
+        vmax = max(vmax, m[2])
+        wmax = max(wmax, m[3])
+        kin += m[4]
+        dvmax = max(dvmax, m[5])
+        disp = max(disp, m[6])
     blk_g[b, G_AMAX] = amax
     blk_g[b, G_ALMAX] = almax
     blk_g[b, G_VMAX] = vmax
@@ -719,9 +742,10 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     energy summed by blocks: only its finiteness is used). The incoming lists
     (:func:`incoming_lists`) must be those of the current pair list."""
     nbr, gl, nlo, row, inc_start, inc_g, blk_g, top_f = ws[0], ws[1], ws[3], ws[4], ws[6], ws[7], ws[8], ws[9]
-    _incoming_pass(pos, vel, acc, omega, alpha, rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl, nlo,
+    inv_rad = ws[10]
+    _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl, nlo,
                    inc_start, inc_g)
-    _row_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+    _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
               pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
               drift)
     if kick:
@@ -770,7 +794,7 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     Also adds the background damping -gamma m v, -gamma I w. Contacts update their
     tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced).
     """
-    incoming_lists(ws[0], ws[3], ws[6], ws[7])
+    prepare_blocks(rad, ws)
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, False, False, False)
 
@@ -908,7 +932,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     """
     n, d = pos.shape
     blk_g = ws[8]
-    incoming_lists(ws[0], ws[3], ws[6], ws[7])  # the lists may come from another engine path
+    prepare_blocks(rad, ws)  # the lists may come from another engine path
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
