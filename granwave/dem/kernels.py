@@ -11,14 +11,17 @@ velocities and the real Coulomb law; :func:`granwave.dem.forces.frozen_history_f
 calls its array form :func:`contact_force` with displacements (``dt = 1``), no
 unloading rescale and no Coulomb cap.
 
-Parallel and deterministic (docs/dem.md, "Parallel engine"): a step is two
-parallel passes, :func:`_pair_pass` (each pair's force and torques once, into
-its own slots) and :func:`_grain_pass` (each grain adds its pairs' contributions
-in increasing pair order from the gather list built with the pair list, then its
-walls and damping, then kicks and drifts). Sums run in the order of the former
-serial loop, and maxima and sums over grains are taken per fixed block, so the
-results are bit for bit the same for any number of threads. No floating-point
-atomics.
+Parallel and deterministic (docs/dem.md, "Parallel engine"): the grains are split into
+contiguous index blocks (:func:`block_count`, a function of N only) and a step is two
+parallel passes over the blocks. :func:`_incoming_pass` computes, for each block, its
+incoming pairs (k, g): g in the block, k below it, whose row belongs to an earlier block;
+:func:`_row_pass` then runs the one-thread pair loop (dem/serial.py) over each block's own
+rows, taking the forces of its rows' boundary pairs from the first pass, followed by walls,
+damping and kicks. The pair list is lexicographic, so a grain's terms in the one-thread loop
+are its incoming pairs (increasing k), then its pairs inside the block, then its row's pairs
+beyond the block, then its walls: both passes add them in that order and every grain's force
+is bit for bit the one-thread loop's, for any thread count. Maxima and sums over grains are
+taken per block. No two threads write the same memory; no floating-point atomics.
 
 Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
@@ -282,66 +285,105 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
 
 
-def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
-    """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain:
-    (nbr, gl, ncnt, nlo, row, need, inc_start, inc_g, blk_g, top_f, inv_rad): the neighbour and
-    gather lists, counts and pair-list offsets of :func:`granwave.dem.neighbours.rebuild`, its
-    size request, the incoming grains of each block (:func:`incoming_lists`), the per-block
-    statistics, the top-wall forces and 1/R per grain (:func:`prepare_blocks`). (``dim``, ``n_rot``, ``cap``: kept for the callers;
-    nothing here is per pair.)"""
+def boundary_room(n_grains: int) -> int:
+    """Incoming pairs a new workspace has room for (it grows when a rebuild needs more)."""
+    return max(64, n_grains // 2)
+
+
+def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundary: int = 0) -> tuple:
+    """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain and
+    room for ``boundary`` incoming pairs (at least :func:`boundary_room`); indexed by the W_* constants:
+    the neighbour and gather lists, counts and pair-list offsets of
+    :func:`granwave.dem.neighbours.rebuild` and its size request (pairs, width, incoming pairs),
+    the incoming grains and pairs of each block and the place of each incoming pair in its
+    owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
+    1/R per grain, and per incoming pair the force and torque its block hands to the owner row
+    (d + r columns). ``cap`` (the pair capacity) is not needed: nothing here is per pair."""
     n = n_grains
     nblk = block_count(n)
+    cap_b = max(boundary_room(n), int(boundary))
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
-            np.zeros(2, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
-            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n))
+            np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
+            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n),
+            np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
+            np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)))
+
+
+# workspace entries
+W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
+    W_OSLOT, W_BF = range(16)
 
 
 @numba.njit(cache=True)
-def prepare_blocks(rad, ws):
-    """Fill the workspace's incoming lists (:func:`incoming_lists`) and 1/R per grain (one
-    division per grain, not two per pair and step)."""
-    incoming_lists(ws[0], ws[3], ws[6], ws[7])
-    inv_rad = ws[10]
-    for i in range(rad.shape[0]):
-        inv_rad[i] = 1.0 / rad[i]
-
-
-@numba.njit(cache=True)
-def incoming_lists(nbr, nlo, inc_start, inc_g):
-    """For each block b, its grains with a partner below the block, increasing, into
-    ``inc_g[inc_start[b]:inc_start[b + 1]]``: they receive the forces of pairs owned by
-    earlier blocks (the *incoming* pairs; the block's other grains have all their pairs in its
-    own rows). From the sorted neighbour rows of the last rebuild; O(N), serial."""
+def incoming_lists(nbr, nlo, gl, row, nblk, inc_start, inc_g, slot_start, out_start, slot_pair, out_slot):
+    """The incoming pairs of each of ``nblk`` blocks: pairs (k, g) with g in the block and k below
+    it (row k belongs to an earlier block). Block b's grains with such pairs, increasing, into
+    ``inc_g[inc_start[b]:inc_start[b + 1]]``; its incoming pairs, in the order of those grains
+    and then of k (each grain's order of the one-thread loop), get the slots
+    ``slot_start[b]:slot_start[b + 1]`` (``slot_pair``: their pair indices). ``out_slot`` lists
+    the slots in increasing pair index, i.e. in the order the owner rows meet them, block b's
+    rows from ``out_start[b]``. From the sorted neighbour rows of the last rebuild; serial
+    (O(N) plus a sort of the incoming pairs). Returns the number of incoming pairs; when it
+    exceeds the room of ``slot_pair`` only that count is valid."""
     n = nlo.shape[0]
-    nblk = inc_start.shape[0] - 1
+    cap = slot_pair.shape[0]
     q = 0
+    s = 0
     for b in range(nblk):
         inc_start[b] = q
+        slot_start[b] = s
         b0, b1 = block_bounds(b, n, nblk)
         for g in range(b0, b1):
             if nlo[g] > 0 and nbr[g, 0] < b0:
                 inc_g[q] = g
                 q += 1
+                for t in range(nlo[g]):
+                    if nbr[g, t] >= b0:
+                        break
+                    if s < cap:
+                        slot_pair[s] = gl[g, t]
+                    s += 1
     inc_start[nblk] = q
+    slot_start[nblk] = s
+    if s > cap:
+        return s
+    order = np.argsort(slot_pair[:s])
+    for k in range(s):
+        out_slot[k] = order[k]
+    k = 0
+    for b in range(nblk):
+        first = row[block_bounds(b, n, nblk)[0]]
+        while k < s and slot_pair[order[k]] < first:
+            k += 1
+        out_start[b] = k
+    out_start[nblk] = s
+    return s
 
 
 @numba.njit(cache=True)
-def boundary_fraction(nbr, nlo, inc_start, inc_g, npairs):
-    """Incoming pairs (computed twice per step: once read-only by the block of j) over all
-    pairs of the list."""
-    n = nlo.shape[0]
-    nblk = inc_start.shape[0] - 1
-    m = 0
-    for b in range(nblk):
-        b0 = block_bounds(b, n, nblk)[0]
-        for q in range(inc_start[b], inc_start[b + 1]):
-            g = inc_g[q]
-            for t in range(nlo[g]):
-                if nbr[g, t] >= b0:
-                    break
-                m += 1
-    return m / max(1, npairs)
+def prepare_blocks(rad, ws, nblk):
+    """1/R per grain and the incoming lists (:func:`incoming_lists`) of ``nblk`` blocks into
+    the workspace; returns the number of incoming pairs (also into ``ws[W_NEED][2]``): above
+    the room of the workspace, the lists are not usable."""
+    inv_rad = ws[W_INVR]
+    for i in range(rad.shape[0]):
+        inv_rad[i] = 1.0 / rad[i]
+    return _lists(ws, nblk)
+
+
+@numba.njit(cache=True)
+def _lists(ws, nblk):
+    s = incoming_lists(ws[W_NBR], ws[W_NLO], ws[W_GL], ws[W_ROW], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT],
+                       ws[W_OUT], ws[W_SPAIR], ws[W_OSLOT])
+    ws[W_NEED][2] = s
+    return s
+
+
+def boundary_fraction(ws, n_pairs: int) -> float:
+    """Incoming pairs (those computed in phase 1, by the block of their grain j) over all pairs
+    of the list, for the lists last built in ``ws``."""
+    return float(ws[W_SLOT][-1]) / max(1, n_pairs)
 
 
 @numba.njit(cache=True, inline="always")
@@ -395,26 +437,27 @@ def _pair_law(pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p,
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
-                   nlo, inc_start, inc_g):
+                   nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
-    (``acc``, ``alpha``) to zero and adds to each of its grains g the forces of its incoming
-    pairs (k, g), k below the block, in increasing k (g's gather list), read-only: the owner
-    row computes the same force again in phase 2 and updates the history. For every grain
-    these are the first terms of the one-thread loop's sum, in its order."""
-    nblk = inc_start.shape[0] - 1
+    (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
+    the tangential history update: no one else touches that pair in this step), subtracts the
+    force from g and adds a_g (n x f) to its torque, in g's order of the one-thread loop
+    (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
+    ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
+    that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
+    these pairs into ``blk_g``."""
     for b in numba.prange(nblk):
         _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov,
-                        fpar, nbr, gl, nlo, inc_start, inc_g)
+                        fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
 def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
-                    nlo, inc_start, inc_g):
+                    nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
     keeps its compilation short)."""
     n, d = pos.shape
     r = omega.shape[1]
-    nblk = inc_start.shape[0] - 1
     b0, b1 = block_bounds(b, n, nblk)
     for g in range(b0, b1):
         for a in range(d):
@@ -427,26 +470,59 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral,
     rescale = fpar[F_RESCALE] != 0.0
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar[F_POISSON], False)
+    dmax = 0.0
+    ncontact = 0
+    s = slot_start[b]
     for q in range(inc_start[b], inc_start[b + 1]):
         g = inc_g[q]
         for t in range(nlo[g]):
             k = nbr[g, t]
             if k >= b0:
                 break
+            p = gl[g, t]
             touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, gl[g, t], k, g, dt, zeta, mu,
+                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu,
                 rescale, e_pair, g_pair)
             if not touch:
+                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                    pair_ov[p] = 0.0
+                    for a in range(d):
+                        pair_ft[p, a] = 0.0
+                for a in range(d + r):
+                    bnd_f[s, a] = 0.0
+                s += 1
                 continue
+            if mu > 0.0:
+                pair_ft[p, 0] = hx
+                pair_ft[p, 1] = hy
+                if d == 3:
+                    pair_ft[p, 2] = hz
+            pair_ov[p] = delta
             acc[g, 0] -= fx
             acc[g, 1] -= fy
+            bnd_f[s, 0] = fx
+            bnd_f[s, 1] = fy
             if d == 3:
                 acc[g, 2] -= fz
+                bnd_f[s, 2] = fz
             if r > 0:
                 _add_torque3(alpha, g, aj, nx, ny, nz, fx, fy, fz)
+            # the torque on k as _add_torque3 computes it (the same bits when added in phase 2)
+            if r == 1:
+                bnd_f[s, d] = ai * (nx * fy - ny * fx)
+            elif r == 3:
+                bnd_f[s, d] = ai * (ny * fz - nz * fy)
+                bnd_f[s, d + 1] = ai * (nz * fx - nx * fz)
+                bnd_f[s, d + 2] = ai * (nx * fy - ny * fx)
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+            s += 1
+    blk_g[b, G_DMAX] = dmax
+    blk_g[b, G_NC] = ncontact
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift):
     """Grains lo..hi-1 after their forces and torques: accelerations and the second half kick;
     with ``stats`` the largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the summed kinetic
@@ -502,37 +578,35 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, s
 
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-              pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
-              drift):
+              pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f, blk_g, top_f, kick,
+              stats, drift):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
-    tangential histories and adding each force to i, and to j when j is in the block (a j
-    beyond it got the same force in its own block's phase 1, :func:`_incoming_pass`); then, per grain of the block, its bottom and top wall contacts
-    and the background damping -gamma m v, -gamma I w: for every grain the terms of the
-    one-thread loop in its order, so its force is bit for bit that loop's.
+    tangential histories and adding each force to i and j; a pair whose j lies beyond the
+    block was computed by j's block in phase 1, and its force and torque on i are taken from
+    its slot at its place in the row order. Then, per grain of the block, its bottom and top
+    wall contacts and the background damping -gamma m v, -gamma I w: for every grain the terms
+    of the one-thread loop in its order (phase 1 gave the first ones), so its force is bit for
+    bit that loop's. Only the block's own grains are read or written, apart from the slots.
 
     ``kick`` 0: forces and torques stay in ``acc``, ``alpha``; 1: accelerations, the second
-    half kick and (``stats``, ``drift``: see :func:`_finish`) for the block's grains that no
-    earlier block reads in this phase (those without incoming pairs); the others wait for
-    :func:`_deferred_pass`. Per block into ``blk_g``: largest overlap, contacts (its rows
-    and walls), top-wall contacts (their forces on the piston, grain order, into ``top_f``
-    from the block's first grain), the measures of the grains finished here.
+    half kick and (``stats``, ``drift``) what :func:`_finish` does. Per block into ``blk_g``:
+    largest overlap and contacts (with phase 1's), top-wall contacts (their forces on the
+    piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
-    nblk = inc_start.shape[0] - 1
     for b in numba.prange(nblk):
         _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i,
-                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g,
-                   top_f, kick, stats, drift)
+                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot,
+                   bnd_f, blk_g, top_f, kick, stats, drift)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-               pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
-               drift):
+               pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f, blk_g, top_f, kick,
+               stats, drift):
     """Block b of :func:`_row_pass`."""
     n, d = pos.shape
     r = omega.shape[1]
-    nblk = inc_start.shape[0] - 1
     b0, b1 = block_bounds(b, n, nblk)
     dt = fpar[F_DT]
     zeta = fpar[F_ZETA]
@@ -543,11 +617,22 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, late
     g_pair = C.effective_shear(fpar[F_POISSON], False)
     e_wall = C.effective_young(True)
     g_wall = C.effective_shear(fpar[F_POISSON], True)
-    dmax = 0.0
-    ncontact = 0
+    dmax = blk_g[b, G_DMAX]
+    ncontact = int(blk_g[b, G_NC])
+    c = out_start[b]
     for p in range(row[b0], row[b1]):
         i = pair_i[p]
         j = pair_j[p]
+        if j >= b1:  # computed by j's block in phase 1
+            s = out_slot[c]
+            c += 1
+            acc[i, 0] += bnd_f[s, 0]
+            acc[i, 1] += bnd_f[s, 1]
+            if d == 3:
+                acc[i, 2] += bnd_f[s, 2]
+            for a in range(r):
+                alpha[i, a] += bnd_f[s, d + a]
+            continue
         touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
             pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
             e_pair, g_pair)
@@ -563,20 +648,16 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, late
             if d == 3:
                 pair_ft[p, 2] = hz
         pair_ov[p] = delta
-        inside = j < b1
         acc[i, 0] += fx
         acc[i, 1] += fy
+        acc[j, 0] -= fx
+        acc[j, 1] -= fy
         if d == 3:
             acc[i, 2] += fz
-        if inside:
-            acc[j, 0] -= fx
-            acc[j, 1] -= fy
-            if d == 3:
-                acc[j, 2] -= fz
+            acc[j, 2] -= fz
         if r > 0:
             _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-            if inside:
-                _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
+            _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
         if delta > dmax:
             dmax = delta
         ncontact += 1
@@ -609,75 +690,19 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, late
                 acc[i, a] -= gamma * mass[i] * vel[i, a]
             for a in range(r):
                 alpha[i, a] -= gamma * inertia[i] * omega[i, a]
-    amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
+    m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
-        # the grains between the incoming ones (those are read by earlier blocks' rows during
-        # this phase and are finished in phase 3)
-        lo = b0
-        for q in range(inc_start[b], inc_start[b + 1] + 1):
-            hi = inc_g[q] if q < inc_start[b + 1] else b1
-            if hi > lo:
-                m = _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift)
-                amax = max(amax, m[0])
-                almax = max(almax, m[1])
-                vmax = max(vmax, m[2])
-                wmax = max(wmax, m[3])
-                kin += m[4]
-                dvmax = max(dvmax, m[5])
-                disp = max(disp, m[6])
-            lo = hi + 1
+        m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
     blk_g[b, G_NTOP] = ntop
-    blk_g[b, G_AMAX] = amax
-    blk_g[b, G_ALMAX] = almax
-    blk_g[b, G_VMAX] = vmax
-    blk_g[b, G_WMAX] = wmax
-    blk_g[b, G_KIN] = kin
-    blk_g[b, G_DVMAX] = dvmax
-    blk_g[b, G_DISP] = disp
-
-
-@numba.njit(cache=True, parallel=True)
-def _deferred_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, inc_start, inc_g, blk_g,
-                   stats, drift):
-    """Phase 3 of a step (with a kick), after phase 2: :func:`_finish` for each block's grains
-    with incoming pairs, which earlier blocks' rows read during phase 2; their measures
-    combined into the block's row of ``blk_g``."""
-    nblk = inc_start.shape[0] - 1
-    for b in numba.prange(nblk):
-        _deferred_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, inc_start,
-                        inc_g, blk_g, stats, drift)
-
-
-@numba.njit(cache=True, _nrt=False)
-def _deferred_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, inc_start, inc_g, blk_g,
-                    stats, drift):
-    """Block b of :func:`_deferred_pass`."""
-    amax = blk_g[b, G_AMAX]
-    almax = blk_g[b, G_ALMAX]
-    vmax = blk_g[b, G_VMAX]
-    wmax = blk_g[b, G_WMAX]
-    kin = blk_g[b, G_KIN]
-    dvmax = blk_g[b, G_DVMAX]
-    disp = blk_g[b, G_DISP]
-    for q in range(inc_start[b], inc_start[b + 1]):
-        g = inc_g[q]
-        m = _finish(g, g + 1, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift)
-        amax = max(amax, m[0])
-        almax = max(almax, m[1])
-        vmax = max(vmax, m[2])
-        wmax = max(wmax, m[3])
-        kin += m[4]
-        dvmax = max(dvmax, m[5])
-        disp = max(disp, m[6])
-    blk_g[b, G_AMAX] = amax
-    blk_g[b, G_ALMAX] = almax
-    blk_g[b, G_VMAX] = vmax
-    blk_g[b, G_WMAX] = wmax
-    blk_g[b, G_KIN] = kin
-    blk_g[b, G_DVMAX] = dvmax
-    blk_g[b, G_DISP] = disp
+    blk_g[b, G_AMAX] = m[0]
+    blk_g[b, G_ALMAX] = m[1]
+    blk_g[b, G_VMAX] = m[2]
+    blk_g[b, G_WMAX] = m[3]
+    blk_g[b, G_KIN] = m[4]
+    blk_g[b, G_DVMAX] = m[5]
+    blk_g[b, G_DISP] = m[6]
 
 
 @numba.njit(cache=True, parallel=True)
@@ -735,29 +760,27 @@ def _block_max(blk, col):
 
 @numba.njit(cache=True)
 def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, kick, stats, drift):
-    """Phases 1, 2 and (with ``kick``) 3 of a step (see each); reduce the blocks into ``out``
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, kick, stats, drift):
+    """Phases 1 and 2 of a step over ``nblk`` blocks (see each); reduce the blocks into ``out``
     and the piston's contact force (its grains' forces summed in grain order) and
     acceleration; with ``stats`` the convergence measures as :func:`measure` (the kinetic
     energy summed by blocks: only its finiteness is used). The incoming lists
-    (:func:`incoming_lists`) must be those of the current pair list."""
-    nbr, gl, nlo, row, inc_start, inc_g, blk_g, top_f = ws[0], ws[1], ws[3], ws[4], ws[6], ws[7], ws[8], ws[9]
-    inv_rad = ws[10]
-    _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl, nlo,
-                   inc_start, inc_g)
+    (:func:`prepare_blocks`) must be those of the current pair list and ``nblk``."""
+    blk_g = ws[W_BLK]
+    top_f = ws[W_TOP]
+    inv_rad = ws[W_INVR]
+    _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar,
+                   ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
     _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-              pair_ov, wall_ft, wall_ov, piston, fpar, row, inc_start, inc_g, blk_g, top_f, kick, stats,
-              drift)
-    if kick:
-        _deferred_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, fpar[F_DT], inc_start, inc_g,
-                       blk_g, stats, drift)
+              pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT], ws[W_OSLOT], ws[W_BF], blk_g,
+              top_f, kick, stats, drift)
     n = pos.shape[0]
-    nblk = blk_g.shape[0]
     dmax = 0.0
     ncontact = 0
     fpiston = 0.0
     ntop = 0
     kin = 0.0
+    amax = almax = vmax = wmax = 0.0
     for b in range(nblk):
         b0 = block_bounds(b, n, nblk)[0]
         dmax = max(dmax, blk_g[b, G_DMAX])
@@ -767,16 +790,20 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
             fpiston -= top_f[b0 + c]
         ntop += nt
         kin += blk_g[b, G_KIN]
+        amax = max(amax, blk_g[b, G_AMAX])
+        almax = max(almax, blk_g[b, G_ALMAX])
+        vmax = max(vmax, blk_g[b, G_VMAX])
+        wmax = max(wmax, blk_g[b, G_WMAX])
     piston[P_FCON] = fpiston
     piston[P_A] = piston_acceleration(piston, fpar[F_GAMMA])
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop
     out[O_NCONTACT] = ncontact
     if stats:
-        out[O_AMAX] = math.sqrt(_block_max(blk_g, G_AMAX))
-        out[O_ALPHAMAX] = math.sqrt(_block_max(blk_g, G_ALMAX))
-        out[O_VMAX] = math.sqrt(_block_max(blk_g, G_VMAX))
-        out[O_WMAX] = math.sqrt(_block_max(blk_g, G_WMAX))
+        out[O_AMAX] = math.sqrt(amax)
+        out[O_ALPHAMAX] = math.sqrt(almax)
+        out[O_VMAX] = math.sqrt(vmax)
+        out[O_WMAX] = math.sqrt(wmax)
         if piston[P_MASS] < np.inf:
             out[O_APISTON] = abs(piston[P_A])
             kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
@@ -792,11 +819,15 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     the piston (``piston[P_FCON]``), largest overlap, top-wall and total contact counts (``out``).
 
     Also adds the background damping -gamma m v, -gamma I w. Contacts update their
-    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced).
+    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced). When the
+    workspace has no room for the incoming pairs, one block (the same bits).
     """
-    prepare_blocks(rad, ws)
+    nblk = ws[W_BLK].shape[0]
+    if prepare_blocks(rad, ws, nblk) > ws[W_SPAIR].shape[0]:
+        nblk = 1
+        _lists(ws, nblk)
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
-            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, False, False, False)
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, False, False, False)
 
 
 @numba.njit(cache=True)
@@ -919,20 +950,26 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     convergence candidate test passed at a check (every ``ipar[I_CHECK]``
     steps: piston touching grains, every |a|, |alpha| and |a_piston| below
     F_TOLA, every |v|, |w| R and |v_piston| below F_TOLV), 2 when the pair list
-    needs more room (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours per grain;
-    the state is between steps), 3 when the
+    needs more room (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours per grain,
+    ``ws[W_NEED][2]`` incoming pairs; the state is one that a new call goes on from with
+    the same bits), 3 when the
     state blew up (an overlap larger than the largest radius or non-finite motion at a
     check, or non-finite positions before a rebuild): the time step is unstable.
     With ``ipar[I_ADAPTIVE]`` the time step is reset at every check from
     :func:`stable_dt`.
 
-    Two parallel passes per step (:func:`_pair_pass`, :func:`_grain_pass`); the first half
-    kick and drift of the next step ride on the grain pass unless that step rebuilds the
-    pair list or follows a check (then :func:`_drift_pass`).
+    Two parallel passes per step over the grain blocks (:func:`_incoming_pass`,
+    :func:`_row_pass`); the first half kick and drift of the next step ride on the second
+    unless that step rebuilds the pair list or follows a check (then :func:`_drift_pass`).
     """
     n, d = pos.shape
-    blk_g = ws[8]
-    prepare_blocks(rad, ws)  # the lists may come from another engine path
+    blk_g = ws[W_BLK]
+    nblk = blk_g.shape[0]
+    room = ws[W_SPAIR].shape[0]
+    if prepare_blocks(rad, ws, nblk) > room:  # lists built elsewhere: more incoming pairs than room
+        ipar[I_NEEDED] = ipar[I_NPAIRS]
+        ipar[I_WIDTH] = 0
+        return 2
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
@@ -958,11 +995,14 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     return 2
                 ipar[I_NPAIRS] = np_new
                 ipar[I_REBUILDS] += 1
-                incoming_lists(ws[0], ws[3], ws[6], ws[7])
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]
                 disp2 = 0.0
+                if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
+                    ipar[I_NEEDED] = np_new
+                    ipar[I_WIDTH] = 0
+                    return 2
             _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
             fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
             disp2 = _block_max(blk_g, G_DISP)
@@ -975,7 +1015,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         drifted = (not is_check and step + 1 < n_steps and math.isfinite(reach)
                    and not (reach > half_skin))
         _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, True, is_check, drifted)
+                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, True, is_check, drifted)
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]
         ipar[I_STEPS] += 1
