@@ -90,7 +90,7 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
         status = keep(self, n)
         states[numba.get_num_threads()] = (self.position.copy(), self.pair_ft.copy())
         nblk = self.ws[K.W_BLK].shape[0]
-        K.prepare_blocks(self.radius, self.ws, nblk)
+        K.prepare_blocks(self.radius, self.mass, self.inertia, self.ws, nblk)
         blocks["count"], blocks["fraction"] = nblk, K.boundary_fraction(self.ws, self.n_pairs)
         return status
 

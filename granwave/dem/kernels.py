@@ -298,7 +298,7 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     the incoming grains and pairs of each block and the place of each incoming pair in its
     owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
     1/R per grain, and per incoming pair the force and torque its block hands to the owner row
-    (d + r columns). ``cap`` (the pair capacity) is not needed: nothing here is per pair."""
+    (d + r columns), 1/m and 1/I per grain. ``cap`` (the pair capacity) is not needed: nothing here is per pair."""
     n = n_grains
     nblk = block_count(n)
     cap_b = max(boundary_room(n), int(boundary))
@@ -307,12 +307,12 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
             np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
-            np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)))
+            np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n))
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
-    W_OSLOT, W_BF = range(16)
+    W_OSLOT, W_BF, W_INVM, W_INVI = range(18)
 
 
 @numba.njit(cache=True)
@@ -362,13 +362,18 @@ def incoming_lists(nbr, nlo, gl, row, nblk, inc_start, inc_g, slot_start, out_st
 
 
 @numba.njit(cache=True)
-def prepare_blocks(rad, ws, nblk):
-    """1/R per grain and the incoming lists (:func:`incoming_lists`) of ``nblk`` blocks into
-    the workspace; returns the number of incoming pairs (also into ``ws[W_NEED][2]``): above
-    the room of the workspace, the lists are not usable."""
+def prepare_blocks(rad, mass, inertia, ws, nblk):
+    """1/R, 1/m and 1/I per grain (the one-thread loop's divisions, once per chunk) and the
+    incoming lists (:func:`incoming_lists`) of ``nblk`` blocks into the workspace; returns
+    the number of incoming pairs (also into ``ws[W_NEED][2]``): above the room of the
+    workspace, the lists are not usable."""
     inv_rad = ws[W_INVR]
+    inv_m = ws[W_INVM]
+    inv_i = ws[W_INVI]
     for i in range(rad.shape[0]):
         inv_rad[i] = 1.0 / rad[i]
+        inv_m[i] = 1.0 / mass[i]
+        inv_i[i] = 1.0 / inertia[i]
     return _lists(ws, nblk)
 
 
@@ -523,7 +528,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral,
 
 
 @numba.njit(cache=True)
-def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift):
+def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats, drift):
     """Grains lo..hi-1 after their forces and torques: accelerations and the second half kick;
     with ``stats`` the largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the summed kinetic
     energy, after the kick; with ``drift`` the next step's first half kick and drift, the
@@ -533,11 +538,11 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, s
     r = omega.shape[1]
     half = 0.5 * dt
     for i in range(lo, hi):
-        inv = 1.0 / mass[i]
+        inv = inv_m[i]
         for a in range(d):
             acc[i, a] *= inv
             vel[i, a] += half * acc[i, a]
-        inv = 1.0 / inertia[i]
+        inv = inv_i[i]
         for a in range(r):
             alpha[i, a] *= inv
             omega[i, a] += half * alpha[i, a]
@@ -577,9 +582,9 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, s
 
 
 @numba.njit(cache=True, parallel=True)
-def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-              pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f, blk_g, top_f, kick,
-              stats, drift):
+def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
+              blk_g, top_f, kick, stats, drift):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
@@ -595,15 +600,15 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral,
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
     for b in numba.prange(nblk):
-        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i,
-                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot,
-                   bnd_f, blk_g, top_f, kick, stats, drift)
+        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral,
+                   pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start,
+                   out_slot, bnd_f, blk_g, top_f, kick, stats, drift)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
-def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-               pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f, blk_g, top_f, kick,
-               stats, drift):
+def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
+               blk_g, top_f, kick, stats, drift):
     """Block b of :func:`_row_pass`."""
     n, d = pos.shape
     r = omega.shape[1]
@@ -692,7 +697,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, late
                 alpha[i, a] -= gamma * inertia[i] * omega[i, a]
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
-        m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, dt, stats, drift)
+        m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats,
+                    drift)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
     blk_g[b, G_NTOP] = ntop
@@ -771,9 +777,9 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     inv_rad = ws[W_INVR]
     _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar,
                    ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
-    _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-              pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT], ws[W_OSLOT], ws[W_BF], blk_g,
-              top_f, kick, stats, drift)
+    _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
+              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT],
+              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift)
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -823,7 +829,7 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     workspace has no room for the incoming pairs, one block (the same bits).
     """
     nblk = ws[W_BLK].shape[0]
-    if prepare_blocks(rad, ws, nblk) > ws[W_SPAIR].shape[0]:
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws[W_SPAIR].shape[0]:
         nblk = 1
         _lists(ws, nblk)
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
@@ -966,7 +972,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     blk_g = ws[W_BLK]
     nblk = blk_g.shape[0]
     room = ws[W_SPAIR].shape[0]
-    if prepare_blocks(rad, ws, nblk) > room:  # lists built elsewhere: more incoming pairs than room
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > room:  # lists built elsewhere, more than room
         ipar[I_NEEDED] = ipar[I_NPAIRS]
         ipar[I_WIDTH] = 0
         return 2
