@@ -626,10 +626,44 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_
     dmax = blk_g[b, G_DMAX]
     ncontact = int(blk_g[b, G_NC])
     c = out_start[b]
-    for p in range(row[b0], row[b1]):
-        i = pair_i[p]
-        j = pair_j[p]
-        if j >= b1:  # computed by j's block in phase 1
+    for i in range(b0, b1):
+        # row i: its pairs inside the block, then (sorted by j) those beyond it, computed by
+        # their j's block in phase 1
+        first = row[i]
+        split = row[i + 1]
+        while split > first and pair_j[split - 1] >= b1:
+            split -= 1
+        for p in range(first, split):
+            j = pair_j[p]
+            touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
+                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+                e_pair, g_pair)
+            if not touch:
+                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                    pair_ov[p] = 0.0
+                    for a in range(d):
+                        pair_ft[p, a] = 0.0
+                continue
+            if mu > 0.0:
+                pair_ft[p, 0] = hx
+                pair_ft[p, 1] = hy
+                if d == 3:
+                    pair_ft[p, 2] = hz
+            pair_ov[p] = delta
+            acc[i, 0] += fx
+            acc[i, 1] += fy
+            acc[j, 0] -= fx
+            acc[j, 1] -= fy
+            if d == 3:
+                acc[i, 2] += fz
+                acc[j, 2] -= fz
+            if r > 0:
+                _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
+                _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+        for p in range(split, row[i + 1]):
             s = out_slot[c]
             c += 1
             acc[i, 0] += bnd_f[s, 0]
@@ -638,35 +672,6 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_
                 acc[i, 2] += bnd_f[s, 2]
             for a in range(r):
                 alpha[i, a] += bnd_f[s, d + a]
-            continue
-        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-            pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
-            e_pair, g_pair)
-        if not touch:
-            if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
-                pair_ov[p] = 0.0
-                for a in range(d):
-                    pair_ft[p, a] = 0.0
-            continue
-        if mu > 0.0:
-            pair_ft[p, 0] = hx
-            pair_ft[p, 1] = hy
-            if d == 3:
-                pair_ft[p, 2] = hz
-        pair_ov[p] = delta
-        acc[i, 0] += fx
-        acc[i, 1] += fy
-        acc[j, 0] -= fx
-        acc[j, 1] -= fy
-        if d == 3:
-            acc[i, 2] += fz
-            acc[j, 2] -= fz
-        if r > 0:
-            _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-            _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
-        if delta > dmax:
-            dmax = delta
-        ncontact += 1
     # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
     h = piston[P_H]
     vp = piston[P_V]
