@@ -6,7 +6,7 @@ rotation arrays then have zero columns), so each kernel compiles once.
 
 Every piece of the contact law is called from :mod:`granwave.contact`; the
 geometry follows docs/conventions.md. :func:`contact_force3` is the single
-per-contact routine (scalars in and out): the engine's pair pass calls it with
+per-contact routine (scalars in and out): the engine's pair loops call it with
 velocities and the real Coulomb law; :func:`granwave.dem.forces.frozen_history_forces`
 calls its array form :func:`contact_force` with displacements (``dt = 1``), no
 unloading rescale and no Coulomb cap.
@@ -235,7 +235,7 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
     Returns (delta, arm, nx, ny, nz, fx, fy, fz): the force on the grain; delta <= 0 when
     they do not touch (the history is then cleared and the force is zero). One copy for
-    the one-thread loop, the parallel grain pass and the GPU kernel.
+    the one-thread loop, the parallel row pass and the GPU kernel.
     """
     d = pos.shape[1]
     r = omega.shape[1]
