@@ -8,7 +8,10 @@ machine affects numerator and denominator alike; the load average is printed wit
 
 1. DEM, threads 1 -> 2: wall-clock grain-steps/s of the frictional damped 2D engine on a
    dense packing of 10200 grains (the 600-grain packing tiled 17 times along the periodic
-   axis, as benchmarks/dem.py), a fixed number of steps per thread count;
+   axis, as benchmarks/dem.py), a fixed number of steps per thread count (one thread: the
+   single pair loop, dem/serial.py; two: the block engine), with the number of grain blocks
+   and the fraction of the pairs that cross a block boundary (computed in the first phase,
+   docs/dem.md "Parallel engine");
 2. time domain, threads 1 -> 2: wall-clock seconds per velocity-Verlet step on a 2D
    frictional triangular lattice of 10^4 grains (3 * 10^4 dofs, as benchmarks/linear.py);
 3. per-core rate on the 600-grain state against LAMMPS GRANULAR (benchmarks/dem.py's
@@ -78,13 +81,17 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
     from dem import engine_rate
 
     from granwave.dem import integrator
+    from granwave.dem import kernels as K
 
-    rates, cpus, states = {}, {}, {}
+    rates, cpus, states, blocks = {}, {}, {}, {}
     keep = integrator.Engine.run
 
     def run_and_keep(self, n):  # capture the final state of the timed run
         status = keep(self, n)
         states[numba.get_num_threads()] = (self.position.copy(), self.pair_ft.copy())
+        nblk = self.ws[K.W_BLK].shape[0]
+        K.prepare_blocks(self.radius, self.mass, self.inertia, self.ws, nblk)
+        blocks["count"], blocks["fraction"] = nblk, K.boundary_fraction(self.ws, self.n_pairs)
         return status
 
     for t in threads:
@@ -99,7 +106,7 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
     numba.set_num_threads(max(threads))
     same = all(states[t][0].tobytes() == states[threads[0]][0].tobytes()
                and states[t][1].tobytes() == states[threads[0]][1].tobytes() for t in threads)
-    return dict(rates=rates, cpu=cpus, grains=n, same=same)
+    return dict(rates=rates, cpu=cpus, grains=n, same=same, **blocks)
 
 
 def time_threads(n_grains: int, steps: int, threads=(1, 2)) -> dict:
@@ -198,7 +205,8 @@ def main_table(quick: bool, write_docs: bool) -> None:
     rows.append((f"DEM threads 1 -> 2, {d['grains']} grains (wall grain-steps/s)",
                  f"{r[1]:.3g} -> {r[2]:.3g}", r[2] / r[1], GOALS["dem_2"],
                  ("same bits" if d["same"] else "BITS DIFFER")
-                 + f"; CPU time per step x{d['cpu'][1] / d['cpu'][2]:.2f} at 2 threads"))
+                 + f"; CPU time per step x{d['cpu'][1] / d['cpu'][2]:.2f} at 2 threads"
+                 + f"; {d['count']} grain blocks, boundary pairs {100 * d['fraction']:.1f} %"))
     t = time_threads(10_000, 100 if quick else 400)
     s = t["per_step"]
     rows.append((f"time domain threads 1 -> 2, {t['dof']} dofs (wall ms/step)",

@@ -168,3 +168,25 @@ def test_sigterm_mid_run_leaves_no_file(tmp_path):
     assert proc.returncode == 130, rest
     assert "interrupted; no output written" in rest
     assert list(tmp_path.iterdir()) == []
+
+
+def test_blocks_grow_room_for_incoming_pairs_to_the_same_result(monkeypatch):
+    """The block engine with room for a single incoming pair (many blocks, 4 on 90 grains) must
+    grow it, through run_chunk's status and Engine.grow keeping the lists, and still give the
+    bytes of the one-thread pair loop."""
+    params = PrepareParams(grains=90, seed=11, tol=1e-9)
+    ref = prepare_packing(params)
+    monkeypatch.setattr(serial, "run_chunk", K.run_chunk)
+    monkeypatch.setattr(K, "boundary_room", lambda n: 1)
+    rooms = []
+    keep = integrator.Engine.grow
+
+    def spy(self, needed, width=0):
+        keep(self, needed, width)
+        rooms.append(len(self.ws[K.W_SPAIR]))
+
+    monkeypatch.setattr(integrator.Engine, "grow", spy)
+    again = prepare_packing(params)
+    assert rooms and max(rooms) > 1
+    assert again.attrs["steps"] == ref.attrs["steps"]
+    assert _bytes(again) == _bytes(ref)

@@ -128,10 +128,12 @@ class Engine:
 
     # ------------------------------------------------------------------ internals
     def grow(self, needed: int, width: int = 0) -> None:
-        """Room for ``needed`` pairs and ``width`` neighbours per grain (contents kept;
-        the neighbour and gather lists are rebuilt by the next rebuild)."""
+        """Room for ``needed`` pairs, ``width`` neighbours per grain and the incoming pairs the
+        workspace asked for (``ws[W_NEED][2]``); contents kept. With a new width the neighbour
+        and gather lists are rebuilt by the next rebuild; otherwise they are carried over."""
         cap = max(int(needed * 1.5) + 64, len(self.pair_i))
         d = self.dim
+        same_pairs = cap == len(self.pair_i)
         if cap > len(self.pair_i):
             for name, shape, dtype in (("pair_i", (cap,), np.int64), ("pair_j", (cap,), np.int64),
                                        ("pair_ft", (cap, d), np.float64), ("pair_ov", (cap,), np.float64)):
@@ -139,11 +141,19 @@ class Engine:
                 new = np.zeros(shape, dtype)
                 new[: len(old)] = old
                 setattr(self, name, new)
-        old_width = self.ws[0].shape[1]
+        old_ws = self.ws
+        old_width = old_ws[K.W_NBR].shape[1]
         width = old_width if width <= old_width else int(width * 1.5) + 2
-        row = self.ws[4]
-        self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width)
-        self.ws[4][:] = row  # the pair list's offsets per grain (history carried by the rebuild)
+        boundary = int(old_ws[K.W_NEED][2])
+        room = len(old_ws[K.W_SPAIR])
+        self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width,
+                              int(boundary * 1.5) + 64 if boundary > room else room)
+        # the pair list's offsets per grain (history carried by the rebuild), and the lists when
+        # only the incoming pairs asked for room (a rebuild that ran out of room follows again)
+        keep = ((K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW) if width == old_width and same_pairs
+                else (K.W_ROW,))
+        for w in keep:
+            self.ws[w][:] = old_ws[w]
 
     def _rebuild(self) -> None:
         while True:

@@ -6,19 +6,22 @@ rotation arrays then have zero columns), so each kernel compiles once.
 
 Every piece of the contact law is called from :mod:`granwave.contact`; the
 geometry follows docs/conventions.md. :func:`contact_force3` is the single
-per-contact routine (scalars in and out): the engine's pair pass calls it with
+per-contact routine (scalars in and out): the engine's pair loops call it with
 velocities and the real Coulomb law; :func:`granwave.dem.forces.frozen_history_forces`
 calls its array form :func:`contact_force` with displacements (``dt = 1``), no
 unloading rescale and no Coulomb cap.
 
-Parallel and deterministic (docs/dem.md, "Parallel engine"): a step is two
-parallel passes, :func:`_pair_pass` (each pair's force and torques once, into
-its own slots) and :func:`_grain_pass` (each grain adds its pairs' contributions
-in increasing pair order from the gather list built with the pair list, then its
-walls and damping, then kicks and drifts). Sums run in the order of the former
-serial loop, and maxima and sums over grains are taken per fixed block, so the
-results are bit for bit the same for any number of threads. No floating-point
-atomics.
+Parallel and deterministic (docs/dem.md, "Parallel engine"): the grains are split into
+contiguous index blocks (:func:`block_count`, a function of N only) and a step is two
+parallel passes over the blocks. :func:`_incoming_pass` computes, for each block, its
+incoming pairs (k, g): g in the block, k below it, whose row belongs to an earlier block;
+:func:`_row_pass` then runs the one-thread pair loop (dem/serial.py) over each block's own
+rows, taking the forces of its rows' boundary pairs from the first pass, followed by walls,
+damping and kicks. The pair list is lexicographic, so a grain's terms in the one-thread loop
+are its incoming pairs (increasing k), then its pairs inside the block, then its row's pairs
+beyond the block, then its walls: both passes add them in that order and every grain's force
+is bit for bit the one-thread loop's, for any thread count. Maxima and sums over grains are
+taken per block. No two threads write the same memory; no floating-point atomics.
 
 Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
@@ -163,14 +166,30 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     return fel
 
 
-#: Grains per block of the grain passes and pairs per block of the pair pass: the blocks
-#: (not the threads) hold the partial maxima and sums, so results do not depend on the
-#: thread count.
-GRAIN_BLOCK = 128
-PAIR_BLOCK = 512
-# columns of the per-block statistics of the grain pass (``blk_g``)
+#: The parallel engine splits the grains into contiguous index blocks (docs/dem.md, "Parallel
+#: engine"): ``block_count(N)`` blocks of about BLOCK_GRAINS grains, their number a multiple of
+#: BLOCK_MULTIPLE so that 2 or 4 threads get equal shares of the blocks. The partition depends
+#: on N alone, never on the thread count; the blocks (not the threads) hold the partial maxima
+#: and sums.
+BLOCK_GRAINS = 1024
+BLOCK_MULTIPLE = 4
+# columns of the per-block statistics (``blk_g``)
 G_DMAX, G_NC, G_NTOP, G_AMAX, G_ALMAX, G_VMAX, G_WMAX, G_KIN, G_DVMAX, G_DISP = range(10)
 N_GCOL = 10
+
+
+@numba.njit(cache=True)
+def block_count(n):
+    """Number of grain blocks for ``n`` grains: the multiple of BLOCK_MULTIPLE nearest
+    n / BLOCK_GRAINS, at least BLOCK_MULTIPLE (and at most n, at least 1)."""
+    k = int(n / (BLOCK_MULTIPLE * BLOCK_GRAINS) + 0.5)
+    return max(1, min(n, BLOCK_MULTIPLE * max(1, k)))
+
+
+@numba.njit(cache=True, inline="always")
+def block_bounds(b, n, nblk):
+    """Grains [b0, b1) of block b of ``nblk`` over ``n`` grains."""
+    return b * n // nblk, (b + 1) * n // nblk
 
 
 # Geometry pieces of one contact, shared with the GPU kernels (granwave.gpu.compile compiles
@@ -216,7 +235,7 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
     Returns (delta, arm, nx, ny, nz, fx, fy, fz): the force on the grain; delta <= 0 when
     they do not touch (the history is then cleared and the force is zero). One copy for
-    the one-thread loop, the parallel grain pass and the GPU kernel.
+    the one-thread loop, the parallel row pass and the GPU kernel.
     """
     d = pos.shape[1]
     r = omega.shape[1]
@@ -264,49 +283,193 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
 
 
-def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int) -> tuple:
-    """Arrays of the parallel kernels for ``n_grains`` grains and room for ``cap`` pairs,
-    ``width`` neighbours per grain: (nbr, gl, ncnt, nlo, row, need, pair_w, blk_p, blk_g, top_f);
-    ``pair_w`` holds per pair the force on i (d columns), then the torques on i and on j
-    (r columns each), in one row so that a grain's gather reads one cache line per pair."""
-    nblk_g = (n_grains + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    nblk_p = (cap + PAIR_BLOCK - 1) // PAIR_BLOCK
-    return (np.zeros((n_grains, width), np.int64), np.zeros((n_grains, width), np.int64),
-            np.zeros(n_grains, np.int64), np.zeros(n_grains, np.int64), np.zeros(n_grains + 1, np.int64),
-            np.zeros(2, np.int64), np.zeros((cap, dim + 2 * n_rot)),
-            np.zeros((max(1, nblk_p), 2)), np.zeros((max(1, nblk_g), N_GCOL)),
-            np.zeros(max(1, nblk_g) * GRAIN_BLOCK))
 
 
-@numba.njit(cache=True, parallel=True)
-def _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-               pair_w, blk_p):
-    """Force of every pair on its grain i into ``pair_w[:, :d]`` (j receives minus it), the
-    torques a_i (n x f) on i and a_j (n x f) on j into columns d:d+r and d+r:d+2r (zeros where
-    the grains do not touch: adding them changes no bit of a sum that starts from +0);
-    tangential histories updated. Largest overlap and
-    contact count of each block of PAIR_BLOCK pairs into ``blk_p``.
+def boundary_room(n_grains: int) -> int:
+    """Incoming pairs a new workspace has room for (it grows when a rebuild needs more)."""
+    return max(64, n_grains // 2)
 
-    Contacts update their tangential history with slip = v_rel * fpar[F_DT]
-    (velocities at the half step of velocity Verlet, i.e. exactly the
-    displacement of the step). Written with scalars (three components, the third 0 in 2D)
-    so that nothing is allocated per contact and the contact, its tangential history
-    included, stays in registers (contact.py's scalar forms of the law). Each pair writes
-    only its own slots: no two threads touch the same memory.
-    """
-    nblk = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
-    for b in numba.prange(nblk):
-        _pair_block(np.int64(b), pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-                    pair_w, blk_p)
+
+def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundary: int = 0) -> tuple:
+    """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain and
+    room for ``boundary`` incoming pairs (at least :func:`boundary_room`); indexed by the W_* constants:
+    the neighbour and gather lists, counts and pair-list offsets of
+    :func:`granwave.dem.neighbours.rebuild` and its size request (pairs, width, incoming pairs),
+    the incoming grains and pairs of each block and the place of each incoming pair in its
+    owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
+    1/R per grain, and per incoming pair the force and torque its block hands to the owner row
+    (d + r columns), 1/m and 1/I per grain. ``cap`` (the pair capacity) is not needed: nothing here is per pair."""
+    n = n_grains
+    nblk = block_count(n)
+    cap_b = max(boundary_room(n), int(boundary))
+    return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
+            np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
+            np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
+            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n),
+            np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
+            np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n))
+
+
+# workspace entries
+W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
+    W_OSLOT, W_BF, W_INVM, W_INVI = range(18)
 
 
 @numba.njit(cache=True)
-def _pair_block(b, pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-                pair_w, blk_p):
-    """Block b of :func:`_pair_pass` (a plain function: the parallel one stays small, which
-    keeps its compilation short)."""
+def incoming_lists(nbr, nlo, gl, row, nblk, inc_start, inc_g, slot_start, out_start, slot_pair, out_slot):
+    """The incoming pairs of each of ``nblk`` blocks: pairs (k, g) with g in the block and k below
+    it (row k belongs to an earlier block). Block b's grains with such pairs, increasing, into
+    ``inc_g[inc_start[b]:inc_start[b + 1]]``; its incoming pairs, in the order of those grains
+    and then of k (each grain's order of the one-thread loop), get the slots
+    ``slot_start[b]:slot_start[b + 1]`` (``slot_pair``: their pair indices). ``out_slot`` lists
+    the slots in increasing pair index, i.e. in the order the owner rows meet them, block b's
+    rows from ``out_start[b]``. From the sorted neighbour rows of the last rebuild; serial
+    (O(N) plus a sort of the incoming pairs). Returns the number of incoming pairs; when it
+    exceeds the room of ``slot_pair`` only that count is valid."""
+    n = nlo.shape[0]
+    cap = slot_pair.shape[0]
+    q = 0
+    s = 0
+    for b in range(nblk):
+        inc_start[b] = q
+        slot_start[b] = s
+        b0, b1 = block_bounds(b, n, nblk)
+        for g in range(b0, b1):
+            if nlo[g] > 0 and nbr[g, 0] < b0:
+                inc_g[q] = g
+                q += 1
+                for t in range(nlo[g]):
+                    if nbr[g, t] >= b0:
+                        break
+                    if s < cap:
+                        slot_pair[s] = gl[g, t]
+                    s += 1
+    inc_start[nblk] = q
+    slot_start[nblk] = s
+    if s > cap:
+        return s
+    order = np.argsort(slot_pair[:s])
+    for k in range(s):
+        out_slot[k] = order[k]
+    k = 0
+    for b in range(nblk):
+        first = row[block_bounds(b, n, nblk)[0]]
+        while k < s and slot_pair[order[k]] < first:
+            k += 1
+        out_start[b] = k
+    out_start[nblk] = s
+    return s
+
+
+@numba.njit(cache=True)
+def prepare_blocks(rad, mass, inertia, ws, nblk):
+    """1/R, 1/m and 1/I per grain (the one-thread loop's divisions, once per chunk) and the
+    incoming lists (:func:`incoming_lists`) of ``nblk`` blocks into the workspace; returns
+    the number of incoming pairs (also into ``ws[W_NEED][2]``): above the room of the
+    workspace, the lists are not usable."""
+    inv_rad = ws[W_INVR]
+    inv_m = ws[W_INVM]
+    inv_i = ws[W_INVI]
+    for i in range(rad.shape[0]):
+        inv_rad[i] = 1.0 / rad[i]
+        inv_m[i] = 1.0 / mass[i]
+        inv_i[i] = 1.0 / inertia[i]
+    return _lists(ws, nblk)
+
+
+@numba.njit(cache=True)
+def _lists(ws, nblk):
+    s = incoming_lists(ws[W_NBR], ws[W_NLO], ws[W_GL], ws[W_ROW], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT],
+                       ws[W_OUT], ws[W_SPAIR], ws[W_OSLOT])
+    ws[W_NEED][2] = s
+    return s
+
+
+def boundary_fraction(ws, n_pairs: int) -> float:
+    """Incoming pairs (those computed in phase 1, by the block of their grain j) over all pairs
+    of the list, for the lists last built in ``ws``."""
+    return float(ws[W_SLOT][-1]) / max(1, n_pairs)
+
+
+@numba.njit(cache=True, inline="always")
+def _pair_law(pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu,
+              rescale, e_pair, g_pair):
+    """Pair p = (i, j): (touching, delta, a_i, a_j, n, force on i, new tangential history),
+    with the arithmetic of the one-thread loop (dem/serial.py) so that the bits are its own.
+    Reads the history, writes nothing."""
     d = pos.shape[1]
     r = omega.shape[1]
+    dx, dy, dz = _pair_geometry(pos, lateral, i, j)
+    r2 = dx * dx + dy * dy + dz * dz
+    ri = rad[i]
+    rj = rad[j]
+    rs = ri + rj
+    if r2 >= rs * rs:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    dist = math.sqrt(r2)
+    delta = rs - dist
+    nx = dx / dist
+    ny = dy / dist
+    nz = dz / dist if d == 3 else 0.0
+    vx = vel[j, 0] - vel[i, 0]
+    vy = vel[j, 1] - vel[i, 1]
+    vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+    ai = ri - 0.5 * delta
+    aj = rj - 0.5 * delta
+    if r > 0:
+        # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
+        wx, wy, wz = _spin(omega, i, ai)
+        ux, uy, uz = _spin(omega, j, aj)
+        wx += ux
+        wy += uy
+        wz += uz
+        vx -= wy * nz - wz * ny
+        vy -= wz * nx - wx * nz
+        vz -= wx * ny - wy * nx
+    r12 = C.effective_radius(inv_rad[i], inv_rad[j])
+    meff = C.reduced_mass(mass[i], mass[j], False)
+    hx = hy = hz = 0.0
+    if mu > 0.0:
+        hx = pair_ft[p, 0]
+        hy = pair_ft[p, 1]
+        if d == 3:
+            hz = pair_ft[p, 2]
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
+                                                 vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
+                                                 mu, rescale)
+    return True, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz
+
+
+@numba.njit(cache=True, parallel=True)
+def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+                   nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
+    """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
+    (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
+    the tangential history update: no one else touches that pair in this step), subtracts the
+    force from g and adds a_g (n x f) to its torque, in g's order of the one-thread loop
+    (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
+    ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
+    that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
+    these pairs into ``blk_g``."""
+    for b in numba.prange(nblk):
+        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov,
+                        fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
+
+
+@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
+def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+                    nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
+    """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
+    keeps its compilation short)."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    b0, b1 = block_bounds(b, n, nblk)
+    flat = acc.reshape(n * d)  # contiguous rows: one flat loop (a memset)
+    for q in range(b0 * d, b1 * d):
+        flat[q] = 0.0
+    flat = alpha.reshape(n * r)
+    for q in range(b0 * r, b1 * r):
+        flat[q] = 0.0
     dt = fpar[F_DT]
     zeta = fpar[F_ZETA]
     mu = fpar[F_MU]
@@ -315,225 +478,76 @@ def _pair_block(b, pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, 
     g_pair = C.effective_shear(fpar[F_POISSON], False)
     dmax = 0.0
     ncontact = 0
-    for p in range(b * PAIR_BLOCK, min(npairs, (b + 1) * PAIR_BLOCK)):
-        i = pair_i[p]
-        j = pair_j[p]
-        dx, dy, dz = _pair_geometry(pos, lateral, i, j)
-        r2 = dx * dx + dy * dy + dz * dz
-        ri = rad[i]
-        rj = rad[j]
-        rs = ri + rj
-        if r2 >= rs * rs:
-            for a in range(d + 2 * r):
-                pair_w[p, a] = 0.0
-            if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
-                pair_ov[p] = 0.0
-                for a in range(d):
-                    pair_ft[p, a] = 0.0
-            continue
-        dist = math.sqrt(r2)
-        delta = rs - dist
-        nx = dx / dist
-        ny = dy / dist
-        nz = dz / dist if d == 3 else 0.0
-        vx = vel[j, 0] - vel[i, 0]
-        vy = vel[j, 1] - vel[i, 1]
-        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
-        ai = ri - 0.5 * delta
-        aj = rj - 0.5 * delta
-        if r > 0:
-            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-            if r == 1:
-                wx = 0.0
-                wy = 0.0
-                wz = ai * omega[i, 0] + aj * omega[j, 0]
-            else:
-                wx = ai * omega[i, 0] + aj * omega[j, 0]
-                wy = ai * omega[i, 1] + aj * omega[j, 1]
-                wz = ai * omega[i, 2] + aj * omega[j, 2]
-            vx -= wy * nz - wz * ny
-            vy -= wz * nx - wx * nz
-            vz -= wx * ny - wy * nx
-        r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
-        meff = C.reduced_mass(mass[i], mass[j], False)
-        hx = hy = hz = 0.0
-        if mu > 0.0:
-            hx = pair_ft[p, 0]
-            hy = pair_ft[p, 1]
-            if d == 3:
-                hz = pair_ft[p, 2]
-        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
-                                                     vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
-                                                     mu, rescale)
-        if mu > 0.0:
-            pair_ft[p, 0] = hx
-            pair_ft[p, 1] = hy
-            if d == 3:
-                pair_ft[p, 2] = hz
-        pair_ov[p] = delta
-        pair_w[p, 0] = fx
-        pair_w[p, 1] = fy
-        if d == 3:
-            pair_w[p, 2] = fz
-        if r == 1:
-            c = nx * fy - ny * fx
-            pair_w[p, d] = ai * c
-            pair_w[p, d + 1] = aj * c
-        elif r == 3:
-            c0 = ny * fz - nz * fy
-            c1 = nz * fx - nx * fz
-            c2 = nx * fy - ny * fx
-            pair_w[p, d] = ai * c0
-            pair_w[p, d + 1] = ai * c1
-            pair_w[p, d + 2] = ai * c2
-            pair_w[p, d + 3] = aj * c0
-            pair_w[p, d + 4] = aj * c1
-            pair_w[p, d + 5] = aj * c2
-        if delta > dmax:
-            dmax = delta
-        ncontact += 1
-    blk_p[b, 0] = dmax
-    blk_p[b, 1] = ncontact
-
-
-@numba.njit(cache=True, parallel=True)
-def _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
-    """Per grain: its pair forces gathered in increasing pair order, then its two wall
-    contacts (bottom, top), then the background damping -gamma m v, -gamma I w: the
-    order of the former serial force loop, so sums are bit for bit those of one thread.
-
-    ``kick`` 0: total force and torque into ``acc``, ``alpha``; 1: accelerations into
-    ``acc``, ``alpha`` and the second half kick of velocity Verlet. ``stats``: also the
-    block maxima of |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the block sums of the kinetic
-    energy (after the kick). ``drift``: then also the first half kick and drift of the
-    next step (the state between steps is the same as with a separate pass), with the
-    block maxima of |v|^2 and of the squared displacement since ``pos0``.
-    Per block (GRAIN_BLOCK grains) into ``blk_g``: largest wall overlap, wall contacts,
-    top-wall contacts (their forces on the piston, grain order, into ``top_f`` from
-    b * GRAIN_BLOCK).
-    """
-    n, d = pos.shape
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    for b in numba.prange(nblk):
-        _grain_block(np.int64(b), pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston,
-                     fpar, nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
-
-
-@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
-def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                 nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift):
-    """Block b of :func:`_grain_pass` (a plain function: the parallel one stays small, which
-    keeps its compilation short)."""
-    n, d = pos.shape
-    r = omega.shape[1]
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    gamma = fpar[F_GAMMA]
-    rescale = fpar[F_RESCALE] != 0.0
-    e_wall = C.effective_young(True)
-    g_wall = C.effective_shear(fpar[F_POISSON], True)
-    h = piston[P_H]
-    vp = piston[P_V]
-    dmax = 0.0
-    ncontact = 0
-    ntop = 0
-    amax = 0.0
-    almax = 0.0
-    vmax = 0.0
-    wmax = 0.0
-    kin = 0.0
-    dvmax = 0.0
-    disp = 0.0
-    for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
-        f0 = 0.0
-        f1 = 0.0
-        f2 = 0.0
-        t0 = 0.0
-        t1 = 0.0
-        t2 = 0.0
-        lo = nlo[i]
-        for t in range(lo):  # pairs where i is the j (lower pair indices first)
-            p = nbr_gl[i, t]
-            f0 -= pair_w[p, 0]
-            f1 -= pair_w[p, 1]
-            if d == 3:
-                f2 -= pair_w[p, 2]
-            if r == 1:
-                t0 += pair_w[p, d + 1]
-            elif r == 3:
-                t0 += pair_w[p, d + 3]
-                t1 += pair_w[p, d + 4]
-                t2 += pair_w[p, d + 5]
-        for t in range(lo, ncnt[i]):  # pairs where i is the i
-            p = nbr_gl[i, t]
-            f0 += pair_w[p, 0]
-            f1 += pair_w[p, 1]
-            if d == 3:
-                f2 += pair_w[p, 2]
-            if r >= 1:
-                t0 += pair_w[p, d]
-            if r == 3:
-                t1 += pair_w[p, d + 1]
-                t2 += pair_w[p, d + 2]
-        # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
-        for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft,
-                                                             wall_ov, i, k, h, vp, e_wall, g_wall,
-                                                             dt, zeta, mu, rescale)
-            if delta <= 0.0:
+    s = slot_start[b]
+    for q in range(inc_start[b], inc_start[b + 1]):
+        g = inc_g[q]
+        for t in range(nlo[g]):
+            k = nbr[g, t]
+            if k >= b0:
+                break
+            p = gl[g, t]
+            touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
+                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu,
+                rescale, e_pair, g_pair)
+            if not touch:
+                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                    pair_ov[p] = 0.0
+                    for a in range(d):
+                        pair_ft[p, a] = 0.0
+                for a in range(d + r):
+                    bnd_f[s, a] = 0.0
+                s += 1
                 continue
-            f0 += fx
-            f1 += fy
+            if mu > 0.0:
+                pair_ft[p, 0] = hx
+                pair_ft[p, 1] = hy
+                if d == 3:
+                    pair_ft[p, 2] = hz
+            pair_ov[p] = delta
+            acc[g, 0] -= fx
+            acc[g, 1] -= fy
+            bnd_f[s, 0] = fx
+            bnd_f[s, 1] = fy
             if d == 3:
-                f2 += fz
+                acc[g, 2] -= fz
+                bnd_f[s, 2] = fz
+            if r > 0:
+                _add_torque3(alpha, g, aj, nx, ny, nz, fx, fy, fz)
+            # the torque on k as _add_torque3 computes it (the same bits when added in phase 2)
             if r == 1:
-                t0 += ai * (nx * fy - ny * fx)
+                bnd_f[s, d] = ai * (nx * fy - ny * fx)
             elif r == 3:
-                t0 += ai * (ny * fz - nz * fy)
-                t1 += ai * (nz * fx - nx * fz)
-                t2 += ai * (nx * fy - ny * fx)
-            if k == 1:
-                top_f[b * GRAIN_BLOCK + ntop] = fz if d == 3 else fy
-                ntop += 1
+                bnd_f[s, d] = ai * (ny * fz - nz * fy)
+                bnd_f[s, d + 1] = ai * (nz * fx - nx * fz)
+                bnd_f[s, d + 2] = ai * (nx * fy - ny * fx)
             if delta > dmax:
                 dmax = delta
             ncontact += 1
-        if gamma > 0.0:
-            f0 -= gamma * mass[i] * vel[i, 0]
-            f1 -= gamma * mass[i] * vel[i, 1]
-            if d == 3:
-                f2 -= gamma * mass[i] * vel[i, 2]
-            if r >= 1:
-                t0 -= gamma * inertia[i] * omega[i, 0]
-            if r == 3:
-                t1 -= gamma * inertia[i] * omega[i, 1]
-                t2 -= gamma * inertia[i] * omega[i, 2]
-        acc[i, 0] = f0
-        acc[i, 1] = f1
-        if d == 3:
-            acc[i, 2] = f2
-        if r >= 1:
-            alpha[i, 0] = t0
-        if r == 3:
-            alpha[i, 1] = t1
-            alpha[i, 2] = t2
-    # kick, measures and drift in separate short loops over the block (they vectorize and keep
-    # the force loop's registers free; the same operations per grain as one loop)
-    lo = b * GRAIN_BLOCK
-    hi = min(n, (b + 1) * GRAIN_BLOCK)
-    if kick:
-        half = 0.5 * dt
-        for i in range(lo, hi):
-            inv = 1.0 / mass[i]
-            for a in range(d):
-                acc[i, a] *= inv
-                vel[i, a] += half * acc[i, a]
-            inv = 1.0 / inertia[i]
-            for a in range(r):
-                alpha[i, a] *= inv
-                omega[i, a] += half * alpha[i, a]
+            s += 1
+    blk_g[b, G_DMAX] = dmax
+    blk_g[b, G_NC] = ncontact
+
+
+@numba.njit(cache=True)
+def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats, drift):
+    """Grains lo..hi-1 after their forces and torques: accelerations and the second half kick;
+    with ``stats`` the largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the summed kinetic
+    energy, after the kick; with ``drift`` the next step's first half kick and drift, the
+    largest |v|^2 and squared displacement since ``pos0``. Returned in that order. Separate
+    short loops (they vectorize); the same operations per grain as one loop."""
+    d = pos.shape[1]
+    r = omega.shape[1]
+    half = 0.5 * dt
+    for i in range(lo, hi):
+        inv = inv_m[i]
+        for a in range(d):
+            acc[i, a] *= inv
+            vel[i, a] += half * acc[i, a]
+        inv = inv_i[i]
+        for a in range(r):
+            alpha[i, a] *= inv
+            omega[i, a] += half * alpha[i, a]
+    amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
     if stats:
         for i in range(lo, hi):
             a2 = 0.0
@@ -552,7 +566,6 @@ def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_
             wmax = max(wmax, w2 * rad[i] * rad[i])
             kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
     if drift:
-        half = 0.5 * dt
         for i in range(lo, hi):
             v2 = 0.0
             s = 0.0
@@ -566,16 +579,142 @@ def _grain_block(b, pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_
             disp = max(disp, s)
             for a in range(r):
                 omega[i, a] += half * alpha[i, a]
+    return amax, almax, vmax, wmax, kin, dvmax, disp
+
+
+@numba.njit(cache=True, parallel=True)
+def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
+              blk_g, top_f, kick, stats, drift):
+    """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
+    one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
+    tangential histories and adding each force to i and j; a pair whose j lies beyond the
+    block was computed by j's block in phase 1, and its force and torque on i are taken from
+    its slot at its place in the row order. Then, per grain of the block, its bottom and top
+    wall contacts and the background damping -gamma m v, -gamma I w: for every grain the terms
+    of the one-thread loop in its order (phase 1 gave the first ones), so its force is bit for
+    bit that loop's. Only the block's own grains are read or written, apart from the slots.
+
+    ``kick`` 0: forces and torques stay in ``acc``, ``alpha``; 1: accelerations, the second
+    half kick and (``stats``, ``drift``) what :func:`_finish` does. Per block into ``blk_g``:
+    largest overlap and contacts (with phase 1's), top-wall contacts (their forces on the
+    piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
+    """
+    for b in numba.prange(nblk):
+        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral,
+                   pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start,
+                   out_slot, bnd_f, blk_g, top_f, kick, stats, drift)
+
+
+@numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
+def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
+               blk_g, top_f, kick, stats, drift):
+    """Block b of :func:`_row_pass`."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    b0, b1 = block_bounds(b, n, nblk)
+    dt = fpar[F_DT]
+    zeta = fpar[F_ZETA]
+    mu = fpar[F_MU]
+    gamma = fpar[F_GAMMA]
+    rescale = fpar[F_RESCALE] != 0.0
+    e_pair = C.effective_young(False)
+    g_pair = C.effective_shear(fpar[F_POISSON], False)
+    e_wall = C.effective_young(True)
+    g_wall = C.effective_shear(fpar[F_POISSON], True)
+    dmax = blk_g[b, G_DMAX]
+    ncontact = int(blk_g[b, G_NC])
+    c = out_start[b]
+    for i in range(b0, b1):
+        # row i: its pairs inside the block, then (sorted by j) those beyond it, computed by
+        # their j's block in phase 1
+        first = row[i]
+        split = row[i + 1]
+        while split > first and pair_j[split - 1] >= b1:
+            split -= 1
+        for p in range(first, split):
+            j = pair_j[p]
+            touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
+                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+                e_pair, g_pair)
+            if not touch:
+                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                    pair_ov[p] = 0.0
+                    for a in range(d):
+                        pair_ft[p, a] = 0.0
+                continue
+            if mu > 0.0:
+                pair_ft[p, 0] = hx
+                pair_ft[p, 1] = hy
+                if d == 3:
+                    pair_ft[p, 2] = hz
+            pair_ov[p] = delta
+            acc[i, 0] += fx
+            acc[i, 1] += fy
+            acc[j, 0] -= fx
+            acc[j, 1] -= fy
+            if d == 3:
+                acc[i, 2] += fz
+                acc[j, 2] -= fz
+            if r > 0:
+                _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
+                _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+        for p in range(split, row[i + 1]):
+            s = out_slot[c]
+            c += 1
+            acc[i, 0] += bnd_f[s, 0]
+            acc[i, 1] += bnd_f[s, 1]
+            if d == 3:
+                acc[i, 2] += bnd_f[s, 2]
+            for a in range(r):
+                alpha[i, a] += bnd_f[s, d + a]
+    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+    h = piston[P_H]
+    vp = piston[P_V]
+    ntop = 0
+    for i in range(b0, b1):
+        for k in range(2):
+            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
+                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
+                                                             rescale)
+            if delta <= 0.0:
+                continue
+            acc[i, 0] += fx
+            acc[i, 1] += fy
+            if d == 3:
+                acc[i, 2] += fz
+            if r > 0:
+                _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
+            if k == 1:
+                top_f[b0 + ntop] = fz if d == 3 else fy
+                ntop += 1
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+    if gamma > 0.0:
+        for i in range(b0, b1):
+            for a in range(d):
+                acc[i, a] -= gamma * mass[i] * vel[i, a]
+            for a in range(r):
+                alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+    m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    if kick:
+        m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats,
+                    drift)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
     blk_g[b, G_NTOP] = ntop
-    blk_g[b, G_AMAX] = amax
-    blk_g[b, G_ALMAX] = almax
-    blk_g[b, G_VMAX] = vmax
-    blk_g[b, G_WMAX] = wmax
-    blk_g[b, G_KIN] = kin
-    blk_g[b, G_DVMAX] = dvmax
-    blk_g[b, G_DISP] = disp
+    blk_g[b, G_AMAX] = m[0]
+    blk_g[b, G_ALMAX] = m[1]
+    blk_g[b, G_VMAX] = m[2]
+    blk_g[b, G_WMAX] = m[3]
+    blk_g[b, G_KIN] = m[4]
+    blk_g[b, G_DVMAX] = m[5]
+    blk_g[b, G_DISP] = m[6]
 
 
 @numba.njit(cache=True, parallel=True)
@@ -584,11 +723,12 @@ def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
     displacement since ``pos0`` into ``blk_g`` (columns G_DVMAX, G_DISP)."""
     n, d = pos.shape
     r = omega.shape[1]
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    nblk = blk_g.shape[0]
     for b in numba.prange(nblk):
         dvmax = 0.0
         disp = 0.0
-        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+        b0, b1 = block_bounds(np.int64(b), n, nblk)
+        for i in range(b0, b1):
             v2 = 0.0
             s = 0.0
             for a in range(d):
@@ -609,10 +749,11 @@ def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
 def _displacement_pass(pos, pos0, blk_g):
     """Block maxima of the squared displacement since ``pos0`` into ``blk_g[:, G_DISP]``."""
     n, d = pos.shape
-    nblk = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
+    nblk = blk_g.shape[0]
     for b in numba.prange(nblk):
         disp = 0.0
-        for i in range(b * GRAIN_BLOCK, min(n, (b + 1) * GRAIN_BLOCK)):
+        b0, b1 = block_bounds(np.int64(b), n, nblk)
+        for i in range(b0, b1):
             s = 0.0
             for a in range(d):
                 x = pos[i, a] - pos0[i, a]
@@ -622,55 +763,59 @@ def _displacement_pass(pos, pos0, blk_g):
 
 
 @numba.njit(cache=True)
-def _block_max(blk, nblk, col):
+def _block_max(blk, col):
     m = 0.0
-    for b in range(nblk):
+    for b in range(blk.shape[0]):
         m = max(m, blk[b, col])
     return m
 
 
 @numba.njit(cache=True)
 def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, kick, stats, drift):
-    """Pair pass, then grain pass (see both); reduce the blocks into ``out`` and the piston's
-    contact force (its grains' forces summed in grain order) and acceleration; with
-    ``stats`` the convergence measures as :func:`measure` (the kinetic energy summed by
-    blocks: only its finiteness is used)."""
-    nbr_gl, ncnt, nlo, pair_w, blk_p, blk_g, top_f = ws[1], ws[2], ws[3], ws[6], ws[7], ws[8], ws[9]
-    npairs = ipar[I_NPAIRS]
-    _pair_pass(pos, vel, omega, rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar,
-               pair_w, blk_p)
-    _grain_pass(pos, vel, acc, omega, alpha, rad, mass, inertia, pos0, wall_ft, wall_ov, piston, fpar,
-                nbr_gl, ncnt, nlo, pair_w, blk_g, top_f, kick, stats, drift)
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, kick, stats, drift):
+    """Phases 1 and 2 of a step over ``nblk`` blocks (see each); reduce the blocks into ``out``
+    and the piston's contact force (its grains' forces summed in grain order) and
+    acceleration; with ``stats`` the convergence measures as :func:`measure` (the kinetic
+    energy summed by blocks: only its finiteness is used). The incoming lists
+    (:func:`prepare_blocks`) must be those of the current pair list and ``nblk``."""
+    blk_g = ws[W_BLK]
+    top_f = ws[W_TOP]
+    inv_rad = ws[W_INVR]
+    _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar,
+                   ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
+    _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
+              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT],
+              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift)
     n = pos.shape[0]
-    nblk_p = (npairs + PAIR_BLOCK - 1) // PAIR_BLOCK
-    nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
     dmax = 0.0
     ncontact = 0
-    for b in range(nblk_p):
-        dmax = max(dmax, blk_p[b, 0])
-        ncontact += int(blk_p[b, 1])
     fpiston = 0.0
     ntop = 0
     kin = 0.0
-    for b in range(nblk_g):
+    amax = almax = vmax = wmax = 0.0
+    for b in range(nblk):
+        b0 = block_bounds(b, n, nblk)[0]
         dmax = max(dmax, blk_g[b, G_DMAX])
         ncontact += int(blk_g[b, G_NC])
         nt = int(blk_g[b, G_NTOP])
         for c in range(nt):
-            fpiston -= top_f[b * GRAIN_BLOCK + c]
+            fpiston -= top_f[b0 + c]
         ntop += nt
         kin += blk_g[b, G_KIN]
+        amax = max(amax, blk_g[b, G_AMAX])
+        almax = max(almax, blk_g[b, G_ALMAX])
+        vmax = max(vmax, blk_g[b, G_VMAX])
+        wmax = max(wmax, blk_g[b, G_WMAX])
     piston[P_FCON] = fpiston
     piston[P_A] = piston_acceleration(piston, fpar[F_GAMMA])
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop
     out[O_NCONTACT] = ncontact
     if stats:
-        out[O_AMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_AMAX))
-        out[O_ALPHAMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_ALMAX))
-        out[O_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_VMAX))
-        out[O_WMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_WMAX))
+        out[O_AMAX] = math.sqrt(amax)
+        out[O_ALPHAMAX] = math.sqrt(almax)
+        out[O_VMAX] = math.sqrt(vmax)
+        out[O_WMAX] = math.sqrt(wmax)
         if piston[P_MASS] < np.inf:
             out[O_APISTON] = abs(piston[P_A])
             kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
@@ -686,10 +831,15 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     the piston (``piston[P_FCON]``), largest overlap, top-wall and total contact counts (``out``).
 
     Also adds the background damping -gamma m v, -gamma I w. Contacts update their
-    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced).
+    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced). When the
+    workspace has no room for the incoming pairs, one block (the same bits).
     """
+    nblk = ws[W_BLK].shape[0]
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws[W_SPAIR].shape[0]:
+        nblk = 1
+        _lists(ws, nblk)
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
-            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, False, False, False)
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, False, False, False)
 
 
 @numba.njit(cache=True)
@@ -812,26 +962,32 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     convergence candidate test passed at a check (every ``ipar[I_CHECK]``
     steps: piston touching grains, every |a|, |alpha| and |a_piston| below
     F_TOLA, every |v|, |w| R and |v_piston| below F_TOLV), 2 when the pair list
-    needs more room (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours per grain;
-    the state is between steps), 3 when the
+    needs more room (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours per grain,
+    ``ws[W_NEED][2]`` incoming pairs; the state is one that a new call goes on from with
+    the same bits), 3 when the
     state blew up (an overlap larger than the largest radius or non-finite motion at a
     check, or non-finite positions before a rebuild): the time step is unstable.
     With ``ipar[I_ADAPTIVE]`` the time step is reset at every check from
     :func:`stable_dt`.
 
-    Two parallel passes per step (:func:`_pair_pass`, :func:`_grain_pass`); the first half
-    kick and drift of the next step ride on the grain pass unless that step rebuilds the
-    pair list or follows a check (then :func:`_drift_pass`).
+    Two parallel passes per step over the grain blocks (:func:`_incoming_pass`,
+    :func:`_row_pass`); the first half kick and drift of the next step ride on the second
+    unless that step rebuilds the pair list or follows a check (then :func:`_drift_pass`).
     """
     n, d = pos.shape
-    nblk_g = (n + GRAIN_BLOCK - 1) // GRAIN_BLOCK
-    blk_g = ws[8]
+    blk_g = ws[W_BLK]
+    nblk = blk_g.shape[0]
+    room = ws[W_SPAIR].shape[0]
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > room:  # lists built elsewhere, more than room
+        ipar[I_NEEDED] = ipar[I_NPAIRS]
+        ipar[I_WIDTH] = 0
+        return 2
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
     # largest squared displacement since the last build (then kept by the drift)
     _displacement_pass(pos, pos0, blk_g)
-    disp2 = _block_max(blk_g, nblk_g, G_DISP)
+    disp2 = _block_max(blk_g, G_DISP)
     drifted = False
     for step in range(n_steps):
         dt = fpar[F_DT]
@@ -855,9 +1011,13 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     for a in range(d):
                         pos0[i, a] = pos[i, a]
                 disp2 = 0.0
+                if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
+                    ipar[I_NEEDED] = np_new
+                    ipar[I_WIDTH] = 0
+                    return 2
             _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
-            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))
-            disp2 = _block_max(blk_g, nblk_g, G_DISP)
+            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
+            disp2 = _block_max(blk_g, G_DISP)
             if piston[P_MASS] < np.inf:
                 piston[P_V] += 0.5 * dt * piston[P_A]
                 piston[P_H] += dt * piston[P_V]
@@ -867,13 +1027,13 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         drifted = (not is_check and step + 1 < n_steps and math.isfinite(reach)
                    and not (reach > half_skin))
         _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, True, is_check, drifted)
+                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, True, is_check, drifted)
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]
         ipar[I_STEPS] += 1
         if drifted:
-            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, nblk_g, G_DVMAX))
-            disp2 = _block_max(blk_g, nblk_g, G_DISP)
+            fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
+            disp2 = _block_max(blk_g, G_DISP)
             if piston[P_MASS] < np.inf:
                 piston[P_V] += 0.5 * dt * piston[P_A]
                 piston[P_H] += dt * piston[P_V]

@@ -1,12 +1,13 @@
 """The DEM step on one thread: one loop over the pairs adds each force to both grains.
 
-The parallel engine (:mod:`granwave.dem.kernels`) computes each pair's force into its own
-slot and then gathers per grain; on one thread that costs a third of the rate (measured
-in benchmarks/scale.py: 1.17e7 against 1.83e7 grain-steps/s at 600 grains), so
+The parallel engine (:mod:`granwave.dem.kernels`) runs this same loop per block of grain
+indices, after a first pass over the pairs that cross into each block; on one thread that
+costs 10-15 % more CPU time per step (10 200 grains, docs/dem.md "Parallel engine"), so
 :class:`granwave.dem.integrator.Engine` runs this loop when it has one thread. Both add a
 grain's contributions in the same order (pairs in list order, then its walls), so they
 give the same bits; tests/test_parallel.py checks it. The pair list and its rebuild are
-the parallel engine's (:func:`granwave.dem.neighbours.rebuild`).
+the parallel engine's (:func:`granwave.dem.neighbours.rebuild`). The damping here and in
+``kernels._row_block`` must stay the same operations.
 """
 
 from __future__ import annotations
