@@ -37,7 +37,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = "<!-- relaxation:begin -->", "<!-- relaxation:end -->"
-COMPACTIONS = ("fixed", "height-scaled")
+COMPACTIONS = ("fixed", "height-scaled", "mean-flow")
+#: mean_flow_slab of the records of rules other than mean-flow, and of mean-flow records made before
+DEFAULT_SLAB = 4.0
 STATS = [("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0")]
 
 
@@ -49,7 +51,8 @@ def grains_for(width: float, height: float, polydispersity: float = 0.2) -> int:
     return int(round(EXPECTED_SOLID_FRACTION_2D * width * height / mean_area))
 
 
-def measure(compaction: str, pressure: float, height: float, width: float, seed: int) -> dict:
+def measure(compaction: str, pressure: float, height: float, width: float, seed: int,
+            slab: float = DEFAULT_SLAB) -> dict:
     """Prepare one column and return its record (steps, sizes, bulk statistics)."""
     from granwave.analysis.statics import statics
     from granwave.dem.protocol import prepare_packing
@@ -57,17 +60,33 @@ def measure(compaction: str, pressure: float, height: float, width: float, seed:
 
     n = grains_for(width, height)
     params = PrepareParams(dim=2, grains=n, pressure=pressure, aspect=height / width, seed=seed,
-                           compaction=compaction, max_steps=50_000_000)
+                           compaction=compaction, max_steps=50_000_000, mean_flow_slab=slab)
     t0 = time.process_time()
     packing = prepare_packing(params)
     cpu = time.process_time() - t0
     s = statics(packing, layer=3.0)
-    return dict(compaction=compaction, pressure=pressure, height=height, width=width, seed=seed, grains=n,
+    extra = dict(slab=slab) if compaction == "mean-flow" else {}
+    prof = depth_profile(packing) if compaction == "mean-flow" and height >= 200 else {}
+    return dict(compaction=compaction, pressure=pressure, height=height, width=width, seed=seed, grains=n, **extra,
                 steps=int(packing.attrs["steps"]), final_height=float(packing.height),
                 gamma=float(packing.attrs["background_damping_rate"]),
                 residual=float(packing.attrs["max_acceleration"]), cpu_s=cpu,
                 **{k: float(s[k]) for k in ("phi2", "z_star", "rattler_fraction", "F2", "mean_force_over_p",
-                                            "stress_ratio")})
+                                            "stress_ratio")}, **prof)
+
+
+def depth_profile(packing, step: float = 25.0) -> dict:
+    """Phi2 of horizontal bands ``step`` d thick from the bottom wall (the top band shorter):
+    the grains whose centre is in the band, their area over the band's (no layer removed)."""
+    import numpy as np
+
+    z = packing.position[:, -1]
+    area = np.pi * packing.radius**2
+    h = float(packing.height)
+    lateral = float(np.prod(packing.box[:-1]))
+    edges = np.append(np.arange(0.0, h, step), h)
+    phi = [float(area[(z >= lo) & (z < hi)].sum() / (lateral * (hi - lo))) for lo, hi in zip(edges[:-1], edges[1:])]
+    return dict(profile_edges=[float(e) for e in edges], profile_phi=phi)
 
 
 def load(path: Path) -> list[dict]:
@@ -162,21 +181,25 @@ def main(argv=None) -> int:
     ap.add_argument("--old-max-height", type=float, default=200.0,
                     help="largest height prepared with the 'fixed' compaction (default 200)")
     ap.add_argument("--only", choices=COMPACTIONS, help="prepare only this compaction")
+    ap.add_argument("--slab", type=float, default=DEFAULT_SLAB,
+                    help="mean_flow_slab of the 'mean-flow' rule (d); the table shows the default's")
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "relaxation.jsonl")
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--write-docs", action="store_true")
     a = ap.parse_args(argv)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     done = {(r["compaction"], r["pressure"], r["height"], r["seed"]) for r in load(a.results)
-            if r["width"] == a.width}
+            if r["width"] == a.width and r.get("slab", DEFAULT_SLAB) == a.slab}
     tasks = [(c, p, h, s) for c in COMPACTIONS for p in a.pressures for h in a.heights for s in range(a.first_seed, a.first_seed + a.seeds)
              if (c, p, h, s) not in done and not (c == "fixed" and h > a.old_max_height)
              and (a.only is None or c == a.only)]
     # cheapest first (grain-steps ~ N H^k p^(-1/3)), so that a stopped run leaves the small heights
     tasks.sort(key=lambda t: t[2] ** (2.4 if t[0] == "fixed" else 2.0) * t[1] ** (-1.0 / 3.0))
+    if a.slab != DEFAULT_SLAB:
+        tasks = [t for t in tasks if t[0] == "mean-flow"]
     if not a.table_only:
         for c, p, h, s in tasks:
-            rec = measure(c, p, h, a.width, s)
+            rec = measure(c, p, h, a.width, s, a.slab)
             with open(a.results, "a") as fh:
                 fh.write(json.dumps(rec) + "\n")
             print(f"{c} p={p:g} H={h:g} seed={s}: {rec['steps']} steps ({rec['grains']} grains, "
