@@ -117,42 +117,53 @@ def _mean_se(values) -> str:
     return f"{np.mean(values):.4f} ± {np.std(values, ddof=1) / math.sqrt(len(values)):.4f}"
 
 
+def _rows(records, p, c, h=None, slab=DEFAULT_SLAB):
+    """Records of rule ``c`` at pressure ``p`` (and height ``h``); mean-flow at slab ``slab`` only."""
+    return [r for r in records if r["pressure"] == p and r["compaction"] == c
+            and (h is None or r["height"] == h) and r.get("slab", DEFAULT_SLAB) == slab]
+
+
 def report(records: list[dict], heights, pressures, old_max: float) -> str:
     lines = []
     fits = {}
     for p in pressures:
         for c in COMPACTIONS:
-            rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] in heights]
-            f = fit([r["height"] for r in rows], [r["steps"] for r in rows])
-            fits[p, c] = f
-    lines.append("| p | H (d) | grains | seeds fixed / scaled | steps, fixed | steps, height-scaled | ratio "
-                 "| Φ2 fixed / scaled | z* fixed / scaled | f0 fixed / scaled |")
-    lines.append("|" + "---|" * 10)
+            rows = [r for r in _rows(records, p, c) if r["height"] in heights]
+            fits[p, c] = fit([r["height"] for r in rows], [r["steps"] for r in rows])
+    lines.append("| p | H (d) | grains | seeds fixed / scaled / mean-flow | steps, fixed | steps, height-scaled "
+                 "| steps, mean-flow | fixed / mean-flow |")
+    lines.append("|" + "---|" * 8)
+    stat_lines = ["| p | H (d) | " + " | ".join(f"{label} fixed / scaled / mean-flow" for _, label in STATS) + " |",
+                  "|" + "---|" * (2 + len(STATS))]
     for p in pressures:
         for h in heights:
-            cell = {}
-            for c in COMPACTIONS:
-                rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] == h]
-                cell[c] = rows
-            new, old = cell["height-scaled"], cell["fixed"]
-            if not new and not old:
+            cell = {c: _rows(records, p, c, h) for c in COMPACTIONS}
+            if not any(cell.values()):
                 continue
-            n = (new or old)[0]["grains"]
-            s_new = np.mean([r["steps"] for r in new]) if new else float("nan")
-            if old:
-                s_old = np.mean([r["steps"] for r in old])
-                old_txt = f"{s_old:,.0f}"
-            elif fits[p, "fixed"] is not None:  # not prepared (above --old-max-height, or stopped)
-                k, _, _, a = fits[p, "fixed"]
-                s_old = math.exp(a + k * math.log(h))
-                old_txt = f"({s_old:,.0f}, fit)"
-            else:
-                s_old, old_txt = float("nan"), "—"
-            new_txt = f"{s_new:,.0f}" if new else "—"
-            ratio = f"{s_old / s_new:.2f}" if math.isfinite(s_old) and math.isfinite(s_new) else "—"
-            st = [f"{_mean_se([r[key] for r in old])} / {_mean_se([r[key] for r in new])}" for key, _ in STATS]
-            lines.append(f"| {p:g} | {h:g} | {n} | {len(old)} / {len(new)} | {old_txt} | {new_txt} | {ratio} | "
-                         + " | ".join(st) + " |")
+            n = next(rows for rows in cell.values() if rows)[0]["grains"]
+            steps = {}
+            txt = {}
+            for c in COMPACTIONS:
+                if cell[c]:
+                    steps[c] = float(np.mean([r["steps"] for r in cell[c]]))
+                    txt[c] = f"{steps[c]:,.0f}"
+                elif c == "fixed" and fits[p, c] is not None:  # not prepared (above --old-max-height)
+                    k, _, _, a = fits[p, c]
+                    steps[c] = math.exp(a + k * math.log(h))
+                    txt[c] = f"({steps[c]:,.0f}, fit)"
+                else:
+                    steps[c], txt[c] = float("nan"), "—"
+            ratio = steps["fixed"] / steps["mean-flow"]
+            ratio_txt = f"{ratio:.2f}" if math.isfinite(ratio) else "—"
+            seeds = " / ".join(str(len(cell[c])) for c in COMPACTIONS)
+            lines.append(f"| {p:g} | {h:g} | {n} | {seeds} | " + " | ".join(txt[c] for c in COMPACTIONS)
+                         + f" | {ratio_txt} |")
+            st = [" / ".join(_mean_se([r[key] for r in cell[c]]) for c in COMPACTIONS) for key, _ in STATS]
+            stat_lines.append(f"| {p:g} | {h:g} | " + " | ".join(st) + " |")
+    lines.append("")
+    lines.append("Bulk statistics (layer 3 d; mean ± standard error where more than one seed):")
+    lines.append("")
+    lines.extend(stat_lines)
     lines.append("")
     lines.append("Fitted exponent k of steps ∝ H^k (least squares in log-log over the measured heights, "
                  "95 % interval):")
@@ -160,14 +171,37 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
     for p in pressures:
         for c in COMPACTIONS:
             f = fits[p, c]
-            hs = sorted({r["height"] for r in records if r["pressure"] == p and r["compaction"] == c
-                         and r["height"] in heights})
+            hs = sorted({r["height"] for r in _rows(records, p, c) if r["height"] in heights})
             if f is None:
                 lines.append(f"- p = {p:g}, {c}: fewer than two heights measured")
                 continue
             k, lo, hi, _ = f
             ci = f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) else " (two heights: no interval)"
             lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over H = {', '.join(f'{h:g}' for h in hs)}")
+    other = sorted({(r["pressure"], r["height"], r["slab"]) for r in records
+                    if r["compaction"] == "mean-flow" and r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB})
+    if other:
+        lines.append("")
+        lines.append(f"Slab thickness of the mean flow (mean-flow; the table: {DEFAULT_SLAB:g} d):")
+        lines.append("")
+        for p, h, slab in other:
+            seeds = {r["seed"] for r in _rows(records, p, "mean-flow", h, slab)}
+            for sl in (slab, DEFAULT_SLAB):
+                rows = sorted((r for r in _rows(records, p, "mean-flow", h, sl) if r["seed"] in seeds),
+                              key=lambda r: r["seed"])
+                steps = ", ".join(f"{r['steps']:,}" for r in rows)
+                stats = "; ".join(f"{label} " + ", ".join(f"{r[key]:.4f}" for r in rows) for key, label in STATS)
+                lines.append(f"- p = {p:g}, H = {h:g}, slab {sl:g} d, seeds "
+                             f"{', '.join(str(r['seed']) for r in rows)}: steps {steps}; {stats}")
+    profiles = [r for r in records if "profile_phi" in r and r.get("slab", DEFAULT_SLAB) == DEFAULT_SLAB]
+    if profiles:
+        lines.append("")
+        lines.append("Depth profile of Φ2 (mean-flow; bands from the bottom wall, grains by centre, walls included):")
+        lines.append("")
+        for r in profiles:
+            e = r["profile_edges"]
+            bands = ", ".join(f"{lo:g}–{hi:.0f} d {phi:.4f}" for lo, hi, phi in zip(e[:-1], e[1:], r["profile_phi"]))
+            lines.append(f"- p = {r['pressure']:g}, H = {r['height']:g}, seed {r['seed']}: {bands}")
     return "\n".join(lines) + "\n"
 
 
