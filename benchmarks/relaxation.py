@@ -178,15 +178,17 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
             k, lo, hi, _ = f
             ci = f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) else " (two heights: no interval)"
             lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over H = {', '.join(f'{h:g}' for h in hs)}")
-    other = sorted({(r["pressure"], r["height"], r["slab"]) for r in records
+    other = sorted({(r["pressure"], r["height"]) for r in records
                     if r["compaction"] == "mean-flow" and r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB})
     if other:
         lines.append("")
-        lines.append(f"Slab thickness of the mean flow (mean-flow; the table: {DEFAULT_SLAB:g} d):")
+        lines.append(f"Slab thickness of the mean flow (mean-flow; the table: {DEFAULT_SLAB:g} d), the same seeds:")
         lines.append("")
-        for p, h, slab in other:
-            seeds = {r["seed"] for r in _rows(records, p, "mean-flow", h, slab)}
-            for sl in (slab, DEFAULT_SLAB):
+        for p, h in other:
+            mf = [r for r in records if r["compaction"] == "mean-flow" and r["pressure"] == p and r["height"] == h]
+            slabs = sorted({r.get("slab", DEFAULT_SLAB) for r in mf})
+            seeds = {r["seed"] for r in mf if r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB}
+            for sl in slabs:
                 rows = sorted((r for r in _rows(records, p, "mean-flow", h, sl) if r["seed"] in seeds),
                               key=lambda r: r["seed"])
                 steps = ", ".join(f"{r['steps']:,}" for r in rows)
