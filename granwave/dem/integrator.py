@@ -204,11 +204,13 @@ class Engine:
         with at_most(len(self.radius), K.MIN_PARALLEL_GRAINS):
             # one thread: the single pair loop (same bits, a third faster; dem/serial.py)
             one = numba.get_num_threads() == 1
-            if self.mflow.shape[0] > 0 and not one:
-                self._one_thread_only()
-            # the single loop takes the mean-flow rule's arrays (empty mflow: off)
-            extra = (self.mflow, self.slabs) if one else ()
-            run_chunk = serial.run_chunk if one else K.run_chunk
+            extra = ()
+            if self.mflow.shape[0] > 0:  # compaction 'mean-flow': the single loop only
+                if not one:
+                    self._one_thread_only()
+                run_chunk, extra = serial.run_chunk_mean_flow, (self.mflow, self.slabs)
+            else:
+                run_chunk = serial.run_chunk if one else K.run_chunk
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,

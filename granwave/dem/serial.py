@@ -172,11 +172,21 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
 
 @numba.njit(cache=True)
 def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-              pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, mflow, slabs):
+              pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws):
     """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs (same arguments, statuses
-    and bits), plus the compaction rule 'mean-flow' (``mflow`` [gamma_m, slab] and its work
-    array ``slabs``, :mod:`granwave.dem.mean_flow`; an empty ``mflow``: off): the mean flow and
-    the piston damped at gamma_m.
+    and bits): :func:`run_chunk_mean_flow` with the rule 'mean-flow' off."""
+    return run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
+                               np.zeros(0), np.zeros((2, 1)))
+
+
+@numba.njit(cache=True)
+def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
+                        pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, mflow, slabs):
+    """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs, plus the compaction rule
+    'mean-flow' (``mflow`` [gamma_m, slab] and its work array ``slabs``,
+    :mod:`granwave.dem.mean_flow`; an empty ``mflow``: off, the same bits as the parallel
+    kernels): the mean flow and the piston damped at gamma_m.
 
     State on entry and exit: positions, velocities and accelerations at the same
     time (``acc``/``alpha`` valid). Returns 0 when all steps ran, 1 when the
