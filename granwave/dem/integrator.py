@@ -130,8 +130,9 @@ class Engine:
         self.mflow = np.zeros(0)
         self.slabs = np.zeros((2, 1))
         if mean_flow is not None:
-            self.mflow = np.array([float(mean_flow[0]), float(mean_flow[1])])
-            assert self.mflow.shape == (N_MFLOW,)
+            self.mflow = np.array([float(x) for x in mean_flow])
+            if self.mflow.shape != (N_MFLOW,) or not (self.mflow[0] >= 0.0 and self.mflow[1] > 0.0):
+                raise InputError(f"mean_flow must be (gamma_m >= 0, slab > 0), got {mean_flow!r}")
             self.slabs = np.zeros((2, slab_count(float(height), self.mflow[1])))
             self._one_thread_only()
         self._rebuild()
