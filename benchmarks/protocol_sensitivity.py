@@ -5,7 +5,8 @@
 
 For the default 2D frictional protocol (granwave.dem.params.PrepareParams) and
 for each protocol knob moved one at a time (contact damping zeta, background
-damping b, piston mass M, initial gas density, the compaction rule), prepares
+damping b, piston mass M, initial gas density, the compaction rule; 'mean-flow' with a
+reference height of 5 d, so that it acts on 600 grains), prepares
 ``--seeds`` packings of ``--grains`` grains at p = 1e-4 and p = 1e-7 (seeds
 0..seeds-1, the same seeds for every setting; ``--settings`` restricts the
 settings prepared), and measures per packing (docs/method.md §4, §6): Phi2, z*,
@@ -45,6 +46,8 @@ PRESSURES = (1e-4, 1e-7)
 SETTINGS = [
     ("default", "default (ζ 0.5, b 0.3, M = 1 layer, gas 0.50, compaction fixed)", {}),
     ("scaled", "compaction 'height-scaled'", {"compaction": "height-scaled"}),
+    ("meanflow5", "compaction 'mean-flow', reference height 5 d",
+     {"compaction": "mean-flow", "reference_height": 5.0}),
     ("zeta0.1", "contact damping ζ = 0.1", {"damping": 0.1}),
     ("zeta0.9", "contact damping ζ = 0.9", {"damping": 0.9}),
     ("b0.1", "background damping b = 0.1", {"background_damping": 0.1}),

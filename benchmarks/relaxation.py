@@ -37,7 +37,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = "<!-- relaxation:begin -->", "<!-- relaxation:end -->"
-COMPACTIONS = ("fixed", "height-scaled")
+COMPACTIONS = ("fixed", "height-scaled", "mean-flow")
+#: mean_flow_slab of the records of rules other than mean-flow, and of mean-flow records made before
+DEFAULT_SLAB = 4.0
 STATS = [("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0")]
 
 
@@ -49,7 +51,8 @@ def grains_for(width: float, height: float, polydispersity: float = 0.2) -> int:
     return int(round(EXPECTED_SOLID_FRACTION_2D * width * height / mean_area))
 
 
-def measure(compaction: str, pressure: float, height: float, width: float, seed: int) -> dict:
+def measure(compaction: str, pressure: float, height: float, width: float, seed: int,
+            slab: float = DEFAULT_SLAB) -> dict:
     """Prepare one column and return its record (steps, sizes, bulk statistics)."""
     from granwave.analysis.statics import statics
     from granwave.dem.protocol import prepare_packing
@@ -57,17 +60,33 @@ def measure(compaction: str, pressure: float, height: float, width: float, seed:
 
     n = grains_for(width, height)
     params = PrepareParams(dim=2, grains=n, pressure=pressure, aspect=height / width, seed=seed,
-                           compaction=compaction, max_steps=50_000_000)
+                           compaction=compaction, max_steps=50_000_000, mean_flow_slab=slab)
     t0 = time.process_time()
     packing = prepare_packing(params)
     cpu = time.process_time() - t0
     s = statics(packing, layer=3.0)
-    return dict(compaction=compaction, pressure=pressure, height=height, width=width, seed=seed, grains=n,
+    extra = dict(slab=slab) if compaction == "mean-flow" else {}
+    prof = depth_profile(packing) if compaction == "mean-flow" and height >= 200 else {}
+    return dict(compaction=compaction, pressure=pressure, height=height, width=width, seed=seed, grains=n, **extra,
                 steps=int(packing.attrs["steps"]), final_height=float(packing.height),
                 gamma=float(packing.attrs["background_damping_rate"]),
                 residual=float(packing.attrs["max_acceleration"]), cpu_s=cpu,
                 **{k: float(s[k]) for k in ("phi2", "z_star", "rattler_fraction", "F2", "mean_force_over_p",
-                                            "stress_ratio")})
+                                            "stress_ratio")}, **prof)
+
+
+def depth_profile(packing, step: float = 25.0) -> dict:
+    """Phi2 of horizontal bands ``step`` d thick from the bottom wall (the top band shorter):
+    the grains whose centre is in the band, their area over the band's (no layer removed)."""
+    import numpy as np
+
+    z = packing.position[:, -1]
+    area = np.pi * packing.radius**2
+    h = float(packing.height)
+    lateral = float(np.prod(packing.box[:-1]))
+    edges = np.append(np.arange(0.0, h, step), h)
+    phi = [float(area[(z >= lo) & (z < hi)].sum() / (lateral * (hi - lo))) for lo, hi in zip(edges[:-1], edges[1:])]
+    return dict(profile_edges=[float(e) for e in edges], profile_phi=phi)
 
 
 def load(path: Path) -> list[dict]:
@@ -98,42 +117,53 @@ def _mean_se(values) -> str:
     return f"{np.mean(values):.4f} ± {np.std(values, ddof=1) / math.sqrt(len(values)):.4f}"
 
 
+def _rows(records, p, c, h=None, slab=DEFAULT_SLAB):
+    """Records of rule ``c`` at pressure ``p`` (and height ``h``); mean-flow at slab ``slab`` only."""
+    return [r for r in records if r["pressure"] == p and r["compaction"] == c
+            and (h is None or r["height"] == h) and r.get("slab", DEFAULT_SLAB) == slab]
+
+
 def report(records: list[dict], heights, pressures, old_max: float) -> str:
     lines = []
     fits = {}
     for p in pressures:
         for c in COMPACTIONS:
-            rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] in heights]
-            f = fit([r["height"] for r in rows], [r["steps"] for r in rows])
-            fits[p, c] = f
-    lines.append("| p | H (d) | grains | seeds fixed / scaled | steps, fixed | steps, height-scaled | ratio "
-                 "| Φ2 fixed / scaled | z* fixed / scaled | f0 fixed / scaled |")
-    lines.append("|" + "---|" * 10)
+            rows = [r for r in _rows(records, p, c) if r["height"] in heights]
+            fits[p, c] = fit([r["height"] for r in rows], [r["steps"] for r in rows])
+    lines.append("| p | H (d) | grains | seeds fixed / scaled / mean-flow | steps, fixed | steps, height-scaled "
+                 "| steps, mean-flow | fixed / mean-flow |")
+    lines.append("|" + "---|" * 8)
+    stat_lines = ["| p | H (d) | " + " | ".join(f"{label} fixed / scaled / mean-flow" for _, label in STATS) + " |",
+                  "|" + "---|" * (2 + len(STATS))]
     for p in pressures:
         for h in heights:
-            cell = {}
-            for c in COMPACTIONS:
-                rows = [r for r in records if r["pressure"] == p and r["compaction"] == c and r["height"] == h]
-                cell[c] = rows
-            new, old = cell["height-scaled"], cell["fixed"]
-            if not new and not old:
+            cell = {c: _rows(records, p, c, h) for c in COMPACTIONS}
+            if not any(cell.values()):
                 continue
-            n = (new or old)[0]["grains"]
-            s_new = np.mean([r["steps"] for r in new]) if new else float("nan")
-            if old:
-                s_old = np.mean([r["steps"] for r in old])
-                old_txt = f"{s_old:,.0f}"
-            elif fits[p, "fixed"] is not None:  # not prepared (above --old-max-height, or stopped)
-                k, _, _, a = fits[p, "fixed"]
-                s_old = math.exp(a + k * math.log(h))
-                old_txt = f"({s_old:,.0f}, fit)"
-            else:
-                s_old, old_txt = float("nan"), "—"
-            new_txt = f"{s_new:,.0f}" if new else "—"
-            ratio = f"{s_old / s_new:.2f}" if math.isfinite(s_old) and math.isfinite(s_new) else "—"
-            st = [f"{_mean_se([r[key] for r in old])} / {_mean_se([r[key] for r in new])}" for key, _ in STATS]
-            lines.append(f"| {p:g} | {h:g} | {n} | {len(old)} / {len(new)} | {old_txt} | {new_txt} | {ratio} | "
-                         + " | ".join(st) + " |")
+            n = next(rows for rows in cell.values() if rows)[0]["grains"]
+            steps = {}
+            txt = {}
+            for c in COMPACTIONS:
+                if cell[c]:
+                    steps[c] = float(np.mean([r["steps"] for r in cell[c]]))
+                    txt[c] = f"{steps[c]:,.0f}"
+                elif c == "fixed" and fits[p, c] is not None:  # not prepared (above --old-max-height)
+                    k, _, _, a = fits[p, c]
+                    steps[c] = math.exp(a + k * math.log(h))
+                    txt[c] = f"({steps[c]:,.0f}, fit)"
+                else:
+                    steps[c], txt[c] = float("nan"), "—"
+            ratio = steps["fixed"] / steps["mean-flow"]
+            ratio_txt = f"{ratio:.2f}" if math.isfinite(ratio) else "—"
+            seeds = " / ".join(str(len(cell[c])) for c in COMPACTIONS)
+            lines.append(f"| {p:g} | {h:g} | {n} | {seeds} | " + " | ".join(txt[c] for c in COMPACTIONS)
+                         + f" | {ratio_txt} |")
+            st = [" / ".join(_mean_se([r[key] for r in cell[c]]) for c in COMPACTIONS) for key, _ in STATS]
+            stat_lines.append(f"| {p:g} | {h:g} | " + " | ".join(st) + " |")
+    lines.append("")
+    lines.append("Bulk statistics (layer 3 d; mean ± standard error where more than one seed):")
+    lines.append("")
+    lines.extend(stat_lines)
     lines.append("")
     lines.append("Fitted exponent k of steps ∝ H^k (least squares in log-log over the measured heights, "
                  "95 % interval):")
@@ -141,14 +171,39 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
     for p in pressures:
         for c in COMPACTIONS:
             f = fits[p, c]
-            hs = sorted({r["height"] for r in records if r["pressure"] == p and r["compaction"] == c
-                         and r["height"] in heights})
+            hs = sorted({r["height"] for r in _rows(records, p, c) if r["height"] in heights})
             if f is None:
                 lines.append(f"- p = {p:g}, {c}: fewer than two heights measured")
                 continue
             k, lo, hi, _ = f
             ci = f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) else " (two heights: no interval)"
             lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over H = {', '.join(f'{h:g}' for h in hs)}")
+    other = sorted({(r["pressure"], r["height"]) for r in records
+                    if r["compaction"] == "mean-flow" and r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB})
+    if other:
+        lines.append("")
+        lines.append(f"Slab thickness of the mean flow (mean-flow; the table: {DEFAULT_SLAB:g} d), the same seeds:")
+        lines.append("")
+        for p, h in other:
+            mf = [r for r in records if r["compaction"] == "mean-flow" and r["pressure"] == p and r["height"] == h]
+            slabs = sorted({r.get("slab", DEFAULT_SLAB) for r in mf})
+            seeds = {r["seed"] for r in mf if r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB}
+            for sl in slabs:
+                rows = sorted((r for r in _rows(records, p, "mean-flow", h, sl) if r["seed"] in seeds),
+                              key=lambda r: r["seed"])
+                steps = ", ".join(f"{r['steps']:,}" for r in rows)
+                stats = "; ".join(f"{label} " + ", ".join(f"{r[key]:.4f}" for r in rows) for key, label in STATS)
+                lines.append(f"- p = {p:g}, H = {h:g}, slab {sl:g} d, seeds "
+                             f"{', '.join(str(r['seed']) for r in rows)}: steps {steps}; {stats}")
+    profiles = [r for r in records if "profile_phi" in r and r.get("slab", DEFAULT_SLAB) == DEFAULT_SLAB]
+    if profiles:
+        lines.append("")
+        lines.append("Depth profile of Φ2 (mean-flow; bands from the bottom wall, grains by centre, walls included):")
+        lines.append("")
+        for r in profiles:
+            e = r["profile_edges"]
+            bands = ", ".join(f"{lo:g}–{hi:.0f} d {phi:.4f}" for lo, hi, phi in zip(e[:-1], e[1:], r["profile_phi"]))
+            lines.append(f"- p = {r['pressure']:g}, H = {r['height']:g}, seed {r['seed']}: {bands}")
     return "\n".join(lines) + "\n"
 
 
@@ -162,21 +217,25 @@ def main(argv=None) -> int:
     ap.add_argument("--old-max-height", type=float, default=200.0,
                     help="largest height prepared with the 'fixed' compaction (default 200)")
     ap.add_argument("--only", choices=COMPACTIONS, help="prepare only this compaction")
+    ap.add_argument("--slab", type=float, default=DEFAULT_SLAB,
+                    help="mean_flow_slab of the 'mean-flow' rule (d); the table shows the default's")
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "relaxation.jsonl")
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--write-docs", action="store_true")
     a = ap.parse_args(argv)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     done = {(r["compaction"], r["pressure"], r["height"], r["seed"]) for r in load(a.results)
-            if r["width"] == a.width}
+            if r["width"] == a.width and r.get("slab", DEFAULT_SLAB) == a.slab}
     tasks = [(c, p, h, s) for c in COMPACTIONS for p in a.pressures for h in a.heights for s in range(a.first_seed, a.first_seed + a.seeds)
              if (c, p, h, s) not in done and not (c == "fixed" and h > a.old_max_height)
              and (a.only is None or c == a.only)]
     # cheapest first (grain-steps ~ N H^k p^(-1/3)), so that a stopped run leaves the small heights
     tasks.sort(key=lambda t: t[2] ** (2.4 if t[0] == "fixed" else 2.0) * t[1] ** (-1.0 / 3.0))
+    if a.slab != DEFAULT_SLAB:
+        tasks = [t for t in tasks if t[0] == "mean-flow"]
     if not a.table_only:
         for c, p, h, s in tasks:
-            rec = measure(c, p, h, a.width, s)
+            rec = measure(c, p, h, a.width, s, a.slab)
             with open(a.results, "a") as fh:
                 fh.write(json.dumps(rec) + "\n")
             print(f"{c} p={p:g} H={h:g} seed={s}: {rec['steps']} steps ({rec['grains']} grains, "

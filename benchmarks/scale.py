@@ -315,9 +315,10 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
         return
     from granwave.dem.protocol import prepare_packing
 
-    w0 = time.perf_counter()
+    w0, c0 = time.perf_counter(), time.process_time()
     pk = prepare_packing(p, progress=print)
-    print(f"  compaction {p.compaction}: prepared in {time.perf_counter() - w0:.1f} s wall, {pk.attrs['steps']} steps; "
+    print(f"  compaction {p.compaction}: prepared in {time.perf_counter() - w0:.1f} s wall "
+          f"({time.process_time() - c0:.1f} s CPU; {load()}), {pk.attrs['steps']} steps; "
           f"peak memory {resources.format_bytes(peak_memory())}")
 
 
@@ -330,8 +331,9 @@ def main() -> None:
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
     ap.add_argument("--rate", type=float, default=None,
                     help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
-    ap.add_argument("--compaction", choices=("fixed", "height-scaled"), default="fixed",
-                    help="with --large column: the compaction rule (docs/dem.md)")
+    ap.add_argument("--compaction", choices=("fixed", "height-scaled", "mean-flow"), default="fixed",
+                    help="with --large column: the compaction rule (docs/dem.md; 'mean-flow' runs on one "
+                    "thread only: NUMBA_NUM_THREADS=1)")
     args = ap.parse_args()
     if args.large:
         large(args.large, args.dry_run, args.tiny, args.rate, args.compaction)

@@ -180,8 +180,11 @@ class PrepareParams(Params):
     every height; 'height-scaled': b divided by H_e / reference_height where the
     expected final height H_e exceeds reference_height (d), so that the
     compaction is the same in units of H at every height and the steps grow as H;
-    tall columns then differ from 'fixed' ones, docs/dem.md);
-    reference_height (d); piston_mass (rho d^3, None:
+    tall columns then differ from 'fixed' ones, docs/dem.md; 'mean-flow': the
+    per-slab mean vertical flow and the piston damped at b min(1, reference_height /
+    H_e), the fluctuations about it at b; one thread only);
+    reference_height (d); mean_flow_slab (d, thickness of the horizontal slabs whose
+    mass-weighted mean vertical velocity is the mean flow); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
     (dt = (safety/0.1) x the estimated stability limit, at most MAX_SAFETY;
@@ -207,10 +210,16 @@ class PrepareParams(Params):
                             "'fixed' keeps b at every height (steps grow about as H^1.7); "
                             "'height-scaled' divides b by H/reference_height in columns expected "
                             "taller than reference_height (steps grow as H, but tall columns come "
-                            "out denser than with 'fixed'; docs/dem.md).",
-                            choices=("fixed", "height-scaled"))
+                            "out denser than with 'fixed'; docs/dem.md); 'mean-flow' divides it "
+                            "only for the mean vertical flow of horizontal slabs and the piston "
+                            "(one thread only).",
+                            choices=("fixed", "height-scaled", "mean-flow"))
     reference_height: float = param(25.0, help="Height up to which b applies unscaled "
-                                    "(compaction 'height-scaled').", units="d", lo=0.0, lo_open=True)
+                                    "(compaction 'height-scaled' and 'mean-flow').", units="d", lo=0.0,
+                                    lo_open=True)
+    mean_flow_slab: float = param(4.0, help="Thickness of the horizontal slabs whose mean vertical "
+                                  "velocity is the mean flow (compaction 'mean-flow').", units="d",
+                                  lo=0.0, lo_open=True)
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)

@@ -1,17 +1,23 @@
-"""The compaction rule of the piston protocol (dem.protocol.damping_scale): the height-scaled
-background damping converges, records itself and is reproducible; 'fixed' is the protocol before."""
+"""The compaction rule of the piston protocol (dem.protocol.damping_scale, mean_flow_scale): the
+height-scaled and mean-flow rules converge, record themselves and are reproducible; 'fixed' is the
+protocol before; the mean-flow damping splits the velocities as it says."""
 
 from __future__ import annotations
 
 import hashlib
 
+import numba
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
 from granwave.cli import main as cli_main
 from granwave.dem.forces import static_residual
-from granwave.dem.protocol import COMPACTION_RULES, damping_scale, expected_height, prepare_packing
+from granwave.dem import kernels as K
+from granwave.dem.integrator import Engine
+from granwave.dem.protocol import (COMPACTION_RULES, damping_scale, expected_height, mean_flow_scale,
+                                   prepare_packing)
+from granwave.errors import InputError
 from granwave.geometry import lateral_size, wall_area
 from granwave.io import files
 from granwave.params import PrepareParams
@@ -24,6 +30,7 @@ BEFORE_DIGEST = "88df15a2b4cd0435a5d065a527249a0d6c141d7a9307212b0f592dc7d207b07
 BEFORE_STEPS = 19020
 #: a reference height below the column's, so that the height-scaled rule acts
 SCALED = dict(BEFORE, reference_height=5.0, compaction="height-scaled")
+MEAN_FLOW = dict(BEFORE, reference_height=5.0, compaction="mean-flow")
 
 
 def digest(packing) -> str:
@@ -80,10 +87,10 @@ def test_height_scaled_same_seed_same_bytes(scaled, tmp_path):
     assert (tmp_path / "a.h5").read_bytes() == (tmp_path / "b.h5").read_bytes()
 
 
-@pytest.mark.parametrize("compaction", ["fixed", "height-scaled"])
+@pytest.mark.parametrize("compaction", ["fixed", "height-scaled", "mean-flow"])
 def test_before_reproduced(compaction):
-    """'fixed' at any height, and 'height-scaled' below reference_height, are the protocol
-    before: the same arrays to the byte and the same steps."""
+    """'fixed' at any height, and 'height-scaled' and 'mean-flow' below reference_height, are the
+    protocol before: the same arrays to the byte and the same steps."""
     pk = prepare_packing(PrepareParams(**BEFORE, compaction=compaction))
     assert pk.attrs["background_damping_scale"] == 1.0
     assert pk.attrs["background_damping_rate"] == 0.3 / pk.attrs["inertial_time"]
@@ -99,7 +106,100 @@ def test_fixed_ignores_height():
 
 def test_cli_options(tmp_path):
     out = CliRunner().invoke(cli_main, ["prepare-packing", "--help"]).output
-    assert "--compaction" in out and "--reference-height" in out
+    assert "--compaction" in out and "--reference-height" in out and "--mean-flow-slab" in out
+    assert "mean-flow" in out
     target = tmp_path / "x.h5"
     bad = CliRunner().invoke(cli_main, ["prepare-packing", "--compaction", "fire", "-o", str(target)])
     assert bad.exit_code == 2 and not target.exists()
+
+
+def test_mean_flow_scale_rule():
+    mf = PrepareParams(compaction="mean-flow")
+    assert damping_scale(mf, 100.0) == 1.0  # the fluctuations keep b / t_i
+    assert mean_flow_scale(mf, 25.0) == 1.0 and mean_flow_scale(mf, 100.0) == 0.25
+    assert mean_flow_scale(PrepareParams(compaction="height-scaled"), 100.0) == 1.0
+    assert mean_flow_scale(PrepareParams(), 100.0) == 1.0
+
+
+def _loose_grains(v_mean, fluct_sign):
+    """16 equal grains without contacts, in pairs sharing a slab (4 d) with opposite fluctuation."""
+    n = 16
+    x = 1.5 * np.arange(n) + 0.75
+    z = 2.0 + 4.0 * (np.arange(n) // 4) + 0.3 * (np.arange(n) % 4)  # four grains per slab
+    u = fluct_sign * 1e-3 * np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * (1 + np.arange(n) // 2)
+    vel = np.zeros((n, 2))
+    vel[:, 0] = 2e-3 * np.cos(np.arange(n))  # lateral: damped at gamma, not in the mean flow
+    vel[:, 1] = v_mean + u
+    return np.column_stack([x, z]), np.full(n, 0.5), vel, u
+
+
+@pytest.mark.parametrize("v_mean, sign", [(0.0, 1.0), (-3e-3, 0.0), (-3e-3, 1.0)])
+def test_mean_flow_damping_splits_mean_and_fluctuation(v_mean, sign):
+    """A uniform vertical motion is damped at gamma_m, a velocity field with zero slab means at
+    gamma (exactly: the slab means vanish), their sum at gamma_m and gamma; the piston at gamma_m."""
+    gamma, gamma_m = 2e-3, 5e-4
+    pos, rad, vel, u = _loose_grains(v_mean, sign)
+    e = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, piston_mass=3.0,
+               piston_force=0.0, velocity=vel, mean_flow=(gamma_m, 4.0))
+    m = e.mass
+    assert e.measure()["contacts"] == 0
+    # lateral: -gamma v, bit for bit as the loop computes it
+    np.testing.assert_array_equal(e.acceleration[:, 0], (0.0 - gamma * m * vel[:, 0]) * (1.0 / m))
+    expected = -gamma_m * v_mean - gamma * u
+    if v_mean == 0.0:
+        np.testing.assert_array_equal(e.acceleration[:, 1], (0.0 - gamma * m * vel[:, 1]) * (1.0 / m))
+    else:
+        np.testing.assert_allclose(e.acceleration[:, 1], expected, rtol=1e-13, atol=1e-18)
+    e.piston[K.P_V] = -1e-3
+    e._forces()
+    assert e.piston[K.P_A] == pytest.approx(gamma_m * 1e-3, rel=1e-15)
+    off = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, piston_mass=3.0,
+                 velocity=vel)  # rule off: everything at gamma
+    np.testing.assert_allclose(off.acceleration[:, 1], -gamma * vel[:, 1], rtol=1e-14)
+
+
+def test_mean_flow_refused_off_the_one_thread_loop():
+    pos, rad, vel, _ = _loose_grains(-1e-3, 1.0)
+
+    class OtherEngine(Engine):  # stands for the GPU engine, which steps elsewhere
+        def run(self, n_steps):
+            return 0
+
+    with pytest.raises(InputError, match="one thread"):
+        OtherEngine(pos, rad, [24.0], 20.0, background_damping=1e-3, mean_flow=(1e-4, 4.0))
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one numba thread: the parallel passes cannot be asked for")
+    threads = numba.get_num_threads()
+    rng = np.random.default_rng(0)
+    n = K.MIN_PARALLEL_GRAINS
+    big = np.column_stack([rng.uniform(0, 60, n), rng.uniform(0, 60, n)])
+    try:
+        numba.set_num_threads(2)
+        with pytest.raises(InputError, match="mean-flow compaction runs on one thread for now"):
+            Engine(big, np.full(n, 0.01), [60.0], 61.0, background_damping=1e-3, mean_flow=(1e-4, 4.0))
+    finally:
+        numba.set_num_threads(threads)
+
+
+@pytest.fixture(scope="module")
+def mean_flow():
+    return prepare_packing(PrepareParams(**MEAN_FLOW))
+
+
+def test_mean_flow_converges_and_records_its_protocol(mean_flow):
+    a = mean_flow.attrs
+    h_e = expected_height(mean_flow.radius, mean_flow.box[:-1])
+    assert a["compaction"] == "mean-flow" and a["compaction_rule"] == COMPACTION_RULES["mean-flow"]
+    assert a["background_damping_scale"] == 1.0 and a["background_damping_rate"] == 0.3 / a["inertial_time"]
+    assert a["mean_flow_damping_scale"] == 5.0 / h_e and a["mean_flow_slab"] == 4.0
+    assert a["mean_flow_damping_rate"] == pytest.approx(0.3 * (5.0 / h_e) / a["inertial_time"], rel=1e-14)
+    res = static_residual(mean_flow, a["piston_mass"], 1e-4 * wall_area(mean_flow.box[:-1]))
+    assert a["converged"] and max(res) < 1e-10 and a["max_acceleration"] == max(res)
+    assert a["steps"] != BEFORE_STEPS and digest(mean_flow) != BEFORE_DIGEST
+
+
+def test_mean_flow_same_seed_same_bytes(mean_flow, tmp_path):
+    again = prepare_packing(PrepareParams(**MEAN_FLOW))
+    files.write_packing(tmp_path / "a.h5", mean_flow)
+    files.write_packing(tmp_path / "b.h5", again)
+    assert (tmp_path / "a.h5").read_bytes() == (tmp_path / "b.h5").read_bytes()

@@ -32,6 +32,7 @@ from ..geometry import grain_inertia, grain_mass, n_rotations
 from ..threads import at_most
 from . import kernels as K
 from . import serial
+from .mean_flow import N_MFLOW, slab_count
 from .neighbours import rebuild
 
 #: Neighbours per grain the lists start with (2D, 3D); grown when a grain has more.
@@ -57,13 +58,17 @@ class Engine:
     of :meth:`run`. ``unloading``: the tangential unloading rule of
     contact.update_tangential, ``"rescale"`` (default, preparation: F_t scaled by
     sqrt(n_new/n_old) when the overlap falls) or ``"incremental"`` (plain incremental
-    Mindlin law, the pulses'; contact.py docstring).
+    Mindlin law, the pulses'; contact.py docstring). ``mean_flow``: None, or (gamma_m, slab)
+    for the compaction rule 'mean-flow' (:mod:`granwave.dem.mean_flow`: the mean vertical
+    flow of slabs of thickness ``slab`` and the piston damped at gamma_m, the rest at
+    ``background_damping``); it runs on one thread only (the single pair loop).
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
                  background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
                  overlap_floor=1e-3, skin=0.2, velocity=None, angular_velocity=None,
-                 tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale"):
+                 tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale",
+                 mean_flow=None):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
@@ -121,6 +126,15 @@ class Engine:
         self.ipar[K.I_ADAPTIVE] = dt is None
         self.ipar[K.I_CHECK] = check_every
         self.out = np.zeros(K.N_OUT)
+        #: compaction 'mean-flow': [gamma_m, slab] (empty: off) and the slabs' work array
+        self.mflow = np.zeros(0)
+        self.slabs = np.zeros((2, 1))
+        if mean_flow is not None:
+            self.mflow = np.array([float(x) for x in mean_flow])
+            if self.mflow.shape != (N_MFLOW,) or not (self.mflow[0] >= 0.0 and self.mflow[1] > 0.0):
+                raise InputError(f"mean_flow must be (gamma_m >= 0, slab > 0), got {mean_flow!r}")
+            self.slabs = np.zeros((2, slab_count(float(height), self.mflow[1])))
+            self._one_thread_only()
         self._rebuild()
         # initial forces: dt = 0 so that no history is created by the evaluation itself
         self._forces()
@@ -167,7 +181,24 @@ class Engine:
         self.ipar[K.I_NPAIRS] = m
         self.pos0[:] = self.position
 
+    def _one_thread_only(self) -> None:
+        """Refuse the compaction rule 'mean-flow' where the run would not take the single pair
+        loop (the parallel passes and the GPU kernels do not have it)."""
+        if type(self).run is not Engine.run or (numba.get_num_threads() > 1
+                                                 and len(self.radius) >= K.MIN_PARALLEL_GRAINS):
+            raise InputError("mean-flow compaction runs on one thread for now (use --threads 1, "
+                             "on the CPU)")
+
     def _forces(self) -> None:
+        if self.mflow.shape[0] > 0:  # compaction 'mean-flow': the single pair loop has it
+            serial.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius,
+                                  self.mass, self.inertia, self.lateral, self.pair_i, self.pair_j,
+                                  self.ipar[K.I_NPAIRS], self.pair_ft, self.pair_ov, self.wall_ft,
+                                  self.wall_ov, self.piston, self.fpar, self.acceleration,
+                                  self.angular_acceleration, self.out, self.mflow, self.slabs)
+            K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
+            self.piston[K.P_A] = K.piston_acceleration(self.piston, self.mflow[0])
+            return
         K.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius, self.mass,
                          self.inertia, self.lateral, self.pair_i, self.pair_j, self.pair_ft, self.pair_ov,
                          self.wall_ft, self.wall_ov, self.piston, self.fpar, self.ipar, self.acceleration,
@@ -183,14 +214,21 @@ class Engine:
         target = self.steps + int(n_steps)
         with at_most(len(self.radius), K.MIN_PARALLEL_GRAINS):
             # one thread: the single pair loop (same bits, a third faster; dem/serial.py)
-            run_chunk = serial.run_chunk if numba.get_num_threads() == 1 else K.run_chunk
+            one = numba.get_num_threads() == 1
+            extra = ()
+            if self.mflow.shape[0] > 0:  # compaction 'mean-flow': the single loop only
+                if not one:
+                    self._one_thread_only()
+                run_chunk, extra = serial.run_chunk_mean_flow, (self.mflow, self.slabs)
+            else:
+                run_chunk = serial.run_chunk if one else K.run_chunk
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
                                      self.angular_acceleration, self.radius, self.mass, self.inertia,
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
                                      self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
-                                     self.ipar, self.out, self.ws)
+                                     self.ipar, self.out, self.ws, *extra)
                 if status == 2:
                     self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
                     continue

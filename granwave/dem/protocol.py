@@ -64,6 +64,9 @@ COMPACTION_RULES = {
     "fixed": "background damping rate b / t_i at every height",
     "height-scaled": ("background damping rate (b / t_i) min(1, reference_height / H_e), H_e the expected "
                       "final height (grain area or volume / (expected solid fraction x lateral size))"),
+    "mean-flow": ("background damping rate b / t_i on the velocities about the mean vertical flow; the "
+                  "mean flow (mass-weighted mean vertical velocity of the grains in horizontal slabs of "
+                  "thickness mean_flow_slab) and the piston at (b / t_i) min(1, reference_height / H_e)"),
 }
 
 
@@ -87,7 +90,20 @@ def damping_scale(params: PrepareParams, height: float) -> float:
     speeds at the same relative depth) and the slowest mode (frequency ~ 1/H) keeps the same
     damping ratio, so time and steps grow as H. Columns up to ``reference_height`` keep b.
     """
-    if params.compaction == "fixed" or height <= params.reference_height:
+    if params.compaction != "height-scaled" or height <= params.reference_height:
+        return 1.0
+    return params.reference_height / height
+
+
+def mean_flow_scale(params: PrepareParams, height: float) -> float:
+    """Factor on the damping rate of the mean vertical flow and the piston, 'mean-flow' rule only:
+    min(1, reference_height / height) (1 for the other rules, whose mean flow is damped with the rest).
+
+    The plug that the piston drags is the mean flow: damped at a rate ~ 1/H its compaction is the
+    same in units of H at every height (as with 'height-scaled'), while the grain-scale agitation
+    about it, whose time scale does not grow with H, keeps the rate b / t_i of a short column.
+    """
+    if params.compaction != "mean-flow" or height <= params.reference_height:
         return 1.0
     return params.reference_height / height
 
@@ -170,6 +186,11 @@ class Compression:
         self.expected_height = expected_height(radius, lateral)
         self.damping_scale = damping_scale(p, self.expected_height)
         self.gamma = p.background_damping * self.damping_scale / self.inertial_time
+        #: compaction 'mean-flow': the rate of the mean flow and the piston (None: the rule is off,
+        #: or the column is not taller than reference_height, where it is 'fixed' to the bit)
+        self.mean_flow_scale = mean_flow_scale(p, self.expected_height)
+        self.gamma_mean = self.gamma * self.mean_flow_scale if self.mean_flow_scale < 1.0 else None
+        extra = {} if self.gamma_mean is None else dict(mean_flow=(self.gamma_mean, p.mean_flow_slab))
         self.tol_v = impact_velocity(p.tol, mean_mass)
         self.engine = engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
                              damping=p.damping, background_damping=self.gamma,
@@ -177,7 +198,7 @@ class Compression:
                              safety=p.safety, overlap_floor=delta_p, skin=p.skin,
                              tol_acceleration=p.tol, tol_velocity=self.tol_v,
                              check_every=p.check_every, velocity=velocity,
-                             angular_velocity=angular_velocity)
+                             angular_velocity=angular_velocity, **extra)
 
     def packing(self, attrs: dict) -> Packing:
         """The engine's current state as a packing, with the protocol in its attributes."""
@@ -193,6 +214,9 @@ class Compression:
                  time_scale=self.time_scale, inertial_time=self.inertial_time, steps=engine.steps,
                  rebuilds=engine.rebuilds, skin=p.skin, check_every=p.check_every,
                  convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps)
+        if p.compaction == "mean-flow":
+            a.update(mean_flow_slab=p.mean_flow_slab, mean_flow_damping_scale=self.mean_flow_scale,
+                     mean_flow_damping_rate=self.gamma * self.mean_flow_scale)
         r = self.radius
         return Packing(position=wrap(engine.position, self.lateral), radius=r.copy(),
                        mass=self.mass.copy(), inertia=grain_inertia(r),

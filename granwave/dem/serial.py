@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import contact as C
 from . import neighbours
+from .mean_flow import M_GAMMA_M, add_mean_flow_damping
 from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
                       F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
                       I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
@@ -28,22 +29,24 @@ from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN,
 
 @numba.njit(cache=True)
 def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                   pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
+                   pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, mflow, slabs):
     """Total force and torque on every grain; see :func:`_force_loop`."""
     inv_rad = 1.0 / rad
     _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out)
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, mflow, slabs)
 
 
 @numba.njit(cache=True, _nrt=False)
 def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out):
+                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, mflow, slabs):
     """Total force and torque on every grain and the contact force on the piston.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
     (velocities at the half step of velocity Verlet, i.e. exactly the
     displacement of the step). Also adds the background damping -gamma m v,
-    -gamma I w. Statistics into ``out``: largest overlap, number of
+    -gamma I w, and with a non-empty ``mflow`` (compaction 'mean-flow') gives the mean
+    vertical flow of horizontal slabs its own rate (:mod:`granwave.dem.mean_flow`; ``slabs``
+    its work array). Statistics into ``out``: largest overlap, number of
     top-wall contacts and of contacts.
 
     Written with scalars (three components, the third 0 in 2D) so that nothing
@@ -160,6 +163,8 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
                 force[i, a] -= gamma * mass[i] * vel[i, a]
             for a in range(r):
                 torque[i, a] -= gamma * inertia[i] * omega[i, a]
+        if mflow.shape[0] > 0:
+            add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force)
     piston[P_FCON] = fpiston
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop
@@ -170,7 +175,19 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
 def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
               pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws):
     """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs (same arguments, statuses
-    and bits).
+    and bits): :func:`run_chunk_mean_flow` with the rule 'mean-flow' off."""
+    return run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
+                               np.zeros(0), np.zeros((2, 1)))
+
+
+@numba.njit(cache=True)
+def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
+                        pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, mflow, slabs):
+    """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs, plus the compaction rule
+    'mean-flow' (``mflow`` [gamma_m, slab] and its work array ``slabs``,
+    :mod:`granwave.dem.mean_flow`; an empty ``mflow``: off, the same bits as the parallel
+    kernels): the mean flow and the piston damped at gamma_m.
 
     State on entry and exit: positions, velocities and accelerations at the same
     time (``acc``/``alpha`` valid). Returns 0 when all steps ran, 1 when the
@@ -186,6 +203,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     n, d = pos.shape
     r = omega.shape[1]
     gamma = fpar[F_GAMMA]
+    gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else gamma
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
@@ -237,8 +255,8 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             piston[P_V] += 0.5 * dt * piston[P_A]
             piston[P_H] += dt * piston[P_V]
         compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
-                       pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out)
-        piston[P_A] = piston_acceleration(piston, gamma)
+                       pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out, mflow, slabs)
+        piston[P_A] = piston_acceleration(piston, gamma_piston)
         # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):
             inv = 1.0 / mass[i]

@@ -1,0 +1,67 @@
+"""Damping of the mean vertical flow apart from the fluctuations (compaction 'mean-flow').
+
+The background damping of the preparation is a force -gamma m v on every grain. With the
+'mean-flow' rule the velocity is split into the mean vertical flow of horizontal slabs
+and the fluctuation about it: v_s, the mass-weighted mean vertical velocity of the grains
+whose centre lies in slab s = floor(z / slab) (slabs of thickness ``slab`` from the
+bottom wall, the last one open upwards), is damped at the rate gamma_m and the rest at
+gamma. The force on grain i in slab s is
+
+    -gamma m_i v_i + (gamma - gamma_m) m_i v_s e_z,
+
+so the slab's momentum P_s = sum m_i v_i,z feels -gamma_m P_s and every velocity field
+whose slab means vanish feels -gamma m v. Computed every step from the same (half-step)
+velocities as the damping itself, in grain order (deterministic). Used by the one-thread
+loop (:func:`granwave.dem.serial._force_loop`) only.
+"""
+
+from __future__ import annotations
+
+import numba
+
+#: Layout of the rule's parameters ``mflow`` (a float array; empty: rule off).
+M_GAMMA_M, M_SLAB = 0, 1
+N_MFLOW = 2
+
+
+@numba.njit(cache=True, _nrt=False)
+def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
+    """Add (gamma - gamma_m) m_i v_s to the vertical force of every grain (see module).
+
+    ``mflow``: [gamma_m, slab thickness (d)]; ``slabs``: work array (2, n_slabs), overwritten
+    with the slab momenta / mean velocities (row 0) and masses (row 1); grains above the
+    last slab count in it, grains below 0 in the first.
+    """
+    n, d = pos.shape
+    z = d - 1
+    inv_slab = 1.0 / mflow[M_SLAB]
+    extra = gamma - mflow[M_GAMMA_M]
+    ns = slabs.shape[1]
+    for k in range(ns):
+        slabs[0, k] = 0.0
+        slabs[1, k] = 0.0
+    for i in range(n):
+        k = _slab(pos[i, z], inv_slab, ns)
+        slabs[0, k] += mass[i] * vel[i, z]
+        slabs[1, k] += mass[i]
+    for k in range(ns):
+        if slabs[1, k] > 0.0:
+            slabs[0, k] /= slabs[1, k]
+    for i in range(n):
+        k = _slab(pos[i, z], inv_slab, ns)
+        force[i, z] += extra * mass[i] * slabs[0, k]
+
+
+@numba.njit(cache=True, inline="always")
+def _slab(height, inv_slab, ns):
+    x = height * inv_slab
+    if not x > 0.0:  # below the bottom wall (or not finite): the first slab
+        return 0
+    if x >= ns - 1:
+        return ns - 1
+    return int(x)
+
+
+def slab_count(height: float, slab: float) -> int:
+    """Slabs covering [0, height] with room above (the piston may rise a little)."""
+    return int(height / slab) + 2
