@@ -45,7 +45,8 @@ def _at(n_threads, fn):
 @pytest.mark.parametrize("params", [
     PrepareParams(grains=90, seed=11, tol=1e-9),
     PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
-], ids=["2d-frictional", "3d-frictional"])
+    PrepareParams(grains=90, seed=11, tol=1e-9, compaction="mean-flow", reference_height=2.0),
+], ids=["2d-frictional", "3d-frictional", "2d-mean-flow"])
 def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
     """The parallel passes run even on these small systems (threshold lowered): positions,
     contacts, forces and tangential forces byte for byte equal."""
@@ -59,7 +60,8 @@ def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
 @pytest.mark.parametrize("params", [
     PrepareParams(grains=90, seed=11, tol=1e-9),
     PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
-], ids=["2d-frictional", "3d-frictional"])
+    PrepareParams(grains=90, seed=11, tol=1e-9, compaction="mean-flow", reference_height=2.0),
+], ids=["2d-frictional", "3d-frictional", "2d-mean-flow"])
 def test_single_pair_loop_equals_the_parallel_passes(params, monkeypatch):
     """One thread runs the single pair loop (dem/serial.py); the two passes of the parallel
     engine, run on one thread instead, give the same bytes."""

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import hashlib
 
-import numba
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -158,27 +157,15 @@ def test_mean_flow_damping_splits_mean_and_fluctuation(v_mean, sign):
     np.testing.assert_allclose(off.acceleration[:, 1], -gamma * vel[:, 1], rtol=1e-14)
 
 
-def test_mean_flow_refused_off_the_one_thread_loop():
+def test_mean_flow_refused_on_the_gpu():
     pos, rad, vel, _ = _loose_grains(-1e-3, 1.0)
 
     class OtherEngine(Engine):  # stands for the GPU engine, which steps elsewhere
         def run(self, n_steps):
             return 0
 
-    with pytest.raises(InputError, match="one thread"):
+    with pytest.raises(InputError, match="mean-flow compaction runs on the CPU only"):
         OtherEngine(pos, rad, [24.0], 20.0, background_damping=1e-3, mean_flow=(1e-4, 4.0))
-    if numba.config.NUMBA_NUM_THREADS < 2:
-        pytest.skip("one numba thread: the parallel passes cannot be asked for")
-    threads = numba.get_num_threads()
-    rng = np.random.default_rng(0)
-    n = K.MIN_PARALLEL_GRAINS
-    big = np.column_stack([rng.uniform(0, 60, n), rng.uniform(0, 60, n)])
-    try:
-        numba.set_num_threads(2)
-        with pytest.raises(InputError, match="mean-flow compaction runs on one thread for now"):
-            Engine(big, np.full(n, 0.01), [60.0], 61.0, background_damping=1e-3, mean_flow=(1e-4, 4.0))
-    finally:
-        numba.set_num_threads(threads)
 
 
 @pytest.fixture(scope="module")

@@ -177,17 +177,24 @@ def test_interrupted_workflow_finishes_on_rerun(tmp_path):
            "--configfile", str(TINY)]
     first = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                              text=True, start_new_session=True)
-    # terminate as soon as the first job has finished (not after a fixed sleep, which a
-    # loaded machine can spend before any job ends), so that the run is cut mid-way
+    # terminate once the first job has finished (not after a fixed sleep, which a loaded
+    # machine can spend before any job ends), a moment later so that the next jobs are running
     lines = []
     deadline = time.monotonic() + 600
     for line in first.stdout:
         lines.append(line)
         if re.search(r"[1-9]\d* of \d+ steps", line) or time.monotonic() > deadline:
             break
+    time.sleep(2)
     os.killpg(first.pid, signal.SIGTERM)
-    log = "".join(lines) + first.stdout.read()
-    first.wait(timeout=300)
+    try:
+        rest = first.communicate(timeout=120)[0]
+    except subprocess.TimeoutExpired:
+        # snakemake can hang in its SIGTERM handler (seen when the signal met its scheduler);
+        # a batch scheduler then sends SIGKILL after its grace period, and so do we
+        os.killpg(first.pid, signal.SIGKILL)
+        rest = first.communicate(timeout=60)[0]
+    log = "".join(lines) + rest
     done = [int(m) for m in re.findall(r"(\d+) of \d+ steps", log)]
     total = int(re.search(r"of (\d+) steps", log).group(1)) if done else None
     assert first.returncode != 0 and done and done[-1] < total, log[-2000:]

@@ -61,7 +61,7 @@ class Engine:
     Mindlin law, the pulses'; contact.py docstring). ``mean_flow``: None, or (gamma_m, slab)
     for the compaction rule 'mean-flow' (:mod:`granwave.dem.mean_flow`: the mean vertical
     flow of slabs of thickness ``slab`` and the piston damped at gamma_m, the rest at
-    ``background_damping``); it runs on one thread only (the single pair loop).
+    ``background_damping``); on the CPU only (the GPU kernels do not have it).
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
@@ -96,9 +96,18 @@ class Engine:
         self.pair_j = np.zeros(cap, np.int64)
         self.pair_ft = np.zeros((cap, d))
         self.pair_ov = np.zeros(cap)
-        #: arrays of the parallel kernels (kernels.workspace): neighbour and gather lists,
-        #: per-pair forces, per-block statistics
-        self.ws = K.workspace(n, d, n_rot, cap, NEIGHBOUR_WIDTH[d])
+        #: compaction 'mean-flow': [gamma_m, slab] (empty: off) and the slabs' work array
+        self.mflow = np.zeros(0)
+        self.slabs = np.zeros((2, 1))
+        if mean_flow is not None:
+            self.mflow = np.array([float(x) for x in mean_flow])
+            if self.mflow.shape != (N_MFLOW,) or not (self.mflow[0] >= 0.0 and self.mflow[1] > 0.0):
+                raise InputError(f"mean_flow must be (gamma_m >= 0, slab > 0), got {mean_flow!r}")
+            self.slabs = np.zeros((2, slab_count(float(height), self.mflow[1])))
+            self._cpu_only()
+        #: arrays of the parallel kernels (kernels.workspace): neighbour and incoming lists,
+        #: per-block statistics, the mean-flow rule's arrays
+        self.ws = K.workspace(n, d, n_rot, cap, NEIGHBOUR_WIDTH[d], mflow=self.mflow, slabs=self.slabs)
         self.wall_ft = np.zeros((2 * n, d))
         self.wall_ov = np.zeros(2 * n)
         self.piston = np.zeros(K.N_PISTON)
@@ -126,15 +135,6 @@ class Engine:
         self.ipar[K.I_ADAPTIVE] = dt is None
         self.ipar[K.I_CHECK] = check_every
         self.out = np.zeros(K.N_OUT)
-        #: compaction 'mean-flow': [gamma_m, slab] (empty: off) and the slabs' work array
-        self.mflow = np.zeros(0)
-        self.slabs = np.zeros((2, 1))
-        if mean_flow is not None:
-            self.mflow = np.array([float(x) for x in mean_flow])
-            if self.mflow.shape != (N_MFLOW,) or not (self.mflow[0] >= 0.0 and self.mflow[1] > 0.0):
-                raise InputError(f"mean_flow must be (gamma_m >= 0, slab > 0), got {mean_flow!r}")
-            self.slabs = np.zeros((2, slab_count(float(height), self.mflow[1])))
-            self._one_thread_only()
         self._rebuild()
         # initial forces: dt = 0 so that no history is created by the evaluation itself
         self._forces()
@@ -161,7 +161,7 @@ class Engine:
         boundary = int(old_ws[K.W_NEED][2])
         room = len(old_ws[K.W_SPAIR])
         self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width,
-                              int(boundary * 1.5) + 64 if boundary > room else room)
+                              int(boundary * 1.5) + 64 if boundary > room else room, self.mflow, self.slabs)
         # the pair list's offsets per grain (history carried by the rebuild), and the lists when
         # only the incoming pairs asked for room (a rebuild that ran out of room follows again)
         keep = ((K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW) if width == old_width and same_pairs
@@ -181,30 +181,19 @@ class Engine:
         self.ipar[K.I_NPAIRS] = m
         self.pos0[:] = self.position
 
-    def _one_thread_only(self) -> None:
-        """Refuse the compaction rule 'mean-flow' where the run would not take the single pair
-        loop (the parallel passes and the GPU kernels do not have it)."""
-        if type(self).run is not Engine.run or (numba.get_num_threads() > 1
-                                                 and len(self.radius) >= K.MIN_PARALLEL_GRAINS):
-            raise InputError("mean-flow compaction runs on one thread for now (use --threads 1, "
-                             "on the CPU)")
+    def _cpu_only(self) -> None:
+        """Refuse the compaction rule 'mean-flow' on the GPU (its kernels do not have it)."""
+        if type(self).run is not Engine.run:
+            raise InputError("mean-flow compaction runs on the CPU only for now (use --device cpu)")
 
     def _forces(self) -> None:
-        if self.mflow.shape[0] > 0:  # compaction 'mean-flow': the single pair loop has it
-            serial.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius,
-                                  self.mass, self.inertia, self.lateral, self.pair_i, self.pair_j,
-                                  self.ipar[K.I_NPAIRS], self.pair_ft, self.pair_ov, self.wall_ft,
-                                  self.wall_ov, self.piston, self.fpar, self.acceleration,
-                                  self.angular_acceleration, self.out, self.mflow, self.slabs)
-            K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
-            self.piston[K.P_A] = K.piston_acceleration(self.piston, self.mflow[0])
-            return
         K.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius, self.mass,
                          self.inertia, self.lateral, self.pair_i, self.pair_j, self.pair_ft, self.pair_ov,
                          self.wall_ft, self.wall_ov, self.piston, self.fpar, self.ipar, self.acceleration,
                          self.angular_acceleration, self.out, self.ws)
         K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
-        self.piston[K.P_A] = K.piston_acceleration(self.piston, self.fpar[K.F_GAMMA])
+        self.piston[K.P_A] = K.piston_acceleration(
+            self.piston, self.mflow[0] if self.mflow.shape[0] > 0 else self.fpar[K.F_GAMMA])
 
     # ------------------------------------------------------------------ public
     def run(self, n_steps: int) -> int:
@@ -214,21 +203,14 @@ class Engine:
         target = self.steps + int(n_steps)
         with at_most(len(self.radius), K.MIN_PARALLEL_GRAINS):
             # one thread: the single pair loop (same bits, a third faster; dem/serial.py)
-            one = numba.get_num_threads() == 1
-            extra = ()
-            if self.mflow.shape[0] > 0:  # compaction 'mean-flow': the single loop only
-                if not one:
-                    self._one_thread_only()
-                run_chunk, extra = serial.run_chunk_mean_flow, (self.mflow, self.slabs)
-            else:
-                run_chunk = serial.run_chunk if one else K.run_chunk
+            run_chunk = serial.run_chunk if numba.get_num_threads() == 1 else K.run_chunk
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
                                      self.angular_acceleration, self.radius, self.mass, self.inertia,
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
                                      self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
-                                     self.ipar, self.out, self.ws, *extra)
+                                     self.ipar, self.out, self.ws)
                 if status == 2:
                     self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
                     continue

@@ -42,6 +42,7 @@ from .. import contact as C
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from ..geometry import nearest_image
 from . import neighbours
+from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 
 
 # fpar indices
@@ -290,7 +291,8 @@ def boundary_room(n_grains: int) -> int:
     return max(64, n_grains // 2)
 
 
-def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundary: int = 0) -> tuple:
+def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundary: int = 0, mflow=None,
+              slabs=None) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain and
     room for ``boundary`` incoming pairs (at least :func:`boundary_room`); indexed by the W_* constants:
     the neighbour and gather lists, counts and pair-list offsets of
@@ -298,7 +300,9 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     the incoming grains and pairs of each block and the place of each incoming pair in its
     owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
     1/R per grain, and per incoming pair the force and torque its block hands to the owner row
-    (d + r columns), 1/m and 1/I per grain. ``cap`` (the pair capacity) is not needed: nothing here is per pair."""
+    (d + r columns), 1/m and 1/I per grain, and the compaction rule 'mean-flow''s parameters
+    (:mod:`granwave.dem.mean_flow`; empty: off) and slab work array. ``cap`` (the pair
+    capacity) is not needed: nothing here is per pair."""
     n = n_grains
     nblk = block_count(n)
     cap_b = max(boundary_room(n), int(boundary))
@@ -307,12 +311,13 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
             np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
-            np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n))
+            np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
+            np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs)
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
-    W_OSLOT, W_BF, W_INVM, W_INVI = range(18)
+    W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(20)
 
 
 @numba.njit(cache=True)
@@ -585,13 +590,15 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
-              blk_g, top_f, kick, stats, drift):
+              blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
     block was computed by j's block in phase 1, and its force and torque on i are taken from
     its slot at its place in the row order. Then, per grain of the block, its bottom and top
-    wall contacts and the background damping -gamma m v, -gamma I w: for every grain the terms
+    wall contacts and the background damping -gamma m v, -gamma I w (with the compaction rule
+    'mean-flow', ``mflow`` non-empty, the slabs' mean flow at its own rate from the slab means
+    in ``slabs``, computed before the passes): for every grain the terms
     of the one-thread loop in its order (phase 1 gave the first ones), so its force is bit for
     bit that loop's. Only the block's own grains are read or written, apart from the slots.
 
@@ -603,13 +610,13 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, i
     for b in numba.prange(nblk):
         _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral,
                    pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start,
-                   out_slot, bnd_f, blk_g, top_f, kick, stats, drift)
+                   out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
-               blk_g, top_f, kick, stats, drift):
+               blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Block b of :func:`_row_pass`."""
     n, d = pos.shape
     r = omega.shape[1]
@@ -701,6 +708,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_
                 acc[i, a] -= gamma * mass[i] * vel[i, a]
             for a in range(r):
                 alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+        if mflow.shape[0] > 0:  # after every grain's damping, as the one-thread loop
+            add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
         m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats,
@@ -781,11 +790,14 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     blk_g = ws[W_BLK]
     top_f = ws[W_TOP]
     inv_rad = ws[W_INVR]
+    mflow = ws[W_MFLOW]
+    if mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0:  # the slabs' mean flow, from this step's velocities
+        slab_means(pos, vel, mass, mflow, ws[W_SLABS])
     _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar,
                    ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
     _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT],
-              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift)
+              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -807,7 +819,7 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
         vmax = max(vmax, blk_g[b, G_VMAX])
         wmax = max(wmax, blk_g[b, G_WMAX])
     piston[P_FCON] = fpiston
-    piston[P_A] = piston_acceleration(piston, fpar[F_GAMMA])
+    piston[P_A] = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA])
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop
     out[O_NCONTACT] = ncontact

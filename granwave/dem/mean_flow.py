@@ -11,8 +11,9 @@ gamma. The force on grain i in slab s is
 
 so the slab's momentum P_s = sum m_i v_i,z feels -gamma_m P_s and every velocity field
 whose slab means vanish feels -gamma m v. Computed every step from the same (half-step)
-velocities as the damping itself, in grain order (deterministic). Used by the one-thread
-loop (:func:`granwave.dem.serial._force_loop`) only.
+velocities as the damping itself, in grain order (deterministic), by the one-thread loop
+(:func:`granwave.dem.serial._force_loop`) and before the parallel engine's passes
+(:func:`granwave.dem.kernels._forces`), which add it per block: the same bits.
 """
 
 from __future__ import annotations
@@ -29,13 +30,19 @@ def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
     """Add (gamma - gamma_m) m_i v_s to the vertical force of every grain (see module).
 
     ``mflow``: [gamma_m, slab thickness (d)]; ``slabs``: work array (2, n_slabs), overwritten
-    with the slab momenta / mean velocities (row 0) and masses (row 1); grains above the
-    last slab count in it, grains below 0 in the first.
+    by :func:`slab_means`.
     """
+    slab_means(pos, vel, mass, mflow, slabs)
+    add_slab_damping(0, pos.shape[0], pos, mass, gamma, mflow, slabs, force)
+
+
+@numba.njit(cache=True, _nrt=False)
+def slab_means(pos, vel, mass, mflow, slabs):
+    """The slabs' mean vertical velocities (row 0 of ``slabs``) and masses (row 1), summed in
+    grain order; grains above the last slab count in it, grains below 0 in the first."""
     n, d = pos.shape
     z = d - 1
     inv_slab = 1.0 / mflow[M_SLAB]
-    extra = gamma - mflow[M_GAMMA_M]
     ns = slabs.shape[1]
     for k in range(ns):
         slabs[0, k] = 0.0
@@ -47,7 +54,18 @@ def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
     for k in range(ns):
         if slabs[1, k] > 0.0:
             slabs[0, k] /= slabs[1, k]
-    for i in range(n):
+
+
+@numba.njit(cache=True, inline="always")
+def add_slab_damping(lo, hi, pos, mass, gamma, mflow, slabs, force):
+    """Grains lo..hi-1: force[i, z] += (gamma - gamma_m) m_i v_s (v_s from :func:`slab_means`);
+    the one-thread loop applies it to all grains, the parallel engine per block."""
+    d = pos.shape[1]
+    z = d - 1
+    inv_slab = 1.0 / mflow[M_SLAB]
+    extra = gamma - mflow[M_GAMMA_M]
+    ns = slabs.shape[1]
+    for i in range(lo, hi):
         k = _slab(pos[i, z], inv_slab, ns)
         force[i, z] += extra * mass[i] * slabs[0, k]
 

@@ -20,7 +20,7 @@ import numpy as np
 from .. import contact as C
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
-from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
+from .kernels import (W_MFLOW, W_SLABS, F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
                       F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
                       I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
                       O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, _add_torque3, _pair_geometry, _spin,
@@ -175,10 +175,11 @@ def _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, p
 def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
               pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws):
     """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs (same arguments, statuses
-    and bits): :func:`run_chunk_mean_flow` with the rule 'mean-flow' off."""
+    and bits): :func:`run_chunk_mean_flow` with the workspace's compaction rule 'mean-flow'
+    (off when its parameters are empty)."""
     return run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
                                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
-                               np.zeros(0), np.zeros((2, 1)))
+                               ws[W_MFLOW], ws[W_SLABS])
 
 
 @numba.njit(cache=True)
