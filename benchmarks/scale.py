@@ -86,13 +86,11 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
     rates, cpus, states, blocks = {}, {}, {}, {}
     keep = integrator.Engine.run
 
-    def run_and_keep(self, n):  # capture the final state of the timed run
-        status = keep(self, n)
-        states[numba.get_num_threads()] = (self.position.copy(), self.pair_ft.copy())
-        nblk = self.ws[K.W_BLK].shape[0]
-        K.prepare_blocks(self.radius, self.mass, self.inertia, self.ws, nblk)
-        blocks["count"], blocks["fraction"] = nblk, K.boundary_fraction(self.ws, self.n_pairs)
-        return status
+    engines = {}
+
+    def run_and_keep(self, n):  # keep the engine: its final state and blocks are read after timing
+        engines[numba.get_num_threads()] = self
+        return keep(self, n)
 
     for t in threads:
         numba.set_num_threads(t)
@@ -103,6 +101,11 @@ def dem_threads(packing, steps: int, threads=(1, 2)) -> dict:
             integrator.Engine.run = keep
         rates[t] = wall
         cpus[t] = cpu
+        e = engines[t]
+        states[t] = (e.position.copy(), e.pair_ft.copy())
+    nblk = e.ws[K.W_BLK].shape[0]
+    K.prepare_blocks(e.radius, e.mass, e.inertia, e.ws, nblk)
+    blocks["count"], blocks["fraction"] = nblk, K.boundary_fraction(e.ws, e.n_pairs)
     numba.set_num_threads(max(threads))
     same = all(states[t][0].tobytes() == states[threads[0]][0].tobytes()
                and states[t][1].tobytes() == states[threads[0]][1].tobytes() for t in threads)
@@ -200,7 +203,7 @@ def main_table(quick: bool, write_docs: bool) -> None:
     print(f"start: {load()}", flush=True)
     packing, _, _ = prepare(1e-4)
     rows = []
-    d = dem_threads(packing, 100 if quick else 400)
+    d = dem_threads(packing, 200 if quick else 1000)  # 400 steps (0.2 s) left the 2-thread run's fixed costs visible
     r = d["rates"]
     rows.append((f"DEM threads 1 -> 2, {d['grains']} grains (wall grain-steps/s)",
                  f"{r[1]:.3g} -> {r[2]:.3g}", r[2] / r[1], GOALS["dem_2"],
@@ -260,11 +263,12 @@ def large_spec(name: str, tiny: bool, compaction: str = "fixed"):
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":
         n = 300 if tiny else 100_000
-        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4),
+        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, compaction=compaction, max_steps=20_000_000),
                     steps=_square_steps(math.sqrt(n)), note="2D square, p = 1e-4")
     if name == "grid3d":
         n = 300 if tiny else 100_000
-        return dict(params=PrepareParams(dim=3, grains=n, pressure=1e-4, friction=0.5),
+        return dict(params=PrepareParams(dim=3, grains=n, pressure=1e-4, friction=0.5, compaction=compaction,
+                                         max_steps=20_000_000),
                     steps=_square_steps(n ** (1 / 3)),
                     note="3D cube, mu = 0.5, p = 1e-4 (steps: the 2D model at the height, a guess)")
     if name == "time":
@@ -332,8 +336,7 @@ def main() -> None:
     ap.add_argument("--rate", type=float, default=None,
                     help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
     ap.add_argument("--compaction", choices=("fixed", "height-scaled", "mean-flow"), default="fixed",
-                    help="with --large column: the compaction rule (docs/dem.md; 'mean-flow' runs on one "
-                    "thread only: NUMBA_NUM_THREADS=1)")
+                    help="with --large column|grid2d|grid3d: the compaction rule (docs/dem.md)")
     args = ap.parse_args()
     if args.large:
         large(args.large, args.dry_run, args.tiny, args.rate, args.compaction)
