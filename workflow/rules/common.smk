@@ -211,6 +211,8 @@ def batch_sample(scene, p, size, seed):
                          "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
                          "safety": config["time_safety"]},
               "out": out}
+    if kind == "continuum":  # the scene's compaction rule (mean-flow unless it says otherwise)
+        make["compaction"] = spec["compaction"]
     if kind == "continuum":  # time domain, the scene's own step and record, global moduli only
         sample["signal"].update(samples=spec.get("samples", config["samples"]),
                                 safety=spec.get("time_safety", config["time_safety"]))
