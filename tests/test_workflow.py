@@ -168,7 +168,8 @@ def test_tiny_workflow_end_to_end(tmp_path):
 
 @pytest.mark.slow
 def test_interrupted_workflow_finishes_on_rerun(tmp_path):
-    """SIGTERM (what a scheduler or `kill` sends) mid-run, then the same command finishes the rest."""
+    """SIGTERM (what a scheduler or `kill` sends) mid-run, then the same command finishes the rest
+    (after SIGKILL, when snakemake hung on the SIGTERM, once `--unlock` has removed its lock)."""
     import os
     import signal
     import time
@@ -189,12 +190,17 @@ def test_interrupted_workflow_finishes_on_rerun(tmp_path):
     os.killpg(first.pid, signal.SIGTERM)
     try:
         rest = first.communicate(timeout=120)[0]
+        killed = False
     except subprocess.TimeoutExpired:
         # snakemake can hang in its SIGTERM handler (seen when the signal met its scheduler);
         # a batch scheduler then sends SIGKILL after its grace period, and so do we
         os.killpg(first.pid, signal.SIGKILL)
         rest = first.communicate(timeout=60)[0]
+        killed = True
     log = "".join(lines) + rest
+    if killed:  # a killed snakemake leaves its lock: what its error message tells the user to do
+        unlock = subprocess.run(cmd + ["--unlock"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert unlock.returncode == 0, (unlock.stdout + unlock.stderr)[-2000:]
     done = [int(m) for m in re.findall(r"(\d+) of \d+ steps", log)]
     total = int(re.search(r"of (\d+) steps", log).group(1)) if done else None
     assert first.returncode != 0 and done and done[-1] < total, log[-2000:]
