@@ -271,3 +271,14 @@ def test_auto_signal_method_picks_the_cheaper_prediction(tmp_path):
     finer, _ = choose_method(linear, PropagateParams(t_max=sample["signal"]["t_max"], samples=800,
                                                      safety=0.001, method="auto"))
     assert finer == "modal"
+
+def test_lone_continuum_packing_is_prepared_with_the_scenes_compaction_rule(tmp_path):
+    """A single packing asked for outside its batch (the per-sample rule, e.g. to run only the
+    tallest column) must be made as its batch would make it: with the scene's compaction rule."""
+    target = "results/packing/continuum2d_p4/p0.0001/h2048/s0.h5"
+    run = snakemake(target, "-n", "-p", "--configfile", str(ROOT / "config" / "continuum.yaml"),
+                    "--allowed-rules", "prepare_packing", cwd=tmp_path)
+    out = run.stdout + run.stderr
+    assert run.returncode == 0, out[-3000:]
+    command = next(line for line in out.splitlines() if "granwave prepare-packing" in line)
+    assert "--compaction mean-flow" in command and "--grains 51200" in command, command

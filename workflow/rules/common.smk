@@ -178,7 +178,8 @@ def prepare_args(wildcards):
     return (f"--dim {spec['dim']} --grains {n} --aspect {height / spec['width']:.6g} "
             f"--pressure {wildcards.pressure} --friction {spec['friction']} "
             f"--poisson {spec['poisson']} --polydispersity {spec['polydispersity']} "
-            f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}")
+            f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}"
+            + (f" --compaction {spec['compaction']}" if "compaction" in spec else ""))
 
 
 # ---- helpers of rules/batches.smk
