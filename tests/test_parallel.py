@@ -136,6 +136,10 @@ def test_eta_from_the_decay_of_max_acceleration():
     assert integrator.eta_seconds(hist, tol, sps) == pytest.approx(want, rel=1e-9)
     assert integrator.eta_seconds([(s, 1e-3 * math.exp(k * s)) for s, _ in hist], tol, sps) is None
     assert integrator.eta_seconds(hist[:2], tol, sps) is None
+    # tol beyond the step limit at this rate: unknown, not an absurd number of seconds
+    left = math.log(tol / hist[-1][1]) / -k
+    assert integrator.eta_seconds(hist, tol, sps, steps_left=1.01 * left) == pytest.approx(want, rel=1e-9)
+    assert integrator.eta_seconds(hist, tol, sps, steps_left=0.99 * left) is None
     assert integrator.eta_seconds(hist + [(10_000, 1e-11)], tol, sps) is None
     bursts = [(s, a * (50.0 if i % 2 else 1.0)) for i, (s, a) in enumerate(hist)]
     assert integrator.eta_seconds(bursts[:-1], tol, sps) == pytest.approx(

@@ -278,14 +278,17 @@ def elastic_energy_kernel(engine: Engine) -> float:
     return e
 
 
-def eta_seconds(history, tol: float, steps_per_second: float, window: int = 60) -> float | None:
+def eta_seconds(history, tol: float, steps_per_second: float, window: int = 60,
+                steps_left: float = math.inf) -> float | None:
     """Seconds until max |a| reaches ``tol`` at the decay rate of its envelope, or None.
 
     ``history``: (steps, max |a|) after each chunk (about one a second). max |a| decays in
     bursts, so the rate is the least-squares slope of the log of its running minimum (the
     lowest value so far) against steps over the last ``window`` chunks. None (unknown)
     with fewer than 3 chunks, no decay of the envelope over the window, no rate yet, or
-    max |a| already below tol (the run then waits for the speeds and the static residual).
+    max |a| already below tol (the run then waits for the speeds and the static residual),
+    or an envelope so flat that tol lies beyond ``steps_left`` (the step limit: a 51 200-grain
+    column still compressing showed an ETA of 5e31 s).
     Checked on the progress log of a 21 000-grain column (1.2 million steps): within a
     factor 2 of the steps left over the second half of the run, where the slope of the
     last 8 chunks of max |a| itself said seconds for minutes, or nothing (docs/dem.md).
@@ -302,4 +305,5 @@ def eta_seconds(history, tol: float, steps_per_second: float, window: int = 60) 
     a_now = math.exp(envelope[-1])
     if a_now <= tol or not slope < 0:
         return None
-    return math.log(tol / a_now) / slope / steps_per_second
+    steps = math.log(tol / a_now) / slope
+    return steps / steps_per_second if steps <= steps_left else None

@@ -260,7 +260,8 @@ class Compression:
             if progress is not None and now - last > 1.0:
                 m = engine.measure()
                 rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
-                eta = eta_seconds(history, p.tol, rate / engine.position.shape[0])
+                eta = eta_seconds(history, p.tol, rate / engine.position.shape[0],
+                                  steps_left=p.max_steps - engine.steps)
                 progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
                          f"  max|v| {m['max_speed']:.3e}  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
                          f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
