@@ -29,7 +29,7 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
 ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_add_torque3", "wall_contact",
-                    "piston_acceleration")
+                    "piston_acceleration", "_pair_law")  # _pair_law last: it calls the others
 
 
 def _rebound(py_func, namespace: dict):

@@ -9,9 +9,9 @@ One step on the device (four kernels, no floating-point atomics):
 
 1. ``kick_drift`` (a thread per grain): half kick and drift, as the CPU loop; thread 0 moves the
    piston;
-2. ``pair_forces`` (a thread per pair of the Verlet list): the contact law
-   (:func:`granwave.dem.kernels.contact_force3` compiled for the device from its own source,
-   :mod:`granwave.gpu.compile`), history updated in place; the pair's force and the two
+2. ``pair_forces`` (a thread per pair of the Verlet list): the pair's geometry and contact law
+   (:func:`granwave.dem.kernels._pair_law`, the CPU engines' own, compiled for the device from
+   its source, :mod:`granwave.gpu.compile`), history updated in place; the pair's force and the two
    torques are stored per pair;
 3. ``grain_forces`` (a thread per grain): sums its pairs' forces over a per-grain incidence
    list in increasing pair order (the order in which the CPU loop adds them), then the two
@@ -44,16 +44,12 @@ from . import simulated
 from .compile import device_functions
 
 DF = device_functions()
-contact_force3 = DF.contact_force3
-pair_geometry = DF._pair_geometry
-spin = DF._spin
 add_torque3 = DF._add_torque3
 wall_contact = DF.wall_contact
 piston_acceleration = DF.piston_acceleration
-effective_radius = DF.effective_radius
+pair_law = DF._pair_law
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
-reduced_mass = DF.reduced_mass
 
 #: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
 #: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
@@ -123,47 +119,15 @@ def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, np
     pdelta[p] = -1.0
     i = pair_i[p]
     j = pair_j[p]
-    dx, dy, dz = pair_geometry(pos, lateral, i, j)
-    r2 = dx * dx + dy * dy + dz * dz
-    ri = rad[i]
-    rj = rad[j]
-    rs = ri + rj
-    if r2 >= rs * rs:
+    touching, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = pair_law(
+        pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+        effective_young(False), effective_shear(poisson, False))
+    if not touching:
         if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
             pair_ov[p] = 0.0
             for a in range(d):
                 pair_ft[p, a] = 0.0
         return
-    dist = math.sqrt(r2)
-    delta = rs - dist
-    nx = dx / dist
-    ny = dy / dist
-    nz = dz / dist if d == 3 else 0.0
-    vx = vel[j, 0] - vel[i, 0]
-    vy = vel[j, 1] - vel[i, 1]
-    vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
-    ai = ri - 0.5 * delta
-    aj = rj - 0.5 * delta
-    if r > 0:
-        wx, wy, wz = spin(omega, i, ai)
-        ux, uy, uz = spin(omega, j, aj)
-        wx += ux
-        wy += uy
-        wz += uz
-        vx -= wy * nz - wz * ny
-        vy -= wz * nx - wx * nz
-        vz -= wx * ny - wy * nx
-    r12 = effective_radius(inv_rad[i], inv_rad[j])
-    meff = reduced_mass(mass[i], mass[j], False)
-    hx = hy = hz = 0.0
-    if mu > 0.0:
-        hx = pair_ft[p, 0]
-        hy = pair_ft[p, 1]
-        if d == 3:
-            hz = pair_ft[p, 2]
-    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, effective_young(False),
-                                                 effective_shear(poisson, False), meff, vx, vy, vz,
-                                                 hx, hy, hz, pair_ov[p], dt, zeta, mu, rescale)
     if mu > 0.0:
         pair_ft[p, 0] = hx
         pair_ft[p, 1] = hy
