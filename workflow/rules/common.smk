@@ -238,14 +238,15 @@ def batches():
 
 def continuum_batches(items):
     """Samples of a continuum scene in batches of about equal cost: the tallest first, each to
-    the batch with the least predicted DEM CPU so far (∝ H^1.6 at fixed width, config/README.md);
+    the batch with the least predicted DEM CPU so far (grains × steps ∝ H × H at fixed width
+    under the mean-flow rule, the continuum scenes' default: docs/dem.md);
     as many batches as batch_size asks for."""
     n = max(1, math.ceil(len(items) / config["batch_size"]))
     parts, load = [[] for _ in range(n)], [0.0] * n
     for item in sorted(items, key=lambda s: (-float(s[1][1:]), s[2])):
         k = load.index(min(load))
         parts[k].append(item)
-        load[k] += float(item[1][1:]) ** 1.6
+        load[k] += float(item[1][1:]) ** 2
     return [sorted(p, key=lambda s: (float(s[1][1:]), s[2])) for p in parts if p]
 
 
