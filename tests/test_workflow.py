@@ -282,3 +282,12 @@ def test_lone_continuum_packing_is_prepared_with_the_scenes_compaction_rule(tmp_
     assert run.returncode == 0, out[-3000:]
     command = next(line for line in out.splitlines() if "granwave prepare-packing" in line)
     assert "--compaction mean-flow" in command and "--grains 51200" in command, command
+    # and its moduli are the global ones only, as in a batch (the local solve of a 2048 d
+    # column ran for minutes in LSQR where the global one takes seconds)
+    moduli = "results/moduli/continuum2d_p4/p0.0001/h2048/s0.json"
+    run = snakemake(moduli, "-n", "-p", "--configfile", str(ROOT / "config" / "continuum.yaml"),
+                    "--allowed-rules", "prepare_packing", "moduli", cwd=tmp_path)
+    out = run.stdout + run.stderr
+    assert run.returncode == 0, out[-3000:]
+    command = next(line for line in out.splitlines() if "granwave analyze moduli" in line)
+    assert "--local" not in command, command

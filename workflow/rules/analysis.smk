@@ -44,12 +44,15 @@ rule moduli:
         f"{R}/logs/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.log",
     benchmark:
         f"{R}/benchmarks/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
+    params:
+        # global moduli only for continuum columns, as their batches (rules/batches.smk)
+        local=lambda w: "" if scene_kind(w.scene) == "continuum" else "--local",
     threads: 1
     resources:
         mem_mb=2000,
         runtime=10,
     shell:
-        "granwave analyze moduli --threads {threads} {input} --local --json > {output} 2> {log}"
+        "granwave analyze moduli --threads {threads} {input} {params.local} --json > {output} 2> {log}"
 
 
 rule summary:
