@@ -272,6 +272,7 @@ def test_auto_signal_method_picks_the_cheaper_prediction(tmp_path):
                                                      safety=0.001, method="auto"))
     assert finer == "modal"
 
+
 def test_lone_continuum_packing_is_prepared_with_the_scenes_compaction_rule(tmp_path):
     """A single packing asked for outside its batch (the per-sample rule, e.g. to run only the
     tallest column) must be made as its batch would make it: with the scene's compaction rule."""

@@ -45,8 +45,7 @@ rule moduli:
     benchmark:
         f"{R}/benchmarks/moduli/{{scene}}/p{{pressure}}/{{size}}/s{{seed}}.tsv"
     params:
-        # global moduli only for continuum columns, as their batches (rules/batches.smk)
-        local=lambda w: "" if scene_kind(w.scene) == "continuum" else "--local",
+        local=moduli_args,
     threads: 1
     resources:
         mem_mb=2000,

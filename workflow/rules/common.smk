@@ -171,15 +171,18 @@ wildcard_constraints:
 
 
 def prepare_args(wildcards):
-    """prepare-packing options for one sample: the grain count sets the height at fixed width."""
-    spec = scene_spec(wildcards.scene)
-    height = float(wildcards.height)
-    n = grain_count(spec, height)
-    return (f"--dim {spec['dim']} --grains {n} --aspect {height / spec['width']:.6g} "
-            f"--pressure {wildcards.pressure} --friction {spec['friction']} "
-            f"--poisson {spec['poisson']} --polydispersity {spec['polydispersity']} "
-            f"--tol {spec['tol']:g} --max-steps {spec['max_steps']} --seed {wildcards.seed}"
-            + (f" --compaction {spec['compaction']}" if "compaction" in spec else ""))
+    """prepare-packing options for one sample outside its batch: the options its batch would
+    use (:func:`batch_sample`), so that a lone packing is made as in a batch."""
+    make = batch_sample(wildcards.scene, wildcards.pressure, f"h{wildcards.height}",
+                        int(wildcards.seed))["make"]
+    return " ".join(f"--{key.replace('_', '-')} {value}" for key, value in make.items())
+
+
+def moduli_args(wildcards):
+    """analyze moduli options for one sample outside its batch: local moduli where its batch
+    computes them (not for continuum columns)."""
+    sample = batch_sample(wildcards.scene, wildcards.pressure, wildcards.size, int(wildcards.seed))
+    return "--local" if sample.get("local_moduli", True) else ""
 
 
 # ---- helpers of rules/batches.smk
