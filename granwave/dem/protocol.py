@@ -53,6 +53,8 @@ from .forces import contacts_of_engine, static_residual
 from .integrator import Engine, eta_seconds
 from ..params import PrepareParams, default_gas_density
 
+#: how the initial gas numbers its grains (recorded: it fixes the bits, not the distribution)
+GAS_NUMBERING = "by grid cell, layer by layer from the bottom"
 DT_RULE = ("(safety/0.1) * min over the normal and (friction) rotational mode of the stiffest contact "
            "of 2(sqrt(1+z^2)-z)/w: w_n^2 = k_max/m_min, z = zeta; w_t^2 = 3.5 eta k_max/m_min, "
            "z = zeta sqrt(3.5); adaptive")
@@ -153,9 +155,13 @@ def granular_gas(radius: np.ndarray, lateral: np.ndarray, gas_density: float, rn
     if nrow * per_layer < n:
         nrow = -(-n // per_layer)
         height = max(height, nrow * dmax)
-    shape = (*ncol, nrow)
+    # cells numbered layer by layer from the bottom (row-major: the vertical index first), so
+    # that grains with neighbouring indices are neighbours in space and contiguous index ranges
+    # are horizontal slabs (the parallel engine's blocks, docs/dem.md "Parallel engine")
+    shape = (nrow, *ncol)
     cells = np.sort(rng.choice(per_layer * nrow, size=n, replace=False))
-    idx = np.array(np.unravel_index(cells, shape)).T  # (n, dim)
+    idx = np.array(np.unravel_index(cells, shape)).T  # (n, dim): row, then the lateral cells
+    idx = np.roll(idx, -1, axis=1)  # lateral cells, then the row
     size = np.array([*(lateral[a] / ncol[a] for a in range(dim - 1)), height / nrow])
     # >= 0 by construction up to rounding (a cell is >= dmax wide); clamp the last ulp
     room = np.maximum(0.5 * size[None, :] - radius[:, None], 0.0)
@@ -295,7 +301,8 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
     actual_gas_density = float(np.sum(grain_measure(radius, p.dim))) / (height * float(np.prod(lateral)))
     run = Compression(position, radius, lateral, height, p, engine=engine)
     attrs = dict(kind="disordered", grains=p.grains, polydispersity=p.polydispersity, aspect=p.aspect,
-                 gas_density=actual_gas_density, gas_height=height)
+                 gas_density=actual_gas_density, gas_height=height,
+                 gas_numbering=GAS_NUMBERING)
     return run.relax(attrs, progress=progress,
                      blow_up_hint=(f"the explicit step is unstable for safety {p.safety:g}, damping "
                                    f"{p.damping:g}, friction {p.friction:g}; use a smaller --safety"))

@@ -108,7 +108,7 @@ def pulse() -> dict:
     from .. import api
     from ..dem.pulse import propagate_dem
 
-    packing = api.prepare_packing(grains=20, seed=2, tol=1e-6, pressure=1e-3)
+    packing = api.prepare_packing(grains=20, seed=1, tol=1e-6, pressure=1e-3)
     kw = dict(ic="A", t_max=2.0, samples=3, dt=0.1, damping=0.2, skin=1e-3, amplitude=3.0, baseline=False)
     cpu = propagate_dem(packing, **kw)
     gpu = propagate_dem(packing, device="gpu", **kw)
