@@ -310,8 +310,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
               f"{sig.attrs['n_steps']} steps; peak memory {resources.format_bytes(peak_memory())}")
         return
     p = spec["params"]
-    per_grain = 1000 if p.dim == 2 else 2100
-    print(f"  {p.grains} grains: estimated memory {resources.format_bytes(per_grain * p.grains)} "
+    print(f"  {p.grains} grains: estimated memory {resources.format_bytes(resources.prepare_bytes(p.grains, p.dim))} "
           f"(available {resources.format_bytes(resources.available_memory())}); steps model "
           f"~{spec['steps']:.3g}" + (f", at {rate:.3g} grain-steps/s ~{spec['steps'] * p.grains / rate / 60:.0f} min"
                                     if rate else ""))

@@ -12,9 +12,11 @@ grain runs (peak resident size minus the interpreter's) and rounded up:
 =======================  =====================================================
 stage                    peak memory
 =======================  =====================================================
-prepare-packing          1000 B per grain (2D), 2100 B per grain (3D): the
-                         parallel engine on a dense state (36000 grains 2D:
-                         911 B, 30000 grains 3D: 1929 B measured)
+prepare-packing          1800 B per grain (2D), 3100 B per grain (3D): whole
+                         preparations of 1e5 grains on 2 threads (peaks 280 MB
+                         2D, 414 MB 3D, less the 110 MB of an interpreter with
+                         granwave imported: 1700 B and 3040 B); dense tiled
+                         states of 36000 / 30000 grains gave 911 / 1929 B
 chain                    200 B per ball
 lattice                  600 B per ball
 linearize                50 B per stiffness-block entry: (2 p)^2 per contact,
@@ -127,9 +129,18 @@ def require_disk(folder: str | os.PathLike, nbytes: float, what: str) -> None:
 
 
 # ---------------------------------------------------------------- per-stage guards
+#: peak bytes per grain of a preparation (module table), 2D and 3D
+PREPARE_BYTES_PER_GRAIN = {2: 1800, 3: 3100}
+
+
+def prepare_bytes(grains: int, dim: int) -> float:
+    """Estimated peak memory (B) of preparing ``grains`` grains in ``dim`` dimensions."""
+    return float(grains) * PREPARE_BYTES_PER_GRAIN[3 if dim >= 3 else 2]
+
+
 def check_prepare(grains: int, dim: int) -> None:
     """prepare-packing of ``grains`` grains in ``dim`` dimensions."""
-    require_memory(float(grains) * (1000 if dim <= 2 else 2100), f"a packing of {grains} grains")
+    require_memory(prepare_bytes(grains, dim), f"a packing of {grains} grains")
 
 
 def check_chain(n_balls: int) -> None:

@@ -269,7 +269,10 @@ class Compression:
                 eta = eta_seconds(history, p.tol, rate / engine.position.shape[0],
                                   steps_left=p.max_steps - engine.steps)
                 progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
-                         f"  max|v| {m['max_speed']:.3e}  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
+                         f"  max|v| {m['max_speed']:.3e}"
+                         # frictional grains rotate; their spin is part of the convergence test
+                         + (f"  max|wR| {m['max_rotation_speed']:.3e}" if p.friction > 0 else "")
+                         + f"  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
                          f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
                          f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
