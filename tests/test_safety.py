@@ -248,7 +248,8 @@ def test_library_guards_use_the_available_memory(monkeypatch):
     from granwave.dem.params import PrepareParams
     from granwave.dem.protocol import prepare_packing
 
-    with pytest.raises(ResourceError, match="a packing of 100000 grains needs about 100 MB"):
+    need = resources.format_bytes(resources.prepare_bytes(100_000, 2))
+    with pytest.raises(ResourceError, match=f"a packing of 100000 grains needs about {need} of memory; 10 MB"):
         prepare_packing(PrepareParams(grains=100_000))
     with pytest.raises(ResourceError, match="a dense eigensolve of 1000 dofs needs about 32 MB"):
         resources.check_eigensolve(1000)
