@@ -196,3 +196,25 @@ def test_blocks_grow_room_for_incoming_pairs_to_the_same_result(monkeypatch):
     assert rooms and max(rooms) > 1
     assert again.attrs["steps"] == ref.attrs["steps"]
     assert _bytes(again) == _bytes(ref)
+
+
+@two_threads
+@pytest.mark.parametrize("blocks", [3, 7, 16])
+def test_any_block_partition_gives_the_same_bytes(blocks, monkeypatch):
+    """The number of grain blocks (which grows with the thread count, kernels.block_count) only
+    decides who computes what: odd and many blocks on 2 threads give the one-thread loop's bytes."""
+    params = PrepareParams(grains=90, seed=11, tol=1e-9)
+    ref = prepare_packing(params)
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    monkeypatch.setattr(K, "block_count", lambda n, threads=1: blocks)
+    run = _at(2, lambda: prepare_packing(params))
+    assert run.attrs["steps"] == ref.attrs["steps"] > 1000
+    assert _bytes(run) == _bytes(ref)
+
+
+def test_block_count_grows_with_threads_and_keeps_blocks_large():
+    assert K.block_count(10_200, 1) == K.block_count(10_200, 2) == 8
+    assert K.block_count(10_200, 16) == 32  # 2 per thread, a multiple of 16
+    assert K.block_count(102_000, 16) == 112  # the size rule already gives more than 2 per thread
+    assert K.block_count(1_000, 16) == 15  # no block under MIN_BLOCK_GRAINS grains
+    assert K.block_count(3, 16) == 3

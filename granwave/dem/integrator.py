@@ -161,7 +161,8 @@ class Engine:
         boundary = int(old_ws[K.W_NEED][2])
         room = len(old_ws[K.W_SPAIR])
         self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width,
-                              int(boundary * 1.5) + 64 if boundary > room else room, self.mflow, self.slabs)
+                              int(boundary * 1.5) + 64 if boundary > room else room, self.mflow, self.slabs,
+                              blocks=old_ws[K.W_BLK].shape[0])
         # the pair list's offsets per grain (history carried by the rebuild), and the lists when
         # only the incoming pairs asked for room (a rebuild that ran out of room follows again)
         keep = ((K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW) if width == old_width and same_pairs
@@ -202,8 +203,12 @@ class Engine:
         :func:`kernels.run_chunk`), else 0."""
         target = self.steps + int(n_steps)
         with at_most(len(self.radius), K.MIN_PARALLEL_GRAINS):
-            # one thread: the single pair loop (same bits, a third faster; dem/serial.py)
-            run_chunk = serial.run_chunk if numba.get_num_threads() == 1 else K.run_chunk
+            # one thread: the single pair loop (same bits, a third faster; dem/serial.py); more:
+            # the block engine with blocks for this many threads (same bits for any partition)
+            threads = numba.get_num_threads()
+            run_chunk = serial.run_chunk if threads == 1 else K.run_chunk
+            if threads > 1:
+                self.ws = K.with_blocks(self.ws, K.block_count(len(self.radius), threads))
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,

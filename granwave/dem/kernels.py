@@ -12,7 +12,7 @@ calls its array form :func:`contact_force` with displacements (``dt = 1``), no
 unloading rescale and no Coulomb cap.
 
 Parallel and deterministic (docs/dem.md, "Parallel engine"): the grains are split into
-contiguous index blocks (:func:`block_count`, a function of N only) and a step is two
+contiguous index blocks (:func:`block_count`, of N and the thread count) and a step is two
 parallel passes over the blocks. :func:`_incoming_pass` computes, for each block, its
 incoming pairs (k, g): g in the block, k below it, whose row belongs to an earlier block;
 :func:`_row_pass` then runs the one-thread pair loop (dem/serial.py) over each block's own
@@ -168,23 +168,36 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
 
 
 #: The parallel engine splits the grains into contiguous index blocks (docs/dem.md, "Parallel
-#: engine"): ``block_count(N)`` blocks of about BLOCK_GRAINS grains, their number a multiple of
-#: BLOCK_MULTIPLE so that 2 or 4 threads get equal shares of the blocks. The partition depends
-#: on N alone, never on the thread count; the blocks (not the threads) hold the partial maxima
-#: and sums.
+#: engine"): ``block_count(N, threads)`` blocks of about BLOCK_GRAINS grains, their number a
+#: multiple of BLOCK_MULTIPLE so that 2 or 4 threads get equal shares of the blocks; with more
+#: threads, at least BLOCKS_PER_THREAD blocks per thread (a multiple of the thread count, none
+#: smaller than MIN_BLOCK_GRAINS grains), so that 16 threads on 10^4 grains have work (8 blocks
+#: would cap them at 8x; 1, 2 and 4 per thread gave 7.5x, 8.3x and 8.0x there, best of three runs
+#: on a 16-core virtual machine, docs/dem.md). The partition decides only which thread computes which grains: every
+#: grain adds its terms in the one-thread loop's order whatever the blocks, so the bits do not
+#: depend on it (tests/test_parallel.py runs several partitions); the blocks (not the threads)
+#: hold the partial maxima.
 BLOCK_GRAINS = 1024
 BLOCK_MULTIPLE = 4
+BLOCKS_PER_THREAD = 2
+MIN_BLOCK_GRAINS = 64
 # columns of the per-block statistics (``blk_g``)
 G_DMAX, G_NC, G_NTOP, G_AMAX, G_ALMAX, G_VMAX, G_WMAX, G_KIN, G_DVMAX, G_DISP = range(10)
 N_GCOL = 10
 
 
-@numba.njit(cache=True)
-def block_count(n):
-    """Number of grain blocks for ``n`` grains: the multiple of BLOCK_MULTIPLE nearest
-    n / BLOCK_GRAINS, at least BLOCK_MULTIPLE (and at most n, at least 1)."""
+def block_count(n: int, threads: int = 1) -> int:
+    """Number of grain blocks for ``n`` grains on ``threads`` threads: the multiple of
+    BLOCK_MULTIPLE nearest n / BLOCK_GRAINS, at least BLOCK_MULTIPLE; above BLOCK_MULTIPLE
+    threads, raised to BLOCKS_PER_THREAD per thread and rounded up to a multiple of the
+    threads, but no block under MIN_BLOCK_GRAINS grains (at most n blocks, at least 1)."""
     k = int(n / (BLOCK_MULTIPLE * BLOCK_GRAINS) + 0.5)
-    return max(1, min(n, BLOCK_MULTIPLE * max(1, k)))
+    nb = BLOCK_MULTIPLE * max(1, k)
+    if threads > BLOCK_MULTIPLE:
+        nb = max(nb, threads * BLOCKS_PER_THREAD)
+        nb = -(-nb // threads) * threads
+        nb = min(nb, max(BLOCK_MULTIPLE, n // MIN_BLOCK_GRAINS))
+    return max(1, min(n, nb))
 
 
 @numba.njit(cache=True, inline="always")
@@ -292,7 +305,7 @@ def boundary_room(n_grains: int) -> int:
 
 
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundary: int = 0, mflow=None,
-              slabs=None) -> tuple:
+              slabs=None, blocks: int | None = None) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain and
     room for ``boundary`` incoming pairs (at least :func:`boundary_room`); indexed by the W_* constants:
     the neighbour and gather lists, counts and pair-list offsets of
@@ -302,9 +315,10 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     1/R per grain, and per incoming pair the force and torque its block hands to the owner row
     (d + r columns), 1/m and 1/I per grain, and the compaction rule 'mean-flow''s parameters
     (:mod:`granwave.dem.mean_flow`; empty: off) and slab work array. ``cap`` (the pair
-    capacity) is not needed: nothing here is per pair."""
+    capacity) is not needed: nothing here is per pair. ``blocks``: the number of grain blocks
+    (None: :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
     n = n_grains
-    nblk = block_count(n)
+    nblk = block_count(n) if blocks is None else int(blocks)
     cap_b = max(boundary_room(n), int(boundary))
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
@@ -318,6 +332,18 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
     W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(20)
+
+
+def with_blocks(ws: tuple, nblk: int) -> tuple:
+    """The workspace ``ws`` with its per-block arrays sized for ``nblk`` blocks (the rest
+    shared); the incoming lists are rebuilt at the next :func:`run_chunk`."""
+    if ws[W_BLK].shape[0] == nblk:
+        return ws
+    new = list(ws)
+    for w in (W_INC, W_SLOT, W_OUT):
+        new[w] = np.zeros(nblk + 1, np.int64)
+    new[W_BLK] = np.zeros((nblk, N_GCOL))
+    return tuple(new)
 
 
 @numba.njit(cache=True)
