@@ -241,19 +241,27 @@ def main(argv=None) -> int:
 
         res["device"] = cuda.get_current_device().name.decode() if hasattr(
             cuda.get_current_device().name, "decode") else str(cuda.get_current_device().name)
+    def stage(what: str) -> None:  # progress on stderr; the JSON result alone on stdout
+        print(f"[gpu.py {time.strftime('%H:%M:%S')}] {what}", file=sys.stderr, flush=True)
+
+    stage("memory bandwidth")
     bw = bandwidth(size["copy_bytes"])
     res["bandwidth_GBps"] = bw / 1e9
+    stage(f"time domain: lattice {size['td']}, linearize, GPU and one-core steps")
     td = td_step_times(lattice_system(*size["td"]), size["td_steps"], size["cpu_td_steps"])
     td["speedup_vs_one_core"] = td["cpu_s_per_step"] / td["gpu_s_per_step"]
     td["roofline_fraction"] = td["bytes_per_step"] / td["gpu_s_per_step"] / bw
     res["time_domain"] = td
     if not args.skip_crossing:
+        stage(f"crossing: lattice {size['crossing']}")
         res["crossing"] = crossing(*size["crossing"], size["td_steps"], args.full_crossing)
+    stage(f"DEM: {size['dem_grains']} grains, GPU and one core")
     dem = dem_rates(size["dem_grains"], size["dem_steps"], size["cpu_dem_steps"], args.tiny)
     dem["speedup_vs_one_core"] = dem["gpu_grain_steps_per_s"] / dem["cpu_grain_steps_per_s"]
     dem["roofline_fraction"] = (dem["bytes_per_step"] * dem["gpu_grain_steps_per_s"] / dem["grains"]) / bw
     res["dem"] = dem
     if not args.skip_packing:
+        stage(f"packing: {size['packing_grains']} grains on the GPU")
         res["packing"] = packing_time(size["packing_grains"], args.tiny)
     ratios = {"td_speedup": td["speedup_vs_one_core"] / GOALS["td_speedup"],
               "td_roofline": td["roofline_fraction"] / GOALS["td_roofline"],

@@ -218,13 +218,3 @@ def test_block_count_grows_with_threads_and_keeps_blocks_large():
     assert K.block_count(102_000, 16) == 112  # the size rule already gives more than 2 per thread
     assert K.block_count(1_000, 16) == 15  # no block under MIN_BLOCK_GRAINS grains
     assert K.block_count(3, 16) == 3
-
-
-def test_block_order_spreads_each_threads_share_over_the_grains():
-    """numba gives each thread a contiguous range of a prange: with the order by (block mod
-    threads), thread t gets blocks t, t + T, ... (a compacting column's bottom and top alike)."""
-    order = K.block_order(20, 2)
-    assert sorted(order) == list(range(20))
-    assert list(order[:10]) == list(range(0, 20, 2)) and list(order[10:]) == list(range(1, 20, 2))
-    assert list(K.block_order(6, 1)) == list(range(6))
-    assert list(K.block_order(32, 16)[:4]) == [0, 16, 1, 17]

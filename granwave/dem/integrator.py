@@ -163,7 +163,6 @@ class Engine:
         self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width,
                               int(boundary * 1.5) + 64 if boundary > room else room, self.mflow, self.slabs,
                               blocks=old_ws[K.W_BLK].shape[0])
-        self.ws = tuple(old_ws[K.W_ORDER] if w == K.W_ORDER else a for w, a in enumerate(self.ws))
         # the pair list's offsets per grain (history carried by the rebuild), and the lists when
         # only the incoming pairs asked for room (a rebuild that ran out of room follows again)
         keep = ((K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW) if width == old_width and same_pairs
@@ -209,7 +208,7 @@ class Engine:
             threads = numba.get_num_threads()
             run_chunk = serial.run_chunk if threads == 1 else K.run_chunk
             if threads > 1:
-                self.ws = K.with_blocks(self.ws, K.block_count(len(self.radius), threads), threads)
+                self.ws = K.with_blocks(self.ws, K.block_count(len(self.radius), threads))
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,

@@ -314,8 +314,7 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
     1/R per grain, and per incoming pair the force and torque its block hands to the owner row
     (d + r columns), 1/m and 1/I per grain, and the compaction rule 'mean-flow''s parameters
-    (:mod:`granwave.dem.mean_flow`; empty: off) and slab work array, and the order in which the
-    parallel loops take the blocks (:func:`block_order`). ``cap`` (the pair
+    (:mod:`granwave.dem.mean_flow`; empty: off) and slab work array. ``cap`` (the pair
     capacity) is not needed: nothing here is per pair. ``blocks``: the number of grain blocks
     (None: :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
     n = n_grains
@@ -327,48 +326,24 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
-            np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
-            block_order(nblk, 1))
+            np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs)
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
-    W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_ORDER = range(21)
+    W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(20)
 
 
-def block_order(nblk: int, threads: int) -> np.ndarray:
-    """The order in which a parallel loop takes the ``nblk`` blocks: by (block mod threads,
-    block), so that the contiguous share of each thread (numba splits a prange into equal
-    contiguous ranges) holds every threads-th block, spread over the whole index range. Grains
-    are numbered from the bottom up, and a packing forms from the bottom: with contiguous shares
-    one thread had the dense bottom of a compacting column and the other its dilute top. The
-    order changes no result (every block writes only its own entries; the reductions over
-    blocks run afterwards in block order)."""
-    t = max(1, int(threads))
-    return np.array(sorted(range(nblk), key=lambda b: (b % t, b)), dtype=np.int64)
-
-
-def with_blocks(ws: tuple, nblk: int, threads: int = 1) -> tuple:
-    """The workspace ``ws`` with its per-block arrays sized for ``nblk`` blocks and taken in the
-    order for ``threads`` threads (:func:`block_order`; the rest shared); the incoming lists
-    are rebuilt at the next :func:`run_chunk`."""
-    order = block_order(nblk, threads)
-    if ws[W_BLK].shape[0] == nblk and np.array_equal(ws[W_ORDER], order):
+def with_blocks(ws: tuple, nblk: int) -> tuple:
+    """The workspace ``ws`` with its per-block arrays sized for ``nblk`` blocks (the rest
+    shared); the incoming lists are rebuilt at the next :func:`run_chunk`."""
+    if ws[W_BLK].shape[0] == nblk:
         return ws
     new = list(ws)
-    if ws[W_BLK].shape[0] != nblk:
-        for w in (W_INC, W_SLOT, W_OUT):
-            new[w] = np.zeros(nblk + 1, np.int64)
-        new[W_BLK] = np.zeros((nblk, N_GCOL))
-    new[W_ORDER] = order
+    for w in (W_INC, W_SLOT, W_OUT):
+        new[w] = np.zeros(nblk + 1, np.int64)
+    new[W_BLK] = np.zeros((nblk, N_GCOL))
     return tuple(new)
-
-
-@numba.njit(cache=True, inline="always")
-def _ordered(order, q, nblk):
-    """Block of the q-th iteration of a parallel loop over ``nblk`` blocks (``order``, or q
-    itself when the lists were made for another block count: compute_forces' single block)."""
-    return order[q] if order.shape[0] == nblk else q
 
 
 @numba.njit(cache=True)
@@ -498,7 +473,7 @@ def _pair_law(pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p,
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
-                   nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g, order):
+                   nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
     the tangential history update: no one else touches that pair in this step), subtracts the
@@ -506,9 +481,9 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pai
     (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
-    these pairs into ``blk_g``. Blocks are taken in ``order`` (:func:`block_order`)."""
-    for q in numba.prange(nblk):
-        _incoming_block(_ordered(order, np.int64(q), nblk), pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov,
+    these pairs into ``blk_g``."""
+    for b in numba.prange(nblk):
+        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov,
                         fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
 
 
@@ -641,7 +616,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
-              blk_g, top_f, kick, stats, drift, mflow, slabs, order):
+              blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
@@ -658,8 +633,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, i
     largest overlap and contacts (with phase 1's), top-wall contacts (their forces on the
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
-    for q in numba.prange(nblk):
-        _row_block(_ordered(order, np.int64(q), nblk), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral,
+    for b in numba.prange(nblk):
+        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral,
                    pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start,
                    out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs)
 
@@ -778,17 +753,16 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_
 
 
 @numba.njit(cache=True, parallel=True)
-def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g, order):
+def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
     """First half kick and drift of velocity Verlet; block maxima of |v|^2 and of the squared
     displacement since ``pos0`` into ``blk_g`` (columns G_DVMAX, G_DISP)."""
     n, d = pos.shape
     r = omega.shape[1]
     nblk = blk_g.shape[0]
-    for q in numba.prange(nblk):
-        b = _ordered(order, np.int64(q), nblk)
+    for b in numba.prange(nblk):
         dvmax = 0.0
         disp = 0.0
-        b0, b1 = block_bounds(b, n, nblk)
+        b0, b1 = block_bounds(np.int64(b), n, nblk)
         for i in range(b0, b1):
             v2 = 0.0
             s = 0.0
@@ -807,14 +781,13 @@ def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g, order):
 
 
 @numba.njit(cache=True, parallel=True)
-def _displacement_pass(pos, pos0, blk_g, order):
+def _displacement_pass(pos, pos0, blk_g):
     """Block maxima of the squared displacement since ``pos0`` into ``blk_g[:, G_DISP]``."""
     n, d = pos.shape
     nblk = blk_g.shape[0]
-    for q in numba.prange(nblk):
-        b = _ordered(order, np.int64(q), nblk)
+    for b in numba.prange(nblk):
         disp = 0.0
-        b0, b1 = block_bounds(b, n, nblk)
+        b0, b1 = block_bounds(np.int64(b), n, nblk)
         for i in range(b0, b1):
             s = 0.0
             for a in range(d):
@@ -847,11 +820,10 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     if mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0:  # the slabs' mean flow, from this step's velocities
         slab_means(pos, vel, mass, mflow, ws[W_SLABS])
     _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar,
-                   ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g,
-                   ws[W_ORDER])
+                   ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
     _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT],
-              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS], ws[W_ORDER])
+              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -1052,7 +1024,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
     # largest squared displacement since the last build (then kept by the drift)
-    _displacement_pass(pos, pos0, blk_g, ws[W_ORDER])
+    _displacement_pass(pos, pos0, blk_g)
     disp2 = _block_max(blk_g, G_DISP)
     drifted = False
     for step in range(n_steps):
@@ -1081,7 +1053,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     ipar[I_NEEDED] = np_new
                     ipar[I_WIDTH] = 0
                     return 2
-            _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g, ws[W_ORDER])
+            _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
             fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
             disp2 = _block_max(blk_g, G_DISP)
             if piston[P_MASS] < np.inf:
