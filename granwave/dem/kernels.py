@@ -172,9 +172,10 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
 #: multiple of BLOCK_MULTIPLE so that 2 or 4 threads get equal shares of the blocks; with more
 #: threads, at least BLOCKS_PER_THREAD blocks per thread (a multiple of the thread count, none
 #: smaller than MIN_BLOCK_GRAINS grains), so that 16 threads on 10^4 grains have work (8 blocks
-#: would cap them at 8x; 1, 2 and 4 per thread gave 7.5x, 8.3x and 8.0x there, best of three runs
-#: on a 16-core virtual machine, docs/dem.md). The partition decides only which thread computes which grains: every
-#: grain adds its terms in the one-thread loop's order whatever the blocks, so the bits do not
+#: would cap them at 8x; 1, 2 and 4 per thread gave 7.5x, 8.3x and 8.0x there, best of three
+#: runs on a 16-core virtual machine, docs/dem.md). The partition decides only which thread
+#: computes which grains: every grain adds its terms in the one-thread loop's order whatever
+#: the blocks, so the bits do not
 #: depend on it (tests/test_parallel.py runs several partitions); the blocks (not the threads)
 #: hold the partial maxima.
 BLOCK_GRAINS = 1024
