@@ -20,20 +20,11 @@ import numpy as np
 from .. import contact as C
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
-from .kernels import (W_MFLOW, W_SLABS, F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
+from .kernels import (W_INVI, W_INVM, W_INVR, W_MFLOW, W_SLABS, F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
                       F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
                       I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
                       O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, _add_torque3, _pair_geometry, _spin,
                       contact_force3, measure, piston_acceleration, stable_dt_at, wall_contact)
-
-
-@numba.njit(cache=True)
-def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                   pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, mflow, slabs):
-    """Total force and torque on every grain; see :func:`_force_loop`."""
-    inv_rad = 1.0 / rad
-    _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, mflow, slabs)
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -206,6 +197,14 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
     """
     n, d = pos.shape
     r = omega.shape[1]
+    # 1/R, 1/m and 1/I once per chunk, not per step: the same quotients, the same bits
+    inv_rad = ws[W_INVR]
+    inv_m = ws[W_INVM]
+    inv_i = ws[W_INVI]
+    for i in range(n):
+        inv_rad[i] = 1.0 / rad[i]
+        inv_m[i] = 1.0 / mass[i]
+        inv_i[i] = 1.0 / inertia[i]
     gamma = fpar[F_GAMMA]
     gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else gamma
     half_skin = 0.5 * fpar[F_SKIN]
@@ -258,16 +257,16 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]
             piston[P_H] += dt * piston[P_V]
-        compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
-                       pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out, mflow, slabs)
+        _force_loop(pos, vel, omega, rad, inv_rad, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
+                    pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out, mflow, slabs)
         piston[P_A] = piston_acceleration(piston, gamma_piston)
         # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):
-            inv = 1.0 / mass[i]
+            inv = inv_m[i]
             for a in range(d):
                 acc[i, a] *= inv
                 vel[i, a] += 0.5 * dt * acc[i, a]
-            inv = 1.0 / inertia[i]
+            inv = inv_i[i]
             for a in range(r):
                 alpha[i, a] *= inv
                 omega[i, a] += 0.5 * dt * alpha[i, a]
