@@ -103,9 +103,15 @@ def effective_shear(poisson: float, wall: bool) -> float:
 @numba.njit(cache=True, inline="always")
 def normal_force(overlap: float, r12: float, e12: float) -> float:
     """Hertz force F_n = (4/3) sqrt(R12) E*12 n^(3/2); zero without overlap."""
+    return normal_force_root(overlap, math.sqrt(r12), e12)
+
+
+@numba.njit(cache=True, inline="always")
+def normal_force_root(overlap: float, root_r12: float, e12: float) -> float:
+    """:func:`normal_force` given sqrt(R12) (``root_r12``; the engines keep it per pair)."""
     if overlap <= 0.0:
         return 0.0
-    return FOUR_THIRDS * math.sqrt(r12) * e12 * overlap * math.sqrt(overlap)
+    return FOUR_THIRDS * root_r12 * e12 * overlap * math.sqrt(overlap)
 
 
 @numba.njit(cache=True, inline="always")
@@ -119,9 +125,15 @@ def normal_energy(overlap: float, r12: float, e12: float) -> float:
 @numba.njit(cache=True, inline="always")
 def normal_stiffness(overlap: float, r12: float, e12: float) -> float:
     """k_n = dF_n/dn = 2 sqrt(R12) E*12 n^(1/2)."""
+    return normal_stiffness_root(overlap, math.sqrt(r12), e12)
+
+
+@numba.njit(cache=True, inline="always")
+def normal_stiffness_root(overlap: float, root_r12: float, e12: float) -> float:
+    """:func:`normal_stiffness` given sqrt(R12)."""
     if overlap <= 0.0:
         return 0.0
-    return 2.0 * math.sqrt(r12) * e12 * math.sqrt(overlap)
+    return 2.0 * root_r12 * e12 * math.sqrt(overlap)
 
 
 @numba.njit(cache=True, inline="always")

@@ -169,6 +169,8 @@ class Engine:
                 else (K.W_ROW,))
         for w in keep:
             self.ws[w][:] = old_ws[w]
+        old_c = old_ws[K.W_PAIRC]
+        self.ws[K.W_PAIRC][: len(old_c)] = old_c
 
     def _rebuild(self) -> None:
         while True:
@@ -180,6 +182,7 @@ class Engine:
                 break
             self.grow(int(w[5][0]), int(w[5][1]))
         self.ipar[K.I_NPAIRS] = m
+        K.pair_constants(self.pair_i, self.pair_j, m, self.radius, self.mass, self.ws[K.W_PAIRC])
         self.pos0[:] = self.position
 
     def _cpu_only(self) -> None:

@@ -102,15 +102,16 @@ def add_torque(torque, k, arm, n, f):
 
 
 @numba.njit(cache=True, inline="always")
-def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt, zeta,
-                   mu, rescale):
+def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt,
+                   zeta, mu, rescale):
     """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, docs/method.md §2); returns it and
     the elastic normal force. The single per-contact routine (scalar form).
 
     Three components always (2D: the third is 0, and adding zeros leaves the 2D
     arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
     (vx, vy, vz) the contact-point velocity of j relative to i, (hx, hy, hz) the
-    tangential history F_t, ``overlap_old`` the overlap when it was last updated.
+    tangential history F_t, ``overlap_old`` the overlap when it was last updated, ``root_r12``
+    sqrt(R12) (kept per pair by the engines: a square root less per contact and step).
     Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
     the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
     the new tangent plane (contact.project_tangential), then contact.update_tangential
@@ -118,11 +119,11 @@ def contact_force3(nx, ny, nz, delta, r12, e12, g12, meff, vx, vy, vz, hx, hy, h
     (contact.py docstring: preparation True, pulses False); a viscous part c_t v_t is added to the force
     (not to the history) while the contact sticks.
     """
-    fel = C.normal_force(delta, r12, e12)
+    fel = C.normal_force_root(delta, root_r12, e12)
     vn = vx * nx + vy * ny + vz * nz
     fn = fel
     if zeta > 0.0:
-        kn = C.normal_stiffness(delta, r12, e12)
+        kn = C.normal_stiffness_root(delta, root_r12, e12)
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
     if mu > 0.0:
@@ -153,7 +154,7 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     d = n.shape[0]
     three = d == 3
     fx, fy, fz, fel, hx, hy, hz = contact_force3(
-        n[0], n[1], n[2] if three else 0.0, delta, r12, e12, g12, meff,
+        n[0], n[1], n[2] if three else 0.0, delta, r12, math.sqrt(r12), e12, g12, meff,
         vrel[0], vrel[1], vrel[2] if three else 0.0, ft[0], ft[1], ft[2] if three else 0.0,
         overlap_old, dt, zeta, mu, rescale)
     ft[0] = hx
@@ -286,8 +287,8 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
         hy = wall_ft[w, 1]
         if d == 3:
             hz = wall_ft[w, 2]
-    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, e_wall, g_wall, mass[i], vx, vy,
-                                                 vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale)
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, math.sqrt(R), e_wall, g_wall, mass[i],
+                                                 vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale)
     if mu > 0.0:
         wall_ft[w, 0] = hx
         wall_ft[w, 1] = hy
@@ -313,25 +314,25 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     :func:`granwave.dem.neighbours.rebuild` and its size request (pairs, width, incoming pairs),
     the incoming grains and pairs of each block and the place of each incoming pair in its
     owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
-    1/R per grain, and per incoming pair the force and torque its block hands to the owner row
-    (d + r columns), 1/m and 1/I per grain, and the compaction rule 'mean-flow''s parameters
-    (:mod:`granwave.dem.mean_flow`; empty: off) and slab work array. ``cap`` (the pair
-    capacity) is not needed: nothing here is per pair. ``blocks``: the number of grain blocks
-    (None: :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
+    the constants of each of ``cap`` listed pairs (:func:`pair_constants`), per incoming pair
+    the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
+    grain, and the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
+    empty: off) and slab work array. ``blocks``: the number of grain blocks (None:
+    :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
     n = n_grains
     nblk = block_count(n) if blocks is None else int(blocks)
     cap_b = max(boundary_room(n), int(boundary))
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
             np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
-            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros(n),
+            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs)
 
 
 # workspace entries
-W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_INVR, W_SLOT, W_OUT, W_SPAIR, \
+W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_PAIRC, W_SLOT, W_OUT, W_SPAIR, \
     W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(20)
 
 
@@ -395,15 +396,13 @@ def incoming_lists(nbr, nlo, gl, row, nblk, inc_start, inc_g, slot_start, out_st
 
 @numba.njit(cache=True)
 def prepare_blocks(rad, mass, inertia, ws, nblk):
-    """1/R, 1/m and 1/I per grain (the one-thread loop's divisions, once per chunk) and the
+    """1/m and 1/I per grain (the one-thread loop's divisions, once per chunk) and the
     incoming lists (:func:`incoming_lists`) of ``nblk`` blocks into the workspace; returns
     the number of incoming pairs (also into ``ws[W_NEED][2]``): above the room of the
     workspace, the lists are not usable."""
-    inv_rad = ws[W_INVR]
     inv_m = ws[W_INVM]
     inv_i = ws[W_INVI]
     for i in range(rad.shape[0]):
-        inv_rad[i] = 1.0 / rad[i]
         inv_m[i] = 1.0 / mass[i]
         inv_i[i] = 1.0 / inertia[i]
     return _lists(ws, nblk)
@@ -424,11 +423,39 @@ def boundary_fraction(ws, n_pairs: int) -> float:
 
 
 @numba.njit(cache=True, inline="always")
-def _pair_law(pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu,
-              rescale, e_pair, g_pair):
-    """Pair p = (i, j): (touching, delta, a_i, a_j, n, force on i, new tangential history),
-    with the arithmetic of the one-thread loop (dem/serial.py) so that the bits are its own.
-    Reads the history, writes nothing."""
+def pair_constants3(inv_rad_i, inv_rad_j, mass_i, mass_j):
+    """(R12, sqrt(R12), m_eff) of two grains from their 1/R and masses: what the contact law
+    needs of a pair that does not change while it is listed."""
+    r12 = C.effective_radius(inv_rad_i, inv_rad_j)
+    return r12, math.sqrt(r12), C.reduced_mass(mass_i, mass_j, False)
+
+
+#: columns of the per-pair constants (``ws[W_PAIRC]``)
+PC_R12, PC_ROOT, PC_MEFF = range(3)
+N_PCOL = 3
+
+
+@numba.njit(cache=True)
+def pair_constants(pair_i, pair_j, npairs, rad, mass, pair_c):
+    """R12, sqrt(R12) and m_eff of the first ``npairs`` listed pairs into ``pair_c``
+    (:func:`pair_constants3`), after each rebuild of the pair list: per step that saves each
+    contact two divisions and a square root, which share one execution unit with the
+    contact's other seven to ten; the values are the ones the loop computed per step, so the
+    bits are the same."""
+    for p in range(npairs):
+        i = pair_i[p]
+        j = pair_j[p]
+        pair_c[p, PC_R12], pair_c[p, PC_ROOT], pair_c[p, PC_MEFF] = pair_constants3(
+            1.0 / rad[i], 1.0 / rad[j], mass[i], mass[j])
+
+
+@numba.njit(cache=True, inline="always")
+def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e_pair, g_pair,
+              r12, root_r12, meff):
+    """Pair p = (i, j) with constants R12, sqrt(R12), m_eff (:func:`pair_constants3`):
+    (touching, delta, a_i, a_j, n, force on i, new tangential history), with the arithmetic
+    of the one-thread loop (dem/serial.py) so that the bits are its own. Reads the history,
+    writes nothing."""
     d = pos.shape[1]
     r = omega.shape[1]
     dx, dy, dz = _pair_geometry(pos, lateral, i, j)
@@ -458,22 +485,20 @@ def _pair_law(pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p,
         vx -= wy * nz - wz * ny
         vy -= wz * nx - wx * nz
         vz -= wx * ny - wy * nx
-    r12 = C.effective_radius(inv_rad[i], inv_rad[j])
-    meff = C.reduced_mass(mass[i], mass[j], False)
     hx = hy = hz = 0.0
     if mu > 0.0:
         hx = pair_ft[p, 0]
         hy = pair_ft[p, 1]
         if d == 3:
             hz = pair_ft[p, 2]
-    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, e_pair, g_pair, meff,
+    fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, root_r12, e_pair, g_pair, meff,
                                                  vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
                                                  mu, rescale)
     return True, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz
 
 
 @numba.njit(cache=True, parallel=True)
-def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
                    nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
@@ -484,12 +509,12 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pai
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
     these pairs into ``blk_g``."""
     for b in numba.prange(nblk):
-        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov,
+        _incoming_block(np.int64(b), pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov,
                         fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
-def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
+def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
                     nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g):
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
     keeps its compilation short)."""
@@ -519,8 +544,8 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral,
                 break
             p = gl[g, t]
             touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu,
-                rescale, e_pair, g_pair)
+                pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu, rescale, e_pair,
+                g_pair, pair_c[p, PC_R12], pair_c[p, PC_ROOT], pair_c[p, PC_MEFF])
             if not touch:
                 if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
                     pair_ov[p] = 0.0
@@ -615,7 +640,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 
 
 @numba.njit(cache=True, parallel=True)
-def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
               blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
@@ -635,13 +660,13 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, i
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
     for b in numba.prange(nblk):
-        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral,
+        _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                    pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start,
                    out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
-def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
                blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Block b of :func:`_row_pass`."""
@@ -670,8 +695,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, inv_
         for p in range(first, split):
             j = pair_j[p]
             touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-                pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
-                e_pair, g_pair)
+                pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e_pair,
+                g_pair, pair_c[p, PC_R12], pair_c[p, PC_ROOT], pair_c[p, PC_MEFF])
             if not touch:
                 if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
                     pair_ov[p] = 0.0
@@ -816,13 +841,13 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     (:func:`prepare_blocks`) must be those of the current pair list and ``nblk``."""
     blk_g = ws[W_BLK]
     top_f = ws[W_TOP]
-    inv_rad = ws[W_INVR]
+    pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
     if mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0:  # the slabs' mean flow, from this step's velocities
         slab_means(pos, vel, mass, mflow, ws[W_SLABS])
-    _incoming_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, lateral, pair_ft, pair_ov, fpar,
+    _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar,
                    ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
-    _row_pass(pos, vel, acc, omega, alpha, rad, inv_rad, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
+    _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT],
               ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS])
     n = pos.shape[0]
@@ -1046,6 +1071,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     return 2
                 ipar[I_NPAIRS] = np_new
                 ipar[I_REBUILDS] += 1
+                pair_constants(pair_i, pair_j, np_new, rad, mass, ws[W_PAIRC])
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]

@@ -23,13 +23,14 @@ from ..dem import kernels as K
 
 #: The scalar functions of granwave.contact used by the per-contact routine (and each other).
 CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius", "effective_young",
-                     "effective_shear", "normal_force", "normal_energy", "normal_stiffness",
+                     "effective_shear", "normal_force_root", "normal_force", "normal_energy",
+                     "normal_stiffness_root", "normal_stiffness",
                      "tangential_stiffness", "damping_coefficient", "reduced_mass",
                      "total_normal_force", "project_tangential3", "update_tangential3")
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
 ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_add_torque3", "wall_contact",
-                    "piston_acceleration", "_pair_law")  # _pair_law last: it calls the others
+                    "piston_acceleration", "pair_constants3", "_pair_law")  # _pair_law last: it calls the others
 
 
 def _rebound(py_func, namespace: dict):

@@ -48,6 +48,7 @@ add_torque3 = DF._add_torque3
 wall_contact = DF.wall_contact
 piston_acceleration = DF.piston_acceleration
 pair_law = DF._pair_law
+pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
 
@@ -119,9 +120,10 @@ def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, np
     pdelta[p] = -1.0
     i = pair_i[p]
     j = pair_j[p]
+    r12, root_r12, meff = pair_constants3(inv_rad[i], inv_rad[j], mass[i], mass[j])
     touching, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = pair_law(
-        pos, vel, omega, rad, inv_rad, mass, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
-        effective_young(False), effective_shear(poisson, False))
+        pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+        effective_young(False), effective_shear(poisson, False), r12, root_r12, meff)
     if not touching:
         if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
             pair_ov[p] = 0.0
