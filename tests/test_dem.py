@@ -129,6 +129,58 @@ def test_newton_third_law_forces_and_torques():
     assert np.abs(tau).max() > 0  # friction acted
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_pair_constants_follow_the_pair_list(threads, monkeypatch):
+    """R12, sqrt(R12) and m_eff kept per listed pair (kernels.pair_constants) stay those of the
+    pair's two grains through rebuilds and growth of the lists (one-thread loop and block
+    engine): a frictional gas with contacts from the first step, squeezed by the piston, run
+    with lists that start too small for the neighbours and the incoming pairs gives the bytes
+    of the one-thread loop with the default sizes, and its final constants equal the law's
+    expressions evaluated here."""
+    import numba
+
+    from granwave import threads as T
+    from granwave.dem import integrator
+
+    if threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip("needs 2 threads")
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    rng = np.random.default_rng(9)
+    n = 60
+    radius = 0.5 * rng.uniform(0.8, 1.2, n)
+    pos = np.column_stack([rng.uniform(0, 10, n), rng.uniform(0.6, 10, n)])  # 62 contacts at once
+    vel = rng.normal(0, 0.05, size=(n, 2))
+
+    def run():
+        eng = Engine(pos, radius, [10.0], 11.0, friction=0.5, damping=0.3, piston_mass=5.0, piston_force=0.05,
+                     velocity=vel)
+        eng.run(2000)
+        return eng
+
+    keep = numba.get_num_threads()
+    try:
+        T.set_threads(1)
+        ref = run()  # the one-thread pair loop with lists of the default sizes
+        T.set_threads(threads)
+        monkeypatch.setattr(integrator, "NEIGHBOUR_WIDTH", {2: 2, 3: 2})
+        monkeypatch.setattr(K, "boundary_room", lambda n: 1)
+        grown = []
+        grow = integrator.Engine.grow
+        monkeypatch.setattr(integrator.Engine, "grow", lambda self, *a: grown.append(a) or grow(self, *a))
+        eng = run()
+    finally:
+        numba.set_num_threads(keep)
+    assert grown and eng.rebuilds > 3 and ref.out[K.O_NCONTACT] > n
+    if threads > 1:  # the room for incoming pairs grew (a request with no new width)
+        assert any(a[1] == 0 for a in grown)
+    assert eng.position.tobytes() == ref.position.tobytes()
+    m = eng.n_pairs
+    i, j = eng.pair_i[:m], eng.pair_j[:m]
+    r12 = 1.0 / (1.0 / radius[i] + 1.0 / radius[j])
+    want = np.column_stack([r12, np.sqrt(r12), eng.mass[i] * eng.mass[j] / (eng.mass[i] + eng.mass[j])])
+    assert np.array_equal(eng.ws[K.W_PAIRC][:m], want)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_pair_across_periodic_boundary(dim):
     """The same overlapping, sliding pair placed across the periodic boundary and in the middle

@@ -91,7 +91,10 @@ class Engine:
         self.acceleration = np.zeros((n, d))
         self.angular_acceleration = np.zeros((n, n_rot))
         self.pos0 = self.position.copy()
-        cap = max(64, (12 if d == 2 else 24) * n)
+        # room for listed pairs (grown by half when a rebuild needs more, the same bits): dense
+        # frictional packings list 2.4 (2D) and 4.6 (3D) pairs per grain, and every slot costs
+        # 64 (2D) / 72 (3D) bytes with the per-pair constants (it was 12 and 24 per grain)
+        cap = max(64, (4 if d == 2 else 8) * n)
         self.pair_i = np.zeros(cap, np.int64)
         self.pair_j = np.zeros(cap, np.int64)
         self.pair_ft = np.zeros((cap, d))
