@@ -181,6 +181,46 @@ def test_pair_constants_follow_the_pair_list(threads, monkeypatch):
     assert np.array_equal(eng.ws[K.W_PAIRC][:m], want)
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_wall_list_misses_no_wall_contact(threads, monkeypatch):
+    """The wall loops visit only the grains near a wall (kernels.wall_list, made at each rebuild
+    and when the piston has moved skin / 2). A light piston driven down onto grains thrown at
+    both walls: one run of many steps gives the bytes of one-step runs, each of which makes
+    the list anew, while the piston travels many skins and touches grains."""
+    import numba
+
+    from granwave import threads as T
+
+    if threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip("needs 2 threads")
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    rng = np.random.default_rng(3)
+    n = 40
+    radius = 0.5 * rng.uniform(0.8, 0.95, n)
+    pos = np.column_stack([np.arange(n) % 10 + 0.5, 0.6 + 1.5 * (np.arange(n) // 10)])
+    vel = np.column_stack([rng.normal(0, 0.05, n), np.where(np.arange(n) < 20, -0.03, 0.03)])
+
+    def engine():
+        return Engine(pos, radius, [10.0], 20.0, friction=0.5, damping=0.1, piston_mass=0.5, piston_force=0.01,
+                      velocity=vel)
+
+    keep = numba.get_num_threads()
+    T.set_threads(threads)
+    try:
+        long_run = engine()
+        long_run.run(1500)
+        steps = engine()
+        top = 0
+        for _ in range(1500):
+            steps.run(1)
+            top = max(top, int(steps.out[K.O_NTOP]))
+    finally:
+        numba.set_num_threads(keep)
+    assert top > 0 and 20.0 - steps.piston[K.P_H] > 20 * 0.2
+    assert long_run.position.tobytes() == steps.position.tobytes()
+    assert long_run.piston.tobytes() == steps.piston.tobytes()
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_pair_across_periodic_boundary(dim):
     """The same overlapping, sliding pair placed across the periodic boundary and in the middle

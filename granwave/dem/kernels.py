@@ -27,7 +27,8 @@ Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
 overlap floor for the time step, acceleration tol, velocity tol, largest
 radius, smallest mass, last max speed, unloading rule (1: rescale F_t on
-unloading, 0: plain incremental; contact.update_tangential); ``piston``: height, velocity,
+unloading, 0: plain incremental; contact.update_tangential), piston height when the wall
+list was made (:func:`wall_list`); ``piston``: height, velocity,
 acceleration, mass (inf = fixed wall), downward force p*A, contact force.
 """
 
@@ -47,8 +48,8 @@ from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 
 # fpar indices
 F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
-    F_VMAX, F_RESCALE = range(14)
-N_FPAR = 14
+    F_VMAX, F_RESCALE, F_WALLH = range(15)
+N_FPAR = 15
 # piston indices
 P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
 N_PISTON = 6
@@ -301,6 +302,51 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
 
 
+@numba.njit(cache=True)
+def wall_list(pos, rad, h, skin, wall_ov, walls):
+    """The grains that may touch a wall until the list is made again, increasing, into
+    ``walls[1:walls[0] + 1]``: those whose position in ``pos`` (the engines pass the positions
+    of the last rebuild) is within ``skin`` of the bottom or of the piston at height ``h``, and
+    any with a wall history still to clear. It stays complete while every grain is less than
+    skin / 2 from that position (the pair list's own rule; it is made again at every rebuild)
+    and the piston less than skin / 2 from h (:func:`refresh_wall_list`). The wall loops run
+    over it instead of over every grain, in the same grain order: the same bits."""
+    n, d = pos.shape
+    c = 0
+    for i in range(n):
+        y = pos[i, d - 1]
+        R = rad[i]
+        if y - R < skin or (h - y) - R < skin or wall_ov[2 * i] != 0.0 or wall_ov[2 * i + 1] != 0.0:
+            c += 1
+            walls[c] = i
+    walls[0] = c
+
+
+@numba.njit(cache=True)
+def refresh_wall_list(pos_ref, rad, piston, fpar, wall_ov, walls, force):
+    """Make the wall list (:func:`wall_list`, from the positions ``pos_ref``) again when
+    ``force`` or when the piston has moved more than skin / 2 since it was made (its height
+    then is kept in ``fpar[F_WALLH]``)."""
+    h = piston[P_H]
+    if force or abs(h - fpar[F_WALLH]) > 0.5 * fpar[F_SKIN]:
+        wall_list(pos_ref, rad, h, fpar[F_SKIN], wall_ov, walls)
+        fpar[F_WALLH] = h
+
+
+@numba.njit(cache=True, inline="always")
+def first_wall_entry(walls, b0):
+    """Position in the wall list of its first grain >= b0 (binary search)."""
+    lo = 1
+    hi = walls[0] + 1
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if walls[mid] < b0:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 def boundary_room(n_grains: int) -> int:
     """Incoming pairs a new workspace has room for (it grows when a rebuild needs more)."""
     return max(64, n_grains // 2)
@@ -314,7 +360,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     :func:`granwave.dem.neighbours.rebuild` and its size request (pairs, width, incoming pairs),
     the incoming grains and pairs of each block and the place of each incoming pair in its
     owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
-    the constants of each of ``cap`` listed pairs (:func:`pair_constants`), per incoming pair
+    the constants of each of ``cap`` listed pairs (:func:`pair_constants`), the wall list
+    (:func:`wall_list`), per incoming pair
     the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
     grain, and the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
     empty: off) and slab work array. ``blocks``: the number of grain blocks (None:
@@ -325,15 +372,15 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
             np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
-            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)),
+            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)), np.zeros(n + 1, np.int64),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs)
 
 
 # workspace entries
-W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_PAIRC, W_SLOT, W_OUT, W_SPAIR, \
-    W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(20)
+W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, \
+    W_SPAIR, W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(21)
 
 
 def with_blocks(ws: tuple, nblk: int) -> tuple:
@@ -641,8 +688,8 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
-              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
-              blk_g, top_f, kick, stats, drift, mflow, slabs):
+              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
+              bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
@@ -661,14 +708,14 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     """
     for b in numba.prange(nblk):
         _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
-                   pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start,
-                   out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs)
+                   pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
+                   out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
-               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, row, nblk, out_start, out_slot, bnd_f,
-               blk_g, top_f, kick, stats, drift, mflow, slabs):
+               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
+               bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs):
     """Block b of :func:`_row_pass`."""
     n, d = pos.shape
     r = omega.shape[1]
@@ -731,11 +778,15 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
                 acc[i, 2] += bnd_f[s, 2]
             for a in range(r):
                 alpha[i, a] += bnd_f[s, d + a]
-    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp), for
+    # the block's grains in the wall list (no other can touch one)
     h = piston[P_H]
     vp = piston[P_V]
     ntop = 0
-    for i in range(b0, b1):
+    q = first_wall_entry(walls, b0)
+    while q <= walls[0] and walls[q] < b1:
+        i = walls[q]
+        q += 1
         for k in range(2):
             delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
                                                              i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
@@ -847,9 +898,11 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
         slab_means(pos, vel, mass, mflow, ws[W_SLABS])
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar,
                    ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
+    # the wall list must cover this piston height (made again if the piston moved)
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
-              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ws[W_ROW], nblk, ws[W_OUT],
-              ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS])
+              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
+              ws[W_OUT], ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -902,6 +955,7 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     if prepare_blocks(rad, mass, inertia, ws, nblk) > ws[W_SPAIR].shape[0]:
         nblk = 1
         _lists(ws, nblk)
+    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # for these positions
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, False, False, False)
 
@@ -1046,6 +1100,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         ipar[I_NEEDED] = ipar[I_NPAIRS]
         ipar[I_WIDTH] = 0
         return 2
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # from the last rebuild's positions
     half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
@@ -1072,6 +1127,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                 ipar[I_NPAIRS] = np_new
                 ipar[I_REBUILDS] += 1
                 pair_constants(pair_i, pair_j, np_new, rad, mass, ws[W_PAIRC])
+                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]

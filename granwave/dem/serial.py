@@ -24,13 +24,13 @@ from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN,
                       F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
                       I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
                       O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, PC_MEFF, PC_R12, PC_ROOT, W_INVI, W_INVM,
-                      W_MFLOW, W_PAIRC, W_SLABS, _add_torque3, _pair_geometry, _spin, contact_force3, measure,
-                      pair_constants, piston_acceleration, stable_dt_at, wall_contact)
+                      W_MFLOW, W_PAIRC, W_SLABS, W_WALLS, _add_torque3, _pair_geometry, _spin, contact_force3, measure,
+                      pair_constants, piston_acceleration, refresh_wall_list, stable_dt_at, wall_contact)
 
 
 @numba.njit(cache=True, _nrt=False)
 def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, force, torque, out, mflow, slabs):
+                pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow, slabs):
     """Total force and torque on every grain and the contact force on the piston.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
@@ -134,7 +134,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
     fpiston = 0.0
     ntop = 0
-    for i in range(n_grains):
+    for q in range(1, walls[0] + 1):  # the grains that may touch a wall, increasing (kernels.wall_list)
+        i = walls[q]
         for k in range(2):
             delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
                                                              i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
@@ -201,6 +202,8 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
     r = omega.shape[1]
     # 1/m and 1/I once per chunk, not per step: the same quotients, the same bits
     pair_c = ws[W_PAIRC]
+    walls = ws[W_WALLS]
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the last rebuild's positions
     inv_m = ws[W_INVM]
     inv_i = ws[W_INVI]
     for i in range(n):
@@ -235,6 +238,7 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
             ipar[I_NPAIRS] = np_new
             ipar[I_REBUILDS] += 1
             pair_constants(pair_i, pair_j, np_new, rad, mass, pair_c)
+            refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)
             for i in range(n):
                 for a in range(d):
                     pos0[i, a] = pos[i, a]
@@ -259,8 +263,9 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]
             piston[P_H] += dt * piston[P_V]
+        refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
         _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
-                    pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, acc, alpha, out, mflow, slabs)
+                    pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs)
         piston[P_A] = piston_acceleration(piston, gamma_piston)
         # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):
