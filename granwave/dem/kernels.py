@@ -43,6 +43,7 @@ from .. import contact as C
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from ..geometry import nearest_image
 from . import neighbours
+from . import pair_tile as PT
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 
 
@@ -363,8 +364,9 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     the constants of each of ``cap`` listed pairs (:func:`pair_constants`), the wall list
     (:func:`wall_list`), per incoming pair
     the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
-    grain, and the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
-    empty: off) and slab work array. ``blocks``: the number of grain blocks (None:
+    grain, the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
+    empty: off) and slab work array, and one pair tile's scratch per block
+    (:func:`granwave.dem.pair_tile.scratch`). ``blocks``: the number of grain blocks (None:
     :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
     n = n_grains
     nblk = block_count(n) if blocks is None else int(blocks)
@@ -375,12 +377,13 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)), np.zeros(n + 1, np.int64),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
-            np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs)
+            np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
+            *PT.scratch(nblk))
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, \
-    W_SPAIR, W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS = range(21)
+    W_SPAIR, W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP = range(23)
 
 
 def with_blocks(ws: tuple, nblk: int) -> tuple:
@@ -392,6 +395,7 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
     for w in (W_INC, W_SLOT, W_OUT):
         new[w] = np.zeros(nblk + 1, np.int64)
     new[W_BLK] = np.zeros((nblk, N_GCOL))
+    new[W_TILE], new[W_TILEP] = PT.scratch(nblk)
     return tuple(new)
 
 
@@ -689,7 +693,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-              bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs):
+              bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
@@ -709,14 +713,15 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     for b in numba.prange(nblk):
         _row_block(np.int64(b), pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                    pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
-                   out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs)
+                   out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-               bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs):
-    """Block b of :func:`_row_pass`."""
+               bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p):
+    """Block b of :func:`_row_pass` (``tile``, ``tile_p``: the workspace's tile scratch, one
+    per block)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -731,53 +736,37 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     g_wall = C.effective_shear(fpar[F_POISSON], True)
     dmax = blk_g[b, G_DMAX]
     ncontact = int(blk_g[b, G_NC])
+    # the block's rows a tile at a time (pair_tile: the pair law with its roots and quotients in
+    # vector loops, the bits of _pair_law), skipping the pairs beyond the block (computed by
+    # their j's block in phase 1); once a row's pairs have all been looked at, their forces
+    # (sorted by j, after the row's own) are added from the incoming slots. Nothing but row i
+    # adds to grain i after that (pairs have i < j), so each grain's order is the one-thread loop's
     c = out_start[b]
-    for i in range(b0, b1):
-        # row i: its pairs inside the block, then (sorted by j) those beyond it, computed by
-        # their j's block in phase 1
-        first = row[i]
-        split = row[i + 1]
-        while split > first and pair_j[split - 1] >= b1:
-            split -= 1
-        for p in range(first, split):
-            j = pair_j[p]
-            touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-                pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e_pair,
-                g_pair, pair_c[p, PC_R12], pair_c[p, PC_ROOT], pair_c[p, PC_MEFF])
-            if not touch:
-                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
-                    pair_ov[p] = 0.0
-                    for a in range(d):
-                        pair_ft[p, a] = 0.0
-                continue
-            if mu > 0.0:
-                pair_ft[p, 0] = hx
-                pair_ft[p, 1] = hy
+    t = tile[b]
+    tp = tile_p[b]
+    p = row[b0]
+    done = b0
+    while done < b1:
+        if p < row[b1]:
+            p, dmax, ncontact = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov,
+                                            p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, t, tp, acc,
+                                            alpha, dmax, ncontact)
+        while done < b1 and row[done + 1] <= p:
+            i = done
+            done += 1
+            first = row[i]
+            split = row[i + 1]
+            while split > first and pair_j[split - 1] >= b1:
+                split -= 1
+            for q in range(split, row[i + 1]):
+                s = out_slot[c]
+                c += 1
+                acc[i, 0] += bnd_f[s, 0]
+                acc[i, 1] += bnd_f[s, 1]
                 if d == 3:
-                    pair_ft[p, 2] = hz
-            pair_ov[p] = delta
-            acc[i, 0] += fx
-            acc[i, 1] += fy
-            acc[j, 0] -= fx
-            acc[j, 1] -= fy
-            if d == 3:
-                acc[i, 2] += fz
-                acc[j, 2] -= fz
-            if r > 0:
-                _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-                _add_torque3(alpha, j, aj, nx, ny, nz, fx, fy, fz)
-            if delta > dmax:
-                dmax = delta
-            ncontact += 1
-        for p in range(split, row[i + 1]):
-            s = out_slot[c]
-            c += 1
-            acc[i, 0] += bnd_f[s, 0]
-            acc[i, 1] += bnd_f[s, 1]
-            if d == 3:
-                acc[i, 2] += bnd_f[s, 2]
-            for a in range(r):
-                alpha[i, a] += bnd_f[s, d + a]
+                    acc[i, 2] += bnd_f[s, 2]
+                for a in range(r):
+                    alpha[i, a] += bnd_f[s, d + a]
     # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp), for
     # the block's grains in the wall list (no other can touch one)
     h = piston[P_H]
@@ -902,7 +891,8 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
-              ws[W_OUT], ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS])
+              ws[W_OUT], ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS], ws[W_TILE],
+              ws[W_TILEP])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0

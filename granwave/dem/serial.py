@@ -1,6 +1,6 @@
-"""The DEM step on one thread: one loop over the pairs adds each force to both grains.
+"""The DEM step on one thread: one pass over the pairs adds each force to both grains.
 
-The parallel engine (:mod:`granwave.dem.kernels`) runs this same loop per block of grain
+The parallel engine (:mod:`granwave.dem.kernels`) runs this same pass per block of grain
 indices, after a first pass over the pairs that cross into each block; on one thread that
 costs 10-15 % more CPU time per step (10 200 grains, docs/dem.md "Parallel engine"), so
 :class:`granwave.dem.integrator.Engine` runs this loop when it has one thread. Both add a
@@ -20,17 +20,18 @@ import numpy as np
 from .. import contact as C
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
+from .pair_tile import law_tile
 from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
                       F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
                       I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
-                      O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, PC_MEFF, PC_R12, PC_ROOT, W_INVI, W_INVM,
-                      W_MFLOW, W_PAIRC, W_SLABS, W_WALLS, _add_torque3, _pair_geometry, _spin, contact_force3, measure,
-                      pair_constants, piston_acceleration, refresh_wall_list, stable_dt_at, wall_contact)
+                      O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, W_INVI, W_INVM,
+                      W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, measure, pair_constants,
+                      piston_acceleration, refresh_wall_list, stable_dt_at, wall_contact)
 
 
 @numba.njit(cache=True, _nrt=False)
 def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, npairs, pair_ft,
-                pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow, slabs):
+                pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow, slabs, tile, tile_p):
     """Total force and torque on every grain and the contact force on the piston.
 
     Contacts update their tangential history with slip = v_rel * fpar[F_DT]
@@ -41,9 +42,10 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     its work array). Statistics into ``out``: largest overlap, number of
     top-wall contacts and of contacts.
 
-    Written with scalars (three components, the third 0 in 2D) so that nothing
-    is allocated per contact and the compiler keeps the contact, its tangential
-    history included, in registers (contact.py's scalar forms of the law).
+    The pairs go through :func:`granwave.dem.pair_tile.law_tile` a tile at a time (the law's
+    square roots and divisions in vector loops; the same bits as the pair-at-a-time
+    ``kernels._pair_law``), the walls through ``kernels.wall_contact`` one grain at a time.
+    ``tile``, ``tile_p``: the workspace's tile scratch (its first tile is used).
     """
     n_grains, d = pos.shape
     r = omega.shape[1]
@@ -63,74 +65,15 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     torque[:, :] = 0.0
     dmax = 0.0
     ncontact = 0
-    for p in range(npairs):
-        i = pair_i[p]
-        j = pair_j[p]
-        # the pair's geometry and law are written out here rather than calling kernels._pair_law
-        # (the same arithmetic, same bits): through it this loop measured 2.5 % slower
-        # (1.86e7 against 1.91e7 grain-steps/s, 600 grains, one thread). R12, sqrt(R12) and
-        # m_eff come from the list's constants (kernels.pair_constants)
-        dx, dy, dz = _pair_geometry(pos, lateral, i, j)
-        r2 = dx * dx + dy * dy + dz * dz
-        ri = rad[i]
-        rj = rad[j]
-        rs = ri + rj
-        if r2 >= rs * rs:
-            if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
-                pair_ov[p] = 0.0
-                for a in range(d):
-                    pair_ft[p, a] = 0.0
-            continue
-        dist = math.sqrt(r2)
-        delta = rs - dist
-        nx = dx / dist
-        ny = dy / dist
-        nz = dz / dist if d == 3 else 0.0
-        vx = vel[j, 0] - vel[i, 0]
-        vy = vel[j, 1] - vel[i, 1]
-        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
-        ai = ri - 0.5 * delta
-        aj = rj - 0.5 * delta
-        if r > 0:
-            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-            wx, wy, wz = _spin(omega, i, ai)
-            ux, uy, uz = _spin(omega, j, aj)
-            wx += ux
-            wy += uy
-            wz += uz
-            vx -= wy * nz - wz * ny
-            vy -= wz * nx - wx * nz
-            vz -= wx * ny - wy * nx
-        r12 = pair_c[p, PC_R12]
-        meff = pair_c[p, PC_MEFF]
-        hx = hy = hz = 0.0
-        if mu > 0.0:
-            hx = pair_ft[p, 0]
-            hy = pair_ft[p, 1]
-            if d == 3:
-                hz = pair_ft[p, 2]
-        fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, pair_c[p, PC_ROOT], e_pair,
-                                                     g_pair, meff, vx, vy, vz, hx, hy, hz, pair_ov[p], dt,
-                                                     zeta, mu, rescale)
-        if mu > 0.0:
-            pair_ft[p, 0] = hx
-            pair_ft[p, 1] = hy
-            if d == 3:
-                pair_ft[p, 2] = hz
-        pair_ov[p] = delta
-        force[i, 0] += fx
-        force[i, 1] += fy
-        force[j, 0] -= fx
-        force[j, 1] -= fy
-        if d == 3:
-            force[i, 2] += fz
-            force[j, 2] -= fz
-        if r > 0:
-            _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
-            _add_torque3(torque, j, aj, nx, ny, nz, fx, fy, fz)
-        if delta > dmax:
-            dmax = delta
-        ncontact += 1
+    # the pairs, a tile at a time (pair_tile: the same bits as one at a time, with the square
+    # roots and divisions in vector loops), each tile's forces added in list order
+    t = tile[0]
+    tp = tile_p[0]
+    p = 0
+    while p < npairs:
+        p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
+                                     npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, t, tp, force,
+                                     torque, dmax, ncontact)
     # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
     fpiston = 0.0
     ntop = 0
@@ -265,7 +208,8 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
             piston[P_H] += dt * piston[P_V]
         refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
         _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
-                    pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs)
+                    pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
+                    ws[W_TILE], ws[W_TILEP])
         piston[P_A] = piston_acceleration(piston, gamma_piston)
         # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):

@@ -1,0 +1,249 @@
+"""The pair law over a tile of listed pairs, staged so that its square roots and divisions
+run as vector loops.
+
+A frictional contact takes about seven square roots and four divisions (the distance, the
+normal, sqrt(n) of Hertz, k_t, the history's projection and unloading rescale, the two
+damping coefficients). One at a time they occupy the CPU's one divider for most of the
+contact's time; in a loop over a packed array the compiler issues them as vector
+instructions, 4 to 8 at once. So :func:`law_tile` packs up to ``TILE`` touching pairs
+into columns of a scratch array and alternates scalar stages (gathers, the rest of the
+arithmetic) with loops that only take roots and quotients. Every contact gets exactly the
+operations of :func:`granwave.dem.kernels.contact_force3`, in the same order (square
+roots and divisions are correctly rounded, in a vector lane as in a scalar register), so
+the bits are those of the pair-at-a-time law (tests/test_dem.py compares them).
+Measured on 600 grains, one thread: docs/dem.md, "Per-core work".
+
+Compiled with ``error_model="numpy"``: numba's default (Python's) checks every float
+division for a zero divisor, and that branch keeps the division loops scalar. A zero
+distance (two coincident centres) then gives NaN instead of an exception, which the
+engines' blow-up checks catch as a non-finite state.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .. import contact as C
+# through the module, not its names: kernels imports this module too (its parallel row pass)
+from . import kernels as K
+
+#: touching pairs per tile: the scratch (N_TROW x ROW doubles, 53 kB) stays in L2
+TILE = 256
+#: length of a scratch row: one cache line more than a tile, so that the entries of one
+#: contact (a column; rows 2 kB apart without it) fall into different sets of the L1 cache
+#: instead of two (the staged loop took 47 us instead of 40 for 600 grains unpadded)
+ROW = TILE + 8
+
+# scratch rows, each ROW long, one entry per packed contact; the scratch is one flat row
+# per tile, indexed ``T_X * ROW + c``, so that the compiler sees constant distances between
+# rows and vectorizes the fused loops without run-time overlap checks
+(T_DX, T_DY, T_DZ, T_R2, T_RS, T_NX, T_NY, T_NZ, T_DELTA, T_AI, T_AJ, T_VN, T_TX, T_TY, T_TZ, T_GX,
+ T_GY, T_GZ, T_OLD2, T_NEW2, T_R12, T_ROOT, T_MEFF, T_OVOLD, T_FEL, T_SCN, T_KT, T_SCT, T_SPROJ,
+ T_SRES) = range(30)
+N_TROW = 30
+
+
+def scratch(tiles: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Work arrays for ``tiles`` tiles in flight (one per parallel block): the float rows,
+    (tiles, N_TROW * ROW), and the packed pair indices, (tiles, TILE)."""
+    return np.zeros((tiles, N_TROW * ROW)), np.zeros((tiles, TILE), np.int64)
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
+             zeta, mu, rescale, e12, g12, t, tp, force, torque, dmax, ncontact):
+    """The pair law (:func:`granwave.dem.kernels.contact_force3`, the same bits) for the listed
+    pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
+    history untouched), until TILE of them touch; each contact's force and torque are added
+    to both grains in list order, as the pair-at-a-time loop does.
+
+    Pairs that no longer touch lose their history (``pair_ov``, ``pair_ft`` zeroed); touching
+    ones get the new one. ``t``, ``tp``: one tile's scratch (:func:`scratch`). Returns (the
+    first pair not looked at, the largest overlap and the contact count, ``dmax`` and
+    ``ncontact`` updated)."""
+    d = pos.shape[1]
+    r = omega.shape[1]
+    # stage 1: geometry; pairs apart release their history, touching ones are packed
+    nc = 0
+    p = p0
+    while p < p1 and nc < TILE:
+        i = pair_i[p]
+        j = pair_j[p]
+        if j < jmax:
+            dx, dy, dz = K._pair_geometry(pos, lateral, i, j)
+            r2 = dx * dx + dy * dy + dz * dz
+            rs = rad[i] + rad[j]
+            if r2 >= rs * rs:
+                if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
+                    pair_ov[p] = 0.0
+                    for a in range(d):
+                        pair_ft[p, a] = 0.0
+            else:
+                tp[nc] = p
+                t[T_DX * ROW + nc] = dx
+                t[T_DY * ROW + nc] = dy
+                t[T_DZ * ROW + nc] = dz
+                t[T_R2 * ROW + nc] = r2
+                t[T_RS * ROW + nc] = rs
+                nc += 1
+        p += 1
+    # vector: distance, unit normal i -> j, overlap
+    if d == 3:
+        for c in range(nc):
+            dist = math.sqrt(t[T_R2 * ROW + c])
+            t[T_NX * ROW + c] = t[T_DX * ROW + c] / dist
+            t[T_NY * ROW + c] = t[T_DY * ROW + c] / dist
+            t[T_NZ * ROW + c] = t[T_DZ * ROW + c] / dist
+            t[T_DELTA * ROW + c] = t[T_RS * ROW + c] - dist
+    else:
+        for c in range(nc):
+            dist = math.sqrt(t[T_R2 * ROW + c])
+            t[T_NX * ROW + c] = t[T_DX * ROW + c] / dist
+            t[T_NY * ROW + c] = t[T_DY * ROW + c] / dist
+            t[T_DELTA * ROW + c] = t[T_RS * ROW + c] - dist
+    # stage 2: relative velocity at the contact point, the pair's constants, the history
+    # carried into the new tangent plane up to its rescale (contact.project_tangential3)
+    for c in range(nc):
+        q = tp[c]
+        i = pair_i[q]
+        j = pair_j[q]
+        delta = t[T_DELTA * ROW + c]
+        nx = t[T_NX * ROW + c]
+        ny = t[T_NY * ROW + c]
+        nz = t[T_NZ * ROW + c] if d == 3 else 0.0
+        vx = vel[j, 0] - vel[i, 0]
+        vy = vel[j, 1] - vel[i, 1]
+        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+        ai = rad[i] - 0.5 * delta
+        aj = rad[j] - 0.5 * delta
+        if r > 0:
+            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
+            wx, wy, wz = K._spin(omega, i, ai)
+            ux, uy, uz = K._spin(omega, j, aj)
+            wx += ux
+            wy += uy
+            wz += uz
+            vx -= wy * nz - wz * ny
+            vy -= wz * nx - wx * nz
+            vz -= wx * ny - wy * nx
+        t[T_AI * ROW + c] = ai
+        t[T_AJ * ROW + c] = aj
+        vn = vx * nx + vy * ny + vz * nz
+        t[T_VN * ROW + c] = vn
+        t[T_ROOT * ROW + c] = pair_c[q, K.PC_ROOT]
+        t[T_MEFF * ROW + c] = pair_c[q, K.PC_MEFF]
+        if mu > 0.0:
+            t[T_TX * ROW + c] = vx - vn * nx
+            t[T_TY * ROW + c] = vy - vn * ny
+            t[T_TZ * ROW + c] = vz - vn * nz
+            hx = pair_ft[q, 0]
+            hy = pair_ft[q, 1]
+            hz = pair_ft[q, 2] if d == 3 else 0.0
+            dot = hx * nx + hy * ny + hz * nz
+            t[T_OLD2 * ROW + c] = hx * hx + hy * hy + hz * hz
+            hx -= dot * nx
+            hy -= dot * ny
+            hz -= dot * nz
+            t[T_NEW2 * ROW + c] = hx * hx + hy * hy + hz * hz
+            t[T_GX * ROW + c] = hx
+            t[T_GY * ROW + c] = hy
+            t[T_GZ * ROW + c] = hz
+            t[T_R12 * ROW + c] = pair_c[q, K.PC_R12]
+            t[T_OVOLD * ROW + c] = pair_ov[q]
+    # vector: Hertz (contact.normal_force_root), sqrt(m_eff k_n) of the normal damping, and
+    # with friction k_t, sqrt(m_eff k_t), the projection's and the unloading's rescales
+    # (their quotients may be inf or NaN where stage 3 does not use them)
+    for c in range(nc):
+        delta = t[T_DELTA * ROW + c]
+        root = t[T_ROOT * ROW + c]
+        sq = math.sqrt(delta)
+        t[T_FEL * ROW + c] = C.FOUR_THIRDS * root * e12 * delta * sq if delta > 0.0 else 0.0
+        kn = 2.0 * root * e12 * sq if delta > 0.0 else 0.0
+        t[T_SCN * ROW + c] = math.sqrt(t[T_MEFF * ROW + c] * kn)
+    if mu > 0.0:
+        for c in range(nc):
+            delta = t[T_DELTA * ROW + c]
+            kt = 8.0 * g12 * math.sqrt(t[T_R12 * ROW + c] * delta) if delta > 0.0 else 0.0
+            t[T_KT * ROW + c] = kt
+            t[T_SCT * ROW + c] = math.sqrt(t[T_MEFF * ROW + c] * kt)
+            t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
+            t[T_SRES * ROW + c] = math.sqrt(delta / t[T_OVOLD * ROW + c])
+    # stage 3: the incremental Mindlin update with its Coulomb cap (contact.update_tangential3;
+    # a sliding contact's root and quotient stay scalar), the damped normal force (never
+    # attractive), the force on i, the new history; forces and torques added in list order
+    for c in range(nc):
+        q = tp[c]
+        i = pair_i[q]
+        j = pair_j[q]
+        delta = t[T_DELTA * ROW + c]
+        fel = t[T_FEL * ROW + c]
+        vn = t[T_VN * ROW + c]
+        nx = t[T_NX * ROW + c]
+        ny = t[T_NY * ROW + c]
+        nz = t[T_NZ * ROW + c] if d == 3 else 0.0
+        fn = fel
+        if zeta > 0.0:
+            # approaching (vn < 0) gives a repulsive viscous force
+            fn = C.total_normal_force(fel, -(2.0 * zeta * t[T_SCN * ROW + c]) * vn)
+        if mu > 0.0:
+            tx = t[T_TX * ROW + c]
+            ty = t[T_TY * ROW + c]
+            tz = t[T_TZ * ROW + c]
+            gx = t[T_GX * ROW + c]
+            gy = t[T_GY * ROW + c]
+            gz = t[T_GZ * ROW + c]
+            if t[T_NEW2 * ROW + c] > 0.0:
+                scale = t[T_SPROJ * ROW + c]
+                gx *= scale
+                gy *= scale
+                gz *= scale
+            overlap_old = t[T_OVOLD * ROW + c]
+            if rescale and delta < overlap_old and overlap_old > 0.0:
+                scale = t[T_SRES * ROW + c] if delta > 0.0 else 0.0
+                gx *= scale
+                gy *= scale
+                gz *= scale
+            kt = t[T_KT * ROW + c]
+            gx += kt * (tx * dt)
+            gy += kt * (ty * dt)
+            gz += kt * (tz * dt)
+            f2 = gx * gx + gy * gy + gz * gz
+            cap_t = mu * fel
+            slid = f2 > cap_t * cap_t
+            if slid:
+                scale = cap_t / math.sqrt(f2) if f2 > 0.0 else 0.0
+                gx *= scale
+                gy *= scale
+                gz *= scale
+            ct = 0.0
+            if zeta > 0.0 and not slid:
+                ct = 2.0 * zeta * t[T_SCT * ROW + c]
+            fx = -fn * nx + gx + ct * tx
+            fy = -fn * ny + gy + ct * ty
+            fz = -fn * nz + gz + ct * tz
+            pair_ft[q, 0] = gx
+            pair_ft[q, 1] = gy
+            if d == 3:
+                pair_ft[q, 2] = gz
+        else:
+            fx = -fn * nx
+            fy = -fn * ny
+            fz = -fn * nz
+        pair_ov[q] = delta
+        force[i, 0] += fx
+        force[i, 1] += fy
+        force[j, 0] -= fx
+        force[j, 1] -= fy
+        if d == 3:
+            force[i, 2] += fz
+            force[j, 2] -= fz
+        if r > 0:
+            K._add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
+            K._add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+        if delta > dmax:
+            dmax = delta
+        ncontact += 1
+    return p, dmax, ncontact
