@@ -182,7 +182,7 @@ class PrepareParams(Params):
     compaction is the same in units of H at every height and the steps grow as H;
     tall columns then differ from 'fixed' ones, docs/dem.md; 'mean-flow': the
     per-slab mean vertical flow and the piston damped at b min(1, reference_height /
-    H_e), the fluctuations about it at b; one thread only);
+    H_e), the fluctuations about it at b; CPU only, any thread count);
     reference_height (d); mean_flow_slab (d, thickness of the horizontal slabs whose
     mass-weighted mean vertical velocity is the mean flow); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
@@ -212,7 +212,7 @@ class PrepareParams(Params):
                             "taller than reference_height (steps grow as H, but tall columns come "
                             "out denser than with 'fixed'; docs/dem.md); 'mean-flow' divides it "
                             "only for the mean vertical flow of horizontal slabs and the piston "
-                            "(one thread only).",
+                            "(CPU only; any thread count).",
                             choices=("fixed", "height-scaled", "mean-flow"))
     reference_height: float = param(25.0, help="Height up to which b applies unscaled "
                                     "(compaction 'height-scaled' and 'mean-flow').", units="d", lo=0.0,
