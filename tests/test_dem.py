@@ -129,22 +129,37 @@ def test_newton_third_law_forces_and_torques():
     assert np.abs(tau).max() > 0  # friction acted
 
 
+@pytest.fixture
+def use_threads(monkeypatch):
+    """use_threads(n): run the engines on n threads from here to the end of the test, the block
+    engine even for a few grains; skips the test on a machine with fewer threads."""
+    import numba
+
+    from granwave import threads as T
+
+    keep = numba.get_num_threads()
+
+    def use(n):
+        if n > numba.config.NUMBA_NUM_THREADS:
+            pytest.skip(f"needs {n} threads")
+        monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+        T.set_threads(n)
+
+    yield use
+    numba.set_num_threads(keep)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
-def test_pair_constants_follow_the_pair_list(threads, monkeypatch):
+def test_pair_constants_follow_the_pair_list(threads, use_threads, monkeypatch):
     """R12, sqrt(R12) and m_eff kept per listed pair (kernels.pair_constants) stay those of the
     pair's two grains through rebuilds and growth of the lists (one-thread loop and block
     engine): a frictional gas with contacts from the first step, squeezed by the piston, run
     with lists that start too small for the neighbours and the incoming pairs gives the bytes
     of the one-thread loop with the default sizes, and its final constants equal the law's
     expressions evaluated here."""
-    import numba
-
-    from granwave import threads as T
     from granwave.dem import integrator
 
-    if threads > numba.config.NUMBA_NUM_THREADS:
-        pytest.skip("needs 2 threads")
-    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    use_threads(threads)
     rng = np.random.default_rng(9)
     n = 60
     radius = 0.5 * rng.uniform(0.8, 1.2, n)
@@ -157,19 +172,15 @@ def test_pair_constants_follow_the_pair_list(threads, monkeypatch):
         eng.run(2000)
         return eng
 
-    keep = numba.get_num_threads()
-    try:
-        T.set_threads(1)
-        ref = run()  # the one-thread pair loop with lists of the default sizes
-        T.set_threads(threads)
-        monkeypatch.setattr(integrator, "NEIGHBOUR_WIDTH", {2: 2, 3: 2})
-        monkeypatch.setattr(K, "boundary_room", lambda n: 1)
-        grown = []
-        grow = integrator.Engine.grow
-        monkeypatch.setattr(integrator.Engine, "grow", lambda self, *a: grown.append(a) or grow(self, *a))
-        eng = run()
-    finally:
-        numba.set_num_threads(keep)
+    use_threads(1)
+    ref = run()  # the one-thread pair loop with lists of the default sizes
+    use_threads(threads)
+    monkeypatch.setattr(integrator, "NEIGHBOUR_WIDTH", {2: 2, 3: 2})
+    monkeypatch.setattr(K, "boundary_room", lambda n: 1)
+    grown = []
+    grow = integrator.Engine.grow
+    monkeypatch.setattr(integrator.Engine, "grow", lambda self, *a: grown.append(a) or grow(self, *a))
+    eng = run()
     assert grown and eng.rebuilds > 3 and ref.out[K.O_NCONTACT] > n
     if threads > 1:  # the room for incoming pairs grew (a request with no new width)
         assert any(a[1] == 0 for a in grown)
@@ -182,18 +193,12 @@ def test_pair_constants_follow_the_pair_list(threads, monkeypatch):
 
 
 @pytest.mark.parametrize("threads", [1, 2])
-def test_wall_list_misses_no_wall_contact(threads, monkeypatch):
+def test_wall_list_misses_no_wall_contact(threads, use_threads):
     """The wall loops visit only the grains near a wall (kernels.wall_list, made at each rebuild
     and when the piston has moved skin / 2). A light piston driven down onto grains thrown at
     both walls: one run of many steps gives the bytes of one-step runs, each of which makes
     the list anew, while the piston travels many skins and touches grains."""
-    import numba
-
-    from granwave import threads as T
-
-    if threads > numba.config.NUMBA_NUM_THREADS:
-        pytest.skip("needs 2 threads")
-    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    use_threads(threads)
     rng = np.random.default_rng(3)
     n = 40
     radius = 0.5 * rng.uniform(0.8, 0.95, n)
@@ -204,18 +209,13 @@ def test_wall_list_misses_no_wall_contact(threads, monkeypatch):
         return Engine(pos, radius, [10.0], 20.0, friction=0.5, damping=0.1, piston_mass=0.5, piston_force=0.01,
                       velocity=vel)
 
-    keep = numba.get_num_threads()
-    T.set_threads(threads)
-    try:
-        long_run = engine()
-        long_run.run(1500)
-        steps = engine()
-        top = 0
-        for _ in range(1500):
-            steps.run(1)
-            top = max(top, int(steps.out[K.O_NTOP]))
-    finally:
-        numba.set_num_threads(keep)
+    long_run = engine()
+    long_run.run(1500)
+    steps = engine()
+    top = 0
+    for _ in range(1500):
+        steps.run(1)
+        top = max(top, int(steps.out[K.O_NTOP]))
     assert top > 0 and 20.0 - steps.piston[K.P_H] > 20 * 0.2
     assert long_run.position.tobytes() == steps.position.tobytes()
     assert long_run.piston.tobytes() == steps.piston.tobytes()

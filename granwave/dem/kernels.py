@@ -234,6 +234,27 @@ def _spin(omega, k, arm):
 
 
 @numba.njit(cache=True, inline="always")
+def _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz):
+    """(vx, vy, vz): velocity of j's surface relative to i's at their contact point, lever arms
+    a_i, a_j along the unit normal n (i -> j): v_j - v_i - (a_i w_i + a_j w_j) x n
+    (docs/conventions.md; vz = 0 in 2D)."""
+    d = vel.shape[1]
+    vx = vel[j, 0] - vel[i, 0]
+    vy = vel[j, 1] - vel[i, 1]
+    vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
+    if omega.shape[1] > 0:
+        wx, wy, wz = _spin(omega, i, ai)
+        ux, uy, uz = _spin(omega, j, aj)
+        wx += ux
+        wy += uy
+        wz += uz
+        vx -= wy * nz - wz * ny
+        vy -= wz * nx - wx * nz
+        vz -= wx * ny - wy * nx
+    return vx, vy, vz
+
+
+@numba.njit(cache=True, inline="always")
 def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
     """torque[k] += (arm n) x f (only the tangential part of f contributes)."""
     r = torque.shape[1]
@@ -508,7 +529,6 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
     of the one-thread loop (dem/serial.py) so that the bits are its own. Reads the history,
     writes nothing."""
     d = pos.shape[1]
-    r = omega.shape[1]
     dx, dy, dz = _pair_geometry(pos, lateral, i, j)
     r2 = dx * dx + dy * dy + dz * dz
     ri = rad[i]
@@ -521,21 +541,9 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
     nx = dx / dist
     ny = dy / dist
     nz = dz / dist if d == 3 else 0.0
-    vx = vel[j, 0] - vel[i, 0]
-    vy = vel[j, 1] - vel[i, 1]
-    vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
     ai = ri - 0.5 * delta
     aj = rj - 0.5 * delta
-    if r > 0:
-        # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-        wx, wy, wz = _spin(omega, i, ai)
-        ux, uy, uz = _spin(omega, j, aj)
-        wx += ux
-        wy += uy
-        wz += uz
-        vx -= wy * nz - wz * ny
-        vy -= wz * nx - wx * nz
-        vz -= wx * ny - wy * nx
+    vx, vy, vz = _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
     hx = hy = hz = 0.0
     if mu > 0.0:
         hx = pair_ft[p, 0]

@@ -114,21 +114,9 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
         nx = t[T_NX * ROW + c]
         ny = t[T_NY * ROW + c]
         nz = t[T_NZ * ROW + c] if d == 3 else 0.0
-        vx = vel[j, 0] - vel[i, 0]
-        vy = vel[j, 1] - vel[i, 1]
-        vz = vel[j, 2] - vel[i, 2] if d == 3 else 0.0
         ai = rad[i] - 0.5 * delta
         aj = rad[j] - 0.5 * delta
-        if r > 0:
-            # v_rel -= (a_i w_i + a_j w_j) x n (docs/conventions.md)
-            wx, wy, wz = K._spin(omega, i, ai)
-            ux, uy, uz = K._spin(omega, j, aj)
-            wx += ux
-            wy += uy
-            wz += uz
-            vx -= wy * nz - wz * ny
-            vy -= wz * nx - wx * nz
-            vz -= wx * ny - wy * nx
+        vx, vy, vz = K._contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
         t[T_AI * ROW + c] = ai
         t[T_AJ * ROW + c] = aj
         vn = vx * nx + vy * ny + vz * nz

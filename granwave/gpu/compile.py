@@ -29,8 +29,9 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
                      "total_normal_force", "project_tangential3", "update_tangential3")
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
-ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_add_torque3", "wall_contact",
-                    "piston_acceleration", "pair_constants3", "_pair_law")  # _pair_law last: it calls the others
+ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_contact_velocity", "_add_torque3",
+                    "wall_contact", "piston_acceleration", "pair_constants3",
+                    "_pair_law")  # _pair_law last: it calls the others
 
 
 def _rebound(py_func, namespace: dict):
