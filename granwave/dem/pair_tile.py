@@ -41,7 +41,7 @@ ROW = TILE + 8
 # per tile, indexed ``T_X * ROW + c``, so that the compiler sees constant distances between
 # rows and vectorizes the fused loops without run-time overlap checks
 (T_DX, T_DY, T_DZ, T_R2, T_RS, T_NX, T_NY, T_NZ, T_DELTA, T_AI, T_AJ, T_VN, T_TX, T_TY, T_TZ, T_GX,
- T_GY, T_GZ, T_OLD2, T_NEW2, T_R12, T_ROOT, T_MEFF, T_OVOLD, T_FEL, T_SCN, T_KT, T_SCT, T_SPROJ,
+ T_GY, T_GZ, T_OLD2, T_NEW2, T_R12, T_ROOT, T_MEFF, T_OVOLD, T_FEL, T_CN, T_KT, T_CT, T_SPROJ,
  T_SRES) = range(30)
 N_TROW = 30
 
@@ -141,22 +141,21 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             t[T_GZ * ROW + c] = hz
             t[T_R12 * ROW + c] = pair_c[q, K.PC_R12]
             t[T_OVOLD * ROW + c] = pair_ov[q]
-    # vector: Hertz (contact.normal_force_root), sqrt(m_eff k_n) of the normal damping, and
-    # with friction k_t, sqrt(m_eff k_t), the projection's and the unloading's rescales
-    # (their quotients may be inf or NaN where stage 3 does not use them)
+    # vector: Hertz, k_n and the normal damping coefficient through contact.py's own functions
+    # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the
+    # projection's and the unloading's rescales (their quotients may be inf or NaN where
+    # stage 3 does not use them)
     for c in range(nc):
         delta = t[T_DELTA * ROW + c]
         root = t[T_ROOT * ROW + c]
-        sq = math.sqrt(delta)
-        t[T_FEL * ROW + c] = C.FOUR_THIRDS * root * e12 * delta * sq if delta > 0.0 else 0.0
-        kn = 2.0 * root * e12 * sq if delta > 0.0 else 0.0
-        t[T_SCN * ROW + c] = math.sqrt(t[T_MEFF * ROW + c] * kn)
+        t[T_FEL * ROW + c] = C.normal_force_root(delta, root, e12)
+        t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], C.normal_stiffness_root(delta, root, e12))
     if mu > 0.0:
         for c in range(nc):
             delta = t[T_DELTA * ROW + c]
-            kt = 8.0 * g12 * math.sqrt(t[T_R12 * ROW + c] * delta) if delta > 0.0 else 0.0
+            kt = C.tangential_stiffness(delta, t[T_R12 * ROW + c], g12)
             t[T_KT * ROW + c] = kt
-            t[T_SCT * ROW + c] = math.sqrt(t[T_MEFF * ROW + c] * kt)
+            t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
             t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
             t[T_SRES * ROW + c] = math.sqrt(delta / t[T_OVOLD * ROW + c])
     # stage 3: the incremental Mindlin update with its Coulomb cap (contact.update_tangential3;
@@ -175,7 +174,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
         fn = fel
         if zeta > 0.0:
             # approaching (vn < 0) gives a repulsive viscous force
-            fn = C.total_normal_force(fel, -(2.0 * zeta * t[T_SCN * ROW + c]) * vn)
+            fn = C.total_normal_force(fel, -t[T_CN * ROW + c] * vn)
         if mu > 0.0:
             tx = t[T_TX * ROW + c]
             ty = t[T_TY * ROW + c]
@@ -208,7 +207,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
                 gz *= scale
             ct = 0.0
             if zeta > 0.0 and not slid:
-                ct = 2.0 * zeta * t[T_SCT * ROW + c]
+                ct = t[T_CT * ROW + c]
             fx = -fn * nx + gx + ct * tx
             fy = -fn * ny + gy + ct * ty
             fz = -fn * nz + gz + ct * tz
