@@ -2,6 +2,7 @@
 
     python benchmarks/scale.py [--quick] [--write-docs]
     python benchmarks/scale.py --large column|grid2d|grid3d|time [--dry-run | --tiny]
+        [--compaction fixed|height-scaled|mean-flow] [--settling compaction|critical]
 
 Default run, every number a ratio measured in this one run (so that the load of a shared
 machine affects numerator and denominator alike; the load average is printed with them):
@@ -359,13 +360,13 @@ def _square_steps(height: float) -> float:
     return STEPS_1E4 * (height / 100.0) ** HEIGHT_EXPONENT
 
 
-def large_spec(name: str, tiny: bool, compaction: str = "fixed"):
+def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str = "compaction"):
     from granwave.dem.params import PrepareParams
 
     if name == "column":
         n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
         return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect, compaction=compaction,
-                                         max_steps=20_000_000),
+                                         mean_flow_settling=settling, max_steps=20_000_000),
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":
         n = 300 if tiny else 100_000
@@ -383,10 +384,11 @@ def large_spec(name: str, tiny: bool, compaction: str = "fixed"):
     raise SystemExit(f"unknown large run {name!r}")
 
 
-def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str = "fixed") -> None:
+def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str = "fixed",
+          settling: str = "compaction") -> None:
     from granwave import resources
 
-    spec = large_spec(name, tiny, compaction)
+    spec = large_spec(name, tiny, compaction, settling)
     print(f"{name}: {spec['note']}; {load()}")
     if name == "time":
         rows, width = spec["rows"], spec["width"]
@@ -426,7 +428,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
 
     w0, c0 = time.perf_counter(), time.process_time()
     pk = prepare_packing(p, progress=print)
-    print(f"  compaction {p.compaction}: prepared in {time.perf_counter() - w0:.1f} s wall "
+    print(f"  compaction {p.compaction} (settling {p.mean_flow_settling}): prepared in {time.perf_counter() - w0:.1f} s wall "
           f"({time.process_time() - c0:.1f} s CPU; {load()}), {pk.attrs['steps']} steps; "
           f"peak memory {resources.format_bytes(peak_memory())}")
 
@@ -449,9 +451,12 @@ def main() -> None:
                     help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
     ap.add_argument("--compaction", choices=("fixed", "height-scaled", "mean-flow"), default="fixed",
                     help="with --large column|grid2d|grid3d: the compaction rule (docs/dem.md)")
+    ap.add_argument("--settling", choices=("compaction", "critical"), default="compaction",
+                    help="with --large column and --compaction mean-flow: the mean flow's settling rule "
+                         "(docs/dem.md 'Critical settling')")
     args = ap.parse_args()
     if args.large:
-        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction)
+        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling)
     else:
         threads = tuple(int(t) for t in args.threads.split(","))
         if threads[0] != 1 or len(threads) < 2:

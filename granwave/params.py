@@ -184,7 +184,10 @@ class PrepareParams(Params):
     per-slab mean vertical flow and the piston damped at b min(1, reference_height /
     H_e), the fluctuations about it at b; CPU only, any thread count);
     reference_height (d); mean_flow_slab (d, thickness of the horizontal slabs whose
-    mass-weighted mean vertical velocity is the mean flow); piston_mass (rho d^3, None:
+    mass-weighted mean vertical velocity is the mean flow); mean_flow_settling
+    ('compaction': the mean flow at the compaction rate to the end; 'critical': once the
+    plug has arrived, the mean vertical and lateral flow damped near critically for the
+    column's breathing); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
     (dt = (safety/0.1) x the estimated stability limit, at most MAX_SAFETY;
@@ -220,6 +223,13 @@ class PrepareParams(Params):
     mean_flow_slab: float = param(4.0, help="Thickness of the horizontal slabs whose mean vertical "
                                   "velocity is the mean flow (compaction 'mean-flow').", units="d",
                                   lo=0.0, lo_open=True)
+    mean_flow_settling: str = param("compaction", help="Compaction 'mean-flow' in a column taller than "
+                                    "reference_height: 'compaction' keeps the compaction rate to the end "
+                                    "(tall columns settle like short ones); 'critical' damps the mean "
+                                    "vertical and lateral flow near critically for the column's breathing "
+                                    "(measured from the piston's first upward swing) once the plug has "
+                                    "arrived: about a third fewer steps, but other stresses (docs/dem.md "
+                                    "'Critical settling').", choices=("compaction", "critical"))
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)

@@ -23,6 +23,11 @@ from granwave.linear import propagate
 from granwave.linear.assemble import linearize
 from granwave.linear.check import reference_lattice
 
+#: mean-flow with critical settling, damped enough (b = 3) that the settled rate min(2 omega_b, gamma)
+#: is below gamma in this short column, so that the lateral mean flow's own term acts
+CRITICAL = PrepareParams(grains=120, aspect=3.0, background_damping=3.0, seed=11, tol=1e-9,
+                         compaction="mean-flow", reference_height=2.0, mean_flow_settling="critical")
+
 two_threads = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 threads")
 
 
@@ -46,7 +51,8 @@ def _at(n_threads, fn):
     PrepareParams(grains=90, seed=11, tol=1e-9),
     PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
     PrepareParams(grains=90, seed=11, tol=1e-9, compaction="mean-flow", reference_height=2.0),
-], ids=["2d-frictional", "3d-frictional", "2d-mean-flow"])
+    CRITICAL,
+], ids=["2d-frictional", "3d-frictional", "2d-mean-flow", "2d-critical-settling"])
 def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
     """The parallel passes run even on these small systems (threshold lowered): positions,
     contacts, forces and tangential forces byte for byte equal."""
@@ -55,13 +61,16 @@ def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
     two = _at(2, lambda: prepare_packing(params))
     assert one.attrs["steps"] == two.attrs["steps"] > 1000
     assert _bytes(one) == _bytes(two)
+    if params is CRITICAL:
+        assert 0 < one.attrs["settling_damping_rate"] < one.attrs["background_damping_rate"]
 
 
 @pytest.mark.parametrize("params", [
     PrepareParams(grains=90, seed=11, tol=1e-9),
     PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
     PrepareParams(grains=90, seed=11, tol=1e-9, compaction="mean-flow", reference_height=2.0),
-], ids=["2d-frictional", "3d-frictional", "2d-mean-flow"])
+    CRITICAL,
+], ids=["2d-frictional", "3d-frictional", "2d-mean-flow", "2d-critical-settling"])
 def test_single_pair_loop_equals_the_parallel_passes(params, monkeypatch):
     """One thread runs the single pair loop (dem/serial.py); the two passes of the parallel
     engine, run on one thread instead, give the same bytes."""

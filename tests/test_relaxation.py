@@ -164,6 +164,31 @@ def test_mean_flow_damping_splits_mean_and_fluctuation(v_mean, sign):
     np.testing.assert_allclose(off.acceleration[:, 1], -gamma * vel[:, 1], rtol=1e-14)
 
 
+def test_lateral_mean_flow_at_its_own_rate():
+    """The slabs' mean lateral flow (a shear) is damped at gamma_l, the lateral fluctuation about
+    it at gamma; with gamma_l = gamma (the compaction) the term is not added: the bits of the
+    rule without it."""
+    gamma, gamma_m, gamma_l = 2e-3, 5e-4, 7e-4
+    pos, rad, vel, _ = _loose_grains(-3e-3, 1.0)
+    slab = np.arange(16) // 4
+    shear = 1e-3 * (1.0 + slab)  # mean lateral velocity of each slab
+    fluct = 2e-4 * np.where(np.arange(16) % 2 == 0, 1.0, -1.0)  # zero mean in every slab
+    vel[:, 0] = shear + fluct
+    e = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, velocity=vel,
+               mean_flow=(gamma_m, 4.0, gamma_l))
+    np.testing.assert_allclose(e.acceleration[:, 0], -gamma_l * shear - gamma * fluct, rtol=1e-12, atol=1e-20)
+    same = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, velocity=vel,
+                  mean_flow=(gamma_m, 4.0, gamma))
+    two = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, velocity=vel,
+                 mean_flow=(gamma_m, 4.0))  # the default gamma_l: background_damping
+    assert two.mflow[2] == gamma
+    m = same.mass
+    np.testing.assert_array_equal(same.acceleration[:, 0], (0.0 - gamma * m * vel[:, 0]) * (1.0 / m))
+    np.testing.assert_array_equal(two.acceleration, same.acceleration)
+    with pytest.raises(InputError, match="mean_flow must be"):
+        Engine(pos, rad, [24.0], 20.0, background_damping=gamma, mean_flow=(gamma_m, 4.0, -1.0))
+
+
 def test_mean_flow_refused_on_the_gpu():
     pos, rad, vel, _ = _loose_grains(-1e-3, 1.0)
 

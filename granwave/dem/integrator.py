@@ -32,7 +32,7 @@ from ..geometry import grain_inertia, grain_mass, n_rotations
 from ..threads import at_most
 from . import kernels as K
 from . import serial
-from .mean_flow import N_MFLOW, slab_count
+from .mean_flow import M_GAMMA_L, M_GAMMA_M, M_SLAB, N_MFLOW, slab_count
 from .neighbours import rebuild
 
 #: Neighbours per grain the lists start with (2D, 3D); grown when a grain has more.
@@ -59,9 +59,12 @@ class Engine:
     contact.update_tangential, ``"rescale"`` (default, preparation: F_t scaled by
     sqrt(n_new/n_old) when the overlap falls) or ``"incremental"`` (plain incremental
     Mindlin law, the pulses'; contact.py docstring). ``mean_flow``: None, or (gamma_m, slab)
-    for the compaction rule 'mean-flow' (:mod:`granwave.dem.mean_flow`: the mean vertical
-    flow of slabs of thickness ``slab`` and the piston damped at gamma_m, the rest at
-    ``background_damping``); on the CPU only (the GPU kernels do not have it).
+    or (gamma_m, slab, gamma_l) for the compaction rule 'mean-flow'
+    (:mod:`granwave.dem.mean_flow`: the mean vertical flow of slabs of thickness ``slab`` and
+    the piston damped at gamma_m, the slabs' mean lateral flow at gamma_l (default
+    ``background_damping``), the rest at ``background_damping``; ``mflow[M_GAMMA_M]`` and
+    ``mflow[M_GAMMA_L]`` may be changed between runs); on the CPU only (the GPU kernels do
+    not have it).
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
@@ -99,14 +102,18 @@ class Engine:
         self.pair_j = np.zeros(cap, np.int64)
         self.pair_ft = np.zeros((cap, d))
         self.pair_ov = np.zeros(cap)
-        #: compaction 'mean-flow': [gamma_m, slab] (empty: off) and the slabs' work array
+        #: compaction 'mean-flow': [gamma_m, slab, gamma_l] (empty: off) and the slabs' work array
         self.mflow = np.zeros(0)
         self.slabs = np.zeros((2, 1))
         if mean_flow is not None:
-            self.mflow = np.array([float(x) for x in mean_flow])
-            if self.mflow.shape != (N_MFLOW,) or not (self.mflow[0] >= 0.0 and self.mflow[1] > 0.0):
-                raise InputError(f"mean_flow must be (gamma_m >= 0, slab > 0), got {mean_flow!r}")
-            self.slabs = np.zeros((2, slab_count(float(height), self.mflow[1])))
+            values = [float(x) for x in mean_flow]
+            if len(values) == N_MFLOW - 1:
+                values.append(float(background_damping))  # the lateral mean flow like the rest
+            self.mflow = np.array(values)
+            if (self.mflow.shape != (N_MFLOW,)
+                    or not (self.mflow[M_GAMMA_M] >= 0.0 and self.mflow[M_SLAB] > 0.0 and self.mflow[M_GAMMA_L] >= 0.0)):
+                raise InputError(f"mean_flow must be (gamma_m >= 0, slab > 0[, gamma_l >= 0]), got {mean_flow!r}")
+            self.slabs = np.zeros((d + 1, slab_count(float(height), self.mflow[M_SLAB])))
             self._cpu_only()
         #: arrays of the parallel kernels (kernels.workspace): neighbour and incoming lists,
         #: per-block statistics, the mean-flow rule's arrays

@@ -708,8 +708,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     block was computed by j's block in phase 1, and its force and torque on i are taken from
     its slot at its place in the row order. Then, per grain of the block, its bottom and top
     wall contacts and the background damping -gamma m v, -gamma I w (with the compaction rule
-    'mean-flow', ``mflow`` non-empty, the slabs' mean flow at its own rate from the slab means
-    in ``slabs``, computed before the passes): for every grain the terms
+    'mean-flow', ``mflow`` non-empty, the slabs' mean vertical and lateral flows at their own
+    rates from the slab means in ``slabs``, computed before the passes): for every grain the terms
     of the one-thread loop in its order (phase 1 gave the first ones), so its force is bit for
     bit that loop's. Only the block's own grains are read or written, apart from the slots.
 

@@ -10,7 +10,12 @@ gamma. The force on grain i in slab s is
     -gamma m_i v_i + (gamma - gamma_m) m_i v_s e_z,
 
 so the slab's momentum P_s = sum m_i v_i,z feels -gamma_m P_s and every velocity field
-whose slab means vanish feels -gamma m v. Computed every step from the same (half-step)
+whose slab means vanish feels -gamma m v. The slabs' mean lateral flow (the column's
+shear) has a rate gamma_l of its own, the same way: the force on grain i gets
+(gamma - gamma_l) m_i u_s in each lateral direction, u_s the slab's mass-weighted mean
+lateral velocity. The compaction keeps gamma_l = gamma (the term is then not added at all:
+the bits of the rule without it); critical settling (:mod:`granwave.dem.settling`)
+lowers it with gamma_m once the plug has arrived. Computed every step from the same (half-step)
 velocities as the damping itself, in grain order (deterministic), by the one-thread loop
 (:func:`granwave.dem.serial._force_loop`) and before the parallel engine's passes
 (:func:`granwave.dem.kernels._forces`), which add it per block: the same bits.
@@ -20,17 +25,20 @@ from __future__ import annotations
 
 import numba
 
-#: Layout of the rule's parameters ``mflow`` (a float array; empty: rule off).
-M_GAMMA_M, M_SLAB = 0, 1
-N_MFLOW = 2
+#: Layout of the rule's parameters ``mflow`` (a float array; empty: rule off): the rates of the
+#: mean vertical and the mean lateral flow, the slab thickness.
+M_GAMMA_M, M_SLAB, M_GAMMA_L = 0, 1, 2
+N_MFLOW = 3
+#: Rows of the slabs' work array: mean vertical velocity, mass, then the mean lateral velocities
+S_VZ, S_MASS, S_LATERAL = 0, 1, 2
 
 
 @numba.njit(cache=True, _nrt=False)
 def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
     """Add (gamma - gamma_m) m_i v_s to the vertical force of every grain (see module).
 
-    ``mflow``: [gamma_m, slab thickness (d)]; ``slabs``: work array (2, n_slabs), overwritten
-    by :func:`slab_means`.
+    ``mflow``: [gamma_m, slab thickness (d), gamma_l]; ``slabs``: work array (dim + 1,
+    n_slabs), overwritten by :func:`slab_means`.
     """
     slab_means(pos, vel, mass, mflow, slabs)
     add_slab_damping(0, pos.shape[0], pos, mass, gamma, mflow, slabs, force)
@@ -38,36 +46,47 @@ def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
 
 @numba.njit(cache=True, _nrt=False)
 def slab_means(pos, vel, mass, mflow, slabs):
-    """The slabs' mean vertical velocities (row 0 of ``slabs``) and masses (row 1), summed in
-    grain order; grains above the last slab count in it, grains below 0 in the first."""
+    """The slabs' mean vertical velocities (row S_VZ of ``slabs``), masses (row S_MASS) and mean
+    lateral velocities (rows S_LATERAL + a), summed in grain order; grains above the last slab
+    count in it, grains below 0 in the first."""
     n, d = pos.shape
     z = d - 1
     inv_slab = 1.0 / mflow[M_SLAB]
     ns = slabs.shape[1]
-    for k in range(ns):
-        slabs[0, k] = 0.0
-        slabs[1, k] = 0.0
+    for row in range(slabs.shape[0]):
+        for k in range(ns):
+            slabs[row, k] = 0.0
     for i in range(n):
         k = _slab(pos[i, z], inv_slab, ns)
-        slabs[0, k] += mass[i] * vel[i, z]
-        slabs[1, k] += mass[i]
+        slabs[S_VZ, k] += mass[i] * vel[i, z]
+        slabs[S_MASS, k] += mass[i]
+        for a in range(z):
+            slabs[S_LATERAL + a, k] += mass[i] * vel[i, a]
     for k in range(ns):
-        if slabs[1, k] > 0.0:
-            slabs[0, k] /= slabs[1, k]
+        if slabs[S_MASS, k] > 0.0:
+            slabs[S_VZ, k] /= slabs[S_MASS, k]
+            for a in range(z):
+                slabs[S_LATERAL + a, k] /= slabs[S_MASS, k]
 
 
 @numba.njit(cache=True, inline="always")
 def add_slab_damping(lo, hi, pos, mass, gamma, mflow, slabs, force):
-    """Grains lo..hi-1: force[i, z] += (gamma - gamma_m) m_i v_s (v_s from :func:`slab_means`);
-    the one-thread loop applies it to all grains, the parallel engine per block."""
+    """Grains lo..hi-1: force[i, z] += (gamma - gamma_m) m_i v_s and, where gamma_l differs from
+    gamma, force[i, a] += (gamma - gamma_l) m_i u_s,a for each lateral a (slab means from
+    :func:`slab_means`); the one-thread loop applies it to all grains, the parallel engine per
+    block."""
     d = pos.shape[1]
     z = d - 1
     inv_slab = 1.0 / mflow[M_SLAB]
     extra = gamma - mflow[M_GAMMA_M]
+    extra_l = gamma - mflow[M_GAMMA_L]
     ns = slabs.shape[1]
     for i in range(lo, hi):
         k = _slab(pos[i, z], inv_slab, ns)
-        force[i, z] += extra * mass[i] * slabs[0, k]
+        force[i, z] += extra * mass[i] * slabs[S_VZ, k]
+        if extra_l != 0.0:  # the compaction: not added, so its bits are those of the rule without it
+            for a in range(z):
+                force[i, a] += extra_l * mass[i] * slabs[S_LATERAL + a, k]
 
 
 @numba.njit(cache=True, inline="always")

@@ -51,6 +51,7 @@ from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
 from .integrator import Engine, eta_seconds
+from .settling import SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
 from ..params import PrepareParams, default_gas_density
 
 #: how the initial gas numbers its grains (recorded: it fixes the bits, not the distribution)
@@ -205,6 +206,10 @@ class Compression:
                              tol_acceleration=p.tol, tol_velocity=self.tol_v,
                              check_every=p.check_every, velocity=velocity,
                              angular_velocity=angular_velocity, **extra)
+        #: compaction 'mean-flow', settling 'critical': watches the piston and switches the mean
+        #: flow to critical damping once the plug has arrived (None: off)
+        self.settling = (CriticalSettling(self.engine, self.gamma, SAMPLE_CHECKS * p.check_every)
+                         if self.gamma_mean is not None and p.mean_flow_settling == "critical" else None)
 
     def packing(self, attrs: dict) -> Packing:
         """The engine's current state as a packing, with the protocol in its attributes."""
@@ -222,7 +227,11 @@ class Compression:
                  convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps)
         if p.compaction == "mean-flow":
             a.update(mean_flow_slab=p.mean_flow_slab, mean_flow_damping_scale=self.mean_flow_scale,
-                     mean_flow_damping_rate=self.gamma * self.mean_flow_scale)
+                     mean_flow_damping_rate=self.gamma * self.mean_flow_scale,
+                     mean_flow_settling=p.mean_flow_settling,
+                     mean_flow_settling_rule=SETTLING_RULES[p.mean_flow_settling])
+            if self.settling is not None:
+                a.update(self.settling.attrs())
         r = self.radius
         return Packing(position=wrap(engine.position, self.lateral), radius=r.copy(),
                        mass=self.mass.copy(), inertia=grain_inertia(r),
@@ -238,18 +247,26 @@ class Compression:
         run blows up (with ``blow_up_hint``) or ``max_steps`` steps ``failure``.
         """
         p, engine = self.params, self.engine
+        advance = engine.run if self.settling is None else self.settling.run
         chunk = 2000
         last = time.perf_counter()
         last_steps = 0
         history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
+        announced = False  # the settling switch reported
         while engine.steps < p.max_steps:
             t0 = time.perf_counter()
-            status = engine.run(min(chunk, p.max_steps - engine.steps))
+            status = advance(min(chunk, p.max_steps - engine.steps))
             if status == 3:
                 raise ConvergenceError(
                     f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
                     f"non-finite motion) at dt {engine.dt:.3g}: {blow_up_hint}")
             history.append((engine.steps, _max_acceleration(engine.measure())))
+            if progress is not None and self.settling is not None and self.settling.done and not announced:
+                announced = True
+                s = self.settling
+                progress(f"plug arrived (piston up at step {s.rise_step}, down at {s.switch_step}): breathing "
+                         f"frequency {s.breathing_frequency:.3g}, mean flow damped at {engine.mflow[0]:.3g} "
+                         f"(was {self.gamma_mean:.3g})")
             elapsed = time.perf_counter() - t0
             # about one progress line per second
             if elapsed > 0:

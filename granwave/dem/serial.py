@@ -38,8 +38,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     (velocities at the half step of velocity Verlet, i.e. exactly the
     displacement of the step). Also adds the background damping -gamma m v,
     -gamma I w, and with a non-empty ``mflow`` (compaction 'mean-flow') gives the mean
-    vertical flow of horizontal slabs its own rate (:mod:`granwave.dem.mean_flow`; ``slabs``
-    its work array). Statistics into ``out``: largest overlap, number of
+    vertical flow of horizontal slabs and their mean lateral flow rates of their own
+    (:mod:`granwave.dem.mean_flow`; ``slabs`` its work array). Statistics into ``out``: largest overlap, number of
     top-wall contacts and of contacts.
 
     The pairs go through :func:`granwave.dem.pair_tile.law_tile` a tile at a time (the law's
@@ -126,9 +126,10 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
 def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
                         pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, mflow, slabs):
     """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs, plus the compaction rule
-    'mean-flow' (``mflow`` [gamma_m, slab] and its work array ``slabs``,
+    'mean-flow' (``mflow`` [gamma_m, slab, gamma_l] and its work array ``slabs``,
     :mod:`granwave.dem.mean_flow`; an empty ``mflow``: off, the same bits as the parallel
-    kernels): the mean flow and the piston damped at gamma_m.
+    kernels): the mean vertical flow and the piston damped at gamma_m, the mean lateral flow
+    at gamma_l.
 
     State on entry and exit: positions, velocities and accelerations at the same
     time (``acc``/``alpha`` valid). Returns 0 when all steps ran, 1 when the

@@ -1,0 +1,116 @@
+"""Critical settling of the mean flow once the plug has arrived (compaction 'mean-flow').
+
+With the 'mean-flow' rule the mean vertical flow and the piston are damped at a rate
+gamma_m ~ 1/H, so that a tall column is compacted like a 25 d one. Once the plug has
+arrived, two slow modes of the column are left to decay, both with frequencies ~ 1/H:
+its breathing under the piston (omega_b), damped at gamma_m with the same damping ratio
+gamma_m / (2 omega_b) at every height (about 0.3 at p = 1e-4, measured), so that it
+decays at gamma_m / 2; and its lowest shear mode (the slabs' mean lateral flow), damped
+with the fluctuations at gamma = b / t_i, overdamped in a tall column (gamma > 2 omega_s),
+so that it decays at only about omega_s^2 / gamma ~ 1 / H^2. In a width-25 column 800 d
+tall they are what the last half of the steps waits for (docs/dem.md).
+
+Critical settling measures omega_b and damps both mean flows near critically from then on:
+
+1. every ``every`` steps (at step counts that are multiples of ``every``, whatever the
+   chunks the caller runs: the switch is a function of the state alone, the same bits for
+   any chunking or thread count) the piston's vertical velocity is read. The protocol
+   samples every 10 convergence checks (200 steps): every call into the engine costs
+   about half a step of 21 000 grains (measured), and a breathing half period is more
+   than 1000 steps in any column taller than 25 d, so the swing is resolved to 20 % or
+   better;
+2. the first sample with the piston moving up marks the plug's arrival (the compaction
+   only ever pushes the piston down); the next sample with it moving down again ends that
+   upward swing, half a breathing period: omega_b = pi / (its duration, steps x dt);
+3. from then on the mean vertical flow (and the piston) and the slabs' mean lateral flow
+   are damped at min(2 omega_b, gamma): critical damping of the breathing, and of the
+   shear a damping ratio omega_b / omega_s (about c_l / c_s, a little above 1) instead of
+   gamma / (2 omega_s) (about 10 at 800 d); never more than the fluctuations' rate gamma =
+   b / t_i (a short column's rate; it also bounds what a mismeasured swing could do).
+
+Nothing else changes: the fluctuations about the slab means keep gamma, the convergence
+test is the same. Where the piston never swings up (an overdamped plug), nothing
+switches.
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import kernels as K
+from .mean_flow import M_GAMMA_L, M_GAMMA_M
+
+#: the piston is sampled every this many convergence checks
+SAMPLE_CHECKS = 10
+
+#: the settling rules (PrepareParams.mean_flow_settling) and what they do (recorded)
+SETTLING_RULES = {
+    "critical": ("after the piston's first upward swing (the plug has arrived), the mean flow and the "
+                 "piston and the slabs' mean lateral flow are damped at min(2 omega_b, gamma), "
+                 "omega_b = pi / (the swing's duration), piston velocity sampled every 10 check_every "
+                 "steps"),
+    "compaction": "the mean flow and the piston keep the compaction rate to the end",
+}
+
+
+class CriticalSettling:
+    """Runs an engine whose mean-flow rule is on and switches it to critical settling.
+
+    ``engine``: an :class:`granwave.dem.integrator.Engine` built with ``mean_flow``;
+    ``gamma``: the fluctuations' damping rate (the cap); ``every``: the sampling interval
+    (steps). Use :meth:`run` in place of ``engine.run``.
+    """
+
+    def __init__(self, engine, gamma: float, every: int):
+        self.engine, self.gamma, self.every = engine, float(gamma), int(every)
+        self.rise_step: int | None = None  # first sample with the piston moving up
+        self.switch_step: int | None = None  # the sample that ended the swing
+        self.breathing_frequency = math.nan  # omega_b (1 / time unit)
+        self._swing_time = 0.0  # time since rise_step (steps x dt of each sampled interval)
+        self._last_sample = 0
+
+    @property
+    def done(self) -> bool:
+        return self.switch_step is not None
+
+    def run(self, n_steps: int) -> int:
+        """Advance up to ``n_steps`` steps as ``engine.run`` does (same return codes), sampling
+        the piston at multiples of ``every`` until the switch."""
+        e = self.engine
+        target = e.steps + int(n_steps)
+        while e.steps < target:
+            if self.done:
+                return e.run(target - e.steps)
+            before = e.steps
+            # up to the next multiple of `every` (samples at fixed step counts)
+            status = e.run(min(target, (before // self.every + 1) * self.every) - before)
+            if e.steps % self.every == 0:
+                self._sample()
+            if status != 0:
+                return status
+        return 0
+
+    def _sample(self) -> None:
+        e = self.engine
+        up = e.piston[K.P_V] > 0.0
+        if self.rise_step is None:
+            if up:
+                self.rise_step = self._last_sample = e.steps
+            return
+        # the interval since the last sample, at the step of its end (dt changes at checks only)
+        self._swing_time += (e.steps - self._last_sample) * e.dt
+        self._last_sample = e.steps
+        if not up:
+            self.breathing_frequency = math.pi / self._swing_time
+            rate = min(2.0 * self.breathing_frequency, self.gamma)
+            e.mflow[M_GAMMA_M] = rate
+            e.mflow[M_GAMMA_L] = rate
+            self.switch_step = e.steps
+
+    def attrs(self) -> dict:
+        """What the rule measured, for the packing's attributes (-1 / NaN: did not happen)."""
+        return dict(settling_rise_step=-1 if self.rise_step is None else self.rise_step,
+                    settling_step=-1 if self.switch_step is None else self.switch_step,
+                    breathing_frequency=self.breathing_frequency,
+                    settling_damping_rate=float(self.engine.mflow[M_GAMMA_M]) if self.done else math.nan)
+
