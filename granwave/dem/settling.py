@@ -16,16 +16,16 @@ Critical settling measures omega_b and damps both mean flows near critically fro
    chunks the caller runs: the switch is a function of the state alone, the same bits for
    any chunking or thread count) the piston's vertical velocity is read. The protocol
    samples every 10 convergence checks (200 steps): every call into the engine costs
-   about half a step of 21 000 grains (measured), and a breathing half period is more
-   than 1000 steps in any column taller than 25 d, so the swing is resolved to 20 % or
-   better;
+   about half a step of 21 000 grains (measured), and at p = 1e-4 a breathing half period
+   is about 1000 steps or more in any column taller than 25 d (omega_b H = 0.28 measured),
+   so the swing is resolved to about 20 % or better;
 2. the first sample with the piston moving up marks the plug's arrival (the compaction
    only ever pushes the piston down); the next sample with it moving down again ends that
    upward swing, half a breathing period: omega_b = pi / (its duration, steps x dt);
 3. from then on the mean vertical flow (and the piston) and the slabs' mean lateral flow
    are damped at min(2 omega_b, gamma): critical damping of the breathing, and of the
-   shear a damping ratio omega_b / omega_s (about c_l / c_s, a little above 1) instead of
-   gamma / (2 omega_s) (about 10 at 800 d); never more than the fluctuations' rate gamma =
+   shear a damping ratio omega_b / omega_s (of order one; omega_s was not measured)
+   instead of gamma / (2 omega_s), which grows as H; never more than the fluctuations' rate gamma =
    b / t_i (a short column's rate; it also bounds what a mismeasured swing could do).
 
 Nothing else changes: the fluctuations about the slab means keep gamma, the convergence
@@ -113,4 +113,3 @@ class CriticalSettling:
                     settling_step=-1 if self.switch_step is None else self.switch_step,
                     breathing_frequency=self.breathing_frequency,
                     settling_damping_rate=float(self.engine.mflow[M_GAMMA_M]) if self.done else math.nan)
-
