@@ -892,7 +892,7 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
     if mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0:  # the slabs' mean flow, from this step's velocities
-        slab_means(pos, vel, mass, mflow, ws[W_SLABS])
+        slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, ws[W_SLABS])
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar,
                    ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g)
     # the wall list must cover this piston height (made again if the piston moved)

@@ -40,17 +40,19 @@ def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
     ``mflow``: [gamma_m, slab thickness (d), gamma_l]; ``slabs``: work array (dim + 1,
     n_slabs), overwritten by :func:`slab_means`.
     """
-    slab_means(pos, vel, mass, mflow, slabs)
+    slab_means(pos, vel, mass, gamma, mflow, slabs)
     add_slab_damping(0, pos.shape[0], pos, mass, gamma, mflow, slabs, force)
 
 
 @numba.njit(cache=True, _nrt=False)
-def slab_means(pos, vel, mass, mflow, slabs):
-    """The slabs' mean vertical velocities (row S_VZ of ``slabs``), masses (row S_MASS) and mean
-    lateral velocities (rows S_LATERAL + a), summed in grain order; grains above the last slab
-    count in it, grains below 0 in the first."""
+def slab_means(pos, vel, mass, gamma, mflow, slabs):
+    """The slabs' mean vertical velocities (row S_VZ of ``slabs``), masses (row S_MASS) and, where
+    the lateral mean flow has a rate of its own (:func:`lateral_on`), mean lateral velocities
+    (rows S_LATERAL + a), summed in grain order; grains above the last slab count in it, grains
+    below 0 in the first. ``gamma``: the background damping rate."""
     n, d = pos.shape
     z = d - 1
+    n_lat = z if lateral_on(gamma, mflow) else 0  # only where used: a serial pass every step
     inv_slab = 1.0 / mflow[M_SLAB]
     ns = slabs.shape[1]
     for row in range(slabs.shape[0]):
@@ -60,12 +62,12 @@ def slab_means(pos, vel, mass, mflow, slabs):
         k = _slab(pos[i, z], inv_slab, ns)
         slabs[S_VZ, k] += mass[i] * vel[i, z]
         slabs[S_MASS, k] += mass[i]
-        for a in range(z):
+        for a in range(n_lat):
             slabs[S_LATERAL + a, k] += mass[i] * vel[i, a]
     for k in range(ns):
         if slabs[S_MASS, k] > 0.0:
             slabs[S_VZ, k] /= slabs[S_MASS, k]
-            for a in range(z):
+            for a in range(n_lat):
                 slabs[S_LATERAL + a, k] /= slabs[S_MASS, k]
 
 
@@ -80,13 +82,21 @@ def add_slab_damping(lo, hi, pos, mass, gamma, mflow, slabs, force):
     inv_slab = 1.0 / mflow[M_SLAB]
     extra = gamma - mflow[M_GAMMA_M]
     extra_l = gamma - mflow[M_GAMMA_L]
+    # the compaction (gamma_l = gamma): not added, so its bits are those of the rule without it
+    n_lat = z if lateral_on(gamma, mflow) else 0
     ns = slabs.shape[1]
     for i in range(lo, hi):
         k = _slab(pos[i, z], inv_slab, ns)
         force[i, z] += extra * mass[i] * slabs[S_VZ, k]
-        if extra_l != 0.0:  # the compaction: not added, so its bits are those of the rule without it
-            for a in range(z):
-                force[i, a] += extra_l * mass[i] * slabs[S_LATERAL + a, k]
+        for a in range(n_lat):
+            force[i, a] += extra_l * mass[i] * slabs[S_LATERAL + a, k]
+
+
+@numba.njit(cache=True, inline="always")
+def lateral_on(gamma, mflow):
+    """Whether the slabs' mean lateral flow has a rate of its own (gamma_l != gamma): only then
+    are its means summed and its term added."""
+    return gamma - mflow[M_GAMMA_L] != 0.0
 
 
 @numba.njit(cache=True, inline="always")

@@ -4,7 +4,7 @@ With the 'mean-flow' rule the mean vertical flow and the piston are damped at a 
 gamma_m ~ 1/H, so that a tall column is compacted like a 25 d one. Once the plug has
 arrived, two slow modes of the column are left to decay, both with frequencies ~ 1/H:
 its breathing under the piston (omega_b), damped at gamma_m with the same damping ratio
-gamma_m / (2 omega_b) at every height (about 0.3 at p = 1e-4, measured), so that it
+gamma_m / (2 omega_b) at every height (0.2-0.3 at p = 1e-4, measured), so that it
 decays at gamma_m / 2; and its lowest shear mode (the slabs' mean lateral flow), damped
 with the fluctuations at gamma = b / t_i, overdamped in a tall column (gamma > 2 omega_s),
 so that it decays at only about omega_s^2 / gamma ~ 1 / H^2. In a width-25 column 800 d
