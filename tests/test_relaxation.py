@@ -189,6 +189,46 @@ def test_lateral_mean_flow_at_its_own_rate():
         Engine(pos, rad, [24.0], 20.0, background_damping=gamma, mean_flow=(gamma_m, 4.0, -1.0))
 
 
+@pytest.mark.parametrize("dim,gamma_l", [(2, 2e-3), (2, 7e-4), (3, 7e-4)])
+def test_slab_means_sum_in_grain_order(dim, gamma_l):
+    """The slab pass (sums carried over runs of grains sharing a slab) gives every slab's sums in
+    grain order, bit for bit: against a plain loop over the grains, with grains below the floor,
+    above the last slab, runs of one grain and slabs met again after others."""
+    from granwave.dem.mean_flow import slab_means
+
+    rng = np.random.default_rng(7)
+    n, gamma = 400, 2e-3
+    z = np.sort(rng.uniform(-1.0, 30.0, n))  # layer by layer, then shuffled locally
+    swap = rng.integers(0, n - 1, 60)
+    for i in swap:
+        z[[i, i + 1]] = z[[i + 1, i]]
+    z[::37] = rng.uniform(-1.0, 40.0, z[::37].shape)  # strays far from their neighbours
+    pos = np.column_stack([rng.uniform(0, 10, (n, dim - 1)), z])
+    vel = rng.normal(0.0, 1e-3, (n, dim))
+    mass = rng.uniform(0.5, 1.5, n)
+    mflow = np.array([5e-4, 2.5, gamma_l])
+    ns = 10  # slabs of 2.5 d: z > 22.5 d counts in the last
+    slabs = np.full((dim + 1, ns), np.nan)
+    slab_means(pos, vel, mass, gamma, mflow, slabs)
+    lateral = gamma_l != gamma
+    want = np.zeros((dim + 1, ns))
+    for i in range(n):
+        k = 0 if not z[i] > 0.0 else min(int(z[i] / 2.5), ns - 1)
+        want[0, k] += mass[i] * vel[i, dim - 1]
+        want[1, k] += mass[i]
+        for a in range(dim - 1 if lateral else 0):
+            want[2 + a, k] += mass[i] * vel[i, a]
+    for k in range(ns):
+        if want[1, k] > 0.0:
+            want[0, k] /= want[1, k]
+            for a in range(dim - 1 if lateral else 0):
+                want[2 + a, k] /= want[1, k]
+    assert np.all(want[1] > 0.0)  # every slab has grains
+    n_rows = 2 + (dim - 1 if lateral else 0)
+    np.testing.assert_array_equal(slabs[:n_rows], want[:n_rows])
+    assert np.all(slabs[n_rows:] == 0.0)  # rows not used are zeroed, not summed
+
+
 def test_mean_flow_refused_on_the_gpu():
     pos, rad, vel, _ = _loose_grains(-1e-3, 1.0)
 

@@ -58,17 +58,48 @@ def slab_means(pos, vel, mass, gamma, mflow, slabs):
     for row in range(slabs.shape[0]):
         for k in range(ns):
             slabs[row, k] = 0.0
+    # Consecutive grains mostly share a slab (the gas is numbered layer by layer): a slab's sums
+    # are carried in registers over such a run and stored when the slab changes. Each slab still
+    # adds its grains' terms in grain order (the same bits); a memory chain through slabs[., k]
+    # made the pass latency-bound, about twice as slow (docs/dem.md).
+    k_run = -1
+    vz = m = u0 = u1 = 0.0
     for i in range(n):
         k = _slab(pos[i, z], inv_slab, ns)
-        slabs[S_VZ, k] += mass[i] * vel[i, z]
-        slabs[S_MASS, k] += mass[i]
-        for a in range(n_lat):
-            slabs[S_LATERAL + a, k] += mass[i] * vel[i, a]
+        if k != k_run:
+            if k_run >= 0:
+                _store_run(slabs, k_run, n_lat, vz, m, u0, u1)
+            k_run = k
+            vz = slabs[S_VZ, k]
+            m = slabs[S_MASS, k]
+            if n_lat > 0:
+                u0 = slabs[S_LATERAL, k]
+            if n_lat > 1:
+                u1 = slabs[S_LATERAL + 1, k]
+        vz += mass[i] * vel[i, z]
+        m += mass[i]
+        if n_lat > 0:
+            u0 += mass[i] * vel[i, 0]
+        if n_lat > 1:
+            u1 += mass[i] * vel[i, 1]
+    if k_run >= 0:
+        _store_run(slabs, k_run, n_lat, vz, m, u0, u1)
     for k in range(ns):
         if slabs[S_MASS, k] > 0.0:
             slabs[S_VZ, k] /= slabs[S_MASS, k]
             for a in range(n_lat):
                 slabs[S_LATERAL + a, k] /= slabs[S_MASS, k]
+
+
+@numba.njit(cache=True, inline="always")
+def _store_run(slabs, k, n_lat, vz, m, u0, u1):
+    """Store the running sums of slab k (:func:`slab_means`)."""
+    slabs[S_VZ, k] = vz
+    slabs[S_MASS, k] = m
+    if n_lat > 0:
+        slabs[S_LATERAL, k] = u0
+    if n_lat > 1:
+        slabs[S_LATERAL + 1, k] = u1
 
 
 @numba.njit(cache=True, inline="always")
