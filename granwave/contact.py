@@ -62,6 +62,7 @@ import math
 
 import numba
 import numpy as np
+from . import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 FOUR_THIRDS = 4.0 / 3.0
 

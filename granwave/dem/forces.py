@@ -19,6 +19,7 @@ from .. import contact as C
 from ..geometry import BOTTOM_WALL, TOP_WALL, n_rotations, nearest_image
 from ..model import Contacts, Packing
 from . import kernels as K
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True)

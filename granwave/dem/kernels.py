@@ -45,6 +45,7 @@ from ..geometry import nearest_image
 from . import neighbours
 from . import pair_tile as PT
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 # fpar indices

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import numba
 
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+
 #: Layout of the rule's parameters ``mflow`` (a float array; empty: rule off): the rates of the
 #: mean vertical and the mean lateral flow, the slab thickness.
 M_GAMMA_M, M_SLAB, M_GAMMA_L = 0, 1, 2

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..geometry import periodic_distance2
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True, inline="always")

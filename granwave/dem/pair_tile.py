@@ -29,6 +29,7 @@ import numpy as np
 from .. import contact as C
 # through the module, not its names: kernels imports this module too (its parallel row pass)
 from . import kernels as K
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: touching pairs per tile: the scratch (N_TROW x ROW doubles, 53 kB) stays in L2
 TILE = 256

@@ -31,12 +31,13 @@ import math
 import numba
 import numpy as np
 
-# numba's cache=True keys a function's cache on *this* file only: pulse_samples inlines
-# kernels.run_chunk / compute_forces, so after editing kernels.py or contact.py delete
-# granwave/dem/__pycache__/pulse_kernels.* (or touch this file), or stale code runs.
+# pulse_samples inlines kernels.run_chunk / compute_forces: numba alone would key its cache on
+# this file only, granwave.kernel_cache stamps it with the whole package's source (an edit of
+# kernels.py or contact.py recompiles it).
 from .. import contact as C
 from ..geometry import periodic_distance2
 from . import kernels as K
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 INITIAL, OPENED, FORMED, SLID, CONE0 = 1, 2, 4, 8, 16
 #: Relative tolerance of the "on the Coulomb cone" test.

@@ -27,6 +27,7 @@ from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN,
                       O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, W_INVI, W_INVM,
                       W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, measure, pair_constants,
                       piston_acceleration, refresh_wall_list, stable_dt_at, wall_contact)
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True, _nrt=False)

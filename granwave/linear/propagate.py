@@ -40,6 +40,7 @@ from ..model import LinearSystem, Modes, Signal
 from ..resources import check_propagate, check_time_domain
 from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: Default fraction of the stability limit 2/omega_max used as time step.
 DEFAULT_SAFETY = 0.1
