@@ -224,6 +224,7 @@ class Engine:
                 self.ws = K.with_blocks(self.ws, K.block_count(len(self.radius), threads))
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
+                self.ws[K.W_CLAIM][0] = threads  # the force passes' share per thread (kernels.visit_block)
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
                                      self.angular_acceleration, self.radius, self.mass, self.inertia,
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,

@@ -215,31 +215,51 @@ def block_bounds(b, n, nblk):
 
 
 @intrinsic
-def claim_block(typingctx, queue):
-    """The next block number, taken from the counter ``queue[0]`` by an atomic integer add (LLVM
-    ``atomicrmw add``); numba has no atomics on the CPU, hence this intrinsic."""
-    if not (isinstance(queue, types.Array) and queue.dtype == types.int64 and queue.ndim == 1):
+def take_block(typingctx, claims, b):
+    """Mark block b taken: ``claims[1 + b]`` exchanged with 1 atomically (LLVM ``atomicrmw xchg``;
+    numba has no atomics on the CPU, hence this intrinsic). Returns the flag before: 0 when this
+    caller took the block, 1 when someone had."""
+    if not (isinstance(claims, types.Array) and claims.dtype == types.int64 and claims.ndim == 1
+            and isinstance(b, types.Integer)):
         return None
 
     def codegen(context, builder, sig, args):
         aryty = sig.args[0]
         ary = context.make_array(aryty)(context, builder, args[0])
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [context.get_constant(types.intp, 0)])
-        return builder.atomic_rmw("add", ptr, context.get_constant(types.int64, 1), "monotonic")
+        k = builder.add(context.cast(builder, args[1], sig.args[1], types.intp), context.get_constant(types.intp, 1))
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [k])
+        return builder.atomic_rmw("xchg", ptr, context.get_constant(types.int64, 1), "monotonic")
 
-    return types.int64(queue), codegen
+    return types.int64(claims, b), codegen
 
 
 @numba.njit(cache=True, inline="always")
-def claimed_block(c, nblk):
-    """The block of the c-th claim (:func:`claim_block`): two streams, from the bottom block and
-    from the middle one, taken in turn. Threads that keep pace then work through the two halves
-    as numba's static split would, far apart in memory; claiming in index order put neighbouring
-    blocks on the two threads at once and was 3-4 % slower on a dense column (their shared
-    boundary cache lines). Any permutation gives the same bits."""
-    if nblk % 2 != 0:
-        return c
-    return (c % 2) * (nblk // 2) + c // 2
+def visit_block(t, threads, nblk, j):
+    """The j-th block that thread t of ``threads`` offers to take in a force pass: first its own
+    share (numba's static split, ascending), then the other threads' shares, each from its far
+    end. Where the threads keep pace each takes its own share, as the static split did (same
+    memory, same cache); a thread done early takes the other's last blocks (:func:`take_block`)."""
+    b0 = t * nblk // threads
+    own = (t + 1) * nblk // threads - b0
+    if j < own:
+        return b0 + j
+    j -= own
+    for s in range(1, threads):
+        u = (t + s) % threads
+        c0 = u * nblk // threads
+        c1 = (u + 1) * nblk // threads
+        if j < c1 - c0:
+            return c1 - 1 - j
+        j -= c1 - c0
+    return -1
+
+
+@numba.njit(cache=True, inline="always")
+def open_claims(claims, nblk):
+    """Clear the taken flags before a pass; the thread count (``claims[0]``, set by the engines)."""
+    for b in range(nblk):
+        claims[1 + b] = 0
+    return max(1, claims[0])
 
 
 # Geometry pieces of one contact, shared with the GPU kernels (granwave.gpu.compile compiles
@@ -419,8 +439,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
     grain, the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
     empty: off) and slab work array, and one pair tile's scratch per block
-    (:func:`granwave.dem.pair_tile.scratch`), the counter from which the threads claim blocks
-    (:func:`claim_block`). ``blocks``: the number of grain blocks (None:
+    (:func:`granwave.dem.pair_tile.scratch`), the thread count and the blocks' taken flags
+    (:func:`take_block`). ``blocks``: the number of grain blocks (None:
     :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
     n = n_grains
     nblk = block_count(n) if blocks is None else int(blocks)
@@ -432,12 +452,12 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
-            *PT.scratch(nblk), np.zeros(1, np.int64))
+            *PT.scratch(nblk), np.zeros(nblk + 1, np.int64))
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, \
-    W_SPAIR, W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_QUEUE = range(24)
+    W_SPAIR, W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM = range(24)
 
 
 def with_blocks(ws: tuple, nblk: int) -> tuple:
@@ -450,6 +470,8 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
         new[w] = np.zeros(nblk + 1, np.int64)
     new[W_BLK] = np.zeros((nblk, N_GCOL))
     new[W_TILE], new[W_TILEP] = PT.scratch(nblk)
+    new[W_CLAIM] = np.zeros(nblk + 1, np.int64)
+    new[W_CLAIM][0] = ws[W_CLAIM][0]
     return tuple(new)
 
 
@@ -591,7 +613,7 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar, nbr, gl,
-                   nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g, queue):
+                   nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g, claims):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
     the tangential history update: no one else touches that pair in this step), subtracts the
@@ -600,13 +622,13 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
     these pairs into ``blk_g``."""
-    queue[0] = 0
-    for _ in numba.prange(nblk):  # blocks claimed as threads come free (see _row_pass)
-        c = claim_block(queue)
-        while c < nblk:
-            _incoming_block(claimed_block(c, nblk), pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral,
-                            pair_ft, pair_ov, fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
-            c = claim_block(queue)
+    threads = open_claims(claims, nblk)
+    for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
+        for j in range(nblk):
+            b = visit_block(t, threads, nblk, j)
+            if take_block(claims, b) == 0:
+                _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov,
+                                fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
@@ -738,7 +760,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-              bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, queue):
+              bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
@@ -755,21 +777,20 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     largest overlap and contacts (with phase 1's), top-wall contacts (their forces on the
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
-    # Each thread claims the next block when it comes free (an atomic counter), instead of
-    # numba's one contiguous range of iterations per thread: with the gas numbered from the bottom
-    # up, that range gave one thread a compacting column's dilute bottom and the other its dense
-    # top (perf on a 25 x 800 d column: the first thread waited at the barrier in half of its
-    # samples, docs/dem.md). Which thread computes a block never changes a bit. The first
-    # iterations to run take every block; the others find the counter spent.
-    queue[0] = 0
-    for _ in numba.prange(nblk):
-        c = claim_block(queue)
-        while c < nblk:
-            _row_block(claimed_block(c, nblk), pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
-                       inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar,
-                       row, nblk, out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile,
-                       tile_p)
-            c = claim_block(queue)
+    # Each thread takes its own share of the blocks (numba's static split) and then, when done
+    # early, the other's last blocks still untaken (an atomic flag per block): with the gas
+    # numbered from the bottom up, the static split alone gave one thread a compacting column's
+    # dilute bottom and the other its dense top (perf on a 25 x 800 d column: the first thread
+    # waited at the barrier in half of its samples, docs/dem.md). Which thread computes a block
+    # never changes a bit.
+    threads = open_claims(claims, nblk)
+    for t in numba.prange(threads):
+        for j in range(nblk):
+            b = visit_block(t, threads, nblk, j)
+            if take_block(claims, b) == 0:
+                _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
+                           pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
+                           out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
@@ -943,13 +964,13 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
         slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, ws[W_SLABS])
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov, fpar,
                    ws[W_NBR], ws[W_GL], ws[W_NLO], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT], ws[W_BF], blk_g,
-                   ws[W_QUEUE])
+                   ws[W_CLAIM])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
               ws[W_OUT], ws[W_OSLOT], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS], ws[W_TILE],
-              ws[W_TILEP], ws[W_QUEUE])
+              ws[W_TILEP], ws[W_CLAIM])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
