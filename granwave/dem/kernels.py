@@ -21,7 +21,9 @@ damping and kicks. The pair list is lexicographic, so a grain's terms in the one
 are its incoming pairs (increasing k), then its pairs inside the block, then its row's pairs
 beyond the block, then its walls: both passes add them in that order and every grain's force
 is bit for bit the one-thread loop's, for any thread count. Maxima and sums over grains are
-taken per block. No two threads write the same memory; no floating-point atomics.
+taken per block. No two threads write the same memory, apart from the blocks' taken flags
+(:func:`take_block`, integer atomics that only decide which thread computes a block); no
+floating-point atomics.
 
 Layout of the small parameter arrays (indices below):
 ``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
