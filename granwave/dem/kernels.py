@@ -235,6 +235,41 @@ def take_block(typingctx, claims, b):
     return types.int64(claims, b), codegen
 
 
+@intrinsic
+def block_taken(typingctx, claims, b):
+    """Whether block b is taken (``claims[1 + b]`` read atomically, LLVM ``load atomic``)."""
+    if not (isinstance(claims, types.Array) and claims.dtype == types.int64 and claims.ndim == 1
+            and isinstance(b, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        aryty = sig.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        k = builder.add(context.cast(builder, args[1], sig.args[1], types.intp), context.get_constant(types.intp, 1))
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [k])
+        flag = builder.load_atomic(ptr, "monotonic", 8)
+        return builder.icmp_signed("!=", flag, context.get_constant(types.int64, 0))
+
+    return types.boolean(claims, b), codegen
+
+
+@numba.njit(cache=True, inline="always")
+def worth_taking(claims, t, threads, nblk, b):
+    """Whether thread t should try block b (:func:`visit_block`): every block of its own share;
+    one of another's only while its owner has not reached the block before it. The owner then
+    keeps the block it would start next, which it computes from its own cache: taking it over a
+    little earlier made the balanced 10 200-grain square slower (threads 1 -> 2 down to 1.60 in
+    one of three runs, CPU time per step x1.25)."""
+    u = b * threads // nblk
+    while u * nblk // threads > b:  # the share of b (integer rounding)
+        u -= 1
+    while (u + 1) * nblk // threads <= b:
+        u += 1
+    if u == t:
+        return True
+    return b > u * nblk // threads and not block_taken(claims, b - 1)
+
+
 @numba.njit(cache=True, inline="always")
 def visit_block(t, threads, nblk, j):
     """The j-th block that thread t of ``threads`` offers to take in a force pass: first its own
@@ -628,7 +663,7 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
         for j in range(nblk):
             b = visit_block(t, threads, nblk, j)
-            if take_block(claims, b) == 0:
+            if worth_taking(claims, t, threads, nblk, b) and take_block(claims, b) == 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov,
                                 fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
 
@@ -780,16 +815,16 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
     # Each thread takes its own share of the blocks (numba's static split) and then, when done
-    # early, the other's last blocks still untaken (an atomic flag per block): with the gas
-    # numbered from the bottom up, the static split alone gave one thread a compacting column's
-    # dilute bottom and the other its dense top (perf on a 25 x 800 d column: the first thread
-    # waited at the barrier in half of its samples, docs/dem.md). Which thread computes a block
-    # never changes a bit.
+    # early, the other's last blocks still untaken (an atomic flag per block) while their owner
+    # has not come near them (:func:`worth_taking`): with the gas numbered from the bottom up,
+    # the static split alone gave one thread a compacting column's dilute bottom and the other
+    # its dense top (perf on a 25 x 800 d column: the first thread waited at the barrier in half
+    # of its samples, docs/dem.md). Which thread computes a block never changes a bit.
     threads = open_claims(claims, nblk)
     for t in numba.prange(threads):
         for j in range(nblk):
             b = visit_block(t, threads, nblk, j)
-            if take_block(claims, b) == 0:
+            if worth_taking(claims, t, threads, nblk, b) and take_block(claims, b) == 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
                            out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p)
