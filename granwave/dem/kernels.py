@@ -216,21 +216,31 @@ def block_bounds(b, n, nblk):
     return b * n // nblk, (b + 1) * n // nblk
 
 
+def _flag_args(claims, b) -> bool:
+    """Typing of the block-flag intrinsics: an int64 vector and an integer block number."""
+    return (isinstance(claims, types.Array) and claims.dtype == types.int64 and claims.ndim == 1
+            and isinstance(b, types.Integer))
+
+
+def _flag_pointer(context, builder, sig, args):
+    """LLVM pointer to ``claims[1 + b]`` (the flag of block b) for the block-flag intrinsics."""
+    aryty = sig.args[0]
+    ary = context.make_array(aryty)(context, builder, args[0])
+    k = builder.add(context.cast(builder, args[1], sig.args[1], types.intp), context.get_constant(types.intp, 1))
+    return cgutils.get_item_pointer(context, builder, aryty, ary, [k])
+
+
 @intrinsic
 def take_block(typingctx, claims, b):
     """Mark block b taken: ``claims[1 + b]`` exchanged with 1 atomically (LLVM ``atomicrmw xchg``;
     numba has no atomics on the CPU, hence this intrinsic). Returns the flag before: 0 when this
     caller took the block, 1 when someone had."""
-    if not (isinstance(claims, types.Array) and claims.dtype == types.int64 and claims.ndim == 1
-            and isinstance(b, types.Integer)):
+    if not _flag_args(claims, b):
         return None
 
     def codegen(context, builder, sig, args):
-        aryty = sig.args[0]
-        ary = context.make_array(aryty)(context, builder, args[0])
-        k = builder.add(context.cast(builder, args[1], sig.args[1], types.intp), context.get_constant(types.intp, 1))
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [k])
-        return builder.atomic_rmw("xchg", ptr, context.get_constant(types.int64, 1), "monotonic")
+        one = context.get_constant(types.int64, 1)
+        return builder.atomic_rmw("xchg", _flag_pointer(context, builder, sig, args), one, "monotonic")
 
     return types.int64(claims, b), codegen
 
@@ -238,16 +248,11 @@ def take_block(typingctx, claims, b):
 @intrinsic
 def block_taken(typingctx, claims, b):
     """Whether block b is taken (``claims[1 + b]`` read atomically, LLVM ``load atomic``)."""
-    if not (isinstance(claims, types.Array) and claims.dtype == types.int64 and claims.ndim == 1
-            and isinstance(b, types.Integer)):
+    if not _flag_args(claims, b):
         return None
 
     def codegen(context, builder, sig, args):
-        aryty = sig.args[0]
-        ary = context.make_array(aryty)(context, builder, args[0])
-        k = builder.add(context.cast(builder, args[1], sig.args[1], types.intp), context.get_constant(types.intp, 1))
-        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [k])
-        flag = builder.load_atomic(ptr, "monotonic", 8)
+        flag = builder.load_atomic(_flag_pointer(context, builder, sig, args), "monotonic", 8)
         return builder.icmp_signed("!=", flag, context.get_constant(types.int64, 0))
 
     return types.boolean(claims, b), codegen
