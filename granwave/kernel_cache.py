@@ -82,7 +82,7 @@ LOCATORS = tuple(_stamped(base) for base in _BASES) if all(_BASES) else ()
 
 def install() -> bool:
     """Put :data:`LOCATORS` first in numba's list (idempotent; the list is a class attribute of
-    numba's cache implementation, shared by its CPU and CUDA caches). Returns False, with a
+    numba's cache implementation, used by the CPU kernels' caches). Returns False, with a
     warning, where this numba has not the classes it needs."""
     classes = getattr(_IMPL, "_locator_classes", None)
     if not LOCATORS or not isinstance(classes, list):
