@@ -12,7 +12,7 @@ every height) and 'height-scaled' (b divided by H / reference_height above
 25 d), and records the steps to convergence (load independent, unlike
 seconds) and the bulk statistics of the packing (layer 3 d). 'mean-flow' runs
 with ``mean_flow_settling='compaction'``, the setting its records were made with;
-benchmarks/settling.py compares the 'critical' default with it. 'fixed' is
+benchmarks/settling.py compares the opt-in 'critical' rule with it. 'fixed' is
 skipped above ``--old-max-height`` (its cost grows fastest); its steps
 where it was not prepared are extrapolated from its fitted exponent and
 marked "(…, fit)".

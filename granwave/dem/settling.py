@@ -47,8 +47,8 @@ SAMPLE_CHECKS = 10
 SETTLING_RULES = {
     "critical": ("after the piston's first upward swing (the plug has arrived), the mean flow and the "
                  "piston and the slabs' mean lateral flow are damped at min(2 omega_b, gamma), "
-                 "omega_b = pi / (the swing's duration), piston velocity sampled every 10 check_every "
-                 "steps"),
+                 f"omega_b = pi / (the swing's duration), piston velocity sampled every {SAMPLE_CHECKS} "
+                 "check_every steps"),
     "compaction": "the mean flow and the piston keep the compaction rate to the end",
 }
 
