@@ -463,7 +463,7 @@ def precision_table(cfg, res):
     sub = int(round(h / sig64.attrs["dt"]))
     dt = h / sub
     import inspect
-    extra = (0.0,) if "flush" in inspect.signature(verlet_steps.py_func).parameters else ()  # no flushing
+    extra = (0.0,) if "flush" in inspect.signature(getattr(verlet_steps, "py_func", verlet_steps)).parameters else ()  # no flushing
     for dtype in (np.float64, np.float32):
         data = D.data.astype(dtype)
         minv = (1.0 / system.mass).astype(dtype)

@@ -41,6 +41,7 @@ from ..resources import check_propagate, check_time_domain
 from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+from .. import team
 
 #: Default fraction of the stability limit 2/omega_max used as time step.
 DEFAULT_SAFETY = 0.1
@@ -156,22 +157,24 @@ SUM_BLOCK = 4096
 MIN_PARALLEL_ROWS = 20000
 
 
-@numba.njit(cache=True, parallel=True)
-def _drift(u, v, a, dt, flush):
-    """First half kick and drift of every row: v += dt/2 a, u += dt v (flushed)."""
+@numba.njit(cache=True)
+def _drift_rows(lo, hi, u, v, a, dt, flush):
+    """First half kick and drift of rows lo..hi-1: v += dt/2 a, u += dt v (flushed). The rows
+    are counted unsigned: with signed indices numba checks each for wraparound, and the loop
+    ran 2x slower (measured, 3e4 rows)."""
     half = 0.5 * dt
-    for i in numba.prange(u.shape[0]):
+    for i in range(np.uint64(lo), np.uint64(hi)):
         v[i] += half * a[i]
         u[i] += dt * v[i]
         if abs(u[i]) < flush:
             u[i] = 0.0
 
 
-@numba.njit(cache=True, parallel=True)
-def _kick(indptr, indices, data, minv, u, v, a, dt, flush):
-    """a = -M^-1 D u and the second half kick of every row (v flushed); rows read u only."""
+@numba.njit(cache=True)
+def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
+    """a = -M^-1 D u and the second half kick of rows lo..hi-1 (v flushed); rows read u only."""
     half = 0.5 * dt
-    for i in numba.prange(u.shape[0]):
+    for i in range(np.uint64(lo), np.uint64(hi)):
         acc = 0.0
         for k in range(indptr[i], indptr[i + 1]):
             acc += data[k] * u[indices[k]]
@@ -181,25 +184,60 @@ def _kick(indptr, indices, data, minv, u, v, a, dt, flush):
             v[i] = 0.0
 
 
+@numba.njit(cache=True, parallel=True)
+def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync):
+    """``n_steps`` steps in one parallel region (granwave.team): thread t owns a fixed share of
+    the rows; per step it drifts its rows, waits for all (the kick reads every row of u), kicks
+    its rows and waits again (the next drift rewrites rows that others read)."""
+    n = u.shape[0]
+    threads = team.team_size(sync)
+    for t in numba.prange(threads):  # one iteration per thread
+        if team.enter(sync, threads):
+            lo = t * n // threads
+            hi = (t + 1) * n // threads
+            gen = 0
+            for _ in range(n_steps):
+                _drift_rows(lo, hi, u, v, a, dt, flush)
+                gen = team.barrier(sync, threads, gen)
+                _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
+                gen = team.barrier(sync, threads, gen)
+
+
 @numba.njit(cache=True)
+def _verlet_one_thread(indptr, indices, data, minv, u, v, a, dt, n_steps, flush):
+    """The same steps on the calling thread (where the team could not run)."""
+    n = u.shape[0]
+    for _ in range(n_steps):
+        _drift_rows(0, n, u, v, a, dt, flush)
+        _kick_rows(0, n, indptr, indices, data, minv, u, v, a, dt, flush)
+
+
 def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv: np.ndarray,
                  u: np.ndarray, v: np.ndarray, a: np.ndarray, dt: float, n_steps: int,
-                 flush: float) -> None:
+                 flush: float, sync: np.ndarray | None = None) -> None:
     """``n_steps`` velocity-Verlet steps of u'' = -M^-1 D u in place (D in CSR arrays).
 
-    Two parallel passes over the rows per step: kick-drift (:func:`_drift`), then the
-    matvec and the second half kick (:func:`_kick`); one pass over D per step and no
-    temporaries. Each row's arithmetic is that of the former serial loops, so the result
-    is bit for bit the same for any thread count. (A single fused pass with the drift of
+    Per step a kick-drift of every row (:func:`_drift_rows`), then the matvec and the second
+    half kick (:func:`_kick_rows`); one pass over D per step and no temporaries. On numba's
+    current thread count, in one parallel region for all the steps, the two phases separated by
+    spin barriers (:mod:`granwave.team`): numba's own loops opened two regions per step, and at
+    16 threads, where a region costs 7 us, the team ran 3e4 dofs at 7.2x one thread against
+    6.2x (docs/linear.md). Each row's arithmetic is that of the former serial loops, so the
+    result is bit for bit the same for any thread count. (A single fused pass with the drift of
     the next step and a second displacement buffer was measured 30 % slower per step on one
     thread: 0.46 against 0.35-0.38 ms CPU at 3e4 dofs.) Entries of u and v below ``flush``
     in magnitude are set to 0: ahead of the front the field decays super-exponentially, and
     products of such values (energies, detector) fall into denormal floating point, which
-    made the run 5-8x slower on a 28665-dof lattice (measured).
+    made the run 5-8x slower on a 28665-dof lattice (measured). ``sync``: a
+    :func:`granwave.team.new_sync` vector to reuse between calls (else one is made).
     """
-    for _ in range(n_steps):
-        _drift(u, v, a, dt, flush)
-        _kick(indptr, indices, data, minv, u, v, a, dt, flush)
+    if n_steps <= 0:
+        return
+    sync = team.new_sync() if sync is None else sync
+    team.reset_team(sync, numba.get_num_threads())
+    _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync)
+    if not team.entered(sync):  # the threads never all ran at once: nothing was done
+        _verlet_one_thread(indptr, indices, data, minv, u, v, a, dt, n_steps, flush)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -345,14 +383,15 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     step = 0
     n_steps = sub * (samples - 1)
     t_wall0 = t_last = _time.perf_counter()
+    sync = team.new_sync()
     for k in range(1, samples):
         with at_most(system.n_dof, MIN_PARALLEL_ROWS):
             if snap_k is None or not np.any((snap_k > step) & (snap_k <= step + sub)):
-                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush)
+                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush, sync)
                 step += sub
             else:  # a snapshot falls inside this sample interval: go step by step
                 for _ in range(sub):
-                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush)
+                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush, sync)
                     step += 1
                     for s_idx in np.flatnonzero(snap_k == step):
                         snap_u[s_idx] = u

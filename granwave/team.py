@@ -1,0 +1,188 @@
+"""A team of threads kept in one parallel region across many steps (spin barriers).
+
+numba opens a parallel region (an OpenMP fork and join) per ``prange`` loop. A time step made of
+two such loops pays two of them: about 1 us each on 2 cores, but 7-8 us each at 16 threads on
+the 16-core machine of docs/linear.md, where a step of 10^4 grains takes 40 us of work per
+thread. A kernel that loops over the steps *inside* one ``prange(threads)`` (one iteration per
+thread) and separates the phases of a step by :func:`barrier` pays one fork and join per call
+instead, and a barrier (an atomic add and a spin on a shared counter) per phase.
+
+Use, inside an ``@njit(parallel=True)`` kernel (the caller first runs
+``reset_team(sync, numba.get_num_threads())``)::
+
+    threads = team_size(sync)
+    for t in numba.prange(threads):          # one iteration per thread
+        if enter(sync, threads):             # every thread of the team is running
+            gen = 0
+            for step in range(n):
+                ...phase 1 on thread t's share...
+                gen = barrier(sync, threads, gen)
+                ...phase 2...
+                gen = barrier(sync, threads, gen)
+
+and afterwards ``entered(sync)`` says whether the team ran. :func:`enter` is where a team that is
+not all running at once is caught: numba's static split gives each thread one iteration of
+``prange(threads)`` when ``threads`` is the current thread count, but should two iterations ever
+share a thread (a thread limit of the OpenMP runtime, a nested region), the first would wait at a
+barrier for the second forever. A thread that waits at the entry longer than its patience
+(ENTRY_SPINS loads of the counter, :func:`reset_team`) marks the team given up instead
+(compare-and-swap, so that the last arrival and the giving up cannot both succeed); every thread
+then leaves without work, and the caller runs its one-thread loop (the same bits). Barriers after
+the entry only wait for threads known to be running.
+
+The atomics are LLVM instructions (numba has no atomics on the CPU): ``atomicrmw add``,
+``cmpxchg``, ``load atomic`` and ``store atomic`` on an int64 vector ``sync`` (:func:`new_sync`)
+whose counters lie on separate 64-byte cache lines. The add is acquire-release and the spinning
+load acquire: what a thread wrote before a barrier is seen by every thread after it. No
+floating-point value is ever combined atomically: which thread computes a row never changes a
+bit.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from . import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+
+#: int64 slots of the sync vector: team size and entry patience (read only in the region), then
+#: the three counters, each on its own 64-byte cache line
+S_SIZE, S_SPINS, S_ENTRY, S_COUNT, S_GEN = 0, 1, 8, 16, 24
+SYNC_LENGTH = 32
+#: Loads of the entry counter after which a waiting thread gives the team up (about 1-5 s; a
+#: thread of the team descheduled that long on a loaded machine costs a one-thread run, not a
+#: wrong one)
+ENTRY_SPINS = 1 << 30
+
+
+def new_sync() -> np.ndarray:
+    """The shared counters of one team (reset by :func:`reset_team` before each region)."""
+    return np.zeros(SYNC_LENGTH, np.int64)
+
+
+@numba.njit(cache=True)
+def reset_team(sync, threads, spins=ENTRY_SPINS):
+    """Counters to zero, the team size to ``threads`` and the entry patience to ``spins`` loads
+    (serial code, before the region)."""
+    for k in range(SYNC_LENGTH):
+        sync[k] = 0
+    sync[S_SIZE] = max(1, threads)
+    sync[S_SPINS] = spins
+
+
+def _slot_args(sync, k) -> bool:
+    return (isinstance(sync, types.Array) and sync.dtype == types.int64 and sync.ndim == 1
+            and isinstance(k, types.Integer))
+
+
+def _slot(context, builder, sig, args):
+    """LLVM pointer to ``sync[k]``."""
+    aryty = sig.args[0]
+    ary = context.make_array(aryty)(context, builder, args[0])
+    k = context.cast(builder, args[1], sig.args[1], types.intp)
+    return cgutils.get_item_pointer(context, builder, aryty, ary, [k])
+
+
+@intrinsic
+def atomic_add(typingctx, sync, k, value):
+    """``sync[k] += value`` atomically (acquire-release); returns the value before."""
+    if not (_slot_args(sync, k) and isinstance(value, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        val = context.cast(builder, args[2], sig.args[2], types.int64)
+        return builder.atomic_rmw("add", _slot(context, builder, sig, args), val, "acq_rel")
+
+    return types.int64(sync, k, value), codegen
+
+
+@intrinsic
+def atomic_cas(typingctx, sync, k, expected, new):
+    """``sync[k] = new`` if it holds ``expected``, atomically (acquire-release); returns the
+    value before (equal to ``expected`` when the swap happened)."""
+    if not (_slot_args(sync, k) and isinstance(expected, types.Integer) and isinstance(new, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        old = context.cast(builder, args[2], sig.args[2], types.int64)
+        val = context.cast(builder, args[3], sig.args[3], types.int64)
+        pair = builder.cmpxchg(_slot(context, builder, sig, args), old, val, "acq_rel", "acquire")
+        return builder.extract_value(pair, 0)
+
+    return types.int64(sync, k, expected, new), codegen
+
+
+@intrinsic
+def atomic_load(typingctx, sync, k):
+    """``sync[k]`` read atomically (acquire)."""
+    if not _slot_args(sync, k):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.load_atomic(_slot(context, builder, sig, args), "acquire", 8)
+
+    return types.int64(sync, k), codegen
+
+
+@intrinsic
+def atomic_store(typingctx, sync, k, value):
+    """``sync[k] = value`` atomically (release)."""
+    if not (_slot_args(sync, k) and isinstance(value, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        val = context.cast(builder, args[2], sig.args[2], types.int64)
+        builder.store_atomic(val, _slot(context, builder, sig, args), "release", 8)
+        return context.get_dummy_value()
+
+    return types.none(sync, k, value), codegen
+
+
+@numba.njit(cache=True, inline="always")
+def team_size(sync):
+    return sync[S_SIZE]
+
+
+@numba.njit(cache=True, inline="always")
+def enter(sync, threads):
+    """Arrive at the team's entry and wait for all ``threads``: True when all arrived, False
+    when the team was given up (a thread waited ``sync[S_SPINS]`` loads, or arrived after that)."""
+    while True:  # arrive, unless the team was given up
+        c = atomic_load(sync, S_ENTRY)
+        if c < 0:
+            return False
+        if atomic_cas(sync, S_ENTRY, c, c + 1) == c:
+            break
+    patience = sync[S_SPINS]
+    spins = 0
+    while True:
+        c = atomic_load(sync, S_ENTRY)
+        if c < 0:
+            return False
+        if c >= threads:
+            return True
+        spins += 1
+        if spins > patience and atomic_cas(sync, S_ENTRY, c, -1) == c:
+            return False
+
+
+@numba.njit(cache=True, inline="always")
+def barrier(sync, threads, gen):
+    """Wait until all ``threads`` have called this with generation ``gen``; returns gen + 1.
+    The last to arrive resets the count and then advances the generation (release), on which
+    the others spin (acquire)."""
+    if atomic_add(sync, S_COUNT, 1) == threads - 1:
+        atomic_store(sync, S_COUNT, 0)
+        atomic_store(sync, S_GEN, gen + 1)
+    else:
+        while atomic_load(sync, S_GEN) == gen:
+            pass
+    return gen + 1
+
+
+def entered(sync) -> bool:
+    """Whether the last region's team ran (every thread arrived at :func:`enter`)."""
+    return bool(sync[S_ENTRY] >= sync[S_SIZE])

@@ -1,0 +1,140 @@
+"""granwave.team: a team of threads in one parallel region (entry, barriers, giving up), and the
+time domain run through it: bit for bit the one-thread loop."""
+
+import numba
+import numpy as np
+import pytest
+
+from granwave import team
+from granwave.linear import propagate
+from granwave.linear.assemble import linearize
+from granwave.linear.check import reference_lattice
+
+two_threads = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 threads")
+
+
+@numba.njit(parallel=True)
+def _relay(sync, slots, rounds, seen):
+    """Per round: thread t writes its slot, waits, then reads every slot; a value not of this
+    round (a barrier that let a thread through early) is counted in ``seen[t]``."""
+    threads = team.team_size(sync)
+    for t in numba.prange(threads):
+        if team.enter(sync, threads):
+            gen = 0
+            for r in range(rounds):
+                slots[t] = r * threads + t
+                gen = team.barrier(sync, threads, gen)
+                for u in range(threads):
+                    if slots[u] != r * threads + u:
+                        seen[t] += 1
+                gen = team.barrier(sync, threads, gen)
+            seen[threads + t] = 1  # ran
+
+
+def _run_relay(threads, size, spins=team.ENTRY_SPINS, rounds=2000):
+    sync = team.new_sync()
+    slots = np.full(size, -1, np.int64)
+    seen = np.zeros(2 * size, np.int64)
+    with_threads = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        team.reset_team(sync, size, spins)
+        _relay(sync, slots, rounds, seen)
+    finally:
+        numba.set_num_threads(with_threads)
+    return sync, seen
+
+
+@two_threads
+def test_barriers_order_the_phases():
+    """2000 rounds on 2 threads: every read after a barrier sees every write of its round."""
+    sync, seen = _run_relay(2, 2)
+    assert team.entered(sync)
+    assert seen[:2].tolist() == [0, 0]
+    assert seen[2:].tolist() == [1, 1]
+
+
+def test_a_team_of_one():
+    sync, seen = _run_relay(1, 1)
+    assert team.entered(sync) and seen.tolist() == [0, 1]
+
+
+@two_threads
+def test_a_team_larger_than_the_threads_gives_up_without_work():
+    """Three iterations on two threads: one thread holds two, so the team can never be complete;
+    the entry gives up after its patience and no iteration does any work (rather than a hang)."""
+    sync, seen = _run_relay(2, 3, spins=100_000)
+    assert not team.entered(sync)
+    assert seen.tolist() == [0] * 6
+
+
+def _lattice_state():
+    system = linearize(reference_lattice(8, 5, pressure=1e-4, friction=0.5))
+    dt, _ = propagate.stable_time_step(system)
+    D = system.stiffness.tocsr()
+    D.sort_indices()
+    args = (D.indptr.astype(np.int64), D.indices.astype(np.int64), D.data, 1.0 / system.mass)
+    u = np.zeros(system.n_dof)
+    v = system.source_velocity.copy()
+    return args, u, v, dt, D
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_team_steps_are_the_one_thread_loop_bit_for_bit(threads):
+    """verlet_steps (the team) at 1 and 2 threads against the one-thread loop, 301 steps (an odd
+    count), flushing on; and against plain numpy velocity Verlet to roundoff."""
+    if threads > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip("needs 2 threads")
+    args, u0, v0, dt, D = _lattice_state()
+    flush = 1e-30
+    ref = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+    propagate._verlet_one_thread(*args, *ref, dt, 301, flush)
+    got = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+    with_threads = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        propagate.verlet_steps(*args, *got, dt, 301, flush)
+    finally:
+        numba.set_num_threads(with_threads)
+    for x, y in zip(got, ref):
+        assert x.tobytes() == y.tobytes()
+    u, v, a = u0.copy(), v0.copy(), np.zeros_like(u0)
+    minv = args[3]
+    for _ in range(301):
+        v += 0.5 * dt * a
+        u += dt * v
+        a = -(D @ u) * minv
+        v += 0.5 * dt * a
+    scale = np.abs(u).max()
+    assert scale > 0
+    assert np.abs(got[0] - u).max() < 1e-10 * scale
+
+
+@two_threads
+def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
+    """A team that cannot be complete does no step; verlet_steps then runs the one-thread loop:
+    the same bytes as a team that ran."""
+    args, u0, v0, dt, _ = _lattice_state()
+    state = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+    sync = team.new_sync()
+    with_threads = numba.get_num_threads()
+    numba.set_num_threads(2)
+    try:
+        team.reset_team(sync, 3, 100_000)
+        propagate._verlet_team(*args, *state, dt, 50, 0.0, sync)
+        assert not team.entered(sync)
+        assert state[0].tobytes() == u0.tobytes() and state[1].tobytes() == v0.tobytes()
+        assert not state[2].any()
+
+        real_reset = team.reset_team
+        monkeypatch.setattr(team, "reset_team", lambda s, t: real_reset(s, t + 1, 100_000))
+        fell_back = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+        propagate.verlet_steps(*args, *fell_back, dt, 50, 0.0)
+        monkeypatch.undo()
+        ran = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+        propagate.verlet_steps(*args, *ran, dt, 50, 0.0)
+    finally:
+        numba.set_num_threads(with_threads)
+    for x, y in zip(fell_back, ran):
+        assert x.tobytes() == y.tobytes()
+    assert np.abs(ran[0]).max() > 0
