@@ -337,7 +337,7 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
         goal_ = f"{goal:4.1f}" if goal == goal else "  — "
         lines.append(f"| {name:<{width}} | {vals:<22} | {ratio:5.2f} | {goal_} | {note_} |")
     lines += ["", "Cost of one empty parallel region per threading layer (the engine runs two per step, "
-              "the time domain two):", ""]
+              "the time domain one per call, its phases separated by spin barriers):", ""]
     lines.insert(0, f"CPU: {_cpu_model()}; threads {', '.join(map(str, threads))}; each rate the best of "
                     f"{repeat} runs, thread counts interleaved\n")
     lines += [f"- {name}: {cost}" for name, cost in layers]
@@ -444,6 +444,9 @@ def main() -> None:
                     help="DEM state: the 600-grain packing tiled this many times (17: 10200 grains)")
     ap.add_argument("--lattice-grains", type=int, default=10_000, help="time-domain lattice size (grains)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per thread count (the best counts)")
+    ap.add_argument("--blocks-per-thread", type=int, default=None,
+                    help="DEM blocks per thread above 4 threads (the engine's BLOCKS_PER_THREAD, default "
+                         "2; 4 and 8 were slower at 16 threads, docs/dem.md 'Sixteen cores')")
     ap.add_argument("--large", choices=("column", "grid2d", "grid3d", "time"), help="one large run")
     ap.add_argument("--dry-run", action="store_true", help="with --large: estimates only")
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
@@ -455,6 +458,12 @@ def main() -> None:
                     help="with --large column and --compaction mean-flow: the mean flow's settling rule "
                          "(docs/dem.md 'Critical settling')")
     args = ap.parse_args()
+    if args.blocks_per_thread is not None:
+        from granwave.dem import kernels as K
+
+        if args.blocks_per_thread < 1:
+            raise SystemExit("--blocks-per-thread: at least 1")
+        K.BLOCKS_PER_THREAD = args.blocks_per_thread  # read by block_count when an engine starts
     if args.large:
         large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling)
     else:

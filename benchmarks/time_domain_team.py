@@ -1,0 +1,154 @@
+"""The time domain's team of threads against numba's two parallel regions per step (a script, not a test).
+
+    python benchmarks/time_domain_team.py [--threads 1,2,4,8,16] [--grains 10000,100000] [--repeat 3]
+
+In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), best of
+``--repeat`` runs per variant and thread count, interleaved: wall ms per velocity-Verlet step of
+
+- "two regions/step": the kernel before granwave.team (a ``prange`` loop for the kick-drift and
+  one for the matvec and second half kick: two OpenMP fork-joins per step), kept here;
+- "team, no PAUSE": the team with a bare spin in its barriers;
+- "team (granwave)": :func:`granwave.linear.propagate.verlet_steps` as shipped;
+
+each as a ratio to the first at one thread, and whether every variant at every thread count
+left the same bytes. Measured on the 16-core machine of docs/linear.md ("Sixteen cores").
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+import granwave.threads  # noqa: E402,F401  (threading layer first)
+import numba  # noqa: E402
+from linear import lattice  # noqa: E402
+
+from granwave import team as T  # noqa: E402
+from granwave.linear.assemble import linearize  # noqa: E402
+from granwave.linear.propagate import _drift_rows, _kick_rows, stable_time_step, verlet_steps  # noqa: E402
+
+
+@numba.njit(parallel=True)
+def _old_drift(u, v, a, dt, flush):
+    half = 0.5 * dt
+    for i in numba.prange(u.shape[0]):
+        v[i] += half * a[i]
+        u[i] += dt * v[i]
+        if abs(u[i]) < flush:
+            u[i] = 0.0
+
+
+@numba.njit(parallel=True)
+def _old_kick(indptr, indices, data, minv, u, v, a, dt, flush):
+    half = 0.5 * dt
+    for i in numba.prange(u.shape[0]):
+        acc = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            acc += data[k] * u[indices[k]]
+        a[i] = -acc * minv[i]
+        v[i] += half * a[i]
+        if abs(v[i]) < flush:
+            v[i] = 0.0
+
+
+@numba.njit
+def two_regions_per_step(indptr, indices, data, minv, u, v, a, dt, n_steps, flush):
+    for _ in range(n_steps):
+        _old_drift(u, v, a, dt, flush)
+        _old_kick(indptr, indices, data, minv, u, v, a, dt, flush)
+
+
+@numba.njit(inline="always")
+def _bare_barrier(sync, threads, gen):
+    if T.atomic_add(sync, T.S_COUNT, 1) == threads - 1:
+        T.atomic_store(sync, T.S_COUNT, 0)
+        T.atomic_store(sync, T.S_GEN, gen + 1)
+    else:
+        while T.atomic_load(sync, T.S_GEN) == gen:
+            pass
+    return gen + 1
+
+
+@numba.njit(parallel=True)
+def team_without_pause(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync):
+    n = u.shape[0]
+    threads = T.team_size(sync)
+    for t in numba.prange(threads):
+        if T.enter(sync, threads):
+            lo = t * n // threads
+            hi = (t + 1) * n // threads
+            gen = 0
+            for _ in range(n_steps):
+                _drift_rows(lo, hi, u, v, a, dt, flush)
+                gen = _bare_barrier(sync, threads, gen)
+                _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
+                gen = _bare_barrier(sync, threads, gen)
+
+
+VARIANTS = ("two regions/step", "team, no PAUSE", "team (granwave)")
+
+
+def measure(n_grains: int, threads: list[int], repeat: int) -> None:
+    system = linearize(lattice(n_grains), check=False)
+    dt, _ = stable_time_step(system)
+    D = system.stiffness.tocsr()
+    D.sort_indices()
+    minv = 1.0 / system.mass
+    ip, ix = D.indptr.astype(np.int64), D.indices.astype(np.int64)
+    steps = max(300, int(2e8 / D.nnz))
+    sync = T.new_sync()
+    best, finals = {}, set()
+    for _ in range(repeat):
+        for t in threads:
+            numba.set_num_threads(t)
+            for name in VARIANTS:
+                u, v, a = np.zeros(system.n_dof), system.source_velocity.copy(), np.zeros(system.n_dof)
+
+                def run(k):
+                    if name == VARIANTS[0]:
+                        two_regions_per_step(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200)
+                    elif name == VARIANTS[1]:
+                        T.reset_team(sync, t)
+                        team_without_pause(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
+                        if not T.entered(sync):
+                            raise RuntimeError("the team did not run")
+                    else:
+                        verlet_steps(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
+
+                run(3)  # compile, warm up
+                u[:] = 0.0
+                v[:] = system.source_velocity
+                a[:] = 0.0
+                w0 = time.perf_counter()
+                run(steps)
+                best[name, t] = min(best.get((name, t), np.inf), (time.perf_counter() - w0) / steps)
+                finals.add(u.tobytes() + v.tobytes() + a.tobytes())
+    print(f"\n{system.n_dof} dofs ({n_grains} grains), {D.nnz} stiffness entries, {steps} steps; "
+          f"best of {repeat}; same bits for every variant and thread count: {len(finals) == 1}")
+    one = best[VARIANTS[0], threads[0]]
+    for name in VARIANTS:
+        print(f"  {name:17s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
+                                          for t in threads), flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--threads", default="1,2", help="comma-separated thread counts, 1 first")
+    ap.add_argument("--grains", default="10000", help="comma-separated lattice sizes (grains)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs per variant and thread count (the best counts)")
+    args = ap.parse_args()
+    threads = [int(x) for x in args.threads.split(",")]
+    for n in (int(x) for x in args.grains.split(",")):
+        measure(n, threads, args.repeat)
+
+
+if __name__ == "__main__":
+    main()
