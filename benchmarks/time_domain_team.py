@@ -6,7 +6,8 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
 ``--repeat`` runs per variant and thread count, interleaved: wall ms per velocity-Verlet step of
 
 - "two regions/step": the kernel before granwave.team (a ``prange`` loop for the kick-drift and
-  one for the matvec and second half kick: two OpenMP fork-joins per step), kept here;
+  one for the matvec and second half kick: two OpenMP fork-joins per step), which granwave keeps
+  for where no team can run (``propagate._verlet_regions``);
 - "team, no PAUSE": the team with a bare spin in its barriers;
 - "team (granwave)": :func:`granwave.linear.propagate.verlet_steps` as shipped;
 
@@ -33,37 +34,8 @@ from linear import lattice  # noqa: E402
 
 from granwave import team as T  # noqa: E402
 from granwave.linear.assemble import linearize  # noqa: E402
-from granwave.linear.propagate import _drift_rows, _kick_rows, stable_time_step, verlet_steps  # noqa: E402
-
-
-@numba.njit(parallel=True)
-def _old_drift(u, v, a, dt, flush):
-    half = 0.5 * dt
-    for i in numba.prange(u.shape[0]):
-        v[i] += half * a[i]
-        u[i] += dt * v[i]
-        if abs(u[i]) < flush:
-            u[i] = 0.0
-
-
-@numba.njit(parallel=True)
-def _old_kick(indptr, indices, data, minv, u, v, a, dt, flush):
-    half = 0.5 * dt
-    for i in numba.prange(u.shape[0]):
-        acc = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            acc += data[k] * u[indices[k]]
-        a[i] = -acc * minv[i]
-        v[i] += half * a[i]
-        if abs(v[i]) < flush:
-            v[i] = 0.0
-
-
-@numba.njit
-def two_regions_per_step(indptr, indices, data, minv, u, v, a, dt, n_steps, flush):
-    for _ in range(n_steps):
-        _old_drift(u, v, a, dt, flush)
-        _old_kick(indptr, indices, data, minv, u, v, a, dt, flush)
+from granwave.linear.propagate import (_drift_rows, _kick_rows, _verlet_regions, stable_time_step,  # noqa: E402
+                                      verlet_steps)
 
 
 @numba.njit(inline="always")
@@ -114,7 +86,7 @@ def measure(n_grains: int, threads: list[int], repeat: int) -> None:
 
                 def run(k):
                     if name == VARIANTS[0]:
-                        two_regions_per_step(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200)
+                        _verlet_regions(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200)
                     elif name == VARIANTS[1]:
                         T.reset_team(sync, t)
                         team_without_pause(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)

@@ -27,8 +27,9 @@ share a thread (a thread limit of the OpenMP runtime, a nested region), the firs
 barrier for the second forever. A thread that waits at the entry longer than its patience
 (ENTRY_SPINS loads of the counter, :func:`reset_team`) marks the team given up instead
 (compare-and-swap, so that the last arrival and the giving up cannot both succeed); every thread
-then leaves without work, and the caller runs its one-thread loop (the same bits). Barriers after
-the entry only wait for threads known to be running.
+then leaves without work, and the caller runs its per-phase parallel loops instead (the same
+bits), from then on in that process (:func:`usable`, :func:`give_up`). Barriers after the entry
+only wait for threads known to be running.
 
 The atomics are LLVM instructions (numba has no atomics on the CPU): ``atomicrmw add``,
 ``cmpxchg``, ``load atomic`` and ``store atomic`` on an int64 vector ``sync`` (:func:`new_sync`)
@@ -41,6 +42,7 @@ bit.
 from __future__ import annotations
 
 import platform
+import warnings
 
 import numba
 import numpy as np
@@ -55,10 +57,13 @@ from . import kernel_cache  # noqa: F401  (cached kernels stamped with the whole
 #: the three counters, each on its own 64-byte cache line
 S_SIZE, S_SPINS, S_ENTRY, S_COUNT, S_GEN = 0, 1, 8, 16, 24
 SYNC_LENGTH = 32
-#: Loads of the entry counter after which a waiting thread gives the team up (about 1-5 s; a
-#: thread of the team descheduled that long on a loaded machine costs a one-thread run, not a
-#: wrong one)
-ENTRY_SPINS = 1 << 30
+#: Loads of the entry counter (each after a PAUSE, 10-140 cycles by the CPU) after which a
+#: waiting thread gives the team up: 0.1-3 s, against microseconds for a team that starts
+ENTRY_SPINS = 1 << 26
+#: Threading layers that run the iterations of ``prange(threads)`` each on its own thread, all at
+#: once (TBB may run two on one thread: the entry would wait its whole patience at every call)
+TEAM_LAYERS = ("omp", "workqueue")
+_given_up = False
 
 
 def new_sync() -> np.ndarray:
@@ -209,3 +214,24 @@ def barrier(sync, threads, gen):
 def entered(sync) -> bool:
     """Whether the last region's team ran (every thread arrived at :func:`enter`)."""
     return bool(sync[S_ENTRY] >= sync[S_SIZE])
+
+
+def usable() -> bool:
+    """Whether a kernel should try a team: on a threading layer of TEAM_LAYERS, and not after a
+    team was given up in this process (then its per-phase parallel loops, the same bits)."""
+    if _given_up:
+        return False
+    try:
+        return numba.threading_layer() in TEAM_LAYERS
+    except ValueError:  # no parallel region has run yet: the team's entry decides
+        return True
+
+
+def give_up(what: str) -> None:
+    """Note that a team of ``what`` did not start (:func:`entered` False): warn once, and make
+    :func:`usable` False for the rest of the process."""
+    global _given_up
+    if not _given_up:
+        warnings.warn(f"{what}: the threads of a team did not all start together; per-phase parallel "
+                      "loops run from now on in this process (the same results)", RuntimeWarning, stacklevel=3)
+    _given_up = True

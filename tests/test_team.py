@@ -1,5 +1,5 @@
 """granwave.team: a team of threads in one parallel region (entry, barriers, giving up), and the
-time domain run through it: bit for bit the one-thread loop."""
+time domain run through it: bit for bit numba's per-step parallel loops, on any thread count."""
 
 import numba
 import numpy as np
@@ -80,19 +80,22 @@ def _lattice_state():
 
 
 @pytest.mark.parametrize("threads", [1, 2])
-def test_team_steps_are_the_one_thread_loop_bit_for_bit(threads):
-    """verlet_steps (the team) at 1 and 2 threads against the one-thread loop, 301 steps (an odd
-    count), flushing on; and against plain numpy velocity Verlet to roundoff."""
+def test_team_steps_are_the_per_step_loops_bit_for_bit(threads):
+    """verlet_steps (the team) at 1 and 2 threads against numba's two parallel loops per step on
+    one thread, 301 steps (an odd count), flushing on; and against plain numpy velocity Verlet
+    to roundoff."""
     if threads > numba.config.NUMBA_NUM_THREADS:
         pytest.skip("needs 2 threads")
     args, u0, v0, dt, D = _lattice_state()
     flush = 1e-30
     ref = [u0.copy(), v0.copy(), np.zeros_like(u0)]
-    propagate._verlet_one_thread(*args, *ref, dt, 301, flush)
     got = [u0.copy(), v0.copy(), np.zeros_like(u0)]
     with_threads = numba.get_num_threads()
-    numba.set_num_threads(threads)
     try:
+        numba.set_num_threads(1)
+        propagate._verlet_regions(*args, *ref, dt, 301, flush)
+        numba.set_num_threads(threads)
+        assert team.usable()
         propagate.verlet_steps(*args, *got, dt, 301, flush)
     finally:
         numba.set_num_threads(with_threads)
@@ -112,14 +115,18 @@ def test_team_steps_are_the_one_thread_loop_bit_for_bit(threads):
 
 @two_threads
 def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
-    """A team that cannot be complete does no step; verlet_steps then runs the one-thread loop:
-    the same bytes as a team that ran."""
+    """A team that cannot be complete does no step; verlet_steps then warns once and runs numba's
+    per-step loops, from then on without trying a team: the same bytes as a team that ran."""
+    monkeypatch.setattr(team, "_given_up", False)  # restored after the test
     args, u0, v0, dt, _ = _lattice_state()
     state = [u0.copy(), v0.copy(), np.zeros_like(u0)]
     sync = team.new_sync()
     with_threads = numba.get_num_threads()
     numba.set_num_threads(2)
     try:
+        ran = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+        propagate.verlet_steps(*args, *ran, dt, 50, 0.0)
+
         team.reset_team(sync, 3, 100_000)
         propagate._verlet_team(*args, *state, dt, 50, 0.0, sync)
         assert not team.entered(sync)
@@ -129,12 +136,13 @@ def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
         real_reset = team.reset_team
         monkeypatch.setattr(team, "reset_team", lambda s, t: real_reset(s, t + 1, 100_000))
         fell_back = [u0.copy(), v0.copy(), np.zeros_like(u0)]
-        propagate.verlet_steps(*args, *fell_back, dt, 50, 0.0)
-        monkeypatch.undo()
-        ran = [u0.copy(), v0.copy(), np.zeros_like(u0)]
-        propagate.verlet_steps(*args, *ran, dt, 50, 0.0)
+        with pytest.warns(RuntimeWarning, match="did not all start together"):
+            propagate.verlet_steps(*args, *fell_back, dt, 50, 0.0)
+        assert not team.usable()
+        again = [u0.copy(), v0.copy(), np.zeros_like(u0)]
+        propagate.verlet_steps(*args, *again, dt, 50, 0.0)  # no team tried: no second warning
     finally:
         numba.set_num_threads(with_threads)
-    for x, y in zip(fell_back, ran):
-        assert x.tobytes() == y.tobytes()
+    for x, y, z in zip(fell_back, ran, again):
+        assert x.tobytes() == y.tobytes() == z.tobytes()
     assert np.abs(ran[0]).max() > 0

@@ -203,13 +203,37 @@ def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync)
                 gen = team.barrier(sync, threads, gen)
 
 
+@numba.njit(cache=True, parallel=True)
+def _drift_pass(u, v, a, dt, flush):
+    """:func:`_drift_rows` over every row as a numba parallel loop (one region)."""
+    half = 0.5 * dt
+    for i in numba.prange(u.shape[0]):
+        v[i] += half * a[i]
+        u[i] += dt * v[i]
+        if abs(u[i]) < flush:
+            u[i] = 0.0
+
+
+@numba.njit(cache=True, parallel=True)
+def _kick_pass(indptr, indices, data, minv, u, v, a, dt, flush):
+    """:func:`_kick_rows` over every row as a numba parallel loop (one region)."""
+    half = 0.5 * dt
+    for i in numba.prange(u.shape[0]):
+        acc = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            acc += data[k] * u[indices[k]]
+        a[i] = -acc * minv[i]
+        v[i] += half * a[i]
+        if abs(v[i]) < flush:
+            v[i] = 0.0
+
+
 @numba.njit(cache=True)
-def _verlet_one_thread(indptr, indices, data, minv, u, v, a, dt, n_steps, flush):
-    """The same steps on the calling thread (where the team could not run)."""
-    n = u.shape[0]
+def _verlet_regions(indptr, indices, data, minv, u, v, a, dt, n_steps, flush):
+    """The same steps as two numba parallel loops per step (where a team cannot run)."""
     for _ in range(n_steps):
-        _drift_rows(0, n, u, v, a, dt, flush)
-        _kick_rows(0, n, indptr, indices, data, minv, u, v, a, dt, flush)
+        _drift_pass(u, v, a, dt, flush)
+        _kick_pass(indptr, indices, data, minv, u, v, a, dt, flush)
 
 
 def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv: np.ndarray,
@@ -229,15 +253,20 @@ def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv
     in magnitude are set to 0: ahead of the front the field decays super-exponentially, and
     products of such values (energies, detector) fall into denormal floating point, which
     made the run 5-8x slower on a 28665-dof lattice (measured). ``sync``: a
-    :func:`granwave.team.new_sync` vector to reuse between calls (else one is made).
+    :func:`granwave.team.new_sync` vector to reuse between calls (else one is made). Where no
+    team can run (:func:`granwave.team.usable`), numba's two parallel loops per step
+    (:func:`_verlet_regions`, the same bits).
     """
     if n_steps <= 0:
         return
-    sync = team.new_sync() if sync is None else sync
-    team.reset_team(sync, numba.get_num_threads())
-    _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync)
-    if not team.entered(sync):  # the threads never all ran at once: nothing was done
-        _verlet_one_thread(indptr, indices, data, minv, u, v, a, dt, n_steps, flush)
+    if team.usable():
+        sync = team.new_sync() if sync is None else sync
+        team.reset_team(sync, numba.get_num_threads())
+        _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync)
+        if team.entered(sync):
+            return
+        team.give_up("time domain")  # the threads never all ran at once: nothing was done
+    _verlet_regions(indptr, indices, data, minv, u, v, a, dt, n_steps, flush)
 
 
 @numba.njit(cache=True, parallel=True)
