@@ -245,8 +245,8 @@ def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv
     half kick (:func:`_kick_rows`); one pass over D per step and no temporaries. On numba's
     current thread count, in one parallel region for all the steps, the two phases separated by
     spin barriers (:mod:`granwave.team`): numba's own loops opened two regions per step, and at
-    16 threads, where a region costs 7 us, the team ran 3e4 dofs at 7.2x one thread against
-    6.2x (docs/linear.md). Each row's arithmetic is that of the former serial loops, so the
+    16 threads, where a region cost 7 us and a barrier 1.2 us, the team ran 3e4 dofs at
+    6.1-7.3x one thread against 5.6-6.2x for the two regions (docs/linear.md). Each row's arithmetic is that of the former serial loops, so the
     result is bit for bit the same for any thread count. (A single fused pass with the drift of
     the next step and a second displacement buffer was measured 30 % slower per step on one
     thread: 0.46 against 0.35-0.38 ms CPU at 3e4 dofs.) Entries of u and v below ``flush``
