@@ -146,3 +146,38 @@ def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
     for x, y, z in zip(fell_back, ran, again):
         assert x.tobytes() == y.tobytes() == z.tobytes()
     assert np.abs(ran[0]).max() > 0
+
+
+OVERSUBSCRIBED = r"""
+import numba, numpy as np
+from granwave.linear import propagate
+from granwave.linear.assemble import linearize
+from granwave.linear.check import reference_lattice
+system = linearize(reference_lattice(8, 5, pressure=1e-4, friction=0.5))
+dt, _ = propagate.stable_time_step(system)
+D = system.stiffness.tocsr()
+D.sort_indices()
+args = (D.indptr.astype(np.int64), D.indices.astype(np.int64), D.data, 1.0 / system.mass)
+out = []
+for t in (1, 4):
+    numba.set_num_threads(t)
+    u, v, a = np.zeros(system.n_dof), system.source_velocity.copy(), np.zeros(system.n_dof)
+    propagate.verlet_steps(*args, u, v, a, dt, 2000, 0.0)
+    out.append(u.tobytes() + v.tobytes())
+print("same" if out[0] == out[1] else "differ")
+"""
+
+
+def test_more_threads_than_cores_same_bits_and_no_stall():
+    """Four threads on however many cores this machine has (two in CI): the waits yield, so the
+    team neither stalls nor gives up, and the bits are one thread's (a subprocess: the thread
+    pool's size is fixed at start)."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_NUM_THREADS="4")
+    r = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-c", OVERSUBSCRIBED], env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip().splitlines()[-1] == "same"
