@@ -238,8 +238,11 @@ def layer_costs(threads: int = 2) -> list[tuple[str, str]]:
     import json
     import subprocess
 
+    from granwave.threads import SPIN_COUNT
+
     rows = []
-    variants = (("omp (spin 100000, granwave's default)", "omp", {"GOMP_SPINCOUNT": "100000"}),
+    variants = ((f"omp (spin {SPIN_COUNT}, granwave's default)", "omp", {"GOMP_SPINCOUNT": str(SPIN_COUNT)}),
+                ("omp (spin 100000, granwave's default before 2026-11-26)", "omp", {"GOMP_SPINCOUNT": "100000"}),
                 ("omp (passive)", "omp", {"OMP_WAIT_POLICY": "PASSIVE"}),
                 ("omp (active)", "omp", {"OMP_WAIT_POLICY": "ACTIVE"}),
                 ("workqueue", "workqueue", {}), ("tbb", "tbb", {}))
