@@ -157,31 +157,40 @@ SUM_BLOCK = 4096
 MIN_PARALLEL_ROWS = 20000
 
 
+@numba.njit(cache=True, inline="always")
+def _drift_row(i, u, v, a, dt, flush):
+    """First half kick and drift of row i: v += dt/2 a, u += dt v (flushed)."""
+    v[i] += 0.5 * dt * a[i]
+    u[i] += dt * v[i]
+    if abs(u[i]) < flush:
+        u[i] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _kick_row(i, indptr, indices, data, minv, u, v, a, dt, flush):
+    """a = -M^-1 D u and the second half kick of row i (v flushed); reads u only."""
+    acc = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        acc += data[k] * u[indices[k]]
+    a[i] = -acc * minv[i]
+    v[i] += 0.5 * dt * a[i]
+    if abs(v[i]) < flush:
+        v[i] = 0.0
+
+
 @numba.njit(cache=True)
 def _drift_rows(lo, hi, u, v, a, dt, flush):
-    """First half kick and drift of rows lo..hi-1: v += dt/2 a, u += dt v (flushed). The rows
-    are counted unsigned: with signed indices numba checks each for wraparound, and the loop
-    ran 2x slower (measured, 3e4 rows)."""
-    half = 0.5 * dt
+    """:func:`_drift_row` for rows lo..hi-1. The rows are counted unsigned: with signed indices
+    numba checks each for wraparound, and the loop ran 2x slower (measured, 3e4 rows)."""
     for i in range(np.uint64(lo), np.uint64(hi)):
-        v[i] += half * a[i]
-        u[i] += dt * v[i]
-        if abs(u[i]) < flush:
-            u[i] = 0.0
+        _drift_row(i, u, v, a, dt, flush)
 
 
 @numba.njit(cache=True)
 def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
-    """a = -M^-1 D u and the second half kick of rows lo..hi-1 (v flushed); rows read u only."""
-    half = 0.5 * dt
+    """:func:`_kick_row` for rows lo..hi-1 (counted unsigned, as :func:`_drift_rows`)."""
     for i in range(np.uint64(lo), np.uint64(hi)):
-        acc = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            acc += data[k] * u[indices[k]]
-        a[i] = -acc * minv[i]
-        v[i] += half * a[i]
-        if abs(v[i]) < flush:
-            v[i] = 0.0
+        _kick_row(i, indptr, indices, data, minv, u, v, a, dt, flush)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -205,27 +214,16 @@ def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync)
 
 @numba.njit(cache=True, parallel=True)
 def _drift_pass(u, v, a, dt, flush):
-    """:func:`_drift_rows` over every row as a numba parallel loop (one region)."""
-    half = 0.5 * dt
+    """:func:`_drift_row` over every row as a numba parallel loop (one region)."""
     for i in numba.prange(u.shape[0]):
-        v[i] += half * a[i]
-        u[i] += dt * v[i]
-        if abs(u[i]) < flush:
-            u[i] = 0.0
+        _drift_row(i, u, v, a, dt, flush)
 
 
 @numba.njit(cache=True, parallel=True)
 def _kick_pass(indptr, indices, data, minv, u, v, a, dt, flush):
-    """:func:`_kick_rows` over every row as a numba parallel loop (one region)."""
-    half = 0.5 * dt
+    """:func:`_kick_row` over every row as a numba parallel loop (one region)."""
     for i in numba.prange(u.shape[0]):
-        acc = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            acc += data[k] * u[indices[k]]
-        a[i] = -acc * minv[i]
-        v[i] += half * a[i]
-        if abs(v[i]) < flush:
-            v[i] = 0.0
+        _kick_row(i, indptr, indices, data, minv, u, v, a, dt, flush)
 
 
 @numba.njit(cache=True)
