@@ -31,8 +31,8 @@ then leaves without work, and the caller runs its per-phase parallel loops inste
 bits), from then on in that process (:func:`usable`, :func:`give_up`). Barriers after the entry
 only wait for threads known to be running.
 
-The atomics are LLVM instructions (numba has no atomics on the CPU): ``atomicrmw add``,
-``cmpxchg``, ``load atomic`` and ``store atomic`` on an int64 vector ``sync`` (:func:`new_sync`)
+The atomics are LLVM instructions (numba has no atomics on the CPU): ``atomicrmw add`` and
+``xchg``, ``cmpxchg``, ``load atomic`` and ``store atomic`` on an int64 vector ``sync`` (:func:`new_sync`)
 whose counters lie on separate 64-byte cache lines. The add is acquire-release and the spinning
 load acquire: what a thread wrote before a barrier is seen by every thread after it. No
 floating-point value is ever combined atomically: which thread computes a row never changes a
@@ -96,17 +96,27 @@ def _slot(context, builder, sig, args):
     return cgutils.get_item_pointer(context, builder, aryty, ary, [k])
 
 
-@intrinsic
-def atomic_add(typingctx, sync, k, value):
-    """``sync[k] += value`` atomically (acquire-release); returns the value before."""
-    if not (_slot_args(sync, k) and isinstance(value, types.Integer)):
-        return None
+def _read_modify_write(op: str, doc: str):
+    """An intrinsic ``f(sync, k, value)``: LLVM ``atomicrmw <op>`` on ``sync[k]`` with ``value``
+    (acquire-release), returning the value before."""
 
-    def codegen(context, builder, sig, args):
-        val = context.cast(builder, args[2], sig.args[2], types.int64)
-        return builder.atomic_rmw("add", _slot(context, builder, sig, args), val, "acq_rel")
+    @intrinsic
+    def rmw(typingctx, sync, k, value):
+        if not (_slot_args(sync, k) and isinstance(value, types.Integer)):
+            return None
 
-    return types.int64(sync, k, value), codegen
+        def codegen(context, builder, sig, args):
+            val = context.cast(builder, args[2], sig.args[2], types.int64)
+            return builder.atomic_rmw(op, _slot(context, builder, sig, args), val, "acq_rel")
+
+        return types.int64(sync, k, value), codegen
+
+    rmw.__doc__ = doc
+    return rmw
+
+
+atomic_add = _read_modify_write("add", "``sync[k] += value`` atomically; returns the value before.")
+atomic_swap = _read_modify_write("xchg", "``sync[k] = value`` atomically; returns the value before.")
 
 
 @intrinsic

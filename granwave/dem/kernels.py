@@ -40,11 +40,9 @@ import math
 
 import numba
 import numpy as np
-from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
 
 from .. import contact as C
+from .. import team
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from ..geometry import nearest_image
 from . import neighbours
@@ -216,46 +214,18 @@ def block_bounds(b, n, nblk):
     return b * n // nblk, (b + 1) * n // nblk
 
 
-def _flag_args(claims, b) -> bool:
-    """Typing of the block-flag intrinsics: an int64 vector and an integer block number."""
-    return (isinstance(claims, types.Array) and claims.dtype == types.int64 and claims.ndim == 1
-            and isinstance(b, types.Integer))
+@numba.njit(cache=True, inline="always")
+def take_block(claims, b):
+    """Mark block b taken: ``claims[1 + b]`` exchanged with 1 atomically (an LLVM ``atomicrmw
+    xchg``, :func:`granwave.team.atomic_swap`). Returns the flag before: 0 when this caller took
+    the block, 1 when someone had."""
+    return team.atomic_swap(claims, b + 1, 1)
 
 
-def _flag_pointer(context, builder, sig, args):
-    """LLVM pointer to ``claims[1 + b]`` (the flag of block b) for the block-flag intrinsics."""
-    aryty = sig.args[0]
-    ary = context.make_array(aryty)(context, builder, args[0])
-    k = builder.add(context.cast(builder, args[1], sig.args[1], types.intp), context.get_constant(types.intp, 1))
-    return cgutils.get_item_pointer(context, builder, aryty, ary, [k])
-
-
-@intrinsic
-def take_block(typingctx, claims, b):
-    """Mark block b taken: ``claims[1 + b]`` exchanged with 1 atomically (LLVM ``atomicrmw xchg``;
-    numba has no atomics on the CPU, hence this intrinsic). Returns the flag before: 0 when this
-    caller took the block, 1 when someone had."""
-    if not _flag_args(claims, b):
-        return None
-
-    def codegen(context, builder, sig, args):
-        one = context.get_constant(types.int64, 1)
-        return builder.atomic_rmw("xchg", _flag_pointer(context, builder, sig, args), one, "monotonic")
-
-    return types.int64(claims, b), codegen
-
-
-@intrinsic
-def block_taken(typingctx, claims, b):
-    """Whether block b is taken (``claims[1 + b]`` read atomically, LLVM ``load atomic``)."""
-    if not _flag_args(claims, b):
-        return None
-
-    def codegen(context, builder, sig, args):
-        flag = builder.load_atomic(_flag_pointer(context, builder, sig, args), "monotonic", 8)
-        return builder.icmp_signed("!=", flag, context.get_constant(types.int64, 0))
-
-    return types.boolean(claims, b), codegen
+@numba.njit(cache=True, inline="always")
+def block_taken(claims, b):
+    """Whether block b is taken (``claims[1 + b]`` read atomically)."""
+    return team.atomic_load(claims, b + 1) != 0
 
 
 @numba.njit(cache=True, inline="always")
