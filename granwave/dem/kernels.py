@@ -267,6 +267,17 @@ def visit_block(t, threads, nblk, j):
 
 
 @numba.njit(cache=True, inline="always")
+def claim_block(claims, t, threads, nblk, j):
+    """The j-th block of thread t's order (:func:`visit_block`) if t should try it
+    (:func:`worth_taking`) and took it (:func:`take_block`); else -1. A force pass runs, per
+    thread t, the blocks that ``claim_block(claims, t, threads, nblk, j)`` gives for j < nblk."""
+    b = visit_block(t, threads, nblk, j)
+    if worth_taking(claims, t, threads, nblk, b) and take_block(claims, b) == 0:
+        return b
+    return -1
+
+
+@numba.njit(cache=True, inline="always")
 def open_claims(claims, nblk):
     """Clear the taken flags before a pass; the thread count (``claims[0]``, set by the engines)."""
     for b in range(nblk):
@@ -637,8 +648,8 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     threads = open_claims(claims, nblk)
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
         for j in range(nblk):
-            b = visit_block(t, threads, nblk, j)
-            if worth_taking(claims, t, threads, nblk, b) and take_block(claims, b) == 0:
+            b = claim_block(claims, t, threads, nblk, j)
+            if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_ft, pair_ov,
                                 fpar, nbr, gl, nlo, nblk, inc_start, inc_g, slot_start, bnd_f, blk_g)
 
@@ -798,8 +809,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     threads = open_claims(claims, nblk)
     for t in numba.prange(threads):
         for j in range(nblk):
-            b = visit_block(t, threads, nblk, j)
-            if worth_taking(claims, t, threads, nblk, b) and take_block(claims, b) == 0:
+            b = claim_block(claims, t, threads, nblk, j)
+            if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
                            out_start, out_slot, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p)
