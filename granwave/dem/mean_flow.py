@@ -24,6 +24,7 @@ velocities as the damping itself, in grain order (deterministic), by the one-thr
 from __future__ import annotations
 
 import numba
+import numpy as np
 
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
@@ -118,7 +119,7 @@ def add_slab_damping(lo, hi, pos, mass, gamma, mflow, slabs, force):
     # the compaction (gamma_l = gamma): not added, so its bits are those of the rule without it
     n_lat = z if lateral_on(gamma, mflow) else 0
     ns = slabs.shape[1]
-    for i in range(lo, hi):
+    for i in range(np.uint64(lo), np.uint64(hi)):  # unsigned: kernels.grains
         k = _slab(pos[i, z], inv_slab, ns)
         force[i, z] += extra * mass[i] * slabs[S_VZ, k]
         for a in range(n_lat):
