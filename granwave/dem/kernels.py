@@ -465,8 +465,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     room for ``boundary`` incoming pairs (at least :func:`boundary_room`); indexed by the W_* constants:
     the neighbour and gather lists, counts and pair-list offsets of
     :func:`granwave.dem.neighbours.rebuild` and its size request (pairs, width, incoming pairs),
-    the incoming grains and pairs of each block and the place of each incoming pair in its
-    owner's row order (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
+    each block's incoming pairs (their slots) and the place of each in its owner's row order
+    (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
     the constants of each of ``cap`` listed pairs (:func:`pair_constants`), the wall list
     (:func:`wall_list`), per incoming pair
     the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
@@ -480,8 +480,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     cap_b = max(boundary_room(n), int(boundary))
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
-            np.zeros(3, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(max(1, n), np.int64),
-            np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)), np.zeros(n + 1, np.int64),
+            np.zeros(3, np.int64), np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)),
+            np.zeros(n + 1, np.int64),
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
@@ -489,8 +489,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
 
 
 # workspace entries
-W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_INC, W_INCG, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, \
-    W_SPAIR, W_OSLOT, W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM = range(24)
+W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, W_SPAIR, W_OSLOT, \
+    W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM = range(22)
 
 
 def with_blocks(ws: tuple, nblk: int) -> tuple:
@@ -499,7 +499,7 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
     if ws[W_BLK].shape[0] == nblk:
         return ws
     new = list(ws)
-    for w in (W_INC, W_SLOT, W_OUT):
+    for w in (W_SLOT, W_OUT):
         new[w] = np.zeros(nblk + 1, np.int64)
     new[W_BLK] = np.zeros((nblk, N_GCOL))
     new[W_TILE], new[W_TILEP] = PT.scratch(nblk)
@@ -509,11 +509,10 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
 
 
 @numba.njit(cache=True)
-def incoming_lists(nbr, nlo, gl, row, nblk, inc_start, inc_g, slot_start, out_start, slot_pair, out_slot):
+def incoming_lists(nbr, nlo, gl, row, nblk, slot_start, out_start, slot_pair, out_slot):
     """The incoming pairs of each of ``nblk`` blocks: pairs (k, g) with g in the block and k below
-    it (row k belongs to an earlier block). Block b's grains with such pairs, increasing, into
-    ``inc_g[inc_start[b]:inc_start[b + 1]]``; its incoming pairs, in the order of those grains
-    and then of k (each grain's order of the one-thread loop), get the slots
+    it (row k belongs to an earlier block). Block b's incoming pairs, in the order of its grains
+    g and then of k (each grain's order of the one-thread loop), get the slots
     ``slot_start[b]:slot_start[b + 1]`` (``slot_pair``: their pair indices). ``out_slot`` lists
     the slots in increasing pair index, i.e. in the order the owner rows meet them, block b's
     rows from ``out_start[b]``. From the sorted neighbour rows of the last rebuild; serial
@@ -521,23 +520,17 @@ def incoming_lists(nbr, nlo, gl, row, nblk, inc_start, inc_g, slot_start, out_st
     exceeds the room of ``slot_pair`` only that count is valid."""
     n = nlo.shape[0]
     cap = slot_pair.shape[0]
-    q = 0
     s = 0
     for b in range(nblk):
-        inc_start[b] = q
         slot_start[b] = s
         b0, b1 = block_bounds(b, n, nblk)
         for g in range(b0, b1):
-            if nlo[g] > 0 and nbr[g, 0] < b0:
-                inc_g[q] = g
-                q += 1
-                for t in range(nlo[g]):
-                    if nbr[g, t] >= b0:
-                        break
-                    if s < cap:
-                        slot_pair[s] = gl[g, t]
-                    s += 1
-    inc_start[nblk] = q
+            for t in range(nlo[g]):
+                if nbr[g, t] >= b0:
+                    break
+                if s < cap:
+                    slot_pair[s] = gl[g, t]
+                s += 1
     slot_start[nblk] = s
     if s > cap:
         return s
@@ -570,8 +563,8 @@ def prepare_blocks(rad, mass, inertia, ws, nblk):
 
 @numba.njit(cache=True)
 def _lists(ws, nblk):
-    s = incoming_lists(ws[W_NBR], ws[W_NLO], ws[W_GL], ws[W_ROW], nblk, ws[W_INC], ws[W_INCG], ws[W_SLOT],
-                       ws[W_OUT], ws[W_SPAIR], ws[W_OSLOT])
+    s = incoming_lists(ws[W_NBR], ws[W_NLO], ws[W_GL], ws[W_ROW], nblk, ws[W_SLOT], ws[W_OUT], ws[W_SPAIR],
+                       ws[W_OSLOT])
     ws[W_NEED][2] = s
     return s
 
@@ -985,14 +978,14 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     mflow = ws[W_MFLOW]
     if mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0:  # the slabs' mean flow, from this step's velocities
         slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, ws[W_SLABS])
-    _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
-                   nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM])
+    _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
+                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
-              ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS], ws[W_TILE],
-              ws[W_TILEP], ws[W_CLAIM])
+              ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS],
+              ws[W_TILE], ws[W_TILEP], ws[W_CLAIM])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
