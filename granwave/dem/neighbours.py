@@ -113,36 +113,63 @@ def find_neighbours(pos, rad, lateral, h, skin, nbr, ncnt, nlo):
 def _search(i, pos, rad, lateral, skin, coord, nc, start, members, brute, nbr, ncnt, nlo):
     """Grain i's neighbours in the cells around its own (all grains when ``brute``), sorted."""
     d = pos.shape[1]
-    n_off = 1 if brute else 3**d
     cnt = 0
     lo = 0
-    for o in range(n_off):
-        rest = o
-        idx = 0
-        ok = True
-        for a in range(d):
-            shift = rest % 3 - 1 if not brute else 0
-            rest //= 3
-            c = coord[i, a] + shift
-            if a < d - 1:
-                c = c % nc[a]
-            elif c < 0 or c >= nc[a]:
-                ok = False
-            idx = idx * nc[a] + c
-        if not ok:
-            continue
-        for q in range(start[idx], start[idx + 1]):
-            j = members[q]
-            if j == i:
-                continue
-            r2, lim2 = _pair_distance2(pos, rad, lateral, skin, i, j)
-            if r2 < lim2:
-                _insert(nbr, i, cnt, j)
-                cnt += 1
-                if j < i:
-                    lo += 1
+    if brute:
+        cnt, lo = _search_cell(i, 0, pos, rad, lateral, skin, start, members, nbr, cnt, lo)
+    else:
+        # the 3^d cells around, by offsets -1, 0, 1 per axis: the lateral axes wrap (nc >= 3
+        # there, else brute), the vertical one is clamped. Written without / and %: an integer
+        # division per axis and cell was most of a rebuild's time (insertion keeps the row sorted,
+        # so the visiting order does not matter)
+        c0 = coord[i, 0]
+        c1 = coord[i, 1]
+        c2 = coord[i, 2] if d == 3 else 0
+        for o0 in range(-1, 2):
+            x = _wrap_cell(c0 + o0, nc[0])
+            for o1 in range(-1, 2):
+                if d == 2:
+                    y = c1 + o1
+                    if y < 0 or y >= nc[1]:
+                        continue
+                    cnt, lo = _search_cell(i, x * nc[1] + y, pos, rad, lateral, skin, start, members, nbr,
+                                           cnt, lo)
+                else:
+                    y = _wrap_cell(c1 + o1, nc[1])
+                    for o2 in range(-1, 2):
+                        z = c2 + o2
+                        if z < 0 or z >= nc[2]:
+                            continue
+                        cnt, lo = _search_cell(i, (x * nc[1] + y) * nc[2] + z, pos, rad, lateral, skin, start,
+                                               members, nbr, cnt, lo)
     ncnt[i] = cnt
     nlo[i] = lo
+
+
+@numba.njit(cache=True, inline="always")
+def _wrap_cell(c, n):
+    """Cell index c in [-1, n] folded into [0, n) (periodic axis)."""
+    if c < 0:
+        return c + n
+    if c >= n:
+        return c - n
+    return c
+
+
+@numba.njit(cache=True, inline="always")
+def _search_cell(i, idx, pos, rad, lateral, skin, start, members, nbr, cnt, lo):
+    """Add grain i's neighbours among the members of cell ``idx`` to its sorted row."""
+    for q in range(start[idx], start[idx + 1]):
+        j = members[q]
+        if j == i:
+            continue
+        r2, lim2 = _pair_distance2(pos, rad, lateral, skin, i, j)
+        if r2 < lim2:
+            _insert(nbr, i, cnt, j)
+            cnt += 1
+            if j < i:
+                lo += 1
+    return cnt, lo
 
 
 @numba.njit(cache=True, parallel=True)
