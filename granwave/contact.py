@@ -175,18 +175,26 @@ def project_tangential3(fx: float, fy: float, fz: float, nx: float, ny: float, n
     force loop keeps everything in registers); 2D passes fz = nz = 0, which leaves
     the 2D arithmetic unchanged.
     """
-    dot = fx * nx + fy * ny + fz * nz
-    old2 = fx * fx + fy * fy + fz * fz
-    fx -= dot * nx
-    fy -= dot * ny
-    fz -= dot * nz
-    new2 = fx * fx + fy * fy + fz * fz
+    fx, fy, fz, old2, new2 = tangential_part3(fx, fy, fz, nx, ny, nz)
     if new2 > 0.0:
         scale = math.sqrt(old2 / new2)
         fx *= scale
         fy *= scale
         fz *= scale
     return fx, fy, fz
+
+
+@numba.njit(cache=True, inline="always")
+def tangential_part3(fx: float, fy: float, fz: float, nx: float, ny: float, nz: float):
+    """F_t without its component along the unit normal n, and |F_t|^2 before and after:
+    (fx, fy, fz, old2, new2); :func:`project_tangential3` then restores the magnitude
+    (the tile law of granwave.dem.pair_tile takes the root of old2 / new2 in a vector loop)."""
+    dot = fx * nx + fy * ny + fz * nz
+    old2 = fx * fx + fy * fy + fz * fz
+    fx -= dot * nx
+    fy -= dot * ny
+    fz -= dot * nz
+    return fx, fy, fz, old2, fx * fx + fy * fy + fz * fz
 
 
 @numba.njit(cache=True, inline="always")
@@ -202,11 +210,32 @@ def update_tangential3(fx: float, fy: float, fz: float, sx: float, sy: float, sz
     False is the plain incremental law of the pulses), the increment k_t Δs and
     the Coulomb cap (module docstring). ``slid`` is True when the contact slides.
     """
-    if rescale_on_unloading and overlap_new < overlap_old and overlap_old > 0.0:
-        scale = math.sqrt(overlap_new / overlap_old) if overlap_new > 0.0 else 0.0
+    if unloads(overlap_old, overlap_new, rescale_on_unloading):
+        scale = unloading_scale(overlap_old, overlap_new)
         fx *= scale
         fy *= scale
         fz *= scale
+    return increment_and_cap3(fx, fy, fz, sx, sy, sz, kt_new, fn, friction)
+
+
+@numba.njit(cache=True, inline="always")
+def unloads(overlap_old: float, overlap_new: float, rescale_on_unloading: bool) -> bool:
+    """Whether step 1 of the update applies (module docstring): the rescale rule is on and
+    the overlap fell."""
+    return rescale_on_unloading and overlap_new < overlap_old and overlap_old > 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def unloading_scale(overlap_old: float, overlap_new: float) -> float:
+    """Step 1's factor k_t(n_new) / k_t(n_old) = sqrt(n_new / n_old); 0 once the contact opened."""
+    return math.sqrt(overlap_new / overlap_old) if overlap_new > 0.0 else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def increment_and_cap3(fx: float, fy: float, fz: float, sx: float, sy: float, sz: float, kt_new: float,
+                       fn: float, friction: float):
+    """Steps 2 and 3 of the update (module docstring): F_t + k_t Δs, put back on the Coulomb
+    cone |F_t| <= friction fn; returns (fx, fy, fz, slid)."""
     fx += kt_new * sx
     fy += kt_new * sy
     fz += kt_new * sz

@@ -110,7 +110,8 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             t[T_NY * ROW + c] = t[T_DY * ROW + c] / dist
             t[T_DELTA * ROW + c] = t[T_RS * ROW + c] - dist
     # stage 2: relative velocity at the contact point, the pair's constants, the history
-    # carried into the new tangent plane up to its rescale (contact.project_tangential3)
+    # carried into the new tangent plane up to its rescale (contact.tangential_part3, the first
+    # half of project_tangential3)
     for c in range(nc):
         q = np.uint64(tp[c])
         i = np.uint64(pair_i[q])
@@ -135,12 +136,9 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             hx = pair_ft[q, 0]
             hy = pair_ft[q, 1]
             hz = pair_ft[q, 2] if d == 3 else 0.0
-            dot = hx * nx + hy * ny + hz * nz
-            t[T_OLD2 * ROW + c] = hx * hx + hy * hy + hz * hz
-            hx -= dot * nx
-            hy -= dot * ny
-            hz -= dot * nz
-            t[T_NEW2 * ROW + c] = hx * hx + hy * hy + hz * hz
+            hx, hy, hz, old2, new2 = C.tangential_part3(hx, hy, hz, nx, ny, nz)
+            t[T_OLD2 * ROW + c] = old2
+            t[T_NEW2 * ROW + c] = new2
             t[T_GX * ROW + c] = hx
             t[T_GY * ROW + c] = hy
             t[T_GZ * ROW + c] = hz
@@ -148,8 +146,8 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             t[T_OVOLD * ROW + c] = pair_ov[q]
     # vector: Hertz, k_n and the normal damping coefficient through contact.py's own functions
     # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the
-    # projection's and the unloading's rescales (their quotients may be inf or NaN where
-    # stage 3 does not use them)
+    # projection's rescale (its quotient may be inf or NaN where stage 3 does not use it) and
+    # the unloading's (contact.unloading_scale)
     for c in range(nc):
         delta = t[T_DELTA * ROW + c]
         root = t[T_ROOT * ROW + c]
@@ -162,10 +160,11 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             t[T_KT * ROW + c] = kt
             t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
             t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
-            t[T_SRES * ROW + c] = math.sqrt(delta / t[T_OVOLD * ROW + c])
-    # stage 3: the incremental Mindlin update with its Coulomb cap (contact.update_tangential3;
-    # a sliding contact's root and quotient stay scalar), the damped normal force (never
-    # attractive), the force on i, the new history; forces and torques added in list order
+            t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
+    # stage 3: the projection's rescale, then contact.update_tangential3's steps through its own
+    # pieces (unloads, the factor from the vector loop, increment_and_cap3: a sliding contact's
+    # root and quotient stay scalar), the damped normal force (never attractive), the force on i,
+    # the new history; forces and torques added in list order
     for c in range(nc):
         q = np.uint64(tp[c])
         i = np.uint64(pair_i[q])
@@ -192,24 +191,13 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
                 gx *= scale
                 gy *= scale
                 gz *= scale
-            overlap_old = t[T_OVOLD * ROW + c]
-            if rescale and delta < overlap_old and overlap_old > 0.0:
-                scale = t[T_SRES * ROW + c] if delta > 0.0 else 0.0
+            if C.unloads(t[T_OVOLD * ROW + c], delta, rescale):
+                scale = t[T_SRES * ROW + c]
                 gx *= scale
                 gy *= scale
                 gz *= scale
-            kt = t[T_KT * ROW + c]
-            gx += kt * (tx * dt)
-            gy += kt * (ty * dt)
-            gz += kt * (tz * dt)
-            f2 = gx * gx + gy * gy + gz * gz
-            cap_t = mu * fel
-            slid = f2 > cap_t * cap_t
-            if slid:
-                scale = cap_t / math.sqrt(f2) if f2 > 0.0 else 0.0
-                gx *= scale
-                gy *= scale
-                gz *= scale
+            gx, gy, gz, slid = C.increment_and_cap3(gx, gy, gz, tx * dt, ty * dt, tz * dt, t[T_KT * ROW + c], fel,
+                                                    mu)
             ct = 0.0
             if zeta > 0.0 and not slid:
                 ct = t[T_CT * ROW + c]

@@ -21,12 +21,14 @@ from numba import cuda
 from .. import contact, geometry
 from ..dem import kernels as K
 
-#: The scalar functions of granwave.contact used by the per-contact routine (and each other).
+#: The scalar functions of granwave.contact used by the per-contact routine (and each other; a
+#: function after those it calls: each copy binds the names made before it).
 CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius", "effective_young",
                      "effective_shear", "normal_force_root", "normal_force", "normal_energy",
                      "normal_stiffness_root", "normal_stiffness",
                      "tangential_stiffness", "damping_coefficient", "reduced_mass",
-                     "total_normal_force", "project_tangential3", "update_tangential3")
+                     "total_normal_force", "tangential_part3", "project_tangential3", "unloads",
+                     "unloading_scale", "increment_and_cap3", "update_tangential3")
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
 ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_contact_velocity", "_add_torque3",
