@@ -639,7 +639,7 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
-                   nblk, slot_start, slot_pair, bnd_f, blk_g, claims):
+                   nblk, slot_start, slot_pair, bnd_f, blk_g, claims, mflow, slabs):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
     the tangential history update: no one else touches that pair in this step), subtracts the
@@ -647,9 +647,16 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
-    these pairs into ``blk_g``."""
+    these pairs into ``blk_g``. With the compaction rule 'mean-flow' (``mflow`` non-empty) and
+    a background damping, one thread first takes the slabs' means into ``slabs`` for phase 2
+    (:func:`granwave.dem.mean_flow.slab_means`, serial, in grain order) while the others start
+    on the blocks and take over its blocks (a serial pass between the regions left the other
+    thread idle, and long enough to fall asleep)."""
     threads = open_claims(claims, nblk)
+    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
+        if t == 0 and slab_job:
+            slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, slabs)
         for j in range(nblk):
             b = claim_block(claims, t, threads, nblk, j)
             if b >= 0:
@@ -976,10 +983,9 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     top_f = ws[W_TOP]
     pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
-    if mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0:  # the slabs' mean flow, from this step's velocities
-        slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, ws[W_SLABS])
+    # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM])
+                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM], mflow, ws[W_SLABS])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
