@@ -794,10 +794,11 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
     block was computed by j's block in phase 1, and its force and torque on i are taken from
-    its slot at its place in the row order. Then, per grain of the block, its bottom and top
-    wall contacts and the background damping -gamma m v, -gamma I w (with the compaction rule
-    'mean-flow', ``mflow`` non-empty, the slabs' mean vertical and lateral flows at their own
-    rates from the slab means in ``slabs``, computed before the passes): for every grain the terms
+    its slot once the block's rows are done (a row's such pairs are its last). Then, per grain
+    of the block, its bottom and top wall contacts and the background damping -gamma m v,
+    -gamma I w (with the compaction rule 'mean-flow', ``mflow`` non-empty, the slabs' mean
+    vertical and lateral flows at their own rates from the slab means in ``slabs``, taken in
+    phase 1): for every grain the terms
     of the one-thread loop in its order (phase 1 gave the first ones), so its force is bit for
     bit that loop's. Only the block's own grains are read or written, apart from the slots.
 
