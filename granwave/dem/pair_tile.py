@@ -78,9 +78,10 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
         j = pair_j[pu]
         if j < jmax:
             i = np.uint64(pair_i[pu])
-            dx, dy, dz = K._pair_geometry(pos, lateral, i, np.uint64(j))
+            ju = np.uint64(j)
+            dx, dy, dz = K._pair_geometry(pos, lateral, i, ju)
             r2 = dx * dx + dy * dy + dz * dz
-            rs = rad[i] + rad[np.uint64(j)]
+            rs = rad[i] + rad[ju]
             if r2 >= rs * rs:
                 if pair_ov[pu] != 0.0:  # the contact opened: its history is destroyed
                     pair_ov[pu] = 0.0
