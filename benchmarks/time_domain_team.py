@@ -1,6 +1,7 @@
 """The time domain's team of threads against numba's two parallel regions per step (a script, not a test).
 
     python benchmarks/time_domain_team.py [--threads 1,2,4,8,16] [--grains 10000,100000] [--repeat 3]
+        [--chunks 2,4,16]
 
 In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), best of
 ``--repeat`` runs per variant and thread count, interleaved: wall ms per velocity-Verlet step of
@@ -8,8 +9,12 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
 - "two regions/step": the kernel before granwave.team (a ``prange`` loop for the kick-drift and
   one for the matvec and second half kick: two OpenMP fork-joins per step), which granwave keeps
   for where no team can run (``propagate._verlet_regions``);
-- "team, no PAUSE": the team with a bare spin in its barriers;
-- "team (granwave)": :func:`granwave.linear.propagate.verlet_steps` as shipped;
+- "team, fixed shares": one parallel region per call, the phases separated by spin barriers
+  (granwave.team), each thread drifting and kicking a fixed share of the rows (granwave's
+  kernel until its shared chunks);
+- "team (granwave, 8 chunks/thread)": :func:`granwave.linear.propagate.verlet_steps` as
+  shipped: the rows in chunks, a thread done early taking over a late one's last chunks;
+- "shared, k chunks/thread": the same kernel with ``--chunks`` k per thread;
 
 each as a ratio to the first at one thread, and whether every variant at every thread count
 left the same bytes. Measured on the 16-core machine of docs/linear.md ("Sixteen cores").
@@ -34,23 +39,14 @@ from linear import lattice  # noqa: E402
 
 from granwave import team as T  # noqa: E402
 from granwave.linear.assemble import linearize  # noqa: E402
-from granwave.linear.propagate import (_drift_rows, _kick_rows, _verlet_regions, stable_time_step,  # noqa: E402
-                                      verlet_steps)
-
-
-@numba.njit(inline="always")
-def _bare_barrier(sync, threads, gen):
-    if T.atomic_add(sync, T.S_COUNT, 1) == threads - 1:
-        T.atomic_store(sync, T.S_COUNT, 0)
-        T.atomic_store(sync, T.S_GEN, gen + 1)
-    else:
-        while T.atomic_load(sync, T.S_GEN) == gen:
-            pass
-    return gen + 1
+from granwave.linear.propagate import (CHUNKS_PER_THREAD, _drift_rows, _kick_rows,  # noqa: E402
+                                      _verlet_regions, stable_time_step, verlet_steps)
 
 
 @numba.njit(parallel=True)
-def team_without_pause(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync):
+def team_fixed_shares(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync):
+    """The team as granwave ran it before its shared chunks: thread t drifts and kicks a fixed
+    share of the rows, t * n // threads .. (t + 1) * n // threads - 1."""
     n = u.shape[0]
     threads = T.team_size(sync)
     for t in numba.prange(threads):
@@ -60,15 +56,39 @@ def team_without_pause(indptr, indices, data, minv, u, v, a, dt, n_steps, flush,
             gen = 0
             for _ in range(n_steps):
                 _drift_rows(lo, hi, u, v, a, dt, flush)
-                gen = _bare_barrier(sync, threads, gen)
+                gen = T.barrier(sync, threads, gen)
                 _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
-                gen = _bare_barrier(sync, threads, gen)
+                gen = T.barrier(sync, threads, gen)
 
 
-VARIANTS = ("two regions/step", "team, no PAUSE", "team (granwave)")
+@numba.njit(parallel=True)
+def team_shared_chunks(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, k):
+    """granwave's team kernel (``propagate._verlet_team``) with ``k`` chunks per thread as an
+    argument instead of CHUNKS_PER_THREAD."""
+    n = u.shape[0]
+    threads = T.team_size(sync)
+    nchunk = k * threads
+    for t in numba.prange(threads):
+        if T.enter(sync, threads):
+            gen = 0
+            for _ in range(n_steps):
+                for j in range(nchunk):
+                    c = T.claim_chunk(claims, t, threads, k, j, gen + 1)
+                    if c >= 0:
+                        _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
+                gen = T.barrier(sync, threads, gen)
+                for j in range(nchunk):
+                    c = T.claim_chunk(claims, t, threads, k, j, gen + 1)
+                    if c >= 0:
+                        _kick_rows(c * n // nchunk, (c + 1) * n // nchunk, indptr, indices, data, minv,
+                                   u, v, a, dt, flush)
+                gen = T.barrier(sync, threads, gen)
 
 
-def measure(n_grains: int, threads: list[int], repeat: int) -> None:
+VARIANTS = ("two regions/step", "team, fixed shares", f"team (granwave, {CHUNKS_PER_THREAD} chunks/thread)")
+
+
+def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -> None:
     system = linearize(lattice(n_grains), check=False)
     dt, _ = stable_time_step(system)
     D = system.stiffness.tocsr()
@@ -77,11 +97,12 @@ def measure(n_grains: int, threads: list[int], repeat: int) -> None:
     ip, ix = D.indptr.astype(np.int64), D.indices.astype(np.int64)
     steps = max(300, int(2e8 / D.nnz))
     sync = T.new_sync()
+    variants = VARIANTS + tuple(f"shared, {k} chunks/thread" for k in chunks)
     best, finals = {}, set()
     for _ in range(repeat):
         for t in threads:
             numba.set_num_threads(t)
-            for name in VARIANTS:
+            for name in variants:
                 u, v, a = np.zeros(system.n_dof), system.source_velocity.copy(), np.zeros(system.n_dof)
 
                 def run(k):
@@ -89,11 +110,18 @@ def measure(n_grains: int, threads: list[int], repeat: int) -> None:
                         _verlet_regions(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200)
                     elif name == VARIANTS[1]:
                         T.reset_team(sync, t)
-                        team_without_pause(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
+                        team_fixed_shares(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
                         if not T.entered(sync):
                             raise RuntimeError("the team did not run")
-                    else:
+                    elif name == VARIANTS[2]:
                         verlet_steps(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
+                    else:
+                        per = int(name.split(", ")[1].split()[0])
+                        T.reset_team(sync, t)
+                        claims = np.zeros(per * t, np.int64)
+                        team_shared_chunks(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync, claims, per)
+                        if not T.entered(sync):
+                            raise RuntimeError("the team did not run")
 
                 run(3)  # compile, warm up
                 u[:] = 0.0
@@ -106,8 +134,8 @@ def measure(n_grains: int, threads: list[int], repeat: int) -> None:
     print(f"\n{system.n_dof} dofs ({n_grains} grains), {D.nnz} stiffness entries, {steps} steps; "
           f"best of {repeat}; same bits for every variant and thread count: {len(finals) == 1}")
     one = best[VARIANTS[0], threads[0]]
-    for name in VARIANTS:
-        print(f"  {name:17s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
+    for name in variants:
+        print(f"  {name:24s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
                                           for t in threads), flush=True)
 
 
@@ -116,10 +144,11 @@ def main() -> None:
     ap.add_argument("--threads", default="1,2", help="comma-separated thread counts, 1 first")
     ap.add_argument("--grains", default="10000", help="comma-separated lattice sizes (grains)")
     ap.add_argument("--repeat", type=int, default=3, help="runs per variant and thread count (the best counts)")
+    ap.add_argument("--chunks", default="", help="chunks per thread of extra shared-chunks variants, e.g. 1,4,16")
     args = ap.parse_args()
     threads = [int(x) for x in args.threads.split(",")]
     for n in (int(x) for x in args.grains.split(",")):
-        measure(n, threads, args.repeat)
+        measure(n, threads, args.repeat, [int(x) for x in args.chunks.split(",") if x])
 
 
 if __name__ == "__main__":

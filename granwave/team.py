@@ -262,6 +262,36 @@ def barrier(sync, threads, gen):
     return gen + 1
 
 
+@numba.njit(cache=True, inline="always")
+def chunk_visit(t, threads, k, j):
+    """The j-th chunk (of ``k`` per thread, ``k * threads`` in all, thread u owning chunks
+    u*k .. u*k + k - 1) that thread t offers to take in a phase: its own ascending, then each
+    other thread's from the far end."""
+    if j < k:
+        return t * k + j
+    j -= k
+    u = (t + 1 + j // k) % threads
+    return u * k + k - 1 - j % k
+
+
+@numba.njit(cache=True, inline="always")
+def claim_chunk(claims, t, threads, k, j, phase):
+    """The chunk of thread t's j-th visit (:func:`chunk_visit`) if t takes it in ``phase``, else
+    -1. A phase runs, per thread t, the chunks that this gives for j < k * threads: each chunk
+    exactly once. ``claims[c] == phase`` once chunk c is taken (an atomic exchange; ``claims``
+    starts below every phase and phases increase). A thread takes all of its own chunks that
+    nobody took, and another's only while the owner has not reached the chunk before it, so
+    that threads keeping pace each compute their own rows from their own cache and a thread
+    done early (a late or slow vCPU elsewhere) takes over the far end of another's share.
+    Integer atomics decide only who computes a chunk: never a value."""
+    c = chunk_visit(t, threads, k, j)
+    if c // k != t and (c % k == 0 or atomic_load(claims, c - 1) == phase):
+        return -1
+    if atomic_swap(claims, c, phase) == phase:
+        return -1
+    return c
+
+
 def entered(sync) -> bool:
     """Whether the last region's team ran (every thread arrived at :func:`enter`)."""
     return bool(sync[S_ENTRY] >= sync[S_SIZE])

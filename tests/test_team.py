@@ -113,6 +113,64 @@ def test_team_steps_are_the_per_step_loops_bit_for_bit(threads):
     assert np.abs(got[0] - u).max() < 1e-10 * scale
 
 
+@numba.njit(parallel=True)
+def _claim_phases(sync, claims, k, phases, who, hold):
+    """``phases`` phases of chunk claims: who[p, c] counts the claims of chunk c in phase p (each
+    written by its one claimer), who[phases + p, c] = 1 + the thread that took it. With ``hold``,
+    thread 1 starts each phase only after thread 0 has visited every chunk (``hold[0]``)."""
+    threads = team.team_size(sync)
+    nchunk = k * threads
+    for t in numba.prange(threads):
+        if team.enter(sync, threads):
+            gen = 0
+            for p in range(phases):
+                if hold.shape[0] > 0 and t == 1:
+                    while team.atomic_load(hold, 0) <= p:
+                        team.spin_pause()
+                for j in range(nchunk):
+                    c = team.claim_chunk(claims, t, threads, k, j, gen + 1)
+                    if c >= 0:
+                        who[p, c] += 1
+                        who[phases + p, c] = t + 1
+                if hold.shape[0] > 0 and t == 0:
+                    team.atomic_store(hold, 0, p + 1)
+                gen = team.barrier(sync, threads, gen)
+
+
+def _run_claims(threads, k, phases, hold):
+    sync = team.new_sync()
+    claims = np.zeros(k * threads, np.int64)
+    who = np.zeros((2 * phases, k * threads), np.int64)
+    with_threads = numba.get_num_threads()
+    numba.set_num_threads(threads)
+    try:
+        team.reset_team(sync, threads)
+        _claim_phases(sync, claims, k, phases, who, np.zeros(1 if hold else 0, np.int64))
+    finally:
+        numba.set_num_threads(with_threads)
+    assert team.entered(sync)
+    return who[:phases], who[phases:]
+
+
+def test_one_thread_claims_each_chunk_once_in_order():
+    count, taker = _run_claims(1, 8, 5, hold=False)
+    assert (count == 1).all() and (taker == 1).all()
+
+
+@two_threads
+def test_chunks_are_each_claimed_once_and_a_late_threads_far_end_is_taken_over():
+    """Every chunk exactly once per phase, whoever is fast (500 phases, free running); with
+    thread 1 held until thread 0 has visited every chunk, thread 0 takes its own k chunks and
+    the last k - 1 of thread 1's share, and thread 1 keeps the first of its own."""
+    k = 8
+    count, _ = _run_claims(2, k, 500, hold=False)
+    assert (count == 1).all()
+    count, taker = _run_claims(2, k, 20, hold=True)
+    assert (count == 1).all()
+    expected = np.array([1] * k + [2] + [1] * (k - 1))
+    assert (taker == expected).all()
+
+
 @two_threads
 def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
     """A team that cannot be complete does no step; verlet_steps then warns once and runs numba's
@@ -128,7 +186,8 @@ def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
         propagate.verlet_steps(*args, *ran, dt, 50, 0.0)
 
         team.reset_team(sync, 3, 100_000)
-        propagate._verlet_team(*args, *state, dt, 50, 0.0, sync)
+        claims = np.zeros(3 * propagate.CHUNKS_PER_THREAD, np.int64)
+        propagate._verlet_team(*args, *state, dt, 50, 0.0, sync, claims)
         assert not team.entered(sync)
         assert state[0].tobytes() == u0.tobytes() and state[1].tobytes() == v0.tobytes()
         assert not state[2].any()
