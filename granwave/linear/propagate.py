@@ -194,9 +194,9 @@ def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
 
 
 #: Chunks of rows per thread in the team (:func:`_verlet_team`): a thread done early takes over
-#: the far end of a late one's share. On a 16-vCPU virtual machine, 30 132 dofs at 16 threads:
-#: 1 chunk per thread (a fixed share) 5.9-6.7x one thread, 8 chunks 7.2-7.5x, 16 7.0x, 32
-#: 6.3x; 299 880 dofs 10.2x against 11.8x with 8 (docs/linear.md "Shared chunks")
+#: the far end of a late one's share. On 16-vCPU virtual machines, 30 132 dofs at 16 threads:
+#: a fixed share per thread 5.9-6.9x one thread, 8 chunks 7.1-7.5x, 16 7.0-7.2x, 32 6.3x;
+#: 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8 (docs/linear.md "Shared chunks")
 CHUNKS_PER_THREAD = 8
 
 
