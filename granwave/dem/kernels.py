@@ -472,8 +472,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
     grain, the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
     empty: off) and slab work array, and one pair tile's scratch per block
-    (:func:`granwave.dem.pair_tile.scratch`), the thread count and the blocks' taken flags
-    (:func:`take_block`). ``blocks``: the number of grain blocks (None:
+    (:func:`granwave.dem.pair_tile.scratch`), the thread count, the blocks' taken flags
+    (:func:`take_block`) and whether the slab means are ready (:func:`_slab_job`). ``blocks``: the number of grain blocks (None:
     :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
     n = n_grains
     nblk = block_count(n) if blocks is None else int(blocks)
@@ -485,7 +485,7 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
-            *PT.scratch(nblk), np.zeros(nblk + 1, np.int64))
+            *PT.scratch(nblk), np.zeros(nblk + 2, np.int64))
 
 
 # workspace entries
@@ -503,7 +503,7 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
         new[w] = np.zeros(nblk + 1, np.int64)
     new[W_BLK] = np.zeros((nblk, N_GCOL))
     new[W_TILE], new[W_TILEP] = PT.scratch(nblk)
-    new[W_CLAIM] = np.zeros(nblk + 1, np.int64)
+    new[W_CLAIM] = np.zeros(nblk + 2, np.int64)
     new[W_CLAIM][0] = ws[W_CLAIM][0]
     return tuple(new)
 
@@ -639,7 +639,7 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
-                   nblk, slot_start, slot_pair, bnd_f, blk_g, claims, mflow, slabs):
+                   nblk, slot_start, slot_pair, bnd_f, blk_g, claims):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
     the tangential history update: no one else touches that pair in this step), subtracts the
@@ -647,16 +647,9 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
-    these pairs into ``blk_g``. With the compaction rule 'mean-flow' (``mflow`` non-empty) and
-    a background damping, one thread first takes the slabs' means into ``slabs`` for phase 2
-    (:func:`granwave.dem.mean_flow.slab_means`, serial, in grain order) while the others start
-    on the blocks and take over its blocks (a serial pass between the regions left the other
-    thread idle, and long enough to fall asleep)."""
+    these pairs into ``blk_g``."""
     threads = open_claims(claims, nblk)
-    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
-        if t == 0 and slab_job:
-            slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, slabs)
         for j in range(nblk):
             b = claim_block(claims, t, threads, nblk, j)
             if b >= 0:
@@ -797,8 +790,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     its slot once the block's rows are done (a row's such pairs are its last). Then, per grain
     of the block, its bottom and top wall contacts and the background damping -gamma m v,
     -gamma I w (with the compaction rule 'mean-flow', ``mflow`` non-empty, the slabs' mean
-    vertical and lateral flows at their own rates from the slab means in ``slabs``, taken in
-    phase 1): for every grain the terms
+    vertical and lateral flows at their own rates from the slab means in ``slabs``, which
+    thread 0 takes first, :func:`_slab_job`): for every grain the terms
     of the one-thread loop in its order (phase 1 gave the first ones), so its force is bit for
     bit that loop's. Only the block's own grains are read or written, apart from the slots.
 
@@ -814,20 +807,44 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     # its dense top (perf on a 25 x 800 d column: the first thread waited at the barrier in half
     # of its samples, docs/dem.md). Which thread computes a block never changes a bit.
     threads = open_claims(claims, nblk)
+    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
+    claims[nblk + 1] = 0 if slab_job else 1  # the slab means: not yet / not needed
     for t in numba.prange(threads):
+        if t == 0 and slab_job:
+            _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk)
         for j in range(nblk):
             b = claim_block(claims, t, threads, nblk, j)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
                            out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile,
-                           tile_p)
+                           tile_p, claims)
+
+
+@numba.njit(cache=True, _nrt=False)
+def _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk):
+    """The slabs' means (:func:`granwave.dem.mean_flow.slab_means`: serial, in grain order, the
+    bits of the one-thread loop) into ``slabs``, then ``claims[nblk + 1]`` set (release) for the
+    blocks that wait on it (:func:`_await_slab_means`). Thread 0 runs it at the start of phase 2
+    while the others compute their blocks' pairs, which take longer, and take over its blocks;
+    in phase 1, whose blocks are short, the other threads had waited for it at the end of the
+    pass (a 21 000-grain column: 10 % of the rate at two threads against 4 % at one)."""
+    slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, slabs)
+    team.atomic_store(claims, nblk + 1, 1)
+
+
+@numba.njit(cache=True, inline="always")
+def _await_slab_means(claims, nblk):
+    """Wait until :func:`_slab_job` is done: it reads every grain's velocity and position, so no
+    block may add the slab damping, kick or drift before (acquire)."""
+    while team.atomic_load(claims, nblk + 1) == 0:
+        team.spin_pause()
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p):
+               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims):
     """Block b of :func:`_row_pass` (``tile``, ``tile_p``: the workspace's tile scratch, one
     per block)."""
     n, d = pos.shape
@@ -902,6 +919,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             for a in range(r):
                 alpha[i, a] -= gamma * inertia[i] * omega[i, a]
         if mflow.shape[0] > 0:  # after every grain's damping, as the one-thread loop
+            _await_slab_means(claims, nblk)
             add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
@@ -986,7 +1004,7 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     mflow = ws[W_MFLOW]
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM], mflow, ws[W_SLABS])
+                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
