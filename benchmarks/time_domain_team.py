@@ -14,7 +14,8 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
   kernel until its shared chunks);
 - "team (granwave, 8 chunks/thread)": :func:`granwave.linear.propagate.verlet_steps` as
   shipped: the rows in chunks, a thread done early taking over a late one's last chunks;
-- "shared, k chunks/thread": the same kernel with ``--chunks`` k per thread;
+- "shared, k chunks/thread": granwave's team kernel (``propagate._verlet_team``) with ``--chunks``
+  k per thread;
 
 each as a ratio to the first at one thread, and whether every variant at every thread count
 left the same bytes. Measured on the 16-core machine of docs/linear.md ("Sixteen cores").
@@ -40,7 +41,7 @@ from linear import lattice  # noqa: E402
 from granwave import team as T  # noqa: E402
 from granwave.linear.assemble import linearize  # noqa: E402
 from granwave.linear.propagate import (CHUNKS_PER_THREAD, _drift_rows, _kick_rows,  # noqa: E402
-                                      _verlet_regions, stable_time_step, verlet_steps)
+                                      _verlet_regions, _verlet_team, stable_time_step, verlet_steps)
 
 
 @numba.njit(parallel=True)
@@ -58,30 +59,6 @@ def team_fixed_shares(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, 
                 _drift_rows(lo, hi, u, v, a, dt, flush)
                 gen = T.barrier(sync, threads, gen)
                 _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
-                gen = T.barrier(sync, threads, gen)
-
-
-@numba.njit(parallel=True)
-def team_shared_chunks(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, k):
-    """granwave's team kernel (``propagate._verlet_team``) with ``k`` chunks per thread as an
-    argument instead of CHUNKS_PER_THREAD."""
-    n = u.shape[0]
-    threads = T.team_size(sync)
-    nchunk = k * threads
-    for t in numba.prange(threads):
-        if T.enter(sync, threads):
-            gen = 0
-            for _ in range(n_steps):
-                for j in range(nchunk):
-                    c = T.claim_chunk(claims, t, threads, k, j, gen + 1)
-                    if c >= 0:
-                        _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
-                gen = T.barrier(sync, threads, gen)
-                for j in range(nchunk):
-                    c = T.claim_chunk(claims, t, threads, k, j, gen + 1)
-                    if c >= 0:
-                        _kick_rows(c * n // nchunk, (c + 1) * n // nchunk, indptr, indices, data, minv,
-                                   u, v, a, dt, flush)
                 gen = T.barrier(sync, threads, gen)
 
 
@@ -119,7 +96,7 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
                         per = int(name.split(", ")[1].split()[0])
                         T.reset_team(sync, t)
                         claims = np.zeros(per * t, np.int64)
-                        team_shared_chunks(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync, claims, per)
+                        _verlet_team(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync, claims, per)
                         if not T.entered(sync):
                             raise RuntimeError("the team did not run")
 

@@ -187,7 +187,7 @@ def test_given_up_team_leaves_the_state_and_the_fallback_runs(monkeypatch):
 
         team.reset_team(sync, 3, 100_000)
         claims = np.zeros(3 * propagate.CHUNKS_PER_THREAD, np.int64)
-        propagate._verlet_team(*args, *state, dt, 50, 0.0, sync, claims)
+        propagate._verlet_team(*args, *state, dt, 50, 0.0, sync, claims, propagate.CHUNKS_PER_THREAD)
         assert not team.entered(sync)
         assert state[0].tobytes() == u0.tobytes() and state[1].tobytes() == v0.tobytes()
         assert not state[2].any()

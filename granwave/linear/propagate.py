@@ -201,16 +201,15 @@ CHUNKS_PER_THREAD = 8
 
 
 @numba.njit(cache=True, parallel=True)
-def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims):
+def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, k):
     """``n_steps`` steps in one parallel region (granwave.team). The rows are cut into
-    CHUNKS_PER_THREAD chunks per thread, each thread owning as many consecutive ones; per step
+    ``k`` (:data:`CHUNKS_PER_THREAD`) chunks per thread, each thread owning k consecutive ones; per step
     the threads drift the chunks they claim (:func:`granwave.team.claim_chunk`: their own, and
     the far end of a late thread's share), wait for all (the kick reads every row of u), kick
     the chunks they claim and wait again (the next drift rewrites rows that others read).
-    ``claims``: CHUNKS_PER_THREAD * team size zeros; the phase after barrier ``gen`` is gen + 1."""
+    ``claims``: k * team size zeros; the phase after barrier ``gen`` is gen + 1."""
     n = u.shape[0]
     threads = team.team_size(sync)
-    k = CHUNKS_PER_THREAD
     nchunk = k * threads
     for t in numba.prange(threads):  # one iteration per thread
         if team.enter(sync, threads):
@@ -280,7 +279,7 @@ def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv
         sync = team.new_sync() if sync is None else sync
         team.reset_team(sync, numba.get_num_threads())
         claims = np.zeros(CHUNKS_PER_THREAD * int(team.team_size(sync)), np.int64)
-        _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims)
+        _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, CHUNKS_PER_THREAD)
         if team.entered(sync):
             return
         team.give_up("time domain")  # the threads never all ran at once: nothing was done
