@@ -195,8 +195,9 @@ def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
 
 #: Chunks of rows per thread in the team (:func:`_verlet_team`): a thread done early takes over
 #: the far end of a late one's share. On 16-vCPU virtual machines, 30 132 dofs at 16 threads:
-#: a fixed share per thread 5.9-6.9x one thread, 8 chunks 7.1-7.5x, 16 7.0-7.2x, 32 6.3x;
-#: 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8 (docs/linear.md "Shared chunks")
+#: a fixed share per thread 5.9-6.9x one thread, 8 chunks 6.5-7.5x (no gain on one of three
+#: machines), 16 7.0-7.2x, 32 6.3x; 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8
+#: (docs/linear.md "Shared chunks")
 CHUNKS_PER_THREAD = 8
 
 
@@ -261,7 +262,7 @@ def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv
     spin barriers (:mod:`granwave.team`): numba's own loops opened two regions per step, and at
     16 threads, where a region cost 7 us and a barrier 1.2 us, the team ran 3e4 dofs at
     6.1-7.3x one thread against 5.6-6.2x for the two regions, and with the rows in shared
-    chunks (:data:`CHUNKS_PER_THREAD`) 7.2-7.5x (docs/linear.md). Each row's arithmetic is that
+    chunks (:data:`CHUNKS_PER_THREAD`) 6.5-7.5x (docs/linear.md). Each row's arithmetic is that
     of the former serial loops, whichever thread runs it, so the result is bit for bit the same
     for any thread count. (A single fused pass with the drift of
     the next step and a second displacement buffer was measured 30 % slower per step on one
