@@ -473,8 +473,9 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     grain, the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
     empty: off) and slab work array, and one pair tile's scratch per block
     (:func:`granwave.dem.pair_tile.scratch`), the thread count, the blocks' taken flags
-    (:func:`take_block`) and whether the slab means are ready (:func:`_slab_job`). ``blocks``: the number of grain blocks (None:
-    :func:`block_count` for one thread; :func:`with_blocks` changes it)."""
+    (:func:`take_block`) and the state of the slab means (:func:`_slab_job`). ``blocks``: the
+    number of grain blocks (None: :func:`block_count` for one thread; :func:`with_blocks`
+    changes it)."""
     n = n_grains
     nblk = block_count(n) if blocks is None else int(blocks)
     cap_b = max(boundary_room(n), int(boundary))
@@ -1012,11 +1013,11 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     top_f = ws[W_TOP]
     pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
-    # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
                    fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
+    # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
               ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS],

@@ -17,8 +17,9 @@ lateral velocity. The compaction keeps gamma_l = gamma (the term is then not add
 the bits of the rule without it); critical settling (:mod:`granwave.dem.settling`)
 lowers it with gamma_m once the plug has arrived. Computed every step from the same (half-step)
 velocities as the damping itself, in grain order (deterministic), by the one-thread loop
-(:func:`granwave.dem.serial._force_loop`) and by one thread in the parallel engine's first
-pass (:func:`granwave.dem.kernels._incoming_pass`; its second adds it per block): the same bits.
+(:func:`granwave.dem.serial._force_loop`) and by one thread at the start of the parallel
+engine's second pass (:func:`granwave.dem.kernels._slab_job`; each block adds it to its
+grains once they are ready): the same bits.
 """
 
 from __future__ import annotations
