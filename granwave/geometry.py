@@ -31,13 +31,31 @@ EXPECTED_SOLID_FRACTION_3D = 0.63  # spheres, volume fraction
 def nearest_image(x: float, length: float) -> float:
     """Lateral separation ``x`` folded to the nearest periodic image.
 
-    Valid for |x| < 1.5 length, which holds because positions are wrapped into
-    [0, length) at every neighbour-list rebuild and move less than a skin between.
+    Valid for |x| < 1.5 length, which holds because the engine keeps positions in
+    [0, length) (:func:`fold_into_box` after every drift).
     """
     if x > 0.5 * length:
         return x - length
     if x < -0.5 * length:
         return x + length
+    return x
+
+
+@numba.njit(cache=True, inline="always")
+def fold_into_box(x: float, length: float) -> float:
+    """Lateral coordinate ``x`` in [-length, 2 length) folded into [0, length).
+
+    The engine folds each coordinate at the step it leaves the box, never at a
+    neighbour-list rebuild: so the bits of a run do not depend on when the list is
+    rebuilt (hence not on the skin). A fold down (x - length, x >= length) is
+    exact; a fold up may round x + length to length, which is taken as 0.
+    """
+    if x < 0.0:
+        x += length
+        if x >= length:
+            x = 0.0
+    elif x >= length:
+        x -= length
     return x
 
 

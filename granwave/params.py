@@ -191,7 +191,8 @@ class PrepareParams(Params):
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
     (dt = (safety/0.1) x the estimated stability limit, at most MAX_SAFETY;
-    docs/dem.md); skin (d); check_every (steps between convergence checks).
+    docs/dem.md); skin and skin_min (d; the neighbour list's skin adapts between them, the
+    same packing for any skin); check_every (steps between convergence checks).
     """
 
     ATTR = "prepare_params"
@@ -246,8 +247,12 @@ class PrepareParams(Params):
                           "included; docs/dem.md).", lo=0.0, lo_open=True, hi=MAX_SAFETY,
                           why="dt is safety/0.1 of the estimated stability limit of the explicit "
                           "step, and the true limit is as low as 0.8 of the estimate (docs/dem.md)")
-    skin: float = param(0.25, help="Verlet skin of the neighbour list.", units="d", lo=0.0,
-                        lo_open=True, hi=1.0, cli="")
+    skin: float = param(0.25, help="Verlet skin of the neighbour list (the largest, with an "
+                        "adaptive skin).", units="d", lo=0.0, lo_open=True, hi=1.0, cli="")
+    skin_min: float = param(0.02, help="Smallest Verlet skin: the skin adapts between skin_min "
+                            "and skin to the grains' speed (a list lasts ~200 steps); equal to "
+                            "skin: fixed. Changes the run time, never the packing.", units="d",
+                            lo=0.0, lo_open=True, hi=1.0, cli="")
     check_every: int = param(20, help="Steps between convergence checks.", lo=1, cli="")
 
 

@@ -221,6 +221,97 @@ def test_wall_list_misses_no_wall_contact(threads, use_threads):
     assert long_run.piston.tobytes() == steps.piston.tobytes()
 
 
+def test_fold_into_box():
+    """Lateral coordinates fold into [0, L) at the step they leave it: a fold down is exact, a
+    fold up that rounds to L gives 0."""
+    from granwave.geometry import fold_into_box
+
+    L = 10.3
+    for x in (0.0, 3.7, L - 1e-9, np.nextafter(L, 0.0)):
+        assert fold_into_box(x, L) == x
+    for x in (L, L + 0.25, 1.9 * L):
+        assert fold_into_box(x, L) == x - L and 0.0 <= x - L < L  # exact (Sterbenz)
+    assert fold_into_box(-0.25, L) == -0.25 + L
+    assert fold_into_box(-1e-18, L) == 0.0  # -1e-18 + L rounds to L: the grain sits at 0
+
+
+def _drifting_gas(dim, skin, skin_min=None):
+    """Grains of a gas with a lateral drift (each crosses the periodic boundary about twice),
+    thrown against the bottom and a falling piston."""
+    rng = np.random.default_rng(5)
+    n = 50
+    lateral = np.full(dim - 1, 8.0)
+    radius = 0.5 * rng.uniform(0.8, 1.2, n)
+    pos = np.column_stack([rng.uniform(0, 8.0, (n, dim - 1)), rng.uniform(0.7, 11.0, n)])
+    vel = rng.normal(0, 0.03, (n, dim))
+    vel[:, 0] += 0.08
+    return Engine(pos, radius, lateral, 12.0, friction=0.5, damping=0.3, piston_mass=3.0,
+                  piston_force=0.02, skin=skin, skin_min=skin_min, velocity=vel)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_bits_do_not_depend_on_skin(dim, threads, use_threads):
+    """Positions are folded into the box at every drift, never at a rebuild, and pairs not in
+    contact add nothing: the same run with skins 0.4, 0.1 and an adaptive skin (0.4 down to
+    0.02) gives the same bytes, with different rebuild counts, while most grains cross the
+    periodic boundary and grains hit both walls (the adaptive skin, shrinking, in the next
+    test)."""
+    use_threads(threads)
+    runs = {}
+    for key in ((0.4, None), (0.1, None), (0.4, 0.02)):
+        eng = _drifting_gas(dim, *key)
+        start = eng.position.copy()
+        travelled = np.zeros(len(eng.radius))
+        for _ in range(40):  # the lateral distance each grain travels (folds do not count)
+            before = eng.velocity[:, 0].copy()
+            eng.run(50)
+            travelled += 50 * eng.dt * 0.5 * (before + eng.velocity[:, 0])
+        runs[key] = eng
+    fixed = runs[(0.4, None)]
+    assert np.median(np.abs(travelled)) > 8.0  # most grains crossed the boundary
+    assert fixed.out[K.O_NCONTACT] > 0 and fixed.steps == 2000
+    assert np.all((fixed.position[:, 0] >= 0.0) & (fixed.position[:, 0] < 8.0))
+    assert not np.array_equal(fixed.position, start)
+    assert runs[(0.1, None)].rebuilds > 2 * fixed.rebuilds
+    for key, eng in runs.items():
+        for name in ("position", "velocity", "angular_velocity", "piston", "wall_ov"):
+            assert getattr(eng, name).tobytes() == getattr(fixed, name).tobytes(), (key, name)
+
+
+def test_adaptive_skin_follows_the_grains_speed():
+    """The adaptive skin shrinks to skin_min while a packing is at rest (a list lasting twice
+    SKIN_STEPS is made again smaller) and grows back, at most by two per rebuild, when the
+    grains move fast; a fixed skin never changes."""
+    eng = _drifting_gas(2, 0.4, 0.02)
+    fixed = _drifting_gas(2, 0.4)
+    engines = (eng, fixed)
+    for e in engines:
+        e.run(200)
+    assert eng.skin == 0.4 and fixed.skin == 0.4  # a fast gas: lists last fewer than SKIN_STEPS
+    for e in engines:
+        e.velocity[:] = 0.0
+        e.angular_velocity[:] = 0.0
+        e.piston[K.P_V] = e.piston[K.P_FEXT] = 0.0
+        e.fpar[K.F_GAMMA] = 1.0  # strong background damping: the grains come to rest
+        e.run(20 * K.SKIN_STEPS)
+    assert eng.skin == 0.02 and fixed.skin == 0.4
+    skins = []
+    for e in engines:
+        e.fpar[K.F_GAMMA] = 0.0
+        e.velocity[:, 0] = 0.05  # a fast drift: the lists last a step or two
+    for _ in range(30):  # step by step: at most one rebuild in between
+        for e in engines:
+            e.run(1)
+        skins.append(eng.skin)
+    assert skins[-1] == 0.4 and all(b <= 2.0 * a for a, b in zip([0.02] + skins, skins))
+    assert fixed.skin == 0.4
+    assert eng.position.tobytes() == fixed.position.tobytes()
+    assert eng.velocity.tobytes() == fixed.velocity.tobytes()
+    with pytest.raises(Exception, match="skin_min"):
+        _drifting_gas(2, 0.1, 0.2)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_pair_across_periodic_boundary(dim):
     """The same overlapping, sliding pair placed across the periodic boundary and in the middle

@@ -59,8 +59,8 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     v = np.zeros(n)
     i64 = np.zeros(m, np.int64)
     sigs = {
-        G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), f2(dim), np.zeros(6), 1.0, v,
-                             v),
+        G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), np.zeros(dim - 1), f2(dim),
+                             np.zeros(6), 1.0, v, v),
         G.pair_forces: _types(f2(dim), f2(dim), f2(rot), v, v, v, np.zeros(dim - 1), i64, i64, 1,
                               p2(dim), np.zeros(m), np.zeros(14), p2(3), p2(max(rot, 1)),
                               p2(max(rot, 1)), np.zeros(m)),

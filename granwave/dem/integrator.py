@@ -53,7 +53,9 @@ class Engine:
     ``piston_mass`` (``inf``: the top wall is fixed), ``piston_force`` the
     constant downward force on the piston (p A). ``dt`` fixes the time step;
     otherwise it follows :func:`kernels.stable_dt` with ``safety`` and
-    ``overlap_floor``. ``skin``: Verlet-list skin in d. ``tol_acceleration``,
+    ``overlap_floor``. ``skin``: Verlet-list skin in d; with ``skin_min`` (< skin) the
+    skin adapts at each rebuild within [skin_min, skin] to the grains' speed
+    (:func:`kernels.next_skin`; the bits of a run are the same for any skin). ``tol_acceleration``,
     ``tol_velocity`` and ``check_every`` drive the convergence candidate test
     of :meth:`run`. ``unloading``: the tangential unloading rule of
     contact.update_tangential, ``"rescale"`` (default, preparation: F_t scaled by
@@ -69,7 +71,7 @@ class Engine:
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
                  background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
-                 overlap_floor=1e-3, skin=0.2, velocity=None, angular_velocity=None,
+                 overlap_floor=1e-3, skin=0.2, skin_min=None, velocity=None, angular_velocity=None,
                  tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale",
                  mean_flow=None):
         self.position = np.array(position, dtype=np.float64, order="C")
@@ -129,7 +131,11 @@ class Engine:
         self.fpar[K.F_MU] = self.friction
         self.fpar[K.F_POISSON] = poisson
         self.fpar[K.F_GAMMA] = background_damping
+        if skin_min is not None and not 0.0 < skin_min <= skin:
+            raise InputError(f"skin_min must be in (0, skin = {skin:g}], got {skin_min:g}")
         self.fpar[K.F_SKIN] = skin
+        self.fpar[K.F_SKIN_MAX] = skin
+        self.fpar[K.F_SKIN_MIN] = skin if skin_min is None else skin_min
         self.fpar[K.F_SAFETY] = safety
         self.fpar[K.F_DFLOOR] = overlap_floor
         self.fpar[K.F_TOLA] = tol_acceleration
@@ -192,6 +198,7 @@ class Engine:
                 break
             self.grow(int(w[5][0]), int(w[5][1]))
         self.ipar[K.I_NPAIRS] = m
+        self.ipar[K.I_BUILT] = self.ipar[K.I_STEPS]
         K.pair_constants(self.pair_i, self.pair_j, m, self.radius, self.mass, self.ws[K.W_PAIRC])
         self.pos0[:] = self.position
 
@@ -268,6 +275,11 @@ class Engine:
     @property
     def rebuilds(self) -> int:
         return int(self.ipar[K.I_REBUILDS])
+
+    @property
+    def skin(self) -> float:
+        """The skin of the current pair list (d)."""
+        return float(self.fpar[K.F_SKIN])
 
     @property
     def height(self) -> float:

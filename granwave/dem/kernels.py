@@ -30,7 +30,10 @@ Layout of the small parameter arrays (indices below):
 overlap floor for the time step, acceleration tol, velocity tol, largest
 radius, smallest mass, last max speed, unloading rule (1: rescale F_t on
 unloading, 0: plain incremental; contact.update_tangential), piston height when the wall
-list was made (:func:`wall_list`); ``piston``: height, velocity,
+list was made (:func:`wall_list`), smallest and largest skin (an adaptive skin when they
+differ: :func:`next_skin`); ``ipar``: pairs listed, steps asked, steps done, steps between
+checks, adaptive dt, rebuilds, sizes a rebuild needs (pairs, width), step of the last
+rebuild; ``piston``: height, velocity,
 acceleration, mass (inf = fixed wall), downward force p*A, contact force.
 """
 
@@ -44,7 +47,7 @@ import numpy as np
 from .. import contact as C
 from .. import team
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
-from ..geometry import nearest_image
+from ..geometry import fold_into_box, nearest_image
 from . import neighbours
 from . import pair_tile as PT
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
@@ -53,14 +56,14 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 # fpar indices
 F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
-    F_VMAX, F_RESCALE, F_WALLH = range(15)
-N_FPAR = 15
+    F_VMAX, F_RESCALE, F_WALLH, F_SKIN_MIN, F_SKIN_MAX = range(17)
+N_FPAR = 17
 # piston indices
 P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
 N_PISTON = 6
 # ipar indices
-I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED, I_WIDTH = range(8)
-N_IPAR = 8
+I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED, I_WIDTH, I_BUILT = range(9)
+N_IPAR = 9
 # out (statistics) indices
 O_AMAX, O_ALPHAMAX, O_APISTON, O_VMAX, O_WMAX, O_KIN, O_NTOP, O_DMAX, O_NCONTACT = range(9)
 N_OUT = 9
@@ -726,8 +729,35 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     blk_g[b, G_NC] = ncontact
 
 
+@numba.njit(cache=True, inline="always")
+def drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt):
+    """First half kick (``half`` = dt / 2) and drift of grain i, its lateral coordinates
+    folded back into the box at once (geometry.fold_into_box: the bits of a run do not
+    depend on when the pair list is rebuilt). Returns |v|^2 and the squared displacement
+    since ``pos0`` (nearest image)."""
+    d = pos.shape[1]
+    v2 = 0.0
+    s = 0.0
+    for a in range(d):
+        vel[i, a] += half * acc[i, a]
+        v = vel[i, a]
+        x = pos[i, a] + dt * v
+        if a < d - 1:
+            x = fold_into_box(x, lateral[a])
+            dx = nearest_image(x - pos0[i, a], lateral[a])
+        else:
+            dx = x - pos0[i, a]
+        pos[i, a] = x
+        v2 += v * v
+        s += dx * dx
+    for a in range(omega.shape[1]):
+        omega[i, a] += half * alpha[i, a]
+    return v2, s
+
+
 @numba.njit(cache=True)
-def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats, drift):
+def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, lateral, pos0, dt, stats,
+            drift):
     """Grains lo..hi-1 after their forces and torques: accelerations and the second half kick;
     with ``stats`` the largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the summed kinetic
     energy, after the kick; with ``drift`` the next step's first half kick and drift, the
@@ -765,18 +795,9 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
             kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
     if drift:
         for i in grains(lo, hi):
-            v2 = 0.0
-            s = 0.0
-            for a in range(d):
-                vel[i, a] += half * acc[i, a]
-                pos[i, a] += dt * vel[i, a]
-                v2 += vel[i, a] * vel[i, a]
-                x = pos[i, a] - pos0[i, a]
-                s += x * x
+            v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
             dvmax = max(dvmax, v2)
             disp = max(disp, s)
-            for a in range(r):
-                omega[i, a] += half * alpha[i, a]
     return amax, almax, vmax, wmax, kin, dvmax, disp
 
 
@@ -934,8 +955,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
-        m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, pos0, dt, stats,
-                    drift)
+        m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, lateral, pos0, dt,
+                    stats, drift)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
     blk_g[b, G_NTOP] = ntop
@@ -949,36 +970,28 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
 
 
 @numba.njit(cache=True, parallel=True)
-def _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g):
+def _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g):
     """First half kick and drift of velocity Verlet; block maxima of |v|^2 and of the squared
     displacement since ``pos0`` into ``blk_g`` (columns G_DVMAX, G_DISP)."""
-    n, d = pos.shape
-    r = omega.shape[1]
+    n = pos.shape[0]
     nblk = blk_g.shape[0]
+    half = 0.5 * dt
     for b in numba.prange(nblk):
         dvmax = 0.0
         disp = 0.0
         b0, b1 = block_bounds(np.int64(b), n, nblk)
         for i in grains(b0, b1):
-            v2 = 0.0
-            s = 0.0
-            for a in range(d):
-                vel[i, a] += 0.5 * dt * acc[i, a]
-                pos[i, a] += dt * vel[i, a]
-                v2 += vel[i, a] * vel[i, a]
-                x = pos[i, a] - pos0[i, a]
-                s += x * x
+            v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
             dvmax = max(dvmax, v2)
             disp = max(disp, s)
-            for a in range(r):
-                omega[i, a] += 0.5 * dt * alpha[i, a]
         blk_g[b, G_DVMAX] = dvmax
         blk_g[b, G_DISP] = disp
 
 
 @numba.njit(cache=True, parallel=True)
-def _displacement_pass(pos, pos0, blk_g):
-    """Block maxima of the squared displacement since ``pos0`` into ``blk_g[:, G_DISP]``."""
+def _displacement_pass(pos, lateral, pos0, blk_g):
+    """Block maxima of the squared displacement since ``pos0`` (nearest image) into
+    ``blk_g[:, G_DISP]``."""
     n, d = pos.shape
     nblk = blk_g.shape[0]
     for b in numba.prange(nblk):
@@ -988,6 +1001,8 @@ def _displacement_pass(pos, pos0, blk_g):
             s = 0.0
             for a in range(d):
                 x = pos[i, a] - pos0[i, a]
+                if a < d - 1:
+                    x = nearest_image(x, lateral[a])
                 s += x * x
             disp = max(disp, s)
         blk_g[b, G_DISP] = disp
@@ -1220,11 +1235,10 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         ipar[I_WIDTH] = 0
         return 2
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # from the last rebuild's positions
-    half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     n_steps = ipar[I_NSTEPS]
     # largest squared displacement since the last build (then kept by the drift)
-    _displacement_pass(pos, pos0, blk_g)
+    _displacement_pass(pos, lateral, pos0, blk_g)
     disp2 = _block_max(blk_g, G_DISP)
     drifted = False
     for step in range(n_steps):
@@ -1235,27 +1249,30 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
             if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
                 return 3
-            if reach > half_skin:
-                np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
+            if needs_rebuild(fpar, ipar, reach, 0):
+                skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
+                np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], skin, pair_i, pair_j,
                                             pair_ft, pair_ov, ipar[I_NPAIRS], ws[0], ws[2], ws[3],
                                             ws[4], ws[1], ws[5])
                 if np_new < 0:
                     ipar[I_NEEDED] = ws[5][0]
                     ipar[I_WIDTH] = ws[5][1]
                     return 2
+                fpar[F_SKIN] = skin
                 ipar[I_NPAIRS] = np_new
                 ipar[I_REBUILDS] += 1
+                ipar[I_BUILT] = ipar[I_STEPS]
                 pair_constants(pair_i, pair_j, np_new, rad, mass, ws[W_PAIRC])
-                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]
+                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # new positions
                 disp2 = 0.0
                 if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
                     ipar[I_NEEDED] = np_new
                     ipar[I_WIDTH] = 0
                     return 2
-            _drift_pass(pos, vel, acc, omega, alpha, pos0, dt, blk_g)
+            _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
             fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
             disp2 = _block_max(blk_g, G_DISP)
             if piston[P_MASS] < np.inf:
@@ -1265,7 +1282,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         # the next step's rebuild test is known now unless dt may change (a check)
         reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
         drifted = (not is_check and step + 1 < n_steps and math.isfinite(reach)
-                   and not (reach > half_skin))
+                   and not needs_rebuild(fpar, ipar, reach, 1))
         _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
                 pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, True, is_check, drifted)
         if piston[P_MASS] < np.inf:
@@ -1289,6 +1306,49 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     and abs(piston[P_V]) < tol_v):
                 return 1
     return 0
+
+
+#: Adaptive skin: steps a pair list is meant to last (:func:`next_skin`). A rebuild of a
+#: dense column costs about five steps, so at this length rebuilds take ~2 % of a run.
+SKIN_STEPS = 200
+
+
+@numba.njit(cache=True)
+def needs_rebuild(fpar, ipar, reach, ahead):
+    """Whether the pair list is made again before the step ``ahead`` steps from now.
+
+    Must when a grain may have come within ``reach`` of half the skin (the list's
+    guarantee). With an adaptive skin also when the list has lasted twice
+    :data:`SKIN_STEPS` and the grains' speed since it was made asks for a skin below half
+    the current one: they have slowed down, and a list with a smaller skin makes each
+    step cheaper (:func:`next_skin`).
+    """
+    skin = fpar[F_SKIN]
+    if reach > 0.5 * skin:
+        return True
+    lasted = ipar[I_STEPS] + ahead - ipar[I_BUILT]
+    return (fpar[F_SKIN_MIN] < skin and lasted >= 2 * SKIN_STEPS
+            and 2.0 * SKIN_STEPS * reach < 0.5 * skin * lasted)
+
+
+@numba.njit(cache=True)
+def next_skin(fpar, ipar, reach):
+    """Skin of the pair list about to be made (d).
+
+    Fixed unless ``fpar[F_SKIN_MIN] < fpar[F_SKIN_MAX]``; then the skin that the grains'
+    speed of the list now ending (``reach`` over the steps it lasted) would take
+    :data:`SKIN_STEPS` steps to use up, within [F_SKIN_MIN, F_SKIN_MAX] and within a
+    factor of two of the current skin. A skin changes no bit of a run: positions are folded
+    into the box at every drift, never at a rebuild, and pairs not in contact add nothing.
+    """
+    skin = fpar[F_SKIN]
+    lo = fpar[F_SKIN_MIN]
+    hi = fpar[F_SKIN_MAX]
+    if not lo < hi:
+        return skin
+    lasted = max(ipar[I_STEPS] - ipar[I_BUILT], 1)
+    want = 2.0 * SKIN_STEPS * reach / lasted
+    return min(max(want, lo, 0.5 * skin), hi, 2.0 * skin)
 
 
 @numba.njit(cache=True)

@@ -177,6 +177,9 @@ def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old,
             need):
     """Wrap positions, rebuild the pair list and the gather lists in place, carry history by (i, j).
 
+    The wrap matters only for a new engine's first build: the engine's drift keeps every
+    lateral coordinate in [0, L) (``kernels.drift_grain``), so later it changes no bit.
+
     Returns the new number of pairs, or -1 when the arrays are too small
     (``need[0]``: pairs needed, ``need[1]``: neighbours per grain; the pair list and
     its history are then left untouched). ``row`` (N + 1) holds the pair list's

@@ -203,6 +203,7 @@ class Compression:
                              damping=p.damping, background_damping=self.gamma,
                              piston_mass=self.piston_mass, piston_force=self.piston_force,
                              safety=p.safety, overlap_floor=delta_p, skin=p.skin,
+                             skin_min=min(p.skin_min, p.skin),
                              tol_acceleration=p.tol, tol_velocity=self.tol_v,
                              check_every=p.check_every, velocity=velocity,
                              angular_velocity=angular_velocity, **extra)
@@ -223,7 +224,7 @@ class Compression:
                  piston_mass=self.piston_mass, dt=engine.dt,
                  dt_safety=p.safety, dt_rule=DT_RULE, tol=p.tol, velocity_tol=self.tol_v,
                  time_scale=self.time_scale, inertial_time=self.inertial_time, steps=engine.steps,
-                 rebuilds=engine.rebuilds, skin=p.skin, check_every=p.check_every,
+                 rebuilds=engine.rebuilds, skin=p.skin, skin_min=p.skin_min, check_every=p.check_every,
                  convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps)
         if p.compaction == "mean-flow":
             a.update(mean_flow_slab=p.mean_flow_slab, mean_flow_damping_scale=self.mean_flow_scale,

@@ -18,15 +18,17 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from ..geometry import nearest_image
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
 from .pair_tile import law_tile
 from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
-                      F_ZETA, I_ADAPTIVE, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS,
-                      I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
-                      O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, W_INVI, W_INVM,
-                      W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, measure, pair_constants,
-                      piston_acceleration, refresh_wall_list, stable_dt_at, wall_contact)
+                      F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS,
+                      I_STEPS, I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP,
+                      O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
+                      W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, drift_grain, measure, needs_rebuild,
+                      next_skin, pair_constants, piston_acceleration, refresh_wall_list, stable_dt_at,
+                      wall_contact)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -156,13 +158,14 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         inv_i[i] = 1.0 / inertia[i]
     gamma = fpar[F_GAMMA]
     gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else gamma
-    half_skin = 0.5 * fpar[F_SKIN]
     check = ipar[I_CHECK]
     disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
     for i in range(n):
         s = 0.0
         for a in range(d):
             x = pos[i, a] - pos0[i, a]
+            if a < d - 1:
+                x = nearest_image(x, lateral[a])
             s += x * x
         disp2 = max(disp2, s)
     for step in range(ipar[I_NSTEPS]):
@@ -172,38 +175,33 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
         if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
             return 3
-        if reach > half_skin:
-            np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], fpar[F_SKIN], pair_i, pair_j,
+        if needs_rebuild(fpar, ipar, reach, 0):
+            skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
+            np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], skin, pair_i, pair_j,
                                         pair_ft, pair_ov, ipar[I_NPAIRS], ws[0], ws[2], ws[3], ws[4],
                                         ws[1], ws[5])
             if np_new < 0:
                 ipar[I_NEEDED] = ws[5][0]
                 ipar[I_WIDTH] = ws[5][1]
                 return 2
+            fpar[F_SKIN] = skin
             ipar[I_NPAIRS] = np_new
             ipar[I_REBUILDS] += 1
+            ipar[I_BUILT] = ipar[I_STEPS]
             pair_constants(pair_i, pair_j, np_new, rad, mass, pair_c)
-            refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)
             for i in range(n):
                 for a in range(d):
                     pos0[i, a] = pos[i, a]
+            refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the new positions
             disp2 = 0.0
         # half kick, drift
         vmax2 = 0.0
         disp2 = 0.0
+        half = 0.5 * dt
         for i in range(n):
-            v2 = 0.0
-            s = 0.0
-            for a in range(d):
-                vel[i, a] += 0.5 * dt * acc[i, a]
-                pos[i, a] += dt * vel[i, a]
-                v2 += vel[i, a] * vel[i, a]
-                x = pos[i, a] - pos0[i, a]
-                s += x * x
+            v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
             vmax2 = max(vmax2, v2)
             disp2 = max(disp2, s)
-            for a in range(r):
-                omega[i, a] += 0.5 * dt * alpha[i, a]
         fpar[F_VMAX] = math.sqrt(vmax2)
         if piston[P_MASS] < np.inf:
             piston[P_V] += 0.5 * dt * piston[P_A]

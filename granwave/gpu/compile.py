@@ -32,7 +32,7 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
 ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_contact_velocity", "_add_torque3",
-                    "wall_contact", "piston_acceleration", "pair_constants3",
+                    "wall_contact", "piston_acceleration", "pair_constants3", "drift_grain",
                     "_pair_law")  # _pair_law last: it calls the others
 
 
@@ -49,7 +49,7 @@ def device_functions() -> types.ModuleType:
     """Device versions of the contact law and of ``contact_force3`` (built once per process).
 
     Returns a module object with one attribute per name of :data:`CONTACT_FUNCTIONS` and
-    :data:`ENGINE_FUNCTIONS`, plus ``nearest_image``.
+    :data:`ENGINE_FUNCTIONS`, plus ``nearest_image`` and ``fold_into_box``.
     """
     names: dict = {}
     # a module object: numba resolves ``C.name`` on modules at compile time (not on namespaces)
@@ -60,8 +60,10 @@ def device_functions() -> types.ModuleType:
         setattr(ns, name, fn)
     # contact_force3 calls the law through the module alias ``C``: give it the device namespace
     names["C"] = ns
-    names["nearest_image"] = ns.nearest_image = cuda.jit(device=True)(
-        _rebound(geometry.nearest_image.py_func, names))
+    for name in ("nearest_image", "fold_into_box"):
+        fn = cuda.jit(device=True)(_rebound(getattr(geometry, name).py_func, names))
+        names[name] = fn
+        setattr(ns, name, fn)
     for name in ENGINE_FUNCTIONS:
         fn = cuda.jit(device=True)(_rebound(getattr(K, name).py_func, names))
         names[name] = fn

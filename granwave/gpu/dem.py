@@ -72,27 +72,18 @@ N_STAT = 5
 
 
 @cuda.jit
-def kick_drift(pos, vel, acc, omega, alpha, pos0, piston, dt, gv2, gdisp2):
-    """Half kick and drift of every grain (and of the piston, thread 0); per-grain |v|^2 and
-    squared displacement since the last rebuild into ``gv2``, ``gdisp2``."""
+def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston, dt, gv2, gdisp2):
+    """Half kick and drift of every grain (the CPU's ``drift_grain``; thread 0 also moves the
+    piston); per-grain |v|^2 and squared displacement since the last rebuild into ``gv2``,
+    ``gdisp2``."""
     i = cuda.grid(1)
-    n, d = pos.shape
+    n = pos.shape[0]
     if i == 0 and piston[K.P_MASS] < math.inf:
         piston[K.P_V] += 0.5 * dt * piston[K.P_A]
         piston[K.P_H] += dt * piston[K.P_V]
     if i >= n:
         return
-    r = omega.shape[1]
-    v2 = 0.0
-    s = 0.0
-    for a in range(d):
-        vel[i, a] += 0.5 * dt * acc[i, a]
-        pos[i, a] += dt * vel[i, a]
-        v2 += vel[i, a] * vel[i, a]
-        x = pos[i, a] - pos0[i, a]
-        s += x * x
-    for a in range(r):
-        omega[i, a] += 0.5 * dt * alpha[i, a]
+    v2, s = DF.drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, 0.5 * dt, dt)
     gv2[i] = v2
     gdisp2[i] = s
 
@@ -474,6 +465,7 @@ class GpuEngine(Engine):
         self.g["stat"] = cuda.device_array(N_STAT)
         self._upload_pairs()
         x = self.position - self.pos0
+        x[:, :-1] -= self.lateral * np.round(x[:, :-1] / self.lateral)  # nearest image (folded drifts)
         self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
 
     def _upload_pairs(self) -> None:
@@ -521,7 +513,7 @@ class GpuEngine(Engine):
             self._download_pairs()
             m_old = int(ipar[K.I_NPAIRS])
             old = (self.pair_i[:m_old].copy(), self.pair_j[:m_old].copy())
-            self._rebuild()  # wraps positions, grows the arrays if needed, pos0 = position
+            self._rebuild()  # grows the arrays if needed, pos0 = position
             ipar[K.I_REBUILDS] += 1
             if self.on_rebuild is not None:
                 self.on_rebuild(old[0], old[1], m_old)
@@ -532,7 +524,8 @@ class GpuEngine(Engine):
         m = gp["m"]
         nb = _blocks(n)
         kick_drift[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
-                              g["angular_acceleration"], g["pos0"], g["piston"], dt, g["v2"], g["disp2"])
+                              g["angular_acceleration"], g["lateral"], g["pos0"], g["piston"], dt, g["v2"],
+                              g["disp2"])
         if m:
             pair_forces[_blocks(m), BLOCK](g["position"], g["velocity"], g["angular_velocity"], g["radius"],
                                            g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], m,
