@@ -2,7 +2,7 @@
 
     python benchmarks/scale.py [--quick] [--write-docs]
     python benchmarks/scale.py --large column|grid2d|grid3d|time [--dry-run | --tiny]
-        [--compaction fixed|height-scaled|mean-flow] [--settling compaction|critical]
+        [--compaction fixed|height-scaled|mean-flow] [--settling compaction|critical|late]
 
 Default run, every number a ratio measured in this one run (so that the load of a shared
 machine affects numerator and denominator alike; the load average is printed with them):
@@ -363,7 +363,7 @@ def _square_steps(height: float) -> float:
     return STEPS_1E4 * (height / 100.0) ** HEIGHT_EXPONENT
 
 
-def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str = "compaction"):
+def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str = "late"):
     from granwave.dem.params import PrepareParams
 
     if name == "column":
@@ -388,7 +388,7 @@ def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str =
 
 
 def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str = "fixed",
-          settling: str = "compaction") -> None:
+          settling: str = "late") -> None:
     from granwave import resources
 
     spec = large_spec(name, tiny, compaction, settling)
@@ -457,9 +457,9 @@ def main() -> None:
                     help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
     ap.add_argument("--compaction", choices=("fixed", "height-scaled", "mean-flow"), default="fixed",
                     help="with --large column|grid2d|grid3d: the compaction rule (docs/dem.md)")
-    ap.add_argument("--settling", choices=("compaction", "critical"), default="compaction",
+    ap.add_argument("--settling", choices=("late", "compaction", "critical"), default="late",
                     help="with --large column and --compaction mean-flow: the mean flow's settling rule "
-                         "(docs/dem.md 'Critical settling')")
+                         "(default: PrepareParams' default, 'late'; docs/dem.md 'Late settling')")
     args = ap.parse_args()
     if args.blocks_per_thread is not None:
         from granwave.dem import kernels as K

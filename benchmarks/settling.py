@@ -1,19 +1,22 @@
 """Critical settling against the compaction rate to the end, in tall mean-flow columns (a script).
 
-    python benchmarks/settling.py [--heights 100] [--pressures 1e-4] [--seeds 10]
-        [--workers 2] [--results benchmarks/settling.jsonl] [--table-only] [--write-docs]
+    python benchmarks/settling.py [--rule critical|late] [--heights 100] [--pressures 1e-4]
+        [--seeds 10] [--workers 2] [--results benchmarks/settling.jsonl] [--table-only]
+        [--write-docs]
 
 For each pressure, height H and seed, prepares the 2D frictional column of
 benchmarks/relaxation.py (width 25 d, the defaults of PrepareParams, compaction
-'mean-flow') twice: with ``mean_flow_settling`` 'critical' and 'compaction' (the
-default, the rule before), and records the steps and the bulk statistics
+'mean-flow') twice: with ``mean_flow_settling`` ``--rule`` ('critical' or 'late') and
+'compaction' (the default, the rule before), and records the steps and the bulk statistics
 (layer 3 d). The table gives each statistic's mean ± standard error over the
 seeds for both rules and their difference over its standard error (paired by
 seed: the two runs of one seed share the gas and the compaction up to the
 switch). Runs are one core each (NUMBA_NUM_THREADS=1), ``--workers`` at a time;
 every finished pair appends one JSON line to ``--results`` and a rerun skips
-what is there. ``--write-docs`` regenerates the block of docs/dem.md between
-``<!-- settling:begin -->`` and ``<!-- settling:end -->``.
+what is there (default files: benchmarks/settling.jsonl for 'critical',
+benchmarks/settling_late.jsonl for 'late'). ``--write-docs`` regenerates the block of
+docs/dem.md between ``<!-- settling:begin -->`` and ``<!-- settling:end -->`` (for
+'late': ``settling-late:begin`` / ``end``).
 """
 
 from __future__ import annotations
@@ -33,14 +36,14 @@ import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
-BEGIN, END = "<!-- settling:begin -->", "<!-- settling:end -->"
-RULES = ("critical", "compaction")
+#: the rules a run compares with 'compaction'
+RULES = ("critical", "late")
 STATS = [("steps", "steps"), ("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0"),
          ("mean_force_over_p", "⟨N⟩/p"), ("F2", "F2"), ("stress_ratio", "σ1/σ2")]
 
 
-def measure_pair(pressure: float, height: float, width: float, seed: int) -> dict:
-    """Prepare one column with both rules; the record of the pair."""
+def measure_pair(pressure: float, height: float, width: float, seed: int, rule: str = "critical") -> dict:
+    """Prepare one column with ``rule`` and with 'compaction'; the record of the pair."""
     from relaxation import grains_for
 
     from granwave.analysis.statics import statics
@@ -49,7 +52,7 @@ def measure_pair(pressure: float, height: float, width: float, seed: int) -> dic
 
     n = grains_for(width, height)
     rec = dict(pressure=pressure, height=height, width=width, seed=seed, grains=n)
-    for rule in RULES:
+    for rule in (rule, "compaction"):
         params = PrepareParams(dim=2, grains=n, pressure=pressure, aspect=height / width, seed=seed,
                                compaction="mean-flow", mean_flow_settling=rule, max_steps=50_000_000)
         t0 = time.process_time()
@@ -70,20 +73,20 @@ def load(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
-def report(records: list[dict]) -> str:
+def report(records: list[dict], rule: str = "critical") -> str:
     lines = []
     groups = sorted({(r["pressure"], r["height"]) for r in records})
     for p, h in groups:
         rows = [r for r in records if r["pressure"] == p and r["height"] == h]
         n = len(rows)
-        omega = [r["critical"]["breathing_frequency"] for r in rows]
+        omega = [r[rule]["breathing_frequency"] for r in rows]
         lines.append(f"p = {p:g}, H = {h:g} d, {rows[0]['grains']} grains, {n} seeds; breathing frequency "
                      f"measured {np.nanmean(omega):.3g} (ω H = {np.nanmean(omega) * h:.3f}); switch after "
-                     f"{np.mean([r['critical']['settling_step'] for r in rows]):.0f} steps on average\n")
-        lines.append("| statistic | critical | compaction | difference / its SE |")
+                     f"{np.mean([r[rule]['settling_step'] for r in rows]):.0f} steps on average\n")
+        lines.append(f"| statistic | {rule} | compaction | difference / its SE |")
         lines.append("|---|---|---|---|")
         for key, label in STATS:
-            a = np.array([r["critical"][key] for r in rows], float)
+            a = np.array([r[rule][key] for r in rows], float)
             b = np.array([r["compaction"][key] for r in rows], float)
             se = lambda x: np.std(x, ddof=1) / math.sqrt(len(x)) if len(x) > 1 else math.nan  # noqa: E731
             diff = a - b
@@ -99,37 +102,43 @@ def report(records: list[dict]) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--rule", choices=RULES, default="critical", help="the rule compared with 'compaction'")
     ap.add_argument("--width", type=float, default=25.0)
     ap.add_argument("--heights", type=float, nargs="+", default=[100.0])
     ap.add_argument("--pressures", type=float, nargs="+", default=[1e-4])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "settling.jsonl")
+    ap.add_argument("--results", type=Path, default=None)
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--write-docs", action="store_true")
     args = ap.parse_args(argv)
-    records = load(args.results)
+    if args.results is None:
+        name = "settling.jsonl" if args.rule == "critical" else f"settling_{args.rule}.jsonl"
+        args.results = ROOT / "benchmarks" / name
+    records = [r for r in load(args.results) if args.rule in r]
     done = {(r["pressure"], r["height"], r["seed"]) for r in records}
     todo = [(p, h, args.width, s) for p in args.pressures for h in args.heights for s in range(args.seeds)
             if (p, h, s) not in done]
     if todo and not args.table_only:
         with ProcessPoolExecutor(args.workers) as pool:
-            for rec in pool.map(measure_pair, *zip(*todo)):
+            for rec in pool.map(measure_pair, *zip(*todo), [args.rule] * len(todo)):
                 with args.results.open("a") as f:
                     f.write(json.dumps(rec) + "\n")
                 records.append(rec)
-                c, o = rec["critical"], rec["compaction"]
+                c, o = rec[args.rule], rec["compaction"]
                 print(f"p {rec['pressure']:g} H {rec['height']:g} seed {rec['seed']}: steps {c['steps']} "
-                      f"(critical) / {o['steps']} (compaction), Φ2 {c['phi2']:.4f} / {o['phi2']:.4f}", flush=True)
+                      f"({args.rule}) / {o['steps']} (compaction), Φ2 {c['phi2']:.4f} / {o['phi2']:.4f}", flush=True)
     keep = {(p, h) for p in args.pressures for h in args.heights}
-    table = report([r for r in records if (r["pressure"], r["height"]) in keep])
+    table = report([r for r in records if (r["pressure"], r["height"]) in keep], args.rule)
     print(table)
     if args.write_docs:
         from granwave.io.files import replace_marked_block
 
-        text = (f"Measured by `python benchmarks/settling.py` on {time.strftime('%Y-%m-%d', time.gmtime())} "
-                "(records in benchmarks/settling.jsonl).\n\n" + table)
-        replace_marked_block(ROOT / "docs" / "dem.md", BEGIN, END, text)
+        tag = "settling" if args.rule == "critical" else f"settling-{args.rule}"
+        command = "python benchmarks/settling.py" + ("" if args.rule == "critical" else f" --rule {args.rule}")
+        text = (f"Measured by `{command}` on {time.strftime('%Y-%m-%d', time.gmtime())} "
+                f"(records in benchmarks/{args.results.name}).\n\n" + table)
+        replace_marked_block(ROOT / "docs" / "dem.md", f"<!-- {tag}:begin -->", f"<!-- {tag}:end -->", text)
         print("wrote docs/dem.md")
     return 0
 

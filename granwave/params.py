@@ -185,9 +185,10 @@ class PrepareParams(Params):
     H_e), the fluctuations about it at b; CPU only, any thread count);
     reference_height (d); mean_flow_slab (d, thickness of the horizontal slabs whose
     mass-weighted mean vertical velocity is the mean flow); mean_flow_settling
-    ('compaction': the mean flow at the compaction rate to the end; 'critical': once the
-    plug has arrived, the mean vertical and lateral flow damped near critically for the
-    column's breathing); piston_mass (rho d^3, None:
+    ('late', the default: once the plug has arrived and the kinetic energy has fallen
+    1000-fold, the mean vertical and lateral flow damped near critically for the column's
+    breathing; 'compaction': the mean flow at the compaction rate to the end; 'critical':
+    that damping from the plug's arrival on); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
     (dt = (safety/0.1) x the estimated stability limit, at most MAX_SAFETY;
@@ -224,13 +225,17 @@ class PrepareParams(Params):
     mean_flow_slab: float = param(4.0, help="Thickness of the horizontal slabs whose mean vertical "
                                   "velocity is the mean flow (compaction 'mean-flow').", units="d",
                                   lo=0.0, lo_open=True)
-    mean_flow_settling: str = param("compaction", help="Compaction 'mean-flow' in a column taller than "
-                                    "reference_height: 'compaction' keeps the compaction rate to the end "
-                                    "(tall columns settle like short ones); 'critical' damps the mean "
-                                    "vertical and lateral flow near critically for the column's breathing "
-                                    "(measured from the piston's first upward swing) once the plug has "
-                                    "arrived: about a third fewer steps, but other stresses (docs/dem.md "
-                                    "'Critical settling').", choices=("compaction", "critical"))
+    mean_flow_settling: str = param("late", help="Compaction 'mean-flow' in a column taller than "
+                                    "reference_height: how the column settles once the plug has arrived. "
+                                    "'late' keeps the compaction rate until the kinetic energy has fallen "
+                                    "1000-fold, then damps the mean vertical and lateral flow near "
+                                    "critically for the column's breathing (measured from the piston's "
+                                    "first upward swing): the statistics of 'compaction', a fifth fewer "
+                                    "steps at p = 1e-4 (docs/dem.md 'Late settling'); 'compaction' keeps "
+                                    "the compaction rate to the end (the rule before); 'critical' "
+                                    "switches at the end of the swing: about a third fewer steps, but "
+                                    "other stresses (docs/dem.md 'Critical settling').",
+                                    choices=("late", "compaction", "critical"))
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)

@@ -1,7 +1,7 @@
 """Critical settling of the mean flow (dem.settling, PrepareParams.mean_flow_settling): the swing
 is measured as it says, at fixed step counts whatever the chunks; nothing changes before the
-switch; the packings converge, record the rule and are reproducible; 'compaction' (the default)
-is the rule before."""
+switch; the packings converge, record the rule and are reproducible; 'late' (the default) is
+'compaction' (the rule before) until the kinetic energy has fallen."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 from granwave.dem import kernels as K
 from granwave.dem.forces import static_residual
 from granwave.dem.protocol import Compression, granular_gas, prepare_packing
-from granwave.dem.settling import SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
+from granwave.dem.settling import LATE_FRACTION, SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
 from granwave.geometry import lateral_size, wall_area
 from granwave.params import PrepareParams
 
@@ -25,8 +25,8 @@ class ScriptedEngine:
     """Stands for an engine: steps advance, the piston's velocity is a given function of the
     step count, dt a given function too; status 1 at ``stop``."""
 
-    def __init__(self, velocity, dt=lambda s: 0.5, stop=None):
-        self.velocity, self.dt_of, self.stop = velocity, dt, stop
+    def __init__(self, velocity, dt=lambda s: 0.5, stop=None, kinetic=lambda s: 1.0):
+        self.velocity, self.dt_of, self.stop, self.kinetic = velocity, dt, stop, kinetic
         self.steps = 0
         self.piston = np.zeros(K.N_PISTON)
         self.mflow = np.array([1e-4, 4.0, 3e-3])  # gamma_m, slab, gamma_l
@@ -35,6 +35,9 @@ class ScriptedEngine:
     @property
     def dt(self):
         return self.dt_of(self.steps)
+
+    def measure(self):
+        return dict(kinetic_energy=self.kinetic(self.steps))
 
     def run(self, n):
         self.calls.append((self.steps, n))
@@ -84,6 +87,25 @@ def test_damping_capped_at_the_fluctuations_rate():
     assert 2.0 * rule.breathing_frequency > 1e-3 and e.mflow[0] == e.mflow[2] == 1e-3
 
 
+@pytest.mark.parametrize("chunk", [7, 333, 5000])
+def test_late_switch_waits_for_the_kinetic_energy(chunk):
+    """Rule 'late': omega_b from the same swing (ended at the sample of step 1800), the switch at
+    the first sample whose kinetic energy is below LATE_FRACTION of its value then: with the
+    energy falling tenfold per 1000 steps after 1800, 10^-3.2 at step 5000 (10^-3 at 4800 is
+    not below), whatever the chunks."""
+    e = ScriptedEngine(_swing, kinetic=lambda s: 10.0 ** (-max(s - 1800, 0) / 1000.0))
+    rule = CriticalSettling(e, gamma=1.0, every=200, late=LATE_FRACTION)
+    while e.steps < 4800:
+        assert rule.run(min(chunk, 4800 - e.steps)) == 0
+    assert rule.swing_end_step == 1800 and not rule.done and e.mflow[0] == 1e-4
+    assert rule.breathing_frequency == math.pi / (600 * 0.5)
+    while e.steps < 6000:
+        assert rule.run(min(chunk, 6000 - e.steps)) == 0
+    assert rule.switch_step == 5000 and e.mflow[0] == e.mflow[2] == 2.0 * rule.breathing_frequency
+    a = rule.attrs()
+    assert a["settling_swing_end_step"] == 1800 and a["settling_step"] == 5000
+
+
 def test_no_swing_no_switch():
     """A plug that never moves up (overdamped) keeps the compaction rate; the attributes say so."""
     e = ScriptedEngine(lambda s: -1e-4)
@@ -111,13 +133,16 @@ def _compression(settling: str):
     return Compression(position, radius, lateral, height, p)
 
 
-def test_nothing_changes_before_the_switch():
-    """Up to the switch the critical rule is the compaction rule bit for bit; after it, the mean
-    flow and the piston are damped at the new rate."""
-    crit, comp = _compression("critical"), _compression("compaction")
+@pytest.mark.parametrize("rule", ["critical", "late"])
+def test_nothing_changes_before_the_switch(rule):
+    """Up to the switch the critical (and the late) rule is the compaction rule bit for bit;
+    after it, the mean flow and the piston are damped at the new rate."""
+    crit, comp = _compression(rule), _compression("compaction")
     assert comp.settling is None and crit.settling.every == SAMPLE_CHECKS * 20
     while not crit.settling.done:  # sample by sample, so as to stop at the switch
         assert crit.settling.run(crit.settling.every) == 0
+    if rule == "late":
+        assert crit.settling.swing_end_step < crit.settling.switch_step
     comp.engine.run(crit.engine.steps)
     for a, b in ((crit.engine.position, comp.engine.position), (crit.engine.velocity, comp.engine.velocity),
                  (crit.engine.piston, comp.engine.piston)):
@@ -138,7 +163,7 @@ def critical():
 
 def test_critical_converges_and_records_its_rule(critical):
     a = critical.attrs
-    assert PrepareParams().mean_flow_settling == "compaction"  # the default: the rule before
+    assert PrepareParams().mean_flow_settling == "late"  # the default (docs/dem.md "Late settling")
     assert a["mean_flow_settling"] == "critical" and a["mean_flow_settling_rule"] == SETTLING_RULES["critical"]
     assert 0 < a["settling_rise_step"] < a["settling_step"] < a["steps"]
     assert a["settling_step"] % (SAMPLE_CHECKS * 20) == 0
@@ -154,8 +179,19 @@ def test_critical_same_seed_same_bytes(critical):
     assert critical.attrs["steps"] == again.attrs["steps"]
 
 
+def test_late_is_the_default_converges_and_records_its_rule():
+    """The default rule 'late': the swing ends, the kinetic energy falls 1000-fold, then the
+    switch; the residual is the convergence test's."""
+    pk = prepare_packing(PrepareParams(**MEAN_FLOW))
+    a = pk.attrs
+    assert a["mean_flow_settling"] == "late" and a["mean_flow_settling_rule"] == SETTLING_RULES["late"]
+    assert 0 < a["settling_rise_step"] < a["settling_swing_end_step"] < a["settling_step"] < a["steps"]
+    assert a["settling_step"] % (SAMPLE_CHECKS * 20) == 0
+    assert a["converged"] and a["max_acceleration"] < a["tol"]
+
+
 def test_compaction_rule_records_no_switch():
-    a = prepare_packing(PrepareParams(**MEAN_FLOW)).attrs
+    a = prepare_packing(PrepareParams(**MEAN_FLOW, mean_flow_settling="compaction")).attrs
     assert a["mean_flow_settling"] == "compaction" and "settling_step" not in a
     assert a["converged"]
 

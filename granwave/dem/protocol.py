@@ -51,7 +51,7 @@ from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
 from .integrator import Engine, eta_seconds
-from .settling import SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
+from .settling import LATE_FRACTION, SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
 from ..params import PrepareParams, default_gas_density
 
 #: how the initial gas numbers its grains (recorded: it fixes the bits, not the distribution)
@@ -207,10 +207,12 @@ class Compression:
                              tol_acceleration=p.tol, tol_velocity=self.tol_v,
                              check_every=p.check_every, velocity=velocity,
                              angular_velocity=angular_velocity, **extra)
-        #: compaction 'mean-flow', settling 'critical': watches the piston and switches the mean
-        #: flow to critical damping once the plug has arrived (None: off)
-        self.settling = (CriticalSettling(self.engine, self.gamma, SAMPLE_CHECKS * p.check_every)
-                         if self.gamma_mean is not None and p.mean_flow_settling == "critical" else None)
+        #: compaction 'mean-flow', settling 'critical' or 'late': watches the piston and switches
+        #: the mean flow to critical damping once the plug has arrived (and, 'late', the kinetic
+        #: energy has fallen; None: off)
+        self.settling = (CriticalSettling(self.engine, self.gamma, SAMPLE_CHECKS * p.check_every,
+                                          late=LATE_FRACTION if p.mean_flow_settling == "late" else None)
+                         if self.gamma_mean is not None and p.mean_flow_settling != "compaction" else None)
 
     def packing(self, attrs: dict) -> Packing:
         """The engine's current state as a packing, with the protocol in its attributes."""
@@ -265,7 +267,8 @@ class Compression:
             if progress is not None and self.settling is not None and self.settling.done and not announced:
                 announced = True
                 s = self.settling
-                progress(f"plug arrived (piston up at step {s.rise_step}, down at {s.switch_step}): breathing "
+                progress(f"plug arrived (piston up at step {s.rise_step}, down at {s.swing_end_step}; switch at "
+                         f"{s.switch_step}): breathing "
                          f"frequency {s.breathing_frequency:.3g}, mean flow damped at {engine.mflow[0]:.3g} "
                          f"(was {self.gamma_mean:.3g})")
             elapsed = time.perf_counter() - t0

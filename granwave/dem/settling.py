@@ -31,6 +31,12 @@ Critical settling measures omega_b and damps both mean flows near critically fro
 Nothing else changes: the fluctuations about the slab means keep gamma, the convergence
 test is the same. Where the piston never swings up (an overdamped plug), nothing
 switches.
+
+The 'late' rule measures omega_b the same way but keeps the compaction rate until the
+kinetic energy (grains and piston, read at the same samples) has fallen below
+:data:`LATE_FRACTION` of its value at the end of the swing: the breathing has then done
+the settling it does under the compaction rate, and the critical damping only shortens
+the slow tail of both mean flows.
 """
 
 from __future__ import annotations
@@ -43,12 +49,18 @@ from .mean_flow import M_GAMMA_L, M_GAMMA_M
 #: the piston is sampled every this many convergence checks
 SAMPLE_CHECKS = 10
 
+#: the 'late' rule switches once the kinetic energy is below this fraction of its value at the
+#: end of the piston's first upward swing
+LATE_FRACTION = 1e-3
+
 #: the settling rules (PrepareParams.mean_flow_settling) and what they do (recorded)
 SETTLING_RULES = {
     "critical": ("after the piston's first upward swing (the plug has arrived), the mean flow and the "
                  "piston and the slabs' mean lateral flow are damped at min(2 omega_b, gamma), "
                  f"omega_b = pi / (the swing's duration), piston velocity sampled every {SAMPLE_CHECKS} "
                  "check_every steps"),
+    "late": ("as 'critical', but the switch waits until the kinetic energy (grains and piston, read at "
+             f"the same samples) is below {LATE_FRACTION:g} of its value at the end of the swing"),
     "compaction": "the mean flow and the piston keep the compaction rate to the end",
 }
 
@@ -58,13 +70,18 @@ class CriticalSettling:
 
     ``engine``: an :class:`granwave.dem.integrator.Engine` built with ``mean_flow``;
     ``gamma``: the fluctuations' damping rate (the cap); ``every``: the sampling interval
-    (steps). Use :meth:`run` in place of ``engine.run``.
+    (steps); ``late``: None (rule 'critical': switch at the end of the swing) or the
+    fraction of the kinetic energy at the end of the swing below which to switch (rule
+    'late'). Use :meth:`run` in place of ``engine.run``.
     """
 
-    def __init__(self, engine, gamma: float, every: int):
+    def __init__(self, engine, gamma: float, every: int, late: float | None = None):
         self.engine, self.gamma, self.every = engine, float(gamma), int(every)
+        self.late = late
         self.rise_step: int | None = None  # first sample with the piston moving up
-        self.switch_step: int | None = None  # the sample that ended the swing
+        self.swing_end_step: int | None = None  # the sample that ended the swing
+        self.switch_step: int | None = None  # the sample that switched the damping
+        self._kinetic_at_swing_end = math.nan
         self.breathing_frequency = math.nan  # omega_b (1 / time unit)
         self._swing_time = 0.0  # time since rise_step (steps x dt of each sampled interval)
         self._last_sample = 0
@@ -92,6 +109,10 @@ class CriticalSettling:
 
     def _sample(self) -> None:
         e = self.engine
+        if self.swing_end_step is not None:  # rule 'late', waiting for the kinetic energy to fall
+            if e.measure()["kinetic_energy"] < self.late * self._kinetic_at_swing_end:
+                self._switch()
+            return
         up = e.piston[K.P_V] > 0.0
         if self.rise_step is None:
             if up:
@@ -102,14 +123,23 @@ class CriticalSettling:
         self._last_sample = e.steps
         if not up:
             self.breathing_frequency = math.pi / self._swing_time
-            rate = min(2.0 * self.breathing_frequency, self.gamma)
-            e.mflow[M_GAMMA_M] = rate
-            e.mflow[M_GAMMA_L] = rate
-            self.switch_step = e.steps
+            self.swing_end_step = e.steps
+            if self.late is None:
+                self._switch()
+            else:
+                self._kinetic_at_swing_end = e.measure()["kinetic_energy"]
+
+    def _switch(self) -> None:
+        e = self.engine
+        rate = min(2.0 * self.breathing_frequency, self.gamma)
+        e.mflow[M_GAMMA_M] = rate
+        e.mflow[M_GAMMA_L] = rate
+        self.switch_step = e.steps
 
     def attrs(self) -> dict:
         """What the rule measured, for the packing's attributes (-1 / NaN: did not happen)."""
         return dict(settling_rise_step=-1 if self.rise_step is None else self.rise_step,
+                    settling_swing_end_step=-1 if self.swing_end_step is None else self.swing_end_step,
                     settling_step=-1 if self.switch_step is None else self.switch_step,
                     breathing_frequency=self.breathing_frequency,
                     settling_damping_rate=float(self.engine.mflow[M_GAMMA_M]) if self.done else math.nan)
