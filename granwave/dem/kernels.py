@@ -730,11 +730,26 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
 
 
 @numba.njit(cache=True, inline="always")
+def squared_displacement(pos, pos0, lateral, i):
+    """|pos[i] - pos0[i]|^2, the lateral components to the nearest image (the rebuild test's
+    displacement since the last build)."""
+    d = pos.shape[1]
+    s = 0.0
+    for a in range(d):
+        x = pos[i, a] - pos0[i, a]
+        if a < d - 1:
+            x = nearest_image(x, lateral[a])
+        s += x * x
+    return s
+
+
+@numba.njit(cache=True, inline="always")
 def drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt):
     """First half kick (``half`` = dt / 2) and drift of grain i, its lateral coordinates
     folded back into the box at once (geometry.fold_into_box: the bits of a run do not
     depend on when the pair list is rebuilt). Returns |v|^2 and the squared displacement
-    since ``pos0`` (nearest image)."""
+    since ``pos0``: :func:`squared_displacement`'s sum, taken in the same loop from the new
+    coordinates (the same operations in the same order), so that they are not read twice."""
     d = pos.shape[1]
     v2 = 0.0
     s = 0.0
@@ -992,19 +1007,13 @@ def _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g):
 def _displacement_pass(pos, lateral, pos0, blk_g):
     """Block maxima of the squared displacement since ``pos0`` (nearest image) into
     ``blk_g[:, G_DISP]``."""
-    n, d = pos.shape
+    n = pos.shape[0]
     nblk = blk_g.shape[0]
     for b in numba.prange(nblk):
         disp = 0.0
         b0, b1 = block_bounds(np.int64(b), n, nblk)
         for i in grains(b0, b1):
-            s = 0.0
-            for a in range(d):
-                x = pos[i, a] - pos0[i, a]
-                if a < d - 1:
-                    x = nearest_image(x, lateral[a])
-                s += x * x
-            disp = max(disp, s)
+            disp = max(disp, squared_displacement(pos, pos0, lateral, i))
         blk_g[b, G_DISP] = disp
 
 
