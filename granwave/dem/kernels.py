@@ -47,7 +47,7 @@ import numpy as np
 from .. import contact as C
 from .. import team
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
-from ..geometry import fold_into_box, nearest_image
+from ..geometry import fold_into_box, nearest_image, periodic_distance2
 from . import neighbours
 from . import pair_tile as PT
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
@@ -730,25 +730,11 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
 
 
 @numba.njit(cache=True, inline="always")
-def squared_displacement(pos, pos0, lateral, i):
-    """|pos[i] - pos0[i]|^2, the lateral components to the nearest image (the rebuild test's
-    displacement since the last build)."""
-    d = pos.shape[1]
-    s = 0.0
-    for a in range(d):
-        x = pos[i, a] - pos0[i, a]
-        if a < d - 1:
-            x = nearest_image(x, lateral[a])
-        s += x * x
-    return s
-
-
-@numba.njit(cache=True, inline="always")
 def drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt):
     """First half kick (``half`` = dt / 2) and drift of grain i, its lateral coordinates
     folded back into the box at once (geometry.fold_into_box: the bits of a run do not
     depend on when the pair list is rebuilt). Returns |v|^2 and the squared displacement
-    since ``pos0``: :func:`squared_displacement`'s sum, taken in the same loop from the new
+    since ``pos0``: geometry.periodic_distance2's sum, taken in the same loop from the new
     coordinates (the same operations in the same order), so that they are not read twice."""
     d = pos.shape[1]
     v2 = 0.0
@@ -1013,7 +999,7 @@ def _displacement_pass(pos, lateral, pos0, blk_g):
         disp = 0.0
         b0, b1 = block_bounds(np.int64(b), n, nblk)
         for i in grains(b0, b1):
-            disp = max(disp, squared_displacement(pos, pos0, lateral, i))
+            disp = max(disp, periodic_distance2(pos, i, pos0, i, lateral))
         blk_g[b, G_DISP] = disp
 
 

@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from ..geometry import periodic_distance2
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
 from .pair_tile import law_tile
@@ -26,8 +27,8 @@ from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN,
                       I_STEPS, I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP,
                       O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
                       W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, drift_grain, measure, needs_rebuild,
-                      next_skin, pair_constants, piston_acceleration, refresh_wall_list, squared_displacement,
-                      stable_dt_at, wall_contact)
+                      next_skin, pair_constants, piston_acceleration, refresh_wall_list, stable_dt_at,
+                      wall_contact)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -160,7 +161,7 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
     check = ipar[I_CHECK]
     disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
     for i in range(n):
-        disp2 = max(disp2, squared_displacement(pos, pos0, lateral, i))
+        disp2 = max(disp2, periodic_distance2(pos, i, pos0, i, lateral))
     for step in range(ipar[I_NSTEPS]):
         dt = fpar[F_DT]
         # rebuild when a grain may come within reach of a pair not in the list
