@@ -363,8 +363,16 @@ def _square_steps(height: float) -> float:
     return STEPS_1E4 * (height / 100.0) ** HEIGHT_EXPONENT
 
 
-def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str = "late"):
+#: compaction of the large preparations when --compaction is not given: the rule every large run of
+#: docs/dem.md was measured with (PrepareParams' default, 'fixed', takes steps ~ H^1.65: 5e6 for the
+#: column)
+DEFAULT_LARGE_COMPACTION = "mean-flow"
+
+
+def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: str = "late"):
     from granwave.dem.params import PrepareParams
+
+    compaction = compaction or DEFAULT_LARGE_COMPACTION
 
     if name == "column":
         n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
@@ -373,12 +381,13 @@ def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str =
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":
         n = 300 if tiny else 100_000
-        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, compaction=compaction, max_steps=20_000_000),
+        return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, compaction=compaction,
+                                         mean_flow_settling=settling, max_steps=20_000_000),
                     steps=_square_steps(math.sqrt(n)), note="2D square, p = 1e-4")
     if name == "grid3d":
         n = 300 if tiny else 100_000
         return dict(params=PrepareParams(dim=3, grains=n, pressure=1e-4, friction=0.5, compaction=compaction,
-                                         max_steps=20_000_000),
+                                         mean_flow_settling=settling, max_steps=20_000_000),
                     steps=_square_steps(n ** (1 / 3)),
                     note="3D cube, mu = 0.5, p = 1e-4 (steps: the 2D model at the height, a guess)")
     if name == "time":
@@ -387,7 +396,7 @@ def large_spec(name: str, tiny: bool, compaction: str = "fixed", settling: str =
     raise SystemExit(f"unknown large run {name!r}")
 
 
-def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str = "fixed",
+def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str | None = None,
           settling: str = "late") -> None:
     from granwave import resources
 
@@ -455,10 +464,11 @@ def main() -> None:
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
     ap.add_argument("--rate", type=float, default=None,
                     help="with --large --dry-run: grain-steps/s for the time estimate (e.g. from the table)")
-    ap.add_argument("--compaction", choices=("fixed", "height-scaled", "mean-flow"), default="fixed",
-                    help="with --large column|grid2d|grid3d: the compaction rule (docs/dem.md)")
+    ap.add_argument("--compaction", choices=("fixed", "height-scaled", "mean-flow"), default=None,
+                    help="with --large column|grid2d|grid3d: the compaction rule (docs/dem.md; default "
+                         f"{DEFAULT_LARGE_COMPACTION}, the rule of the documented runs)")
     ap.add_argument("--settling", choices=("late", "compaction", "critical"), default="late",
-                    help="with --large column and --compaction mean-flow: the mean flow's settling rule "
+                    help="with --large column|grid2d|grid3d and the mean-flow compaction: the mean flow's settling rule "
                          "(default: PrepareParams' default, 'late'; docs/dem.md 'Late settling')")
     args = ap.parse_args()
     if args.blocks_per_thread is not None:
