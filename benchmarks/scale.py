@@ -364,8 +364,8 @@ def _square_steps(height: float) -> float:
 
 
 #: compaction of the large preparations when --compaction is not given: the rule every large run of
-#: docs/dem.md was measured with (PrepareParams' default, 'fixed', takes steps ~ H^1.65: 5e6 for the
-#: column)
+#: docs/dem.md was measured with (PrepareParams' default, 'fixed', takes steps ~ H^1.65: 5.4e6 for the
+#: column by the steps model of --dry-run)
 DEFAULT_LARGE_COMPACTION = "mean-flow"
 
 
