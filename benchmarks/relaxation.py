@@ -12,7 +12,9 @@ every height) and 'height-scaled' (b divided by H / reference_height above
 25 d), and records the steps to convergence (load independent, unlike
 seconds) and the bulk statistics of the packing (layer 3 d). 'mean-flow' runs
 with ``mean_flow_settling='compaction'``, the setting its records were made with;
-benchmarks/settling.py compares the opt-in 'critical' rule with it. 'fixed' is
+'late' is the compaction 'mean-flow' with ``mean_flow_settling='late'``, the
+default of granwave since 2026-11-26 (benchmarks/settling.py compares the
+settling rules seed by seed). 'fixed' is
 skipped above ``--old-max-height`` (its cost grows fastest); its steps
 where it was not prepared are extrapolated from its fitted exponent and
 marked "(…, fit)".
@@ -39,7 +41,12 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = "<!-- relaxation:begin -->", "<!-- relaxation:end -->"
-COMPACTIONS = ("fixed", "height-scaled", "mean-flow")
+#: rules of the table: the three compactions (mean-flow with the settling of its first records,
+#: 'compaction'), and 'late' = compaction mean-flow with late settling (granwave's default)
+RULES = ("fixed", "height-scaled", "mean-flow", "late")
+#: (compaction, mean_flow_settling) of each rule
+RULE_SETTINGS = {"fixed": ("fixed", "compaction"), "height-scaled": ("height-scaled", "compaction"),
+                 "mean-flow": ("mean-flow", "compaction"), "late": ("mean-flow", "late")}
 #: mean_flow_slab of the records of rules other than mean-flow, and of mean-flow records made before
 DEFAULT_SLAB = 4.0
 STATS = [("phi2", "Φ2"), ("z_star", "z*"), ("rattler_fraction", "f0")]
@@ -53,23 +60,31 @@ def grains_for(width: float, height: float, polydispersity: float = 0.2) -> int:
     return int(round(EXPECTED_SOLID_FRACTION_2D * width * height / mean_area))
 
 
-def measure(compaction: str, pressure: float, height: float, width: float, seed: int,
+def rule_of(record: dict) -> str:
+    """The table's rule of a record (records before 'late' have no settling entry)."""
+    return "late" if record.get("settling") == "late" else record["compaction"]
+
+
+def measure(rule: str, pressure: float, height: float, width: float, seed: int,
             slab: float = DEFAULT_SLAB) -> dict:
-    """Prepare one column and return its record (steps, sizes, bulk statistics)."""
+    """Prepare one column under ``rule`` (:data:`RULE_SETTINGS`) and return its record (steps,
+    sizes, bulk statistics)."""
     from granwave.analysis.statics import statics
     from granwave.dem.protocol import prepare_packing
     from granwave.params import PrepareParams
 
     n = grains_for(width, height)
+    compaction, settling = RULE_SETTINGS[rule]
     params = PrepareParams(dim=2, grains=n, pressure=pressure, aspect=height / width, seed=seed,
                            compaction=compaction, max_steps=50_000_000, mean_flow_slab=slab,
-                           # the records of this table predate critical settling (benchmarks/settling.py)
-                           mean_flow_settling="compaction")
+                           mean_flow_settling=settling)
     t0 = time.process_time()
     packing = prepare_packing(params)
     cpu = time.process_time() - t0
     s = statics(packing, layer=3.0)
     extra = dict(slab=slab) if compaction == "mean-flow" else {}
+    if rule == "late":
+        extra["settling"] = settling
     prof = depth_profile(packing) if compaction == "mean-flow" and height >= 200 else {}
     return dict(compaction=compaction, pressure=pressure, height=height, width=width, seed=seed, grains=n, **extra,
                 steps=int(packing.attrs["steps"]), final_height=float(packing.height),
@@ -123,7 +138,7 @@ def _mean_se(values) -> str:
 
 def _rows(records, p, c, h=None, slab=DEFAULT_SLAB):
     """Records of rule ``c`` at pressure ``p`` (and height ``h``); mean-flow at slab ``slab`` only."""
-    return [r for r in records if r["pressure"] == p and r["compaction"] == c
+    return [r for r in records if r["pressure"] == p and rule_of(r) == c
             and (h is None or r["height"] == h) and r.get("slab", DEFAULT_SLAB) == slab]
 
 
@@ -131,23 +146,24 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
     lines = []
     fits = {}
     for p in pressures:
-        for c in COMPACTIONS:
+        for c in RULES:
             rows = [r for r in _rows(records, p, c) if r["height"] in heights]
             fits[p, c] = fit([r["height"] for r in rows], [r["steps"] for r in rows])
-    lines.append("| p | H (d) | grains | seeds fixed / scaled / mean-flow | steps, fixed | steps, height-scaled "
-                 "| steps, mean-flow | fixed / mean-flow |")
-    lines.append("|" + "---|" * 8)
-    stat_lines = ["| p | H (d) | " + " | ".join(f"{label} fixed / scaled / mean-flow" for _, label in STATS) + " |",
+    lines.append("| p | H (d) | grains | seeds fixed / scaled / mean-flow / late | steps, fixed "
+                 "| steps, height-scaled | steps, mean-flow | steps, late (default) | fixed / mean-flow |")
+    lines.append("|" + "---|" * 9)
+    stat_lines = ["| p | H (d) | " + " | ".join(f"{label} fixed / scaled / mean-flow / late" for _, label in STATS)
+                  + " |",
                   "|" + "---|" * (2 + len(STATS))]
     for p in pressures:
         for h in heights:
-            cell = {c: _rows(records, p, c, h) for c in COMPACTIONS}
+            cell = {c: _rows(records, p, c, h) for c in RULES}
             if not any(cell.values()):
                 continue
             n = next(rows for rows in cell.values() if rows)[0]["grains"]
             steps = {}
             txt = {}
-            for c in COMPACTIONS:
+            for c in RULES:
                 if cell[c]:
                     steps[c] = float(np.mean([r["steps"] for r in cell[c]]))
                     txt[c] = f"{steps[c]:,.0f}"
@@ -159,10 +175,10 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
                     steps[c], txt[c] = float("nan"), "—"
             ratio = steps["fixed"] / steps["mean-flow"]
             ratio_txt = f"{ratio:.2f}" if math.isfinite(ratio) else "—"
-            seeds = " / ".join(str(len(cell[c])) for c in COMPACTIONS)
-            lines.append(f"| {p:g} | {h:g} | {n} | {seeds} | " + " | ".join(txt[c] for c in COMPACTIONS)
+            seeds = " / ".join(str(len(cell[c])) for c in RULES)
+            lines.append(f"| {p:g} | {h:g} | {n} | {seeds} | " + " | ".join(txt[c] for c in RULES)
                          + f" | {ratio_txt} |")
-            st = [" / ".join(_mean_se([r[key] for r in cell[c]]) for c in COMPACTIONS) for key, _ in STATS]
+            st = [" / ".join(_mean_se([r[key] for r in cell[c]]) for c in RULES) for key, _ in STATS]
             stat_lines.append(f"| {p:g} | {h:g} | " + " | ".join(st) + " |")
     lines.append("")
     lines.append("Bulk statistics (layer 3 d; mean ± standard error where more than one seed):")
@@ -173,7 +189,7 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
                  "95 % interval):")
     lines.append("")
     for p in pressures:
-        for c in COMPACTIONS:
+        for c in RULES:
             f = fits[p, c]
             hs = sorted({r["height"] for r in _rows(records, p, c) if r["height"] in heights})
             if f is None:
@@ -183,13 +199,13 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
             ci = f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) else " (two heights: no interval)"
             lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over H = {', '.join(f'{h:g}' for h in hs)}")
     other = sorted({(r["pressure"], r["height"]) for r in records
-                    if r["compaction"] == "mean-flow" and r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB})
+                    if rule_of(r) == "mean-flow" and r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB})
     if other:
         lines.append("")
         lines.append(f"Slab thickness of the mean flow (mean-flow; the table: {DEFAULT_SLAB:g} d), the same seeds:")
         lines.append("")
         for p, h in other:
-            mf = [r for r in records if r["compaction"] == "mean-flow" and r["pressure"] == p and r["height"] == h]
+            mf = [r for r in records if rule_of(r) == "mean-flow" and r["pressure"] == p and r["height"] == h]
             slabs = sorted({r.get("slab", DEFAULT_SLAB) for r in mf})
             seeds = {r["seed"] for r in mf if r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB}
             for sl in slabs:
@@ -202,12 +218,13 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
     profiles = [r for r in records if "profile_phi" in r and r.get("slab", DEFAULT_SLAB) == DEFAULT_SLAB]
     if profiles:
         lines.append("")
-        lines.append("Depth profile of Φ2 (mean-flow; bands from the bottom wall, grains by centre, walls included):")
+        lines.append("Depth profile of Φ2 (mean-flow and late; bands from the bottom wall, grains by centre, "
+                     "walls included):")
         lines.append("")
-        for r in profiles:
+        for r in sorted(profiles, key=lambda r: (rule_of(r) == "late", -r["pressure"], r["height"])):
             e = r["profile_edges"]
             bands = ", ".join(f"{lo:g}–{hi:.0f} d {phi:.4f}" for lo, hi, phi in zip(e[:-1], e[1:], r["profile_phi"]))
-            lines.append(f"- p = {r['pressure']:g}, H = {r['height']:g}, seed {r['seed']}: {bands}")
+            lines.append(f"- {rule_of(r)}, p = {r['pressure']:g}, H = {r['height']:g}, seed {r['seed']}: {bands}")
     return "\n".join(lines) + "\n"
 
 
@@ -220,7 +237,7 @@ def main(argv=None) -> int:
     ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
     ap.add_argument("--old-max-height", type=float, default=200.0,
                     help="largest height prepared with the 'fixed' compaction (default 200)")
-    ap.add_argument("--only", choices=COMPACTIONS, help="prepare only this compaction")
+    ap.add_argument("--only", choices=RULES, help="prepare only this rule (late: mean-flow with late settling)")
     ap.add_argument("--slab", type=float, default=DEFAULT_SLAB,
                     help="mean_flow_slab of the 'mean-flow' rule (d); the table shows the default's")
     ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "relaxation.jsonl")
@@ -228,15 +245,15 @@ def main(argv=None) -> int:
     ap.add_argument("--write-docs", action="store_true")
     a = ap.parse_args(argv)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    done = {(r["compaction"], r["pressure"], r["height"], r["seed"]) for r in load(a.results)
+    done = {(rule_of(r), r["pressure"], r["height"], r["seed"]) for r in load(a.results)
             if r["width"] == a.width and r.get("slab", DEFAULT_SLAB) == a.slab}
-    tasks = [(c, p, h, s) for c in COMPACTIONS for p in a.pressures for h in a.heights for s in range(a.first_seed, a.first_seed + a.seeds)
+    tasks = [(c, p, h, s) for c in RULES for p in a.pressures for h in a.heights for s in range(a.first_seed, a.first_seed + a.seeds)
              if (c, p, h, s) not in done and not (c == "fixed" and h > a.old_max_height)
              and (a.only is None or c == a.only)]
     # cheapest first (grain-steps ~ N H^k p^(-1/3)), so that a stopped run leaves the small heights
     tasks.sort(key=lambda t: t[2] ** (2.4 if t[0] == "fixed" else 2.0) * t[1] ** (-1.0 / 3.0))
     if a.slab != DEFAULT_SLAB:
-        tasks = [t for t in tasks if t[0] == "mean-flow"]
+        tasks = [t for t in tasks if RULE_SETTINGS[t[0]][0] == "mean-flow"]
     if not a.table_only:
         for c, p, h, s in tasks:
             rec = measure(c, p, h, a.width, s, a.slab)
