@@ -16,6 +16,12 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
   shipped: the rows in chunks, a thread done early taking over a late one's last chunks;
 - "shared, k chunks/thread": granwave's team kernel (``propagate._verlet_team``) with ``--chunks``
   k per thread;
+- "team, neighbour waits" (a prototype, not in granwave): fixed shares, and no barrier of the whole
+  team: each thread waits only for the threads whose rows its rows of D read (before its kick) and
+  for those that read its rows (before its next drift), found from D's pattern
+  (:func:`dependency_ranges`; on the lattices its two neighbours). Whether that beats the
+  barrier where vCPUs run late (16 threads, docs/linear.md) is what it is here to measure; on two
+  threads each thread's neighbour is the other, so it is the barrier under another name;
 
 each as a ratio to the first at one thread, and whether every variant at every thread count
 left the same bytes. Measured on the 16-core machine of docs/linear.md ("Sixteen cores").
@@ -62,7 +68,66 @@ def team_fixed_shares(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, 
                 gen = T.barrier(sync, threads, gen)
 
 
-VARIANTS = ("two regions/step", "team, fixed shares", f"team (granwave, {CHUNKS_PER_THREAD} chunks/thread)")
+#: int64 slots between two threads' progress counters (64-byte cache lines)
+STRIDE = 8
+
+
+@numba.njit(inline="always")
+def await_progress(progress, first, last, need):
+    """Wait until threads first .. last have each published progress >= ``need``."""
+    for s in range(first, last + 1):
+        spins = 0
+        while T.atomic_load(progress, STRIDE * s) < need:
+            T.relax(spins)
+            spins += 1
+
+
+@numba.njit(parallel=True)
+def team_neighbour_waits(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, progress,
+                         reads_lo, reads_hi, read_by_lo, read_by_hi):
+    """Fixed shares as :func:`team_fixed_shares`, but no barrier of the whole team: thread t
+    publishes its progress (``progress[STRIDE * t]``: 2n + 1 once it has drifted step n, 2n + 2
+    once it has kicked it) and waits only for the threads it depends on: before its kick of
+    step n for threads reads_lo[t] .. reads_hi[t] (those whose rows of u its rows of D read) to
+    have drifted step n, before its drift of step n + 1 for threads read_by_lo[t] ..
+    read_by_hi[t] (those that read its rows) to have kicked step n. A late thread then holds
+    only the threads beside it in the matrix, for a step, not every thread at every phase."""
+    n = u.shape[0]
+    threads = T.team_size(sync)
+    for t in numba.prange(threads):
+        if T.enter(sync, threads):
+            lo = t * n // threads
+            hi = (t + 1) * n // threads
+            for step in range(n_steps):
+                await_progress(progress, read_by_lo[t], read_by_hi[t], 2 * step)  # my readers kicked
+                _drift_rows(lo, hi, u, v, a, dt, flush)
+                T.atomic_store(progress, STRIDE * t, 2 * step + 1)
+                await_progress(progress, reads_lo[t], reads_hi[t], 2 * step + 1)  # what I read drifted
+                _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
+                T.atomic_store(progress, STRIDE * t, 2 * step + 2)
+
+
+def dependency_ranges(indptr: np.ndarray, indices: np.ndarray, threads: int):
+    """For fixed shares of the rows among ``threads``: per thread t the range of threads whose
+    rows t's rows of D read (reads_lo, reads_hi), and the range of threads that read t's rows
+    (read_by_lo, read_by_hi; a superset where the readers are not contiguous: waiting for more
+    is safe)."""
+    n = indptr.shape[0] - 1
+    starts = [t * n // threads for t in range(threads + 1)]
+    reads_lo, reads_hi = np.zeros(threads, np.int64), np.zeros(threads, np.int64)
+    for t in range(threads):
+        cols = indices[indptr[starts[t]]:indptr[starts[t + 1]]]
+        owners = np.searchsorted(np.asarray(starts[1:]), cols, side="right") if cols.size else np.array([t])
+        reads_lo[t], reads_hi[t] = min(t, int(owners.min())), max(t, int(owners.max()))
+    read_by_lo, read_by_hi = np.arange(threads, dtype=np.int64), np.arange(threads, dtype=np.int64)
+    for t in range(threads):
+        for s in range(int(reads_lo[t]), int(reads_hi[t]) + 1):
+            read_by_lo[s], read_by_hi[s] = min(read_by_lo[s], t), max(read_by_hi[s], t)
+    return reads_lo, reads_hi, read_by_lo, read_by_hi
+
+
+VARIANTS = ("two regions/step", "team, fixed shares", f"team (granwave, {CHUNKS_PER_THREAD} chunks/thread)",
+            "team, neighbour waits")
 
 
 def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -> None:
@@ -74,6 +139,7 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
     ip, ix = D.indptr.astype(np.int64), D.indices.astype(np.int64)
     steps = max(300, int(2e8 / D.nnz))
     sync = T.new_sync()
+    ranges = {t: dependency_ranges(ip, ix, t) for t in threads}
     variants = VARIANTS + tuple(f"shared, {k} chunks/thread" for k in chunks)
     best, finals = {}, set()
     for _ in range(repeat):
@@ -92,6 +158,13 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
                             raise RuntimeError("the team did not run")
                     elif name == VARIANTS[2]:
                         verlet_steps(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
+                    elif name == VARIANTS[3]:
+                        T.reset_team(sync, t)
+                        progress = np.zeros(STRIDE * t, np.int64)
+                        team_neighbour_waits(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync, progress,
+                                             *ranges[t])
+                        if not T.entered(sync):
+                            raise RuntimeError("the team did not run")
                     else:
                         per = int(name.split(", ")[1].split()[0])
                         T.reset_team(sync, t)
