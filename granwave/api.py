@@ -66,7 +66,8 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     """A disordered packing by piston compression of a granular gas (docs/method.md §3).
 
     ``progress`` receives one line of text about once a second. Raises
-    ConvergenceError when ``max_steps`` do not converge. The protocol is
+    ConvergenceError when the step budget (``max_steps``; default 2e6 per 100 d of the
+    expected height, at least 2e6) does not converge. The protocol is
     recorded in ``packing.attrs`` (one attribute per parameter, and the whole
     parameter object as JSON in ``prepare_params``). ``device``: "cpu" (default)
     or "gpu" (docs/gpu.md; recorded as the attribute ``device`` when "gpu").

@@ -244,8 +244,9 @@ class PrepareParams(Params):
                                       hi=0.6, hi_open=True)
     tol: float = param(1e-10, help="Convergence threshold on every acceleration; velocities are "
                        "tested too.", units="E*/(rho d)", lo=0.0, lo_open=True)
-    max_steps: int = param(2_000_000, help="Step budget; not converged by then: error, no output.",
-                           lo=1)
+    max_steps: int | None = param(None, help="Step budget [default: 2e6 per 100 d of the column's "
+                                  "expected height, at least 2e6]; not converged by then: error, no output.",
+                                  lo=1)
     seed: int = _seed()
     safety: float = param(0.05, help="Time-step factor: dt = (safety/0.1) x the stability limit of "
                           "the stiffest contact (normal and rotational modes, contact damping "

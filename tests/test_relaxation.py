@@ -14,9 +14,10 @@ from granwave.cli import main as cli_main
 from granwave.dem.forces import static_residual
 from granwave.dem import kernels as K
 from granwave.dem.integrator import Engine
+from granwave.dem import protocol
 from granwave.dem.protocol import (COMPACTION_RULES, damping_scale, expected_height, mean_flow_scale,
-                                   prepare_packing)
-from granwave.errors import InputError
+                                   prepare_packing, step_budget)
+from granwave.errors import ConvergenceError, InputError
 from granwave.geometry import lateral_size, wall_area
 from granwave.io import files
 from granwave.params import PrepareParams
@@ -59,6 +60,34 @@ def test_damping_scale_rule():
     assert damping_scale(scaled, 25.0) == 1.0  # up to reference_height: b unscaled
     assert damping_scale(scaled, 100.0) == 0.25
     assert damping_scale(PrepareParams(compaction="height-scaled", reference_height=10.0), 40.0) == 0.25
+
+
+def test_step_budget_rule():
+    per = protocol.STEPS_PER_100D
+    assert step_budget(None, 12.5) == per  # at least one budget
+    assert step_budget(None, 100.0) == per
+    assert step_budget(None, 400.0) == 4 * per
+    assert step_budget(1234, 400.0) == 1234  # given: as given
+
+
+def test_default_budget_follows_the_column(before, monkeypatch):
+    """A run without max_steps stops after the budget of its column's expected height (a
+    small budget per 100 d here, so that the runs stop early), and says so; a given max_steps
+    wins. A column below 100 d records the least budget."""
+    assert before.attrs["max_steps"] == protocol.STEPS_PER_100D
+    monkeypatch.setattr(protocol, "STEPS_PER_100D", 1000)
+    tall = dict(grains=600, aspect=40.0, seed=1)
+    radius = 0.5 * np.random.default_rng(1).uniform(0.8, 1.2, 600)  # the protocol's draw for seed 1
+    height = expected_height(radius, np.array([lateral_size(radius, 2, 40.0)]))
+    assert height > 110.0
+    budget = step_budget(None, height)
+    assert budget == int(1000 * height / 100.0) > 1000
+    with pytest.raises(ConvergenceError, match=rf"^{budget} steps did not converge"):
+        prepare_packing(PrepareParams(**tall))
+    with pytest.raises(ConvergenceError, match=r"^700 steps did not converge"):
+        prepare_packing(PrepareParams(**tall, max_steps=700))
+    with pytest.raises(ConvergenceError, match=r"^1000 steps did not converge"):
+        prepare_packing(PrepareParams(**BEFORE))  # 12.5 d: the least budget
 
 
 def test_expected_height_inverts_lateral_size():

@@ -31,8 +31,9 @@ def import_group():
                    "`granwave export lammps`), else one layer of grains].")
 @click.option("--tol", type=POSITIVE, default=1e-10, show_default=True,
               help="Convergence threshold on every acceleration (as prepare-packing).")
-@click.option("--max-steps", type=click.IntRange(min=1), default=2_000_000, show_default=True,
-              help="Step budget of the relaxation; not relaxed by then: error, no output file.")
+@click.option("--max-steps", type=click.IntRange(min=1), default=None,
+              help="Step budget of the relaxation  [default: as prepare-packing, 2e6 per 100 d of "
+                   "the expected height, at least 2e6]; not relaxed by then: error, no output file.")
 @click.option("--safety", type=FiniteFloat(min=0.0, min_open=True), default=0.05, show_default=True,
               help="Time-step factor (as prepare-packing; at most 0.06).")
 @click.option("--dim", type=click.Choice(["auto", "2", "3"]), default="auto", show_default=True,

@@ -73,6 +73,21 @@ COMPACTION_RULES = {
 }
 
 
+#: Default step budget per 100 d of a column's expected height (and the least budget): the default
+#: rule took 0.86e6 steps per 100 d at 400 d and p = 1e-7, the lowest pressure of the study, and
+#: its steps grow as H^0.9 (docs/dem.md "Relaxation cost"), so a tall column's budget keeps a
+#: margin of two where a fixed 2e6 stopped a 400 d column at 1e-7 after 60 % of its run
+STEPS_PER_100D = 2_000_000
+
+
+def step_budget(max_steps: int | None, expected_height: float) -> int:
+    """Steps a preparation may take: ``max_steps`` when given, else :data:`STEPS_PER_100D` per
+    100 d of ``expected_height`` (d), at least :data:`STEPS_PER_100D`."""
+    if max_steps is not None:
+        return int(max_steps)
+    return int(STEPS_PER_100D * max(1.0, expected_height / 100.0))
+
+
 def expected_height(radius, lateral) -> float:
     """Expected final height of the grains ``radius`` in the periodic cell ``lateral`` (d): their
     area (2D) or volume (3D) over the expected solid fraction times the lateral size; the inverse
@@ -191,6 +206,7 @@ class Compression:
         self.piston_force = p.pressure * wall_area(lateral)
         self.inertial_time = math.sqrt(mean_mass / p.pressure)  # sqrt(m / (p d))
         self.expected_height = expected_height(radius, lateral)
+        self.max_steps = step_budget(p.max_steps, self.expected_height)
         self.damping_scale = damping_scale(p, self.expected_height)
         self.gamma = p.background_damping * self.damping_scale / self.inertial_time
         #: compaction 'mean-flow': the rate of the mean flow and the piston (None: the rule is off,
@@ -227,7 +243,7 @@ class Compression:
                  dt_safety=p.safety, dt_rule=DT_RULE, tol=p.tol, velocity_tol=self.tol_v,
                  time_scale=self.time_scale, inertial_time=self.inertial_time, steps=engine.steps,
                  rebuilds=engine.rebuilds, skin=p.skin, skin_min=p.skin_min, check_every=p.check_every,
-                 convergence_test=CONVERGENCE_TEST, max_steps=p.max_steps)
+                 convergence_test=CONVERGENCE_TEST, max_steps=self.max_steps)
         if p.compaction == "mean-flow":
             a.update(mean_flow_slab=p.mean_flow_slab, mean_flow_damping_scale=self.mean_flow_scale,
                      mean_flow_damping_rate=self.gamma * self.mean_flow_scale,
@@ -247,7 +263,7 @@ class Compression:
 
         ``attrs``: what the packing records beyond the protocol (kind, sizes, ...).
         ``progress`` is called about once a second. Raises ConvergenceError when the
-        run blows up (with ``blow_up_hint``) or ``max_steps`` steps ``failure``.
+        run blows up (with ``blow_up_hint``) or ``self.max_steps`` steps ``failure``.
         """
         p, engine = self.params, self.engine
         advance = engine.run if self.settling is None else self.settling.run
@@ -256,9 +272,9 @@ class Compression:
         last_steps = 0
         history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
         announced = False  # the settling switch reported
-        while engine.steps < p.max_steps:
+        while engine.steps < self.max_steps:
             t0 = time.perf_counter()
-            status = advance(min(chunk, p.max_steps - engine.steps))
+            status = advance(min(chunk, self.max_steps - engine.steps))
             if status == 3:
                 raise ConvergenceError(
                     f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
@@ -288,7 +304,7 @@ class Compression:
                 m = engine.measure()
                 rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
                 eta = eta_seconds(history, p.tol, rate / engine.position.shape[0],
-                                  steps_left=p.max_steps - engine.steps)
+                                  steps_left=self.max_steps - engine.steps)
                 progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
                          f"  max|v| {m['max_speed']:.3e}"
                          # frictional grains rotate; their spin is part of the convergence test
@@ -298,8 +314,8 @@ class Compression:
                          f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
         m = engine.measure()
-        raise ConvergenceError(f"{p.max_steps} steps {failure}: "
-                               + non_convergence_hint(history, m, p, engine.dt))
+        raise ConvergenceError(f"{self.max_steps} steps {failure}: "
+                               + non_convergence_hint(history, m, p, engine.dt, self.max_steps))
 
 
 def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Packing:
@@ -308,7 +324,7 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
     ``progress``: optional callable taking one line of text, called about once
     a second. ``engine``: the engine class (the CPU :class:`Engine`, or
     :class:`granwave.gpu.dem.GpuEngine`; granwave.gpu.backend picks it). Raises :class:`granwave.errors.ConvergenceError` when
-    ``params.max_steps`` steps do not converge. The returned packing lists the
+    its step budget (:func:`step_budget`) does not converge. The returned packing lists the
     force-carrying contacts at the final positions (walls: j = -1 bottom,
     -2 top) and records the protocol in ``attrs``.
     """
@@ -336,10 +352,11 @@ def _max_acceleration(m: dict) -> float:
     return max(m["max_acceleration"], m["max_angular_acceleration"], m["piston_acceleration"])
 
 
-def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float) -> str:
+def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float, budget: int) -> str:
     """What was observed at the end of a run that did not converge, and what could help.
 
-    ``history``: (steps, max |a|) after every chunk. The run *stalled* when max |a| is still
+    ``history``: (steps, max |a|) after every chunk; ``budget``: the run's steps
+    (:func:`step_budget`). The run *stalled* when max |a| is still
     far above tol (> 1e3 tol) and its lowest value over the second half of the run is not
     even 10x below its lowest value over the first half: more steps will not help; an
     unstable step (safety too large for the damping) or a system that cannot come to rest
@@ -347,8 +364,8 @@ def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float) -> str:
     """
     a_now = _max_acceleration(m)
     seen = f"max |a| {a_now:.3e} (tol {p.tol:g}), max |v| {m['max_speed']:.3e}"
-    half = [a for s, a in history if s > p.max_steps / 2]
-    first = [a for s, a in history if s <= p.max_steps / 2]
+    half = [a for s, a in history if s > budget / 2]
+    first = [a for s, a in history if s <= budget / 2]
     if half and first and a_now > 1e3 * p.tol and min(half) > 0.1 * min(first):
         return (f"{seen}; max |a| stalled (lowest {min(first):.2e} in the first half of the run, "
                 f"{min(half):.2e} in the second), so more steps will not help. At dt {dt:.3g} "

@@ -33,7 +33,8 @@ def relax_grains(position, radius, lateral, params: PrepareParams, *, piston_hei
     ``lateral`` the periodic lengths (dim-1,). ``piston_height``: where the piston starts
     (default: resting on the highest grain). ``velocity`` (N, dim) and
     ``angular_velocity`` (N, 1 in 2D / 3 in 3D) optional initial state. Raises
-    ConvergenceError when ``params.max_steps`` steps do not converge, InputError for
+    ConvergenceError when the step budget (``params.max_steps``, by default scaled with the
+    expected height: :func:`granwave.dem.protocol.step_budget`) does not converge, InputError for
     grains that do not fit between the walls.
     """
     p = params
