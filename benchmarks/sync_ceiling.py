@@ -26,8 +26,9 @@ loop), ``--step-us`` microseconds of one thread's work per step, in three ways:
   finished reading step n - 1.
 
 Every way and thread count must leave the same bytes (checked; the run fails otherwise): the
-waits must order the reads and writes, and a missing one would change the bytes in most runs. Printed: steps per second,
-best of ``--repeat`` interleaved runs, and each as a ratio to "regions" on one thread. On a
+waits must order the reads and writes, and a missing one would change the bytes in most runs.
+Printed: steps per second, best of ``--repeat`` interleaved runs, and each as a ratio to
+"regions" on one thread. On a
 2-core machine "neighbours" on two threads is "barrier" (each thread's two neighbours are the
 other thread); the question is for 16 threads.
 """
