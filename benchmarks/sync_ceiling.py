@@ -1,6 +1,7 @@
 """Is the 16-thread ceiling of short parallel steps the barrier's? (a script, not a test)
 
-    python benchmarks/sync_ceiling.py [--threads 1,2,4,8,16] [--step-us 150] [--repeat 3]
+    python benchmarks/sync_ceiling.py [--threads 1,2,4,8,16] [--step-us 150] [--phases 2]
+        [--first-share 0.15] [--repeat 3]
 
 The DEM engine at 10^4 grains reaches about what a perfectly parallel loop of its region size
 reaches on the 16-vCPU machines of docs/dem.md ("Sixteen cores"): 5-6x at 16 threads, against
@@ -14,16 +15,18 @@ slack of the threads further away, instead of stopping all of them at every step
 This script measures that ceiling before any engine is rebuilt for it. A ring of chunks (16 per
 thread), each step computing every chunk from itself and its two neighbours of the step before
 (a dependent chain of multiply-adds and square roots: no memory traffic, like scale.py's ideal
-loop), ``--step-us`` microseconds of one thread's work per step, in three ways:
+loop), ``--step-us`` microseconds of one thread's work per step, cut into ``--phases`` phases
+(default 2, as the engine's two passes: the first ``--first-share`` of the work, then the rest),
+each phase reading the neighbours' previous phase, in three ways:
 
-- "regions": one numba ``prange`` region per step (an OpenMP fork and join; the engine opens two
-  per step);
-- "barrier": one region for all steps, the steps separated by granwave.team's spin barrier (the
+- "regions": one numba ``prange`` region per phase (an OpenMP fork and join; the engine opens
+  one per pass, two per step);
+- "barrier": one region for all steps, the phases separated by granwave.team's spin barrier (the
   time domain's team);
-- "neighbours": one region for all steps; thread t publishes the steps it has finished (an atomic
-  store on its own cache line) and starts step n + 1 once threads t - 1 and t + 1 (on the ring)
-  have finished step n. Two buffers, so a thread writes step n + 1 where its neighbours have
-  finished reading step n - 1.
+- "neighbours": one region for all steps; thread t publishes the phases it has finished (an
+  atomic store on its own cache line) and starts phase k + 1 once threads t - 1 and t + 1 (on
+  the ring) have finished phase k. Two buffers, so a thread writes phase k + 1 where its
+  neighbours have finished reading phase k - 1.
 
 Every way and thread count must leave the same bytes (checked; the run fails otherwise): the
 waits must order the reads and writes, and a missing one would change the bytes in most runs.
@@ -65,10 +68,12 @@ def _chunk(src, c, n, work):
 
 
 @numba.njit(parallel=True)
-def run_regions(a, b, work, steps):
-    """One prange region per step; the result in ``a`` when ``steps`` is even, else ``b``."""
+def run_regions(a, b, works, steps):
+    """One prange region per phase (``steps`` phases, phase s of ``works[s % len(works)]`` turns
+    per chunk); the result in ``a`` when ``steps`` is even, else ``b``."""
     n = a.shape[0]
     for s in range(steps):
+        work = works[s % works.shape[0]]
         # two loops, not a swapped pair of names: with the pair chosen at run time the parallel
         # loop gave other bytes than the serial ways, at an impossible rate (numba 0.6x)
         if s % 2 == 0:
@@ -80,8 +85,8 @@ def run_regions(a, b, work, steps):
 
 
 @numba.njit(parallel=True)
-def run_barrier(a, b, work, steps, sync):
-    """One region; a spin barrier of the whole team after each step."""
+def run_barrier(a, b, works, steps, sync):
+    """One region; a spin barrier of the whole team after each phase."""
     n = a.shape[0]
     threads = T.team_size(sync)
     for t in numba.prange(threads):
@@ -89,6 +94,7 @@ def run_barrier(a, b, work, steps, sync):
             lo, hi = t * n // threads, (t + 1) * n // threads
             gen = 0
             for s in range(steps):
+                work = works[s % works.shape[0]]
                 src, dst = (a, b) if s % 2 == 0 else (b, a)
                 for c in range(lo, hi):
                     dst[c] = _chunk(src, c, n, work)
@@ -96,9 +102,9 @@ def run_barrier(a, b, work, steps, sync):
 
 
 @numba.njit(parallel=True)
-def run_neighbours(a, b, work, steps, sync, done):
-    """One region; thread t starts step s once its two ring neighbours have finished step s - 1
-    (``done[STRIDE * u]``: steps thread u has finished)."""
+def run_neighbours(a, b, works, steps, sync, done):
+    """One region; thread t starts phase s once its two ring neighbours have finished phase s - 1
+    (``done[STRIDE * u]``: phases thread u has finished)."""
     n = a.shape[0]
     threads = T.team_size(sync)
     for t in numba.prange(threads):
@@ -110,6 +116,7 @@ def run_neighbours(a, b, work, steps, sync, done):
                 while T.atomic_load(done, left) < s or T.atomic_load(done, right) < s:
                     T.relax(spins)
                     spins += 1
+                work = works[s % works.shape[0]]
                 src, dst = (a, b) if s % 2 == 0 else (b, a)
                 for c in range(lo, hi):
                     dst[c] = _chunk(src, c, n, work)
@@ -121,6 +128,10 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", default="1,2", help="comma-separated thread counts, 1 first")
     ap.add_argument("--step-us", type=float, default=150.0,
                     help="one thread's work per step (us); the engine's step at 10^4 grains is of this order")
+    ap.add_argument("--phases", type=int, default=2, help="phases per step, each reading the neighbours' last")
+    ap.add_argument("--first-share", type=float, default=0.15,
+                    help="with 2 phases: the first phase's share of the step's work (the engine's first pass "
+                         "is short)")
     ap.add_argument("--seconds", type=float, default=0.3, help="wall time of one-thread work per run")
     ap.add_argument("--repeat", type=int, default=3)
     a = ap.parse_args(argv)
@@ -131,38 +142,47 @@ def main(argv=None) -> int:
     seed = 1.0 + np.arange(n) * 1e-3
     sync, done = T.new_sync(), np.zeros(STRIDE * max(threads), np.int64)
 
-    def run(way, work, steps):
+    def run(way, works, phases):
         x, y = seed.copy(), np.zeros(n)
         if way == "regions":
-            run_regions(x, y, work, steps)
+            run_regions(x, y, works, phases)
         else:
             T.reset_team(sync, numba.get_num_threads())
             if way == "barrier":
-                run_barrier(x, y, work, steps, sync)
+                run_barrier(x, y, works, phases, sync)
             else:
                 done[:] = 0
-                run_neighbours(x, y, work, steps, sync, done)
+                run_neighbours(x, y, works, phases, sync, done)
             if not T.entered(sync):
                 raise SystemExit(f"{way}: the team did not start (threading layer {numba.threading_layer()})")
-        return x if steps % 2 == 0 else y
+        return x if phases % 2 == 0 else y
 
+    if a.phases < 1 or not 0.0 < a.first_share < 1.0:
+        raise SystemExit("--phases: at least 1; --first-share: between 0 and 1")
     numba.set_num_threads(1)
-    run("regions", 1, 2), run("barrier", 1, 2), run("neighbours", 1, 2)  # compile
-    w0 = time.perf_counter()
-    run("regions", 20_000, 2)
-    per_unit = (time.perf_counter() - w0) / (2 * 20_000 * n)
-    work = max(1, int(a.step_us * 1e-6 / (per_unit * n)))
-    steps = 2 * max(1, int(a.seconds / (a.step_us * 1e-6) / 2))
     ways = ("regions", "barrier", "neighbours")
-    print(f"{n} chunks, {work} turns each ({a.step_us:g} us of one thread's work per step), {steps} steps per run; "
-          f"threading layer {numba.threading_layer()}; {numba.config.NUMBA_NUM_THREADS} threads available")
+    for way in ways:  # compile
+        run(way, np.ones(1, np.int64), 2)
+    w0 = time.perf_counter()
+    run("regions", np.full(1, 20_000, np.int64), 2)
+    per_unit = (time.perf_counter() - w0) / (2 * 20_000 * n)
+    work = max(a.phases, int(a.step_us * 1e-6 / (per_unit * n)))  # turns per chunk and step
+    if a.phases == 2:
+        first = max(1, int(round(a.first_share * work)))
+        works = np.array([first, work - first], np.int64)
+    else:
+        works = np.full(a.phases, work // a.phases, np.int64)
+    steps = 2 * max(1, int(a.seconds / (a.step_us * 1e-6) / 2))
+    print(f"{n} chunks, {int(works.sum())} turns each per step in {a.phases} phase(s) of {', '.join(map(str, works))} "
+          f"({a.step_us:g} us of one thread's work per step), {steps} steps per run; threading layer "
+          f"{numba.threading_layer()}; {numba.config.NUMBA_NUM_THREADS} threads available")
     best, results = {}, set()
     for _ in range(a.repeat):
         for t in threads:
             numba.set_num_threads(t)
             for way in ways:
                 w0 = time.perf_counter()
-                out = run(way, work, steps)
+                out = run(way, works, steps * a.phases)
                 rate = steps / (time.perf_counter() - w0)
                 best[way, t] = max(best.get((way, t), 0.0), rate)
                 results.add(out.tobytes())
