@@ -13,7 +13,7 @@ step n: a late vCPU then delays its neighbours by a step, and its lateness can b
 slack of the threads further away, instead of stopping all of them at every step.
 
 This script measures that ceiling before any engine is rebuilt for it. A ring of chunks (16 per
-thread), each step computing every chunk from itself and its two neighbours of the step before
+thread), each phase computing every chunk from itself and its two neighbours of the phase before
 (a dependent chain of multiply-adds and square roots: no memory traffic, like scale.py's ideal
 loop), ``--step-us`` microseconds of one thread's work per step, cut into ``--phases`` phases
 (default 2, as the engine's two passes: the first ``--first-share`` of the work, then the rest),
@@ -68,11 +68,11 @@ def _chunk(src, c, n, work):
 
 
 @numba.njit(parallel=True)
-def run_regions(a, b, works, steps):
-    """One prange region per phase (``steps`` phases, phase s of ``works[s % len(works)]`` turns
-    per chunk); the result in ``a`` when ``steps`` is even, else ``b``."""
+def run_regions(a, b, works, phases):
+    """One prange region per phase (``phases`` of them, phase s of ``works[s % len(works)]`` turns
+    per chunk); the result in ``a`` when ``phases`` is even, else ``b``."""
     n = a.shape[0]
-    for s in range(steps):
+    for s in range(phases):
         work = works[s % works.shape[0]]
         # two loops, not a swapped pair of names: with the pair chosen at run time the parallel
         # loop gave other bytes than the serial ways, at an impossible rate (numba 0.6x)
@@ -85,7 +85,7 @@ def run_regions(a, b, works, steps):
 
 
 @numba.njit(parallel=True)
-def run_barrier(a, b, works, steps, sync):
+def run_barrier(a, b, works, phases, sync):
     """One region; a spin barrier of the whole team after each phase."""
     n = a.shape[0]
     threads = T.team_size(sync)
@@ -93,7 +93,7 @@ def run_barrier(a, b, works, steps, sync):
         if T.enter(sync, threads):
             lo, hi = t * n // threads, (t + 1) * n // threads
             gen = 0
-            for s in range(steps):
+            for s in range(phases):
                 work = works[s % works.shape[0]]
                 src, dst = (a, b) if s % 2 == 0 else (b, a)
                 for c in range(lo, hi):
@@ -102,7 +102,7 @@ def run_barrier(a, b, works, steps, sync):
 
 
 @numba.njit(parallel=True)
-def run_neighbours(a, b, works, steps, sync, done):
+def run_neighbours(a, b, works, phases, sync, done):
     """One region; thread t starts phase s once its two ring neighbours have finished phase s - 1
     (``done[STRIDE * u]``: phases thread u has finished)."""
     n = a.shape[0]
@@ -111,7 +111,7 @@ def run_neighbours(a, b, works, steps, sync, done):
         if T.enter(sync, threads):
             lo, hi = t * n // threads, (t + 1) * n // threads
             left, right = STRIDE * ((t + threads - 1) % threads), STRIDE * ((t + 1) % threads)
-            for s in range(steps):
+            for s in range(phases):
                 spins = 0
                 while T.atomic_load(done, left) < s or T.atomic_load(done, right) < s:
                     T.relax(spins)
