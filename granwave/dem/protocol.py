@@ -74,7 +74,7 @@ COMPACTION_RULES = {
 
 
 #: Default step budget per 100 d of a column's expected height (and the least budget). At
-#: p = 1e-7, the lowest pressure of the study, the default rule took 0.82-0.86e6 steps per 100 d
+#: p = 1e-7, the lowest pressure of the study, the default rule took 0.82-0.88e6 steps per 100 d
 #: at 100-400 d, growing as H^0.9 (docs/dem.md "Relaxation cost"): a margin of 2.3-2.4 that
 #: grows with H, where a fixed 2e6 stopped the 400 d column after 60 % of its run
 STEPS_PER_100D = 2_000_000
