@@ -190,7 +190,8 @@ class PrepareParams(Params):
     breathing; 'compaction': the mean flow at the compaction rate to the end; 'critical':
     that damping from the plug's arrival on); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
-    0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps; seed; safety
+    0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps (None: 2e6 per 100 d of
+    the expected height, at least 2e6); seed; safety
     (dt = (safety/0.1) x the estimated stability limit, at most MAX_SAFETY;
     docs/dem.md); skin and skin_min (d; the neighbour list's skin adapts between them, the
     same packing for any skin); check_every (steps between convergence checks).
