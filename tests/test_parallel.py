@@ -12,7 +12,7 @@ import numba
 import numpy as np
 import pytest
 
-from granwave import threads
+from granwave import team, threads
 from granwave.dem import integrator
 from granwave.dem import kernels as K
 from granwave.dem import serial
@@ -63,6 +63,105 @@ def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
     assert _bytes(one) == _bytes(two)
     if params is CRITICAL:
         assert 0 < one.attrs["settling_damping_rate"] < one.attrs["background_damping_rate"]
+
+
+@two_threads
+@pytest.mark.parametrize("dim", [2, 3])
+def test_plain_steps_in_a_team_same_bytes_as_a_region_per_pass(dim, monkeypatch):
+    """On 2 threads the plain steps run in a team of threads (kernels._team_steps): after 600
+    steps of a shaken packing under a moving piston (so that pair lists are rebuilt and the
+    team leaves and enters again), positions, velocities, spins, tangential histories and the
+    piston are byte for byte those of a parallel region per pass and of the one-thread loop."""
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    packing = prepare_packing(PrepareParams(dim=dim, grains=120 if dim == 2 else 80, seed=5, tol=1e-9))
+
+    def run(n_threads, in_team):
+        monkeypatch.setattr(integrator, "PLAIN_STEPS_IN_TEAM", in_team)
+        rng = np.random.default_rng(0)
+        lateral = packing.box[:-1]
+        engine = integrator.Engine(packing.position, packing.radius, lateral, packing.box[-1],
+                                   friction=packing.friction, damping=0.5,
+                                   piston_mass=float(packing.attrs["piston_mass"]),
+                                   piston_force=packing.pressure * float(np.prod(lateral)),
+                                   velocity=rng.normal(0.0, 1e-2, packing.position.shape))
+        _at(n_threads, lambda: engine.run(600))
+        state = b"".join(np.ascontiguousarray(x).tobytes() for x in (
+            engine.position, engine.velocity, engine.angular_velocity, engine.pair_ft, engine.piston))
+        return state, int(engine.ipar[K.I_TEAMSTEPS]), engine.rebuilds
+
+    team, team_steps, rebuilds = run(2, True)
+    regions, no_team_steps, _ = run(2, False)
+    one, _, _ = run(1, True)
+    assert rebuilds >= 3
+    assert team_steps > 300 and no_team_steps == 0
+    assert team == regions == one
+
+
+def _shaken_engine(n_grains=120):
+    packing = prepare_packing(PrepareParams(grains=n_grains, seed=5, tol=1e-9))
+    rng = np.random.default_rng(0)
+    return integrator.Engine(packing.position, packing.radius, packing.box[:-1], packing.box[-1],
+                             friction=packing.friction, damping=0.5,
+                             piston_mass=float(packing.attrs["piston_mass"]),
+                             piston_force=packing.pressure * packing.box[0],
+                             velocity=rng.normal(0.0, 1e-2, packing.position.shape))
+
+
+def _engine_bytes(engine) -> bytes:
+    return b"".join(np.ascontiguousarray(x).tobytes() for x in (
+        engine.position, engine.velocity, engine.acceleration, engine.pair_ft, engine.piston, engine.fpar,
+        engine.ipar[[K.I_NPAIRS, K.I_STEPS, K.I_REBUILDS, K.I_BUILT]]))
+
+
+@two_threads
+def test_dem_team_that_cannot_start_does_nothing(monkeypatch):
+    """A team of 3 asked for on 2 threads: its threads give it up at the entry (after their
+    patience) and it runs no step: no grain, piston or counter changes, and the kernel says so
+    (ipar[I_TEAM] = -1) for the engine to run the passes in regions."""
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    engine = _shaken_engine()
+    _at(2, lambda: engine.run(40))  # the blocks and incoming lists for 2 threads
+    before = _engine_bytes(engine)
+    engine.ws[K.W_CLAIM][0] = 3
+    engine.ipar[K.I_TEAM] = 1
+    sync = np.zeros(team.SYNC_LENGTH, np.int64)
+    done, _ = _at(2, lambda: K._team_steps(
+        engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+        engine.angular_acceleration, engine.radius, engine.mass, engine.inertia, engine.lateral, engine.pos0,
+        engine.pair_i, engine.pair_j, engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov,
+        engine.piston, engine.fpar, engine.ipar, engine.ws, engine.ws[K.W_BLK].shape[0], 0, 100, 0.0, sync))
+    assert done == 0 and engine.ipar[K.I_TEAM] == -1 and not team.entered(sync)
+    assert _engine_bytes(engine) == before
+
+
+@two_threads
+def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
+    """When a run's team did not start (ipar[I_TEAM] = -1 from the kernel), Engine.run warns once
+    and no later run tries a team (granwave.team.usable); the steps are those of the regions."""
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    monkeypatch.setattr(team, "_given_up", False)  # restored after the test
+    real = K.run_chunk
+
+    def team_never_starts(*args):
+        ipar = args[18]
+        ipar[K.I_TEAM] = 0  # no team: the regions' passes, as after a failed entry
+        status = real(*args)
+        ipar[K.I_TEAM] = -1
+        return status
+
+    reference = _shaken_engine()
+    monkeypatch.setattr(integrator, "PLAIN_STEPS_IN_TEAM", False)
+    _at(2, lambda: reference.run(200))
+    monkeypatch.setattr(integrator, "PLAIN_STEPS_IN_TEAM", True)
+    engine = _shaken_engine()
+    monkeypatch.setattr(K, "run_chunk", team_never_starts)
+    with pytest.warns(RuntimeWarning, match="did not all start together"):
+        _at(2, lambda: engine.run(100))
+    monkeypatch.setattr(K, "run_chunk", real)
+    assert not team.usable()
+    _at(2, lambda: engine.run(100))
+    assert engine.ipar[K.I_TEAM] == 0 and engine.ipar[K.I_TEAMSTEPS] == 0
+    assert _engine_bytes(engine) == _engine_bytes(reference)
 
 
 @pytest.mark.parametrize("params", [

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import team
 from ..errors import InputError
 from ..geometry import grain_inertia, grain_mass, n_rotations
 from ..threads import at_most
@@ -37,6 +38,9 @@ from .neighbours import rebuild
 
 #: Neighbours per grain the lists start with (2D, 3D); grown when a grain has more.
 NEIGHBOUR_WIDTH = {2: 16, 3: 40}
+#: Run the plain steps on more than one thread in a team of threads (kernels._team_steps: the
+#: same bits as a parallel region per pass); False for the regions alone (benchmarks, tests)
+PLAIN_STEPS_IN_TEAM = True
 
 #: Tangential unloading rules (contact.update_tangential's ``rescale_on_unloading`` True / False).
 UNLOADING_RULES = ("rescale", "incremental")
@@ -229,6 +233,7 @@ class Engine:
             run_chunk = serial.run_chunk if threads == 1 else K.run_chunk
             if threads > 1:
                 self.ws = K.with_blocks(self.ws, K.block_count(len(self.radius), threads))
+            self.ipar[K.I_TEAM] = int(threads > 1 and PLAIN_STEPS_IN_TEAM and team.usable())
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
                 self.ws[K.W_CLAIM][0] = threads  # the force passes' share per thread (kernels.visit_block)
@@ -237,6 +242,8 @@ class Engine:
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
                                      self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
                                      self.ipar, self.out, self.ws)
+                if self.ipar[K.I_TEAM] < 0:  # its threads did not all start: regions from now on
+                    team.give_up("DEM engine")
                 if status == 2:
                     self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
                     continue

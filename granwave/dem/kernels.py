@@ -33,7 +33,8 @@ unloading, 0: plain incremental; contact.update_tangential), piston height when 
 list was made (:func:`wall_list`), smallest and largest skin (an adaptive skin when they
 differ: :func:`next_skin`); ``ipar``: pairs listed, steps asked, steps done, steps between
 checks, adaptive dt, rebuilds, sizes a rebuild needs (pairs, width), step of the last
-rebuild; ``piston``: height, velocity,
+rebuild, whether plain steps run in a team of threads (1: yes, 0: no, -1: a team did not
+start; :func:`_team_steps`), steps run so far in teams; ``piston``: height, velocity,
 acceleration, mass (inf = fixed wall), downward force p*A, contact force.
 """
 
@@ -62,8 +63,9 @@ N_FPAR = 17
 P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
 N_PISTON = 6
 # ipar indices
-I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED, I_WIDTH, I_BUILT = range(9)
-N_IPAR = 9
+I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED, I_WIDTH, I_BUILT, I_TEAM, \
+    I_TEAMSTEPS = range(11)
+N_IPAR = 11
 # out (statistics) indices
 O_AMAX, O_ALPHAMAX, O_APISTON, O_VMAX, O_WMAX, O_KIN, O_NTOP, O_DMAX, O_NCONTACT = range(9)
 N_OUT = 9
@@ -228,21 +230,23 @@ def grains(lo, hi):
 
 
 @numba.njit(cache=True, inline="always")
-def take_block(claims, b):
-    """Mark block b taken: ``claims[1 + b]`` exchanged with 1 atomically (an LLVM ``atomicrmw
-    xchg``, :func:`granwave.team.atomic_swap`). Returns the flag before: 0 when this caller took
-    the block, 1 when someone had."""
-    return team.atomic_swap(claims, b + 1, 1)
+def take_block(claims, b, phase):
+    """Mark block b taken in pass ``phase``: ``claims[1 + b]`` exchanged with ``phase`` atomically
+    (an LLVM ``atomicrmw xchg``, :func:`granwave.team.atomic_swap`). True when this caller took
+    the block, False when someone had. The flags start below every phase (:func:`open_claims`
+    zeroes them for the regions' passes, which are all phase 1; the team's passes count up,
+    :func:`_team_steps`)."""
+    return team.atomic_swap(claims, b + 1, phase) != phase
 
 
 @numba.njit(cache=True, inline="always")
-def block_taken(claims, b):
-    """Whether block b is taken (``claims[1 + b]`` read atomically)."""
-    return team.atomic_load(claims, b + 1) != 0
+def block_taken(claims, b, phase):
+    """Whether block b is taken in pass ``phase`` (``claims[1 + b]`` read atomically)."""
+    return team.atomic_load(claims, b + 1) == phase
 
 
 @numba.njit(cache=True, inline="always")
-def worth_taking(claims, t, threads, nblk, b):
+def worth_taking(claims, t, threads, nblk, b, phase):
     """Whether thread t should try block b (:func:`visit_block`): every block of its own share;
     one of another's only while its owner has not reached the block before it. The owner then
     keeps the block it would start next, which it computes from its own cache: taking it over a
@@ -255,7 +259,7 @@ def worth_taking(claims, t, threads, nblk, b):
         u += 1
     if u == t:
         return True
-    return b > u * nblk // threads and not block_taken(claims, b - 1)
+    return b > u * nblk // threads and not block_taken(claims, b - 1, phase)
 
 
 @numba.njit(cache=True, inline="always")
@@ -280,12 +284,13 @@ def visit_block(t, threads, nblk, j):
 
 
 @numba.njit(cache=True, inline="always")
-def claim_block(claims, t, threads, nblk, j):
+def claim_block(claims, t, threads, nblk, j, phase):
     """The j-th block of thread t's order (:func:`visit_block`) if t should try it
-    (:func:`worth_taking`) and took it (:func:`take_block`); else -1. A force pass runs, per
-    thread t, the blocks that ``claim_block(claims, t, threads, nblk, j)`` gives for j < nblk."""
+    (:func:`worth_taking`) and took it (:func:`take_block`) in pass ``phase``; else -1. A force
+    pass runs, per thread t, the blocks that ``claim_block(claims, t, threads, nblk, j, phase)``
+    gives for j < nblk."""
     b = visit_block(t, threads, nblk, j)
-    if worth_taking(claims, t, threads, nblk, b) and take_block(claims, b) == 0:
+    if worth_taking(claims, t, threads, nblk, b, phase) and take_block(claims, b, phase):
         return b
     return -1
 
@@ -655,7 +660,7 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     threads = open_claims(claims, nblk)
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
         for j in range(nblk):
-            b = claim_block(claims, t, threads, nblk, j)
+            b = claim_block(claims, t, threads, nblk, j, 1)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
                                 pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g)
@@ -836,7 +841,7 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
         if t == 0 and slab_job:
             _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk)
         for j in range(nblk):
-            b = claim_block(claims, t, threads, nblk, j)
+            b = claim_block(claims, t, threads, nblk, j, 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
@@ -1193,6 +1198,134 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
     out[O_KIN] = kin
 
 
+# --------------------------------------------------------------------------- team of threads
+# Plain steps (no rebuild, no check, no wall list to remake, no slab means) in one parallel
+# region, the two passes of each separated by granwave.team's spin barrier. numba opens a region
+# (an OpenMP fork and join) per pass; on the 16-vCPU machines of docs/dem.md a region cost
+# 7-8 us at 16 threads and some vCPU was late in most of them. There the 10^4-grain benchmark
+# state ran 5.98x one thread at 16 threads with the team against 5.27x with a region per pass
+# (alternated in one process), and the same on 2 cores. Every block runs the same code as in
+# the regions' passes and every thread takes the same decisions from the same numbers, so the
+# bits are those of the regions' path (tests/test_parallel.py).
+
+
+@numba.njit(cache=True)
+def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
+                 inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar,
+                 row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile,
+                 tile_p, claims_w, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state):
+    """Thread t's part of :func:`_team_steps`: from step ``step`` of ``n_steps`` (``steps`` done in
+    all, the list made at ``built``), with its own copy ``piston`` of the piston, as long as the
+    next step is one that :func:`run_chunk` would run as a plain drifted step. Its count of steps,
+    ``disp2`` and the largest |v| into ``state`` (every thread the same)."""
+    n = pos.shape[0]
+    dt = fpar[F_DT]
+    half_skin = 0.5 * fpar[F_SKIN]
+    moving = piston[P_MASS] < np.inf
+    gen = 0
+    done = 0
+    while True:
+        # run_chunk's tests for this step, from the same numbers on every thread
+        is_check = check > 0 and (steps + 1) % check == 0
+        reach = math.sqrt(disp2) + 2.0 * vmax * dt
+        if (is_check or step + 1 >= n_steps or not math.isfinite(reach)
+                or rebuild_due(fpar, steps + 1 - built, reach)
+                or abs(piston[P_H] - fpar[F_WALLH]) > half_skin):
+            break
+        phase = 2 * done + 1
+        for j in range(nblk):
+            b = claim_block(claims, t, threads, nblk, j, phase)
+            if b >= 0:
+                _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
+                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g)
+        gen = team.barrier(sync, threads, gen)
+        for j in range(nblk):
+            b = claim_block(claims, t, threads, nblk, j, phase + 1)
+            if b >= 0:
+                _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
+                           pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row,
+                           nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, True, False, True, mflow,
+                           slabs, tile, tile_p, claims_w)
+        gen = team.barrier(sync, threads, gen)
+        # what _forces and run_chunk do after the passes, read before this thread arrives at the
+        # next barrier: the next phase 1 writes no column read here, the next phase 2 all of them
+        fpiston = 0.0
+        dvmax = 0.0
+        disp2 = 0.0
+        for b in range(nblk):
+            b0 = block_bounds(b, n, nblk)[0]
+            for c in range(int(blk_g[b, G_NTOP])):
+                fpiston -= top_f[b0 + c]
+            dvmax = max(dvmax, blk_g[b, G_DVMAX])
+            disp2 = max(disp2, blk_g[b, G_DISP])
+        piston[P_FCON] = fpiston
+        piston[P_A] = piston_acceleration(piston, gamma_p)
+        if moving:
+            piston[P_V] += 0.5 * dt * piston[P_A]
+        steps += 1
+        step += 1
+        done += 1
+        vmax = math.sqrt(dvmax)
+        if moving:
+            piston[P_V] += 0.5 * dt * piston[P_A]
+            piston[P_H] += dt * piston[P_V]
+    state[t, 0] = done
+    state[t, 1] = disp2
+    state[t, 2] = vmax
+
+
+@numba.njit(cache=True, parallel=True)
+def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
+                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, pistons, fpar, row, nblk, out_start, out_slot,
+                 slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile, tile_p, claims_w, gamma_p, check,
+                 built, steps, step, n_steps, disp2, vmax, sync, claims, state):
+    threads = team.team_size(sync)
+    for t in numba.prange(threads):  # one iteration per thread (granwave.team)
+        if team.enter(sync, threads):
+            _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia,
+                         inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
+                         pistons[t], fpar, row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
+                         top_f, mflow, slabs, tile, tile_p, claims_w, gamma_p, check, built, steps, step, n_steps,
+                         disp2, vmax, state)
+
+
+@numba.njit(cache=True)
+def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov,
+                wall_ft, wall_ov, piston, fpar, ipar, ws, nblk, step, n_steps, disp2, sync):
+    """Run the plain steps from step ``step`` of :func:`run_chunk` (whose drift is done) in a team
+    of threads: each step the passes of :func:`_forces` with the drift of the next, and the
+    piston and the rebuild test as run_chunk, until a step is a check, needs a new pair list or
+    wall list, or is the last. Returns (steps run, disp2); updates the piston, ``fpar[F_VMAX]``
+    and the step counts. Returns (0, disp2) with ``ipar[I_TEAM]`` = -1 when the team did not
+    start (:func:`granwave.team.enter`; then nothing was done)."""
+    threads = max(1, ws[W_CLAIM][0])
+    team.reset_team(sync, threads)
+    pistons = np.empty((threads, piston.shape[0]))
+    for t in range(threads):
+        for k in range(piston.shape[0]):
+            pistons[t, k] = piston[k]
+    claims = np.zeros(nblk + 2, np.int64)
+    state = np.zeros((threads, 3))
+    mflow = ws[W_MFLOW]
+    gamma_p = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA]
+    _team_region(pos, vel, acc, omega, alpha, rad, ws[W_PAIRC], mass, inertia, ws[W_INVM], ws[W_INVI], lateral,
+                 pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], pistons, fpar, ws[W_ROW],
+                 nblk, ws[W_OUT], ws[W_OSLOT], ws[W_SLOT], ws[W_SPAIR], ws[W_BF], ws[W_BLK], ws[W_TOP], mflow,
+                 ws[W_SLABS], ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], gamma_p, ipar[I_CHECK], ipar[I_BUILT],
+                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state)
+    if sync[team.S_ENTRY] < threads:
+        ipar[I_TEAM] = -1
+        return 0, disp2
+    done = int(state[0, 0])
+    if done > 0:
+        for k in range(piston.shape[0]):
+            piston[k] = pistons[0, k]
+        fpar[F_VMAX] = state[0, 2]
+        ipar[I_STEPS] += done
+        ipar[I_TEAMSTEPS] += done
+    return done, state[0, 1]
+
+
 #: Below this many grains the engine runs on one thread (the same results): two parallel
 #: regions per step cost more than they save on a small system (applied by the callers,
 #: :func:`granwave.threads.at_most`: numba.set_num_threads inside a kernel stops caching).
@@ -1220,6 +1353,8 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     Two parallel passes per step over the grain blocks (:func:`_incoming_pass`,
     :func:`_row_pass`); the first half kick and drift of the next step ride on the second
     unless that step rebuilds the pair list or follows a check (then :func:`_drift_pass`).
+    With ``ipar[I_TEAM]`` > 0 the runs of plain steps between go in a team of threads instead
+    (:func:`_team_steps`: one parallel region for the run, the same bits).
     """
     n, d = pos.shape
     blk_g = ws[W_BLK]
@@ -1236,7 +1371,20 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     _displacement_pass(pos, lateral, pos0, blk_g)
     disp2 = _block_max(blk_g, G_DISP)
     drifted = False
-    for step in range(n_steps):
+    # plain steps in a team of threads (_team_steps) when asked for, on more than one thread,
+    # and without the slab means of the rule 'mean-flow' (a serial job inside the second pass)
+    mflow = ws[W_MFLOW]
+    use_team = (ipar[I_TEAM] > 0 and ws[W_CLAIM][0] > 1
+                and not (mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0))
+    sync = np.zeros(team.SYNC_LENGTH, np.int64)
+    step = 0
+    while step < n_steps:
+        if drifted and use_team:
+            done, disp2 = _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                                      pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, ws, nblk,
+                                      step, n_steps, disp2, sync)
+            step += done
+            use_team = ipar[I_TEAM] > 0
         dt = fpar[F_DT]
         if not drifted:
             # rebuild when a grain may come within reach of a pair not in the list
@@ -1300,6 +1448,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                     and out[O_APISTON] < tol_a and out[O_VMAX] < tol_v and out[O_WMAX] < tol_v
                     and abs(piston[P_V]) < tol_v):
                 return 1
+        step += 1
     return 0
 
 
@@ -1318,10 +1467,15 @@ def needs_rebuild(fpar, ipar, reach, ahead):
     the current one: they have slowed down, and a list with a smaller skin makes each
     step cheaper (:func:`next_skin`).
     """
+    return rebuild_due(fpar, ipar[I_STEPS] + ahead - ipar[I_BUILT], reach)
+
+
+@numba.njit(cache=True, inline="always")
+def rebuild_due(fpar, lasted, reach):
+    """:func:`needs_rebuild` for a list that will have lasted ``lasted`` steps."""
     skin = fpar[F_SKIN]
     if reach > 0.5 * skin:
         return True
-    lasted = ipar[I_STEPS] + ahead - ipar[I_BUILT]
     return (fpar[F_SKIN_MIN] < skin and lasted >= 2 * SKIN_STEPS
             and 2.0 * SKIN_STEPS * reach < 0.5 * skin * lasted)
 
