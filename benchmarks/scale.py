@@ -88,17 +88,22 @@ def steal_jiffies() -> tuple[int, int]:
         return 0, 0
 
 
-def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: int = 3) -> dict:
+def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: int = 3,
+                regions_too: bool = False) -> list[dict]:
     """Wall-clock rate of the tiled state (``tiles`` x 600 grains; 17: 10200) at each thread
     count, the best of ``repeat`` runs (thread counts interleaved, so that a busy spell of a shared
-    machine hits them alike); same bits?"""
+    machine hits them alike). One result per variant: the engine as it is, and with
+    ``regions_too`` also with its plain steps in a parallel region per pass as before the team
+    (integrator.PLAIN_STEPS_IN_TEAM False; one thread runs the same single loop for both), the
+    variants alternated inside each repetition. Each result's ``states``: the final states' bytes."""
     import numba
     from dem import engine_rate
 
     from granwave.dem import integrator
     from granwave.dem import kernels as K
 
-    rates, cpus, states, blocks = {}, {}, {}, {"count": {}, "fraction": {}}
+    teams = (True, False) if regions_too else (True,)
+    results = [dict(rates={}, cpu={}, states={}, count={}, fraction={}, team=team) for team in teams]
     keep = integrator.Engine.run
 
     engines = {}
@@ -109,23 +114,28 @@ def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: in
 
     for rep in range(repeat):
         for t in threads:
-            numba.set_num_threads(t)
-            integrator.Engine.run = run_and_keep
-            try:
-                cpu, wall, n, _ = engine_rate(packing, tiles, steps)
-            finally:
-                integrator.Engine.run = keep
-            if wall > rates.get(t, 0.0):
-                rates[t], cpus[t] = wall, cpu
-            e = engines[t]
-            states.setdefault(t, set()).add(e.position.tobytes() + e.pair_ft.tobytes())
-            nblk = e.ws[K.W_BLK].shape[0]
-            K.prepare_blocks(e.radius, e.mass, e.inertia, e.ws, nblk)
-            blocks["count"][t], blocks["fraction"][t] = nblk, K.boundary_fraction(e.ws, e.n_pairs)
-            print(f"  DEM {t} thread(s), run {rep + 1}: {wall:.3g} grain-steps/s wall; {load()}", flush=True)
+            for res in results:
+                numba.set_num_threads(t)
+                integrator.Engine.run = run_and_keep
+                integrator.PLAIN_STEPS_IN_TEAM = res["team"]
+                try:
+                    cpu, wall, n, _ = engine_rate(packing, tiles, steps)
+                finally:
+                    integrator.Engine.run = keep
+                    integrator.PLAIN_STEPS_IN_TEAM = True
+                if wall > res["rates"].get(t, 0.0):
+                    res["rates"][t], res["cpu"][t] = wall, cpu
+                e = engines[t]
+                res["states"].setdefault(t, set()).add(e.position.tobytes() + e.pair_ft.tobytes())
+                nblk = e.ws[K.W_BLK].shape[0]
+                K.prepare_blocks(e.radius, e.mass, e.inertia, e.ws, nblk)
+                res["count"][t], res["fraction"][t] = nblk, K.boundary_fraction(e.ws, e.n_pairs)
+                res["grains"] = n
+                res["team_steps"] = int(e.ipar[K.I_TEAMSTEPS])
+                print(f"  DEM {t} thread(s){'' if res['team'] else ', a region per pass'}, run {rep + 1}: "
+                      f"{wall:.3g} grain-steps/s wall ({res['team_steps']} steps in teams); {load()}", flush=True)
     numba.set_num_threads(max(threads))
-    same = len(set().union(*states.values())) == 1
-    return dict(rates=rates, cpu=cpus, grains=n, same=same, **blocks)
+    return results
 
 
 def time_threads(n_grains: int, steps: int, threads=(1, 2), repeat: int = 3) -> dict:
@@ -290,22 +300,32 @@ def per_core_vs_lammps(packing, steps: int, repeat: int = 3) -> tuple[float, flo
 
 
 def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = True, tiles: int = 17,
-               lattice_grains: int = 10_000, repeat: int = 3) -> None:
+               lattice_grains: int = 10_000, repeat: int = 3, regions_too: bool = False,
+               engines_only: bool = False, packing_file: str | None = None) -> None:
     from dem import prepare
 
     print(f"start: {load()}", flush=True)
     steal0 = steal_jiffies()
-    packing, _, _ = prepare(1e-4)
+    if packing_file:  # the same packing, made elsewhere: no preparation (and its compilation) here
+        from granwave.io.files import read_packing
+
+        packing = read_packing(packing_file)
+    else:
+        packing, _, _ = prepare(1e-4)
     rows = []
     top = max(threads)
-    d = dem_threads(packing, 200 if quick else 1000, threads, tiles, repeat)  # 400 steps (0.2 s) left the 2-thread run's fixed costs visible
-    r = d["rates"]
-    for t in threads[1:]:
-        rows.append((f"DEM threads 1 -> {t}, {d['grains']} grains (wall grain-steps/s)",
-                     f"{r[1]:.3g} -> {r[t]:.3g}", r[t] / r[1], GOALS.get(f"dem_{t}", float("nan")),
-                     ("same bits" if d["same"] else "BITS DIFFER")
-                     + f"; CPU time per step x{d['cpu'][1] / d['cpu'][t]:.2f} at {t} threads"
-                     + f"; {d['count'][t]} grain blocks, boundary pairs {100 * d['fraction'][t]:.1f} %"))
+    steps = 200 if quick else 1000  # 400 steps (0.2 s) left the 2-thread run's fixed costs visible
+    variants = dem_threads(packing, steps, threads, tiles, repeat, regions_too)
+    same = len(set().union(*(s for d in variants for s in d["states"].values()))) == 1
+    for d, how in zip(variants, ("", ", a region per pass")):
+        r = d["rates"]
+        for t in threads[1:]:
+            rows.append((f"DEM threads 1 -> {t}, {d['grains']} grains{how} (wall grain-steps/s)",
+                         f"{r[1]:.3g} -> {r[t]:.3g}", r[t] / r[1], GOALS.get(f"dem_{t}", float("nan")),
+                         ("same bits" if same else "BITS DIFFER")
+                         + f"; CPU time per step x{d['cpu'][1] / d['cpu'][t]:.2f} at {t} threads"
+                         + f"; {d['count'][t]} grain blocks, boundary pairs {100 * d['fraction'][t]:.1f} %"
+                         + (f"; {d['team_steps']} of {steps + 20} steps in teams" if not how else "")))
     t_ = time_threads(lattice_grains, 100 if quick else 400, threads, repeat)
     s_ = t_["per_step"]
     for t in threads[1:]:
@@ -313,7 +333,7 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
                      f"{1e3 * s_[1]:.3g} -> {1e3 * s_[t]:.3g}", s_[1] / s_[t], GOALS.get(f"time_{t}", float("nan")),
                      ("same bits" if t_["same"] else "BITS DIFFER")
                      + f"; CPU time per step x{t_['cpu'][t] / t_['cpu'][1]:.2f} at {t} threads"))
-    for region_us in (150.0, 20_000.0):
+    for region_us in () if engines_only else (150.0, 20_000.0):
         ideal = ideal_threads(threads, region_us, repeat=repeat)
         for t in threads[1:]:
             rows.append((f"ideal compute loop threads 1 -> {t}, regions of {region_us:g} us (ceiling)",
@@ -327,7 +347,7 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
         else:
             rows.append(("per core, 600 grains (CPU grain-steps/s)", f"{cpu:.3g}", float("nan"),
                          GOALS["lammps"], note))
-    layers = layer_costs(top)
+    layers = [] if engines_only else layer_costs(top)
     end = load()
     steal1 = steal_jiffies()
     steal = (steal1[0] - steal0[0]) / max(1, steal1[1] - steal0[1])
@@ -339,8 +359,9 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
     for name, vals, ratio, goal, note_ in rows:
         goal_ = f"{goal:4.1f}" if goal == goal else "  — "
         lines.append(f"| {name:<{width}} | {vals:<22} | {ratio:5.2f} | {goal_} | {note_} |")
-    lines += ["", "Cost of one empty parallel region per threading layer (the engine runs two per step, "
-              "the time domain one per call, its phases separated by spin barriers):", ""]
+    if layers:
+        lines += ["", "Cost of one empty parallel region per threading layer (the engine runs two per step, "
+                  "the time domain one per call, its phases separated by spin barriers):", ""]
     lines.insert(0, f"CPU: {_cpu_model()}; threads {', '.join(map(str, threads))}; each rate the best of "
                     f"{repeat} runs, thread counts interleaved\n")
     lines += [f"- {name}: {cost}" for name, cost in layers]
@@ -459,6 +480,15 @@ def main() -> None:
     ap.add_argument("--blocks-per-thread", type=int, default=None,
                     help="DEM blocks per thread above 4 threads (the engine's BLOCKS_PER_THREAD, default "
                          "2; 4 and 8 were slower at 16 threads, docs/dem.md 'Sixteen cores')")
+    ap.add_argument("--regions-too", action="store_true",
+                    help="also time the DEM with a parallel region per pass instead of the team of "
+                         "threads (alternated in each repetition)")
+    ap.add_argument("--engines-only", action="store_true",
+                    help="only the DEM and time-domain rows (no ideal loops, no region costs; with --no-lammps "
+                         "a short run on a lent machine)")
+    ap.add_argument("--packing", default=None,
+                    help="the 600-grain packing at p = 1e-4 from a file (granwave prepare-packing --pressure 1e-4) "
+                         "instead of preparing it here")
     ap.add_argument("--large", choices=("column", "grid2d", "grid3d", "time"), help="one large run")
     ap.add_argument("--dry-run", action="store_true", help="with --large: estimates only")
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
@@ -477,6 +507,8 @@ def main() -> None:
         if args.blocks_per_thread < 1:
             raise SystemExit("--blocks-per-thread: at least 1")
         K.BLOCKS_PER_THREAD = args.blocks_per_thread  # read by block_count when an engine starts
+    if args.engines_only and args.write_docs:
+        raise SystemExit("--engines-only: a partial table; not with --write-docs")
     if args.large:
         large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling)
     else:
@@ -484,7 +516,8 @@ def main() -> None:
         if threads[0] != 1 or len(threads) < 2:
             raise SystemExit("--threads: a list starting with 1, e.g. 1,2 or 1,2,4,8,16")
         main_table(args.quick, args.write_docs, threads, lammps=not args.no_lammps, tiles=args.tiles,
-                   lattice_grains=args.lattice_grains, repeat=args.repeat)
+                   lattice_grains=args.lattice_grains, repeat=args.repeat, regions_too=args.regions_too,
+                   engines_only=args.engines_only, packing_file=args.packing)
 
 
 if __name__ == "__main__":
