@@ -207,6 +207,19 @@ def os_yield(typingctx):
     return types.none(), codegen
 
 
+@intrinsic
+def cycle_counter(typingctx):
+    """The processor's cycle counter (LLVM ``readcyclecounter``: RDTSC on x86, a constant rate
+    there; 0 where the target has none), for the per-thread timers of the teams."""
+
+    def codegen(context, builder, sig, args):
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.IntType(64), []),
+                                            "llvm.readcyclecounter")
+        return builder.call(fn, [])
+
+    return types.int64(), codegen
+
+
 @numba.njit(cache=True, inline="always")
 def relax(spins):
     """One turn of a wait that has lasted ``spins`` turns: a PAUSE, and past YIELD_AFTER turns the

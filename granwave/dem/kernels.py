@@ -481,7 +481,8 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     grain, the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
     empty: off) and slab work array, and one pair tile's scratch per block
     (:func:`granwave.dem.pair_tile.scratch`), the thread count, the blocks' taken flags
-    (:func:`take_block`) and the state of the slab means (:func:`_slab_job`). ``blocks``: the
+    (:func:`take_block`) and the state of the slab means (:func:`_slab_job`), and the cycles of
+    each thread of a team in its passes and at its barriers (T_* columns). ``blocks``: the
     number of grain blocks (None: :func:`block_count` for one thread; :func:`with_blocks`
     changes it)."""
     n = n_grains
@@ -494,12 +495,19 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
-            *PT.scratch(nblk), np.zeros(nblk + 2, np.int64))
+            *PT.scratch(nblk), np.zeros(nblk + 2, np.int64),
+            np.zeros((max(1, numba.config.NUMBA_NUM_THREADS), N_TEAM_TIMES), np.int64))
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, W_SPAIR, W_OSLOT, \
-    W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM = range(22)
+    W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM, W_TEAMTIME = range(23)
+#: per thread of a team, cycles (team.cycle_counter) spent in its blocks of the first pass (with
+#: the step's own tests and the piston), waiting at the barrier after it, in its blocks of the
+#: second pass, waiting at the barrier after that; summed over the engine's team steps
+#: (``ws[W_TEAMTIME]``; read by benchmarks/dem_team_times.py)
+T_PASS1, T_WAIT1, T_PASS2, T_WAIT2 = range(4)
+N_TEAM_TIMES = 4
 
 
 def with_blocks(ws: tuple, nblk: int) -> tuple:
@@ -1213,17 +1221,19 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
 def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
                  inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar,
                  row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile,
-                 tile_p, claims_w, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state):
+                 tile_p, claims_w, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times):
     """Thread t's part of :func:`_team_steps`: from step ``step`` of ``n_steps`` (``steps`` done in
     all, the list made at ``built``), with its own copy ``piston`` of the piston, as long as the
     next step is one that :func:`run_chunk` would run as a plain drifted step. Its count of steps,
-    ``disp2`` and the largest |v| into ``state`` (every thread the same)."""
+    ``disp2`` and the largest |v| into ``state`` (every thread the same); its cycles in the passes
+    and at the barriers added to row t of ``times`` (T_* columns; a few counter reads per step)."""
     n = pos.shape[0]
     dt = fpar[F_DT]
     half_skin = 0.5 * fpar[F_SKIN]
     moving = piston[P_MASS] < np.inf
     gen = 0
     done = 0
+    c0 = team.cycle_counter()
     while True:
         # run_chunk's tests for this step, from the same numbers on every thread
         is_check = check > 0 and (steps + 1) % check == 0
@@ -1238,7 +1248,9 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
                                 pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g)
+        c1 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
+        c2 = team.cycle_counter()
         for j in range(nblk):
             b = claim_block(claims, t, threads, nblk, j, phase + 1)
             if b >= 0:
@@ -1246,7 +1258,14 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row,
                            nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, True, False, True, mflow,
                            slabs, tile, tile_p, claims_w)
+        c3 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
+        c4 = team.cycle_counter()
+        times[t, T_PASS1] += c1 - c0
+        times[t, T_WAIT1] += c2 - c1
+        times[t, T_PASS2] += c3 - c2
+        times[t, T_WAIT2] += c4 - c3
+        c0 = c4
         # what _forces and run_chunk do after the passes, read before this thread arrives at the
         # next barrier: the next phase 1 writes no column read here, the next phase 2 all of them
         fpiston = 0.0
@@ -1278,7 +1297,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
 def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, pistons, fpar, row, nblk, out_start, out_slot,
                  slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile, tile_p, claims_w, gamma_p, check,
-                 built, steps, step, n_steps, disp2, vmax, sync, claims, state):
+                 built, steps, step, n_steps, disp2, vmax, sync, claims, state, times):
     threads = team.team_size(sync)
     for t in numba.prange(threads):  # one iteration per thread (granwave.team)
         if team.enter(sync, threads):
@@ -1286,7 +1305,7 @@ def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
                          inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
                          pistons[t], fpar, row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
                          top_f, mflow, slabs, tile, tile_p, claims_w, gamma_p, check, built, steps, step, n_steps,
-                         disp2, vmax, state)
+                         disp2, vmax, state, times)
 
 
 @numba.njit(cache=True)
@@ -1312,7 +1331,7 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
                  pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], pistons, fpar, ws[W_ROW],
                  nblk, ws[W_OUT], ws[W_OSLOT], ws[W_SLOT], ws[W_SPAIR], ws[W_BF], ws[W_BLK], ws[W_TOP], mflow,
                  ws[W_SLABS], ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], gamma_p, ipar[I_CHECK], ipar[I_BUILT],
-                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state)
+                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state, ws[W_TEAMTIME])
     if sync[team.S_ENTRY] < threads:
         ipar[I_TEAM] = -1
         return 0, disp2

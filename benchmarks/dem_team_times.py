@@ -1,0 +1,137 @@
+"""Where a DEM step's time goes on each thread of the team (a script, not a test).
+
+    python benchmarks/dem_team_times.py [--threads 1,16] [--tiles 17] [--steps 1000]
+        [--repeat 2] [--packing FILE]
+
+On the 16-vCPU machines of docs/dem.md ("Sixteen cores, a fourth time") the engine ran the
+10^4-grain state 6-8x faster on 16 threads than on one, with 2.2-2.8 times the CPU time per
+step: either each thread's work slows down when all run (shared units, a host's limits), or
+threads wait for each other (imbalance, late vCPUs). The team's per-thread timers tell which:
+each thread of a team adds the cycles (RDTSC) it spends in its blocks of each pass and at the
+barrier after it (granwave.dem.kernels, ws[W_TEAMTIME]). Per thread count, the best of
+``--repeat`` runs of the benchmark state of scale.py (the 600-grain packing at p = 1e-4 tiled
+``--tiles`` times, shaken, the same engine settings) is printed as:
+
+- wall time per step, and its ratio to one thread's (one thread runs the single pair loop, as
+  the engine does);
+- per thread, microseconds per team step in pass 1 (with the step's own tests and the piston),
+  at barrier 1, in pass 2, at barrier 2: mean over the threads, and the busiest thread's;
+- work inflation: the threads' busy time summed, per step, over one thread's step time (1 if
+  the work did not slow down when run in parallel; the block engine's own extra work, about
+  10 % on one thread, is in it);
+- imbalance: the busiest thread's busy time over the mean.
+
+The cycle counter's rate is measured against the wall clock in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+import granwave.threads  # noqa: E402,F401  (threading layer first)
+import numba  # noqa: E402
+
+from granwave import team  # noqa: E402
+from granwave.dem import kernels as K  # noqa: E402
+
+
+@numba.njit(cache=True)
+def _cycles():
+    return team.cycle_counter()
+
+
+def cycle_rate(seconds: float = 0.2) -> float:
+    """Cycle counter ticks per second, against the wall clock."""
+    c0, w0 = _cycles(), time.perf_counter()
+    time.sleep(seconds)
+    return (_cycles() - c0) / (time.perf_counter() - w0)
+
+
+def run(packing, tiles: int, steps: int, threads: int):
+    """The benchmark state of scale.py on ``threads`` threads: (wall s per step, team steps,
+    cycles per thread and column)."""
+    from dem import engine_rate
+
+    from granwave.dem import integrator
+
+    engines = []
+    keep = integrator.Engine.run
+
+    def run_and_keep(self, n):
+        engines.append(self)
+        return keep(self, n)
+
+    numba.set_num_threads(threads)
+    integrator.Engine.run = run_and_keep
+    try:
+        _, wall_rate, n, _ = engine_rate(packing, tiles, steps)
+    finally:
+        integrator.Engine.run = keep
+    e = engines[-1]
+    return n / wall_rate, int(e.ipar[K.I_TEAMSTEPS]), e.ws[K.W_TEAMTIME][:threads].copy()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--threads", default="1,2", help="comma-separated thread counts, 1 first")
+    ap.add_argument("--tiles", type=int, default=17, help="the 600-grain packing tiled this many times")
+    ap.add_argument("--steps", type=int, default=1000, help="timed steps per run (after 20 untimed)")
+    ap.add_argument("--repeat", type=int, default=2, help="runs per thread count (the fastest counts)")
+    ap.add_argument("--packing", default=None, help="the 600-grain packing at p = 1e-4 from a file")
+    args = ap.parse_args()
+    threads = [int(x) for x in args.threads.split(",")]
+    if threads[0] != 1:
+        sys.exit("--threads must start with 1")
+    if args.packing:
+        from granwave.io.files import read_packing
+
+        packing = read_packing(args.packing)
+    else:
+        from dem import prepare
+
+        packing = prepare(1e-4)[0]
+    best: dict[int, tuple] = {}
+    for _ in range(args.repeat):
+        for t in threads:
+            r = run(packing, args.tiles, args.steps, t)
+            if t not in best or r[0] < best[t][0]:
+                best[t] = r
+    rate = cycle_rate()
+    one = best[1][0]
+    print(f"{args.tiles * packing.n_grains} grains, {args.steps} steps per run; cycle counter "
+          f"{rate / 1e9:.3f} GHz; one thread {1e6 * one:.1f} us per step")
+    print("| threads | wall us/step (ratio) | team steps | pass 1 | barrier 1 | pass 2 | barrier 2 "
+          "| busiest: pass 1 + 2 | work inflation | imbalance |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for t in threads[1:]:
+        wall, n_team, cycles = best[t]
+        if n_team == 0:
+            print(f"| {t} | {1e6 * wall:.1f} ({one / wall:.2f}) | 0 | no team ran | | | | | | |")
+            continue
+        us = cycles / rate / n_team * 1e6  # per thread and column, microseconds per team step
+        mean = us.mean(axis=0)
+        busy = us[:, K.T_PASS1] + us[:, K.T_PASS2]
+        print(f"| {t} | {1e6 * wall:.1f} ({one / wall:.2f}) | {n_team} | {mean[K.T_PASS1]:.1f} | "
+              f"{mean[K.T_WAIT1]:.1f} | {mean[K.T_PASS2]:.1f} | {mean[K.T_WAIT2]:.1f} | {busy.max():.1f} | "
+              f"{busy.sum() / (1e6 * one):.2f} | {busy.max() / busy.mean():.2f} |")
+    print("(pass and barrier columns: microseconds per team step, mean over the threads)")
+    print("per thread, us per team step (pass 1, barrier 1, pass 2, barrier 2) at the largest count:")
+    t = threads[-1]
+    wall, n_team, cycles = best[t]
+    if n_team:
+        for k, row in enumerate(cycles / rate / n_team * 1e6):
+            print(f"  thread {k:2d}: " + " ".join(f"{x:7.1f}" for x in row))
+    numba.set_num_threads(max(threads))
+
+
+if __name__ == "__main__":
+    main()
