@@ -103,7 +103,8 @@ def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: in
     from granwave.dem import kernels as K
 
     teams = (True, False) if regions_too else (True,)
-    results = [dict(rates={}, cpu={}, states={}, count={}, fraction={}, team=team) for team in teams]
+    results = [dict(rates={}, cpu={}, states={}, count={}, fraction={}, team_steps={}, team=team)
+               for team in teams]
     keep = integrator.Engine.run
 
     engines = {}
@@ -131,9 +132,9 @@ def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: in
                 K.prepare_blocks(e.radius, e.mass, e.inertia, e.ws, nblk)
                 res["count"][t], res["fraction"][t] = nblk, K.boundary_fraction(e.ws, e.n_pairs)
                 res["grains"] = n
-                res["team_steps"] = int(e.ipar[K.I_TEAMSTEPS])
+                res["team_steps"][t] = int(e.ipar[K.I_TEAMSTEPS])
                 print(f"  DEM {t} thread(s){'' if res['team'] else ', a region per pass'}, run {rep + 1}: "
-                      f"{wall:.3g} grain-steps/s wall ({res['team_steps']} steps in teams); {load()}", flush=True)
+                      f"{wall:.3g} grain-steps/s wall ({res['team_steps'][t]} steps in teams); {load()}", flush=True)
     numba.set_num_threads(max(threads))
     return results
 
@@ -325,7 +326,7 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
                          ("same bits" if same else "BITS DIFFER")
                          + f"; CPU time per step x{d['cpu'][1] / d['cpu'][t]:.2f} at {t} threads"
                          + f"; {d['count'][t]} grain blocks, boundary pairs {100 * d['fraction'][t]:.1f} %"
-                         + (f"; {d['team_steps']} of {steps + 20} steps in teams" if not how else "")))
+                         + (f"; {d['team_steps'][t]} of {steps + 20} steps in teams" if not how else "")))
     t_ = time_threads(lattice_grains, 100 if quick else 400, threads, repeat)
     s_ = t_["per_step"]
     for t in threads[1:]:

@@ -847,22 +847,23 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     claims[nblk + 1] = SLABS_TODO if slab_job else SLABS_READY
     for t in numba.prange(threads):
         if t == 0 and slab_job:
-            _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk)
+            _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, 0)
         for j in range(nblk):
             b = claim_block(claims, t, threads, nblk, j, 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
                            out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile,
-                           tile_p, claims)
+                           tile_p, claims, 0)
 
 
-#: states of the slab means in ``claims[nblk + 1]`` during phase 2 (:func:`_slab_job`)
+#: states of the slab means in ``claims[nblk + 1]`` during phase 2 of round 0 (:func:`_slab_job`);
+#: round r adds 2 r, so that one round's SLABS_READY is the next one's SLABS_TODO
 SLABS_TODO, SLABS_RUNNING, SLABS_READY = 0, 1, 2
 
 
 @numba.njit(cache=True, _nrt=False)
-def _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk):
+def _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd):
     """The slabs' means (:func:`granwave.dem.mean_flow.slab_means`: serial, in grain order, the
     bits of the one-thread loop) into ``slabs``, by the first thread to ask for them: thread 0
     at the start of phase 2, while the others compute their blocks' pairs (which take longer)
@@ -870,29 +871,37 @@ def _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk):
     (In phase 1, whose blocks are short, the other threads had waited for thread 0 at the end
     of the pass: on a 10 500-grain column the rule cost 10 % of the rate at two threads against
     4 % at one.) ``claims[nblk + 1]``: SLABS_TODO -> SLABS_RUNNING (compare-and-swap: one
-    thread computes them) -> SLABS_READY (release). The job waits for nothing, so no schedule of
-    the pass's iterations onto threads can deadlock on it."""
-    if team.atomic_cas(claims, nblk + 1, SLABS_TODO, SLABS_RUNNING) == SLABS_TODO:
+    thread computes them) -> SLABS_READY (release), each plus 2 ``rnd`` (the regions' pass is
+    round 0, its flag set to SLABS_TODO before; a team's step s is round s, its flag left at
+    the last round's SLABS_READY, which is this round's SLABS_TODO). The job waits for nothing,
+    so no schedule of the pass's iterations onto threads can deadlock on it."""
+    todo = SLABS_TODO + 2 * rnd
+    if team.atomic_cas(claims, nblk + 1, todo, todo + 1) == todo:
         slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, slabs)
-        team.atomic_store(claims, nblk + 1, SLABS_READY)
+        team.atomic_store(claims, nblk + 1, todo + 2)
 
 
 @numba.njit(cache=True, inline="always")
-def _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk):
-    """The slab means ready (acquire): taken here if nobody has (:func:`_slab_job`), else
-    waited for while the thread that took them runs. They read every grain's velocity and
+def _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd):
+    """The slab means of round ``rnd`` ready (acquire): taken here if nobody has
+    (:func:`_slab_job`), else waited for while the thread that took them runs (yielding the
+    core after a while, :func:`granwave.team.relax`). They read every grain's velocity and
     position, so no block may add its slab term, kick or drift before."""
-    _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk)
-    while team.atomic_load(claims, nblk + 1) != SLABS_READY:
-        team.spin_pause()
+    _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
+    ready = SLABS_READY + 2 * rnd
+    spins = 0
+    while team.atomic_load(claims, nblk + 1) != ready:
+        team.relax(spins)
+        spins += 1
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims):
+               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims, rnd):
     """Block b of :func:`_row_pass` (``tile``, ``tile_p``: the workspace's tile scratch, one
-    per block)."""
+    per block; ``claims``, ``rnd``: where the slab means' state is and which round this pass is,
+    :func:`_slab_job`)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -965,7 +974,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             for a in range(r):
                 alpha[i, a] -= gamma * inertia[i] * omega[i, a]
         if mflow.shape[0] > 0:  # after every grain's damping, as the one-thread loop
-            _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk)
+            _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
             add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
@@ -1207,7 +1216,7 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
 
 
 # --------------------------------------------------------------------------- team of threads
-# Plain steps (no rebuild, no check, no wall list to remake, no slab means) in one parallel
+# Plain steps (no rebuild, no check, no wall list to remake) in one parallel
 # region, the two passes of each separated by granwave.team's spin barrier. numba opens a region
 # (an OpenMP fork and join) per pass; on the 16-vCPU machines of docs/dem.md a region cost
 # 7-8 us at 16 threads and some vCPU was late in most of them. There the 10^4-grain benchmark
@@ -1221,7 +1230,7 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
 def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
                  inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar,
                  row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile,
-                 tile_p, claims_w, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times):
+                 tile_p, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times):
     """Thread t's part of :func:`_team_steps`: from step ``step`` of ``n_steps`` (``steps`` done in
     all, the list made at ``built``), with its own copy ``piston`` of the piston, as long as the
     next step is one that :func:`run_chunk` would run as a plain drifted step. Its count of steps,
@@ -1231,6 +1240,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
     dt = fpar[F_DT]
     half_skin = 0.5 * fpar[F_SKIN]
     moving = piston[P_MASS] < np.inf
+    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     gen = 0
     done = 0
     c0 = team.cycle_counter()
@@ -1251,13 +1261,15 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
         c1 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c2 = team.cycle_counter()
+        if t == 0 and slab_job:  # as in _row_pass: thread 0 first, the others take its blocks
+            _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, done)
         for j in range(nblk):
             b = claim_block(claims, t, threads, nblk, j, phase + 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row,
                            nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, True, False, True, mflow,
-                           slabs, tile, tile_p, claims_w)
+                           slabs, tile, tile_p, claims, done)
         c3 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c4 = team.cycle_counter()
@@ -1296,7 +1308,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
 @numba.njit(cache=True, parallel=True)
 def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, pistons, fpar, row, nblk, out_start, out_slot,
-                 slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile, tile_p, claims_w, gamma_p, check,
+                 slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile, tile_p, gamma_p, check,
                  built, steps, step, n_steps, disp2, vmax, sync, claims, state, times):
     threads = team.team_size(sync)
     for t in numba.prange(threads):  # one iteration per thread (granwave.team)
@@ -1304,7 +1316,7 @@ def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
             _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia,
                          inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
                          pistons[t], fpar, row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
-                         top_f, mflow, slabs, tile, tile_p, claims_w, gamma_p, check, built, steps, step, n_steps,
+                         top_f, mflow, slabs, tile, tile_p, gamma_p, check, built, steps, step, n_steps,
                          disp2, vmax, state, times)
 
 
@@ -1325,13 +1337,16 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
             pistons[t, k] = piston[k]
     claims = np.zeros(nblk + 2, np.int64)
     state = np.zeros((threads, 3))
+    times = ws[W_TEAMTIME]
+    if times.shape[0] < threads:  # a team larger than numba's threads (it will not start): no row to miss
+        times = np.zeros((threads, N_TEAM_TIMES), np.int64)
     mflow = ws[W_MFLOW]
     gamma_p = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA]
     _team_region(pos, vel, acc, omega, alpha, rad, ws[W_PAIRC], mass, inertia, ws[W_INVM], ws[W_INVI], lateral,
                  pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], pistons, fpar, ws[W_ROW],
                  nblk, ws[W_OUT], ws[W_OSLOT], ws[W_SLOT], ws[W_SPAIR], ws[W_BF], ws[W_BLK], ws[W_TOP], mflow,
-                 ws[W_SLABS], ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], gamma_p, ipar[I_CHECK], ipar[I_BUILT],
-                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state, ws[W_TEAMTIME])
+                 ws[W_SLABS], ws[W_TILE], ws[W_TILEP], gamma_p, ipar[I_CHECK], ipar[I_BUILT],
+                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state, times)
     if sync[team.S_ENTRY] < threads:
         ipar[I_TEAM] = -1
         return 0, disp2
@@ -1390,11 +1405,8 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     _displacement_pass(pos, lateral, pos0, blk_g)
     disp2 = _block_max(blk_g, G_DISP)
     drifted = False
-    # plain steps in a team of threads (_team_steps) when asked for, on more than one thread,
-    # and without the slab means of the rule 'mean-flow' (a serial job inside the second pass)
-    mflow = ws[W_MFLOW]
-    use_team = (ipar[I_TEAM] > 0 and ws[W_CLAIM][0] > 1
-                and not (mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0))
+    # plain steps in a team of threads (_team_steps) when asked for and on more than one thread
+    use_team = ipar[I_TEAM] > 0 and ws[W_CLAIM][0] > 1
     sync = np.zeros(team.SYNC_LENGTH, np.int64)
     step = 0
     while step < n_steps:
