@@ -80,34 +80,32 @@ def test_plain_steps_in_a_team_same_bytes_as_a_region_per_pass(dim, mean_flow, m
 
     def run(n_threads, in_team):
         monkeypatch.setattr(integrator, "PLAIN_STEPS_IN_TEAM", in_team)
-        rng = np.random.default_rng(0)
-        lateral = packing.box[:-1]
-        engine = integrator.Engine(packing.position, packing.radius, lateral, packing.box[-1],
-                                   friction=packing.friction, damping=0.5,
-                                   piston_mass=float(packing.attrs["piston_mass"]),
-                                   piston_force=packing.pressure * float(np.prod(lateral)),
-                                   velocity=rng.normal(0.0, 1e-2, packing.position.shape), **flow)
+        engine = _shaken_engine(packing, **flow)
         _at(n_threads, lambda: engine.run(600))
         state = b"".join(np.ascontiguousarray(x).tobytes() for x in (
             engine.position, engine.velocity, engine.angular_velocity, engine.pair_ft, engine.piston))
         return state, int(engine.ipar[K.I_TEAMSTEPS]), engine.rebuilds
 
-    team, team_steps, rebuilds = run(2, True)
+    teamed, team_steps, rebuilds = run(2, True)
     regions, no_team_steps, _ = run(2, False)
     one, _, _ = run(1, True)
     assert rebuilds >= 2
     assert team_steps > 300 and no_team_steps == 0
-    assert team == regions == one
+    assert teamed == regions == one
 
 
-def _shaken_engine(n_grains=120):
-    packing = prepare_packing(PrepareParams(grains=n_grains, seed=5, tol=1e-9))
+def _shaken_engine(packing=None, **flow):
+    """An engine on a prepared packing (default: 120 grains, 2D) under its piston, the grains
+    shaken (speeds ~1e-2) so that pair lists are rebuilt within a few hundred steps."""
+    if packing is None:
+        packing = prepare_packing(PrepareParams(grains=120, seed=5, tol=1e-9))
     rng = np.random.default_rng(0)
-    return integrator.Engine(packing.position, packing.radius, packing.box[:-1], packing.box[-1],
+    lateral = packing.box[:-1]
+    return integrator.Engine(packing.position, packing.radius, lateral, packing.box[-1],
                              friction=packing.friction, damping=0.5,
                              piston_mass=float(packing.attrs["piston_mass"]),
-                             piston_force=packing.pressure * packing.box[0],
-                             velocity=rng.normal(0.0, 1e-2, packing.position.shape))
+                             piston_force=packing.pressure * float(np.prod(lateral)),
+                             velocity=rng.normal(0.0, 1e-2, packing.position.shape), **flow)
 
 
 def _engine_bytes(engine) -> bytes:
