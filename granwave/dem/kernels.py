@@ -1057,24 +1057,19 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
-    fpiston = 0.0
     ntop = 0
     kin = 0.0
     amax = almax = vmax = wmax = 0.0
     for b in range(nblk):
-        b0 = block_bounds(b, n, nblk)[0]
         dmax = max(dmax, blk_g[b, G_DMAX])
         ncontact += int(blk_g[b, G_NC])
-        nt = int(blk_g[b, G_NTOP])
-        for c in range(nt):
-            fpiston -= top_f[b0 + c]
-        ntop += nt
+        ntop += int(blk_g[b, G_NTOP])
         kin += blk_g[b, G_KIN]
         amax = max(amax, blk_g[b, G_AMAX])
         almax = max(almax, blk_g[b, G_ALMAX])
         vmax = max(vmax, blk_g[b, G_VMAX])
         wmax = max(wmax, blk_g[b, G_WMAX])
-    piston[P_FCON] = fpiston
+    piston[P_FCON] = piston_contact_force(blk_g, top_f, n, nblk)
     piston[P_A] = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA])
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop
@@ -1118,6 +1113,34 @@ def piston_acceleration(piston, gamma):
     if not (m < np.inf):
         return 0.0
     return (piston[P_FCON] - piston[P_FEXT]) / m - gamma * piston[P_V]
+
+
+@numba.njit(cache=True, inline="always")
+def piston_half_kick(piston, dt):
+    """Velocity Verlet's half kick of a moving piston (none for a fixed wall, mass inf)."""
+    if piston[P_MASS] < np.inf:
+        piston[P_V] += 0.5 * dt * piston[P_A]
+
+
+@numba.njit(cache=True, inline="always")
+def piston_kick_drift(piston, dt):
+    """The first half kick and the drift of a moving piston (none for a fixed wall)."""
+    if piston[P_MASS] < np.inf:
+        piston[P_V] += 0.5 * dt * piston[P_A]
+        piston[P_H] += dt * piston[P_V]
+
+
+@numba.njit(cache=True, inline="always")
+def piston_contact_force(blk_g, top_f, n, nblk):
+    """The grains' force on the piston from the blocks' top-wall forces (``top_f`` from each
+    block's first grain, ``blk_g[:, G_NTOP]`` of them), summed in grain order: the one-thread
+    loop's sum."""
+    f = 0.0
+    for b in range(nblk):
+        b0 = block_bounds(b, n, nblk)[0]
+        for c in range(int(blk_g[b, G_NTOP])):
+            f -= top_f[b0 + c]
+    return f
 
 
 @numba.njit(cache=True)
@@ -1239,7 +1262,6 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
     n = pos.shape[0]
     dt = fpar[F_DT]
     half_skin = 0.5 * fpar[F_SKIN]
-    moving = piston[P_MASS] < np.inf
     slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     gen = 0
     done = 0
@@ -1280,26 +1302,15 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
         c0 = c4
         # what _forces and run_chunk do after the passes, read before this thread arrives at the
         # next barrier: the next phase 1 writes no column read here, the next phase 2 all of them
-        fpiston = 0.0
-        dvmax = 0.0
-        disp2 = 0.0
-        for b in range(nblk):
-            b0 = block_bounds(b, n, nblk)[0]
-            for c in range(int(blk_g[b, G_NTOP])):
-                fpiston -= top_f[b0 + c]
-            dvmax = max(dvmax, blk_g[b, G_DVMAX])
-            disp2 = max(disp2, blk_g[b, G_DISP])
-        piston[P_FCON] = fpiston
+        piston[P_FCON] = piston_contact_force(blk_g, top_f, n, nblk)
         piston[P_A] = piston_acceleration(piston, gamma_p)
-        if moving:
-            piston[P_V] += 0.5 * dt * piston[P_A]
+        piston_half_kick(piston, dt)
         steps += 1
         step += 1
         done += 1
-        vmax = math.sqrt(dvmax)
-        if moving:
-            piston[P_V] += 0.5 * dt * piston[P_A]
-            piston[P_H] += dt * piston[P_V]
+        vmax = math.sqrt(_block_max(blk_g, G_DVMAX))
+        disp2 = _block_max(blk_g, G_DISP)
+        piston_kick_drift(piston, dt)
     state[t, 0] = done
     state[t, 1] = disp2
     state[t, 2] = vmax
@@ -1449,9 +1460,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
             fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
             disp2 = _block_max(blk_g, G_DISP)
-            if piston[P_MASS] < np.inf:
-                piston[P_V] += 0.5 * dt * piston[P_A]
-                piston[P_H] += dt * piston[P_V]
+            piston_kick_drift(piston, dt)
         is_check = check > 0 and (ipar[I_STEPS] + 1) % check == 0
         # the next step's rebuild test is known now unless dt may change (a check)
         reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
@@ -1459,15 +1468,12 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                    and not needs_rebuild(fpar, ipar, reach, 1))
         _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
                 pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, True, is_check, drifted)
-        if piston[P_MASS] < np.inf:
-            piston[P_V] += 0.5 * dt * piston[P_A]
+        piston_half_kick(piston, dt)
         ipar[I_STEPS] += 1
         if drifted:
             fpar[F_VMAX] = math.sqrt(_block_max(blk_g, G_DVMAX))
             disp2 = _block_max(blk_g, G_DISP)
-            if piston[P_MASS] < np.inf:
-                piston[P_V] += 0.5 * dt * piston[P_A]
-                piston[P_H] += dt * piston[P_V]
+            piston_kick_drift(piston, dt)
         if is_check:
             if not (out[O_DMAX] < fpar[F_RMAX] and math.isfinite(out[O_KIN])):
                 return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable

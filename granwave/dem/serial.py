@@ -15,7 +15,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 
 from .. import contact as C
 from ..geometry import periodic_distance2
@@ -25,10 +24,10 @@ from .pair_tile import law_tile
 from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
                       F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS,
                       I_STEPS, I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP,
-                      O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
+                      O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
                       W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, drift_grain, measure, needs_rebuild,
-                      next_skin, pair_constants, piston_acceleration, refresh_wall_list, stable_dt_at,
-                      wall_contact)
+                      next_skin, pair_constants, piston_acceleration, piston_half_kick, piston_kick_drift,
+                      refresh_wall_list, stable_dt_at, wall_contact)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -197,9 +196,7 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
             vmax2 = max(vmax2, v2)
             disp2 = max(disp2, s)
         fpar[F_VMAX] = math.sqrt(vmax2)
-        if piston[P_MASS] < np.inf:
-            piston[P_V] += 0.5 * dt * piston[P_A]
-            piston[P_H] += dt * piston[P_V]
+        piston_kick_drift(piston, dt)
         refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
         _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
                     pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
@@ -215,8 +212,7 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
             for a in range(r):
                 alpha[i, a] *= inv
                 omega[i, a] += 0.5 * dt * alpha[i, a]
-        if piston[P_MASS] < np.inf:
-            piston[P_V] += 0.5 * dt * piston[P_A]
+        piston_half_kick(piston, dt)
         ipar[I_STEPS] += 1
         if check > 0 and ipar[I_STEPS] % check == 0:
             measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
