@@ -1,7 +1,7 @@
 """Where a DEM step's time goes on each thread of the team (a script, not a test).
 
     python benchmarks/dem_team_times.py [--threads 1,16] [--tiles 17] [--steps 1000]
-        [--repeat 2] [--packing FILE]
+        [--repeat 2] [--packing FILE] [--blocks-per-thread 2,4] [--steal-next]
 
 On the 16-vCPU machines of docs/dem.md ("Sixteen cores, a fourth time") the engine ran the
 10^4-grain state 6-8x faster on 16 threads than on one, with 2.2-2.8 times the CPU time per
@@ -21,7 +21,11 @@ barrier after it (granwave.dem.kernels, ws[W_TEAMTIME]). Per thread count, the b
   10 % on one thread, is in it);
 - imbalance: the busiest thread's busy time over the mean.
 
-The cycle counter's rate is measured against the wall clock in the same run.
+The cycle counter's rate is measured against the wall clock in the same run. With
+``--blocks-per-thread`` a list, the runs of each value (granwave.dem.kernels.BLOCKS_PER_THREAD,
+read when an engine starts: which thread computes which grains, not the bits) alternate in each
+repetition and each gets its table; with ``--steal-next`` each also runs with a thread done early
+allowed to take any block of a late one's share but its first (kernels.STEAL_NEXT_ABOVE = 4).
 """
 
 from __future__ import annotations
@@ -31,7 +35,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -87,8 +90,15 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1000, help="timed steps per run (after 20 untimed)")
     ap.add_argument("--repeat", type=int, default=2, help="runs per thread count (the fastest counts)")
     ap.add_argument("--packing", default=None, help="the 600-grain packing at p = 1e-4 from a file")
+    ap.add_argument("--blocks-per-thread", default=str(K.BLOCKS_PER_THREAD),
+                    help="comma-separated values of kernels.BLOCKS_PER_THREAD to alternate")
+    ap.add_argument("--steal-next", action="store_true",
+                    help="alternate with kernels.STEAL_NEXT_ABOVE = 4 (thieves may take a share's next block)")
     args = ap.parse_args()
     threads = [int(x) for x in args.threads.split(",")]
+    per_thread = [int(x) for x in args.blocks_per_thread.split(",")]
+    if min(per_thread) < 1:
+        sys.exit("--blocks-per-thread: at least 1")
     if threads[0] != 1:
         sys.exit("--threads must start with 1")
     if args.packing:
@@ -99,16 +109,28 @@ def main() -> None:
         from dem import prepare
 
         packing = prepare(1e-4)[0]
-    best: dict[int, tuple] = {}
+    variants = [(bpt, steal) for bpt in per_thread for steal in ((None, 4) if args.steal_next else (None,))]
+    best: dict[tuple, tuple] = {}
     for _ in range(args.repeat):
         for t in threads:
-            r = run(packing, args.tiles, args.steps, t)
-            if t not in best or r[0] < best[t][0]:
-                best[t] = r
+            for bpt, steal in [v for v in variants if t > 1 or v == variants[0]]:  # one thread: the pair loop
+                K.BLOCKS_PER_THREAD, K.STEAL_NEXT_ABOVE = bpt, steal
+                r = run(packing, args.tiles, args.steps, t)
+                if (bpt, steal, t) not in best or r[0] < best[bpt, steal, t][0]:
+                    best[bpt, steal, t] = r
     rate = cycle_rate()
-    one = best[1][0]
+    one = best[variants[0] + (1,)][0]
     print(f"{args.tiles * packing.n_grains} grains, {args.steps} steps per run; cycle counter "
           f"{rate / 1e9:.3f} GHz; one thread {1e6 * one:.1f} us per step")
+    for bpt, steal in variants:
+        print(f"\nblocks per thread (above {K.BLOCK_MULTIPLE} threads): {bpt}; "
+              + ("thieves may take a share's next block" if steal else "owners keep their next block"))
+        table(threads, {t: best[bpt, steal, t] for t in threads[1:]}, one, rate)
+    numba.set_num_threads(max(threads))
+
+
+def table(threads, best, one, rate) -> None:
+    """The table of the docstring for the best runs ``best[t]`` at each thread count t > 1."""
     print("| threads | wall us/step (ratio) | team steps | pass 1 | barrier 1 | pass 2 | barrier 2 "
           "| busiest: pass 1 + 2 | work inflation | imbalance |")
     print("|---|---|---|---|---|---|---|---|---|---|")
@@ -130,7 +152,6 @@ def main() -> None:
     if n_team:
         for k, row in enumerate(cycles / rate / n_team * 1e6):
             print(f"  thread {k:2d}: " + " ".join(f"{x:7.1f}" for x in row))
-    numba.set_num_threads(max(threads))
 
 
 if __name__ == "__main__":

@@ -107,6 +107,133 @@ def team_neighbour_waits(indptr, indices, data, minv, u, v, a, dt, n_steps, flus
                 T.atomic_store(progress, STRIDE * t, 2 * step + 2)
 
 
+@numba.njit(inline="always")
+def kick_drift_row(i, indptr, indices, data, minv, u, u_next, v, a, dt, flush):
+    """granwave's kick of row i (reading u) followed at once by the next step's kick-drift of the
+    row, written to ``u_next``: the operations of propagate._kick_row then _drift_row, in that
+    order, so the same bits; u itself is not written (other threads still read it)."""
+    acc = 0.0
+    for k in range(indptr[i], indptr[i + 1]):
+        acc += data[k] * u[indices[k]]
+    a[i] = -acc * minv[i]
+    v[i] += 0.5 * dt * a[i]
+    if abs(v[i]) < flush:
+        v[i] = 0.0
+    v[i] += 0.5 * dt * a[i]
+    x = u[i] + dt * v[i]
+    if abs(x) < flush:
+        x = 0.0
+    u_next[i] = x
+
+
+@numba.njit
+def kick_drift_rows(lo, hi, indptr, indices, data, minv, u, u_next, v, a, dt, flush):
+    for i in range(np.uint64(lo), np.uint64(hi)):
+        kick_drift_row(i, indptr, indices, data, minv, u, u_next, v, a, dt, flush)
+
+
+DRIFT, KICK, FUSED = 0, 1, 2
+
+
+@numba.njit(inline="always")
+def do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush):
+    """Rows of chunk c (of ``nchunk``): DRIFT or KICK as granwave's phases, or FUSED step s: step
+    s reads buffer s % 2 (u for even s); the last step only kicks, the others kick and drift
+    into the other buffer (:func:`kick_drift_rows`)."""
+    lo, hi = c * n // nchunk, (c + 1) * n // nchunk
+    if what == DRIFT:
+        _drift_rows(lo, hi, u, v, a, dt, flush)
+    elif what == KICK or s == n_steps - 1:
+        if s % 2 == 0:
+            _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
+        else:
+            _kick_rows(lo, hi, indptr, indices, data, minv, u_other, v, a, dt, flush)
+    elif s % 2 == 0:
+        kick_drift_rows(lo, hi, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
+    else:
+        kick_drift_rows(lo, hi, indptr, indices, data, minv, u_other, u, v, a, dt, flush)
+
+
+@numba.njit(inline="always")
+def run_phase(what, own_only, claims, t, threads, k, phase, n, s, n_steps, indptr, indices, data, minv, u,
+              u_other, v, a, dt, flush):
+    """Thread t's chunks of a phase. Its own k chunks, each unless another took it (an integer
+    exchange, as granwave.team.claim_chunk); then, unless ``own_only``, each other thread's
+    share from its far end, leaving a share at the first chunk whose predecessor is taken (its
+    owner has come that far, or another thief has been there): one or two loads per share
+    instead of granwave's k, which reads every chunk of every share."""
+    nchunk = k * threads
+    for c in range(t * k, t * k + k):
+        if own_only or T.atomic_swap(claims, c, phase) != phase:
+            do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
+    if own_only:
+        return
+    for r in range(1, threads):
+        o = (t + r) % threads
+        for c in range(o * k + k - 1, o * k, -1):
+            if T.atomic_load(claims, c - 1) == phase:
+                break
+            if T.atomic_swap(claims, c, phase) != phase:
+                do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt,
+                         flush)
+
+
+@numba.njit(parallel=True)
+def team_proto(indptr, indices, data, minv, u, u_other, v, a, dt, n_steps, flush, sync, claims, k, fused,
+               drift_own, times):
+    """Prototypes of the time domain's team, ``k`` chunks per thread claimed as :func:`run_phase`:
+    two phases per step as granwave (the drift of a thread's own share only where
+    ``drift_own``), or (``fused``) one barrier per step, the kick reading one buffer of u and the
+    next drift writing the other, so that no row another thread may still read is written before
+    the barrier (the first drift before the steps; u ends in buffer (n_steps - 1) % 2, which the
+    caller copies back). Per-thread cycles (granwave.team.cycle_counter) in ``times[t]``: phase
+    A, barrier A, phase B, barrier B (fused: the step in A, its barrier in B)."""
+    n = u.shape[0]
+    threads = T.team_size(sync)
+    for t in numba.prange(threads):
+        if T.enter(sync, threads):
+            gen = 0
+            if fused:
+                run_phase(DRIFT, drift_own, claims, t, threads, k, gen + 1, n, 0, n_steps, indptr, indices, data,
+                          minv, u, u_other, v, a, dt, flush)
+                gen = T.barrier(sync, threads, gen)
+            for s in range(n_steps):
+                c0 = T.cycle_counter()
+                if fused:
+                    run_phase(FUSED, False, claims, t, threads, k, gen + 1, n, s, n_steps, indptr, indices, data,
+                              minv, u, u_other, v, a, dt, flush)
+                    c1 = T.cycle_counter()
+                    gen = T.barrier(sync, threads, gen)
+                    c2 = c3 = c4 = T.cycle_counter()
+                else:
+                    run_phase(DRIFT, drift_own, claims, t, threads, k, gen + 1, n, 0, n_steps, indptr, indices,
+                              data, minv, u, u_other, v, a, dt, flush)
+                    c1 = T.cycle_counter()
+                    gen = T.barrier(sync, threads, gen)
+                    c2 = T.cycle_counter()
+                    run_phase(KICK, False, claims, t, threads, k, gen + 1, n, 0, n_steps, indptr, indices, data,
+                              minv, u, u_other, v, a, dt, flush)
+                    c3 = T.cycle_counter()
+                    gen = T.barrier(sync, threads, gen)
+                    c4 = T.cycle_counter()
+                times[t, 0] += c1 - c0
+                times[t, 1] += c2 - c1
+                times[t, 2] += c3 - c2
+                times[t, 3] += c4 - c3
+
+
+@numba.njit
+def _cycles():
+    return T.cycle_counter()
+
+
+def cycle_rate(seconds: float = 0.2) -> float:
+    """Cycle counter ticks per second, against the wall clock."""
+    c0, w0 = _cycles(), time.perf_counter()
+    time.sleep(seconds)
+    return (_cycles() - c0) / (time.perf_counter() - w0)
+
+
 def dependency_ranges(indptr: np.ndarray, indices: np.ndarray, threads: int):
     """For fixed shares of the rows among ``threads``: per thread t the range of threads whose
     rows t's rows of D read (reads_lo, reads_hi), and the range of threads that read t's rows
@@ -128,6 +255,10 @@ def dependency_ranges(indptr: np.ndarray, indices: np.ndarray, threads: int):
 
 VARIANTS = ("two regions/step", "team, fixed shares", f"team (granwave, {CHUNKS_PER_THREAD} chunks/thread)",
             "team, neighbour waits")
+#: prototypes of :func:`team_proto`: name -> (chunks per thread, fused, drift of the own share only)
+PROTOS = {f"early break, {k} chunks": (k, False, False) for k in (8, 16)}
+PROTOS.update({f"own drift, early break, {k}": (k, False, True) for k in (8, 16)})
+PROTOS.update({f"fused, early break, {k} chunks": (k, True, False) for k in (8, 16)})
 
 
 def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -> None:
@@ -140,8 +271,9 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
     steps = max(300, int(2e8 / D.nnz))
     sync = T.new_sync()
     ranges = {t: dependency_ranges(ip, ix, t) for t in threads}
-    variants = VARIANTS + tuple(f"shared, {k} chunks/thread" for k in chunks)
-    best, finals = {}, set()
+    variants = VARIANTS + tuple(f"shared, {k} chunks/thread" for k in chunks) + tuple(PROTOS)
+    best, finals, timed = {}, set(), {}
+    times = np.zeros((max(threads), 4), np.int64)
     for _ in range(repeat):
         for t in threads:
             numba.set_num_threads(t)
@@ -154,8 +286,6 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
                     elif name == VARIANTS[1]:
                         T.reset_team(sync, t)
                         team_fixed_shares(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
-                        if not T.entered(sync):
-                            raise RuntimeError("the team did not run")
                     elif name == VARIANTS[2]:
                         verlet_steps(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync)
                     elif name == VARIANTS[3]:
@@ -163,15 +293,23 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
                         progress = np.zeros(STRIDE * t, np.int64)
                         team_neighbour_waits(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync, progress,
                                              *ranges[t])
-                        if not T.entered(sync):
-                            raise RuntimeError("the team did not run")
+                    elif name in PROTOS:
+                        per, fused, drift_own = PROTOS[name]
+                        T.reset_team(sync, t)
+                        claims = np.zeros(per * t, np.int64)
+                        u_other = np.empty_like(u)
+                        times[:] = 0
+                        team_proto(ip, ix, D.data, minv, u, u_other, v, a, dt, k, 1e-200, sync, claims, per,
+                                   fused, drift_own, times)
+                        if fused and (k - 1) % 2:
+                            u[:] = u_other
                     else:
                         per = int(name.split(", ")[1].split()[0])
                         T.reset_team(sync, t)
                         claims = np.zeros(per * t, np.int64)
                         _verlet_team(ip, ix, D.data, minv, u, v, a, dt, k, 1e-200, sync, claims, per)
-                        if not T.entered(sync):
-                            raise RuntimeError("the team did not run")
+                    if name != VARIANTS[0] and not T.entered(sync):
+                        raise RuntimeError("the team did not run")
 
                 run(3)  # compile, warm up
                 u[:] = 0.0
@@ -179,14 +317,28 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
                 a[:] = 0.0
                 w0 = time.perf_counter()
                 run(steps)
-                best[name, t] = min(best.get((name, t), np.inf), (time.perf_counter() - w0) / steps)
+                wall = (time.perf_counter() - w0) / steps
+                if wall < best.get((name, t), np.inf) and name in PROTOS:
+                    timed[name, t] = times[:t] / steps  # cycles per step, per thread and column
+                best[name, t] = min(best.get((name, t), np.inf), wall)
                 finals.add(u.tobytes() + v.tobytes() + a.tobytes())
     print(f"\n{system.n_dof} dofs ({n_grains} grains), {D.nnz} stiffness entries, {steps} steps; "
           f"best of {repeat}; same bits for every variant and thread count: {len(finals) == 1}")
     one = best[VARIANTS[0], threads[0]]
     for name in variants:
-        print(f"  {name:24s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
+        print(f"  {name:32s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
                                           for t in threads), flush=True)
+    rate = cycle_rate()
+    print(f"prototypes' timers, microseconds per step (cycle counter {rate / 1e9:.3f} GHz), mean over the "
+          "threads: phase A | barrier A | phase B | barrier B (fused: the step, its barrier, 0, 0); work "
+          "inflation: busy time summed over the variant's one-thread step; imbalance: busiest over mean busy")
+    for name in PROTOS:
+        one_p = best[name, threads[0]]
+        for t in threads:
+            us = timed[name, t] / rate * 1e6
+            busy = us[:, 0] + us[:, 2]
+            print(f"  {name:32s} {t:3d}: " + " | ".join(f"{x:6.2f}" for x in us.mean(axis=0)) +
+                  f"; inflation {busy.sum() / (1e6 * one_p):.2f}; imbalance {busy.max() / busy.mean():.2f}")
 
 
 def main() -> None:
