@@ -1,7 +1,7 @@
 """Where a DEM step's time goes on each thread of the team (a script, not a test).
 
     python benchmarks/dem_team_times.py [--threads 1,16] [--tiles 17] [--steps 1000]
-        [--repeat 2] [--packing FILE] [--blocks-per-thread 2,4] [--steal-next]
+        [--repeat 2] [--packing FILE] [--blocks-per-thread 2,4]
 
 On the 16-vCPU machines of docs/dem.md ("Sixteen cores, a fourth time") the engine ran the
 10^4-grain state 6-8x faster on 16 threads than on one, with 2.2-2.8 times the CPU time per
@@ -24,8 +24,8 @@ barrier after it (granwave.dem.kernels, ws[W_TEAMTIME]). Per thread count, the b
 The cycle counter's rate is measured against the wall clock in the same run. With
 ``--blocks-per-thread`` a list, the runs of each value (granwave.dem.kernels.BLOCKS_PER_THREAD,
 read when an engine starts: which thread computes which grains, not the bits) alternate in each
-repetition and each gets its table; with ``--steal-next`` each also runs with a thread done early
-allowed to take any block of a late one's share but its first (kernels.STEAL_NEXT_ABOVE = 4).
+repetition and each gets its table. (Commit 212ca46 also alternated a rule that let a thread done
+early take any block of a late one's share but its first: no gain at 16 threads, removed.)
 """
 
 from __future__ import annotations
@@ -92,8 +92,6 @@ def main() -> None:
     ap.add_argument("--packing", default=None, help="the 600-grain packing at p = 1e-4 from a file")
     ap.add_argument("--blocks-per-thread", default=str(K.BLOCKS_PER_THREAD),
                     help="comma-separated values of kernels.BLOCKS_PER_THREAD to alternate")
-    ap.add_argument("--steal-next", action="store_true",
-                    help="alternate with kernels.STEAL_NEXT_ABOVE = 4 (thieves may take a share's next block)")
     args = ap.parse_args()
     threads = [int(x) for x in args.threads.split(",")]
     per_thread = [int(x) for x in args.blocks_per_thread.split(",")]
@@ -109,23 +107,21 @@ def main() -> None:
         from dem import prepare
 
         packing = prepare(1e-4)[0]
-    variants = [(bpt, steal) for bpt in per_thread for steal in ((None, 4) if args.steal_next else (None,))]
     best: dict[tuple, tuple] = {}
     for _ in range(args.repeat):
         for t in threads:
-            for bpt, steal in [v for v in variants if t > 1 or v == variants[0]]:  # one thread: the pair loop
-                K.BLOCKS_PER_THREAD, K.STEAL_NEXT_ABOVE = bpt, steal
+            for bpt in per_thread[:1] if t == 1 else per_thread:  # one thread: the pair loop, no blocks
+                K.BLOCKS_PER_THREAD = bpt
                 r = run(packing, args.tiles, args.steps, t)
-                if (bpt, steal, t) not in best or r[0] < best[bpt, steal, t][0]:
-                    best[bpt, steal, t] = r
+                if (bpt, t) not in best or r[0] < best[bpt, t][0]:
+                    best[bpt, t] = r
     rate = cycle_rate()
-    one = best[variants[0] + (1,)][0]
+    one = best[per_thread[0], 1][0]
     print(f"{args.tiles * packing.n_grains} grains, {args.steps} steps per run; cycle counter "
           f"{rate / 1e9:.3f} GHz; one thread {1e6 * one:.1f} us per step")
-    for bpt, steal in variants:
-        print(f"\nblocks per thread (above {K.BLOCK_MULTIPLE} threads): {bpt}; "
-              + ("thieves may take a share's next block" if steal else "owners keep their next block"))
-        table(threads, {t: best[bpt, steal, t] for t in threads[1:]}, one, rate)
+    for bpt in per_thread:
+        print(f"\nblocks per thread (above {K.BLOCK_MULTIPLE} threads): {bpt}")
+        table(threads, {t: best[bpt, t] for t in threads[1:]}, one, rate)
     numba.set_num_threads(max(threads))
 
 

@@ -308,17 +308,14 @@ def test_blocks_grow_room_for_incoming_pairs_to_the_same_result(monkeypatch):
 
 
 @two_threads
-@pytest.mark.parametrize("blocks, steal_next", [(3, None), (7, None), (16, None), (16, 1)],
-                         ids=["3", "7", "16", "16-steal-next"])
-def test_any_block_partition_gives_the_same_bytes(blocks, steal_next, monkeypatch):
+@pytest.mark.parametrize("blocks", [3, 7, 16])
+def test_any_block_partition_gives_the_same_bytes(blocks, monkeypatch):
     """The number of grain blocks (which grows with the thread count, kernels.block_count) only
-    decides who computes what: odd and many blocks on 2 threads give the one-thread loop's bytes;
-    so too where a thread may take a share's next block (kernels.STEAL_NEXT_ABOVE)."""
+    decides who computes what: odd and many blocks on 2 threads give the one-thread loop's bytes."""
     params = PrepareParams(grains=90, seed=11, tol=1e-9)
     ref = prepare_packing(params)
     monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
     monkeypatch.setattr(K, "block_count", lambda n, threads=1: blocks)
-    monkeypatch.setattr(K, "STEAL_NEXT_ABOVE", steal_next)
     run = _at(2, lambda: prepare_packing(params))
     assert run.attrs["steps"] == ref.attrs["steps"] > 1000
     assert _bytes(run) == _bytes(ref)

@@ -236,7 +236,7 @@ class Engine:
             self.ipar[K.I_TEAM] = int(threads > 1 and PLAIN_STEPS_IN_TEAM and team.usable())
             while self.steps < target:
                 self.ipar[K.I_NSTEPS] = target - self.steps
-                K.set_claims(self.ws[K.W_CLAIM], threads)  # the force passes' shares (kernels.visit_block)
+                self.ws[K.W_CLAIM][0] = threads  # the force passes' share per thread (kernels.visit_block)
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
                                      self.angular_acceleration, self.radius, self.mass, self.inertia,
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,

@@ -251,8 +251,7 @@ def worth_taking(claims, t, threads, nblk, b, phase):
     one of another's only while its owner has not reached the block before it. The owner then
     keeps the block it would start next, which it computes from its own cache: taking it over a
     little earlier made the balanced 10 200-grain square slower (threads 1 -> 2 down to 1.60 in
-    one of three runs, CPU time per step x1.25). Where ``claims[nblk + 2]`` is set
-    (:func:`set_claims`), any block of another's share but its first."""
+    one of three runs, CPU time per step x1.25)."""
     u = b * threads // nblk
     while u * nblk // threads > b:  # the share of b (integer rounding)
         u -= 1
@@ -260,9 +259,7 @@ def worth_taking(claims, t, threads, nblk, b, phase):
         u += 1
     if u == t:
         return True
-    if b <= u * nblk // threads:  # the first block of a share is always its owner's
-        return False
-    return claims[nblk + 2] != 0 or not block_taken(claims, b - 1, phase)
+    return b > u * nblk // threads and not block_taken(claims, b - 1, phase)
 
 
 @numba.njit(cache=True, inline="always")
@@ -296,19 +293,6 @@ def claim_block(claims, t, threads, nblk, j, phase):
     if worth_taking(claims, t, threads, nblk, b, phase) and take_block(claims, b, phase):
         return b
     return -1
-
-
-#: Above this many threads a thread done early may take any block of a late one's share but its
-#: first (not only those the owner has not come near; :func:`worth_taking`). None: never.
-STEAL_NEXT_ABOVE = None
-
-
-def set_claims(claims: np.ndarray, threads: int) -> None:
-    """Before a run of the force passes on ``threads`` threads: their count in ``claims[0]`` (the
-    shares of :func:`visit_block`) and whether a thief may take a share's next block
-    (``claims[-1]``, :data:`STEAL_NEXT_ABOVE`). Which thread computes a block, not the bits."""
-    claims[0] = threads
-    claims[-1] = int(STEAL_NEXT_ABOVE is not None and threads > STEAL_NEXT_ABOVE)
 
 
 @numba.njit(cache=True, inline="always")
@@ -511,7 +495,7 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
-            *PT.scratch(nblk), np.zeros(nblk + 3, np.int64),
+            *PT.scratch(nblk), np.zeros(nblk + 2, np.int64),
             np.zeros((max(1, numba.config.NUMBA_NUM_THREADS), N_TEAM_TIMES), np.int64))
 
 
@@ -536,7 +520,7 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
         new[w] = np.zeros(nblk + 1, np.int64)
     new[W_BLK] = np.zeros((nblk, N_GCOL))
     new[W_TILE], new[W_TILEP] = PT.scratch(nblk)
-    new[W_CLAIM] = np.zeros(nblk + 3, np.int64)
+    new[W_CLAIM] = np.zeros(nblk + 2, np.int64)
     new[W_CLAIM][0] = ws[W_CLAIM][0]
     return tuple(new)
 
@@ -1362,8 +1346,7 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
     for t in range(threads):
         for k in range(piston.shape[0]):
             pistons[t, k] = piston[k]
-    claims = np.zeros(nblk + 3, np.int64)
-    claims[nblk + 2] = ws[W_CLAIM][nblk + 2]
+    claims = np.zeros(nblk + 2, np.int64)
     state = np.zeros((threads, 3))
     times = ws[W_TEAMTIME]
     if times.shape[0] < threads:  # a team larger than numba's threads (it will not start): no row to miss

@@ -377,7 +377,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
         k_stop = min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
-            K.set_claims(engine.ws[K.W_CLAIM], numba.get_num_threads())  # the force passes' shares
+            engine.ws[K.W_CLAIM][0] = numba.get_num_threads()  # the force passes' share per thread
             r = samples_kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
                                  engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
                                  engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
