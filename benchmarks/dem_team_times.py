@@ -14,8 +14,9 @@ barrier after it (granwave.dem.kernels, ws[W_TEAMTIME]). Per thread count, the b
 
 - wall time per step, and its ratio to one thread's (one thread runs the single pair loop, as
   the engine does);
-- per thread, microseconds per team step in pass 1 (with the step's own tests and the piston),
-  at barrier 1, in pass 2, at barrier 2: mean over the threads, and the busiest thread's;
+- per thread, microseconds per team step in pass 1 (with the step's own tests), at barrier 1,
+  in pass 2, at barrier 2 and in the step's end (piston, blocks' maxima): mean over the threads,
+  and the busiest thread's;
 - work inflation: the threads' busy time summed, per step, over one thread's step time (1 if
   the work did not slow down when run in parallel; the block engine's own extra work, about
   10 % on one thread, is in it);
@@ -127,9 +128,9 @@ def main() -> None:
 
 def table(threads, best, one, rate) -> None:
     """The table of the docstring for the best runs ``best[t]`` at each thread count t > 1."""
-    print("| threads | wall us/step (ratio) | team steps | pass 1 | barrier 1 | pass 2 | barrier 2 "
-          "| busiest: pass 1 + 2 | work inflation | imbalance |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| threads | wall us/step (ratio) | team steps | pass 1 | barrier 1 | pass 2 | barrier 2 | end "
+          "| busiest: pass 1 + 2 + end | work inflation | imbalance |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for t in threads[1:]:
         wall, n_team, cycles = best[t]
         if n_team == 0:
@@ -137,12 +138,13 @@ def table(threads, best, one, rate) -> None:
             continue
         us = cycles / rate / n_team * 1e6  # per thread and column, microseconds per team step
         mean = us.mean(axis=0)
-        busy = us[:, K.T_PASS1] + us[:, K.T_PASS2]
+        busy = us[:, K.T_PASS1] + us[:, K.T_PASS2] + us[:, K.T_END]
         print(f"| {t} | {1e6 * wall:.1f} ({one / wall:.2f}) | {n_team} | {mean[K.T_PASS1]:.1f} | "
-              f"{mean[K.T_WAIT1]:.1f} | {mean[K.T_PASS2]:.1f} | {mean[K.T_WAIT2]:.1f} | {busy.max():.1f} | "
+              f"{mean[K.T_WAIT1]:.1f} | {mean[K.T_PASS2]:.1f} | {mean[K.T_WAIT2]:.1f} | {mean[K.T_END]:.1f} | "
+              f"{busy.max():.1f} | "
               f"{busy.sum() / (1e6 * one):.2f} | {busy.max() / busy.mean():.2f} |")
     print("(pass and barrier columns: microseconds per team step, mean over the threads)")
-    print("per thread, us per team step (pass 1, barrier 1, pass 2, barrier 2) at the largest count:")
+    print("per thread, us per team step (pass 1, barrier 1, pass 2, barrier 2, end) at the largest count:")
     t = threads[-1]
     wall, n_team, cycles = best[t]
     if n_team:

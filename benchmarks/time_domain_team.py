@@ -12,8 +12,9 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
 - "team, fixed shares": one parallel region per call, the phases separated by spin barriers
   (granwave.team), each thread drifting and kicking a fixed share of the rows (granwave's
   kernel until its shared chunks);
-- "team (granwave, 8 chunks/thread)": :func:`granwave.linear.propagate.verlet_steps` as
-  shipped: the rows in chunks, a thread done early taking over a late one's last chunks;
+- "team (granwave, 16 chunks/thread)": :func:`granwave.linear.propagate.verlet_steps` as
+  shipped: the rows in chunks, a thread done early taking over a late one's last chunks
+  (granwave.team.next_chunk);
 - "shared, k chunks/thread": granwave's team kernel (``propagate._verlet_team``) with ``--chunks``
   k per thread;
 - "team, neighbour waits" (a prototype, not in granwave): fixed shares, and no barrier of the whole
@@ -22,6 +23,11 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
   (:func:`dependency_ranges`; on the lattices its two neighbours). Whether that beats the
   barrier where vCPUs run late (16 threads, docs/linear.md) is what it is here to measure; on two
   threads each thread's neighbour is the other, so it is the barrier under another name;
+- prototypes (:func:`team_proto`, granwave's chunks and claims, with per-thread cycle timers:
+  how long each thread works and waits in each phase, the work inflation and the imbalance):
+  "timed" (granwave's kernel), "own drift" (each thread drifts its own share without claims:
+  the drift is a few percent of the step), "fused" (one barrier per step instead of two: the
+  kick reads one buffer of u and the next step's drift writes the other);
 
 each as a ratio to the first at one thread, and whether every variant at every thread count
 left the same bytes. Measured on the 16-core machine of docs/linear.md ("Sixteen cores").
@@ -157,25 +163,17 @@ def do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_o
 @numba.njit(inline="always")
 def run_phase(what, own_only, claims, t, threads, k, phase, n, s, n_steps, indptr, indices, data, minv, u,
               u_other, v, a, dt, flush):
-    """Thread t's chunks of a phase. Its own k chunks, each unless another took it (an integer
-    exchange, as granwave.team.claim_chunk); then, unless ``own_only``, each other thread's
-    share from its far end, leaving a share at the first chunk whose predecessor is taken (its
-    owner has come that far, or another thief has been there): one or two loads per share
-    instead of granwave's k, which reads every chunk of every share."""
+    """Thread t's chunks of a phase: those granwave.team.next_chunk gives it (as granwave's team),
+    or with ``own_only`` its own k chunks without any claim."""
     nchunk = k * threads
-    for c in range(t * k, t * k + k):
-        if own_only or T.atomic_swap(claims, c, phase) != phase:
-            do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
     if own_only:
+        for c in range(t * k, t * k + k):
+            do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
         return
-    for r in range(1, threads):
-        o = (t + r) % threads
-        for c in range(o * k + k - 1, o * k, -1):
-            if T.atomic_load(claims, c - 1) == phase:
-                break
-            if T.atomic_swap(claims, c, phase) != phase:
-                do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt,
-                         flush)
+    c, j = T.next_chunk(claims, t, threads, k, 0, phase)
+    while c >= 0:
+        do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
+        c, j = T.next_chunk(claims, t, threads, k, j, phase)
 
 
 @numba.njit(parallel=True)
@@ -255,10 +253,12 @@ def dependency_ranges(indptr: np.ndarray, indices: np.ndarray, threads: int):
 
 VARIANTS = ("two regions/step", "team, fixed shares", f"team (granwave, {CHUNKS_PER_THREAD} chunks/thread)",
             "team, neighbour waits")
-#: prototypes of :func:`team_proto`: name -> (chunks per thread, fused, drift of the own share only)
-PROTOS = {f"early break, {k} chunks": (k, False, False) for k in (8, 16)}
-PROTOS.update({f"own drift, early break, {k}": (k, False, True) for k in (8, 16)})
-PROTOS.update({f"fused, early break, {k} chunks": (k, True, False) for k in (8, 16)})
+#: prototypes of :func:`team_proto`: name -> (chunks per thread, fused, drift of the own share only);
+#: "timed" is granwave's kernel with the prototypes' timers. (Commit 212ca46 also ran the early
+#: break of the claim scan as a prototype, before granwave.team.next_chunk had it.)
+PROTOS = {f"timed, {CHUNKS_PER_THREAD} chunks": (CHUNKS_PER_THREAD, False, False),
+          f"own drift, {CHUNKS_PER_THREAD} chunks": (CHUNKS_PER_THREAD, False, True),
+          f"fused, {CHUNKS_PER_THREAD} chunks": (CHUNKS_PER_THREAD, True, False)}
 
 
 def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -> None:

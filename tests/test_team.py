@@ -119,7 +119,6 @@ def _claim_phases(sync, claims, k, phases, who, hold):
     written by its one claimer), who[phases + p, c] = 1 + the thread that took it. With ``hold``,
     thread 1 starts each phase only after thread 0 has visited every chunk (``hold[0]``)."""
     threads = team.team_size(sync)
-    nchunk = k * threads
     for t in numba.prange(threads):
         if team.enter(sync, threads):
             gen = 0
@@ -127,11 +126,11 @@ def _claim_phases(sync, claims, k, phases, who, hold):
                 if hold.shape[0] > 0 and t == 1:
                     while team.atomic_load(hold, 0) <= p:
                         team.spin_pause()
-                for j in range(nchunk):
-                    c = team.claim_chunk(claims, t, threads, k, j, gen + 1)
-                    if c >= 0:
-                        who[p, c] += 1
-                        who[phases + p, c] = t + 1
+                c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
+                while c >= 0:
+                    who[p, c] += 1
+                    who[phases + p, c] = t + 1
+                    c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
                 if hold.shape[0] > 0 and t == 0:
                     team.atomic_store(hold, 0, p + 1)
                 gen = team.barrier(sync, threads, gen)

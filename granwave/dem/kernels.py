@@ -503,11 +503,12 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, W_SPAIR, W_OSLOT, \
     W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM, W_TEAMTIME = range(23)
 #: per thread of a team, cycles (team.cycle_counter) spent in its blocks of the first pass (with
-#: the step's own tests and the piston), waiting at the barrier after it, in its blocks of the
-#: second pass, waiting at the barrier after that; summed over the engine's team steps
-#: (``ws[W_TEAMTIME]``; read by benchmarks/dem_team_times.py)
-T_PASS1, T_WAIT1, T_PASS2, T_WAIT2 = range(4)
-N_TEAM_TIMES = 4
+#: the step's own tests), waiting at the barrier after it, in its blocks of the second pass,
+#: waiting at the barrier after that, and after it in the step's end (the piston, the blocks'
+#: maxima); summed over the engine's team steps (``ws[W_TEAMTIME]``; read by
+#: benchmarks/dem_team_times.py)
+T_PASS1, T_WAIT1, T_PASS2, T_WAIT2, T_END = range(5)
+N_TEAM_TIMES = 5
 
 
 def with_blocks(ws: tuple, nblk: int) -> tuple:
@@ -1299,7 +1300,6 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
         times[t, T_WAIT1] += c2 - c1
         times[t, T_PASS2] += c3 - c2
         times[t, T_WAIT2] += c4 - c3
-        c0 = c4
         # what _forces and run_chunk do after the passes, read before this thread arrives at the
         # next barrier: the next phase 1 writes no column read here, the next phase 2 all of them
         piston[P_FCON] = piston_contact_force(blk_g, top_f, n, nblk)
@@ -1311,6 +1311,8 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
         vmax = math.sqrt(_block_max(blk_g, G_DVMAX))
         disp2 = _block_max(blk_g, G_DISP)
         piston_kick_drift(piston, dt)
+        c0 = team.cycle_counter()
+        times[t, T_END] += c0 - c4
     state[t, 0] = done
     state[t, 1] = disp2
     state[t, 2] = vmax

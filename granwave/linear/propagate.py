@@ -198,14 +198,14 @@ def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
 #: a fixed share per thread 5.9-6.9x one thread, 8 chunks 6.5-7.5x (no gain on one of three
 #: machines), 16 7.0-7.2x, 32 6.3x; 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8
 #: (docs/linear.md "Shared chunks")
-CHUNKS_PER_THREAD = 8
+CHUNKS_PER_THREAD = 16
 
 
 @numba.njit(cache=True, parallel=True)
 def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, k):
     """``n_steps`` steps in one parallel region (granwave.team). The rows are cut into
     ``k`` (:data:`CHUNKS_PER_THREAD`) chunks per thread, each thread owning k consecutive ones; per step
-    the threads drift the chunks they claim (:func:`granwave.team.claim_chunk`: their own, and
+    the threads drift the chunks they claim (:func:`granwave.team.next_chunk`: their own, and
     the far end of a late thread's share), wait for all (the kick reads every row of u), kick
     the chunks they claim and wait again (the next drift rewrites rows that others read).
     ``claims``: k * team size zeros; the phase after barrier ``gen`` is gen + 1."""
@@ -216,16 +216,16 @@ def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync,
         if team.enter(sync, threads):
             gen = 0
             for _ in range(n_steps):
-                for j in range(nchunk):
-                    c = team.claim_chunk(claims, t, threads, k, j, gen + 1)
-                    if c >= 0:
-                        _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
+                c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
+                while c >= 0:
+                    _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
+                    c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
                 gen = team.barrier(sync, threads, gen)
-                for j in range(nchunk):
-                    c = team.claim_chunk(claims, t, threads, k, j, gen + 1)
-                    if c >= 0:
-                        _kick_rows(c * n // nchunk, (c + 1) * n // nchunk, indptr, indices, data, minv,
-                                   u, v, a, dt, flush)
+                c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
+                while c >= 0:
+                    _kick_rows(c * n // nchunk, (c + 1) * n // nchunk, indptr, indices, data, minv,
+                               u, v, a, dt, flush)
+                    c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
                 gen = team.barrier(sync, threads, gen)
 
 
