@@ -12,22 +12,22 @@ In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), b
 - "team, fixed shares": one parallel region per call, the phases separated by spin barriers
   (granwave.team), each thread drifting and kicking a fixed share of the rows (granwave's
   kernel until its shared chunks);
-- "team (granwave, 16 chunks/thread)": :func:`granwave.linear.propagate.verlet_steps` as
-  shipped: the rows in chunks, a thread done early taking over a late one's last chunks
-  (granwave.team.next_chunk);
-- "shared, k chunks/thread": granwave's team kernel (``propagate._verlet_team``) with ``--chunks``
-  k per thread;
+- "team (granwave)": :func:`granwave.linear.propagate.verlet_steps` as shipped: the rows in
+  16 chunks per thread, a thread done early taking over a late one's last chunks
+  (granwave.team.next_chunk); two phases a step up to 4 threads, one above
+  (``propagate.FUSED_ABOVE``);
+- "shared, k chunks/thread": granwave's two-phase team kernel (``propagate._verlet_team``) with
+  ``--chunks`` k per thread;
 - "team, neighbour waits" (a prototype, not in granwave): fixed shares, and no barrier of the whole
   team: each thread waits only for the threads whose rows its rows of D read (before its kick) and
   for those that read its rows (before its next drift), found from D's pattern
   (:func:`dependency_ranges`; on the lattices its two neighbours). Whether that beats the
   barrier where vCPUs run late (16 threads, docs/linear.md) is what it is here to measure; on two
   threads each thread's neighbour is the other, so it is the barrier under another name;
-- prototypes (:func:`team_proto`, granwave's chunks and claims, with per-thread cycle timers:
-  how long each thread works and waits in each phase, the work inflation and the imbalance):
-  "timed" (granwave's kernel), "own drift" (each thread drifts its own share without claims:
-  the drift is a few percent of the step), "fused" (one barrier per step instead of two: the
-  kick reads one buffer of u and the next step's drift writes the other);
+- with per-thread cycle timers (:func:`team_proto`: how long each thread works and waits in each
+  phase, the work inflation and the imbalance), granwave's chunks and claims: "timed, two
+  phases" and "timed, one phase a step" (granwave's two kernels), and "two phases, own drift"
+  (each thread drifts its own share without claims: the drift is a few percent of the step);
 
 each as a ratio to the first at one thread, and whether every variant at every thread count
 left the same bytes. Measured on the 16-core machine of docs/linear.md ("Sixteen cores").
@@ -52,8 +52,9 @@ from linear import lattice  # noqa: E402
 
 from granwave import team as T  # noqa: E402
 from granwave.linear.assemble import linearize  # noqa: E402
-from granwave.linear.propagate import (CHUNKS_PER_THREAD, _drift_rows, _kick_rows,  # noqa: E402
-                                      _verlet_regions, _verlet_team, stable_time_step, verlet_steps)
+from granwave.linear.propagate import (CHUNKS_PER_THREAD, _drift_rows, _fused_rows,  # noqa: E402
+                                      _kick_rows, _verlet_regions, _verlet_team, stable_time_step,
+                                      verlet_steps)
 
 
 @numba.njit(parallel=True)
@@ -113,51 +114,20 @@ def team_neighbour_waits(indptr, indices, data, minv, u, v, a, dt, n_steps, flus
                 T.atomic_store(progress, STRIDE * t, 2 * step + 2)
 
 
-@numba.njit(inline="always")
-def kick_drift_row(i, indptr, indices, data, minv, u, u_next, v, a, dt, flush):
-    """granwave's kick of row i (reading u) followed at once by the next step's kick-drift of the
-    row, written to ``u_next``: the operations of propagate._kick_row then _drift_row, in that
-    order, so the same bits; u itself is not written (other threads still read it)."""
-    acc = 0.0
-    for k in range(indptr[i], indptr[i + 1]):
-        acc += data[k] * u[indices[k]]
-    a[i] = -acc * minv[i]
-    v[i] += 0.5 * dt * a[i]
-    if abs(v[i]) < flush:
-        v[i] = 0.0
-    v[i] += 0.5 * dt * a[i]
-    x = u[i] + dt * v[i]
-    if abs(x) < flush:
-        x = 0.0
-    u_next[i] = x
-
-
-@numba.njit
-def kick_drift_rows(lo, hi, indptr, indices, data, minv, u, u_next, v, a, dt, flush):
-    for i in range(np.uint64(lo), np.uint64(hi)):
-        kick_drift_row(i, indptr, indices, data, minv, u, u_next, v, a, dt, flush)
-
-
 DRIFT, KICK, FUSED = 0, 1, 2
 
 
 @numba.njit(inline="always")
 def do_chunk(what, c, nchunk, n, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush):
-    """Rows of chunk c (of ``nchunk``): DRIFT or KICK as granwave's phases, or FUSED step s: step
-    s reads buffer s % 2 (u for even s); the last step only kicks, the others kick and drift
-    into the other buffer (:func:`kick_drift_rows`)."""
+    """Rows of chunk c (of ``nchunk``): DRIFT or KICK as granwave's two phases, or FUSED step s
+    as granwave's one phase a step (propagate._fused_rows)."""
     lo, hi = c * n // nchunk, (c + 1) * n // nchunk
     if what == DRIFT:
         _drift_rows(lo, hi, u, v, a, dt, flush)
-    elif what == KICK or s == n_steps - 1:
-        if s % 2 == 0:
-            _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
-        else:
-            _kick_rows(lo, hi, indptr, indices, data, minv, u_other, v, a, dt, flush)
-    elif s % 2 == 0:
-        kick_drift_rows(lo, hi, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
+    elif what == KICK:
+        _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush)
     else:
-        kick_drift_rows(lo, hi, indptr, indices, data, minv, u_other, u, v, a, dt, flush)
+        _fused_rows(lo, hi, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush)
 
 
 @numba.njit(inline="always")
@@ -251,14 +221,14 @@ def dependency_ranges(indptr: np.ndarray, indices: np.ndarray, threads: int):
     return reads_lo, reads_hi, read_by_lo, read_by_hi
 
 
-VARIANTS = ("two regions/step", "team, fixed shares", f"team (granwave, {CHUNKS_PER_THREAD} chunks/thread)",
+VARIANTS = ("two regions/step", "team, fixed shares", "team (granwave)",
             "team, neighbour waits")
-#: prototypes of :func:`team_proto`: name -> (chunks per thread, fused, drift of the own share only);
-#: "timed" is granwave's kernel with the prototypes' timers. (Commit 212ca46 also ran the early
-#: break of the claim scan as a prototype, before granwave.team.next_chunk had it.)
-PROTOS = {f"timed, {CHUNKS_PER_THREAD} chunks": (CHUNKS_PER_THREAD, False, False),
-          f"own drift, {CHUNKS_PER_THREAD} chunks": (CHUNKS_PER_THREAD, False, True),
-          f"fused, {CHUNKS_PER_THREAD} chunks": (CHUNKS_PER_THREAD, True, False)}
+#: variants of :func:`team_proto`: name -> (chunks per thread, one phase a step, drift of the own
+#: share only). (Commit 212ca46 also ran the early break of the claim scan and the one phase a
+#: step as prototypes, before granwave had them.)
+PROTOS = {"timed, two phases": (CHUNKS_PER_THREAD, False, False),
+          "timed, one phase a step": (CHUNKS_PER_THREAD, True, False),
+          "two phases, own drift": (CHUNKS_PER_THREAD, False, True)}
 
 
 def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -> None:
@@ -326,7 +296,7 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
           f"best of {repeat}; same bits for every variant and thread count: {len(finals) == 1}")
     one = best[VARIANTS[0], threads[0]]
     for name in variants:
-        print(f"  {name:32s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
+        print(f"  {name:28s} " + "  ".join(f"{t}: {1e3 * best[name, t]:.4f} ms ({one / best[name, t]:.2f}x)"
                                           for t in threads), flush=True)
     rate = cycle_rate()
     print(f"prototypes' timers, microseconds per step (cycle counter {rate / 1e9:.3f} GHz), mean over the "
@@ -337,7 +307,7 @@ def measure(n_grains: int, threads: list[int], repeat: int, chunks: list[int]) -
         for t in threads:
             us = timed[name, t] / rate * 1e6
             busy = us[:, 0] + us[:, 2]
-            print(f"  {name:32s} {t:3d}: " + " | ".join(f"{x:6.2f}" for x in us.mean(axis=0)) +
+            print(f"  {name:28s} {t:3d}: " + " | ".join(f"{x:6.2f}" for x in us.mean(axis=0)) +
                   f"; inflation {busy.sum() / (1e6 * one_p):.2f}; imbalance {busy.max() / busy.mean():.2f}")
 
 

@@ -182,6 +182,6 @@ def check_propagate(n_dof: int, samples: int, snapshots: int = 0) -> None:
 def check_time_domain(n_dof: int, n_entries: int, samples: int, snapshots: int = 0) -> None:
     """The time-domain integration of ``n_dof`` dofs with ``n_entries`` stiffness entries,
     recording ``samples`` samples and ``snapshots`` displacement fields."""
-    need = (10 * DOUBLE * float(n_dof) + 40.0 * float(n_entries) + 4 * DOUBLE * float(samples)
+    need = (11 * DOUBLE * float(n_dof) + 40.0 * float(n_entries) + 4 * DOUBLE * float(samples)
             + 3 * DOUBLE * float(snapshots) * float(n_dof))
     require_memory(need, f"the time-domain run of {n_dof} dofs ({n_entries} stiffness entries)")

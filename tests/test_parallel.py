@@ -201,20 +201,26 @@ def test_narrow_neighbour_lists_grow_to_the_same_result(monkeypatch):
 
 
 @two_threads
-def test_time_domain_same_bytes_for_1_and_2_threads(monkeypatch):
-    """Signal, snapshots and energy records byte for byte equal (threshold lowered)."""
+@pytest.mark.parametrize("fused_above", [4, 1], ids=["two-phases", "one-barrier-a-step"])
+def test_time_domain_same_bytes_for_1_and_2_threads(fused_above, monkeypatch):
+    """Signal, snapshots and energy records byte for byte equal (threshold lowered); also with
+    the team of more threads' one phase per step (propagate.FUSED_ABOVE lowered): sample
+    intervals of an odd and an even number of steps, and single steps around the snapshots."""
     monkeypatch.setattr(propagate, "MIN_PARALLEL_ROWS", 0)
+    monkeypatch.setattr(propagate, "FUSED_ABOVE", fused_above)
     system = linearize(reference_lattice(8, 5, pressure=1e-4, friction=0.5))
 
-    def run():
-        return propagate.time_domain_signal(system, ic="B", t_max=30.0, samples=61, snapshots=[3.0, 10.0])
+    def run(dt):
+        return propagate.time_domain_signal(system, ic="B", t_max=30.0, samples=61, snapshots=[3.0, 10.0], dt=dt)
 
-    one, two = _at(1, run), _at(2, run)
-    assert one.force.tobytes() == two.force.tobytes()
-    assert one.snapshot_displacement.tobytes() == two.snapshot_displacement.tobytes()
-    for key in ("energy_max_rel_deviation", "modified_energy_max_rel_deviation"):
-        assert one.attrs[key] == two.attrs[key]
-    assert np.abs(one.force).max() > 0
+    for dt, sub in ((None, 4), (0.1, 5)):  # steps per sample interval
+        one, two = _at(1, lambda: run(dt)), _at(2, lambda: run(dt))
+        assert one.attrs["n_steps"] == 60 * sub
+        assert one.force.tobytes() == two.force.tobytes()
+        assert one.snapshot_displacement.tobytes() == two.snapshot_displacement.tobytes()
+        for key in ("energy_max_rel_deviation", "modified_energy_max_rel_deviation"):
+            assert one.attrs[key] == two.attrs[key]
+        assert np.abs(one.force).max() > 0
 
 
 def test_state_sums_match_the_plain_sums():

@@ -197,8 +197,16 @@ def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
 #: the far end of a late one's share. On 16-vCPU virtual machines, 30 132 dofs at 16 threads:
 #: a fixed share per thread 5.9-6.9x one thread, 8 chunks 6.5-7.5x (no gain on one of three
 #: machines), 16 7.0-7.2x, 32 6.3x; 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8
-#: (docs/linear.md "Shared chunks")
+#: (docs/linear.md "Shared chunks"). Since a thread reads only one or two claims of a share it
+#: cannot take from (granwave.team.next_chunk), 16 ran 2 % faster than 8 (docs/linear.md).
 CHUNKS_PER_THREAD = 16
+#: Above this many threads each step is one phase (:func:`_verlet_team_fused`): a chunk's kick
+#: and the next step's drift at once, the drift writing a second buffer of u, one barrier a
+#: step instead of two. On 16 vCPUs (30 132 dofs) 0.0613 against 0.0691-0.0732 ms per step
+#: and 0.0868 against 0.0894 (two machines), at 8 threads 0.1338 against 0.1380; on two
+#: threads of the 2-core machine 10 % slower (the kick-drift of a row costs more than the
+#: two apart), and on one thread 11 % (docs/linear.md "One barrier a step").
+FUSED_ABOVE = 4
 
 
 @numba.njit(cache=True, parallel=True)
@@ -229,6 +237,67 @@ def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync,
                 gen = team.barrier(sync, threads, gen)
 
 
+@numba.njit(cache=True, inline="always")
+def _kick_drift_row(i, indptr, indices, data, minv, u, u_next, v, a, dt, flush):
+    """:func:`_kick_row` of row i (reading u), then the next step's :func:`_drift_row` of the
+    row with its displacement written to ``u_next`` (u is not written: other threads may still
+    read it); the same operations in the same order, so the same bits."""
+    _kick_row(i, indptr, indices, data, minv, u, v, a, dt, flush)
+    v[i] += 0.5 * dt * a[i]
+    x = u[i] + dt * v[i]
+    if abs(x) < flush:
+        x = 0.0
+    u_next[i] = x
+
+
+@numba.njit(cache=True)
+def _kick_drift_rows(lo, hi, indptr, indices, data, minv, u, u_next, v, a, dt, flush):
+    """:func:`_kick_drift_row` for rows lo..hi-1 (counted unsigned, as :func:`_drift_rows`)."""
+    for i in range(np.uint64(lo), np.uint64(hi)):
+        _kick_drift_row(i, indptr, indices, data, minv, u, u_next, v, a, dt, flush)
+
+
+@numba.njit(cache=True, inline="always")
+def _fused_rows(lo, hi, s, n_steps, indptr, indices, data, minv, u, u_other, v, a, dt, flush):
+    """Rows lo..hi-1 of step s of :func:`_verlet_team_fused`: step s reads buffer s % 2 of the
+    displacement (u for even s) and, unless it is the last, drifts into the other."""
+    if s % 2 == 0:
+        src, dst = u, u_other
+    else:
+        src, dst = u_other, u
+    if s == n_steps - 1:
+        _kick_rows(lo, hi, indptr, indices, data, minv, src, v, a, dt, flush)
+    else:
+        _kick_drift_rows(lo, hi, indptr, indices, data, minv, src, dst, v, a, dt, flush)
+
+
+@numba.njit(cache=True, parallel=True)
+def _verlet_team_fused(indptr, indices, data, minv, u, u_other, v, a, dt, n_steps, flush, sync, claims, k):
+    """The steps of :func:`_verlet_team` with one barrier a step: the first kick-drift, then per
+    step each claimed chunk's kick and the next step's kick-drift (:func:`_fused_rows`), the
+    displacement alternating between u and ``u_other`` so that no row another thread may still
+    read is written before the barrier. The result's displacement is in buffer
+    (n_steps - 1) % 2 (u_other when that is 1: the caller copies it back)."""
+    n = u.shape[0]
+    threads = team.team_size(sync)
+    nchunk = k * threads
+    for t in numba.prange(threads):  # one iteration per thread
+        if team.enter(sync, threads):
+            gen = 0
+            c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
+            while c >= 0:
+                _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
+                c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
+            gen = team.barrier(sync, threads, gen)
+            for s in range(n_steps):
+                c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
+                while c >= 0:
+                    _fused_rows(c * n // nchunk, (c + 1) * n // nchunk, s, n_steps, indptr, indices, data, minv,
+                                u, u_other, v, a, dt, flush)
+                    c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
+                gen = team.barrier(sync, threads, gen)
+
+
 @numba.njit(cache=True, parallel=True)
 def _drift_pass(u, v, a, dt, flush):
     """:func:`_drift_row` over every row as a numba parallel loop (one region)."""
@@ -253,7 +322,7 @@ def _verlet_regions(indptr, indices, data, minv, u, v, a, dt, n_steps, flush):
 
 def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv: np.ndarray,
                  u: np.ndarray, v: np.ndarray, a: np.ndarray, dt: float, n_steps: int,
-                 flush: float, sync: np.ndarray | None = None) -> None:
+                 flush: float, sync: np.ndarray | None = None, u_other: np.ndarray | None = None) -> None:
     """``n_steps`` velocity-Verlet steps of u'' = -M^-1 D u in place (D in CSR arrays).
 
     Per step a kick-drift of every row (:func:`_drift_rows`), then the matvec and the second
@@ -270,17 +339,29 @@ def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv
     in magnitude are set to 0: ahead of the front the field decays super-exponentially, and
     products of such values (energies, detector) fall into denormal floating point, which
     made the run 5-8x slower on a 28665-dof lattice (measured). ``sync``: a
-    :func:`granwave.team.new_sync` vector to reuse between calls (else one is made). Where no
+    :func:`granwave.team.new_sync` vector to reuse between calls (else one is made). On more
+    than :data:`FUSED_ABOVE` threads each step is one phase with one barrier
+    (:func:`_verlet_team_fused`, the same bits), which needs a second displacement buffer:
+    ``u_other``, an array like u to reuse between calls (else one is made). Where no
     team can run (:func:`granwave.team.usable`), numba's two parallel loops per step
     (:func:`_verlet_regions`, the same bits).
     """
     if n_steps <= 0:
         return
     if team.usable():
+        threads = numba.get_num_threads()
         sync = team.new_sync() if sync is None else sync
-        team.reset_team(sync, numba.get_num_threads())
+        team.reset_team(sync, threads)
         claims = np.zeros(CHUNKS_PER_THREAD * int(team.team_size(sync)), np.int64)
-        _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, CHUNKS_PER_THREAD)
+        if threads > FUSED_ABOVE:
+            u_other = np.empty_like(u) if u_other is None else u_other
+            _verlet_team_fused(indptr, indices, data, minv, u, u_other, v, a, dt, n_steps, flush, sync, claims,
+                               CHUNKS_PER_THREAD)
+            if team.entered(sync) and (n_steps - 1) % 2:
+                u[:] = u_other
+        else:
+            _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims,
+                         CHUNKS_PER_THREAD)
         if team.entered(sync):
             return
         team.give_up("time domain")  # the threads never all ran at once: nothing was done
@@ -431,14 +512,15 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     n_steps = sub * (samples - 1)
     t_wall0 = t_last = _time.perf_counter()
     sync = team.new_sync()
+    u_other = np.empty_like(u)  # the second displacement buffer of the many-thread team
     for k in range(1, samples):
         with at_most(system.n_dof, MIN_PARALLEL_ROWS):
             if snap_k is None or not np.any((snap_k > step) & (snap_k <= step + sub)):
-                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush, sync)
+                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush, sync, u_other)
                 step += sub
             else:  # a snapshot falls inside this sample interval: go step by step
                 for _ in range(sub):
-                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush, sync)
+                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush, sync, u_other)
                     step += 1
                     for s_idx in np.flatnonzero(snap_k == step):
                         snap_u[s_idx] = u
