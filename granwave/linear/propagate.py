@@ -331,11 +331,10 @@ def verlet_steps(indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, minv
     spin barriers (:mod:`granwave.team`): numba's own loops opened two regions per step, and at
     16 threads, where a region cost 7 us and a barrier 1.2 us, the team ran 3e4 dofs at
     6.1-7.3x one thread against 5.6-6.2x for the two regions, and with the rows in shared
-    chunks (:data:`CHUNKS_PER_THREAD`) 6.5-7.5x (docs/linear.md). Each row's arithmetic is that
-    of the former serial loops, whichever thread runs it, so the result is bit for bit the same
-    for any thread count. (A single fused pass with the drift of
-    the next step and a second displacement buffer was measured 30 % slower per step on one
-    thread: 0.46 against 0.35-0.38 ms CPU at 3e4 dofs.) Entries of u and v below ``flush``
+    chunks (:data:`CHUNKS_PER_THREAD`) 6.5-7.5x; with the early break of the claims and one
+    barrier a step above :data:`FUSED_ABOVE` threads 7.5-9.4x (docs/linear.md). Each row's
+    arithmetic is that of the former serial loops, whichever thread runs it, so the result is
+    bit for bit the same for any thread count. Entries of u and v below ``flush``
     in magnitude are set to 0: ahead of the front the field decays super-exponentially, and
     products of such values (energies, detector) fall into denormal floating point, which
     made the run 5-8x slower on a 28665-dof lattice (measured). ``sync``: a
