@@ -209,6 +209,18 @@ CHUNKS_PER_THREAD = 16
 FUSED_ABOVE = 4
 
 
+@numba.njit(cache=True, inline="always")
+def _drift_claimed(claims, t, threads, k, phase, u, v, a, dt, flush):
+    """Thread t's drift phase in a team: :func:`_drift_rows` of each chunk (of k per thread) that
+    :func:`granwave.team.next_chunk` gives it in ``phase``."""
+    n = u.shape[0]
+    nchunk = k * threads
+    c, j = team.next_chunk(claims, t, threads, k, 0, phase)
+    while c >= 0:
+        _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
+        c, j = team.next_chunk(claims, t, threads, k, j, phase)
+
+
 @numba.njit(cache=True, parallel=True)
 def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync, claims, k):
     """``n_steps`` steps in one parallel region (granwave.team). The rows are cut into
@@ -224,10 +236,7 @@ def _verlet_team(indptr, indices, data, minv, u, v, a, dt, n_steps, flush, sync,
         if team.enter(sync, threads):
             gen = 0
             for _ in range(n_steps):
-                c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
-                while c >= 0:
-                    _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
-                    c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
+                _drift_claimed(claims, t, threads, k, gen + 1, u, v, a, dt, flush)
                 gen = team.barrier(sync, threads, gen)
                 c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
                 while c >= 0:
@@ -284,10 +293,7 @@ def _verlet_team_fused(indptr, indices, data, minv, u, u_other, v, a, dt, n_step
     for t in numba.prange(threads):  # one iteration per thread
         if team.enter(sync, threads):
             gen = 0
-            c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
-            while c >= 0:
-                _drift_rows(c * n // nchunk, (c + 1) * n // nchunk, u, v, a, dt, flush)
-                c, j = team.next_chunk(claims, t, threads, k, j, gen + 1)
+            _drift_claimed(claims, t, threads, k, gen + 1, u, v, a, dt, flush)
             gen = team.barrier(sync, threads, gen)
             for s in range(n_steps):
                 c, j = team.next_chunk(claims, t, threads, k, 0, gen + 1)
