@@ -299,8 +299,8 @@ def next_chunk(claims, t, threads, k, j, phase):
     own cache and a thread done early (a late or slow vCPU elsewhere) takes over the far end of
     another's share. It leaves a share at the first chunk whose predecessor is taken (by the
     owner, or by another thread that came down from the far end): one or two reads of another
-    thread's claims instead of one per chunk; at 16 threads, where those reads miss the cache,
-    the time domain ran 8-10 % faster so (docs/linear.md). Integer atomics decide only who
+    thread's claims instead of one per chunk; at 8 and 16 threads, where those reads miss the
+    cache, the time domain ran 6-8 % faster so (docs/linear.md). Integer atomics decide only who
     computes a chunk: never a value."""
     nchunk = k * threads
     while j < nchunk:

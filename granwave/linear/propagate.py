@@ -198,14 +198,15 @@ def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
 #: a fixed share per thread 5.9-6.9x one thread, 8 chunks 6.5-7.5x (no gain on one of three
 #: machines), 16 7.0-7.2x, 32 6.3x; 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8
 #: (docs/linear.md "Shared chunks"). Since a thread reads only one or two claims of a share it
-#: cannot take from (granwave.team.next_chunk), 16 ran 2 % faster than 8 (docs/linear.md).
+#: cannot take from (granwave.team.next_chunk), 16 ran 2-4 % faster than 8 (two machines).
 CHUNKS_PER_THREAD = 16
 #: Above this many threads each step is one phase (:func:`_verlet_team_fused`): a chunk's kick
 #: and the next step's drift at once, the drift writing a second buffer of u, one barrier a
-#: step instead of two. On 16 vCPUs (30 132 dofs) 0.0613 against 0.0691-0.0732 ms per step
-#: and 0.0868 against 0.0894 (two machines), at 8 threads 0.1338 against 0.1380; on two
-#: threads of the 2-core machine 10 % slower (the kick-drift of a row costs more than the
-#: two apart), and on one thread 11 % (docs/linear.md "One barrier a step").
+#: step instead of two. On 16 vCPUs (30 132 dofs) 0.0613 against 0.0691-0.0732 ms per step,
+#: 0.0868 against 0.0894 and 0.0698 against 0.0768 (three machines), at 8 threads 0.1338
+#: against 0.1380; on two threads of the 2-core machine 10-14 % slower (the kick-drift of a row
+#: costs more than the two apart), and on one thread 11-12 % (docs/linear.md "Early break and
+#: one barrier a step").
 FUSED_ABOVE = 4
 
 
