@@ -12,10 +12,11 @@ grain runs (peak resident size minus the interpreter's) and rounded up:
 =======================  =====================================================
 stage                    peak memory
 =======================  =====================================================
-prepare-packing          1800 B per grain (2D), 3100 B per grain (3D): whole
-                         preparations of 1e5 grains on 2 threads (peaks 280 MB
-                         2D, 414 MB 3D, less the 110 MB of an interpreter with
-                         granwave imported: 1700 B and 3040 B); dense tiled
+prepare-packing          2300 B per grain (2D), 8800 B per grain (3D): whole
+                         preparations of 1e5 grains on 2 threads (peaks 317 MB
+                         2D, 907 MB 3D on 2026-11-26, less the 110 MB of an
+                         interpreter with granwave imported: 2070 B and 7970 B,
+                         plus about 10 %; earlier 280 / 414 MB); dense tiled
                          states of 36000 / 30000 grains gave 911 / 1929 B
 chain                    200 B per ball
 lattice                  600 B per ball
@@ -129,8 +130,9 @@ def require_disk(folder: str | os.PathLike, nbytes: float, what: str) -> None:
 
 
 # ---------------------------------------------------------------- per-stage guards
-#: peak bytes per grain of a preparation (module table), 2D and 3D
-PREPARE_BYTES_PER_GRAIN = {2: 1800, 3: 3100}
+#: peak bytes per grain of a preparation (module table), 2D and 3D: whole 10^5-grain runs peaked
+#: at 2070 and 7970 B per grain beyond the interpreter (docs/dem.md), plus about 10 %
+PREPARE_BYTES_PER_GRAIN = {2: 2300, 3: 8800}
 
 
 def prepare_bytes(grains: int, dim: int) -> float:
