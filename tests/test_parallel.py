@@ -248,17 +248,42 @@ def test_eta_from_the_decay_of_max_acceleration():
     k, tol, sps = 1e-4, 1e-10, 500.0
     hist = [(s, 1e-3 * math.exp(-k * s)) for s in range(0, 10_000, 1000)]
     want = math.log(tol / hist[-1][1]) / -k / sps
-    assert integrator.eta_seconds(hist, tol, sps) == pytest.approx(want, rel=1e-9)
-    assert integrator.eta_seconds([(s, 1e-3 * math.exp(k * s)) for s, _ in hist], tol, sps) is None
-    assert integrator.eta_seconds(hist[:2], tol, sps) is None
+    assert integrator.eta_seconds([(hist, tol)], sps) == pytest.approx(want, rel=1e-9)
+    assert integrator.eta_seconds([([(s, 1e-3 * math.exp(k * s)) for s, _ in hist], tol)], sps) is None
+    assert integrator.eta_seconds([(hist[:2], tol)], sps) is None
     # tol beyond the step limit at this rate: unknown, not an absurd number of seconds
     left = math.log(tol / hist[-1][1]) / -k
-    assert integrator.eta_seconds(hist, tol, sps, steps_left=1.01 * left) == pytest.approx(want, rel=1e-9)
-    assert integrator.eta_seconds(hist, tol, sps, steps_left=0.99 * left) is None
-    assert integrator.eta_seconds(hist + [(10_000, 1e-11)], tol, sps) is None
+    assert integrator.eta_seconds([(hist, tol)], sps, steps_left=1.01 * left) == pytest.approx(want, rel=1e-9)
+    assert integrator.eta_seconds([(hist, tol)], sps, steps_left=0.99 * left) is None
+    assert integrator.eta_seconds([(hist + [(10_000, 1e-11)], tol)], sps) is None
     bursts = [(s, a * (50.0 if i % 2 else 1.0)) for i, (s, a) in enumerate(hist)]
-    assert integrator.eta_seconds(bursts[:-1], tol, sps) == pytest.approx(
+    assert integrator.eta_seconds([(bursts[:-1], tol)], sps) == pytest.approx(
         math.log(tol / hist[-2][1]) / -k / sps, rel=1e-9)
+
+
+def test_eta_waits_for_the_slowest_tested_quantity():
+    """With max |a| and the speeds, the ETA is the later of their exact decays; a quantity
+    already below its threshold does not count; one above it whose envelope does not fall (the
+    3D end game's speeds rising while max |a| is at rest), or that dipped below and rose again,
+    makes the ETA unknown."""
+    tol_a, tol_v, sps = 1e-10, 1e-8, 500.0
+    steps = range(0, 10_000, 1000)
+    acc = [(s, 1e-3 * math.exp(-2e-4 * s)) for s in steps]
+    speed = [(s, 1e-4 * math.exp(-5e-5 * s)) for s in steps]
+    t_acc = math.log(tol_a / acc[-1][1]) / -2e-4 / sps
+    t_speed = math.log(tol_v / speed[-1][1]) / -5e-5 / sps
+    assert t_speed > t_acc
+    assert integrator.eta_seconds([(acc, tol_a), (speed, tol_v)], sps) == pytest.approx(t_speed, rel=1e-9)
+    assert integrator.eta_seconds([(acc, tol_a)], sps) == pytest.approx(t_acc, rel=1e-9)
+    at_rest = acc + [(10_000, 0.5 * tol_a)]
+    speed_on = speed + [(10_000, 1e-4 * math.exp(-5e-1))]
+    t_on = math.log(tol_v / speed_on[-1][1]) / -5e-5 / sps
+    assert integrator.eta_seconds([(at_rest, tol_a), (speed_on, tol_v)], sps) == pytest.approx(t_on, rel=1e-9)
+    rising = [(s, 1e-6 * math.exp(1e-5 * s)) for s in steps]
+    assert integrator.eta_seconds([(at_rest, tol_a), (rising, tol_v)], sps) is None
+    dipped = speed + [(10_000, 0.5 * tol_v), (11_000, 2.0 * tol_v)]
+    assert integrator.eta_seconds([(acc, tol_a), (dipped, tol_v)], sps) is None
+    assert integrator.eta_seconds([(at_rest, tol_a), ([(10_000, 0.5 * tol_v)], tol_v)], sps) is None
 
 
 def test_time_domain_refused_when_it_cannot_fit(monkeypatch):

@@ -258,7 +258,8 @@ class Engine:
         o = self.out
         return dict(max_acceleration=o[K.O_AMAX], max_angular_acceleration=o[K.O_ALPHAMAX],
                     piston_acceleration=o[K.O_APISTON], max_speed=o[K.O_VMAX],
-                    max_rotation_speed=o[K.O_WMAX], kinetic_energy=o[K.O_KIN],
+                    max_rotation_speed=o[K.O_WMAX], piston_speed=abs(float(self.piston[K.P_V])),
+                    kinetic_energy=o[K.O_KIN],
                     top_contacts=int(o[K.O_NTOP]), max_overlap=o[K.O_DMAX], contacts=int(o[K.O_NCONTACT]))
 
     def elastic_energy(self) -> float:
@@ -316,23 +317,18 @@ def elastic_energy_kernel(engine: Engine) -> float:
     return e
 
 
-def eta_seconds(history, tol: float, steps_per_second: float, window: int = 60,
-                steps_left: float = math.inf) -> float | None:
-    """Seconds until max |a| reaches ``tol`` at the decay rate of its envelope, or None.
-
-    ``history``: (steps, max |a|) after each chunk (about one a second). max |a| decays in
-    bursts, so the rate is the least-squares slope of the log of its running minimum (the
-    lowest value so far) against steps over the last ``window`` chunks. None (unknown)
-    with fewer than 3 chunks, no decay of the envelope over the window, no rate yet, or
-    max |a| already below tol (the run then waits for the speeds and the static residual),
-    or an envelope so flat that tol lies beyond ``steps_left`` (the step limit: a 51 200-grain
-    column still compressing showed an ETA of 5e31 s).
-    Checked on the progress log of a 21 000-grain column (1.2 million steps): within a
-    factor 2 of the steps left over the second half of the run, where the slope of the
-    last 8 chunks of max |a| itself said seconds for minutes, or nothing (docs/dem.md).
-    """
+def steps_to_tol(history, tol: float, window: int = 60) -> float | None:
+    """Steps until a decaying quantity reaches ``tol``, from its history (steps, value) after
+    each chunk (about one a second): 0 when its last value is below tol; else the steps at the
+    decay rate of its envelope, the least-squares slope of the log of its running minimum
+    (the lowest value so far: such quantities fall in bursts) against steps over the last
+    ``window`` chunks; inf when that envelope did not fall over the window or is already below
+    tol (the quantity dipped below and rose again: no rate to extrapolate); None with fewer
+    than 3 chunks."""
     pts = [(s, a) for s, a in history if a > 0 and math.isfinite(a)]
-    if len(pts) < 3 or not steps_per_second > 0:
+    if history and 0 <= history[-1][1] < tol:
+        return 0.0
+    if len(pts) < 3:
         return None
     envelope = np.minimum.accumulate(np.log([p[1] for p in pts]))[-window:]
     s = np.array([p[0] for p in pts[-window:]], float)
@@ -340,8 +336,36 @@ def eta_seconds(history, tol: float, steps_per_second: float, window: int = 60,
     if not np.any(s):
         return None
     slope = float(np.dot(s, envelope - envelope.mean()) / np.dot(s, s))
-    a_now = math.exp(envelope[-1])
-    if a_now <= tol or not slope < 0:
+    lowest = math.exp(envelope[-1])
+    if lowest <= tol or not slope < 0:
+        return math.inf
+    return math.log(tol / lowest) / slope
+
+
+def eta_seconds(quantities, steps_per_second: float, window: int = 60,
+                steps_left: float = math.inf) -> float | None:
+    """Seconds until every quantity of the convergence test is below its threshold, or None.
+
+    ``quantities``: (history, tol) pairs, a history being (steps, value) after each chunk
+    (the preparation passes max |a| against tol and the largest speed, |v|, |w| R or the
+    piston's, against the velocity threshold); the time is that of the slowest at the decay
+    rate of its envelope (:func:`steps_to_tol`). None (unknown) when one still above its
+    threshold has no falling envelope, with fewer than 3 chunks, with no rate yet, when all
+    are below (the run then waits for the next check and the static residual), or when the
+    slowest would pass the step limit ``steps_left`` (a 51 200-grain column still compressing
+    showed an ETA of 5e31 s).
+    Checked on the progress log of a 21 000-grain column (1.2 million steps, max |a| alone):
+    within a factor 2 of the steps left over the second half of the run, where the slope of
+    the last 8 chunks of max |a| itself said seconds for minutes, or nothing; max |a| alone
+    said 30 s 9 minutes before the end of a 3D run that then waited for the speeds
+    (docs/dem.md; benchmarks/eta_check.py compares the two rules).
+    """
+    if not steps_per_second > 0:
         return None
-    steps = math.log(tol / a_now) / slope
-    return steps / steps_per_second if steps <= steps_left else None
+    steps = [steps_to_tol(h, tol, window) for h, tol in quantities]
+    if not steps or any(k is None for k in steps):
+        return None
+    slowest = max(steps)
+    if slowest == 0.0 or math.isinf(slowest) or slowest > steps_left:
+        return None
+    return slowest / steps_per_second

@@ -271,6 +271,7 @@ class Compression:
         last = time.perf_counter()
         last_steps = 0
         history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
+        speeds = []  # (steps, largest of |v|, |w| R and the piston's |v|): the ETA waits for them too
         announced = False  # the settling switch reported
         while engine.steps < self.max_steps:
             t0 = time.perf_counter()
@@ -279,7 +280,9 @@ class Compression:
                 raise ConvergenceError(
                     f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
                     f"non-finite motion) at dt {engine.dt:.3g}: {blow_up_hint}")
-            history.append((engine.steps, _max_acceleration(engine.measure())))
+            m = engine.measure()
+            history.append((engine.steps, _max_acceleration(m)))
+            speeds.append((engine.steps, _max_speed(m)))
             if progress is not None and self.settling is not None and self.settling.done and not announced:
                 announced = True
                 s = self.settling
@@ -301,9 +304,8 @@ class Compression:
                     return packing
             now = time.perf_counter()
             if progress is not None and now - last > 1.0:
-                m = engine.measure()
                 rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
-                eta = eta_seconds(history, p.tol, rate / engine.position.shape[0],
+                eta = eta_seconds(((history, p.tol), (speeds, self.tol_v)), rate / engine.position.shape[0],
                                   steps_left=self.max_steps - engine.steps)
                 progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
                          f"  max|v| {m['max_speed']:.3e}"
@@ -350,6 +352,11 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
 
 def _max_acceleration(m: dict) -> float:
     return max(m["max_acceleration"], m["max_angular_acceleration"], m["piston_acceleration"])
+
+
+def _max_speed(m: dict) -> float:
+    """The largest of the speeds the convergence test holds below the velocity threshold."""
+    return max(m["max_speed"], m["max_rotation_speed"], m["piston_speed"])
 
 
 def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float, budget: int) -> str:
