@@ -175,22 +175,15 @@ class Engine:
                 new = np.zeros(shape, dtype)
                 new[: len(old)] = old
                 setattr(self, name, new)
-        old_ws = self.ws
-        old_width = old_ws[K.W_NBR].shape[1]
+        ws = self.ws
+        old_width = ws[K.W_NBR].shape[1]
         width = old_width if width <= old_width else int(width * 1.5) + 2
-        boundary = int(old_ws[K.W_NEED][2])
-        room = len(old_ws[K.W_SPAIR])
-        self.ws = K.workspace(len(self.radius), d, self.angular_velocity.shape[1], cap, width,
-                              int(boundary * 1.5) + 64 if boundary > room else room, self.mflow, self.slabs,
-                              blocks=old_ws[K.W_BLK].shape[0])
-        # the pair list's offsets per grain (history carried by the rebuild), and the lists when
-        # only the incoming pairs asked for room (a rebuild that ran out of room follows again)
-        keep = ((K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW) if width == old_width and same_pairs
-                else (K.W_ROW,))
-        for w in keep:
-            self.ws[w][:] = old_ws[w]
-        old_c = old_ws[K.W_PAIRC]
-        self.ws[K.W_PAIRC][: len(old_c)] = old_c
+        boundary = int(ws[K.W_NEED][2])
+        room = len(ws[K.W_SPAIR])
+        # the lists are carried over when only the incoming pairs asked for room (a rebuild that
+        # ran out of room follows again otherwise)
+        self.ws = K.grown_workspace(ws, cap, width, int(boundary * 1.5) + 64 if boundary > room else room,
+                                    keep_lists=width == old_width and same_pairs)
 
     def _rebuild(self) -> None:
         while True:
