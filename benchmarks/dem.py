@@ -35,7 +35,9 @@ GOALS = {
 }
 
 
-def engine_rate(packing, tiles: int, steps: int, friction: float | None = None) -> tuple[float, float, int, float]:
+def benchmark_engine(packing, tiles: int, friction: float | None = None):
+    """The benchmark state: ``packing`` tiled ``tiles`` times along its periodic axis, kicked
+    with small random velocities (seed 0), damping 0.5, after 20 untimed steps."""
     from granwave.dem.integrator import Engine
     from granwave.dem.protocol import pressure_scales
 
@@ -50,10 +52,17 @@ def engine_rate(packing, tiles: int, steps: int, friction: float | None = None) 
                  piston_force=packing.pressure * L * tiles, velocity=rng.normal(0, 1e-4, pos.shape),
                  overlap_floor=delta_p)
     eng.run(20)
+    return eng
+
+
+def engine_rate(packing, tiles: int, steps: int, friction: float | None = None) -> tuple[float, float, int, float]:
+    """(grain-steps per CPU second, per wall second, grains, dt) of ``steps`` steps of
+    :func:`benchmark_engine`."""
+    eng = benchmark_engine(packing, tiles, friction)
     c0, w0 = time.process_time(), time.perf_counter()
     eng.run(steps)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    n = len(rad)
+    n = len(eng.radius)
     return n * steps / cpu, n * steps / wall, n, eng.dt
 
 
