@@ -69,14 +69,16 @@ def child(args) -> None:
                       "steps": args.steps}), flush=True)
 
 
-def run_copies(args, copies: int, tiles: int, steps: int, pin: bool) -> list[dict]:
-    """``copies`` processes at once, each the one-thread engine on a ``tiles``-tile state."""
+def run_copies(packing_file: str, copies: int, tiles: int, steps: int, pin: bool = False) -> list[dict]:
+    """``copies`` processes at once, each the one-thread engine on a ``tiles``-tile state of the
+    packing in ``packing_file``, ``steps`` timed steps; per copy its start and end (wall clock),
+    CPU seconds, grains and steps."""
     env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     cpus = sorted(os.sched_getaffinity(0))
     procs = []
     for k in range(copies):
         cpu = cpus[k % len(cpus)] if pin else -1
-        cmd = [sys.executable, __file__, "--child", "--packing", args.packing, "--tiles", str(tiles),
+        cmd = [sys.executable, __file__, "--child", "--packing", packing_file, "--tiles", str(tiles),
                "--steps", str(steps), "--cpu", str(cpu)]
         procs.append(subprocess.Popen(cmd, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True))
     for p in procs:
@@ -98,6 +100,8 @@ def run_copies(args, copies: int, tiles: int, steps: int, pin: bool) -> list[dic
 
 
 def summary(results: list[dict]) -> dict:
+    """The copies' rates (grain-steps per wall second, ascending), their sum, the overlap of
+    their runs and their mean CPU over wall time."""
     rates = sorted(r["grains"] * r["steps"] / (r["end"] - r["start"]) for r in results)
     walls = [r["end"] - r["start"] for r in results]
     together = min(r["end"] for r in results) - max(r["start"] for r in results)
@@ -126,18 +130,18 @@ def main() -> None:
     if counts[0] != 1:
         sys.exit("--copies must start with 1")
     pins = {"no": [False], "yes": [True], "both": [False, True]}[args.pin]
-    run_copies(args, 1, 1, 10, False)  # compiles the one-thread kernels into the cache
+    run_copies(args.packing, 1, 1, 10)  # compiles the one-thread kernels into the cache
     print(f"{os.cpu_count()} CPUs, {len(os.sched_getaffinity(0))} allowed; load {os.getloadavg()[0]:.2f}",
           flush=True)
     best: dict[tuple, dict] = {}
     base = 0.0
     for _ in range(args.repeat):
         if args.baseline_tiles:
-            r = summary(run_copies(args, 1, args.baseline_tiles, args.baseline_steps, False))
+            r = summary(run_copies(args.packing, 1, args.baseline_tiles, args.baseline_steps))
             base = max(base, r["aggregate"])
         for pin in pins:
             for c in counts:
-                r = summary(run_copies(args, c, args.tiles, args.steps, pin))
+                r = summary(run_copies(args.packing, c, args.tiles, args.steps, pin))
                 key = (pin, c)
                 if key not in best or r["aggregate"] > best[key]["aggregate"]:
                     best[key] = r

@@ -22,7 +22,12 @@ machine affects numerator and denominator alike; the load average is printed wit
    compared byte for byte between the thread counts;
 5. the CPU time per step (all threads) at 2 threads over 1 thread: the work the threads add
    (near 1: little overhead; a wall ratio far below 2 with this near 1 is threads waiting for
-   a core on a loaded machine, not work).
+   a core on a loaded machine, not work);
+6. with ``--ceiling``, the DEM's ceiling on this machine at the largest thread count T: T
+   separate one-thread processes at once, each on its own copy of a thread's share of the
+   state (benchmarks/engine_copies.py), their summed rate over the one-thread rate of the
+   first row, and the engine's rate at T threads as a fraction of that sum (docs/dem.md
+   "Sixteen cores, a sixth time").
 
 ``--write-docs`` writes the table into docs/dem.md and docs/linear.md (marked blocks).
 
@@ -300,9 +305,35 @@ def per_core_vs_lammps(packing, steps: int, repeat: int = 3) -> tuple[float, flo
     return cpu, lmp, note
 
 
+def dem_ceiling(packing, tiles: int, copies: int, steps: int, repeat: int, packing_file: str | None) -> dict:
+    """The copies of :mod:`engine_copies`: ``copies`` one-thread processes at once, each on
+    ``tiles / copies`` tiles (at least one; a thread's share of the state), the best of
+    ``repeat`` runs by summed rate: that summary (engine_copies.summary) and the tiles per copy."""
+    import tempfile
+
+    from engine_copies import run_copies, summary
+
+    from granwave.io.files import write_packing
+
+    per_copy = max(1, round(tiles / copies))
+    copy_steps = max(100, 2 * steps * tiles // per_copy)  # twice a DEM run's grain-steps: runs that overlap
+    with tempfile.TemporaryDirectory() as tmp:
+        if packing_file is None:
+            packing_file = str(Path(tmp) / "packing.h5")
+            write_packing(packing_file, packing)
+        best = None
+        for rep in range(repeat):
+            r = summary(run_copies(packing_file, copies, per_copy, copy_steps))
+            print(f"  DEM ceiling, {copies} one-thread copies of {per_copy} tile(s), run {rep + 1}: "
+                  f"{r['aggregate']:.3g} grain-steps/s summed (overlap {r['overlap']:.2f}); {load()}", flush=True)
+            if best is None or r["aggregate"] > best["aggregate"]:
+                best = r
+    return dict(best, tiles=per_copy)
+
+
 def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = True, tiles: int = 17,
                lattice_grains: int = 10_000, repeat: int = 3, regions_too: bool = False,
-               engines_only: bool = False, packing_file: str | None = None) -> None:
+               engines_only: bool = False, packing_file: str | None = None, ceiling: bool = False) -> None:
     from dem import prepare
 
     print(f"start: {load()}", flush=True)
@@ -327,6 +358,15 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
                          + f"; CPU time per step x{d['cpu'][1] / d['cpu'][t]:.2f} at {t} threads"
                          + f"; {d['count'][t]} grain blocks, boundary pairs {100 * d['fraction'][t]:.1f} %"
                          + (f"; {d['team_steps'][t]} of {steps + 20} steps in teams" if not how else "")))
+    if ceiling:
+        r = variants[0]["rates"]
+        c = dem_ceiling(packing, tiles, top, steps, repeat, packing_file)
+        rows.append((f"DEM ceiling at {top}: {top} one-thread copies of {c['tiles'] * packing.n_grains} grains "
+                     "at once (summed wall grain-steps/s)", f"{r[1]:.3g} -> {c['aggregate']:.3g}",
+                     c["aggregate"] / r[1], float("nan"),
+                     f"over the first row's one thread; the engine at {top} threads: "
+                     f"{100 * r[top] / c['aggregate']:.0f} % of the copies' sum; copies overlapped "
+                     f"{c['overlap']:.2f}"))
     t_ = time_threads(lattice_grains, 100 if quick else 400, threads, repeat)
     s_ = t_["per_step"]
     for t in threads[1:]:
@@ -490,6 +530,9 @@ def main() -> None:
     ap.add_argument("--packing", default=None,
                     help="the 600-grain packing at p = 1e-4 from a file (granwave prepare-packing --pressure 1e-4) "
                          "instead of preparing it here")
+    ap.add_argument("--ceiling", action="store_true",
+                    help="also the DEM's ceiling at the largest thread count: as many one-thread processes at "
+                         "once, each on a thread's share (benchmarks/engine_copies.py)")
     ap.add_argument("--large", choices=("column", "grid2d", "grid3d", "time"), help="one large run")
     ap.add_argument("--dry-run", action="store_true", help="with --large: estimates only")
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
@@ -518,7 +561,7 @@ def main() -> None:
             raise SystemExit("--threads: a list starting with 1, e.g. 1,2 or 1,2,4,8,16")
         main_table(args.quick, args.write_docs, threads, lammps=not args.no_lammps, tiles=args.tiles,
                    lattice_grains=args.lattice_grains, repeat=args.repeat, regions_too=args.regions_too,
-                   engines_only=args.engines_only, packing_file=args.packing)
+                   engines_only=args.engines_only, packing_file=args.packing, ceiling=args.ceiling)
 
 
 if __name__ == "__main__":
