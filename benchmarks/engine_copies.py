@@ -101,12 +101,13 @@ def run_copies(packing_file: str, copies: int, tiles: int, steps: int, pin: bool
 
 def summary(results: list[dict]) -> dict:
     """The copies' rates (grain-steps per wall second, ascending), their sum, the overlap of
-    their runs and their mean CPU over wall time."""
+    their runs, their mean CPU over wall time and a copy's grains."""
     rates = sorted(r["grains"] * r["steps"] / (r["end"] - r["start"]) for r in results)
     walls = [r["end"] - r["start"] for r in results]
     together = min(r["end"] for r in results) - max(r["start"] for r in results)
     return {"rates": rates, "aggregate": sum(rates), "overlap": max(0.0, together) / statistics.mean(walls),
-            "cpu_over_wall": statistics.mean(r["cpu"] / (r["end"] - r["start"]) for r in results)}
+            "cpu_over_wall": statistics.mean(r["cpu"] / (r["end"] - r["start"]) for r in results),
+            "grains": results[0]["grains"]}
 
 
 def main() -> None:
@@ -147,8 +148,8 @@ def main() -> None:
                     best[key] = r
                 print(f"  run: pin {pin}, {c} copies: aggregate {r['aggregate']:.3e}, overlap {r['overlap']:.2f}",
                       flush=True)
-    grains = args.tiles * 600
-    print(f"\ncopies of {args.tiles} tile(s) (~{grains} grains), {args.steps} steps each; best of {args.repeat}")
+    grains = best[pins[0], 1]["grains"]
+    print(f"\ncopies of {args.tiles} tile(s) ({grains} grains), {args.steps} steps each; best of {args.repeat}")
     if base:
         print(f"one thread alone on {args.baseline_tiles} tiles (scale.py's one-thread state): {base:.3e} "
               f"grain-steps/s")
