@@ -9,12 +9,11 @@ max |a| alone (the rule before 2026-11-26: the time for max |a| to reach tol) an
 slowest quantity of the convergence test (max |a| against tol, the largest of |v|, |w| R and
 the piston's speed against the velocity threshold: granwave's rule since). Once the run has
 converged, each line's ETA is compared with the time that was actually left, and per rule
-and per quarter of the run (by wall time from the first line) it prints the share of lines with no ETA ("?"),
-with an ETA within a factor 2 of the time left, the median of ETA / time left and the
-median of |log2(ETA / time left)| (1: off by a factor 2 either way), and the same over the
-whole run. Ratios
-from one run: the host's speed changes alike for both rules. ``--log`` writes every line's
-time, both ETAs and the time left as JSON lines.
+and per quarter of the run (by wall time from the first line) it prints the share of lines
+with no ETA ("?"), with an ETA within a factor 2 of the time left, the median of ETA / time
+left and the median of |log2(ETA / time left)| (1: off by a factor 2 either way), and the
+same over the whole run. Ratios from one run: the host's speed changes alike for both rules.
+``--log`` writes every line's time, both ETAs and the time left as JSON lines.
 """
 
 from __future__ import annotations
