@@ -60,15 +60,30 @@ def cycle_rate(seconds: float = 0.2) -> float:
     return (_cycles() - c0) / (time.perf_counter() - w0)
 
 
-def run(packing, tiles: int, steps: int, threads: int):
+class _Counting:
+    """numba for granwave.dem.integrator, but with ``get_num_threads()`` saying ``threads``."""
+
+    def __init__(self, threads: int):
+        self.threads = threads
+
+    def get_num_threads(self) -> int:
+        return self.threads
+
+    def __getattr__(self, name):
+        return getattr(numba, name)
+
+
+def run(packing, tiles: int, steps: int, threads: int, blocks_for: int = 0):
     """The benchmark state of scale.py on ``threads`` threads: (wall s per step, team steps,
-    cycles per thread and column)."""
+    cycles per thread and column). With ``blocks_for`` > 1 (and one thread): the block engine on
+    one thread, its blocks and passes those of ``blocks_for`` threads, a region per pass."""
     from dem import engine_rate
 
     from granwave.dem import integrator
 
     engines = []
     keep = integrator.Engine.run
+    keep_team = integrator.PLAIN_STEPS_IN_TEAM
 
     def run_and_keep(self, n):
         engines.append(self)
@@ -76,10 +91,15 @@ def run(packing, tiles: int, steps: int, threads: int):
 
     numba.set_num_threads(threads)
     integrator.Engine.run = run_and_keep
+    if blocks_for > 1:  # Engine.run asks numba for the thread count: the block engine's partition
+        integrator.numba = _Counting(blocks_for)
+        integrator.PLAIN_STEPS_IN_TEAM = False
     try:
         _, wall_rate, n, _ = engine_rate(packing, tiles, steps)
     finally:
         integrator.Engine.run = keep
+        integrator.numba = numba
+        integrator.PLAIN_STEPS_IN_TEAM = keep_team
     e = engines[-1]
     return n / wall_rate, int(e.ipar[K.I_TEAMSTEPS]), e.ws[K.W_TEAMTIME][:threads].copy()
 
@@ -93,6 +113,9 @@ def main() -> None:
     ap.add_argument("--packing", default=None, help="the 600-grain packing at p = 1e-4 from a file")
     ap.add_argument("--blocks-per-thread", default=str(K.BLOCKS_PER_THREAD),
                     help="comma-separated values of kernels.BLOCKS_PER_THREAD to alternate")
+    ap.add_argument("--blocks-on-one", type=int, default=0,
+                    help="also run the block engine on one thread with the blocks of this many threads "
+                         "(after the threaded runs, whose compilation it needs)")
     args = ap.parse_args()
     threads = [int(x) for x in args.threads.split(",")]
     per_thread = [int(x) for x in args.blocks_per_thread.split(",")]
@@ -116,13 +139,25 @@ def main() -> None:
                 r = run(packing, args.tiles, args.steps, t)
                 if (bpt, t) not in best or r[0] < best[bpt, t][0]:
                     best[bpt, t] = r
+        if args.blocks_on_one > 1:
+            K.BLOCKS_PER_THREAD = per_thread[0]
+            r = run(packing, args.tiles, args.steps, 1, args.blocks_on_one)
+            best["blocks on one"] = min(best.get("blocks on one", r), r, key=lambda x: x[0])
+            r = run(packing, args.tiles, args.steps, 1)  # the pair loop beside it
+            best["loop beside"] = min(best.get("loop beside", r), r, key=lambda x: x[0])
     rate = cycle_rate()
     one = best[per_thread[0], 1][0]
     print(f"{args.tiles * packing.n_grains} grains, {args.steps} steps per run; cycle counter "
           f"{rate / 1e9:.3f} GHz; one thread {1e6 * one:.1f} us per step")
-    for bpt in per_thread:
+    for bpt in per_thread if len(threads) > 1 else ():
         print(f"\nblocks per thread (above {K.BLOCK_MULTIPLE} threads): {bpt}")
         table(threads, {t: best[bpt, t] for t in threads[1:]}, one, rate)
+    if args.blocks_on_one > 1:
+        blk, loop = best["blocks on one"][0], best["loop beside"][0]
+        print(f"\nthe block engine on one thread with the blocks of {args.blocks_on_one} threads "
+              f"({K.block_count(args.tiles * packing.n_grains, args.blocks_on_one)} blocks, a region per pass): "
+              f"{1e6 * blk:.1f} us per step against the pair loop's {1e6 * loop:.1f} run after it: "
+              f"x{blk / loop:.3f}")
     numba.set_num_threads(max(threads))
 
 
