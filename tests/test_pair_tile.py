@@ -109,3 +109,72 @@ def test_tiled_law_gives_the_bits_of_the_pair_at_a_time_law(dim, zeta, mu, resca
             skipped = state[6] >= jmax
             assert np.array_equal(got[2][skipped], state[8][skipped])
             assert np.array_equal(got[3][skipped], state[9][skipped])
+
+
+def incoming_at_a_time(state, slots, dt, zeta, mu, rescale):
+    """A block's incoming pairs (pair indices ``slots``, in slot order) as kernels._incoming_block
+    computed them before the staged law: one at a time through kernels._pair_law, the force
+    subtracted from g with g's torque, the force on k and k's torque into the slot's row."""
+    pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, _ = state
+    d, r = pos.shape[1], omega.shape[1]
+    force = np.zeros_like(pos)
+    torque = np.zeros_like(omega)
+    bnd_f = np.full((len(slots), d + r), np.nan)
+    e12, g12 = C.effective_young(False), C.effective_shear(0.2, False)
+    dmax, count = 0.0, 0
+    for s, p in enumerate(slots):
+        k, g = pair_i[p], pair_j[p]
+        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = K._pair_law(
+            pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu, rescale, e12, g12,
+            pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF])
+        if not touch:
+            if pair_ov[p] != 0.0:
+                pair_ov[p] = 0.0
+                pair_ft[p] = 0.0
+            bnd_f[s] = 0.0
+            continue
+        if mu > 0.0:
+            pair_ft[p] = (hx, hy, hz)[:d]
+        pair_ov[p] = delta
+        f = np.array([fx, fy, fz])[:d]
+        force[g] -= f
+        t = np.zeros_like(torque)
+        K._add_torque3(t, g, aj, nx, ny, nz, fx, fy, fz)
+        torque[g] += t[g]
+        arm = {0: [], 1: [ai * (nx * fy - ny * fx)],  # k's torque, for k's row to add (from +0)
+               3: [ai * (ny * fz - nz * fy), ai * (nz * fx - nx * fz), ai * (nx * fy - ny * fx)]}[r]
+        bnd_f[s] = np.concatenate([f, arm])
+        dmax = max(dmax, delta)
+        count += 1
+    return force, torque, pair_ft, pair_ov, bnd_f, dmax, count
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("zeta, mu, rescale", [(0.5, 0.5, True), (0.0, 0.3, False), (0.7, 0.0, True)])
+def test_tiled_incoming_pairs_give_the_bits_of_the_pair_at_a_time_law(dim, zeta, mu, rescale):
+    """The incoming pairs of a block (pair_tile.law_tile_incoming, tile by tile): forces and
+    torques on g, the slots' forces and torques for k (zeros for pairs apart), histories, the
+    largest overlap and the contact count, the same bytes as one pair at a time."""
+    state = dense_state(dim, 400 if dim == 2 else 300, seed=10 + dim)
+    pair_i, pair_j = state[5], state[6]
+    g0 = len(state[3]) // 3  # a block [g0, n): its incoming pairs (k, g), k < g0 <= g, by g then k
+    slots = np.array(sorted((p for p in range(len(pair_i)) if pair_i[p] < g0 <= pair_j[p]),
+                            key=lambda p: (pair_j[p], pair_i[p])), np.int64)
+    ref = incoming_at_a_time(tuple(a.copy() if isinstance(a, np.ndarray) else a for a in state), slots, 0.01,
+                             zeta, mu, rescale)
+    pos, vel, omega, rad, lateral, _, _, pair_c, pair_ft, pair_ov, _ = (
+        a.copy() if isinstance(a, np.ndarray) else a for a in state)
+    force, torque = np.zeros_like(pos), np.zeros_like(omega)
+    bnd_f = np.full_like(ref[4], np.nan)
+    t, tp = PT.scratch()
+    e12, g12 = C.effective_young(False), C.effective_shear(0.2, False)
+    s, dmax, count, tiles = 0, 0.0, 0, 0
+    while s < len(slots):
+        s, dmax, count = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
+                                              pair_ov, slots, s, len(slots), 0.01, zeta, mu, rescale, e12, g12,
+                                              t[0], tp[0], force, torque, bnd_f, dmax, count)
+        tiles += 1
+    assert tiles >= 2 and ref[6] > PT.TILE  # more than one tile of contacts
+    assert ref[6] == count and ref[5] == dmax
+    for a, b in zip(ref[:5], (force, torque, pair_ft, pair_ov, bnd_f)):
+        assert a.tobytes() == b.tobytes()

@@ -686,7 +686,7 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
-                   nblk, slot_start, slot_pair, bnd_f, blk_g, claims):
+                   nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p, claims):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
     the tangential history update: no one else touches that pair in this step), subtracts the
@@ -701,14 +701,16 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
             b = claim_block(claims, t, threads, nblk, j, 1)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g)
+                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p)
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
 def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                    fpar, nblk, slot_start, slot_pair, bnd_f, blk_g):
+                    fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p):
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
-    keeps its compilation short)."""
+    keeps its compilation short); its incoming pairs go through the staged law a tile at a time
+    (:func:`granwave.dem.pair_tile.law_tile_incoming`, the bits of :func:`_pair_law`), in its
+    tile scratch (``tile[b]``, ``tile_p[b]``: pass 2 uses it after the barrier)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -727,47 +729,16 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     dmax = 0.0
     ncontact = 0
     # the block's slots are in the order of its grains g and then of k (incoming_lists): one
-    # sequential walk, not the neighbour rows (two cache lines per grain, read for a pair or two)
-    for s in range(slot_start[b], slot_start[b + 1]):
-        p = slot_pair[s]
-        k = pair_i[p]
-        g = pair_j[p]
-        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = _pair_law(
-            pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu, rescale, e_pair,
-            g_pair, pair_c[p, PC_R12], pair_c[p, PC_ROOT], pair_c[p, PC_MEFF])
-        if not touch:
-            if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
-                pair_ov[p] = 0.0
-                for a in range(d):
-                    pair_ft[p, a] = 0.0
-            for a in range(d + r):
-                bnd_f[s, a] = 0.0
-            continue
-        if mu > 0.0:
-            pair_ft[p, 0] = hx
-            pair_ft[p, 1] = hy
-            if d == 3:
-                pair_ft[p, 2] = hz
-        pair_ov[p] = delta
-        acc[g, 0] -= fx
-        acc[g, 1] -= fy
-        bnd_f[s, 0] = fx
-        bnd_f[s, 1] = fy
-        if d == 3:
-            acc[g, 2] -= fz
-            bnd_f[s, 2] = fz
-        if r > 0:
-            _add_torque3(alpha, g, aj, nx, ny, nz, fx, fy, fz)
-        # the torque on k as _add_torque3 computes it (the same bits when added in phase 2)
-        if r == 1:
-            bnd_f[s, d] = ai * (nx * fy - ny * fx)
-        elif r == 3:
-            bnd_f[s, d] = ai * (ny * fz - nz * fy)
-            bnd_f[s, d + 1] = ai * (nz * fx - nx * fz)
-            bnd_f[s, d + 2] = ai * (nx * fy - ny * fx)
-        if delta > dmax:
-            dmax = delta
-        ncontact += 1
+    # sequential walk, not the neighbour rows (two cache lines per grain, read for a pair or two).
+    # Staged, not pair at a time (_pair_law): 39 against 45-49 ns per incoming pair on one thread
+    # of the 2-core machine (docs/dem.md "Sixteen cores, a seventh time")
+    t = tile[b]
+    tp = tile_p[b]
+    s = slot_start[b]
+    while s < slot_start[b + 1]:
+        s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
+                                                 pair_ov, slot_pair, s, slot_start[b + 1], dt, zeta, mu, rescale,
+                                                 e_pair, g_pair, t, tp, acc, alpha, bnd_f, dmax, ncontact)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
 
@@ -1076,7 +1047,7 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_CLAIM])
+                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
@@ -1309,7 +1280,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
             b = claim_block(claims, t, threads, nblk, j, phase)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g)
+                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p)
         c1 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c2 = team.cycle_counter()

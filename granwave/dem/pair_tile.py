@@ -49,8 +49,9 @@ N_TROW = 30
 
 def scratch(tiles: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Work arrays for ``tiles`` tiles in flight (one per parallel block): the float rows,
-    (tiles, N_TROW * ROW), and the packed pair indices, (tiles, TILE)."""
-    return np.zeros((tiles, N_TROW * ROW)), np.zeros((tiles, TILE), np.int64)
+    (tiles, N_TROW * ROW), and the packed pair indices, followed by their slots in
+    :func:`law_tile_incoming`, (tiles, 2 TILE)."""
+    return np.zeros((tiles, N_TROW * ROW)), np.zeros((tiles, 2 * TILE), np.int64)
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
@@ -96,6 +97,101 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
                 t[T_RS * ROW + nc] = rs
                 nc += 1
         p += 1
+    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d)
+    # forces and torques added in list order
+    for c in range(nc):
+        q = np.uint64(tp[c])
+        i = np.uint64(pair_i[q])
+        j = np.uint64(pair_j[q])
+        fx, fy, fz, delta, nx, ny, nz = _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale)
+        force[i, 0] += fx
+        force[i, 1] += fy
+        force[j, 0] -= fx
+        force[j, 1] -= fy
+        if d == 3:
+            force[i, 2] += fz
+            force[j, 2] -= fz
+        if r > 0:
+            K._add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
+            K._add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+        if delta > dmax:
+            dmax = delta
+        ncontact += 1
+    return p, dmax, ncontact
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, slot_pair, s0, s1,
+                      dt, zeta, mu, rescale, e12, g12, t, tp, force, torque, bnd_f, dmax, ncontact):
+    """The pair law of :func:`law_tile` (the same bits) for a block's incoming pairs: the pairs
+    ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
+    contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
+    order; its force on k and k's torque a_k (n x f) go to the slot's row of ``bnd_f`` (zeros
+    for pairs apart), for k's row to add later (kernels._incoming_block). Returns (the first
+    slot not looked at, ``dmax`` and ``ncontact`` updated)."""
+    d = pos.shape[1]
+    r = omega.shape[1]
+    nc = 0
+    s = s0
+    while s < s1 and nc < TILE:
+        q = np.uint64(slot_pair[s])
+        k = np.uint64(pair_i[q])
+        g = np.uint64(pair_j[q])
+        dx, dy, dz = K._pair_geometry(pos, lateral, k, g)
+        r2 = dx * dx + dy * dy + dz * dz
+        rs = rad[k] + rad[g]
+        if r2 >= rs * rs:
+            if pair_ov[q] != 0.0:  # the contact opened: its history is destroyed
+                pair_ov[q] = 0.0
+                for a in range(d):
+                    pair_ft[q, a] = 0.0
+            for a in range(d + r):
+                bnd_f[s, a] = 0.0
+        else:
+            tp[nc] = q
+            tp[TILE + nc] = s
+            t[T_DX * ROW + nc] = dx
+            t[T_DY * ROW + nc] = dy
+            t[T_DZ * ROW + nc] = dz
+            t[T_R2 * ROW + nc] = r2
+            t[T_RS * ROW + nc] = rs
+            nc += 1
+        s += 1
+    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d)
+    for c in range(nc):
+        q = np.uint64(tp[c])
+        slot = np.uint64(tp[TILE + c])
+        g = np.uint64(pair_j[q])
+        fx, fy, fz, delta, nx, ny, nz = _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale)
+        force[g, 0] -= fx
+        force[g, 1] -= fy
+        bnd_f[slot, 0] = fx
+        bnd_f[slot, 1] = fy
+        if d == 3:
+            force[g, 2] -= fz
+            bnd_f[slot, 2] = fz
+        if r > 0:
+            K._add_torque3(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+        # the torque on k as _add_torque3 computes it (the same bits when k's row adds it)
+        ai = t[T_AI * ROW + c]
+        if r == 1:
+            bnd_f[slot, d] = ai * (nx * fy - ny * fx)
+        elif r == 3:
+            bnd_f[slot, d] = ai * (ny * fz - nz * fy)
+            bnd_f[slot, d + 1] = ai * (nz * fx - nx * fz)
+            bnd_f[slot, d + 2] = ai * (nx * fy - ny * fx)
+        if delta > dmax:
+            dmax = delta
+        ncontact += 1
+    return s, dmax, ncontact
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d):
+    """The law's stages between the packing of ``nc`` touching pairs (their indices in
+    ``tp``, geometry in the rows T_DX ... T_RS of ``t``) and the per-contact forces
+    (:func:`_contact`): normals and overlaps, contact velocities, the carried history and
+    the pair's constants, then the roots and quotients of the law in vector loops."""
     # vector: distance, unit normal i -> j, overlap
     if d == 3:
         for c in range(nc):
@@ -162,69 +258,58 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
             t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
             t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
-    # stage 3: the projection's rescale, then contact.update_tangential3's steps through its own
-    # pieces (unloads, the factor from the vector loop, increment_and_cap3: a sliding contact's
-    # root and quotient stay scalar), the damped normal force (never attractive), the force on i,
-    # the new history; forces and torques added in list order
-    for c in range(nc):
-        q = np.uint64(tp[c])
-        i = np.uint64(pair_i[q])
-        j = np.uint64(pair_j[q])
-        delta = t[T_DELTA * ROW + c]
-        fel = t[T_FEL * ROW + c]
-        vn = t[T_VN * ROW + c]
-        nx = t[T_NX * ROW + c]
-        ny = t[T_NY * ROW + c]
-        nz = t[T_NZ * ROW + c] if d == 3 else 0.0
-        fn = fel
-        if zeta > 0.0:
-            # approaching (vn < 0) gives a repulsive viscous force
-            fn = C.total_normal_force(fel, -t[T_CN * ROW + c] * vn)
-        if mu > 0.0:
-            tx = t[T_TX * ROW + c]
-            ty = t[T_TY * ROW + c]
-            tz = t[T_TZ * ROW + c]
-            gx = t[T_GX * ROW + c]
-            gy = t[T_GY * ROW + c]
-            gz = t[T_GZ * ROW + c]
-            if t[T_NEW2 * ROW + c] > 0.0:
-                scale = t[T_SPROJ * ROW + c]
-                gx *= scale
-                gy *= scale
-                gz *= scale
-            if C.unloads(t[T_OVOLD * ROW + c], delta, rescale):
-                scale = t[T_SRES * ROW + c]
-                gx *= scale
-                gy *= scale
-                gz *= scale
-            gx, gy, gz, slid = C.increment_and_cap3(gx, gy, gz, tx * dt, ty * dt, tz * dt, t[T_KT * ROW + c], fel,
-                                                    mu)
-            ct = 0.0
-            if zeta > 0.0 and not slid:
-                ct = t[T_CT * ROW + c]
-            fx = -fn * nx + gx + ct * tx
-            fy = -fn * ny + gy + ct * ty
-            fz = -fn * nz + gz + ct * tz
-            pair_ft[q, 0] = gx
-            pair_ft[q, 1] = gy
-            if d == 3:
-                pair_ft[q, 2] = gz
-        else:
-            fx = -fn * nx
-            fy = -fn * ny
-            fz = -fn * nz
-        pair_ov[q] = delta
-        force[i, 0] += fx
-        force[i, 1] += fy
-        force[j, 0] -= fx
-        force[j, 1] -= fy
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)
+def _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale):
+    """Contact c of a staged tile (pair q): its force on i (fx, fy, fz), overlap and normal
+    (delta, nx, ny, nz); writes the pair's new history."""
+    # stage 3, per contact: the projection's rescale, then contact.update_tangential3's steps
+    # through its own pieces (unloads, the factor from the vector loop, increment_and_cap3: a
+    # sliding contact's root and quotient stay scalar), the damped normal force (never
+    # attractive), the force on i, the new history
+    delta = t[T_DELTA * ROW + c]
+    fel = t[T_FEL * ROW + c]
+    vn = t[T_VN * ROW + c]
+    nx = t[T_NX * ROW + c]
+    ny = t[T_NY * ROW + c]
+    nz = t[T_NZ * ROW + c] if d == 3 else 0.0
+    fn = fel
+    if zeta > 0.0:
+        # approaching (vn < 0) gives a repulsive viscous force
+        fn = C.total_normal_force(fel, -t[T_CN * ROW + c] * vn)
+    if mu > 0.0:
+        tx = t[T_TX * ROW + c]
+        ty = t[T_TY * ROW + c]
+        tz = t[T_TZ * ROW + c]
+        gx = t[T_GX * ROW + c]
+        gy = t[T_GY * ROW + c]
+        gz = t[T_GZ * ROW + c]
+        if t[T_NEW2 * ROW + c] > 0.0:
+            scale = t[T_SPROJ * ROW + c]
+            gx *= scale
+            gy *= scale
+            gz *= scale
+        if C.unloads(t[T_OVOLD * ROW + c], delta, rescale):
+            scale = t[T_SRES * ROW + c]
+            gx *= scale
+            gy *= scale
+            gz *= scale
+        gx, gy, gz, slid = C.increment_and_cap3(gx, gy, gz, tx * dt, ty * dt, tz * dt, t[T_KT * ROW + c], fel,
+                                                mu)
+        ct = 0.0
+        if zeta > 0.0 and not slid:
+            ct = t[T_CT * ROW + c]
+        fx = -fn * nx + gx + ct * tx
+        fy = -fn * ny + gy + ct * ty
+        fz = -fn * nz + gz + ct * tz
+        pair_ft[q, 0] = gx
+        pair_ft[q, 1] = gy
         if d == 3:
-            force[i, 2] += fz
-            force[j, 2] -= fz
-        if r > 0:
-            K._add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
-            K._add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
-        if delta > dmax:
-            dmax = delta
-        ncontact += 1
-    return p, dmax, ncontact
+            pair_ft[q, 2] = gz
+    else:
+        fx = -fn * nx
+        fy = -fn * ny
+        fz = -fn * nz
+    pair_ov[q] = delta
+    return fx, fy, fz, delta, nx, ny, nz
