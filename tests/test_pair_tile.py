@@ -38,9 +38,27 @@ def dense_state(dim, n, seed):
     return pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, int(np.sum(overlap > 0))
 
 
+def law_and_history(state, p, i, j, dt, zeta, mu, rescale, e12, g12):
+    """Pair p = (i, j) through kernels._pair_law, its history updated as the engines do:
+    (touching, delta, a_i, a_j, n, force on i)."""
+    pos, vel, omega, rad, lateral, _, _, pair_c, pair_ft, pair_ov, _ = state
+    touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = K._pair_law(
+        pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e12, g12,
+        pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF])
+    if not touch:
+        if pair_ov[p] != 0.0:
+            pair_ov[p] = 0.0
+            pair_ft[p] = 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    if mu > 0.0:
+        pair_ft[p] = (hx, hy, hz)[: pos.shape[1]]
+    pair_ov[p] = delta
+    return True, delta, ai, aj, nx, ny, nz, fx, fy, fz
+
+
 def pair_at_a_time(state, jmax, dt, zeta, mu, rescale):
     """The one-thread loop's pairs through kernels._pair_law, one at a time, in list order."""
-    pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, _ = state
+    pos, omega, pair_i, pair_j, pair_ft, pair_ov = (state[k] for k in (0, 2, 5, 6, 8, 9))
     force = np.zeros_like(pos)
     torque = np.zeros_like(omega)
     e12, g12 = C.effective_young(False), C.effective_shear(0.2, False)
@@ -48,17 +66,10 @@ def pair_at_a_time(state, jmax, dt, zeta, mu, rescale):
     for p, (i, j) in enumerate(zip(pair_i, pair_j)):
         if j >= jmax:
             continue
-        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = K._pair_law(
-            pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e12, g12,
-            pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF])
+        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz = law_and_history(state, p, i, j, dt, zeta, mu, rescale,
+                                                                       e12, g12)
         if not touch:
-            if pair_ov[p] != 0.0:
-                pair_ov[p] = 0.0
-                pair_ft[p] = 0.0
             continue
-        if mu > 0.0:
-            pair_ft[p] = (hx, hy, hz)[: pos.shape[1]]
-        pair_ov[p] = delta
         f = np.array([fx, fy, fz])[: pos.shape[1]]
         force[i] += f
         force[j] -= f
@@ -115,7 +126,7 @@ def incoming_at_a_time(state, slots, dt, zeta, mu, rescale):
     """A block's incoming pairs (pair indices ``slots``, in slot order) as kernels._incoming_block
     computed them before the staged law: one at a time through kernels._pair_law, the force
     subtracted from g with g's torque, the force on k and k's torque into the slot's row."""
-    pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, _ = state
+    pos, omega, pair_i, pair_j, pair_ft, pair_ov = (state[k] for k in (0, 2, 5, 6, 8, 9))
     d, r = pos.shape[1], omega.shape[1]
     force = np.zeros_like(pos)
     torque = np.zeros_like(omega)
@@ -124,18 +135,11 @@ def incoming_at_a_time(state, slots, dt, zeta, mu, rescale):
     dmax, count = 0.0, 0
     for s, p in enumerate(slots):
         k, g = pair_i[p], pair_j[p]
-        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = K._pair_law(
-            pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, k, g, dt, zeta, mu, rescale, e12, g12,
-            pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF])
+        touch, delta, ai, aj, nx, ny, nz, fx, fy, fz = law_and_history(state, p, k, g, dt, zeta, mu, rescale,
+                                                                       e12, g12)
         if not touch:
-            if pair_ov[p] != 0.0:
-                pair_ov[p] = 0.0
-                pair_ft[p] = 0.0
             bnd_f[s] = 0.0
             continue
-        if mu > 0.0:
-            pair_ft[p] = (hx, hy, hz)[:d]
-        pair_ov[p] = delta
         f = np.array([fx, fy, fz])[:d]
         force[g] -= f
         t = np.zeros_like(torque)

@@ -54,6 +54,28 @@ def scratch(tiles: int = 1) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((tiles, N_TROW * ROW)), np.zeros((tiles, 2 * TILE), np.int64)
 
 
+@numba.njit(cache=True, inline="always", _nrt=False)
+def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
+    """Stage 1 for pair q = (i, j): whether the grains touch; if so its geometry goes to column
+    ``nc`` of the scratch ``t`` (the caller packs q), if not a history it had is destroyed (the
+    contact opened)."""
+    dx, dy, dz = K._pair_geometry(pos, lateral, i, j)
+    r2 = dx * dx + dy * dy + dz * dz
+    rs = rad[i] + rad[j]
+    if r2 >= rs * rs:
+        if pair_ov[q] != 0.0:
+            pair_ov[q] = 0.0
+            for a in range(d):
+                pair_ft[q, a] = 0.0
+        return False
+    t[T_DX * ROW + nc] = dx
+    t[T_DY * ROW + nc] = dy
+    t[T_DZ * ROW + nc] = dz
+    t[T_R2 * ROW + nc] = r2
+    t[T_RS * ROW + nc] = rs
+    return True
+
+
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
              zeta, mu, rescale, e12, g12, t, tp, force, torque, dmax, ncontact):
@@ -77,25 +99,10 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
     while p < p1 and nc < TILE:
         pu = np.uint64(p)
         j = pair_j[pu]
-        if j < jmax:
-            i = np.uint64(pair_i[pu])
-            ju = np.uint64(j)
-            dx, dy, dz = K._pair_geometry(pos, lateral, i, ju)
-            r2 = dx * dx + dy * dy + dz * dz
-            rs = rad[i] + rad[ju]
-            if r2 >= rs * rs:
-                if pair_ov[pu] != 0.0:  # the contact opened: its history is destroyed
-                    pair_ov[pu] = 0.0
-                    for a in range(d):
-                        pair_ft[pu, a] = 0.0
-            else:
-                tp[nc] = p
-                t[T_DX * ROW + nc] = dx
-                t[T_DY * ROW + nc] = dy
-                t[T_DZ * ROW + nc] = dz
-                t[T_R2 * ROW + nc] = r2
-                t[T_RS * ROW + nc] = rs
-                nc += 1
+        if j < jmax and _packed(pos, lateral, rad, pair_ft, pair_ov, pu, np.uint64(pair_i[pu]),
+                                np.uint64(j), t, nc, d):
+            tp[nc] = p
+            nc += 1
         p += 1
     _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d)
     # forces and torques added in list order
@@ -135,27 +142,13 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
     s = s0
     while s < s1 and nc < TILE:
         q = np.uint64(slot_pair[s])
-        k = np.uint64(pair_i[q])
-        g = np.uint64(pair_j[q])
-        dx, dy, dz = K._pair_geometry(pos, lateral, k, g)
-        r2 = dx * dx + dy * dy + dz * dz
-        rs = rad[k] + rad[g]
-        if r2 >= rs * rs:
-            if pair_ov[q] != 0.0:  # the contact opened: its history is destroyed
-                pair_ov[q] = 0.0
-                for a in range(d):
-                    pair_ft[q, a] = 0.0
-            for a in range(d + r):
-                bnd_f[s, a] = 0.0
-        else:
+        if _packed(pos, lateral, rad, pair_ft, pair_ov, q, np.uint64(pair_i[q]), np.uint64(pair_j[q]), t, nc, d):
             tp[nc] = q
             tp[TILE + nc] = s
-            t[T_DX * ROW + nc] = dx
-            t[T_DY * ROW + nc] = dy
-            t[T_DZ * ROW + nc] = dz
-            t[T_R2 * ROW + nc] = r2
-            t[T_RS * ROW + nc] = rs
             nc += 1
+        else:
+            for a in range(d + r):
+                bnd_f[s, a] = 0.0
         s += 1
     _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d)
     for c in range(nc):
