@@ -118,21 +118,29 @@ def _engine_bytes(engine) -> bytes:
 def test_dem_team_that_cannot_start_does_nothing(monkeypatch):
     """A team of 3 asked for on 2 threads: its threads give it up at the entry (after their
     patience) and it runs no step: no grain, piston or counter changes, and the kernel says so
-    (ipar[I_TEAM] = -1) for the engine to run the passes in regions."""
+    (ipar[I_TEAM] = -1) for the engine to run the passes in regions. The same without trying
+    when the workspace has fewer per-thread scratches than the team has threads (one per thread
+    numba can start, so such a team could not start either)."""
     monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
     engine = _shaken_engine()
     _at(2, lambda: engine.run(40))  # the blocks and incoming lists for 2 threads
     before = _engine_bytes(engine)
     engine.ws[K.W_CLAIM][0] = 3
-    engine.ipar[K.I_TEAM] = 1
-    sync = np.zeros(team.SYNC_LENGTH, np.int64)
-    done, _ = _at(2, lambda: K._team_steps(
-        engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
-        engine.angular_acceleration, engine.radius, engine.mass, engine.inertia, engine.lateral, engine.pos0,
-        engine.pair_i, engine.pair_j, engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov,
-        engine.piston, engine.fpar, engine.ipar, engine.ws, engine.ws[K.W_BLK].shape[0], 0, 100, 0.0, sync))
-    assert done == 0 and engine.ipar[K.I_TEAM] == -1 and not team.entered(sync)
-    assert _engine_bytes(engine) == before
+    per_thread = {K.W_TILE: np.zeros((3, engine.ws[K.W_TILE].shape[1])),
+                  K.W_TILEP: np.zeros((3, engine.ws[K.W_TILEP].shape[1]), np.int64),
+                  K.W_VISIT: np.zeros((3, engine.ws[K.W_VISIT].shape[1]), np.int64)}
+    room_for_3 = tuple(per_thread.get(w, x) for w, x in enumerate(engine.ws))
+    for ws, tries in ((room_for_3, True), (engine.ws, False)):
+        engine.ipar[K.I_TEAM] = 1
+        sync = np.zeros(team.SYNC_LENGTH, np.int64)
+        done, _ = _at(2, lambda: K._team_steps(
+            engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+            engine.angular_acceleration, engine.radius, engine.mass, engine.inertia, engine.lateral, engine.pos0,
+            engine.pair_i, engine.pair_j, engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov,
+            engine.piston, engine.fpar, engine.ipar, ws, ws[K.W_BLK].shape[0], 0, 100, 0.0, sync))
+        assert done == 0 and engine.ipar[K.I_TEAM] == -1 and not team.entered(sync)
+        assert sync[team.S_ENTRY] == (-1 if tries else 0)  # given up at the entry, or never tried
+        assert _engine_bytes(engine) == before
 
 
 @two_threads
@@ -383,3 +391,52 @@ def test_block_count_grows_with_threads_and_keeps_blocks_large():
     assert K.block_count(102_000, 16) == 112  # the size rule already gives more than 2 per thread
     assert K.block_count(1_000, 16) == 15  # no block under MIN_BLOCK_GRAINS grains
     assert K.block_count(3, 16) == 3
+
+
+def _reference_order(t: int, threads: int, nblk: int) -> list[tuple[int, int]]:
+    """Thread t's blocks as documented (visit_order): its own share ascending, then the shares
+    of t + 1, t + 2, ... (cyclically) each from its far end, with the first block of each foreign
+    share (-1 for its own)."""
+    def share(u):
+        return u * nblk // threads, (u + 1) * nblk // threads
+
+    b0, b1 = share(t)
+    order = [(b, -1) for b in range(b0, b1)]
+    for s in range(1, threads):
+        c0, c1 = share((t + s) % threads)
+        order += [(b, c0) for b in reversed(range(c0, c1))]
+    return order
+
+
+@pytest.mark.parametrize("threads, nblk", [(1, 8), (2, 8), (3, 7), (16, 32), (16, 15), (5, 112)])
+def test_visit_order_is_each_share_once_own_first(threads, nblk):
+    for t in range(threads):
+        order = np.full(2 * nblk, -7, np.int64)
+        K.visit_order(t, threads, nblk, order)
+        got = list(zip(order[:nblk].tolist(), order[nblk:].tolist()))
+        assert got == _reference_order(t, threads, nblk)
+        assert sorted(order[:nblk].tolist()) == list(range(nblk))
+
+
+def test_claims_give_each_block_once_and_leave_an_owner_its_next_block():
+    """Thread 0 of 4 done early over 16 blocks: it takes the far ends of the others' shares while
+    their owners have not reached the block before, never an owner's next block nor a share's
+    first; the owners then take the rest, and every block is taken exactly once."""
+    threads, nblk = 4, 16
+    claims = np.zeros(nblk + 2, np.int64)
+    orders = np.zeros((threads, 2 * nblk), np.int64)
+    for t in range(threads):
+        K.visit_order(t, threads, nblk, orders[t])
+    phase = 1
+    # thread 1 has taken its first block (4), thread 2 its first two (8, 9), thread 3 none
+    taken = {1: [], 2: [], 3: []}
+    for t, j in ((1, 0), (2, 0), (2, 1)):
+        taken[t].append(K.claim_block(claims, orders[t], nblk, j, phase))
+    taken[0] = [K.claim_block(claims, orders[0], nblk, j, phase) for j in range(nblk)]
+    assert [b for b in taken[0] if b >= 0] == [0, 1, 2, 3, 7, 6, 11, 15, 14, 13]
+    for t in (1, 2, 3):
+        taken[t] += [K.claim_block(claims, orders[t], nblk, j, phase) for j in range(nblk)]
+    assert [b for b in taken[1] if b >= 0] == [4, 5]
+    assert [b for b in taken[2] if b >= 0] == [8, 9, 10]
+    assert [b for b in taken[3] if b >= 0] == [12]
+    assert np.all(claims[1:nblk + 1] == phase)

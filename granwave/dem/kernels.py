@@ -245,62 +245,56 @@ def block_taken(claims, b, phase):
     return team.atomic_load(claims, b + 1) == phase
 
 
-@numba.njit(cache=True, inline="always")
-def worth_taking(claims, t, threads, nblk, b, phase):
-    """Whether thread t should try block b (:func:`visit_block`): every block of its own share;
-    one of another's only while its owner has not reached the block before it. The owner then
-    keeps the block it would start next, which it computes from its own cache: taking it over a
-    little earlier made the balanced 10 200-grain square slower (threads 1 -> 2 down to 1.60 in
-    one of three runs, CPU time per step x1.25)."""
-    u = b * threads // nblk
-    while u * nblk // threads > b:  # the share of b (integer rounding)
-        u -= 1
-    while (u + 1) * nblk // threads <= b:
-        u += 1
-    if u == t:
-        return True
-    return b > u * nblk // threads and not block_taken(claims, b - 1, phase)
-
-
-@numba.njit(cache=True, inline="always")
-def visit_block(t, threads, nblk, j):
-    """The j-th block that thread t of ``threads`` offers to take in a force pass: first its own
-    share (numba's static split, ascending), then the other threads' shares, each from its far
-    end. Where the threads keep pace each takes its own share, as the static split did (same
-    memory, same cache); a thread done early takes the other's last blocks (:func:`take_block`)."""
-    b0 = t * nblk // threads
-    own = (t + 1) * nblk // threads - b0
-    if j < own:
-        return b0 + j
-    j -= own
-    for s in range(1, threads):
-        u = (t + s) % threads
+@numba.njit(cache=True)
+def visit_order(t, threads, nblk, order):
+    """The blocks that thread t of ``threads`` offers to take in a force pass, in its order, into
+    ``order[:nblk]``: first its own share (numba's static split, ascending), then the other
+    threads' shares (t + 1, t + 2, ... cyclically), each from its far end. Where the threads keep
+    pace each takes its own share, as the static split did (same memory, same cache); a thread
+    done early takes the others' last blocks (:func:`take_block`). Into ``order[nblk + j]`` the
+    first block of the share of block ``order[j]``, -1 for t's own. Made once per pass (a team:
+    once per run) so that :func:`claim_block` looks blocks up: computing each from the thread
+    count, several integer divisions per block, took 2.4 us per pass for a thread's scan of the
+    32 blocks of 16 threads on the 2-core machine (docs/dem.md, "Sixteen cores, an eighth
+    time"), on the path of the last thread to the barrier."""
+    j = 0
+    for b in range(t * nblk // threads, (t + 1) * nblk // threads):
+        order[j] = b
+        order[nblk + j] = -1
+        j += 1
+    u = t
+    for _ in range(1, threads):
+        u = u + 1 if u + 1 < threads else 0
         c0 = u * nblk // threads
-        c1 = (u + 1) * nblk // threads
-        if j < c1 - c0:
-            return c1 - 1 - j
-        j -= c1 - c0
-    return -1
+        for b in range((u + 1) * nblk // threads - 1, c0 - 1, -1):
+            order[j] = b
+            order[nblk + j] = c0
+            j += 1
 
 
 @numba.njit(cache=True, inline="always")
-def claim_block(claims, t, threads, nblk, j, phase):
-    """The j-th block of thread t's order (:func:`visit_block`) if t should try it
-    (:func:`worth_taking`) and took it (:func:`take_block`) in pass ``phase``; else -1. A force
-    pass runs, per thread t, the blocks that ``claim_block(claims, t, threads, nblk, j, phase)``
-    gives for j < nblk."""
-    b = visit_block(t, threads, nblk, j)
-    if worth_taking(claims, t, threads, nblk, b, phase) and take_block(claims, b, phase):
+def claim_block(claims, order, nblk, j, phase):
+    """The j-th block of a thread's ``order`` (:func:`visit_order`) if the thread should try it
+    and took it (:func:`take_block`) in pass ``phase``; else -1. It tries every block of its own
+    share, one of another's only while its owner has not reached the block before it. The owner
+    then keeps the block it would start next, which it computes from its own cache: taking it
+    over a little earlier made the balanced 10 200-grain square slower (threads 1 -> 2 down to
+    1.60 in one of three runs, CPU time per step x1.25). A force pass runs, per thread, the blocks
+    that ``claim_block(claims, order, nblk, j, phase)`` gives for j < nblk."""
+    b = order[j]
+    first = order[nblk + j]
+    if (first < 0 or (b > first and not block_taken(claims, b - 1, phase))) and take_block(claims, b, phase):
         return b
     return -1
 
 
 @numba.njit(cache=True, inline="always")
-def open_claims(claims, nblk):
-    """Clear the taken flags before a pass; the thread count (``claims[0]``, set by the engines)."""
+def open_claims(claims, nblk, rows):
+    """Clear the taken flags before a pass; the thread count (``claims[0]``, set by the engines),
+    at most ``rows``, the tile scratches (one per thread: a pass's iteration t uses row t)."""
     for b in range(nblk):
         claims[1 + b] = 0
-    return max(1, claims[0])
+    return max(1, min(claims[0], rows))
 
 
 # Geometry pieces of one contact, shared with the GPU kernels (granwave.gpu.compile compiles
@@ -479,15 +473,17 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     (:func:`wall_list`), per incoming pair
     the force and torque its block hands to the owner row (d + r columns), 1/m and 1/I per
     grain, the compaction rule 'mean-flow''s parameters (:mod:`granwave.dem.mean_flow`;
-    empty: off) and slab work array, and one pair tile's scratch per block
-    (:func:`granwave.dem.pair_tile.scratch`), the thread count, the blocks' taken flags
-    (:func:`take_block`) and the state of the slab means (:func:`_slab_job`), and the cycles of
-    each thread of a team in its passes and at its barriers (T_* columns). ``blocks``: the
+    empty: off) and slab work array, and one pair tile's scratch per thread that numba can
+    start (:func:`granwave.dem.pair_tile.scratch`), the thread count, the blocks' taken flags
+    (:func:`take_block`) and the state of the slab means (:func:`_slab_job`), the cycles of
+    each thread of a team in its passes and at its barriers (T_* columns), and each thread's
+    order of the blocks (:func:`visit_order`). ``blocks``: the
     number of grain blocks (None: :func:`block_count` for one thread; :func:`with_blocks`
     changes it)."""
     n = n_grains
     nblk = block_count(n) if blocks is None else int(blocks)
     cap_b = max(boundary_room(n), int(boundary))
+    rows = max(1, numba.config.NUMBA_NUM_THREADS)  # one per thread numba can start
     return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
             np.zeros(3, np.int64), np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)),
@@ -495,13 +491,13 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros(nblk + 1, np.int64), np.zeros(nblk + 1, np.int64), np.zeros(cap_b, np.int64),
             np.zeros(cap_b, np.int64), np.zeros((cap_b, dim + n_rot)), np.zeros(n), np.zeros(n),
             np.zeros(0) if mflow is None else mflow, np.zeros((2, 1)) if slabs is None else slabs,
-            *PT.scratch(nblk), np.zeros(nblk + 2, np.int64),
-            np.zeros((max(1, numba.config.NUMBA_NUM_THREADS), N_TEAM_TIMES), np.int64))
+            *PT.scratch(rows), np.zeros(nblk + 2, np.int64), np.zeros((rows, N_TEAM_TIMES), np.int64),
+            np.zeros((rows, 2 * nblk), np.int64))
 
 
 # workspace entries
 W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, W_SPAIR, W_OSLOT, \
-    W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM, W_TEAMTIME = range(23)
+    W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM, W_TEAMTIME, W_VISIT = range(24)
 #: per thread of a team, cycles (team.cycle_counter) spent in its blocks of the first pass (with
 #: the step's own tests), waiting at the barrier after it, in its blocks of the second pass,
 #: waiting at the barrier after that, and after it in the step's end (the piston, the blocks'
@@ -520,9 +516,9 @@ def with_blocks(ws: tuple, nblk: int) -> tuple:
     for w in (W_SLOT, W_OUT):
         new[w] = np.zeros(nblk + 1, np.int64)
     new[W_BLK] = np.zeros((nblk, N_GCOL))
-    new[W_TILE], new[W_TILEP] = PT.scratch(nblk)
     new[W_CLAIM] = np.zeros(nblk + 2, np.int64)
     new[W_CLAIM][0] = ws[W_CLAIM][0]
+    new[W_VISIT] = np.zeros((ws[W_VISIT].shape[0], 2 * nblk), np.int64)
     return tuple(new)
 
 
@@ -686,7 +682,7 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
 
 @numba.njit(cache=True, parallel=True)
 def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
-                   nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p, claims):
+                   nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p, claims, visit):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
     the tangential history update: no one else touches that pair in this step), subtracts the
@@ -695,22 +691,24 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
     these pairs into ``blk_g``."""
-    threads = open_claims(claims, nblk)
+    threads = open_claims(claims, nblk, tile.shape[0])
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
+        visit_order(t, threads, nblk, visit[t])
         for j in range(nblk):
-            b = claim_block(claims, t, threads, nblk, j, 1)
+            b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p)
+                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
+                                tile_p[t])
 
 
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays of the inlined helpers
 def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                    fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p):
+                    fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, t, tp):
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
     keeps its compilation short); its incoming pairs go through the staged law a tile at a time
-    (:func:`granwave.dem.pair_tile.law_tile_incoming`, the bits of :func:`_pair_law`), in its
-    tile scratch (``tile[b]``, ``tile_p[b]``: pass 2 uses it after the barrier)."""
+    (:func:`granwave.dem.pair_tile.law_tile_incoming`, the bits of :func:`_pair_law`), in the
+    calling thread's tile scratch ``t``, ``tp`` (one row of the workspace's W_TILE, W_TILEP)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -732,8 +730,6 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     # sequential walk, not the neighbour rows (two cache lines per grain, read for a pair or two).
     # Staged, not pair at a time (_pair_law): 39 against 45-49 ns per incoming pair on one thread
     # of the 2-core machine (docs/dem.md "Sixteen cores, a seventh time")
-    t = tile[b]
-    tp = tile_p[b]
     s = slot_start[b]
     while s < slot_start[b + 1]:
         s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
@@ -819,7 +815,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
               pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-              slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims):
+              slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims, visit):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
     tangential histories and adding each force to i and j; a pair whose j lies beyond the
@@ -843,19 +839,20 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     # the static split alone gave one thread a compacting column's dilute bottom and the other
     # its dense top (perf on a 25 x 800 d column: the first thread waited at the barrier in half
     # of its samples, docs/dem.md). Which thread computes a block never changes a bit.
-    threads = open_claims(claims, nblk)
+    threads = open_claims(claims, nblk, tile.shape[0])
     slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     claims[nblk + 1] = SLABS_TODO if slab_job else SLABS_READY
     for t in numba.prange(threads):
         if t == 0 and slab_job:
             _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, 0)
+        visit_order(t, threads, nblk, visit[t])
         for j in range(nblk):
-            b = claim_block(claims, t, threads, nblk, j, 1)
+            b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
-                           out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile,
-                           tile_p, claims, 0)
+                           out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs,
+                           tile[t], tile_p[t], claims, 0)
 
 
 #: states of the slab means in ``claims[nblk + 1]`` during phase 2 of round 0 (:func:`_slab_job`);
@@ -899,10 +896,10 @@ def _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd):
 @numba.njit(cache=True, _nrt=False)  # no reference counting of the arrays passed to wall_contact
 def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
-               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims, rnd):
-    """Block b of :func:`_row_pass` (``tile``, ``tile_p``: the workspace's tile scratch, one
-    per block; ``claims``, ``rnd``: where the slab means' state is and which round this pass is,
-    :func:`_slab_job`)."""
+               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, t, tp, claims, rnd):
+    """Block b of :func:`_row_pass` (``t``, ``tp``: the calling thread's tile scratch, as in
+    :func:`_incoming_block`; ``claims``, ``rnd``: where the slab means' state is and which round
+    this pass is, :func:`_slab_job`)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -920,8 +917,6 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     # the block's rows a tile at a time (pair_tile: the pair law with its roots and quotients in
     # vector loops, the bits of _pair_law), skipping the pairs beyond the block (computed by
     # their j's block in phase 1)
-    t = tile[b]
-    tp = tile_p[b]
     p = row[b0]
     while p < row[b1]:
         p, dmax, ncontact = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov,
@@ -1047,14 +1042,15 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM])
+                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM],
+                   ws[W_VISIT])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
               ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS],
-              ws[W_TILE], ws[W_TILEP], ws[W_CLAIM])
+              ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], ws[W_VISIT])
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -1254,7 +1250,7 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
 def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
                  inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar,
                  row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile,
-                 tile_p, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times):
+                 tile_p, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times, order):
     """Thread t's part of :func:`_team_steps`: from step ``step`` of ``n_steps`` (``steps`` done in
     all, the list made at ``built``), with its own copy ``piston`` of the piston, as long as the
     next step is one that :func:`run_chunk` would run as a plain drifted step. Its count of steps,
@@ -1266,6 +1262,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
     slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     gen = 0
     done = 0
+    visit_order(t, threads, nblk, order)
     c0 = team.cycle_counter()
     while True:
         # run_chunk's tests for this step, from the same numbers on every thread
@@ -1277,22 +1274,23 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
             break
         phase = 2 * done + 1
         for j in range(nblk):
-            b = claim_block(claims, t, threads, nblk, j, phase)
+            b = claim_block(claims, order, nblk, j, phase)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p)
+                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
+                                tile_p[t])
         c1 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c2 = team.cycle_counter()
         if t == 0 and slab_job:  # as in _row_pass: thread 0 first, the others take its blocks
             _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, done)
         for j in range(nblk):
-            b = claim_block(claims, t, threads, nblk, j, phase + 1)
+            b = claim_block(claims, order, nblk, j, phase + 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row,
                            nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, True, False, True, mflow,
-                           slabs, tile, tile_p, claims, done)
+                           slabs, tile[t], tile_p[t], claims, done)
         c3 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c4 = team.cycle_counter()
@@ -1322,7 +1320,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
 def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
                  pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, pistons, fpar, row, nblk, out_start, out_slot,
                  slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile, tile_p, gamma_p, check,
-                 built, steps, step, n_steps, disp2, vmax, sync, claims, state, times):
+                 built, steps, step, n_steps, disp2, vmax, sync, claims, state, times, visit):
     threads = team.team_size(sync)
     for t in numba.prange(threads):  # one iteration per thread (granwave.team)
         if team.enter(sync, threads):
@@ -1330,7 +1328,7 @@ def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
                          inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
                          pistons[t], fpar, row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
                          top_f, mflow, slabs, tile, tile_p, gamma_p, check, built, steps, step, n_steps,
-                         disp2, vmax, state, times)
+                         disp2, vmax, state, times, visit[t])
 
 
 @numba.njit(cache=True)
@@ -1341,9 +1339,13 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
     piston and the rebuild test as run_chunk, until a step is a check, needs a new pair list or
     wall list, or is the last. Returns (steps run, disp2); updates the piston, ``fpar[F_VMAX]``
     and the step counts. Returns (0, disp2) with ``ipar[I_TEAM]`` = -1 when the team did not
-    start (:func:`granwave.team.enter`; then nothing was done)."""
+    start (:func:`granwave.team.enter`; then nothing was done), or when it has more threads than
+    the workspace has tile scratches (more than numba can start: it would not start either)."""
     threads = max(1, ws[W_CLAIM][0])
     team.reset_team(sync, threads)
+    if threads > ws[W_TILE].shape[0]:
+        ipar[I_TEAM] = -1
+        return 0, disp2
     pistons = np.empty((threads, piston.shape[0]))
     for t in range(threads):
         for k in range(piston.shape[0]):
@@ -1359,7 +1361,7 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
                  pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], pistons, fpar, ws[W_ROW],
                  nblk, ws[W_OUT], ws[W_OSLOT], ws[W_SLOT], ws[W_SPAIR], ws[W_BF], ws[W_BLK], ws[W_TOP], mflow,
                  ws[W_SLABS], ws[W_TILE], ws[W_TILEP], gamma_p, ipar[I_CHECK], ipar[I_BUILT],
-                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state, times)
+                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state, times, ws[W_VISIT])
     if sync[team.S_ENTRY] < threads:
         ipar[I_TEAM] = -1
         return 0, disp2
