@@ -104,12 +104,13 @@ def child(args) -> None:
 
 
 def run_copies(packing_file: str, copies: int, tiles: int, steps: int, pin: bool = False,
-               chunk: int = 1000) -> list[dict]:
+               chunk: int = 1000, cpus: list[int] | None = None) -> list[dict]:
     """``copies`` processes at once, each the one-thread engine on a ``tiles``-tile state of the
     packing in ``packing_file``, ``steps`` timed steps; per copy its start and end (wall clock),
-    CPU seconds, grains, steps and marks (wall clock, steps done) every ``chunk`` steps."""
+    CPU seconds, grains, steps and marks (wall clock, steps done) every ``chunk`` steps. With
+    ``pin`` copy k is bound to CPU k of ``cpus`` (cyclically; default: the allowed set)."""
     env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    cpus = sorted(os.sched_getaffinity(0))
+    cpus = sorted(os.sched_getaffinity(0)) if cpus is None else list(cpus)
     procs = []
     for k in range(copies):
         cpu = cpus[k % len(cpus)] if pin else -1
@@ -205,6 +206,17 @@ def run_thread_copies(packing_file: str, copies: int, tiles: int, steps: int, pi
     if errors:
         raise errors[0]
     return results
+
+
+def alone_on_each_cpu(packing_file: str, tiles: int, steps: int) -> dict[int, float]:
+    """One copy alone, bound to each allowed CPU in turn (one after the other, nothing else of
+    this script running): {cpu: its grain-steps per wall second}. On the lent 16-vCPU machines
+    one thread's rate depended on the vCPU it ran on (docs/dem.md, "Sixteen cores, a seventh
+    time"), so a ratio over one unpinned one-thread run depends on where that run landed."""
+    rates = {}
+    for cpu in sorted(os.sched_getaffinity(0)):
+        rates[cpu] = summary(run_copies(packing_file, 1, tiles, steps, pin=True, cpus=[cpu]))["aggregate"]
+    return rates
 
 
 def summary(results: list[dict]) -> dict:

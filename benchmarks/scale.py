@@ -27,7 +27,12 @@ machine affects numerator and denominator alike; the load average is printed wit
    separate one-thread processes at once, each on its own copy of a thread's share of the
    state (benchmarks/engine_copies.py), their summed rate while all ran at once over the
    one-thread rate of the first row, and the engine's rate at T threads as a fraction of that
-   sum (docs/dem.md "Sixteen cores, a sixth time" and "a seventh time").
+   sum (docs/dem.md "Sixteen cores, a sixth time" and "a seventh time");
+7. with ``--each-cpu``, the one-thread DEM rate of the first row's state alone on each allowed
+   CPU in turn (a one-thread process bound to it), and the largest thread count's rate over
+   the fastest, the median and the slowest of them: on the lent 16-vCPU machines one thread's
+   rate depended on the vCPU it landed on, so the first row's ratio does too (docs/dem.md
+   "Sixteen cores, an eighth time").
 
 ``--write-docs`` writes the table into docs/dem.md and docs/linear.md (marked blocks).
 
@@ -333,9 +338,29 @@ def dem_ceiling(packing, tiles: int, copies: int, steps: int, repeat: int, packi
     return dict(best, tiles=per_copy)
 
 
+def dem_each_cpu(packing, tiles: int, steps: int, packing_file: str | None) -> dict[int, float]:
+    """engine_copies.alone_on_each_cpu on the ``tiles``-tile state: {cpu: one-thread wall
+    grain-steps/s}, ``steps`` timed steps each."""
+    import tempfile
+
+    from engine_copies import alone_on_each_cpu
+
+    from granwave.io.files import write_packing
+
+    with tempfile.TemporaryDirectory() as tmp:
+        if packing_file is None:
+            packing_file = str(Path(tmp) / "packing.h5")
+            write_packing(packing_file, packing)
+        rates = alone_on_each_cpu(packing_file, tiles, steps)
+    for cpu, r in rates.items():
+        print(f"  DEM one thread alone on CPU {cpu}: {r:.3g} grain-steps/s wall", flush=True)
+    return rates
+
+
 def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = True, tiles: int = 17,
                lattice_grains: int = 10_000, repeat: int = 3, regions_too: bool = False,
-               engines_only: bool = False, packing_file: str | None = None, ceiling: bool = False) -> None:
+               engines_only: bool = False, packing_file: str | None = None, ceiling: bool = False,
+               each_cpu: bool = False) -> None:
     from dem import prepare
 
     print(f"start: {load()}", flush=True)
@@ -369,6 +394,16 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
                      f"over the first row's one thread; the engine at {top} threads: "
                      f"{100 * r[top] / c['window']:.0f} % of the copies' sum; the slowest copy times {top}: "
                      f"x{c['in_step'] / r[1]:.2f}; summed over their own runs x{c['aggregate'] / r[1]:.2f}"))
+    if each_cpu:
+        r = variants[0]["rates"]
+        alone = sorted(dem_each_cpu(packing, tiles, steps, packing_file).values())
+        mid = float(np.median(alone))
+        rows.append((f"DEM one thread alone on each of {len(alone)} CPUs (pinned; wall grain-steps/s: "
+                     "slowest / median / fastest)", f"{alone[0]:.3g} / {mid:.3g} / {alone[-1]:.3g}",
+                     r[top] / mid, GOALS.get(f"dem_{top}", float("nan")),
+                     f"the ratio: {top} threads' {r[top]:.3g} over the median CPU; over the fastest "
+                     f"x{r[top] / alone[-1]:.2f}, over the slowest x{r[top] / alone[0]:.2f}; the first row's one "
+                     f"thread ({r[1]:.3g}) was faster than {sum(a < r[1] for a in alone)} of them"))
     t_ = time_threads(lattice_grains, 100 if quick else 400, threads, repeat)
     s_ = t_["per_step"]
     for t in threads[1:]:
@@ -535,6 +570,9 @@ def main() -> None:
     ap.add_argument("--ceiling", action="store_true",
                     help="also the DEM's ceiling at the largest thread count: as many one-thread processes at "
                          "once, each on a thread's share (benchmarks/engine_copies.py)")
+    ap.add_argument("--each-cpu", action="store_true",
+                    help="also the one-thread DEM rate alone on each allowed CPU in turn (pinned), and the largest "
+                         "thread count's rate over the fastest, median and slowest of them")
     ap.add_argument("--large", choices=("column", "grid2d", "grid3d", "time"), help="one large run")
     ap.add_argument("--dry-run", action="store_true", help="with --large: estimates only")
     ap.add_argument("--tiny", action="store_true", help="with --large: the same path at a tiny size")
@@ -563,7 +601,8 @@ def main() -> None:
             raise SystemExit("--threads: a list starting with 1, e.g. 1,2 or 1,2,4,8,16")
         main_table(args.quick, args.write_docs, threads, lammps=not args.no_lammps, tiles=args.tiles,
                    lattice_grains=args.lattice_grains, repeat=args.repeat, regions_too=args.regions_too,
-                   engines_only=args.engines_only, packing_file=args.packing, ceiling=args.ceiling)
+                   engines_only=args.engines_only, packing_file=args.packing, ceiling=args.ceiling,
+                   each_cpu=args.each_cpu)
 
 
 if __name__ == "__main__":
