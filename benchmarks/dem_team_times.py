@@ -1,7 +1,7 @@
 """Where a DEM step's time goes on each thread of the team (a script, not a test).
 
     python benchmarks/dem_team_times.py [--threads 1,16] [--tiles 17] [--steps 1000]
-        [--repeat 2] [--packing FILE] [--blocks-per-thread 2,4]
+        [--repeat 2] [--packing FILE] [--blocks-per-thread 2,4 | --blocks 8,24] [--blocks-on-one 16]
 
 On the 16-vCPU machines of docs/dem.md ("Sixteen cores, a fourth time") the engine ran the
 10^4-grain state 6-8x faster on 16 threads than on one, with 2.2-2.8 times the CPU time per
@@ -25,7 +25,9 @@ barrier after it (granwave.dem.kernels, ws[W_TEAMTIME]). Per thread count, the b
 The cycle counter's rate is measured against the wall clock in the same run. With
 ``--blocks-per-thread`` a list, the runs of each value (granwave.dem.kernels.BLOCKS_PER_THREAD,
 read when an engine starts: which thread computes which grains, not the bits) alternate in each
-repetition and each gets its table. (Commit 212ca46 also alternated a rule that let a thread done
+repetition and each gets its table; with ``--blocks`` a list, the same for block counts given
+outright (at every thread count above 1; docs/dem.md "Sixteen cores, an eighth time" tried 8
+and 24 at two threads). (Commit 212ca46 also alternated a rule that let a thread done
 early take any block of a late one's share but its first: no gain at 16 threads, removed.)
 """
 
@@ -113,6 +115,9 @@ def main() -> None:
     ap.add_argument("--packing", default=None, help="the 600-grain packing at p = 1e-4 from a file")
     ap.add_argument("--blocks-per-thread", default=str(K.BLOCKS_PER_THREAD),
                     help="comma-separated values of kernels.BLOCKS_PER_THREAD to alternate")
+    ap.add_argument("--blocks", default=None,
+                    help="comma-separated block counts to alternate instead (every thread count above 1: "
+                         "kernels.block_count replaced; e.g. 8,24 at 2 threads)")
     ap.add_argument("--blocks-on-one", type=int, default=0,
                     help="also run the block engine on one thread with the blocks of this many threads "
                          "(after the threaded runs, whose compilation it needs)")
@@ -121,6 +126,17 @@ def main() -> None:
     per_thread = [int(x) for x in args.blocks_per_thread.split(",")]
     if min(per_thread) < 1:
         sys.exit("--blocks-per-thread: at least 1")
+    counts = [int(x) for x in args.blocks.split(",")] if args.blocks else []
+    if counts and min(counts) < 1:
+        sys.exit("--blocks: at least 1")
+    # the settings alternated at each thread count above 1: blocks per thread, or block counts
+    settings = [("blocks", c) for c in counts] if counts else [("per thread", b) for b in per_thread]
+    keep_count = K.block_count
+
+    def apply(setting) -> None:
+        kind, value = setting
+        K.block_count = (lambda n, threads=1: value) if kind == "blocks" else keep_count
+        K.BLOCKS_PER_THREAD = value if kind == "per thread" else per_thread[0]
     if threads[0] != 1:
         sys.exit("--threads must start with 1")
     if args.packing:
@@ -134,24 +150,27 @@ def main() -> None:
     best: dict[tuple, tuple] = {}
     for _ in range(args.repeat):
         for t in threads:
-            for bpt in per_thread[:1] if t == 1 else per_thread:  # one thread: the pair loop, no blocks
-                K.BLOCKS_PER_THREAD = bpt
+            for setting in settings[:1] if t == 1 else settings:  # one thread: the pair loop, no blocks
+                apply(setting)
                 r = run(packing, args.tiles, args.steps, t)
-                if (bpt, t) not in best or r[0] < best[bpt, t][0]:
-                    best[bpt, t] = r
+                if (setting, t) not in best or r[0] < best[setting, t][0]:
+                    best[setting, t] = r
+            apply(settings[0])
         if args.blocks_on_one > 1:
-            K.BLOCKS_PER_THREAD = per_thread[0]
+            apply(("per thread", per_thread[0]))
             r = run(packing, args.tiles, args.steps, 1, args.blocks_on_one)
             best["blocks on one"] = min(best.get("blocks on one", r), r, key=lambda x: x[0])
             r = run(packing, args.tiles, args.steps, 1)  # the pair loop beside it
             best["loop beside"] = min(best.get("loop beside", r), r, key=lambda x: x[0])
     rate = cycle_rate()
-    one = best[per_thread[0], 1][0]
+    one = best[settings[0], 1][0]
     print(f"{args.tiles * packing.n_grains} grains, {args.steps} steps per run; cycle counter "
           f"{rate / 1e9:.3f} GHz; one thread {1e6 * one:.1f} us per step")
-    for bpt in per_thread if len(threads) > 1 else ():
-        print(f"\nblocks per thread (above {K.BLOCK_MULTIPLE} threads): {bpt}")
-        table(threads, {t: best[bpt, t] for t in threads[1:]}, one, rate)
+    for setting in settings if len(threads) > 1 else ():
+        kind, value = setting
+        print(f"\nblocks per thread (above {K.BLOCK_MULTIPLE} threads): {value}" if kind == "per thread"
+              else f"\n{value} blocks")
+        table(threads, {t: best[setting, t] for t in threads[1:]}, one, rate)
     if args.blocks_on_one > 1:
         blk, loop = best["blocks on one"][0], best["loop beside"][0]
         print(f"\nthe block engine on one thread with the blocks of {args.blocks_on_one} threads "
