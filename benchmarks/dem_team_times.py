@@ -139,6 +139,11 @@ def main() -> None:
         K.BLOCKS_PER_THREAD = value if kind == "per thread" else per_thread[0]
     if threads[0] != 1:
         sys.exit("--threads must start with 1")
+    if args.blocks_on_one > max(1, numba.config.NUMBA_NUM_THREADS):
+        # the engine keeps one tile scratch per thread numba can start, and a pass takes at most
+        # that many partitions: fewer would time another partition than the one asked for
+        sys.exit(f"--blocks-on-one {args.blocks_on_one} needs NUMBA_NUM_THREADS >= {args.blocks_on_one} "
+                 f"(now {numba.config.NUMBA_NUM_THREADS}); e.g. NUMBA_NUM_THREADS={args.blocks_on_one}")
     if args.packing:
         from granwave.io.files import read_packing
 
