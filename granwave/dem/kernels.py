@@ -1249,13 +1249,14 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
 @numba.njit(cache=True)
 def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
                  inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar,
-                 row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile,
-                 tile_p, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times, order):
+                 row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, scr,
+                 scr_p, gamma_p, check, built, steps, step, n_steps, disp2, vmax, state, times, order):
     """Thread t's part of :func:`_team_steps`: from step ``step`` of ``n_steps`` (``steps`` done in
     all, the list made at ``built``), with its own copy ``piston`` of the piston, as long as the
     next step is one that :func:`run_chunk` would run as a plain drifted step. Its count of steps,
     ``disp2`` and the largest |v| into ``state`` (every thread the same); its cycles in the passes
-    and at the barriers added to row t of ``times`` (T_* columns; a few counter reads per step)."""
+    and at the barriers added to row t of ``times`` (T_* columns; a few counter reads per step).
+    ``scr``, ``scr_p``: its tile scratch; ``order``: its row for :func:`visit_order`."""
     n = pos.shape[0]
     dt = fpar[F_DT]
     half_skin = 0.5 * fpar[F_SKIN]
@@ -1277,8 +1278,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
             b = claim_block(claims, order, nblk, j, phase)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
-                                tile_p[t])
+                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, scr, scr_p)
         c1 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c2 = team.cycle_counter()
@@ -1290,7 +1290,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row,
                            nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, True, False, True, mflow,
-                           slabs, tile[t], tile_p[t], claims, done)
+                           slabs, scr, scr_p, claims, done)
         c3 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
         c4 = team.cycle_counter()
@@ -1327,8 +1327,8 @@ def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
             _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia,
                          inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
                          pistons[t], fpar, row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
-                         top_f, mflow, slabs, tile, tile_p, gamma_p, check, built, steps, step, n_steps,
-                         disp2, vmax, state, times, visit[t])
+                         top_f, mflow, slabs, tile[t], tile_p[t], gamma_p, check, built, steps, step,
+                         n_steps, disp2, vmax, state, times, visit[t])
 
 
 @numba.njit(cache=True)
