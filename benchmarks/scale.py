@@ -3,6 +3,7 @@
     python benchmarks/scale.py [--quick] [--write-docs]
     python benchmarks/scale.py --large column|grid2d|grid3d|time [--dry-run | --tiny]
         [--compaction fixed|height-scaled|mean-flow] [--settling compaction|critical|late]
+        [--stop-at STEPS]
 
 Default run, every number a ratio measured in this one run (so that the load of a shared
 machine affects numerator and denominator alike; the load average is printed with them):
@@ -45,7 +46,10 @@ packing: preparing and linearizing a 10^6-grain packing is its own multi-hour jo
 prints wall time and peak memory (ru_maxrss). The time estimates use the engine's rate and
 the steps model of the relaxation (steps ~ H^1.43 at fixed width, 275,740 steps for a
 10^4-grain square packing: measured with the current protocol in 2D; the 3D figure is that
-model applied to the height in diameters, not a 3D measurement).
+model applied to the height in diameters, not a 3D measurement). ``--stop-at STEPS`` stops a
+preparation after that many steps (the same trajectory up to there: the budget only shortens
+the last chunk), to check its progress lines against another run's log at a fraction of the
+cost (benchmarks/same_progress.py).
 """
 
 from __future__ import annotations
@@ -468,7 +472,8 @@ def _square_steps(height: float) -> float:
 DEFAULT_LARGE_COMPACTION = "mean-flow"
 
 
-def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: str = "late"):
+def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: str = "late",
+               max_steps: int = 20_000_000):
     from granwave.dem.params import PrepareParams
 
     compaction = compaction or DEFAULT_LARGE_COMPACTION
@@ -476,17 +481,17 @@ def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: s
     if name == "column":
         n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
         return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect, compaction=compaction,
-                                         mean_flow_settling=settling, max_steps=20_000_000),
+                                         mean_flow_settling=settling, max_steps=max_steps),
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":
         n = 300 if tiny else 100_000
         return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, compaction=compaction,
-                                         mean_flow_settling=settling, max_steps=20_000_000),
+                                         mean_flow_settling=settling, max_steps=max_steps),
                     steps=_square_steps(math.sqrt(n)), note="2D square, p = 1e-4")
     if name == "grid3d":
         n = 300 if tiny else 100_000
         return dict(params=PrepareParams(dim=3, grains=n, pressure=1e-4, friction=0.5, compaction=compaction,
-                                         mean_flow_settling=settling, max_steps=20_000_000),
+                                         mean_flow_settling=settling, max_steps=max_steps),
                     steps=_square_steps(n ** (1 / 3)),
                     note="3D cube, mu = 0.5, p = 1e-4 (steps: the 2D model at the height, a guess)")
     if name == "time":
@@ -496,10 +501,12 @@ def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: s
 
 
 def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str | None = None,
-          settling: str = "late") -> None:
+          settling: str = "late", stop_at: int | None = None) -> None:
     from granwave import resources
 
-    spec = large_spec(name, tiny, compaction, settling)
+    if stop_at is not None and name == "time":
+        raise SystemExit("--stop-at: for a preparation (column, grid2d, grid3d), not the time domain")
+    spec = large_spec(name, tiny, compaction, settling, **({} if stop_at is None else dict(max_steps=stop_at)))
     print(f"{name}: {spec['note']}; {load()}")
     if name == "time":
         rows, width = spec["rows"], spec["width"]
@@ -536,9 +543,17 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
     if dry_run:
         return
     from granwave.dem.protocol import prepare_packing
+    from granwave.errors import ConvergenceError
 
     w0, c0 = time.perf_counter(), time.process_time()
-    pk = prepare_packing(p, progress=print)
+    try:
+        pk = prepare_packing(p, progress=print)
+    except ConvergenceError as err:
+        if stop_at is None or not str(err).startswith(f"{stop_at} steps "):  # not the budget: a real failure
+            raise
+        print(f"  stopped after {stop_at} steps as asked (--stop-at), {time.perf_counter() - w0:.1f} s wall "
+              f"({time.process_time() - c0:.1f} s CPU; {load()}); peak memory {resources.format_bytes(peak_memory())}")
+        return
     print(f"  compaction {p.compaction} (settling {p.mean_flow_settling}): prepared in {time.perf_counter() - w0:.1f} s wall "
           f"({time.process_time() - c0:.1f} s CPU; {load()}), {pk.attrs['steps']} steps; "
           f"peak memory {resources.format_bytes(peak_memory())}")
@@ -584,7 +599,12 @@ def main() -> None:
     ap.add_argument("--settling", choices=("late", "compaction", "critical"), default="late",
                     help="with --large column|grid2d|grid3d and the mean-flow compaction: the mean flow's settling rule "
                          "(default: PrepareParams' default, 'late'; docs/dem.md 'Late settling')")
+    ap.add_argument("--stop-at", type=int, default=None, metavar="STEPS",
+                    help="with --large column|grid2d|grid3d: stop the preparation after STEPS steps (to compare "
+                         "its progress lines with another run's: benchmarks/same_progress.py)")
     args = ap.parse_args()
+    if args.stop_at is not None and (not args.large or args.stop_at < 1):
+        raise SystemExit("--stop-at: a positive number of steps, with --large")
     if args.blocks_per_thread is not None:
         from granwave.dem import kernels as K
 
@@ -594,7 +614,7 @@ def main() -> None:
     if args.engines_only and args.write_docs:
         raise SystemExit("--engines-only: a partial table; not with --write-docs")
     if args.large:
-        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling)
+        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling, args.stop_at)
     else:
         threads = tuple(int(t) for t in args.threads.split(","))
         if threads[0] != 1 or len(threads) < 2:

@@ -1,0 +1,75 @@
+"""Do two preparations follow the same trajectory? Their progress logs, compared (a script, not a test).
+
+    python benchmarks/same_progress.py A.log B.log
+
+A preparation prints a progress line about once a second (granwave prepare-packing, or
+``benchmarks/scale.py --large``): the step, max |a|, max |v|, max |w| R, kinetic energy,
+piston height, contacts and dt, then the rate and an ETA. Which steps get a line depends on
+the wall time, but the state at a given step does not (the same seed gives the same bytes for
+any thread count and any chunking): two runs of the same code and seed print the same
+quantities at every step both printed. This compares them there, without the rate and the
+ETA, and says whether they agree at every common step (exit 0) or where they first differ
+(exit 1). It is how a large run that takes an hour is checked against an older run's log at a
+tenth of the cost (run the other code with ``scale.py --large NAME --stop-at STEPS``): a log
+whose lines are identical at hundreds of steps spread over the run can hardly come from
+another trajectory, since the printed digits (4 significant) change within steps.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+
+# a progress line up to (not including) the rate: "step  <n>  max|a| ... dt <dt>"
+LINE = re.compile(r"^step\s+(\d+)\s+(.*?\bdt\s+\S+)")
+
+
+def progress_states(lines) -> dict[int, str]:
+    """step -> the line's deterministic part (the quantities up to dt, spaces normalised)."""
+    states = {}
+    for line in lines:
+        m = LINE.match(line)
+        if m:
+            states[int(m.group(1))] = " ".join(m.group(2).split())
+    return states
+
+
+def compare(a: dict[int, str], b: dict[int, str]) -> tuple[list[int], int | None]:
+    """The steps both logs printed, and the first of them where the lines differ (None: none)."""
+    common = sorted(set(a) & set(b))
+    first = next((s for s in common if a[s] != b[s]), None)
+    return common, first
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("log_a")
+    ap.add_argument("log_b")
+    args = ap.parse_args()
+    logs = []
+    for path in (args.log_a, args.log_b):
+        try:
+            with open(path) as f:
+                states = progress_states(f)
+        except OSError as err:
+            raise SystemExit(f"{path}: {err.strerror}")
+        if not states:
+            raise SystemExit(f"{path}: no progress lines")
+        logs.append(states)
+        print(f"{path}: {len(states)} progress lines, steps {min(states)}-{max(states)}")
+    common, first = compare(*logs)
+    if not common:
+        raise SystemExit("no step printed in both logs: nothing to compare")
+    if first is None:
+        print(f"same: identical at all {len(common)} common steps, {common[0]}-{common[-1]}")
+        return
+    agreed = [s for s in common if s < first]
+    print(f"DIFFERENT at step {first} (identical at the {len(agreed)} common steps before it"
+          + (f", up to {agreed[-1]})" if agreed else ")"))
+    print(f"  A: {logs[0][first]}\n  B: {logs[1][first]}")
+    sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
