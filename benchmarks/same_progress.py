@@ -9,10 +9,11 @@ the wall time, but the state at a given step does not (the same seed gives the s
 any thread count and any chunking): two runs of the same code and seed print the same
 quantities at every step both printed. This compares them there, without the rate and the
 ETA, and says whether they agree at every common step (exit 0) or where they first differ
-(exit 1). It is how a large run that takes an hour is checked against an older run's log at a
-tenth of the cost (run the other code with ``scale.py --large NAME --stop-at STEPS``): a log
-whose lines are identical at hundreds of steps spread over the run can hardly come from
-another trajectory, since the printed digits (4 significant) change within steps.
+(exit 1). It is how a large run that takes hours is checked against an older run's log at a
+fraction of the cost (run the other code with ``scale.py --large NAME --stop-at STEPS``).
+Agreement is to the printed digits (4 significant, 7 for the piston), not byte for byte; but
+those digits change from one printed line to the next, so logs identical at hundreds of steps
+spread over the run can hardly come from two trajectories.
 """
 
 from __future__ import annotations
