@@ -11,7 +11,7 @@ quantities at every step both printed. This compares them there, without the rat
 ETA, and says whether they agree at every common step (exit 0) or where they first differ
 (exit 1). It is how a large run that takes hours is checked against an older run's log at a
 fraction of the cost (run the other code with ``scale.py --large NAME --stop-at STEPS``).
-Agreement is to the printed digits (4 significant, 7 for the piston), not byte for byte; but
+Agreement is to the printed digits (4 significant; the piston to 1e-4 d), not byte for byte; but
 those digits change from one printed line to the next, so logs identical at hundreds of steps
 spread over the run can hardly come from two trajectories.
 """
