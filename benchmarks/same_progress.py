@@ -7,13 +7,15 @@ A preparation prints a progress line about once a second (granwave prepare-packi
 piston height, contacts and dt, then the rate and an ETA. Which steps get a line depends on
 the wall time, but the state at a given step does not (the same seed gives the same bytes for
 any thread count and any chunking): two runs of the same code and seed print the same
-quantities at every step both printed. This compares them there, without the rate and the
-ETA, and says whether they agree at every common step (exit 0) or where they first differ
-(exit 1). It is how a large run that takes hours is checked against an older run's log at a
-fraction of the cost (run the other code with ``scale.py --large NAME --stop-at STEPS``).
-Agreement is to the printed digits (4 significant; the piston to 1e-4 d), not byte for byte; but
-those digits change from one printed line to the next, so logs identical at hundreds of steps
-spread over the run can hardly come from two trajectories.
+quantities at every step both printed. This compares them there (without the rate and the
+ETA), and the line that reports the mean-flow rule's settling switch where both logs have
+it, and says whether they agree (exit 0) or where they first differ (exit 1). It is how a
+large run that takes hours is checked against an older run's log at a fraction of the cost
+(run the other code with ``scale.py --large NAME --stop-at STEPS``; a reference log is kept
+in benchmarks/reference/). Agreement is to the printed digits (4 significant; the piston to
+1e-4 d), not byte for byte; but those digits change from one printed line to the next, so
+logs identical at hundreds of steps spread over the run can hardly come from two
+trajectories.
 """
 
 from __future__ import annotations
@@ -36,6 +38,12 @@ def progress_states(lines) -> dict[int, str]:
     return states
 
 
+def settling_switch(lines) -> str | None:
+    """The line that reports the mean-flow rule's settling switch (printed once, at fixed step
+    counts: deterministic like the progress lines), or None."""
+    return next((line.strip() for line in lines if line.startswith("plug arrived")), None)
+
+
 def compare(a: dict[int, str], b: dict[int, str]) -> tuple[list[int], int | None]:
     """The steps both logs printed, and the first of them where the lines differ (None: none)."""
     common = sorted(set(a) & set(b))
@@ -48,20 +56,29 @@ def main() -> None:
     ap.add_argument("log_a")
     ap.add_argument("log_b")
     args = ap.parse_args()
-    logs = []
+    logs, switches = [], []
     for path in (args.log_a, args.log_b):
         try:
             with open(path) as f:
-                states = progress_states(f)
+                lines = f.readlines()
         except OSError as err:
             raise SystemExit(f"{path}: {err.strerror}")
+        states = progress_states(lines)
         if not states:
             raise SystemExit(f"{path}: no progress lines")
         logs.append(states)
+        switches.append(settling_switch(lines))
         print(f"{path}: {len(states)} progress lines, steps {min(states)}-{max(states)}")
     common, first = compare(*logs)
     if not common:
         raise SystemExit("no step printed in both logs: nothing to compare")
+    if None not in switches:
+        if switches[0] != switches[1]:
+            print(f"DIFFERENT settling switch:\n  A: {switches[0]}\n  B: {switches[1]}")
+            sys.exit(1)
+        print(f"settling switch: the same ({switches[0]})")
+    elif switches != [None, None]:
+        print("settling switch: in one log only (the other stopped before it, or has no such rule)")
     if first is None:
         print(f"same: identical at all {len(common)} common steps, {common[0]}-{common[-1]}")
         return
