@@ -473,10 +473,11 @@ DEFAULT_LARGE_COMPACTION = "mean-flow"
 
 
 def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: str = "late",
-               max_steps: int = 20_000_000):
+               stop_at: int | None = None):
     from granwave.dem.params import PrepareParams
 
     compaction = compaction or DEFAULT_LARGE_COMPACTION
+    max_steps = 20_000_000 if stop_at is None else stop_at  # a budget no large run reaches, unless asked
 
     if name == "column":
         n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
@@ -506,7 +507,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
 
     if stop_at is not None and name == "time":
         raise SystemExit("--stop-at: for a preparation (column, grid2d, grid3d), not the time domain")
-    spec = large_spec(name, tiny, compaction, settling, **({} if stop_at is None else dict(max_steps=stop_at)))
+    spec = large_spec(name, tiny, compaction, settling, stop_at)
     print(f"{name}: {spec['note']}; {load()}")
     if name == "time":
         rows, width = spec["rows"], spec["width"]
