@@ -544,13 +544,13 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
     if dry_run:
         return
     from granwave.dem.protocol import prepare_packing
-    from granwave.errors import ConvergenceError
+    from granwave.errors import StepBudgetExceeded
 
     w0, c0 = time.perf_counter(), time.process_time()
     try:
         pk = prepare_packing(p, progress=print)
-    except ConvergenceError as err:
-        if stop_at is None or not str(err).startswith(f"{stop_at} steps "):  # not the budget: a real failure
+    except StepBudgetExceeded:  # any other failure (a blow-up) is raised as it is
+        if stop_at is None:
             raise
         print(f"  stopped after {stop_at} steps as asked (--stop-at), {time.perf_counter() - w0:.1f} s wall "
               f"({time.process_time() - c0:.1f} s CPU; {load()}); peak memory {resources.format_bytes(peak_memory())}")

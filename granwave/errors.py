@@ -19,3 +19,16 @@ class OutputError(Exception):
 
 class ConvergenceError(RuntimeError):
     """An iterative procedure did not reach its tolerance within its budget."""
+
+
+class StepBudgetExceeded(ConvergenceError):
+    """A run used its whole step budget (``max_steps``, recorded as ``steps``) without
+    converging, as opposed to blowing up: a caller that set a short budget on purpose can
+    tell the two apart without reading the message."""
+
+    def __init__(self, message: str, steps: int):
+        super().__init__(message)
+        self.steps = steps
+
+    def __reduce__(self):  # keep ``steps`` when the error crosses a process boundary
+        return type(self), (str(self), self.steps)

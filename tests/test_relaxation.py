@@ -17,7 +17,7 @@ from granwave.dem.integrator import Engine
 from granwave.dem import protocol
 from granwave.dem.protocol import (COMPACTION_RULES, damping_scale, expected_height, mean_flow_scale,
                                    prepare_packing, step_budget)
-from granwave.errors import ConvergenceError, InputError
+from granwave.errors import ConvergenceError, InputError, StepBudgetExceeded
 from granwave.geometry import lateral_size, wall_area
 from granwave.io import files
 from granwave.params import PrepareParams
@@ -84,8 +84,9 @@ def test_default_budget_follows_the_column(before, monkeypatch):
     assert budget == int(1000 * height / 100.0) > 1000
     with pytest.raises(ConvergenceError, match=rf"^{budget} steps did not converge"):
         prepare_packing(PrepareParams(**tall))
-    with pytest.raises(ConvergenceError, match=r"^700 steps did not converge"):
+    with pytest.raises(ConvergenceError, match=r"^700 steps did not converge") as info:
         prepare_packing(PrepareParams(**tall, max_steps=700))
+    assert isinstance(info.value, StepBudgetExceeded) and info.value.steps == 700  # the budget, not a blow-up
     with pytest.raises(ConvergenceError, match=r"^1000 steps did not converge"):
         prepare_packing(PrepareParams(**BEFORE))  # 12.5 d: the least budget
 

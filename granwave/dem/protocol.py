@@ -44,7 +44,7 @@ import time
 import numpy as np
 
 from .. import contact as C
-from ..errors import ConvergenceError, InputError
+from ..errors import ConvergenceError, InputError, StepBudgetExceeded
 from ..geometry import (EXPECTED_SOLID_FRACTION_2D, EXPECTED_SOLID_FRACTION_3D, grain_inertia, grain_mass,
                         grain_measure, lateral_size, wall_area, wrap)
 from ..model import Packing
@@ -316,8 +316,8 @@ class Compression:
                          f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
         m = engine.measure()
-        raise ConvergenceError(f"{self.max_steps} steps {failure}: "
-                               + non_convergence_hint(history, m, p, engine.dt, self.max_steps))
+        raise StepBudgetExceeded(f"{self.max_steps} steps {failure}: "
+                                 + non_convergence_hint(history, m, p, engine.dt, self.max_steps), self.max_steps)
 
 
 def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Packing:
