@@ -3,7 +3,7 @@
     python benchmarks/scale.py [--quick] [--write-docs]
     python benchmarks/scale.py --large column|grid2d|grid3d|time [--dry-run | --tiny]
         [--compaction fixed|height-scaled|mean-flow] [--settling compaction|critical|late]
-        [--stop-at STEPS]
+        [--end-game none|adaptive] [--stop-at STEPS]
 
 Default run, every number a ratio measured in this one run (so that the load of a shared
 machine affects numerator and denominator alike; the load average is printed with them):
@@ -473,7 +473,7 @@ DEFAULT_LARGE_COMPACTION = "mean-flow"
 
 
 def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: str = "late",
-               stop_at: int | None = None):
+               stop_at: int | None = None, end_game: str = "none"):
     from granwave.dem.params import PrepareParams
 
     compaction = compaction or DEFAULT_LARGE_COMPACTION
@@ -482,17 +482,17 @@ def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: s
     if name == "column":
         n, aspect = (300, 4.0) if tiny else (21_000, 32.0)  # 25 x 800 d at solid fraction ~0.84
         return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, aspect=aspect, compaction=compaction,
-                                         mean_flow_settling=settling, max_steps=max_steps),
+                                         mean_flow_settling=settling, max_steps=max_steps, end_game=end_game),
                     steps=_square_steps(800.0), note="2D column 25 x 800 d, p = 1e-4")
     if name == "grid2d":
         n = 300 if tiny else 100_000
         return dict(params=PrepareParams(dim=2, grains=n, pressure=1e-4, compaction=compaction,
-                                         mean_flow_settling=settling, max_steps=max_steps),
+                                         mean_flow_settling=settling, max_steps=max_steps, end_game=end_game),
                     steps=_square_steps(math.sqrt(n)), note="2D square, p = 1e-4")
     if name == "grid3d":
         n = 300 if tiny else 100_000
         return dict(params=PrepareParams(dim=3, grains=n, pressure=1e-4, friction=0.5, compaction=compaction,
-                                         mean_flow_settling=settling, max_steps=max_steps),
+                                         mean_flow_settling=settling, max_steps=max_steps, end_game=end_game),
                     steps=_square_steps(n ** (1 / 3)),
                     note="3D cube, mu = 0.5, p = 1e-4 (steps: the 2D model at the height, a guess)")
     if name == "time":
@@ -502,12 +502,12 @@ def large_spec(name: str, tiny: bool, compaction: str | None = None, settling: s
 
 
 def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: str | None = None,
-          settling: str = "late", stop_at: int | None = None) -> None:
+          settling: str = "late", stop_at: int | None = None, end_game: str = "none") -> None:
     from granwave import resources
 
     if stop_at is not None and name == "time":
         raise SystemExit("--stop-at: for a preparation (column, grid2d, grid3d), not the time domain")
-    spec = large_spec(name, tiny, compaction, settling, stop_at)
+    spec = large_spec(name, tiny, compaction, settling, stop_at, end_game)
     print(f"{name}: {spec['note']}; {load()}")
     if name == "time":
         rows, width = spec["rows"], spec["width"]
@@ -555,7 +555,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
         print(f"  stopped after {stop_at} steps as asked (--stop-at), {time.perf_counter() - w0:.1f} s wall "
               f"({time.process_time() - c0:.1f} s CPU; {load()}); peak memory {resources.format_bytes(peak_memory())}")
         return
-    print(f"  compaction {p.compaction} (settling {p.mean_flow_settling}): prepared in {time.perf_counter() - w0:.1f} s wall "
+    print(f"  compaction {p.compaction} (settling {p.mean_flow_settling}, end game {p.end_game}): prepared in {time.perf_counter() - w0:.1f} s wall "
           f"({time.process_time() - c0:.1f} s CPU; {load()}), {pk.attrs['steps']} steps; "
           f"peak memory {resources.format_bytes(peak_memory())}")
 
@@ -600,6 +600,9 @@ def main() -> None:
     ap.add_argument("--settling", choices=("late", "compaction", "critical"), default="late",
                     help="with --large column|grid2d|grid3d and the mean-flow compaction: the mean flow's settling rule "
                          "(default: PrepareParams' default, 'late'; docs/dem.md 'Late settling')")
+    ap.add_argument("--end-game", choices=("none", "adaptive"), default="none",
+                    help="with --large column|grid2d|grid3d: the end-game rule (default: PrepareParams' default, "
+                         "'none'; docs/dem.md 'End game')")
     ap.add_argument("--stop-at", type=int, default=None, metavar="STEPS",
                     help="with --large column|grid2d|grid3d: stop the preparation after STEPS steps (to compare "
                          "its progress lines with another run's: benchmarks/same_progress.py)")
@@ -615,7 +618,8 @@ def main() -> None:
     if args.engines_only and args.write_docs:
         raise SystemExit("--engines-only: a partial table; not with --write-docs")
     if args.large:
-        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling, args.stop_at)
+        large(args.large, args.dry_run, args.tiny, args.rate, args.compaction, args.settling, args.stop_at,
+              args.end_game)
     else:
         threads = tuple(int(t) for t in args.threads.split(","))
         if threads[0] != 1 or len(threads) < 2:

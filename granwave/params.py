@@ -188,7 +188,8 @@ class PrepareParams(Params):
     ('late', the default: once the plug has arrived and the kinetic energy has fallen
     1000-fold, the mean vertical and lateral flow damped near critically for the column's
     breathing; 'compaction': the mean flow at the compaction rate to the end; 'critical':
-    that damping from the plug's arrival on); piston_mass (rho d^3, None:
+    that damping from the plug's arrival on); end_game ('none'; 'adaptive': once every
+    acceleration is below 100 tol, the background damping matched to the slowest mode); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps (None: 2e6 per 100 d of
     the expected height, at least 2e6); seed; safety
@@ -237,6 +238,12 @@ class PrepareParams(Params):
                                     "switches at the end of the swing: about a third fewer steps, but "
                                     "other stresses (docs/dem.md 'Critical settling').",
                                     choices=("late", "compaction", "critical"))
+    end_game: str = param("none", help="The background damping once every acceleration is below "
+                          "100 tol (after the mean flow's settling, where that rule is on): 'none' keeps "
+                          "it; 'adaptive' matches it to the slowest mode, read from the decay of the kinetic "
+                          "energy (between 0.05 and 1 times b / t_i): slow overdamped modes, such as grains "
+                          "rolling in a 3D frictional packing, settle several times faster "
+                          "(docs/dem.md 'End game').", choices=("none", "adaptive"))
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)

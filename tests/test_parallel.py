@@ -27,6 +27,8 @@ from granwave.linear.check import reference_lattice
 #: is below gamma in this short column, so that the lateral mean flow's own term acts
 CRITICAL = PrepareParams(grains=120, aspect=3.0, background_damping=3.0, seed=11, tol=1e-9,
                          compaction="mean-flow", reference_height=2.0, mean_flow_settling="critical")
+#: overdamped (b = 10), so that the adaptive end game lowers the background damping 19 times
+END_GAME = PrepareParams(grains=90, seed=12, tol=1e-9, background_damping=10.0, end_game="adaptive")
 
 two_threads = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 threads")
 
@@ -52,7 +54,8 @@ def _at(n_threads, fn):
     PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
     PrepareParams(grains=90, seed=11, tol=1e-9, compaction="mean-flow", reference_height=2.0),
     CRITICAL,
-], ids=["2d-frictional", "3d-frictional", "2d-mean-flow", "2d-critical-settling"])
+    END_GAME,
+], ids=["2d-frictional", "3d-frictional", "2d-mean-flow", "2d-critical-settling", "2d-end-game"])
 def test_prepared_packing_same_bytes_for_1_and_2_threads(params, monkeypatch):
     """The parallel passes run even on these small systems (threshold lowered): positions,
     contacts, forces and tangential forces byte for byte equal."""
@@ -178,7 +181,8 @@ def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
     PrepareParams(dim=3, grains=60, seed=12, tol=1e-9, friction=0.5),
     PrepareParams(grains=90, seed=11, tol=1e-9, compaction="mean-flow", reference_height=2.0),
     CRITICAL,
-], ids=["2d-frictional", "3d-frictional", "2d-mean-flow", "2d-critical-settling"])
+    END_GAME,
+], ids=["2d-frictional", "3d-frictional", "2d-mean-flow", "2d-critical-settling", "2d-end-game"])
 def test_single_pair_loop_equals_the_parallel_passes(params, monkeypatch):
     """One thread runs the single pair loop (dem/serial.py); the two passes of the parallel
     engine, run on one thread instead, give the same bytes."""

@@ -244,6 +244,22 @@ class Engine:
                     return status
         return 0
 
+    def damping_rates(self) -> tuple:
+        """The background damping rates now (1 / time unit): (gamma, a copy of ``mflow``), the
+        argument ``base`` of :meth:`cap_background_damping`."""
+        return float(self.fpar[K.F_GAMMA]), self.mflow.copy()
+
+    def cap_background_damping(self, rate: float, base: tuple) -> None:
+        """Set every background damping rate (grains; with 'mean-flow', the mean flows and the
+        piston) to the least of ``rate`` (1 / time unit) and its value in ``base``
+        (:meth:`damping_rates`), from the next step on (the end game of
+        :mod:`granwave.dem.end_game`; the GPU engine uploads the parameters at every run)."""
+        gamma, mflow = base
+        self.fpar[K.F_GAMMA] = min(gamma, rate)
+        if self.mflow.shape[0] > 0:
+            self.mflow[M_GAMMA_M] = min(mflow[M_GAMMA_M], rate)
+            self.mflow[M_GAMMA_L] = min(mflow[M_GAMMA_L], rate)
+
     def measure(self) -> dict:
         """Largest accelerations and speeds, kinetic energy (piston included)."""
         K.measure(self.velocity, self.acceleration, self.angular_velocity, self.angular_acceleration,

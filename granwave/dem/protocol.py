@@ -51,6 +51,7 @@ from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
 from .integrator import Engine, eta_seconds
+from .end_game import END_GAME_RULES, EndGame, largest_acceleration
 from .settling import LATE_FRACTION, SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
 from ..params import PrepareParams, default_gas_density
 
@@ -229,6 +230,12 @@ class Compression:
         self.settling = (CriticalSettling(self.engine, self.gamma, SAMPLE_CHECKS * p.check_every,
                                           late=LATE_FRACTION if p.mean_flow_settling == "late" else None)
                          if self.gamma_mean is not None and p.mean_flow_settling != "compaction" else None)
+        #: end_game 'adaptive': matches the background damping to the slowest mode once the packing
+        #: is all but static (None: 'none', the protocol without it to the bit)
+        self.end_game = (EndGame(self.engine, self.engine.run if self.settling is None else self.settling.run,
+                                 gamma=self.gamma, tol=p.tol, every=SAMPLE_CHECKS * p.check_every,
+                                 settling=self.settling)
+                         if p.end_game == "adaptive" else None)
 
     def packing(self, attrs: dict) -> Packing:
         """The engine's current state as a packing, with the protocol in its attributes."""
@@ -251,6 +258,9 @@ class Compression:
                      mean_flow_settling_rule=SETTLING_RULES[p.mean_flow_settling])
             if self.settling is not None:
                 a.update(self.settling.attrs())
+        if self.end_game is not None:
+            a.update(self.end_game.attrs())
+        a.update(end_game=p.end_game, end_game_rule=END_GAME_RULES[p.end_game])
         r = self.radius
         return Packing(position=wrap(engine.position, self.lateral), radius=r.copy(),
                        mass=self.mass.copy(), inertia=grain_inertia(r),
@@ -266,13 +276,15 @@ class Compression:
         run blows up (with ``blow_up_hint``) or ``self.max_steps`` steps ``failure``.
         """
         p, engine = self.params, self.engine
-        advance = engine.run if self.settling is None else self.settling.run
+        advance = (self.end_game.run if self.end_game is not None
+                   else engine.run if self.settling is None else self.settling.run)
         chunk = 2000
         last = time.perf_counter()
         last_steps = 0
         history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
         speeds = []  # (steps, largest of |v|, |w| R and the piston's |v|): the ETA waits for them too
         announced = False  # the settling switch reported
+        announced_end = False  # the end game's start reported
         while engine.steps < self.max_steps:
             t0 = time.perf_counter()
             status = advance(min(chunk, self.max_steps - engine.steps))
@@ -281,7 +293,7 @@ class Compression:
                     f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
                     f"non-finite motion) at dt {engine.dt:.3g}: {blow_up_hint}")
             m = engine.measure()
-            history.append((engine.steps, _max_acceleration(m)))
+            history.append((engine.steps, largest_acceleration(m)))
             speeds.append((engine.steps, _max_speed(m)))
             if progress is not None and self.settling is not None and self.settling.done and not announced:
                 announced = True
@@ -290,6 +302,10 @@ class Compression:
                          f"{s.switch_step}): breathing "
                          f"frequency {s.breathing_frequency:.3g}, mean flow damped at {engine.mflow[0]:.3g} "
                          f"(was {self.gamma_mean:.3g})")
+            if progress is not None and self.end_game is not None and self.end_game.started and not announced_end:
+                announced_end = True
+                progress(f"end game from step {self.end_game.start_step}: the background damping "
+                         f"({self.gamma:.3g}) follows the slowest mode")
             elapsed = time.perf_counter() - t0
             # about one progress line per second
             if elapsed > 0:
@@ -307,12 +323,15 @@ class Compression:
                 rate = (engine.steps - last_steps) * engine.position.shape[0] / (now - last)
                 eta = eta_seconds(((history, p.tol), (speeds, self.tol_v)), rate / engine.position.shape[0],
                                   steps_left=self.max_steps - engine.steps)
-                progress(f"step {engine.steps:>9d}  max|a| {_max_acceleration(m):.3e}"
+                progress(f"step {engine.steps:>9d}  max|a| {largest_acceleration(m):.3e}"
                          f"  max|v| {m['max_speed']:.3e}"
                          # frictional grains rotate; their spin is part of the convergence test
                          + (f"  max|wR| {m['max_rotation_speed']:.3e}" if p.friction > 0 else "")
                          + f"  KE {m['kinetic_energy']:.3e}  piston {engine.height:.4f}"
-                         f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
+                         # the end game's background damping rate, once it follows the slowest mode
+                         + (f"  damping {self.end_game.rate:.3g}"
+                            if self.end_game is not None and self.end_game.started else "")
+                         + f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
                          f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
         m = engine.measure()
@@ -350,10 +369,6 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
                                    f"{p.damping:g}, friction {p.friction:g}; use a smaller --safety"))
 
 
-def _max_acceleration(m: dict) -> float:
-    return max(m["max_acceleration"], m["max_angular_acceleration"], m["piston_acceleration"])
-
-
 def _max_speed(m: dict) -> float:
     """The largest of the speeds the convergence test holds below the velocity threshold."""
     return max(m["max_speed"], m["max_rotation_speed"], m["piston_speed"])
@@ -369,7 +384,7 @@ def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float, budget: 
     unstable step (safety too large for the damping) or a system that cannot come to rest
     (no damping) will not converge. Otherwise max |a| was still falling: more steps can help.
     """
-    a_now = _max_acceleration(m)
+    a_now = largest_acceleration(m)
     seen = f"max |a| {a_now:.3e} (tol {p.tol:g}), max |v| {m['max_speed']:.3e}"
     half = [a for s, a in history if s > budget / 2]
     first = [a for s, a in history if s <= budget / 2]

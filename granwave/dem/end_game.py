@@ -1,0 +1,148 @@
+"""End-game damping: a lower background damping once the packing is all but static.
+
+The background damping -gamma m v, -gamma I w (gamma = b / t_i) sets the compaction speed
+and with it what a packing is. Once every acceleration is small, the packing's contacts
+are settled and what is left to decay are its slowest modes. Those that are overdamped at
+gamma (soft collective modes; in 3D frictional packings grains rolling on the walls and
+on each other, docs/dem.md "Large runs") decay only at about omega^2 / gamma: 75 times
+slower than gamma itself in a 10^5-sphere cube, where they held the convergence test for
+most of the run. Lowering gamma by a factor f speeds such modes up by 1 / f (until they
+are critically damped) and slows the underdamped ones, which decay at gamma / 2 (the
+contact damping, unchanged, keeps damping every mode that loads a contact).
+
+A fixed lower rate would slow the packings whose slowest modes are underdamped (a 300-disc
+packing took 2.3 times the steps with gamma / 10). So the rule measures which case it is in
+and matches the rate to the slowest mode, the damping ratio that decays it fastest:
+
+1. every ``every`` steps (at step counts that are multiples of ``every``, as
+   :class:`granwave.dem.settling.CriticalSettling` samples: every decision is a function of
+   the state alone, the same bits for any chunking or thread count), once the settling of
+   the mean flow has switched (where that rule is on), the largest acceleration (grains'
+   |a| and |alpha|, the piston's |a|) is read; the first sample below :data:`START` x tol
+   starts the end game;
+2. from then on, every :data:`WINDOW` samples, the decay rate r of the velocities over the
+   window is read from the kinetic energy K (grains, rotations and piston):
+   r = ln(K_before / K_now) / (2 x the window's time). A mode overdamped at the present rate
+   gamma_c decays at r = omega^2 / gamma_c, so omega^2 = r gamma_c, and critical damping is
+   2 omega: the new rate is 2 sqrt(r gamma_c), held between :data:`FLOOR` gamma and gamma
+   (an underdamped mode decays at r = gamma_c / 2 and gives 1.4 gamma_c: the rate climbs
+   back to gamma). A window whose K did not fall (a rearrangement) sets gamma again: grains
+   rearrange under the protocol's damping.
+
+The rate applies to every background damping (grains, mean flows and piston; none is
+raised above what it was). Nothing else changes: the convergence test is the same, and
+the default (no end game) does not build this rule at all (the bits of the protocol
+without it).
+"""
+
+from __future__ import annotations
+
+import math
+
+#: the end game starts at the first sample with every acceleration below this many tol
+START = 100.0
+#: samples per window over which the decay rate is measured
+WINDOW = 10
+#: the least rate, as a fraction of the protocol's b / t_i
+FLOOR = 0.05
+
+#: the end-game rules (PrepareParams.end_game) and what they do (recorded)
+END_GAME_RULES = {
+    "none": "the background damping b / t_i to the end",
+    "adaptive": (f"from the first sample (every sampling interval, at multiples of it; after the mean flow's "
+                 f"settling switch where that rule is on) with max |a|, |alpha| of grains and |a| of the "
+                 f"piston below {START:g} tol, every {WINDOW} samples: r = ln(K_before / K_now) / (2 x time) "
+                 f"from the kinetic energy K, every background damping rate set to at most "
+                 f"min(gamma, max({FLOOR:g} gamma, 2 sqrt(r gamma_c))) (gamma_c the present rate, gamma = "
+                 f"b / t_i), gamma again where K did not fall"),
+}
+
+
+def largest_acceleration(m: dict) -> float:
+    """The largest of the accelerations the convergence test holds below tol (an engine's
+    :meth:`measure` dict): grains' |a| and |alpha|, the piston's |a|."""
+    return max(m["max_acceleration"], m["max_angular_acceleration"], m["piston_acceleration"])
+
+
+class EndGame:
+    """Runs a preparation and matches its background damping to the slowest mode in the end game.
+
+    ``engine``: an :class:`granwave.dem.integrator.Engine` (or its GPU subclass);
+    ``advance``: the callable that advances it (``engine.run``, or the settling rule's
+    ``run``); ``settling``: that rule (None: none), whose switch the end game waits for;
+    ``gamma``: the background damping rate b / t_i (1 / time unit); ``tol``: the convergence
+    threshold on every acceleration; ``every``: the sampling interval (steps). Use
+    :meth:`run` in place of ``advance``.
+    """
+
+    def __init__(self, engine, advance, *, gamma: float, tol: float, every: int, settling=None):
+        self.engine, self.advance, self.settling = engine, advance, settling
+        self.gamma = float(gamma)
+        self.rate = self.gamma  # the present rate gamma_c
+        self.threshold = START * float(tol)
+        self.every = int(every)
+        self.start_step: int | None = None  # the sample that started the end game
+        self.changes = 0  # windows that changed the rate
+        self.lowest_rate = self.gamma
+        self._samples = 0  # samples since the end game started
+        self._window_kinetic = math.nan
+        self._window_time = 0.0
+        self._last_sample = 0
+        self._base = None  # the engine's rates when the end game started
+
+    @property
+    def started(self) -> bool:
+        return self.start_step is not None
+
+    def run(self, n_steps: int) -> int:
+        """Advance up to ``n_steps`` steps as ``engine.run`` does (same return codes), sampling
+        at multiples of ``every``."""
+        e = self.engine
+        target = e.steps + int(n_steps)
+        while e.steps < target:
+            before = e.steps
+            status = self.advance(min(target, (before // self.every + 1) * self.every) - before)
+            if e.steps % self.every == 0:
+                self._sample()
+            if status != 0:
+                return status
+        return 0
+
+    def _sample(self) -> None:
+        e = self.engine
+        if not self.started:
+            if self.settling is not None and not self.settling.done:
+                return
+            m = e.measure()
+            if largest_acceleration(m) < self.threshold:
+                self.start_step = self._last_sample = e.steps
+                self._window_kinetic = m["kinetic_energy"]
+                self._base = e.damping_rates()
+            return
+        # the interval since the last sample, at the step of its end (dt changes at checks only)
+        self._window_time += (e.steps - self._last_sample) * e.dt
+        self._last_sample = e.steps
+        self._samples += 1
+        if self._samples % WINDOW:
+            return
+        kinetic = e.measure()["kinetic_energy"]
+        before, elapsed = self._window_kinetic, self._window_time
+        self._window_kinetic, self._window_time = kinetic, 0.0
+        if 0.0 < kinetic < before:
+            decay = math.log(before / kinetic) / (2.0 * elapsed)  # of the velocities
+            rate = min(self.gamma, max(FLOOR * self.gamma, 2.0 * math.sqrt(decay * self.rate)))
+        else:
+            rate = self.gamma  # K did not fall: a rearrangement, under the protocol's damping
+        if rate != self.rate:
+            self.rate = rate
+            self.changes += 1
+            self.lowest_rate = min(self.lowest_rate, rate)
+            e.cap_background_damping(rate, self._base)
+
+    def attrs(self) -> dict:
+        """What the rule did, for the packing's attributes (-1 / NaN: did not start)."""
+        return dict(end_game_start=self.threshold,
+                    end_game_step=-1 if self.start_step is None else self.start_step,
+                    end_game_changes=self.changes,
+                    end_game_lowest_rate=self.lowest_rate if self.started else math.nan,
+                    end_game_final_rate=self.rate if self.started else math.nan)
