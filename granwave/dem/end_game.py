@@ -29,6 +29,10 @@ and matches the rate to the slowest mode, the damping ratio that decays it faste
    back to gamma). A window whose K did not fall (a rearrangement) sets gamma again: grains
    rearrange under the protocol's damping.
 
+What it sees is the kinetic energy as a whole: a creep that carries little of it (the rolling
+of a few grains in a 10^5-sphere cube, while the rest still rings) is not what sets K's decay,
+and there the rule gained little (docs/dem.md "End game").
+
 The rate applies to every background damping (grains, mean flows and piston; none is
 raised above what it was). Nothing else changes: the convergence test is the same, and
 the default (no end game) does not build this rule at all (the bits of the protocol
@@ -140,8 +144,10 @@ class EndGame:
             e.cap_background_damping(rate, self._base)
 
     def attrs(self) -> dict:
-        """What the rule did, for the packing's attributes (-1 / NaN: did not start)."""
-        return dict(end_game_start=self.threshold,
+        """What the rule did, for the packing's attributes (-1 / NaN: did not start): the threshold
+        on every acceleration (E*/(rho d)), the step it started, how many windows changed the
+        rate, the lowest and the final rate (1 / time unit)."""
+        return dict(end_game_threshold=self.threshold,
                     end_game_step=-1 if self.start_step is None else self.start_step,
                     end_game_changes=self.changes,
                     end_game_lowest_rate=self.lowest_rate if self.started else math.nan,
