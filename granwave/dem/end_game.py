@@ -43,6 +43,8 @@ from __future__ import annotations
 
 import math
 
+from .settling import run_sampled
+
 #: the end game starts at the first sample with every acceleration below this many tol
 START = 100.0
 #: samples per window over which the decay rate is measured
@@ -101,16 +103,7 @@ class EndGame:
     def run(self, n_steps: int) -> int:
         """Advance up to ``n_steps`` steps as ``engine.run`` does (same return codes), sampling
         at multiples of ``every``."""
-        e = self.engine
-        target = e.steps + int(n_steps)
-        while e.steps < target:
-            before = e.steps
-            status = self.advance(min(target, (before // self.every + 1) * self.every) - before)
-            if e.steps % self.every == 0:
-                self._sample()
-            if status != 0:
-                return status
-        return 0
+        return run_sampled(self.engine, self.advance, n_steps, self.every, self._sample)
 
     def _sample(self) -> None:
         e = self.engine

@@ -65,6 +65,24 @@ SETTLING_RULES = {
 }
 
 
+def run_sampled(engine, advance, n_steps: int, every: int, sample, finished=None) -> int:
+    """Advance ``engine`` up to ``n_steps`` steps with ``advance`` (``engine.run`` or a rule
+    wrapping it; same return codes), stopping at every step count that is a multiple of
+    ``every`` to call ``sample()`` (samples at fixed step counts: the same bits for any
+    chunking); once ``finished()`` is true, the rest in one call."""
+    target = engine.steps + int(n_steps)
+    while engine.steps < target:
+        if finished is not None and finished():
+            return advance(target - engine.steps)
+        before = engine.steps
+        status = advance(min(target, (before // every + 1) * every) - before)
+        if engine.steps % every == 0:
+            sample()
+        if status != 0:
+            return status
+    return 0
+
+
 class CriticalSettling:
     """Runs an engine whose mean-flow rule is on and switches it to critical settling.
 
@@ -93,19 +111,8 @@ class CriticalSettling:
     def run(self, n_steps: int) -> int:
         """Advance up to ``n_steps`` steps as ``engine.run`` does (same return codes), sampling
         the piston at multiples of ``every`` until the switch."""
-        e = self.engine
-        target = e.steps + int(n_steps)
-        while e.steps < target:
-            if self.done:
-                return e.run(target - e.steps)
-            before = e.steps
-            # up to the next multiple of `every` (samples at fixed step counts)
-            status = e.run(min(target, (before // self.every + 1) * self.every) - before)
-            if e.steps % self.every == 0:
-                self._sample()
-            if status != 0:
-                return status
-        return 0
+        return run_sampled(self.engine, self.engine.run, n_steps, self.every, self._sample,
+                           finished=lambda: self.done)
 
     def _sample(self) -> None:
         e = self.engine
