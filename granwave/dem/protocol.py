@@ -232,10 +232,12 @@ class Compression:
                          if self.gamma_mean is not None and p.mean_flow_settling != "compaction" else None)
         #: end_game 'adaptive': matches the background damping to the slowest mode once the packing
         #: is all but static (None: 'none', the protocol without it to the bit)
-        self.end_game = (EndGame(self.engine, self.engine.run if self.settling is None else self.settling.run,
-                                 gamma=self.gamma, tol=p.tol, every=SAMPLE_CHECKS * p.check_every,
-                                 settling=self.settling)
+        settled = self.engine.run if self.settling is None else self.settling.run
+        self.end_game = (EndGame(self.engine, settled, gamma=self.gamma, tol=p.tol,
+                                 every=SAMPLE_CHECKS * p.check_every, settling=self.settling)
                          if p.end_game == "adaptive" else None)
+        #: what advances the run: the engine, wrapped by the rules that are on
+        self.advance = settled if self.end_game is None else self.end_game.run
 
     def packing(self, attrs: dict) -> Packing:
         """The engine's current state as a packing, with the protocol in its attributes."""
@@ -276,8 +278,6 @@ class Compression:
         run blows up (with ``blow_up_hint``) or ``self.max_steps`` steps ``failure``.
         """
         p, engine = self.params, self.engine
-        advance = (self.end_game.run if self.end_game is not None
-                   else engine.run if self.settling is None else self.settling.run)
         chunk = 2000
         last = time.perf_counter()
         last_steps = 0
@@ -287,7 +287,7 @@ class Compression:
         announced_end = False  # the end game's start reported
         while engine.steps < self.max_steps:
             t0 = time.perf_counter()
-            status = advance(min(chunk, self.max_steps - engine.steps))
+            status = self.advance(min(chunk, self.max_steps - engine.steps))
             if status == 3:
                 raise ConvergenceError(
                     f"the run blew up after {engine.steps} steps (an overlap beyond a grain radius or "
