@@ -189,7 +189,8 @@ class PrepareParams(Params):
     1000-fold, the mean vertical and lateral flow damped near critically for the column's
     breathing; 'compaction': the mean flow at the compaction rate to the end; 'critical':
     that damping from the plug's arrival on); end_game ('none'; 'adaptive': once every
-    acceleration is below 100 tol, the background damping matched to the slowest mode); piston_mass (rho d^3, None:
+    acceleration is below 100 tol, the background damping matched to the slowest mode or lowered
+    in a creep); piston_mass (rho d^3, None:
     one layer of grains); gas_density (initial solid fraction, None: 0.50 in 2D,
     0.30 in 3D); tol (E*/(rho d) on every acceleration); max_steps (None: 2e6 per 100 d of
     the expected height, at least 2e6); seed; safety
@@ -240,11 +241,10 @@ class PrepareParams(Params):
                                     choices=("late", "compaction", "critical"))
     end_game: str = param("none", help="The background damping once every acceleration is below "
                           "100 tol (after the mean flow's settling, where that rule is on): 'none' keeps "
-                          "it; 'adaptive' matches it to the slowest mode, read from the decay of the kinetic "
-                          "energy (between 0.05 and 1 times b / t_i): overdamped modes settle faster (a 20 000-sphere "
-                          "cube: 178 300 steps where 'none' had not converged after 283 000), but a creep "
-                          "that carries little of the energy is missed (the 10^5-sphere cube gained little; "
-                          "docs/dem.md 'End game').", choices=("none", "adaptive"))
+                          "it; 'adaptive' matches it to the slowest mode, read from the decay of the largest "
+                          "speed (between 0.05 and 1 times b / t_i; 0.05 while the speeds creep, b / t_i again "
+                          "at a rearrangement): a 20 000-sphere cube converged after 151 600 steps where "
+                          "'none' had not after 283 000 (docs/dem.md 'End game').", choices=("none", "adaptive"))
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)

@@ -20,18 +20,24 @@ and matches the rate to the slowest mode, the damping ratio that decays it faste
    the mean flow has switched (where that rule is on), the largest acceleration (grains'
    |a| and |alpha|, the piston's |a|) is read; the first sample below :data:`START` x tol
    starts the end game;
-2. from then on, every :data:`WINDOW` samples, the decay rate r of the velocities over the
-   window is read from the kinetic energy K (grains, rotations and piston):
-   r = ln(K_before / K_now) / (2 x the window's time). A mode overdamped at the present rate
-   gamma_c decays at r = omega^2 / gamma_c, so omega^2 = r gamma_c, and critical damping is
-   2 omega: the new rate is 2 sqrt(r gamma_c), held between :data:`FLOOR` gamma and gamma
-   (an underdamped mode decays at r = gamma_c / 2 and gives 1.4 gamma_c: the rate climbs
-   back to gamma). A window whose K did not fall (a rearrangement) sets gamma again: grains
-   rearrange under the protocol's damping.
+2. from then on every sample reads the largest speed V the convergence test waits for
+   (grains' |v| and |w| R, the piston's |v|), and every :data:`WINDOW` samples the decay rate
+   r of V over those samples is fitted (least squares on ln V against time):
+   - r > 0: a mode overdamped at the present rate gamma_c decays at r = omega^2 / gamma_c, and
+     critical damping is 2 omega = 2 sqrt(r gamma_c): the rule sets that, held between
+     :data:`FLOOR` gamma and gamma (an underdamped mode decays at gamma_c / 2 and gives
+     1.4 gamma_c: the rate climbs back to gamma);
+   - r <= 0, V did not fall while every acceleration stayed small: a creep, grains sliding or
+     rolling towards a rearrangement at the speed their small force over the damping gives
+     them (in 3D frictional cubes, most of the end game: docs/dem.md "End game"); the rule
+     sets :data:`FLOOR` gamma, so the creep runs its course 1 / FLOOR times faster;
+3. a sample with an acceleration at or above the threshold (a rearrangement: contacts slip
+   or open) sets gamma again, and the fit starts over from the next sample: grains
+   rearrange under the protocol's damping, which the statistics of a packing depend on.
 
-What it sees is the kinetic energy as a whole: a creep that carries little of it (the rolling
-of a few grains in a 10^5-sphere cube, while the rest still rings) is not what sets K's decay,
-and there the rule gained little (docs/dem.md "End game").
+A first version (2026-11-27, code of ee14e17) read the decay from the kinetic energy and
+answered a rise with gamma, also a rise in a creep: in a 10^5-sphere cube the rate kept going
+back to gamma, and the cube did not converge sooner (docs/dem.md "End game").
 
 The rate applies to every background damping (grains, mean flows and piston; none is
 raised above what it was). Nothing else changes: the convergence test is the same, and
@@ -43,12 +49,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .settling import run_sampled
 
 #: the end game starts at the first sample with every acceleration below this many tol
 START = 100.0
-#: samples per window over which the decay rate is measured
-WINDOW = 10
+#: samples over which the decay rate of the speeds is fitted
+WINDOW = 20
 #: the least rate, as a fraction of the protocol's b / t_i
 FLOOR = 0.05
 
@@ -57,10 +65,12 @@ END_GAME_RULES = {
     "none": "the background damping b / t_i to the end",
     "adaptive": (f"from the first sample (every sampling interval, at multiples of it; after the mean flow's "
                  f"settling switch where that rule is on) with max |a|, |alpha| of grains and |a| of the "
-                 f"piston below {START:g} tol, every {WINDOW} samples: r = ln(K_before / K_now) / (2 x time) "
-                 f"from the kinetic energy K, every background damping rate set to at most "
-                 f"min(gamma, max({FLOOR:g} gamma, 2 sqrt(r gamma_c))) (gamma_c the present rate, gamma = "
-                 f"b / t_i), gamma again where K did not fall"),
+                 f"piston below {START:g} tol: every {WINDOW} samples the decay rate r of the largest speed V "
+                 f"(|v|, |w| R of grains, |v| of the piston) is fitted (least squares on ln V against time) and "
+                 f"every background damping rate set to at most min(gamma, max({FLOOR:g} gamma, "
+                 f"2 sqrt(r gamma_c))) (gamma_c the present rate, gamma = b / t_i), to {FLOOR:g} gamma where "
+                 f"V did not fall (a creep); a sample with an acceleration at or above the threshold sets "
+                 f"gamma again and the fit starts over"),
 }
 
 
@@ -68,6 +78,19 @@ def largest_acceleration(m: dict) -> float:
     """The largest of the accelerations the convergence test holds below tol (an engine's
     :meth:`measure` dict): grains' |a| and |alpha|, the piston's |a|."""
     return max(m["max_acceleration"], m["max_angular_acceleration"], m["piston_acceleration"])
+
+
+def largest_speed(m: dict) -> float:
+    """The largest of the speeds the convergence test holds below its velocity threshold (an
+    engine's :meth:`measure` dict): grains' |v| and |w| R, the piston's |v|."""
+    return max(m["max_speed"], m["max_rotation_speed"], m["piston_speed"])
+
+
+def decay_rate(times, speeds) -> float:
+    """The rate r (1 / time unit) of speeds ~ exp(-r t), fitted by least squares on their logarithm."""
+    t = np.asarray(times, dtype=float)
+    s = np.log(np.asarray(speeds, dtype=float))
+    return -float(np.polyfit(t - t[0], s, 1)[0])
 
 
 class EndGame:
@@ -84,16 +107,15 @@ class EndGame:
     def __init__(self, engine, advance, *, gamma: float, tol: float, every: int, settling=None):
         self.engine, self.advance, self.settling = engine, advance, settling
         self.gamma = float(gamma)
-        self.rate = self.gamma  # the present rate gamma_c
+        self.rate = self.gamma  # the present rate
         self.threshold = START * float(tol)
         self.every = int(every)
         self.start_step: int | None = None  # the sample that started the end game
-        self.changes = 0  # windows that changed the rate
+        self.changes = 0  # samples that changed the rate
         self.lowest_rate = self.gamma
-        self._samples = 0  # samples since the end game started
-        self._window_kinetic = math.nan
-        self._window_time = 0.0
+        self._time = 0.0  # since the end game started, at the last sample
         self._last_sample = 0
+        self._fit = ([], [])  # (time, largest speed) of the samples since the last decision
         self._base = None  # the engine's rates when the end game started
 
     @property
@@ -110,36 +132,47 @@ class EndGame:
         if not self.started:
             if self.settling is not None and not self.settling.done:
                 return
-            m = e.measure()
-            if largest_acceleration(m) < self.threshold:
+            if largest_acceleration(e.measure()) < self.threshold:
                 self.start_step = self._last_sample = e.steps
-                self._window_kinetic = m["kinetic_energy"]
                 self._base = e.damping_rates()
             return
         # the interval since the last sample, at the step of its end (dt changes at checks only)
-        self._window_time += (e.steps - self._last_sample) * e.dt
+        self._time += (e.steps - self._last_sample) * e.dt
         self._last_sample = e.steps
-        self._samples += 1
-        if self._samples % WINDOW:
+        m = e.measure()
+        times, speeds = self._fit
+        if largest_acceleration(m) >= self.threshold:
+            # a rearrangement: under the protocol's damping, and its decay read afresh afterwards
+            times.clear()
+            speeds.clear()
+            self._set(self.gamma)
             return
-        kinetic = e.measure()["kinetic_energy"]
-        before, elapsed = self._window_kinetic, self._window_time
-        self._window_kinetic, self._window_time = kinetic, 0.0
-        if 0.0 < kinetic < before:
-            decay = math.log(before / kinetic) / (2.0 * elapsed)  # of the velocities
+        times.append(self._time)
+        speeds.append(largest_speed(m))
+        if len(times) < WINDOW:
+            return
+        decay = decay_rate(times, speeds)
+        times.clear()
+        speeds.clear()
+        if decay > 0.0:
+            # overdamped at the present rate c: decay = omega^2 / c, critical damping 2 omega;
+            # an underdamped mode (decay c / 2) gives 1.4 c: the rate climbs back towards gamma
             rate = min(self.gamma, max(FLOOR * self.gamma, 2.0 * math.sqrt(decay * self.rate)))
         else:
-            rate = self.gamma  # K did not fall: a rearrangement, under the protocol's damping
+            rate = FLOOR * self.gamma  # a creep: its speed is the force over the damping
+        self._set(rate)
+
+    def _set(self, rate: float) -> None:
         if rate != self.rate:
             self.rate = rate
             self.changes += 1
             self.lowest_rate = min(self.lowest_rate, rate)
-            e.cap_background_damping(rate, self._base)
+            self.engine.cap_background_damping(rate, self._base)
 
     def attrs(self) -> dict:
         """What the rule did, for the packing's attributes (-1 / NaN: did not start): the threshold
-        on every acceleration (E*/(rho d)), the step it started, how many windows changed the
-        rate, the lowest and the final rate (1 / time unit)."""
+        on every acceleration (E*/(rho d)), the step it started, how often it changed the rate,
+        the lowest and the final rate (1 / time unit)."""
         return dict(end_game_threshold=self.threshold,
                     end_game_step=-1 if self.start_step is None else self.start_step,
                     end_game_changes=self.changes,

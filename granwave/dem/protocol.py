@@ -51,7 +51,7 @@ from ..model import Packing
 from ..resources import check_prepare
 from .forces import contacts_of_engine, static_residual
 from .integrator import Engine, eta_seconds
-from .end_game import END_GAME_RULES, EndGame, largest_acceleration
+from .end_game import END_GAME_RULES, EndGame, largest_acceleration, largest_speed
 from .settling import LATE_FRACTION, SAMPLE_CHECKS, SETTLING_RULES, CriticalSettling
 from ..params import PrepareParams, default_gas_density
 
@@ -294,7 +294,7 @@ class Compression:
                     f"non-finite motion) at dt {engine.dt:.3g}: {blow_up_hint}")
             m = engine.measure()
             history.append((engine.steps, largest_acceleration(m)))
-            speeds.append((engine.steps, _max_speed(m)))
+            speeds.append((engine.steps, largest_speed(m)))
             if progress is not None and self.settling is not None and self.settling.done and not announced:
                 announced = True
                 s = self.settling
@@ -367,11 +367,6 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
     return run.relax(attrs, progress=progress,
                      blow_up_hint=(f"the explicit step is unstable for safety {p.safety:g}, damping "
                                    f"{p.damping:g}, friction {p.friction:g}; use a smaller --safety"))
-
-
-def _max_speed(m: dict) -> float:
-    """The largest of the speeds the convergence test holds below the velocity threshold."""
-    return max(m["max_speed"], m["max_rotation_speed"], m["piston_speed"])
 
 
 def non_convergence_hint(history, m: dict, p: PrepareParams, dt: float, budget: int) -> str:
