@@ -24,6 +24,7 @@ class FakeEngine:
 
     def __init__(self, speed, acceleration):
         self.steps, self.dt = 0, DT
+        self.radius = np.array([0.6, 0.5])  # |w| R / R_min = 2 |w| R for the rotations
         self.speed, self.acceleration = speed, acceleration
         self.caps = []  # (step, rate)
         self.measured = []  # steps
@@ -131,6 +132,28 @@ def test_a_rearrangement_restores_the_protocols_rate_and_the_fit_starts_over():
     game.run(burst + window)
     low = pytest.approx(2.0 * math.sqrt(1e-4 * GAMMA), rel=1e-9)
     assert eng.caps == [(EVERY + window, low), (burst, GAMMA), (burst + window, low)]
+
+
+def test_the_rules_own_change_is_not_a_rearrangement():
+    """Lowering the damping frees the force a creeping grain moves against: accelerations up to
+    gamma |w| (|w| = |w| R / R_min) above the threshold keep the low rate; one beyond restores gamma."""
+    def creep(s):  # rising speeds
+        return 1e-6 * (1.0 + 1e-5 * s)
+
+    def share(s):  # gamma max(|v|, |w|): |w| R = creep, R_min = 0.5
+        return GAMMA * creep(s) / 0.5
+
+    window = EG.WINDOW * EVERY
+    eng = FakeEngine(speed=creep, acceleration=lambda s: 0.0)
+    game = _game(eng)
+    game.run(window + EVERY)
+    assert eng.caps == [(window + EVERY, EG.FLOOR * GAMMA)]
+    eng.acceleration = lambda s: 0.99 * (100 * TOL + share(s))
+    game.run(3 * window)
+    assert eng.caps == [(window + EVERY, EG.FLOOR * GAMMA)]
+    eng.acceleration = lambda s: 1.01 * (100 * TOL + share(s))
+    game.run(EVERY)
+    assert eng.caps[-1] == (eng.steps, GAMMA)
 
 
 def test_waits_for_the_settling_switch():

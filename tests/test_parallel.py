@@ -27,7 +27,7 @@ from granwave.linear.check import reference_lattice
 #: is below gamma in this short column, so that the lateral mean flow's own term acts
 CRITICAL = PrepareParams(grains=120, aspect=3.0, background_damping=3.0, seed=11, tol=1e-9,
                          compaction="mean-flow", reference_height=2.0, mean_flow_settling="critical")
-#: overdamped (b = 10), so that the adaptive end game lowers the background damping (once, to 0.23 b / t_i)
+#: overdamped (b = 10), so that the adaptive end game lowers the background damping (4 changes, 25 640 steps)
 END_GAME = PrepareParams(grains=90, seed=12, tol=1e-9, background_damping=10.0, end_game="adaptive")
 
 two_threads = pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 threads")

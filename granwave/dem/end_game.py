@@ -31,9 +31,12 @@ and matches the rate to the slowest mode, the damping ratio that decays it faste
      rolling towards a rearrangement at the speed their small force over the damping gives
      them (in 3D frictional cubes, most of the end game: docs/dem.md "End game"); the rule
      sets :data:`FLOOR` gamma, so the creep runs its course 1 / FLOOR times faster;
-3. a sample with an acceleration at or above the threshold (a rearrangement: contacts slip
-   or open) sets gamma again, and the fit starts over from the next sample: grains
-   rearrange under the protocol's damping, which the statistics of a packing depend on.
+3. a sample with an acceleration at or above the threshold plus gamma times the largest
+   speed (|v|, the piston's |v|, |w| for rotations; what a change of the damping alone can
+   add to an acceleration: lowering it frees the force a creeping grain moves against) is a
+   rearrangement (contacts slip or open): it sets gamma again, and the fit starts over from
+   the next sample: grains rearrange under the protocol's damping, which the statistics of a
+   packing depend on.
 
 A first version (2026-11-27, code of ee14e17) read the decay from the kinetic energy and
 answered a rise with gamma, also a rise in a creep: in a 10^5-sphere cube the rate kept going
@@ -69,8 +72,8 @@ END_GAME_RULES = {
                  f"(|v|, |w| R of grains, |v| of the piston) is fitted (least squares on ln V against time) and "
                  f"every background damping rate set to at most min(gamma, max({FLOOR:g} gamma, "
                  f"2 sqrt(r gamma_c))) (gamma_c the present rate, gamma = b / t_i), to {FLOOR:g} gamma where "
-                 f"V did not fall (a creep); a sample with an acceleration at or above the threshold sets "
-                 f"gamma again and the fit starts over"),
+                 f"V did not fall (a creep); a sample with an acceleration at or above the threshold plus "
+                 f"gamma x max(|v|, |v| of the piston, |w| R / R_min) sets gamma again and the fit starts over"),
 }
 
 
@@ -117,6 +120,7 @@ class EndGame:
         self._last_sample = 0
         self._fit = ([], [])  # (time, largest speed) of the samples since the last decision
         self._base = None  # the engine's rates when the end game started
+        self._smallest_radius = math.inf  # of the grains (d), read when the end game starts
 
     @property
     def started(self) -> bool:
@@ -135,13 +139,14 @@ class EndGame:
             if largest_acceleration(e.measure()) < self.threshold:
                 self.start_step = self._last_sample = e.steps
                 self._base = e.damping_rates()
+                self._smallest_radius = float(e.radius.min())
             return
         # the interval since the last sample, at the step of its end (dt changes at checks only)
         self._time += (e.steps - self._last_sample) * e.dt
         self._last_sample = e.steps
         m = e.measure()
         times, speeds = self._fit
-        if largest_acceleration(m) >= self.threshold:
+        if largest_acceleration(m) >= self.threshold + self._damping_share(m):
             # a rearrangement: under the protocol's damping, and its decay read afresh afterwards
             times.clear()
             speeds.clear()
@@ -161,6 +166,14 @@ class EndGame:
         else:
             rate = FLOOR * self.gamma  # a creep: its speed is the force over the damping
         self._set(rate)
+
+    def _damping_share(self, m: dict) -> float:
+        """The most by which a change of the background damping alone can move any acceleration:
+        gamma |v| for grains and the piston, gamma |w| for rotations (|w| <= max |w| R / R_min).
+        A creeping grain moves at its small force over the damping; lowering the damping frees
+        that force, an acceleration of up to (gamma - rate) |v| (in a 10^5-sphere cube 2e-8 at
+        max |w| R 4e-6, twice the threshold): the rule's own change is not a rearrangement."""
+        return self.gamma * max(m["max_speed"], m["piston_speed"], m["max_rotation_speed"] / self._smallest_radius)
 
     def _set(self, rate: float) -> None:
         if rate != self.rate:
