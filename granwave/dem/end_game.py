@@ -120,7 +120,7 @@ class EndGame:
         self._last_sample = 0
         self._fit = ([], [])  # (time, largest speed) of the samples since the last decision
         self._base = None  # the engine's rates when the end game started
-        self._smallest_radius = math.inf  # of the grains (d), read when the end game starts
+        self._smallest_radius = float(engine.radius.min())  # of the grains (d); radii are fixed
 
     @property
     def started(self) -> bool:
@@ -139,7 +139,6 @@ class EndGame:
             if largest_acceleration(e.measure()) < self.threshold:
                 self.start_step = self._last_sample = e.steps
                 self._base = e.damping_rates()
-                self._smallest_radius = float(e.radius.min())
             return
         # the interval since the last sample, at the step of its end (dt changes at checks only)
         self._time += (e.steps - self._last_sample) * e.dt
