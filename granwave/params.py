@@ -244,8 +244,8 @@ class PrepareParams(Params):
                           "it; 'adaptive' matches it to the slowest mode, read from the decay of the largest "
                           "speed (between 0.05 and 1 times b / t_i; 0.05 while the speeds creep, b / t_i again "
                           "at a rearrangement): a 10^5-sphere cube converged after 219 240 steps (98 min on 2 cores) "
-                          "where 'none' had not after 270 800 (2 h); its effect on 3D packings' statistics is not "
-                          "yet measured over an ensemble (docs/dem.md 'End game').", choices=("none", "adaptive"))
+                          "where 'none' had not after 270 800 (2 h); over 10 cubes of 5000 spheres the statistics "
+                          "agreed within 0.04 standard errors (docs/dem.md 'End game').", choices=("none", "adaptive"))
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)
