@@ -81,14 +81,25 @@ def wrap(position: np.ndarray, lateral: np.ndarray) -> np.ndarray:
     return out
 
 
+def cube(x) -> np.ndarray:
+    """x^3 as two products, the same bits on every machine. numpy's power for exponents other
+    than 2 (like its exp, log, cbrt) runs code chosen for the CPU: with AVX-512 it differs from
+    AVX2 in the last bit of some elements, and through the masses that made every packing's bits
+    depend on the machine that prepared it (docs/dem.md "The same bits on every machine").
+    Products are correctly rounded on every CPU."""
+    x = np.asarray(x, dtype=float)
+    return x * x * x
+
+
 def grain_mass(radius: np.ndarray) -> np.ndarray:
     """Mass of a sphere of density 1: m = pi d^3 / 6 (docs/method.md §1), in rho d^3."""
-    return np.pi * (2.0 * np.asarray(radius)) ** 3 / 6.0
+    return np.pi * cube(2.0 * np.asarray(radius)) / 6.0
 
 
 def grain_inertia(radius: np.ndarray) -> np.ndarray:
     """Moment of inertia of a solid sphere, I = m d^2 / 10, in rho d^5."""
-    return grain_mass(radius) * (2.0 * np.asarray(radius)) ** 2 / 10.0
+    d = 2.0 * np.asarray(radius)
+    return grain_mass(radius) * (d * d) / 10.0
 
 
 def n_rotations(dim: int, friction: float) -> int:
@@ -110,7 +121,7 @@ def wall_area(lateral: np.ndarray) -> float:
 def grain_measure(radius: np.ndarray, dim: int) -> np.ndarray:
     """Area (2D: disk cross-section) or volume (3D) of each grain."""
     radius = np.asarray(radius, dtype=float)
-    return np.pi * radius**2 if dim == 2 else 4.0 / 3.0 * np.pi * radius**3
+    return np.pi * (radius * radius) if dim == 2 else 4.0 / 3.0 * np.pi * cube(radius)
 
 
 def lateral_size(radius: np.ndarray, dim: int, aspect: float) -> float:

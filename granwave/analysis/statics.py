@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..geometry import cube
 from ..model import Packing
 from ..params import BULK_LAYER
 
@@ -185,7 +186,7 @@ def statics(packing: Packing, *, layer: float = BULK_LAYER, min_contacts: int = 
     if wsum > 0:
         mean_n = float(np.sum(weight * fn) / wsum)
         z2 = float(np.sum(weight * fn**2) / wsum / mean_n**2)
-        z3 = float(np.sum(weight * fn**3) / wsum / mean_n**3)
+        z3 = float(np.sum(weight * cube(fn)) / wsum / mean_n**3)
         ny2 = c.normal[:, -1] ** 2
         f2 = float(np.sum(weight * ny2) / wsum)
         strong = weight * (fn > mean_n * (1.0 + 1e-9))  # strictly above: equal forces give none

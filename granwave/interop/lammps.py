@@ -50,7 +50,7 @@ import numpy as np
 
 from .. import contact as C
 from ..errors import InputError
-from ..geometry import wall_area
+from ..geometry import grain_mass, wall_area
 from ..io.files import atomic_text
 from ..model import Packing
 
@@ -118,7 +118,7 @@ def data_text(packing: Packing, *, piston_mass: float, margin: float) -> str:
     pos3 = np.zeros((n, 3))
     pos3[:, :d] = packing.position
     diameter = 2.0 * packing.radius
-    density = packing.mass / (math.pi * diameter**3 / 6.0)  # 1 for granwave grains
+    density = packing.mass / grain_mass(packing.radius)  # 1 for granwave grains
     for k in range(n):
         x, y, z = pos3[k]
         lines.append(f"{k + 1} 1 {diameter[k]:.17g} {density[k]:.17g} {x:.17g} {y:.17g} {z:.17g}")

@@ -121,6 +121,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..geometry import grain_measure
 from ..model import LinearSystem, Packing
 from ..params import BULK_LAYER
 from .assemble import contact_blocks, contact_dofs, dof_layout, n_rotations, scatter_blocks
@@ -231,7 +232,7 @@ def _cell(packing: Packing, prestress: bool) -> _Cell:
                  friction=friction, prestress=prestress, ii=ii, jj=jj, wall=wall, normal=n,
                  branch=branch, force_i=force_i, blocks=blocks, first=first,
                  dof_grain=dof_grain, dof_axis=dof_axis, stiffness=D, idx=idx, layout=layout,
-                 grain_volume=4.0 / 3.0 * np.pi * R**3, active=active,
+                 grain_volume=grain_measure(R, 3), active=active,
                  position=np.asarray(packing.position, float), radius=np.asarray(R, float),
                  touches_wall=touches)
 

@@ -1,0 +1,65 @@
+"""The same seed gives the same bits whatever numpy's SIMD code: numpy picks its loops for
+power, exp, log, cbrt, ... by the CPU (AVX-512, AVX2, the baseline) and they differ in the last
+bit of some elements, which once made every packing depend on the machine that prepared it
+(the masses, pi d^3 / 6, docs/dem.md "The same bits on every machine"). A preparation in 2D and
+a frictional one in 3D, run in a child process with numpy's dispatched CPU features switched
+off (NPY_DISABLE_CPU_FEATURES), must give the bits of one with them on. On a CPU whose best features are the baseline both runs take the same loops and the
+test passes trivially; on this project's machines (AVX-512) they differ."""
+
+import hashlib
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from granwave.geometry import cube, grain_mass
+
+CHILD = r"""
+import hashlib, numpy as np
+from granwave.dem.params import PrepareParams
+from granwave.dem.protocol import prepare_packing
+
+out = []
+for kw in (dict(grains=120, seed=4), dict(dim=3, grains=100, seed=2, friction=0.5)):
+    p = prepare_packing(PrepareParams(**kw))
+    h = hashlib.sha256()
+    for a in (p.position, p.mass, p.inertia, p.contacts.force_normal, p.contacts.force_tangential):
+        h.update(np.ascontiguousarray(a).tobytes())
+    out.append(h.hexdigest())
+print(" ".join(out))
+"""
+
+
+def _dispatched_features() -> list[str]:
+    try:
+        from numpy._core import _multiarray_umath as umath
+    except ImportError:  # numpy < 2
+        from numpy.core import _multiarray_umath as umath
+    return list(getattr(umath, "__cpu_dispatch__", []))
+
+
+def _child_digests(disable: str) -> str:
+    env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=disable)
+    run = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
+    return run.stdout.strip().splitlines()[-1]
+
+
+def test_cube_is_two_products():
+    x = np.random.default_rng(0).uniform(0.3, 0.7, 1000)
+    np.testing.assert_array_equal(cube(x), x * x * x)
+    d = 2.0 * x
+    np.testing.assert_array_equal(grain_mass(x), np.pi * (d * d * d) / 6.0)
+    np.testing.assert_allclose(grain_mass(x), np.pi * d**3 / 6.0, rtol=4e-16)
+
+
+def test_packings_do_not_depend_on_numpys_simd_code():
+    features = _dispatched_features()
+    if not features:
+        pytest.skip("this numpy does not say which CPU features it dispatches on")
+    with_simd = _child_digests("")
+    without = _child_digests(" ".join(features))
+    assert len(with_simd.split()) == 2
+    assert with_simd == without
