@@ -1,5 +1,7 @@
 """HDF5 schema: round trips, refusal of foreign files and versions, atomic writes."""
 
+import platform
+
 import h5py
 import numpy as np
 import pytest
@@ -34,6 +36,11 @@ def test_packing_round_trip(tmp_path):
         assert f.attrs["schema"] == schema.PACKING
         assert f["contacts/overlap"].attrs["units"] == "d_bar"
         assert "granwave_version" in f.attrs
+        # how it was made: the libraries' versions and the machine (whose SIMD loops once
+        # changed the bits of a packing, docs/dem.md "The same bits on every machine")
+        assert f"numpy {np.__version__}" in f.attrs["software"]
+        assert f"h5py {h5py.__version__}" in f.attrs["software"]
+        assert f.attrs["machine"].startswith(platform.machine()) and "numpy SIMD" in f.attrs["machine"]
 
 
 def test_refuses_foreign_schema_and_major_version(tmp_path):
