@@ -58,13 +58,19 @@ def machine() -> str:
             cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
     except OSError:
         pass
+    dispatched, found = numpy_simd()
+    simd = [f for f in dispatched if found.get(f)]
+    return f"{platform.machine()}, {cpu or 'unknown CPU'}, numpy SIMD {' '.join(simd) or 'baseline'}"
+
+
+def numpy_simd() -> tuple[list, dict]:
+    """numpy's dispatched CPU features (the names NPY_DISABLE_CPU_FEATURES takes) and which CPU
+    features this machine has ({name: bool}); empty where numpy does not say."""
     try:
         from numpy._core import _multiarray_umath as umath
     except ImportError:  # numpy < 2
         from numpy.core import _multiarray_umath as umath
-    found = getattr(umath, "__cpu_features__", {})
-    simd = [f for f in getattr(umath, "__cpu_dispatch__", []) if found.get(f)]
-    return f"{platform.machine()}, {cpu or 'unknown CPU'}, numpy SIMD {' '.join(simd) or 'baseline'}"
+    return list(getattr(umath, "__cpu_dispatch__", [])), dict(getattr(umath, "__cpu_features__", {}))
 
 
 #: Root attributes that describe a file itself (written by every writer; never copied

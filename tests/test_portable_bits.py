@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from granwave.geometry import cube, grain_mass
+from granwave.provenance import numpy_simd
 
 CHILD = r"""
 import hashlib, numpy as np
@@ -34,14 +35,6 @@ print(" ".join(out))
 """
 
 
-def _dispatched_features() -> list[str]:
-    try:
-        from numpy._core import _multiarray_umath as umath
-    except ImportError:  # numpy < 2
-        from numpy.core import _multiarray_umath as umath
-    return list(getattr(umath, "__cpu_dispatch__", []))
-
-
 def _child_digests(disable: str) -> str:
     env = dict(os.environ, NPY_DISABLE_CPU_FEATURES=disable)
     run = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True, text=True, timeout=900)
@@ -58,7 +51,7 @@ def test_cube_is_two_products():
 
 
 def test_packings_do_not_depend_on_numpys_simd_code():
-    features = _dispatched_features()
+    features, _ = numpy_simd()
     if not features:
         pytest.skip("this numpy does not say which CPU features it dispatches on")
     control, *with_simd = _child_digests("").split()
