@@ -7,7 +7,6 @@ off (NPY_DISABLE_CPU_FEATURES), must give the bits of one with them on. Each run
 10^5 numbers with numpy's power: where both runs get the same bits there (a CPU without
 AVX-512: numpy's power is then the baseline's), nothing is compared and the test is skipped."""
 
-import hashlib
 import os
 import subprocess
 import sys
