@@ -35,10 +35,27 @@ def simulated() -> bool:
     return os.environ.get("NUMBA_ENABLE_CUDASIM", "0") not in ("", "0")
 
 
+def load_cuda():
+    """numba's CUDA module, loaded after putting back ``numpy.row_stack`` where numpy lacks it.
+
+    numba-cuda 0.30 registers ``np.row_stack`` when it first compiles a kernel, and numpy 2.5
+    removed that name (an alias of ``np.vstack``); without it every kernel fails to compile on
+    a machine whose numpy is 2.5 (docs/gpu.md "On a real H100"). The alias is only added where
+    missing, so other numpy versions are untouched.
+    """
+    import numpy
+
+    if not hasattr(numpy, "row_stack"):
+        numpy.row_stack = numpy.vstack
+    from numba import cuda
+
+    return cuda
+
+
 def require_gpu() -> None:
     """Raise InputError (one line) unless numba's CUDA target and a CUDA device are usable."""
     try:
-        from numba import cuda
+        cuda = load_cuda()
     except Exception as exc:  # ImportError, or a broken CUDA installation
         raise InputError(f"--device gpu: numba's CUDA target cannot be loaded ({exc}); "
                          f"{INSTALL_HINT}") from None

@@ -16,10 +16,11 @@ from __future__ import annotations
 import functools
 import types
 
-from numba import cuda
-
 from .. import contact, geometry
 from ..dem import kernels as K
+from . import load_cuda
+
+cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
 #: The scalar functions of granwave.contact used by the per-contact routine (and each other; a
 #: function after those it calls: each copy binds the names made before it).

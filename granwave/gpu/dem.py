@@ -36,12 +36,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import cuda
 
 from ..dem import kernels as K
 from ..dem.integrator import Engine
-from . import simulated
+from . import load_cuda, simulated
 from .compile import device_functions
+
+cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
 DF = device_functions()
 add_torque3 = DF._add_torque3

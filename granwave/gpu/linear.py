@@ -26,7 +26,6 @@ import time as _time
 from typing import Callable
 
 import numpy as np
-from numba import cuda
 
 from ..errors import InputError
 from ..linear.assemble import asymmetry
@@ -34,7 +33,9 @@ from ..linear.propagate import (DEFAULT_SAFETY, MAX_TIME_STEPS, _check_ic, _chec
                                 carried_attrs, sample_times, stable_time_step)
 from ..model import LinearSystem, Signal
 from ..resources import check_propagate
-from . import simulated
+from . import load_cuda, simulated
+
+cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
 #: Threads per block of the step and of the reductions, and blocks of the first reduction stage
 #: (fixed numbers: the order of the sums is fixed; small in the simulator, which runs every

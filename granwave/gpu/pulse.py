@@ -15,13 +15,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import cuda
 
 from .. import geometry
+from . import load_cuda
 from ..dem import kernels as K
 from ..dem import pulse_kernels as PK
 from .compile import _rebound, device_functions
 from .dem import BLOCK, GpuEngine, _blocks
+
+cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
 _DF = device_functions()
 _names = {"C": _DF, "nearest_image": _DF.nearest_image}
