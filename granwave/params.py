@@ -5,7 +5,7 @@ library (:mod:`granwave.api`) takes it, the CLI builds its click options from
 its fields (:func:`granwave.cli.common.options_from`), and the output files
 record it (:meth:`Params.as_attrs`). Ranges are checked in ``__post_init__``
 and raise :class:`granwave.errors.InputError`; the same physical parameter has
-the same range on every stage (ν in [0, 0.5), μ >= 0, 0 < p <= 0.1 E*, ...).
+the same range on every stage (ν in [0, 0.5), μ >= 0, 1e-12 <= p <= 0.1 E*, ...).
 
 Units are those of ``docs/method.md §1``: lengths in mean grain diameters d,
 masses in ρ d³, pressures and stiffnesses in E* (times d for a stiffness),
@@ -40,6 +40,14 @@ GAS_DENSITY = {2: 0.50, 3: 0.30}
 #: Largest pressure (E*) accepted anywhere: beyond it the overlaps leave the Hertz regime.
 MAX_PRESSURE = 0.1
 
+#: Smallest pressure (E*) accepted anywhere: the Hertz overlaps (~ p^(2/3) d) are then 1e-8 d,
+#: still far above the rounding of positions of order 1-1000 d; far below it (a denormal p, say)
+#: the forces underflow and a preparation runs its whole step budget to no end.
+MIN_PRESSURE = 1e-12
+
+#: Largest seed: seeds are stored as 64-bit signed integers in every output file.
+MAX_SEED = 2**63 - 1
+
 
 def default_gas_density(dim: int) -> float:
     """Initial solid fraction of the gas used when ``gas_density`` is None."""
@@ -62,15 +70,20 @@ def param(default=MISSING, *, help: str, units: str | None = None, lo=None, hi=N
     return dataclasses.field(default=default, metadata=meta)
 
 
+def _num(x) -> str:
+    """A bound or value as text: integers exactly, floats in %g."""
+    return str(x) if isinstance(x, int) else f"{x:g}"
+
+
 def range_text(meta) -> str:
     """The accepted range of a field as text, e.g. ``[0, 0.5)`` or ``> 0``."""
     lo, hi = meta.get("lo"), meta.get("hi")
     if lo is not None and hi is not None:
-        return f"{'(' if meta['lo_open'] else '['}{lo:g}, {hi:g}{')' if meta['hi_open'] else ']'}"
+        return f"{'(' if meta['lo_open'] else '['}{_num(lo)}, {_num(hi)}{')' if meta['hi_open'] else ']'}"
     if lo is not None:
-        return f"{'>' if meta['lo_open'] else '>='} {lo:g}"
+        return f"{'>' if meta['lo_open'] else '>='} {_num(lo)}"
     if hi is not None:
-        return f"{'<' if meta['hi_open'] else '<='} {hi:g}"
+        return f"{'<' if meta['hi_open'] else '<='} {_num(hi)}"
     return ""
 
 
@@ -84,6 +97,8 @@ def _check_field(name: str, value, meta) -> None:
         return
     if isinstance(value, bool) or isinstance(value, (str, tuple, list)):
         return
+    if not isinstance(value, (int, float)):
+        raise InputError(f"{name} must be a number, got {value!r}")
     if isinstance(value, float) and not math.isfinite(value):
         raise InputError(f"{name} must be a finite number, got {value!r}")
     lo, hi = meta.get("lo"), meta.get("hi")
@@ -93,7 +108,7 @@ def _check_field(name: str, value, meta) -> None:
         units = f" {meta['units']}" if meta.get("units") else ""
         why = f": {meta['why']}" if meta.get("why") else ""
         where = "in " if lo is not None and hi is not None else ""
-        raise InputError(f"{name} must be {where}{range_text(meta)}{units}, got {value:g}{why}")
+        raise InputError(f"{name} must be {where}{range_text(meta)}{units}, got {_num(value)}{why}")
 
 
 class Params:
@@ -105,6 +120,8 @@ class Params:
     def __post_init__(self):
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if value is None and f.type in ("int", "float"):
+                raise InputError(f"{f.name} must be a number, got None")
             if f.type in ("int", "int | None") and value is not None:
                 if isinstance(value, bool) or not isinstance(value, int):
                     if isinstance(value, float) and value.is_integer():
@@ -112,10 +129,13 @@ class Params:
                         value = int(value)
                     else:
                         raise InputError(f"{f.name} must be an integer, got {value!r}")
-            if f.type in ("float", "float | None") and isinstance(value, int) \
-                    and not isinstance(value, bool):
-                object.__setattr__(self, f.name, float(value))
-                value = float(value)
+            if f.type in ("float", "float | None") and value is not None:
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    # True would pass as 1.0 and "1e-4" would fail deep inside a kernel
+                    raise InputError(f"{f.name} must be a number, got {value!r}")
+                if isinstance(value, int):
+                    object.__setattr__(self, f.name, float(value))
+                    value = float(value)
             _check_field(f.name, value, f.metadata)
         self._cross_check()
 
@@ -138,7 +158,8 @@ class Params:
 
 # Shared fields: one definition (range, units, help) per physical parameter.
 def _pressure(default=MISSING, what="Pressure p"):
-    return param(default, help=f"{what}.", units="E*", lo=0.0, lo_open=True, hi=MAX_PRESSURE)
+    return param(default, help=f"{what}.", units="E*", lo=MIN_PRESSURE, hi=MAX_PRESSURE,
+                 why="outside it the overlaps leave the Hertz regime or the forces underflow")
 
 
 def _friction(default):
@@ -157,7 +178,8 @@ def _polydispersity(default):
 
 
 def _seed():
-    return param(0, help="Random seed; the same seed gives the same result bit for bit.", lo=0)
+    return param(0, help="Random seed; the same seed gives the same result bit for bit.", lo=0,
+                 hi=MAX_SEED, why="files store seeds as 64-bit signed integers")
 
 
 def _peak_fraction(default):
@@ -400,6 +422,8 @@ class PropagateParams(Params):
         object.__setattr__(self, "ic", str(self.ic).upper())
         if self.snapshots is not None:
             try:
+                if isinstance(self.snapshots, (str, bytes)) or any(isinstance(t, bool) for t in self.snapshots):
+                    raise TypeError  # "15" would be read as the times 1 and 5
                 st = tuple(float(t) for t in self.snapshots)
             except (TypeError, ValueError):
                 raise InputError(f"snapshots must be a list of times, got {self.snapshots!r}") from None
@@ -581,7 +605,8 @@ class AttenuationParams(Params):
                              hi=1.0, hi_open=True)
     bootstrap: int = param(200, help="Bootstrap resamplings of the packings at each height for the "
                            "error bars (0: fit errors only).", lo=0)
-    seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0)
+    seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0, hi=MAX_SEED,
+                      why="files store seeds as 64-bit signed integers")
     group_tolerance: float = param(0.05, help="Heights within this relative gap of each other form "
                                    "one nominal height.", lo=0.0, hi=1.0, hi_open=True)
     c_l: float | None = param(None, help="Effective-medium longitudinal speed to compare the "

@@ -217,6 +217,32 @@ def schema_error(config: dict, schema: dict) -> str | None:
     return f"config: {_key(error.absolute_path)}: {error.message}"
 
 
+def samples_error(batches) -> str | None:
+    """The first sample of ``batches`` (``[(name, scene, samples)]``, as the workflow builds them)
+    whose options its stage would refuse, as one line naming the scene and sample; None if all
+    pass. The workflow calls this at parse time, so that a value the CLI refuses (a pressure
+    out of range, a seed too large, ...) stops a dry run instead of a job hours later."""
+    from .errors import InputError
+    from .params import ChainParams, LatticeParams, PrepareParams, PropagateParams
+
+    makers = {"disordered": PrepareParams, "continuum": PrepareParams, "lattices": LatticeParams,
+              "chains": ChainParams}
+    for _name, scene, items in batches:
+        for sample in items:
+            where = f"config: {scene}, sample {sample['pressure']}/{sample['size']}/s{sample['seed']}"
+            make = dict(sample["make"])
+            if sample["kind"] == "chains":
+                make["balls"] = make.pop("n_balls")
+            sig = sample["signal"]
+            try:
+                makers[sample["kind"]](**make)
+                PropagateParams(method=sig["method"], ic=sig["ic"], t_max=sig["t_max"],
+                                samples=sig["samples"], safety=sig["safety"])
+            except InputError as exc:
+                return f"{where}: {exc}"
+    return None
+
+
 def cross_reference_error(config: dict) -> str | None:
     """The first inconsistency between keys of a (schema-valid, defaulted) config, or None.
 

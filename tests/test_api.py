@@ -105,7 +105,7 @@ def test_same_parameter_same_range_everywhere():
                 rng = tuple(f.metadata[k] for k in ("lo", "hi", "lo_open", "hi_open"))
                 seen.setdefault(f.name, set()).add(rng)
     assert seen["poisson"] == {(0.0, 0.5, False, True)}
-    assert seen["pressure"] == {(0.0, P.MAX_PRESSURE, True, False)}
+    assert seen["pressure"] == {(P.MIN_PRESSURE, P.MAX_PRESSURE, False, False)}
     assert all(len(r) == 1 for r in seen.values()), seen
 
 

@@ -35,7 +35,7 @@ import h5py
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import InputError, OutputError
+from ..errors import ConvergenceError, InputError, OutputError
 from ..model import Contacts, LinearSystem, Modes, Packing, Signal
 from ..provenance import FILE_ATTRS, provenance_attrs
 from . import schema as S
@@ -599,6 +599,13 @@ def read_modes(path, *, vectors: bool = False) -> Modes:
 
 # ---------------------------------------------------------------- signal
 def write_signal(path, signal: Signal) -> None:
+    """Write a signal file; a signal or snapshot that is not finite (an unstable integration) is
+    refused with ConvergenceError before anything is written."""
+    for name, values in (("signal", signal.force), ("time axis", signal.time),
+                         ("snapshot displacement", signal.snapshot_displacement)):
+        if values is not None and not np.all(np.isfinite(values)):
+            raise ConvergenceError(f"{path}: the {name} is not finite (NaN or inf): the integration "
+                                   f"became unstable; use a smaller time step (--dt or --safety)")
     size = _nbytes(signal.time, signal.force, signal.snapshot_time, signal.snapshot_displacement,
                    signal.dof_grain, signal.dof_axis, signal.position)
     with atomic_h5(path, S.SIGNAL, signal.attrs, nbytes=size) as f:

@@ -405,3 +405,15 @@ def crossing_time_of_damping():
 def damping_linear_reference():
     d = config["damping"]
     return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
+
+
+def _check_samples():
+    """Every sample's options through its stage's own parameter checks (one line, exit 2)."""
+    from granwave.workflow_support import samples_error
+
+    message = samples_error(batches())
+    if message:
+        _stop(message)
+
+
+_check_samples()
