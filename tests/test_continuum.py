@@ -48,6 +48,32 @@ def test_local_speeds_ratio_and_exponents_exact():
     assert r["global"]["c_tof_all"] == pytest.approx(2.0)
 
 
+def test_a_height_with_one_packing_borrows_the_pooled_relative_scatter():
+    # two heights with 3 packings each whose arrival times scatter by exactly +-2 % and +-4 %
+    # (sample std = 2 % and 4 % of the mean), and a tallest height with a single packing
+    heights = np.array([8.0] * 3 + [16.0] * 3 + [32.0])
+    t_mean = {8.0: 5.0, 16.0: 9.0, 32.0: 17.0}
+    rel = {8.0: np.array([-0.02, 0.0, 0.02]), 16.0: np.array([-0.04, 0.0, 0.04]), 32.0: np.array([0.0])}
+    feats = []
+    for h in (8.0, 16.0, 32.0):
+        for r in rel[h]:
+            t = t_mean[h] * (1 + r)
+            feats.append({"t_lead10": t, "t_peak": t + 1, "t_zero": t + 2, "amplitude": 1.0, "width": 1.0})
+    out = continuum_from_features(heights, feats, np.full(heights.size, 1.6))
+    per = out["per_height"]
+    assert list(per["error_model"]) == ["sample", "sample", "pooled"]
+    # pooled coefficient of variation, weights n - 1 = 2 and 2: sqrt((0.02^2 + 0.04^2) / 2)
+    cv = np.sqrt((0.02**2 + 0.04**2) / 2)
+    assert per["t_lead10_std"][2] == pytest.approx(17.0 * cv, rel=1e-12)
+    assert per["t_lead10_sem"][2] == pytest.approx(17.0 * cv, rel=1e-12)  # n = 1
+    assert per["t_lead10_sem"][0] == pytest.approx(5.0 * 0.02 / np.sqrt(3), rel=1e-12)
+    # the local speed that uses the lone height has a finite error, larger than from its partner alone
+    err = out["local"]["c_tof_err"]
+    assert np.all(np.isfinite(err)) and err[1] > 0
+    c = 16.0 / 8.0
+    assert err[1] > c * per["t_lead10_sem"][1] / 8.0
+
+
 # ------------------------------------------------------------ CLI, figure and report section
 def _signal_files(tmp_path):
     """Signals of a front of speed 1.25 c_l (c_l = 0.8) at four heights, two packings each."""

@@ -11,7 +11,9 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze continuum --help`
 * **Nominal heights**: :func:`granwave.analysis.heights.group_heights`; per height the
   mean, std and standard error (:func:`granwave.analysis.ensemble.describe`) of every
   feature, of L, c_l and c_t, and of the *apparent* speeds L / t of each packing
-  (``c_tof_apparent`` = L / t_lead10, ``c_peak_apparent``, ``c_zero_apparent``).
+  (``c_tof_apparent`` = L / t_lead10, ``c_peak_apparent``, ``c_zero_apparent``). A height
+  with a single packing takes the relative scatter pooled over the other heights
+  (``per_height.error_model`` = "pooled"), never zero.
 * **Local speeds against L**: between consecutive nominal heights,
   c = (L2 − L1) / (t2 − t1) from the group means, at the geometric mean height;
   δc = c sqrt(δt1² + δt2² + (δL1² + δL2²) c^-2) / (t2 − t1) with the standard errors
@@ -182,6 +184,25 @@ def _nan0(x):
     return np.where(np.isfinite(x), x, 0.0)
 
 
+def _pooled_where_thin(groups: Sequence[dict]) -> np.ndarray:
+    """Each height's standard deviation; a height with a single packing (no scatter of its own)
+    gets |mean| times the coefficient of variation pooled over the heights with two or more
+    (weights n - 1). Counting it as exact instead gives it all the weight of a fit and too
+    narrow intervals. The pooled relative scatter of the shorter heights overstates that of a
+    taller one where the scatter falls with height (arrival-time jitter, as 1/sqrt(L)): the
+    errors are then conservative. NaN where no height has two packings."""
+    std = np.array([x["std"] for x in groups])
+    dof = np.array([x["count"] - 1 for x in groups], float)
+    mean = np.array([x["mean"] for x in groups])
+    ok = (dof > 0) & np.isfinite(std) & np.isfinite(mean) & (mean != 0)
+    if not ok.any():
+        return std
+    cv2 = np.sum(dof[ok] * (std[ok] / mean[ok]) ** 2) / np.sum(dof[ok])
+    thin = ~(dof > 0)
+    std[thin] = np.abs(mean[thin]) * math.sqrt(cv2)
+    return std
+
+
 def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
                             tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05) -> dict:
     """The analysis of the module docstring from per-sample front features.
@@ -205,12 +226,14 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
     def put(name, values):
         d = [describe(values[g == k]) for k in range(n_g)]
         per[name] = np.array([x["mean"] for x in d])
-        per[name + "_std"] = np.array([x["std"] for x in d])
-        per[name + "_sem"] = np.array([x["sem"] for x in d])
+        per[name + "_std"] = _pooled_where_thin(d)
+        per[name + "_sem"] = per[name + "_std"] / np.sqrt([max(x["count"], 1) for x in d])
         return d
 
     counts = np.array([x["count"] for x in put("height", L)])
     per["count"] = counts
+    # which heights borrow their scatter from the others (one packing: no scatter of their own)
+    per["error_model"] = np.array(["pooled" if n < 2 else "sample" for n in counts])
     for k in FEATURES:
         put(k, feats[k])
     put("c_l", cl)
