@@ -66,6 +66,51 @@ def test_modal_signal_independent_of_chunking(lattice_modes):
     assert a[0] == pytest.approx(lattice_modes.amplitude_B @ lattice_modes.coupling)
 
 
+def test_time_domain_bits_do_not_depend_on_the_kernel_calls(lattice_system, monkeypatch):
+    """The run is cut into kernel calls of about CHUNK_WORK entries of D (so that signals and
+    progress are not held up); a cut after every step gives the same bytes."""
+    from granwave.linear import propagate as P
+
+    whole = time_domain_signal(lattice_system, ic="A", t_max=40.0, samples=21, dt=0.05)
+    monkeypatch.setattr(P, "CHUNK_WORK", 1)
+    lines = []
+    cut = time_domain_signal(lattice_system, ic="A", t_max=40.0, samples=21, dt=0.05,
+                             progress=lines.append, progress_interval=0.0)
+    assert whole.force.tobytes() == cut.force.tobytes()
+    assert lines and lines[-1].startswith("propagate: t = 40 / 40, step 800/800")
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_long_time_domain_run_promptly(tmp_path, lattice_system):
+    """A run of 4e7 steps in one sample interval (--dt far below the default) is stopped by SIGTERM within a few
+    seconds once it is stepping (its first progress line), with no output file left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    lin, out = tmp_path / "lin.h5", tmp_path / "sig.h5"
+    files.write_linear(lin, lattice_system)
+    proc = subprocess.Popen([sys.executable, "-m", "granwave", "propagate", str(lin), "--method", "time",
+                             "--dt", "1e-5", "--t-max", "400", "--samples", "2", "-o", str(out)],
+                            stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        for line in proc.stderr:  # progress lines come every 10 s
+            if line.startswith("propagate: t ="):
+                break
+        else:
+            pytest.fail(f"no progress line (exit {proc.wait()})")
+        t0 = time.perf_counter()
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=30)
+        waited = time.perf_counter() - t0
+    finally:
+        proc.kill()
+    assert code != 0
+    assert waited < 3.0, f"took {waited:.1f} s to stop"
+    assert list(tmp_path.iterdir()) == [lin]
+
+
 def test_cli_propagate_methods_and_errors(tmp_path, lattice_system, lattice_modes):
     files.write_linear(tmp_path / "l.h5", lattice_system)
     files.write_modes(tmp_path / "m.h5", eigensolve(lattice_system))

@@ -423,6 +423,10 @@ def state_sums(u: np.ndarray, v: np.ndarray, a: np.ndarray, m: np.ndarray,
 #: The time-domain kernel counts its steps in a 64-bit integer.
 MAX_TIME_STEPS = 2**63 - 1
 
+#: Stored entries of D swept per call of the stepping kernel (about 20-50 ms of work on one
+#: core); the run is cut into calls of that size so that signals and progress are not held up.
+CHUNK_WORK = 20_000_000
+
 
 def stable_time_step(system: LinearSystem, *, safety: float = DEFAULT_SAFETY) -> tuple[float, float]:
     """(dt = safety x 2/omega_max, omega_max) for velocity Verlet."""
@@ -519,11 +523,31 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     t_wall0 = t_last = _time.perf_counter()
     sync = team.new_sync()
     u_other = np.empty_like(u)  # the second displacement buffer of the many-thread team
+    # Steps per kernel call: a kernel does not return to Python until it is done, so Ctrl-C,
+    # SIGTERM and progress lines wait for it; about CHUNK_WORK stored entries of D per call
+    # (tens of ms) keeps them prompt at any --dt. Splitting a run into calls keeps its bits.
+    chunk = max(1, CHUNK_WORK // max(int(D.nnz), 1))
+
+    def report():
+        nonlocal t_last
+        now = _time.perf_counter()
+        if progress is not None and now - t_last >= progress_interval and step > 0:
+            t_last = now
+            rate = step / (now - t_wall0)
+            progress(f"propagate: t = {step * dt:.4g} / {t_max:.4g}, step {step}/{n_steps}, "
+                     f"{rate:.0f} steps/s, ~{(n_steps - step) / rate:.0f} s left")
+
     for k in range(1, samples):
         with at_most(system.n_dof, MIN_PARALLEL_ROWS):
             if snap_k is None or not np.any((snap_k > step) & (snap_k <= step + sub)):
-                verlet_steps(indptr, indices, data, minv, u, v, a, dt, sub, flush, sync, u_other)
-                step += sub
+                left = sub
+                while left > 0:
+                    n = min(left, chunk)
+                    verlet_steps(indptr, indices, data, minv, u, v, a, dt, n, flush, sync, u_other)
+                    step += n
+                    left -= n
+                    if left:
+                        report()
             else:  # a snapshot falls inside this sample interval: go step by step
                 for _ in range(sub):
                     verlet_steps(indptr, indices, data, minv, u, v, a, dt, 1, flush, sync, u_other)
@@ -534,13 +558,7 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
         if symmetric:
             dev = max(dev, abs(e - e0))
             devh = max(devh, abs(eh - eh0))
-        if progress is not None:
-            now = _time.perf_counter()
-            if now - t_last >= progress_interval:
-                t_last = now
-                rate = step / (now - t_wall0)
-                progress(f"propagate: t = {k * h:.4g} / {t_max:.4g}, step {step}/{n_steps}, "
-                         f"{rate:.0f} steps/s, ~{(n_steps - step) / rate:.0f} s left")
+        report()
     attrs = carried_attrs(system.attrs)
     attrs.update(ic=ic, method="time", height=system.height, t_max=float(t_max), samples=int(samples),
                  dt=float(dt), integrator="velocity Verlet", safety=float(safety),
