@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from .common import POSITIVE, stage
+from .common import POSITIVE, output_path_option, stage
 
 
 def load_json(path):
@@ -18,8 +18,7 @@ def load_json(path):
 
     return load(path)
 
-fig_output = click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
-                          help="Output figure (.png, .pdf or .svg), written atomically.")
+fig_output = output_path_option((".png", ".pdf", ".svg"), help="Output figure, written atomically.")
 pdf_option = click.option("--pdf", is_flag=True, help="Also write a PDF beside the PNG.")
 
 

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import click
 
-from .common import stage
+from .common import output_path_option, stage
 
 
 @click.command()
-@click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
-              help="The Markdown report (.md); the HTML twin is written beside it (.html).")
+@output_path_option((".md",), help="The Markdown report; the HTML twin is written beside it (.html).")
 @click.option("--config", "config", type=click.Path(dir_okay=False),
               help="Workflow config (YAML): its name, and the kind/friction of each scene.")
 @click.option("--summaries", multiple=True, type=click.Path(),
