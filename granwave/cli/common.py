@@ -57,7 +57,7 @@ class OutputOption(click.Option):
     The one place of the output-name policy: :func:`stage` refuses, before any work,
     a name without one of ``suffixes`` (a one-line error; nothing is appended, so
     the file written is always the name given) and a name too long for its folder's
-    file system once the temporary name is formed from it (docs/formats.md).
+    file system once the temporary name is formed from it (docs/architecture.md).
     """
 
     def __init__(self, *args, suffixes: tuple[str, ...] = (), folder: bool = False, **kwargs):
