@@ -61,12 +61,21 @@ def test_a_name_whose_temporary_name_is_too_long_is_refused_first(tmp_path, chai
     assert not list(tmp_path.iterdir())
 
 
-def test_propagate_quiet(tmp_path, chain):
-    args = ["propagate", chain / "l.h5", "--method", "auto", "--t-max", 10, "-o", tmp_path / "s.h5"]
+def test_propagate_quiet(tmp_path, chain, monkeypatch):
+    from granwave import api
+
+    real = api.propagate
+
+    def talkative(*args, progress=None, **kwargs):  # a progress line, as a long run prints
+        progress("propagate: t = 1 / 10")
+        return real(*args, progress=progress, **kwargs)
+
+    monkeypatch.setattr(api, "propagate", talkative)
+    args = ["propagate", chain / "l.h5", "--method", "time", "--t-max", 10, "-o", tmp_path / "s.h5"]
     loud = CliRunner().invoke(main, [str(a) for a in args])
     quiet = CliRunner().invoke(main, [str(a) for a in args + ["-q"]])
-    assert loud.exit_code == quiet.exit_code == 0
-    assert loud.stderr and not quiet.stderr
+    assert loud.exit_code == quiet.exit_code == 0, (loud.output, quiet.output)
+    assert "propagate: t = 1 / 10" in loud.stderr and not quiet.stderr
 
 
 def test_export_vtk_suffix_follows_the_input(tmp_path, chain):
@@ -100,3 +109,47 @@ def test_export_lammps_into_an_existing_folder(tmp_path, chain):
         assert r.exit_code == 0, r.output
         assert (deck / "packing.data").is_file() and (deck / "in.granwave").is_file()
     one_line_error(run(["export", "lammps", pk, "-o", pk]), "not a folder")
+
+
+#: Commands with an -o that print nothing on stderr but warnings (their result table is
+#: on stdout, like --json): nothing for -q to silence.
+NO_STDERR_SUMMARY = {"linearize", "eigensolve", "analyze ensemble", "pressure-sweep"}
+
+
+def _commands(group, ctx, prefix=()):
+    import click
+
+    for name in group.list_commands(ctx):
+        cmd = group.get_command(ctx, name)
+        if isinstance(cmd, click.Group):
+            yield from _commands(cmd, ctx, prefix + (name,))
+        else:
+            yield " ".join(prefix + (name,)), cmd
+
+
+def test_every_command_with_an_output_declares_its_suffixes_and_has_quiet():
+    import click
+
+    from granwave.cli.common import OutputOption
+
+    ctx = click.Context(main)
+    seen = []
+    for name, cmd in _commands(main, ctx):
+        outputs = [p for p in cmd.params if "-o" in getattr(p, "opts", ())]
+        if not outputs:
+            continue
+        seen.append(name)
+        assert all(isinstance(p, OutputOption) for p in outputs), f"{name}: -o is not an OutputOption"
+        assert all(p.suffixes or p.folder for p in outputs), f"{name}: -o declares no suffix"
+        has_quiet = any("-q" in getattr(p, "opts", ()) for p in cmd.params)
+        assert has_quiet or name in NO_STDERR_SUMMARY, f"{name}: no -q"
+    assert {"propagate", "prepare-packing", "export vtk", "plot airy"} <= set(seen)
+
+
+def test_quiet_silences_the_summary_lines(tmp_path):
+    for args in (["chain", "--balls", 3, "--pressure", 1e-4, "-o", tmp_path / "c.h5"],
+                 ["plot", "airy", "--n", 20, "-o", tmp_path / "a.png"]):
+        loud, quiet = CliRunner().invoke(main, [str(a) for a in args]), \
+            CliRunner().invoke(main, [str(a) for a in args + ["-q"]])
+        assert loud.exit_code == quiet.exit_code == 0, (loud.output, quiet.output)
+        assert loud.stderr and not quiet.stderr

@@ -66,11 +66,16 @@ class OutputOption(click.Option):
         self.folder = folder
 
 
+def _either(suffixes) -> str:
+    """``.a``, ``.a or .b``, ``.a, .b or .c``."""
+    return " or ".join([", ".join(suffixes[:-1]), suffixes[-1]] if len(suffixes) > 1 else list(suffixes))
+
+
 def output_path_option(suffixes=(), help="", folder: bool = False):
     """A ``-o/--output`` option whose value must end in one of ``suffixes`` (or, with
     ``folder``, names a folder); the accepted suffixes are stated in its help."""
     if suffixes:
-        help += f" Must end in {' or '.join(suffixes)} (any other name is refused before any work)."
+        help += f" Must end in {_either(suffixes)} (any other name is refused before any work)."
     return click.option("-o", "--output", "output", required=True, cls=OutputOption,
                         # kinds checked in stage(), so that a folder for a file is one line
                         type=click.Path(), metavar="DIR" if folder else "FILE", suffixes=suffixes,
@@ -80,7 +85,18 @@ def output_path_option(suffixes=(), help="", folder: bool = False):
 #: Suffixes of the HDF5 files the stages write.
 H5_SUFFIXES = (".h5", ".hdf5")
 output_option = output_path_option(H5_SUFFIXES, help="Output HDF5 file (written atomically).")
-quiet_option = click.option("-q", "--quiet", is_flag=True, help="No progress or summary lines on stderr.")
+QUIET_HELP = "No progress or summary lines on stderr (warnings and errors still show)."
+#: ``-q/--quiet`` of every stage that prints progress or a summary on stderr.
+quiet_option = click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+#: The same option for commands that ask :func:`is_quiet` instead of taking a ``quiet`` argument.
+quiet_flag = click.option("-q", "--quiet", is_flag=True, expose_value=False, help=QUIET_HELP,
+                          callback=lambda ctx, param, value: ctx.meta.__setitem__("granwave.quiet", value))
+
+
+def is_quiet() -> bool:
+    """Whether the running command was given ``-q`` through :data:`quiet_flag`."""
+    ctx = click.get_current_context(silent=True)
+    return bool(ctx is not None and ctx.meta.get("granwave.quiet"))
 json_option = click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
 
 
@@ -214,7 +230,7 @@ def check_suffix(path, suffixes, what: str = "this output") -> None:
     """Refuse (one line) a file name that does not end in one of ``suffixes``."""
     if suffixes and not str(path).lower().endswith(tuple(s.lower() for s in suffixes)):
         stem = os.path.basename(str(path)) or str(path)
-        raise InputError(f"cannot write {path}: {what} must end in {' or '.join(suffixes)} "
+        raise InputError(f"cannot write {path}: {what} must end in {_either(suffixes)} "
                          f"(e.g. {os.path.splitext(stem)[0]}{suffixes[0]})")
 
 

@@ -88,7 +88,7 @@ def propagate(source, output, threads, device, quiet, as_json, **options):
     echo_warnings(caught)
     signal.attrs["source_file"] = str(source)
     files.write_signal(output, signal)
-    if "method_reason" in signal.attrs and not (as_json or quiet):
+    if "method_reason" in signal.attrs and not as_json:  # a choice, said even with -q
         click.echo(f"method auto -> {signal.attrs['method_reason']}", err=True)
     rows = {k: signal.attrs[k] for k in ROWS if k in signal.attrs}
     echo_result(rows, as_json, title=f"wrote {output}")

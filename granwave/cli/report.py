@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import output_path_option, stage
+from .common import output_path_option, quiet_option, stage
 
 
 @click.command()
@@ -28,8 +28,9 @@ from .common import output_path_option, stage
               help="`analyze continuum --json` and `analyze attenuation --json` files or folders "
                    "(results/continuum/<scene>/{front,attenuation}.json): the continuum section.")
 @click.option("--title", default="granwave report", show_default=True)
+@quiet_option
 @stage
-def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, title):
+def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, title, quiet):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
 
@@ -73,4 +74,5 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
                       out_dir=out.parent.resolve() if str(out.parent) else Path(".").resolve(),
                       config=cfg, config_path=config, title=title, damping=damping)
     for p in write_report(out, md, title=title):
-        click.echo(f"wrote {p}", err=True)
+        if not quiet:
+            click.echo(f"wrote {p}", err=True)
