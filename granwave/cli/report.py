@@ -50,12 +50,12 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
+    from ..io.files import check_name_length
     from ..report import build_report, collect_json, find_figures, load_config, write_report
     from pathlib import Path
 
-    out = Path(output)
-    if out.suffix.lower() != ".md":
-        raise InputError(f"{out}: the report must be a .md file")
+    out = Path(output)  # its suffix is checked by stage() (output_path_option)
+    check_name_length(out.with_suffix(".html"))  # the HTML twin: a longer name, checked before any work
     cfg = load_config(config) if config else None
     damping = []
     if damping_json:
