@@ -283,8 +283,9 @@ def test_vtk_snapshot_series_reads_back(tmp_path):
         r = run(args)
         assert r.exit_code == 0, r.output
     sig = files.read_signal(tmp_path / "sig.h5")
-    r = run(["export", "vtk", tmp_path / "sig.h5", "-o", tmp_path / "snap.vtu", "-q"])
+    r = run(["export", "vtk", tmp_path / "sig.h5", "-o", tmp_path / "snap.pvd", "-q"])
     assert r.exit_code == 2 and "give --packing" in r.output
+    assert not list(tmp_path.glob("snap*"))
     r = run(["export", "vtk", tmp_path / "sig.h5", "-o", tmp_path / "snap.pvd", "--packing",
              tmp_path / "lattice.h5", "-q"])
     assert r.exit_code == 0, r.output

@@ -70,4 +70,7 @@ def main():
     Stages exchange HDF5 files: prepare-packing (or lattice / chain) ->
     linearize -> eigensolve -> propagate -> analyze. Units: mean grain
     diameter, grain density and E* = E/(1-nu^2) are 1 (see docs/units.md).
+    An output name (-o) must end in the suffix its stage writes (.h5 for the
+    HDF5 stages; each -o help says which): any other name, or one too long for
+    the file system, is refused with one line before any work.
     """

@@ -51,9 +51,52 @@ class FiniteFloat(click.ParamType):
 FLOAT = FiniteFloat()
 POSITIVE = FiniteFloat(min=0.0, min_open=True)
 
-output_option = click.option(
-    "-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
-    help="Output HDF5 file (written atomically).")
+class OutputOption(click.Option):
+    """``-o/--output`` with the suffixes its file must end in (``suffixes``; none: a folder).
+
+    The one place of the output-name policy: :func:`stage` refuses, before any work,
+    a name without one of ``suffixes`` (a one-line error; nothing is appended, so
+    the file written is always the name given) and a name too long for its folder's
+    file system once the temporary name is formed from it (docs/architecture.md).
+    """
+
+    def __init__(self, *args, suffixes: tuple[str, ...] = (), folder: bool = False, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.suffixes = tuple(suffixes)
+        self.folder = folder
+
+
+def _either(suffixes) -> str:
+    """``.a``, ``.a or .b``, ``.a, .b or .c``."""
+    return " or ".join([", ".join(suffixes[:-1]), suffixes[-1]] if len(suffixes) > 1 else list(suffixes))
+
+
+def output_path_option(suffixes=(), help="", folder: bool = False):
+    """A ``-o/--output`` option whose value must end in one of ``suffixes`` (or, with
+    ``folder``, names a folder); the accepted suffixes are stated in its help."""
+    if suffixes:
+        help += f" Must end in {_either(suffixes)} (any other name is refused before any work)."
+    return click.option("-o", "--output", "output", required=True, cls=OutputOption,
+                        # kinds checked in stage(), so that a folder for a file is one line
+                        type=click.Path(), metavar="DIR" if folder else "FILE", suffixes=suffixes,
+                        folder=folder, help=help)
+
+
+#: Suffixes of the HDF5 files the stages write.
+H5_SUFFIXES = (".h5", ".hdf5")
+output_option = output_path_option(H5_SUFFIXES, help="Output HDF5 file (written atomically).")
+QUIET_HELP = "No progress or summary lines on stderr (warnings and errors still show)."
+#: ``-q/--quiet`` of every stage that prints progress or a summary on stderr.
+quiet_option = click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+#: The same option for commands that ask :func:`is_quiet` instead of taking a ``quiet`` argument.
+quiet_flag = click.option("-q", "--quiet", is_flag=True, expose_value=False, help=QUIET_HELP,
+                          callback=lambda ctx, param, value: ctx.meta.__setitem__("granwave.quiet", value))
+
+
+def is_quiet() -> bool:
+    """Whether the running command was given ``-q`` through :data:`quiet_flag`."""
+    ctx = click.get_current_context(silent=True)
+    return bool(ctx is not None and ctx.meta.get("granwave.quiet"))
 json_option = click.option("--json", "as_json", is_flag=True, help="Print one JSON object instead of a table.")
 
 
@@ -175,18 +218,45 @@ def _paths(value) -> list[str]:
     return [str(v) for v in items if isinstance(v, (str, os.PathLike)) and os.path.isfile(v)]
 
 
+def _output_params() -> dict:
+    """The :class:`OutputOption` parameters of the running command, by name."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return {}
+    return {p.name: p for p in ctx.command.params if isinstance(p, OutputOption)}
+
+
+def check_suffix(path, suffixes, what: str = "this output") -> None:
+    """Refuse (one line) a file name that does not end in one of ``suffixes``."""
+    if suffixes and not str(path).lower().endswith(tuple(s.lower() for s in suffixes)):
+        stem = os.path.basename(str(path)) or str(path)
+        raise InputError(f"cannot write {path}: {what} must end in {_either(suffixes)} "
+                         f"(e.g. {os.path.splitext(stem)[0]}{suffixes[0]})")
+
+
 def _check_outputs(kwargs: dict) -> None:
-    """Refuse, before computing, an output that is '-', not a regular file, or an input."""
-    outputs = [v for k, v in kwargs.items()
+    """Refuse, before computing, an output that is '-', not a regular file, an input,
+    without its suffix, or with a name too long for the file system."""
+    outputs = [(k, v) for k, v in kwargs.items()
                if (k == "output" or k.endswith("_output")) and isinstance(v, (str, os.PathLike)) and v]
     if not outputs:
         return
-    from ..io.files import check_target
+    from ..io.files import check_name_length, check_target
 
+    declared = _output_params()
     inputs = [p for k, v in kwargs.items() if k != "output" and not k.endswith("_output")
               for p in _paths(v)]
-    for out in outputs:
+    for name, out in outputs:
+        opt = declared.get(name)
+        if opt is not None and opt.folder:
+            if os.path.exists(out) and not os.path.isdir(out):
+                raise InputError(f"cannot write into {out}: it is a file, not a folder")
+            check_name_length(out, temporary=False)
+            continue
         check_target(out, inputs)
+        if opt is not None:
+            check_suffix(out, opt.suffixes, "the output")
+        check_name_length(out)
 
 
 def stage(func):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from .common import FiniteFloat, stage
+from .common import FiniteFloat, check_suffix, output_path_option, quiet_option, stage
 
 NON_NEGATIVE = FiniteFloat(min=0.0)
 
@@ -35,13 +35,13 @@ def export():
 
 @export.command("lammps")
 @click.argument("packing", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", "output", required=True, type=click.Path(file_okay=False),
-              help="Folder for packing.data and in.granwave (made if missing; its parent must exist).")
+@output_path_option(folder=True, help="Folder for packing.data and in.granwave (made if missing, "
+                                      "else its two files are replaced; its parent must exist).")
 @click.option("--steps", type=click.IntRange(min=0), default=0, show_default=True,
               help="Length of the deck's run (0: set up, evaluate forces, write continued.data).")
 @click.option("--damping", type=NON_NEGATIVE, default=None,
               help="Contact damping zeta for the deck  [default: the packing's protocol value, else 0].")
-@click.option("-q", "--quiet", is_flag=True, help="No summary line on stderr.")
+@quiet_option
 @bad_input_exits_2
 def export_lammps_cmd(packing, output, steps, damping, quiet):
     """Write a LAMMPS data file (atom_style sphere) and an input deck in.granwave.
@@ -66,11 +66,12 @@ def export_lammps_cmd(packing, output, steps, damping, quiet):
 
 @export.command("vtk")
 @click.argument("source", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
-              help="OUT.vtu for a packing; OUT.pvd (plus OUT_<k>.vtu beside it) for a signal's snapshots.")
+@output_path_option((".vtu", ".pvd"),
+                    help="OUT.vtu for a packing; OUT.pvd (plus OUT_<k>.vtu beside it) for a signal's "
+                         "snapshots.")
 @click.option("--packing", "packing_path", type=click.Path(dir_okay=False), default=None,
               help="The packing a signal's snapshots belong to (their equilibrium positions and radii).")
-@click.option("-q", "--quiet", is_flag=True, help="No summary line on stderr.")
+@quiet_option
 @bad_input_exits_2
 def export_vtk_cmd(source, output, packing_path, quiet):
     """Write a packing or a signal's snapshots for ParaView (VTK XML, via meshio).
@@ -86,6 +87,9 @@ def export_vtk_cmd(source, output, packing_path, quiet):
 
     check_writable(output)
     kind = file_schema(source)
+    if kind in (S.PACKING, S.SIGNAL):
+        check_suffix(output, (".vtu",) if kind == S.PACKING else (".pvd",),
+                     "a packing's export" if kind == S.PACKING else "a signal's snapshot series")
     if kind == S.PACKING:
         written = [vtk.write_packing_vtu(output, read_packing(source))]
     elif kind == S.SIGNAL:
@@ -102,4 +106,5 @@ def export_vtk_cmd(source, output, packing_path, quiet):
     else:
         raise InputError(f"{source}: export vtk takes a packing or a signal file, found schema {kind!r}")
     if not quiet:
-        click.echo(f"wrote {len(written)} file(s): {written[-1]}", err=True)
+        click.echo(f"wrote {len(written)} file{'s' if len(written) != 1 else ''}: "
+                   + ", ".join(str(w) for w in written), err=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import POSITIVE, FiniteFloat, output_option, progress_printer, threads_option
+from .common import POSITIVE, FiniteFloat, output_option, progress_printer, quiet_option, threads_option
 from .export import NON_NEGATIVE
 from .export import bad_input_exits_2
 
@@ -42,7 +42,7 @@ def import_group():
               help="Multiply the file's lengths by this to measure them in mean diameters "
                    "(velocities are then ignored).")
 @threads_option
-@click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
+@quiet_option
 @bad_input_exits_2
 def import_lammps_cmd(source, output, pressure, friction, poisson, damping, background_damping, piston_mass,
                       tol, max_steps, safety, dim, length_scale, threads, quiet):

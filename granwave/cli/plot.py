@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from .common import POSITIVE, stage
+from .common import POSITIVE, is_quiet, output_path_option, quiet_flag, stage
 
 
 def load_json(path):
@@ -18,8 +18,12 @@ def load_json(path):
 
     return load(path)
 
-fig_output = click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
-                          help="Output figure (.png, .pdf or .svg), written atomically.")
+_fig_path = output_path_option((".png", ".pdf", ".svg"), help="Output figure, written atomically.")
+
+
+def fig_output(func):
+    """``-o FIG`` and ``-q`` of every figure."""
+    return _fig_path(quiet_flag(func))
 pdf_option = click.option("--pdf", is_flag=True, help="Also write a PDF beside the PNG.")
 
 
@@ -33,7 +37,7 @@ def _figures():
 
 
 def _done(paths) -> None:
-    for p in paths:
+    for p in [] if is_quiet() else paths:
         click.echo(f"wrote {p}", err=True)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from ..params import PrepareParams
-from .common import options_from, output_option, params_from, progress_printer, stage, threads_option
+from .common import options_from, output_option, params_from, progress_printer, quiet_option, stage, threads_option
 
 #: ``--device cpu|gpu`` (also used by ``propagate``): where the stage's kernels run (docs/gpu.md).
 device_option = click.option(
@@ -18,7 +18,7 @@ device_option = click.option(
 @output_option
 @threads_option
 @device_option
-@click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr.")
+@quiet_option
 @stage
 def prepare_packing(output, threads, device, quiet, **options):
     """Prepare a packing in mechanical equilibrium by piston compression of a granular gas.

@@ -14,7 +14,7 @@ import click
 
 from ..params import PropagateParams
 from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
-                     progress_printer, stage, threads_option)
+                     progress_printer, quiet_option, stage, threads_option)
 from .prepare import device_option
 
 ROWS = ("ic", "method", "method_reason", "height", "t_max", "samples", "dt", "omega_max_dt",
@@ -58,7 +58,7 @@ def _read_source(path: str, kind: str, params: PropagateParams):
 @options_from(PropagateParams)
 @threads_option
 @device_option
-@click.option("--quiet", is_flag=True, help="No progress lines on stderr.")
+@quiet_option
 @json_option
 @stage
 def propagate(source, output, threads, device, quiet, as_json, **options):
@@ -88,7 +88,7 @@ def propagate(source, output, threads, device, quiet, as_json, **options):
     echo_warnings(caught)
     signal.attrs["source_file"] = str(source)
     files.write_signal(output, signal)
-    if "method_reason" in signal.attrs and not as_json:
+    if "method_reason" in signal.attrs and not as_json:  # a choice, said even with -q
         click.echo(f"method auto -> {signal.attrs['method_reason']}", err=True)
     rows = {k: signal.attrs[k] for k in ROWS if k in signal.attrs}
     echo_result(rows, as_json, title=f"wrote {output}")

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import click
 
-from .common import stage
+from .common import output_path_option, quiet_option, stage
 
 
 @click.command()
-@click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False),
-              help="The Markdown report (.md); the HTML twin is written beside it (.html).")
+@output_path_option((".md",), help="The Markdown report; the HTML twin is written beside it (.html).")
 @click.option("--config", "config", type=click.Path(dir_okay=False),
               help="Workflow config (YAML): its name, and the kind/friction of each scene.")
 @click.option("--summaries", multiple=True, type=click.Path(),
@@ -29,8 +28,9 @@ from .common import stage
               help="`analyze continuum --json` and `analyze attenuation --json` files or folders "
                    "(results/continuum/<scene>/{front,attenuation}.json): the continuum section.")
 @click.option("--title", default="granwave report", show_default=True)
+@quiet_option
 @stage
-def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, title):
+def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, title, quiet):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
 
@@ -50,12 +50,12 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
+    from ..io.files import check_name_length
     from ..report import build_report, collect_json, find_figures, load_config, write_report
     from pathlib import Path
 
-    out = Path(output)
-    if out.suffix.lower() != ".md":
-        raise InputError(f"{out}: the report must be a .md file")
+    out = Path(output)  # its suffix is checked by stage() (output_path_option)
+    check_name_length(out.with_suffix(".html"))  # the HTML twin: a longer name, checked before any work
     cfg = load_config(config) if config else None
     damping = []
     if damping_json:
@@ -74,4 +74,5 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
                       out_dir=out.parent.resolve() if str(out.parent) else Path(".").resolve(),
                       config=cfg, config_path=config, title=title, damping=damping)
     for p in write_report(out, md, title=title):
-        click.echo(f"wrote {p}", err=True)
+        if not quiet:
+            click.echo(f"wrote {p}", err=True)

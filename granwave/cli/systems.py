@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from ..params import ChainParams, LatticeParams
-from .common import options_from, output_option, params_from, stage
+from .common import options_from, output_option, params_from, quiet_option, stage
 
 
 
@@ -22,8 +22,9 @@ def _write(output, build, params):
 @click.command()
 @options_from(LatticeParams)
 @output_option
+@quiet_option
 @stage
-def lattice(output, **options):
+def lattice(output, quiet, **options):
     """Perfect triangular lattice of unit balls under pressure (no preparation run).
 
     Rows are parallel to the walls; all contacts carry f = p a/sqrt(3) (a the
@@ -35,15 +36,17 @@ def lattice(output, **options):
 
     params = params_from(LatticeParams, options)
     packing = _write(output, api.lattice, params)
-    click.echo(f"lattice {params.rows} x {params.width}, p = {params.pressure:g}: spacing "
-               f"{packing.attrs['spacing']:.12g}, height {packing.height:.8g} -> {output}", err=True)
+    if not quiet:
+        click.echo(f"lattice {params.rows} x {params.width}, p = {params.pressure:g}: spacing "
+                   f"{packing.attrs['spacing']:.12g}, height {packing.height:.8g} -> {output}", err=True)
 
 
 @click.command()
 @options_from(ChainParams)
 @output_option
+@quiet_option
 @stage
-def chain(output, **options):
+def chain(output, quiet, **options):
     """1D chain of balls between two walls, linear springs of equal stiffness.
 
     Every contact (walls included) carries the force p; springs have one
@@ -54,5 +57,6 @@ def chain(output, **options):
 
     params = params_from(ChainParams, options)
     packing = _write(output, api.chain, params)
-    click.echo(f"chain of {params.balls} balls, p = {params.pressure:g}, K = {packing.attrs['stiffness']}: "
-               f"height {packing.height:.8g} -> {output}", err=True)
+    if not quiet:
+        click.echo(f"chain of {params.balls} balls, p = {params.pressure:g}, K = {packing.attrs['stiffness']}: "
+                   f"height {packing.height:.8g} -> {output}", err=True)

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..io.files import atomic_file, atomic_text
+from ..io.files import atomic_file, atomic_text, check_writable
 from ..model import Packing, Signal
 
 
@@ -147,10 +147,13 @@ def write_snapshot_series(path, signal: Signal, position: np.ndarray, radius: np
     position = np.asarray(position, dtype=float)
     n, dim = position.shape
     fields = snapshot_fields(signal, n, dim)
+    names = [f"{path.stem}_{k:04d}.vtu" for k in range(len(fields))]
+    for name in names:  # every name before the first file: a bad one leaves nothing behind
+        check_writable(path.parent / name)
     cells = [("vertex", np.arange(n, dtype=np.int64)[:, None])]
     written, datasets = [], []
     for k, (t, f) in enumerate(zip(signal.snapshot_time, fields)):
-        name = f"{path.stem}_{k:04d}.vtu"
+        name = names[k]
         point_data = dict(f)
         if radius is not None:
             point_data["radius"] = np.asarray(radius, dtype=float)

@@ -116,7 +116,8 @@ def check_writable(path: str | os.PathLike, *, replace_input: bool = False) -> P
     """Fail early (before any computation) if ``path`` cannot or must not be written.
 
     Besides :func:`check_target` (``replace_input``: a stage that updates a file in
-    place may replace a file it read), the folder must exist and be writable.
+    place may replace a file it read), the folder must exist and be writable, and
+    the name and its temporary name must fit the file system (:func:`check_name_length`).
     """
     check_target(path, () if replace_input else None)
     path = Path(path)
@@ -125,7 +126,45 @@ def check_writable(path: str | os.PathLike, *, replace_input: bool = False) -> P
         raise InputError(f"cannot write {path}: folder {folder} does not exist")
     if not os.access(folder, os.W_OK):
         raise InputError(f"cannot write {path}: folder {folder} is not writable")
+    check_name_length(path)
     return path
+
+
+#: Random characters tempfile.mkstemp puts in a name (its _RandomNameSequence).
+_RANDOM_CHARS = 8
+
+
+def _temporary_prefix_suffix(path: Path, suffix: str = "") -> tuple[str, str]:
+    """The prefix and suffix of :func:`_temporary`'s name for ``path`` (one home)."""
+    return f".{path.name}.{_tag()}.", f"{suffix}.tmp"
+
+
+def check_name_length(path: str | os.PathLike, *, temporary: bool = True) -> None:
+    """Refuse a name longer than its folder's file system allows (``PC_NAME_MAX``).
+
+    ``temporary``: the temporary name an atomic write forms from it (longer by the
+    writer's tag, random characters and the file's suffix plus ``.tmp``) must fit
+    too, so that a long name fails here, not after the whole computation.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        limit = os.pathconf(folder if folder.is_dir() else ".", "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    if not limit or limit < 0:
+        return
+    name = len(os.fsencode(path.name))
+    if name > limit:
+        raise InputError(f"cannot write {path}: its name is {name} bytes, over the file "
+                         f"system's {limit}; choose a shorter name")
+    if temporary:
+        prefix, suffix = _temporary_prefix_suffix(path, path.suffix)
+        tmp = len(os.fsencode(prefix + suffix)) + _RANDOM_CHARS
+        if tmp > limit:
+            raise InputError(f"cannot write {path}: its name is {name} bytes and the temporary "
+                             f"name written first is {tmp - name} bytes longer, over the file "
+                             f"system's {limit}; choose a name of at most {limit - (tmp - name)} bytes")
 
 
 def _umask() -> int:
@@ -189,7 +228,8 @@ def _temporary(path: Path, suffix: str = "") -> str:
     """A new empty file beside ``path``, with the permissions the umask gives new files."""
     remove_stale_temporaries(path)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{_tag()}.", suffix=f"{suffix}.tmp",
+        prefix, suffix = _temporary_prefix_suffix(path, suffix)
+        fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix,
                                    dir=path.parent if str(path.parent) else ".")
     except OSError as exc:  # no space or no inode left for even an empty file
         raise _write_failure(path, exc) from None
