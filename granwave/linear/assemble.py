@@ -85,7 +85,7 @@ SPARSE_CHECK_MODES = 12
 CHECK_EXTRA_MODES = 2
 
 #: LOBPCG stops when every residual ||A x - theta x|| <= CHECK_RESIDUAL x omega^2_max (and the
-#: lowest non-zero Ritz value's residual is below 10% of it; :func:`lowest_modes`).
+#: lowest non-zero Ritz value's residual is below half of it; :func:`lowest_modes`).
 CHECK_RESIDUAL = 1e-6
 
 #: At most this many LOBPCG iterations (one AMG cycle per vector each); 10-30 suffice on lattices.
@@ -96,7 +96,10 @@ CHECK_MAXITER = 50
 NEGATIVE_MAXITER = 15
 
 #: Unpreconditioned LOBPCG steps that look for a strongly negative (isolated) mode first.
-PREPASS_ITER = 25
+PREPASS_ITER = 15
+
+#: Unpreconditioned LOBPCG steps towards the top for omega^2_max (the thresholds' scale).
+TOP_ITER = 10
 
 #: An unconverged LOBPCG falls back to shift-invert Lanczos (a sparse LU) up to this many dofs.
 SHIFT_INVERT_MAX_DOF = 200_000
@@ -681,7 +684,8 @@ def lowest_modes(A: sp.csr_matrix, k: int, *, threshold: float = ZERO_MODE_THRES
        to coarsen, no B product per step) with a smoothed-aggregation AMG V-cycle
        as preconditioner, block ``k``, until every residual ||A x - theta x|| is
        below ``CHECK_RESIDUAL`` omega^2_max and that of the lowest non-zero Ritz
-       value below 10% of it (one restart at the tighter tolerance if needed), at
+       value below half of it, so that an eigenvalue lies in [theta/2, 3 theta/2],
+       clear of the zero band (one restart at the tighter tolerance if needed), at
        most ``CHECK_MAXITER`` iterations. AMG is built for A itself, unshifted:
        positive semi-definite in the normal case, and even for an indefinite A the
        V-cycle stays symmetric, which is what LOBPCG needs; the vector seeded from
@@ -701,7 +705,7 @@ def lowest_modes(A: sp.csr_matrix, k: int, *, threshold: float = ZERO_MODE_THRES
     n = A.shape[0]
     rng = np.random.default_rng(seed)
     t = time.perf_counter()
-    top = _lobpcg(A, rng.standard_normal((n, 1)), largest=True, maxiter=30, tol=1e-4 * gershgorin_bound(A))
+    top = _lobpcg(A, rng.standard_normal((n, 1)), largest=True, maxiter=TOP_ITER, tol=1e-4 * gershgorin_bound(A))
     wmax = float(top[0][-1]) if top is not None else gershgorin_bound(A)
     bottom = _lobpcg(A, rng.standard_normal((n, 1)), largest=False, maxiter=PREPASS_ITER, tol=1e-8 * wmax)
     say(f"  omega^2_max ~ {wmax:.4g}, lowest without preconditioner "
@@ -727,7 +731,7 @@ def lowest_modes(A: sp.csr_matrix, k: int, *, threshold: float = ZERO_MODE_THRES
         w, X = out
         r = np.linalg.norm(A @ X - X * w, axis=0)
         pos = np.flatnonzero(w > threshold * wmax)
-        need = max(0.1 * w[pos[0]], threshold * wmax) if len(pos) else np.inf
+        need = max(0.5 * w[pos[0]], threshold * wmax) if len(pos) else np.inf
         converged = bool(np.all(r <= 1.01 * tol) and (not len(pos) or r[pos[0]] <= 1.01 * need))
         if converged or counter[0] >= maxiter or need >= tol:
             break
