@@ -559,7 +559,7 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
         wmax = max(wmax, float(w[-1]))
         method = "dense eigvalsh"
     else:
-        k = min(int(system.attrs.get("expected_zero_modes", 0)) + CHECK_EXTRA_MODES, n // 5)
+        k = max(1, min(int(system.attrs.get("expected_zero_modes", 0)) + CHECK_EXTRA_MODES, n // 5))
         say(f"check D ({n} dofs): the {k} lowest modes by LOBPCG with a smoothed-aggregation "
             "AMG preconditioner")
         with _one_blas_thread():
