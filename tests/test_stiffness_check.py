@@ -102,3 +102,22 @@ def test_linearize_reports_progress_above_the_dense_limit(monkeypatch):
     quiet = []
     linearize(reference_lattice(3, 4, pressure=1e-4), progress=quiet.append)  # dense: no lines
     assert quiet == []
+
+
+def test_cli_linearize_prints_the_check_above_the_dense_limit(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from granwave.cli import main
+    from granwave.io import files
+
+    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", SMALL)
+    files.write_packing(tmp_path / "p.h5", reference_lattice(10, 10, pressure=1e-4, friction=0.5))
+    args = ["linearize", str(tmp_path / "p.h5"), "-o", str(tmp_path / "l.h5")]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 0, r.output
+    assert "LOBPCG" in r.output and "check D done in" in r.output
+    attrs = files.read_linear(tmp_path / "l.h5").attrs
+    assert attrs["psd_check"].startswith("lobpcg + AMG") and bool(attrs["psd_check_converged"])
+    r = CliRunner().invoke(main, args[:-1] + [str(tmp_path / "quiet.h5"), "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert "check D done" not in r.output
