@@ -110,13 +110,17 @@ def chain(params: ChainParams | None = None, /, **fields) -> Packing:
 
 # ----------------------------------------------------------------- linear model
 def linearize(packing: Packing, params: LinearizeParams | None = None, /, *,
-              threads: int | None = None, **fields) -> LinearSystem:
-    """Stiffness matrix D and mass matrix M around equilibrium (docs/method.md §5)."""
+              threads: int | None = None, progress=None, **fields) -> LinearSystem:
+    """Stiffness matrix D and mass matrix M around equilibrium (docs/method.md §5).
+
+    ``progress``: a callable taking one line of text (assembly and check times of
+    large systems, the check's iterations).
+    """
     from .linear.assemble import linearize as build
 
     p = _params(LinearizeParams, params, fields)
     _threads(threads)
-    system = build(packing, prestress=p.prestress, force=p.force, check=p.check)
+    system = build(packing, prestress=p.prestress, force=p.force, check=p.check, progress=progress)
     p.record(system.attrs)
     return system
 

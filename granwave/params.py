@@ -352,8 +352,8 @@ class LinearizeParams(Params):
                             "Jacobian of the frozen-history contact forces (off by default).")
     force: bool = param(False, help="Linearize even a packing whose preparation did not converge.")
     check: bool = param(True, help="Check symmetry and positive semi-definiteness and count zero "
-                        "modes (dense eigenvalues up to 3000 dofs, else the 12 lowest by "
-                        "shift-invert Lanczos).", negatable=True)
+                        "modes (dense eigenvalues up to 3000 dofs, else the few lowest by LOBPCG "
+                        "with an algebraic-multigrid preconditioner).", negatable=True)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -117,10 +117,11 @@ def test_sparse_check_agrees_with_dense(monkeypatch):
     dense = linearize(lat).attrs
     monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", 10)
     sparse = linearize(lat).attrs
-    assert sparse["psd_check"].startswith("eigsh")
+    assert sparse["psd_check"].startswith("lobpcg") and sparse["psd_check_converged"]
     assert sparse["n_zero_modes"] == dense["n_zero_modes"] == 1
     assert sparse["n_zero_modes_exact"]
-    assert sparse["lowest_nonzero_omega2"] == pytest.approx(dense["lowest_nonzero_omega2"], rel=1e-8)
+    # LOBPCG stops at residual 1e-6 omega^2_max; the Ritz value is far closer (tests/test_stiffness_check.py)
+    assert sparse["lowest_nonzero_omega2"] == pytest.approx(dense["lowest_nonzero_omega2"], rel=1e-6)
 
 
 def test_frictionless_dem_packing_zero_modes_at_least_expected():

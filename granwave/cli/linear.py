@@ -8,7 +8,7 @@ import click
 
 from ..params import EigenParams, LinearizeParams
 from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
-                     stage, threads_option)
+                     progress_printer, stage, threads_option)
 
 LINEARIZE_ROWS = ("n_dof", "n_rattlers", "n_spins_removed", "n_contacts", "prestress", "asymmetry",
                   "n_zero_modes", "expected_zero_modes", "n_negative_modes", "omega2_max", "psd_check")
@@ -24,10 +24,12 @@ def _echo_summary(attrs: dict, keys, output, as_json: bool) -> None:
 @click.argument("packing", type=click.Path(dir_okay=False))
 @output_option
 @options_from(LinearizeParams)
+@click.option("-q", "--quiet", is_flag=True, help="No progress lines on stderr (printed above "
+              "3000 dofs: assembly time, the check's method, iterations and time).")
 @threads_option
 @json_option
 @stage
-def linearize(packing, output, threads, as_json, **options):
+def linearize(packing, output, threads, as_json, quiet, **options):
     """Build the stiffness matrix D and mass matrix M of PACKING (docs/method.md §5).
 
     Dofs per non-rattler grain: translations, plus rotations when the packing
@@ -43,7 +45,7 @@ def linearize(packing, output, threads, as_json, **options):
     files.check_writable(output)
     pk = files.read_packing(packing)
     pk.attrs["source_file"] = str(packing)
-    system = api.linearize(pk, params, threads=threads)
+    system = api.linearize(pk, params, threads=threads, progress=progress_printer(not quiet))
     files.write_linear(output, system)
     if system.attrs.get("n_negative_modes", 0):
         click.echo(f"warning: D has {system.attrs['n_negative_modes']} negative eigenvalue(s)", err=True)
