@@ -12,6 +12,9 @@ Rules (also in docs/figures.md, "The report"):
   mean ± sample standard deviation over the n packings (the spread of the
   ensemble); speed tables give ± one standard error (of the mean over packings,
   or of the regression slope for time-of-flight speeds), and say so.
+* **Numbers** (:mod:`granwave.report.numbers`): value ± error with the error
+  to 1–2 significant digits and the value rounded to match, counts as
+  integers, positive quantities not resolved shown as bounds.
 * **Cells.** One value: the value. Values all equal: the value and "(all n
   equal)". Values all zero within precision (|x| ≤ 1e-12 × the row's largest
   modulus): "0 (< 1e-12 × max Cij)". A quantity measured on fewer packings than
@@ -35,6 +38,7 @@ import numpy as np
 from ..analysis.ensemble import describe
 from ..analysis.heights import group_heights
 from .inputs import Scenes, num
+from .numbers import fmt, fmt_count, fmt_positive, fmt_range  # noqa: F401  (the one rule)
 from .references import chain_exact_exponents
 
 STATICS_KEYS = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p",
@@ -55,18 +59,6 @@ GROUP_RTOL = 0.05
 
 
 # ====================================================================== cells
-def fmt(x, err=None, digits: int = 4) -> str:
-    """``x ± err`` with ``digits`` significant digits; '—' for a missing number."""
-    x = num(x)
-    if not math.isfinite(x):
-        return "—"
-    s = f"{x:.{digits}g}"
-    e = num(err)
-    if err is not None and math.isfinite(e) and e > 0:
-        s += f" ± {e:.2g}"
-    return s
-
-
 def cell(values, *, error: str = "std", zero_scale: float | None = None, of: int | None = None) -> str:
     """One table cell from the values over packings (rules: module docstring).
 
@@ -96,9 +88,10 @@ def value_or_range(values) -> str:
     v = v[np.isfinite(v)]
     if v.size == 0:
         return "—"
+    integers = bool(np.all(v == np.round(v)))
     if np.all(v == v[0]):
-        return fmt(v[0], digits=3)
-    return f"{v.min():.3g} … {v.max():.3g}"
+        return fmt_count(v[0]) if integers else fmt(v[0], digits=3)
+    return fmt_range(v.min(), v.max())
 
 
 def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
@@ -382,7 +375,7 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                     if near:
                         cl, ecl = cl_of[near[0]]
                 row = [f"{p:.3g}", "–".join(f"{x:.3g}" for x in edges) or "—",
-                       str(h.get("n_signals", "—"))]
+                       fmt_count(h.get("n_signals"))]
                 for k in SPEED_KEYS:
                     row.append(fmt(h.get(k), h.get(k + "_err")))
                     cols[k].append(num(h.get(k)))
@@ -431,7 +424,7 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
         e = exact.get(ic.upper(), exact["A"])
         g, a = num(h.get("gamma")), num(h.get("alpha"))
         rows.append([h["_scene"], scenes.kind_of(h["_scene"]), fmt(h.get("pressure"), digits=3), ic,
-                     f"{h.get('n_signals', '—')} at {h.get('n_heights', '—')}",
+                     f"{fmt_count(h.get('n_signals'))} at {fmt_count(h.get('n_heights'))}",
                      fmt(g, h.get("gamma_err")), fmt(a, h.get("alpha_err")),
                      fmt(g / e["gamma"]) if math.isfinite(g) else "—",
                      fmt(a / e["alpha"]) if math.isfinite(a) else "—"])

@@ -1,0 +1,65 @@
+"""The report's one rule for numbers (granwave.report.numbers): exact strings."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from granwave.report.numbers import fmt, fmt_bound, fmt_count, fmt_positive, fmt_range, resolved
+
+
+@pytest.mark.parametrize("x, err, text", [
+    (4.099, 1.8, "4.1 ± 1.8"),            # leading 1: two digits of the error
+    (0.8123, 0.021, "0.81 ± 0.02"),       # else one digit; the value rounded to match
+    (0.9712, 0.005, "0.971 ± 0.005"),
+    (0.2345, 0.0012, "0.2345 ± 0.0012"),
+    (0.98, 0.16, "0.98 ± 0.16"),
+    (0.96, 0.96, "1 ± 1"),                # rounding the error up to 1 keeps one digit
+    (9.96, 0.0996, "9.96 ± 0.10"),        # 0.0996 rounds to 0.10: two digits
+    (-93, 130, "-90 ± 130"),
+    (371.4, 20.0, "370 ± 20"),
+    (-0.3, 2.0, "0 ± 2"),                 # no "-0"
+    (-0.00044, 0.00061, "(-4 ± 6)e-04"),  # small: one shared power of ten
+    (0.0004, 0.00001, "(4.00 ± 0.10)e-04"),
+    (123456.0, 789.0, "(1.235 ± 0.008)e+05"),
+    (0.5, 1e-10, "0.5 ± 1e-10"),          # an error far below six digits: not padded
+])
+def test_value_and_error(x, err, text):
+    assert fmt(x, err) == text
+
+
+def test_value_without_error_and_missing():
+    assert fmt(0.16666666) == "0.1667" and fmt(2.5, None) == "2.5" and fmt(1.0, 0.0) == "1"
+    assert fmt(1.0, math.nan) == "1" and fmt(0.123456, digits=3) == "0.123"
+    assert fmt(None) == fmt(math.nan) == fmt("x") == "—"
+
+
+def test_counts_and_ranges():
+    assert fmt_count(1168.0) == "1168" and fmt_count(3) == "3" and fmt_count(None) == "—"
+    assert fmt_range(1168.0, 1172.0) == "1168 … 1172"          # integers as integers
+    assert fmt_range(0.12341, 0.12345) == "0.1234 … 0.1235"    # digits enough to differ
+    assert fmt_range(1e-7, 3e-7) == "1e-07 … 3e-07"
+
+
+def test_bounds():
+    assert fmt_bound(170.4) == "170" and fmt_bound(4.17) == "4.2" and fmt_bound(2.99) == "3.0"
+    assert fmt_bound(3.73e7) == "3.7e+07" and fmt_bound(0.00078) == "7.8e-04"
+
+
+@pytest.mark.parametrize("x, err, ci, text", [
+    (0.5, 0.01, None, "0.500 ± 0.010"),                               # resolved
+    (-0.00044, 0.00061, None, "< 7.8e-04 (95 %; consistent with 0)"),  # ± 2 errors reach 0
+    (0.98, 0.16, (-1.03, 2.99), "< 3.0 (95 %; consistent with 0)"),   # the interval given
+    (371.0, None, (4.17, 3.73e7), "> 4.2 (95 %; not constrained above)"),  # over a decade
+    (-1.0, 0.1, None, "not resolved (95 % interval ≤ 0)"),
+    (-1.0, None, None, "not resolved (≤ 0)"),
+    (2.0, None, None, "2"),                                            # no error: as it is
+])
+def test_positive_quantities(x, err, ci, text):
+    assert fmt_positive(x, err, ci) == text
+
+
+def test_positive_with_interval_and_resolved():
+    assert fmt_positive(2.0, 0.1, (1.8, 2.2), show_ci=True) == "2.00 ± 0.10 (95 % 1.8 … 2.2)"
+    assert resolved(1.0, 0.1) and not resolved(1.0, 0.6) and not resolved(1.0, None, (0.5, 6.0))
