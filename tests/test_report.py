@@ -167,7 +167,7 @@ def test_report_contents(page):
     assert R.fmt(c) in md and R.fmt(0.4321 / c) in md
     # the sweep's numbers as given
     assert "### frictional2d\n\n| exponent | value | pressures |\n|---|---|---|\n" \
-           "| alpha_tof | 0.247 ± 0.013 | 2 |" in md
+           "| ν of c_tof (`alpha_tof`) | 0.247 ± 0.013 | 2 |" in md
     # figures: relative links, captions, PDF twin
     assert "![Chain signals against the Airy shape" in md
     assert "](../" in md and "figures/airy_A.png)" in md and "figures/exponents.png)" in md
@@ -241,7 +241,7 @@ def test_speeds_one_kind_of_error_bar(page):
     assert tof_row[1] == f"{SHORT:.3g}–{TALL:.3g}" and tof_row[7].startswith(R.fmt(0.2345 / cl)[:5])
     alpha_tof = math.log(0.4811 / 0.2345) / math.log(100)
     assert R.fmt(alpha_tof) in speeds
-    assert "α = 0.1667" in speeds  # the Hertz exponent from the lattice formula
+    assert "ν = 0.1667" in speeds  # the Hertz exponent from the lattice formula
 
 
 def test_no_empty_tables(page):
@@ -251,7 +251,7 @@ def test_no_empty_tables(page):
     fl = fl[fl.index("### frictionless2d"):]
     assert "No time-of-flight speeds: the scene has 1 container height" in fl
     assert "c_tof" not in fl.split("No time-of-flight")[0]
-    assert "No γ or α for frictionless2d: one container height" in md
+    assert "No γ or δ for frictionless2d: one container height" in md
     # no table row whose numbers are all missing
     for line in md.splitlines():
         if line.startswith("| ") and not line.startswith("|---"):
@@ -326,4 +326,4 @@ def test_sweep_without_fits_is_one_line():
     assert sweep_table(obj) == ["No exponent fitted: alpha_tof: c_tof known at 1 pressure(s), "
                                 "need 2.", ""]
     rows = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
-    assert rows[2] == "| alpha_tof | 0.200 ± 0.010 | 4 |" and len(rows) == 4  # no "—" row for alpha_l
+    assert rows[2] == "| ν of c_tof (`alpha_tof`) | 0.200 ± 0.010 | 4 |" and len(rows) == 4  # no "—" row for alpha_l

@@ -21,7 +21,7 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
 
     (a) local speeds c_tof, c_peak, c_zero and c_l, c_t against L; (b) c_tof/c_l (local and
     apparent L/t) with the fit 1 + a L^-beta and the ±tolerance band; (c) amplitude and
-    (d) width against L (means ± standard error) with the local exponents γ_eff, α_eff on a
+    (d) width against L (means ± standard error) with the local exponents γ_eff, δ_eff on a
     twin axis; (e) α(ω) and (f) c(ω) with error bars, the reliable band shaded, c_l dashed
     (the bulk c_l∞ dotted, with the local c_tof/c_l∞ in (b), when the analysis gives it).
     Nothing is computed here: every number comes from the two analyses.
@@ -71,7 +71,7 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     ax.legend(fontsize=8)
 
     for k, (key, eff, sign, label) in enumerate((("amplitude", "gamma_eff", r"$\gamma_{\rm eff}$", "|A|"),
-                                                 ("width", "alpha_eff", r"$\alpha_{\rm eff}$", "W"))):
+                                                 ("width", "alpha_eff", r"$\delta_{\rm eff}$", "W"))):
         ax = fig.add_subplot(3, 2, 3 + k)
         _errorbar(ax, L, np.asarray(per[key], float), np.asarray(per[key + "_sem"], float), fmt="o-",
                   color="C0", label=f"{label} (mean ± s.e.)")

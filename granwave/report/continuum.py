@@ -96,7 +96,7 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                           f"{fmt(per['amplitude'][i], per['amplitude_sem'][i])} | "
                           f"{fmt(per['width'][i], per['width_sem'][i])} |")
             loc = front["local"]
-            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | α_eff |",
+            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | δ_eff |",
                    "|---|---|---|---|---|---|---|"]
             for i in range(len(loc["height"])):
                 md.append(f"| {fmt(loc['height'][i])} | {fmt(loc['c_tof'][i], loc['c_tof_err'][i])} | "

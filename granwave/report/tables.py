@@ -298,7 +298,7 @@ def provenance_section(groups_by_scene: Mapping[str, Groups]) -> list[str]:
 
 # ====================================================================== speeds
 def power_exponent(p, c) -> tuple[float, float]:
-    """Fitted α of c ∝ p^α through the finite positive points (NaN if fewer than two)."""
+    """Fitted ν of c ∝ p^ν through the finite positive points (NaN if fewer than two)."""
     from ..analysis.fits import power_law_fit
 
     p, c = np.asarray(p, float), np.asarray(c, float)
@@ -324,9 +324,9 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
           "the n packings for c_ℓ and c_t, of the fitted slope for the time-of-flight speeds "
           "c_tof, c_peak, c_zero (`analyze heights`, docs/method.md §9; no ± where the slope "
           "goes through two points, one packing per height); c_tof/c_ℓ with relative errors in "
-          "quadrature. Exponents: least-squares fit c ∝ p^α over the pressures (± its standard "
+          "quadrature. Exponents: least-squares fit c ∝ p^ν over the pressures (± its standard "
           f"error). Fixed Hertzian network (triangular-lattice formula, docs/method.md §12): "
-          f"α = {hertz:.4f}.", ""]
+          f"ν = {hertz:.4f}.", ""]
     names = sorted(s for s in set(groups_by_scene) | set(h_by_scene) if scenes.kind_of(s) == "disordered")
     if not names:
         return md + ["No disordered scenes among the inputs.", ""]
@@ -401,7 +401,7 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                    "at each pressure, and c_tof, c_peak, c_zero need a height series of two or "
                    "more heights (docs/method.md §9).", ""]
         if fits:
-            md += table(["speed", "exponent α (c ∝ p^α)", "pressures"], fits)
+            md += table(["speed", "exponent ν (c ∝ p^ν)", "pressures"], fits)
         elif cont or series:
             md += ["One pressure: no exponent fit.", ""]
     return md
@@ -409,13 +409,13 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
 
 # ====================================================================== exponents
 def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequence[str]) -> list[str]:
-    md = ["## Front scaling with distance: γ and α", "",
-          "A ∝ L^−γ and W ∝ L^α fitted over every signal of a height series (± one standard "
+    md = ["## Front scaling with distance: γ and δ", "",
+          "A ∝ L^−γ and W ∝ L^δ fitted over every signal of a height series (± one standard "
           "error of the fitted slope; none with two points), against the identical-ball chain's "
           "exact values (Airy asymptote, docs/method.md §12). n: signals at k nominal heights. "
-          "γ and α are dimensionless.", ""]
+          "γ and δ are dimensionless (the fits' JSON keys: `gamma`, `alpha`).", ""]
     exact = {ic: chain_exact_exponents(ic) for ic in ("A", "B")}
-    md += table(["chain (exact)", "γ", "α"],
+    md += table(["chain (exact)", "γ", "δ"],
                 [[f"initial condition {ic}", fmt(e["gamma"]), fmt(e["alpha"])] for ic, e in exact.items()])
     with_fit = [h for h in hts if h.get("gamma") is not None or h.get("alpha") is not None]
     rows = []
@@ -429,13 +429,13 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
                      fmt(g / e["gamma"]) if math.isfinite(g) else "—",
                      fmt(a / e["alpha"]) if math.isfinite(a) else "—"])
     if rows:
-        md += table(["scene", "kind", "p", "ic", "n at k", "γ", "α", "γ/γ chain", "α/α chain"], rows)
+        md += table(["scene", "kind", "p", "ic", "n at k", "γ", "δ", "γ/γ chain", "δ/δ chain"], rows)
     else:
         md += ["No height series among the inputs.", ""]
     have = {h["_scene"] for h in with_fit}
     lonely = sorted(s for s in all_scenes if s not in have and scenes.kind_of(s) == "disordered")
     if lonely:
-        md += [f"No γ or α for {', '.join(lonely)}: one container height per pressure (a height "
+        md += [f"No γ or δ for {', '.join(lonely)}: one container height per pressure (a height "
                "series needs two or more).", ""]
     return md
 
@@ -484,8 +484,17 @@ def damping_section(rows: Sequence[Mapping]) -> list[str]:
     return md + table(["ζ", "amplitude A", "width W", "tail rms", "tail rms / A"], body)
 
 
+SWEEP_SPEEDS = {"tof": "c_tof", "peak": "c_peak", "zero": "c_zero", "l": "c_ℓ", "t": "c_t"}
+
+
+def sweep_label(key: str) -> str:
+    """``alpha_tof`` → "ν of c_tof (`alpha_tof`)": the report's symbol, the file's key."""
+    speed = SWEEP_SPEEDS.get(key.removeprefix("alpha_"))
+    return f"ν of {speed} (`{key}`)" if speed else key
+
+
 def sweep_table(obj) -> list[str]:
-    """The fitted exponents of a ``pressure-sweep --json`` object, as given."""
+    """The fitted exponents ν (c ∝ p^ν) of a ``pressure-sweep --json`` object, as given."""
     if not isinstance(obj, Mapping):
         return ["(not a sweep object)", ""]
     alphas = [k for k in obj if k.startswith("alpha_") and not k.endswith(("_err", "_n"))]
@@ -496,7 +505,7 @@ def sweep_table(obj) -> list[str]:
         return [f"No exponent fitted{': ' + why if why else ' (fewer than two pressures)'}.", ""]
     alphas = fitted
     if alphas:
-        rows = [[k, fmt(obj[k], obj.get(k + "_err")),
+        rows = [[sweep_label(k), fmt(obj[k], obj.get(k + "_err")),
                  str(obj.get(k + "_n", "")) if obj.get(k + "_n") is not None else ""] for k in alphas]
         if obj.get("expected_exponent") is not None:
             rows.append(["expected (fixed Hertzian network)", fmt(obj["expected_exponent"]), ""])
