@@ -63,3 +63,24 @@ def test_positive_quantities(x, err, ci, text):
 def test_positive_with_interval_and_resolved():
     assert fmt_positive(2.0, 0.1, (1.8, 2.2), show_ci=True) == "2.00 ± 0.10 (95 % 1.8 … 2.2)"
     assert resolved(1.0, 0.1) and not resolved(1.0, 0.6) and not resolved(1.0, None, (0.5, 6.0))
+
+
+def test_continuum_section_shows_no_negative_attenuation_or_q():
+    """α = −0.00044 ± 0.00061 and Q = −93 ± 130 (the default workflow's report) are bounds."""
+    from granwave.report.continuum import approach_sentence, continuum_section
+
+    att = {"omega": [0.1, 0.2], "alpha": [-0.00044, 0.002], "alpha_err": [0.00061, 0.0001],
+           "Q": [-93.0, 250.0], "Q_err": [130.0, 13.0], "c": [0.5, 0.5], "c_err": [0.01, 0.01],
+           "reliable": [True, True], "band": [0.1, 0.2], "heights": [8, 16, 32], "n_signals": 6,
+           "threshold": 0.1, "c0": 0.5, "c0_err": 0.01, "omega_fit": [0.1, 0.2],
+           "omega_ref": 0.2, "c_ref": 0.5, "c_ref_err": 0.01, "alpha_ref": -0.00044,
+           "alpha_ref_err": 0.00061, "bootstrap": 5}
+    md = "\n".join(continuum_section({"sc": {"attenuation": att}}))
+    assert "-0.00044" not in md and "-93" not in md and "(-4 ± 6)e-04" not in md
+    # α + 2 errors = 0.00078; Q > ω/(2 α_upper c) = 0.1 / (2 × 0.00078 × 0.5) = 128
+    assert "| 0.1 | < 7.8e-04 (95 %; consistent with 0) | > 130 (α not resolved) | 0.500 ± 0.010 |" in md
+    assert "| 0.2 | 0.00200 ± 0.00010 | 250 ± 13 | 0.500 ± 0.010 |" in md
+    s = approach_sentence({"status": "beyond", "L_max": 100.0, "L_star": 371.0,
+                           "L_star_ci": [4.17, 3.73e7], "L_star_extrapolated": True})
+    assert "371" not in s and "The fit does not constrain L* (95 % interval [4.17, 3.73e+07] d, " \
+                             "over a decade wide): only L* > 4.2 d." in s
