@@ -87,7 +87,7 @@ def inputs(tmp_path_factory):
         ("lattice_frictional", 1e-5): {"c_tof": 0.4321, "c_tof_err": None, "c_peak": 0.4012,
                                         "c_zero": 0.3999, "edge_heights": [8.66, 25.1]},
         ("chain_B", 1.0): {"ic": "B", "gamma": 0.9712, "gamma_err": 0.005, "alpha": 0.3401,
-                           "alpha_err": 0.002},
+                           "alpha_err": 0.002, "n_aliased": 2},
     }
     for (scene, p), obj in heights.items():
         (hd / scene).mkdir(parents=True, exist_ok=True)
@@ -162,6 +162,9 @@ def test_report_contents(page):
     assert "0.81 ± 0.02" in md and "0.46 ± 0.03" in md and "0.971 ± 0.005" in md
     assert "| initial condition A | 0.6667 | 0.3333 |" in md
     assert "| initial condition B | 1 | 0.3333 |" in md
+    # aliased signals are marked, and the page says what that means
+    assert "| chain_B | chains | 1 | B | 4 at 2 (2 aliased) |" in md
+    assert 'Rows marked "aliased": 2 signals in 1 height series were sampled' in md
     # the lattice against the formula (frictional, from the config)
     c = lattice_speed(1e-5, friction=True)
     assert R.fmt(c) in md and R.fmt(0.4321 / c) in md

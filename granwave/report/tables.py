@@ -38,7 +38,7 @@ import numpy as np
 from ..analysis.ensemble import describe
 from ..analysis.heights import group_heights
 from .inputs import Scenes, num
-from .numbers import fmt, fmt_count, fmt_positive, fmt_range  # noqa: F401  (the one rule)
+from .numbers import fmt, fmt_bound, fmt_count, fmt_positive, fmt_range  # noqa: F401  (one rule)
 from .references import chain_exact_exponents
 
 STATICS_KEYS = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p",
@@ -375,7 +375,8 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                     if near:
                         cl, ecl = cl_of[near[0]]
                 row = [f"{p:.3g}", "–".join(f"{x:.3g}" for x in edges) or "—",
-                       fmt_count(h.get("n_signals"))]
+                       fmt_count(h.get("n_signals")) + (f" ({aliased_of(h)[0]} aliased)"
+                                                         if aliased_of(h)[0] else "")]
                 for k in SPEED_KEYS:
                     row.append(fmt(h.get(k), h.get(k + "_err")))
                     cols[k].append(num(h.get(k)))
@@ -391,6 +392,7 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
             md += ["Time-of-flight speeds between the two edge heights L1–L2 (n signals in the "
                    "height series" + ("; c_ℓ of the packings at L2):" if len(header) > 6 else "):"), ""]
             md += table(header, tof)
+            md += aliased_note(list(series.values()))
             if len(cols["p"]) >= 2:
                 fits = [[k, fmt(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
                         for k in SPEED_KEYS] + fits
@@ -405,6 +407,44 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
         elif cont or series:
             md += ["One pressure: no exponent fit.", ""]
     return md
+
+
+# ====================================================================== aliasing
+def aliased_of(h: Mapping) -> tuple[int, float]:
+    """(aliased signals, largest Nyquist ratio h ω_max/π among them) of a height series;
+    (0, nan) for a series that records none (``analyze heights`` output before the flag)."""
+    samples = [s for s in (h.get("samples") or []) if isinstance(s, Mapping)]
+    flagged = [s for s in samples if s.get("aliased")]
+    n = int(h["n_aliased"]) if h.get("n_aliased") is not None else len(flagged)
+    ratios = [num(s.get("nyquist_ratio")) for s in flagged]
+    ratios = [r for r in ratios if math.isfinite(r)]
+    return n, max(ratios, default=math.nan)
+
+
+def aliased_note(series: Sequence[Mapping]) -> list[str]:
+    """One paragraph when some of the series' signals are aliased (else nothing)."""
+    marked = [(h, *aliased_of(h)) for h in series]
+    marked = [(h, n, r) for h, n, r in marked if n > 0]
+    if not marked:
+        return []
+    worst = max((r for _, _, r in marked if math.isfinite(r)), default=math.nan)
+    total = sum(n for _, n, _ in marked)
+    return [f"Rows marked \"aliased\": {total} signal{'s' if total != 1 else ''} in "
+            f"{len(marked)} height series {'were' if total != 1 else 'was'} sampled more coarsely "
+            "than the Nyquist interval π/ω_max of the system's highest mode (AliasingWarning of "
+            "`granwave propagate`"
+            + (f"; largest h ω_max/π = {fmt_bound(worst, 3)}" if math.isfinite(worst) else "")
+            + "). They stay in the fits: their samples are the exact signal at the sample times, "
+            "and the front is far slower than the highest mode; but a spectrum of such a record "
+            "folds the modes above π/h, and a narrow pulse is resolved by fewer samples. Rerun "
+            "with more `samples` (or a shorter `t_max`) to remove the mark.", ""]
+
+
+def n_at_k(h: Mapping) -> str:
+    """The "n at k" cell of a height series, marked when some of its signals are aliased."""
+    n_al, _ = aliased_of(h)
+    cell_ = f"{fmt_count(h.get('n_signals'))} at {fmt_count(h.get('n_heights'))}"
+    return cell_ + (f" ({n_al} aliased)" if n_al else "")
 
 
 # ====================================================================== exponents
@@ -424,12 +464,13 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
         e = exact.get(ic.upper(), exact["A"])
         g, a = num(h.get("gamma")), num(h.get("alpha"))
         rows.append([h["_scene"], scenes.kind_of(h["_scene"]), fmt(h.get("pressure"), digits=3), ic,
-                     f"{fmt_count(h.get('n_signals'))} at {fmt_count(h.get('n_heights'))}",
+                     n_at_k(h),
                      fmt(g, h.get("gamma_err")), fmt(a, h.get("alpha_err")),
                      fmt(g / e["gamma"]) if math.isfinite(g) else "—",
                      fmt(a / e["alpha"]) if math.isfinite(a) else "—"])
     if rows:
         md += table(["scene", "kind", "p", "ic", "n at k", "γ", "δ", "γ/γ chain", "δ/δ chain"], rows)
+        md += aliased_note(with_fit)
     else:
         md += ["No height series among the inputs.", ""]
     have = {h["_scene"] for h in with_fit}
@@ -466,7 +507,8 @@ def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[s
                 row += [fmt(v, h.get(k + "_err")), fmt(v / c)]
             rows.append(row)
     return md + table(["scene", "μ", "p", "L1–L2", "c_theory", "c_tof", "c_tof/c_theory", "c_peak",
-                       "c_peak/c_theory", "c_zero", "c_zero/c_theory"], rows)
+                       "c_peak/c_theory", "c_zero", "c_zero/c_theory"], rows) \
+        + aliased_note([h for scene in names for h in h_by_scene[scene].values()])
 
 
 # ====================================================================== damping, sweeps
