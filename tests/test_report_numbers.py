@@ -84,3 +84,28 @@ def test_continuum_section_shows_no_negative_attenuation_or_q():
                            "L_star_ci": [4.17, 3.73e7], "L_star_extrapolated": True})
     assert "371" not in s and "The fit does not constrain L* (95 % interval [4.17, 3.73e+07] d, " \
                              "over a decade wide): only L* > 4.2 d." in s
+
+
+def test_damping_section_states_its_window_and_marks_a_window_in_a_pulse():
+    from granwave.report.tables import damping_section
+
+    rows = [{"damping": 0.0, "amplitude": 0.0078, "width": 15.3, "tail_rms": 0.0067,
+             "tail_rms_over_amplitude": 0.86, "tail_start": 60.5, "tail_in_pulse": False},
+            {"damping": 1.0, "amplitude": 0.0020, "width": 26.7, "tail_rms": 0.00024,
+             "tail_rms_over_amplitude": 0.12, "tail_start": 60.5, "tail_in_pulse": True}]
+    md = "\n".join(damping_section(rows))
+    assert "t ≥ 60.5 d̄/√(E*/ρ)." in md and 'Rows marked "window in pulse"' in md
+    assert "| 1 | 0.002 | 26.7 | 0.00024 (window in pulse) | 0.12 |" in md
+    assert "(window in pulse) | 0.86 |" not in md
+
+
+def test_lattice_above_close_packing_is_explained():
+    from granwave.report.tables import Groups, close_packing_note
+
+    def lat(phi2):
+        return {"pressure": 1e-4, "height": 25.2, "statics": {"phi2": phi2}}
+
+    note = close_packing_note(Groups([lat(0.9133)]))
+    assert note and note[0].startswith("Φ2 above the close packing of equal discs, π/(2√3) = "
+                                       "0.9069 (up to 0.9133 here), is a matter of definition")
+    assert close_packing_note(Groups([lat(0.9069)])) == []

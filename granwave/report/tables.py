@@ -235,6 +235,22 @@ def count_notes(scene: str, groups: Groups, sections: Sequence[str], *,
     return notes
 
 
+def close_packing_note(groups: Groups) -> list[str]:
+    """One line when a row's mean Φ2 exceeds the close packing of equal discs π/(2√3)."""
+    close = math.pi / (2 * math.sqrt(3))
+    over = [np.nanmean([num(s["statics"].get("phi2")) for s in _with(items, "statics")])
+            for items in groups.cells.values() if _with(items, "statics")]
+    over = [v for v in over if math.isfinite(v) and round(v, 4) > round(close, 4)]  # as shown
+    if not over:
+        return []
+    return [f"Φ2 above the close packing of equal discs, π/(2√3) = {close:.4f} (up to "
+            f"{max(over):.4f} here), is a matter of definition, not of the packing: Φ2 counts "
+            "every disc's whole area, so the overlaps of compressed contacts count twice (about "
+            "+2δ/d̄ for a mean overlap δ), and the bulk slab L − 2l cuts the discs exactly but holds "
+            "a non-integer number of rows, so a lattice's row-density ripple does not average out "
+            "in a short container (docs/method.md §4).", ""]
+
+
 def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None = None) -> list[str]:
     md = ["## Statics per pressure and container height", "",
           "One row per scene, pressure p [E*] and nominal container height L [d̄] (mean of the "
@@ -249,6 +265,7 @@ def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None
             off = scenes is not None and scenes.spec.get(scene, {}).get("moduli") is False
             notes = count_notes(scene, groups, ["statics", "moduli"], moduli_off=off)
             md += (["Packings not in this table:", ""] + notes + [""]) if notes else []
+            md += close_packing_note(groups)
             any_table = True
     return md if any_table else md + ["No static measurements among the inputs.", ""]
 
@@ -518,10 +535,20 @@ def damping_section(rows: Sequence[Mapping]) -> list[str]:
           "One packing (n = 1) kicked in the Hertz–Mindlin DEM with contact damping ζ (fraction "
           "of critical, dimensionless). Amplitude A and tail rms in the DEM signal's units (force "
           "change over the kick's scale, the linear model's normalization), width W in "
-          "d̄/√(E*/ρ). Tail rms: rms of the signal after the least damped signal's first zero "
-          "crossing plus one pulse width (`granwave analyze damping`).", ""]
+          "d̄/√(E*/ρ). Tail rms: rms of the signal over one window for every ζ, from the "
+          "latest end of a first pulse (max over ζ of its zero crossing plus one pulse width) to "
+          "the end of the record (`granwave analyze damping`)"]
+    starts = sorted({num(r.get("tail_start")) for r in rows if math.isfinite(num(r.get("tail_start")))})
+    if starts:
+        md[-1] += f": t ≥ {' / '.join(fmt(t, digits=4) for t in starts)} d̄/√(E*/ρ)"
+    md[-1] += "."
+    if any(r.get("tail_in_pulse") for r in rows):
+        md[-1] += (" Rows marked \"window in pulse\": their own first pulse ends after the window "
+                   "starts, so part of the pulse counts as tail.")
+    md.append("")
     body = [[fmt(r.get("damping")), fmt(r.get("amplitude")), fmt(r.get("width")),
-             fmt(r.get("tail_rms")), fmt(r.get("tail_rms_over_amplitude"))]
+             fmt(r.get("tail_rms")) + (" (window in pulse)" if r.get("tail_in_pulse") else ""),
+             fmt(r.get("tail_rms_over_amplitude"))]
             for r in sorted(rows, key=lambda r: float(r.get("damping", 0.0)))]
     return md + table(["ζ", "amplitude A", "width W", "tail rms", "tail rms / A"], body)
 
