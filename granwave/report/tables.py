@@ -76,9 +76,10 @@ def cell(values, *, error: str = "std", zero_scale: float | None = None, of: int
         return f"0 (< {ZERO_RTOL:.0e} × max Cij)" + suffix
     d = describe(v)
     if n == 1:
-        return fmt(d["mean"]) + suffix
+        return (fmt_count(v[0]) if v[0] == round(v[0]) else fmt(v[0])) + suffix
     if np.all(v == v[0]):
-        return f"{fmt(v[0])} (all {n} equal)" + suffix
+        same = fmt_count(v[0]) if v[0] == round(v[0]) else fmt(v[0])
+        return f"{same} (all {n} equal)" + suffix
     return fmt(d["mean"], d[error]) + suffix
 
 
