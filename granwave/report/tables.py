@@ -484,8 +484,8 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
         rows.append([h["_scene"], scenes.kind_of(h["_scene"]), fmt(h.get("pressure"), digits=3), ic,
                      n_at_k(h),
                      fmt(g, h.get("gamma_err")), fmt(a, h.get("alpha_err")),
-                     fmt(g / e["gamma"]) if math.isfinite(g) else "—",
-                     fmt(a / e["alpha"]) if math.isfinite(a) else "—"])
+                     fmt(g / e["gamma"], num(h.get("gamma_err")) / e["gamma"]),
+                     fmt(a / e["alpha"], num(h.get("alpha_err")) / e["alpha"])])
     if rows:
         md += table(["scene", "kind", "p", "ic", "n at k", "γ", "δ", "γ/γ chain", "δ/δ chain"], rows)
         md += aliased_note(with_fit)
@@ -522,7 +522,7 @@ def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[s
                    fmt(c)]
             for k in SPEED_KEYS:
                 v = num(h.get(k))
-                row += [fmt(v, h.get(k + "_err")), fmt(v / c)]
+                row += [fmt(v, h.get(k + "_err")), fmt(v / c, num(h.get(k + "_err")) / c)]
             rows.append(row)
     return md + table(["scene", "μ", "p", "L1–L2", "c_theory", "c_tof", "c_tof/c_theory", "c_peak",
                        "c_peak/c_theory", "c_zero", "c_zero/c_theory"], rows) \
