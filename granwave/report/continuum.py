@@ -206,7 +206,9 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                     md[-1] += f", c0/c_ℓ∞ = {fmt(rb, rbe)} (bulk c_ℓ∞)"
             md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
                        f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
-                       f"α = {fmt_positive(att.get('alpha_ref'), att.get('alpha_ref_err'))} /d̄")
+                       + (f"α = {fmt_positive(att.get('alpha_ref'), att.get('alpha_ref_err'))} /d̄"
+                          if num(band[0]) <= num(att.get("omega_ref")) <= num(band[1])
+                          else "α not shown (this ω is outside the reliable band)"))
             md[-1] += (f" (error bars: the larger of the fit's standard error and the bootstrap over "
                        f"packings, {att.get('bootstrap', 0)} resamplings).")
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
