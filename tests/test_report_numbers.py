@@ -51,13 +51,21 @@ def test_bounds():
     (0.5, 0.01, None, "0.500 ± 0.010"),                               # resolved
     (-0.00044, 0.00061, None, "< 7.8e-04 (95 %; consistent with 0)"),  # ± 2 errors reach 0
     (0.98, 0.16, (-1.03, 2.99), "< 3.0 (95 %; consistent with 0)"),   # the interval given
-    (371.0, None, (4.17, 3.73e7), "> 4.2 (95 %; not constrained above)"),  # over a decade
+    (371.0, None, (4.17, 3.73e7), "[4.2, 3.7e+07] (95 %)"),          # over a decade
     (-1.0, 0.1, None, "not resolved (95 % interval ≤ 0)"),
     (-1.0, None, None, "not resolved (≤ 0)"),
     (2.0, None, None, "2"),                                            # no error: as it is
 ])
 def test_positive_quantities(x, err, ci, text):
     assert fmt_positive(x, err, ci) == text
+
+
+def test_named():
+    from granwave.report.numbers import fmt_named
+
+    assert fmt_named("α", "0.0070 ± 0.0007") == "α = 0.0070 ± 0.0007"
+    assert fmt_named("α", "< 0.0025 (95 %; consistent with 0)") == "α < 0.0025 (95 %; consistent with 0)"
+    assert fmt_named("α", "[1.6e-04, 0.0029] (95 %)") == "α ∈ [1.6e-04, 0.0029] (95 %)"
 
 
 def test_positive_with_interval_and_resolved():
@@ -78,7 +86,7 @@ def test_continuum_section_shows_no_negative_attenuation_or_q():
     md = "\n".join(continuum_section({"sc": {"attenuation": att}}))
     assert "-0.00044" not in md and "-93" not in md and "(-4 ± 6)e-04" not in md
     # α + 2 errors = 0.00078; Q > ω/(2 α_upper c) = 0.1 / (2 × 0.00078 × 0.5) = 128
-    assert "| 0.1 | < 7.8e-04 (95 %; consistent with 0) | > 130 (α not resolved) | 0.500 ± 0.010 |" in md
+    assert "| 0.1 | < 7.8e-04 (95 %; consistent with 0) | > 130 (α consistent with 0) | 0.500 ± 0.010 |" in md
     assert "| 0.2 | 0.00200 ± 0.00010 | 250 ± 13 | 0.500 ± 0.010 |" in md
     s = approach_sentence({"status": "beyond", "L_max": 100.0, "L_star": 371.0,
                            "L_star_ci": [4.17, 3.73e7], "L_star_extrapolated": True})

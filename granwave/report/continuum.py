@@ -13,7 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .numbers import fmt, fmt_bound, fmt_count, fmt_positive, num, resolved
+from .numbers import fmt, fmt_bound, fmt_count, fmt_named, fmt_positive, num, resolved
 
 
 def _kind(obj) -> str | None:
@@ -93,11 +93,13 @@ def q_cell(att: Mapping, i: int) -> str:
     a, ea = num(att["alpha"][i]), num(att["alpha_err"][i])
     if resolved(a, ea):
         return fmt_positive(att["Q"][i], att["Q_err"][i])
-    upper = a + 2 * ea
+    lower, upper = a - 2 * ea, a + 2 * ea
     w, c = num(att["omega"][i]), num(att["c"][i])
-    if upper > 0 and w > 0 and c > 0:
-        return f"> {fmt_bound(w / (2 * upper * c))} (α not resolved)"
-    return "not resolved (α not resolved)"
+    if not (upper > 0 and w > 0 and c > 0):
+        return "not resolved (α not resolved)"
+    if lower > 0:  # α within a 95 % interval over a decade wide: Q within its image
+        return f"[{fmt_bound(w / (2 * upper * c))}, {fmt_bound(w / (2 * lower * c))}] (95 %)"
+    return f"> {fmt_bound(w / (2 * upper * c))} (α consistent with 0)"
 
 
 def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
@@ -166,10 +168,10 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                 md += [f"Against the bulk c_ℓ∞ instead (local c_tof/c_ℓ∞ = "
                        + ", ".join(fmt(r, e) for r, e in zip(loc["ratio_bulk"], loc["ratio_bulk_err"]))
                        + f"): β = {fmt_positive(appb.get('beta'), appb.get('beta_err'), appb.get('beta_ci'), digits=3)} "
-                       f"(95 % {_ci(appb.get('beta_ci'))}), L* "
-                       + (f"≈ {fmt_bound(appb.get('L_star'), 3)} d (95 % {_ci(appb.get('L_star_ci'))})"
+                       f"(95 % {_ci(appb.get('beta_ci'))}), "
+                       + (f"L* ≈ {fmt_bound(appb.get('L_star'), 3)} d (95 % {_ci(appb.get('L_star_ci'))})"
                           if resolved(appb.get('L_star'), None, appb.get('L_star_ci'))
-                          else "not constrained: " + unconstrained("L*", appb.get("L_star_ci"), "d"))
+                          else "and " + unconstrained("L*", appb.get("L_star_ci"), "d"))
                        + ".", ""]
         if att:
             band = att.get("band", [math.nan, math.nan])
@@ -184,8 +186,9 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
             rel_idx = [i for i, ok in enumerate(att["reliable"]) if ok]
             if rel_idx:
                 i0, i1 = rel_idx[0], rel_idx[-1]
-                md[-1] += (f"; α = {fmt_positive(att['alpha'][i0], att['alpha_err'][i0])} /d̄ at "
-                           f"the band's bottom and {fmt_positive(att['alpha'][i1], att['alpha_err'][i1])} "
+                md[-1] += (f"; {fmt_named('α', fmt_positive(att['alpha'][i0], att['alpha_err'][i0]))} "
+                           f"/d̄ at the band's bottom and "
+                           f"{fmt_named('α', fmt_positive(att['alpha'][i1], att['alpha_err'][i1]))} "
                            f"/d̄ at its top")
             md[-1] += (f"; low-frequency limit c0 = {fmt(att.get('c0'), att.get('c0_err'))} √(E*/ρ) "
                        f"(c = c0 + c2 ω² over ω = {fmt((att.get('omega_fit') or [math.nan])[0], digits=3)} … "
@@ -206,14 +209,15 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                     md[-1] += f", c0/c_ℓ∞ = {fmt(rb, rbe)} (bulk c_ℓ∞)"
             md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
                        f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
-                       + (f"α = {fmt_positive(att.get('alpha_ref'), att.get('alpha_ref_err'))} /d̄"
+                       + (f"{fmt_named('α', fmt_positive(att.get('alpha_ref'), att.get('alpha_ref_err')))} /d̄"
                           if num(band[0]) <= num(att.get("omega_ref")) <= num(band[1])
                           else "α not shown (this ω is outside the reliable band)"))
             md[-1] += (f" (error bars: the larger of the fit's standard error and the bootstrap over "
                        f"packings, {att.get('bootstrap', 0)} resamplings).")
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
                    "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
-                   "and Q then a lower bound, Q > ω/(2 α_upper c):", "",
+                   "and Q then a lower bound, Q > ω/(2 α_upper c); where that interval spans more "
+                   "than a decade only the interval is shown, for α and for Q = ω/(2αc):", "",
                    "| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"]
             idx = [i for i, ok in enumerate(att["reliable"]) if ok]
             for i in idx[:: max(1, len(idx) // 8)]:

@@ -12,9 +12,9 @@
 * **positive quantities** (:func:`fmt_positive`): an attenuation, a quality
   factor, a length scale or a ratio of speeds cannot be negative. When its
   95 % interval (given, or value ± 2 errors) reaches zero or below, the
-  estimate is not shown: an upper bound "< hi (95 %), consistent with 0" or
+  estimate is not shown: an upper bound "< hi (95 %; consistent with 0)" or
   "not resolved". When the interval spans more than a decade the estimate is
-  a bound too: "> lo (95 %; not constrained above)".
+  not shown either, only the interval "[lo, hi] (95 %)".
 
 Missing or non-finite numbers are "—".
 """
@@ -150,4 +150,16 @@ def fmt_positive(x, err=None, ci=None, *, digits: int = 4, show_ci: bool = False
         return "not resolved (95 % interval ≤ 0)"
     if lo <= 0:
         return f"< {fmt_bound(hi)} (95 %; consistent with 0)"
-    return f"> {fmt_bound(lo)} (95 %; not constrained above)"
+    return f"[{fmt_bound(lo)}, {fmt_bound(hi)}] (95 %)"  # over a decade: the interval, no estimate
+
+
+def fmt_named(name: str, text: str) -> str:
+    """``name = estimate``, ``name < bound``, ``name ∈ [lo, hi] (95 %)`` or ``name not resolved``
+    for the strings of :func:`fmt_positive`."""
+    if text.startswith(("<", ">")):
+        return f"{name} {text}"
+    if text.startswith("["):
+        return f"{name} ∈ {text}"
+    if text.startswith("not"):
+        return f"{name} {text}"
+    return f"{name} = {text}"
