@@ -60,14 +60,14 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     tol = float(app.get("tolerance", 0.05))
     xs = np.geomspace(min(Lm.min(), L.min()), max(L.max(), min(float(app.get("L_star") or 0), 1e5)) * 1.2, 100)
     if np.isfinite(app.get("beta", np.nan) or np.nan):
-        from ..report.numbers import fmt, fmt_bound, fmt_positive, resolved
+        from ..report.numbers import fmt, fmt_bound, fmt_named, fmt_positive, resolved
 
         ci = app.get("L_star_ci")
-        lstar = (f"= {fmt_bound(app.get('L_star'), 3)}" if resolved(app.get("L_star"), None, ci)
-                 else fmt_positive(app.get("L_star"), None, ci).split(" (")[0] + " (95 %)"
-                 if app.get("L_star") is not None else "—")
+        lstar = (f"$L^*$ = {fmt_bound(app.get('L_star'), 3)}" if resolved(app.get("L_star"), None, ci)
+                 else fmt_named("$L^*$", fmt_positive(app.get("L_star"), None, ci).split(" (")[0])
+                 + " (95 %)")
         lab = (rf"$1 + a L^{{-\beta}}$, $\beta$ = {fmt(app['beta'], app.get('beta_err'), 3)}, "
-               rf"$L^*$ {lstar}")
+               + lstar)
         ax.plot(xs, 1 + app["a"] * xs ** -app["beta"], "-", color="C0", lw=1, label=lab)
     ax.axhspan(1 - tol, 1 + tol, color="0.9", zorder=0, label=f"±{tol:g}")
     ax.axhline(1.0, color="k", lw=0.8)
