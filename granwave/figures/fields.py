@@ -70,8 +70,9 @@ def displacement_snapshot(signal: Signal, path, *, packing: Packing | None = Non
     scale (stated in the suptitle), so that the panels compare: the
     :data:`ARROW_QUANTILE` quantile of |u| over the panels, longer arrows
     clipped to it. Not the largest |u|: the few grains at the kicked wall move
-    far more than the front does, and on their scale the front's arrows vanish. Positions come from the signal's
-    ``snapshots/position`` or else from ``packing``. ``index`` chooses the
+    far more than the front does, and on their scale the front's arrows
+    vanish. Positions come from the signal's ``snapshots/position`` or else
+    from ``packing``. ``index`` chooses the
     snapshots (default: up to four, evenly spread).
 
     Bottom row, when ``fields`` (:func:`granwave.analysis.pulse_field.row_fields`)
