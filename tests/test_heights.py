@@ -102,6 +102,17 @@ def richardson(values, n, power):
     return (values[-1] - r * values[-2]) / (1 - r)
 
 
+def test_aliased_signals_are_counted_and_flagged():
+    """The `aliased` attribute of propagate reaches the height series, sample by sample."""
+    sigs = chain_signals("A")
+    sigs[-1].attrs.update(aliased=True, nyquist_ratio=1.7)
+    sigs[0].attrs.update(aliased=False, nyquist_ratio=0.05)
+    res = height_series(sigs, edge_heights=(CHAIN_N[0] + 1, CHAIN_N[1] + 1))
+    assert res["n_aliased"] == 1
+    assert [s["aliased"] for s in res["samples"]] == [False] * (len(sigs) - 1) + [True]
+    assert res["samples"][-1]["nyquist_ratio"] == 1.7 and res["samples"][1]["nyquist_ratio"] is None
+
+
 @pytest.mark.parametrize("ic, gamma_exact", [("A", 2 / 3), ("B", 1.0)])
 def test_chain_exponents_approach_theory(ic, gamma_exact):
     res = height_series(chain_signals(ic), edge_heights=(CHAIN_N[0] + 1, CHAIN_N[1] + 1))

@@ -183,8 +183,29 @@ def test_damping_series(frictional):
     assert all(np.diff(amp) < 0), amp
     assert all(np.diff(tail) < 0), tail
     assert len({r["tail_start"] for r in rows}) == 1
-    f0 = front_features(sigs[1].time, sigs[1].force)
-    assert rows[0]["tail_start"] == pytest.approx(f0.t_zero + f0.width)
+    # one window for every ζ, starting after the latest pulse (the broadest, most damped one)
+    ends = [f.t_zero + f.width for f in (front_features(s.time, s.force) for s in sigs)]
+    assert rows[0]["tail_start"] == pytest.approx(max(ends))
+    assert not any(r["tail_in_pulse"] for r in rows)
+
+
+def test_damping_window_starts_after_the_broadest_pulse():
+    """The tail window is one for every ζ and starts after the latest pulse end (t_zero + W),
+    not inside the broad pulse of the most damped signal."""
+    from granwave.model import Signal
+
+    t = np.linspace(0.0, 200.0, 4001)
+    sigs = []
+    for z, w in ((0.0, 5.0), (1.0, 15.0)):  # the damped pulse is three times broader
+        force = np.where(t < 20 + 2 * w, np.sin(np.pi * np.clip(t - 20, 0, None) / w), 0.0)
+        force = force * (t >= 20) + 1e-3 * np.sin(0.3 * t) * (t > 20)  # pulse, then a small tail
+        sigs.append(Signal(t, force, attrs=dict(damping=z)))
+    rows = P.damping_table(sigs)
+    ends = [r["t_zero"] + r["width"] for r in rows]
+    assert rows[0]["tail_start"] == rows[1]["tail_start"] == pytest.approx(max(ends))
+    assert ends[1] > ends[0] and not any(r["tail_in_pulse"] for r in rows)
+    early = P.damping_table(sigs, tail_start=ends[0])  # by hand, inside the broad pulse
+    assert [r["tail_in_pulse"] for r in early] == [False, True]
 
 
 # ------------------------------------------------------------------ bad input

@@ -87,7 +87,7 @@ def inputs(tmp_path_factory):
         ("lattice_frictional", 1e-5): {"c_tof": 0.4321, "c_tof_err": None, "c_peak": 0.4012,
                                         "c_zero": 0.3999, "edge_heights": [8.66, 25.1]},
         ("chain_B", 1.0): {"ic": "B", "gamma": 0.9712, "gamma_err": 0.005, "alpha": 0.3401,
-                           "alpha_err": 0.002},
+                           "alpha_err": 0.002, "n_aliased": 2},
     }
     for (scene, p), obj in heights.items():
         (hd / scene).mkdir(parents=True, exist_ok=True)
@@ -159,15 +159,18 @@ def test_report_contents(page):
                     "## Provenance and numerical checks", "## Figures"):
         assert heading in md
     # gamma and alpha with uncertainties, against the chain's exact values
-    assert "0.8123 ± 0.021" in md and "0.4567 ± 0.034" in md and "0.9712 ± 0.005" in md
+    assert "0.81 ± 0.02" in md and "0.46 ± 0.03" in md and "0.971 ± 0.005" in md
     assert "| initial condition A | 0.6667 | 0.3333 |" in md
     assert "| initial condition B | 1 | 0.3333 |" in md
+    # aliased signals are marked, and the page says what that means
+    assert "| chain_B | chains | 1 | B | 4 at 2 (2 aliased) |" in md
+    assert 'Rows marked "aliased": 2 signals in 1 height series were sampled' in md
     # the lattice against the formula (frictional, from the config)
     c = lattice_speed(1e-5, friction=True)
     assert R.fmt(c) in md and R.fmt(0.4321 / c) in md
     # the sweep's numbers as given
     assert "### frictional2d\n\n| exponent | value | pressures |\n|---|---|---|\n" \
-           "| alpha_tof | 0.2468 ± 0.013 | 2 |" in md
+           "| ν of c_tof (`alpha_tof`) | 0.247 ± 0.013 | 2 |" in md
     # figures: relative links, captions, PDF twin
     assert "![Chain signals against the Airy shape" in md
     assert "](../" in md and "figures/airy_A.png)" in md and "figures/exponents.png)" in md
@@ -175,7 +178,7 @@ def test_report_contents(page):
     # HTML twin, rendered by the markdown package: every table, the images
     n_tables = sum(line.startswith("|---") for line in md.splitlines())
     assert n_tables >= 12 and html.count("<table>") == n_tables and "<img " in html
-    assert "0.8123 ± 0.021" in html
+    assert "0.81 ± 0.02" in html
 
 
 def test_statics_one_row_per_pressure_and_height(page):
@@ -234,14 +237,14 @@ def test_speeds_one_kind_of_error_bar(page):
         sem = np.std(cl, ddof=1) / np.sqrt(3)
         assert R.fmt(np.mean(cl), sem) in speeds
     # c_tof from the height series, against c_ℓ of the taller edge height
-    assert "0.2345 ± 0.0012" in speeds and "0.4811 ± 0.002" in speeds
+    assert "0.2345 ± 0.0012" in speeds and "0.481 ± 0.002" in speeds
     cl = np.mean([c_l_of(1e-6, s, TALL) for s in range(3)])
     row = rows_of(speeds, f"{1e-6:.3g}")
     tof_row = [r for r in row if r[3] == "0.2345 ± 0.0012"][0]
     assert tof_row[1] == f"{SHORT:.3g}–{TALL:.3g}" and tof_row[7].startswith(R.fmt(0.2345 / cl)[:5])
     alpha_tof = math.log(0.4811 / 0.2345) / math.log(100)
     assert R.fmt(alpha_tof) in speeds
-    assert "α = 0.1667" in speeds  # the Hertz exponent from the lattice formula
+    assert "ν = 0.1667" in speeds  # the Hertz exponent from the lattice formula
 
 
 def test_no_empty_tables(page):
@@ -251,7 +254,7 @@ def test_no_empty_tables(page):
     fl = fl[fl.index("### frictionless2d"):]
     assert "No time-of-flight speeds: the scene has 1 container height" in fl
     assert "c_tof" not in fl.split("No time-of-flight")[0]
-    assert "No γ or α for frictionless2d: one container height" in md
+    assert "No γ or δ for frictionless2d: one container height" in md
     # no table row whose numbers are all missing
     for line in md.splitlines():
         if line.startswith("| ") and not line.startswith("|---"):
@@ -326,4 +329,4 @@ def test_sweep_without_fits_is_one_line():
     assert sweep_table(obj) == ["No exponent fitted: alpha_tof: c_tof known at 1 pressure(s), "
                                 "need 2.", ""]
     rows = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
-    assert rows[2] == "| alpha_tof | 0.2 ± 0.01 | 4 |" and len(rows) == 4  # no "—" row for alpha_l
+    assert rows[2] == "| ν of c_tof (`alpha_tof`) | 0.200 ± 0.010 | 4 |" and len(rows) == 4  # no "—" row for alpha_l

@@ -25,6 +25,11 @@ Choices (also in ``docs/summaries.md`` and the CLI help)
   between consecutive nominal heights (group means), reported at the
   geometric mean height of each pair; ``gamma_local`` is -d log|A|/d log L.
 * With exactly two samples in a fit the uncertainty is undetermined (NaN).
+* **Aliasing is recorded, not hidden.** A signal whose sample interval
+  exceeds the Nyquist interval of its highest mode (``aliased`` attribute,
+  :func:`granwave.api.propagate`) still holds the exact signal at its sample
+  times and stays in the fits; each sample carries its ``aliased`` flag and
+  ``nyquist_ratio``, and ``n_aliased`` counts them, so a report can say so.
 
 Units: lengths d, times d/sqrt(E*/rho), speeds sqrt(E*/rho), forces E* d^2.
 """
@@ -197,4 +202,10 @@ def height_series(signals: Sequence[Signal], *, labels: Sequence[str] | None = N
     out = {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out}
     for i, lab in enumerate(labels):
         out["samples"][i]["source"] = str(lab)
+    flags = [bool(sig.attrs.get("aliased", False)) for sig in signals]
+    for i, sig in enumerate(signals):
+        ratio = sig.attrs.get("nyquist_ratio")
+        out["samples"][i]["aliased"] = flags[i]
+        out["samples"][i]["nyquist_ratio"] = None if ratio is None else float(ratio)
+    out["n_aliased"] = int(sum(flags))
     return out

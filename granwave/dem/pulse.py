@@ -423,9 +423,12 @@ def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None,
     ``t_zero``, ``width``; NaN and ``front_error`` when the rule finds no
     complete first pulse) and ``tail_rms``, the root mean square of the
     signal over t >= ``tail_start`` to the end of the record. By default
-    ``tail_start`` = t_zero + width of the *least damped* signal (its first
-    pulse's zero crossing plus one pulse width), the same window for every ζ
-    so that a damped, broader pulse does not move the window. Also
+    ``tail_start`` = the latest end of a first pulse over the series,
+    max over ζ of t_zero + width (a pulse's zero crossing plus one pulse
+    width): one window for every ζ, which starts after every coherent pulse,
+    the broadest damped one included, so no pulse counts as tail.
+    ``tail_in_pulse`` says whether a row's own pulse ends after the window
+    starts (possible only with ``tail_start`` given). Also
     ``tail_rms_over_amplitude`` and the counts of the DEM run. ``labels`` name
     the signals (file names) in error messages.
     """
@@ -450,7 +453,7 @@ def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None,
         if isinstance(f0, InputError):
             raise InputError(f"the least damped signal has no complete first pulse ({f0}); "
                              "give tail_start")
-        tail_start = f0.t_zero + f0.width
+        tail_start = max(f.t_zero + f.width for f in feats if not isinstance(f, InputError))
     rows = []
     for s, f in zip(order, feats):
         tail = s.force[s.time >= tail_start]
@@ -462,6 +465,7 @@ def damping_table(signals: Sequence[Signal], *, tail_start: float | None = None,
             row["front_error"] = str(f)
         else:
             row.update(amplitude=f.amplitude, t_peak=f.t_peak, t_zero=f.t_zero, width=f.width)
+        row["tail_in_pulse"] = bool(not isinstance(f, InputError) and f.t_zero + f.width > tail_start)
         row["tail_rms_over_amplitude"] = rms / row["amplitude"] if row["amplitude"] > 0 else float("nan")
         for key in ("n_opened", "n_formed", "n_sliding", "max_displacement_over_overlap", "amplitude"):
             if key in s.attrs:

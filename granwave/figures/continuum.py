@@ -21,7 +21,7 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
 
     (a) local speeds c_tof, c_peak, c_zero and c_l, c_t against L; (b) c_tof/c_l (local and
     apparent L/t) with the fit 1 + a L^-beta and the ±tolerance band; (c) amplitude and
-    (d) width against L (means ± standard error) with the local exponents γ_eff, α_eff on a
+    (d) width against L (means ± standard error) with the local exponents γ_eff, δ_eff on a
     twin axis; (e) α(ω) and (f) c(ω) with error bars, the reliable band shaded, c_l dashed
     (the bulk c_l∞ dotted, with the local c_tof/c_l∞ in (b), when the analysis gives it).
     Nothing is computed here: every number comes from the two analyses.
@@ -60,8 +60,14 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     tol = float(app.get("tolerance", 0.05))
     xs = np.geomspace(min(Lm.min(), L.min()), max(L.max(), min(float(app.get("L_star") or 0), 1e5)) * 1.2, 100)
     if np.isfinite(app.get("beta", np.nan) or np.nan):
-        lab = (rf"$1 + a L^{{-\beta}}$, $\beta$ = {app['beta']:.3g} ± {app.get('beta_err', np.nan):.2g}, "
-               rf"$L^*$ = {app['L_star']:.3g}")
+        from ..report.numbers import fmt, fmt_bound, fmt_named, fmt_positive, resolved
+
+        ci = app.get("L_star_ci")
+        lstar = (f"$L^*$ = {fmt_bound(app.get('L_star'), 3)}" if resolved(app.get("L_star"), None, ci)
+                 else fmt_named("$L^*$", fmt_positive(app.get("L_star"), None, ci).split(" (")[0])
+                 + " (95 %)")
+        lab = (rf"$1 + a L^{{-\beta}}$, $\beta$ = {fmt(app['beta'], app.get('beta_err'), 3)}, "
+               + lstar)
         ax.plot(xs, 1 + app["a"] * xs ** -app["beta"], "-", color="C0", lw=1, label=lab)
     ax.axhspan(1 - tol, 1 + tol, color="0.9", zorder=0, label=f"±{tol:g}")
     ax.axhline(1.0, color="k", lw=0.8)
@@ -71,7 +77,7 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     ax.legend(fontsize=8)
 
     for k, (key, eff, sign, label) in enumerate((("amplitude", "gamma_eff", r"$\gamma_{\rm eff}$", "|A|"),
-                                                 ("width", "alpha_eff", r"$\alpha_{\rm eff}$", "W"))):
+                                                 ("width", "alpha_eff", r"$\delta_{\rm eff}$", "W"))):
         ax = fig.add_subplot(3, 2, 3 + k)
         _errorbar(ax, L, np.asarray(per[key], float), np.asarray(per[key + "_sem"], float), fmt="o-",
                   color="C0", label=f"{label} (mean ± s.e.)")

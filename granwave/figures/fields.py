@@ -31,7 +31,7 @@ def _field(dof_grain, dof_axis, values, n_grains: int, dim: int) -> tuple[np.nda
 
 def _arrows(ax, position, u, has, dim, box=None, radius=None, title="", scale=None):
     """Arrows of the in-plane field u; lengths and colours relative to ``scale`` (default: the
-    panel's largest |u|)."""
+    panel's largest |u|), an arrow longer than ``scale`` drawn at that length (clipped)."""
     ax0, ax1 = plane_axes(dim)
     xy = position[:, [ax0, ax1]]
     uv = u[:, [ax0, ax1]]
@@ -44,7 +44,9 @@ def _arrows(ax, position, u, has, dim, box=None, radius=None, title="", scale=No
     mag = np.hypot(uv[:, 0], uv[:, 1])
     if scale is None:
         scale = mag[has].max() if has.any() and mag[has].max() > 0 else 1.0
-    q = ax.quiver(xy[has, 0], xy[has, 1], uv[has, 0] / scale, uv[has, 1] / scale, mag[has] / scale,
+    clip = np.minimum(1.0, scale / np.where(mag > 0, mag, 1.0))  # |arrow| ≤ scale
+    q = ax.quiver(xy[has, 0], xy[has, 1], uv[has, 0] * clip[has] / scale,
+                  uv[has, 1] * clip[has] / scale, np.minimum(mag[has] / scale, 1.0),
                   cmap="viridis", angles="xy", scale_units="xy", scale=0.8, width=0.004,
                   pivot="tail", zorder=2)
     ax.set_aspect("equal")
@@ -65,9 +67,12 @@ def displacement_snapshot(signal: Signal, path, *, packing: Packing | None = Non
     """The pulse: displacement snapshots as arrows, and (with ``fields``) the coherent front.
 
     Top row: the snapshots of a signal file (translational dofs), all on ONE
-    scale, the largest displacement of any panel (stated in the suptitle), so
-    that the panels compare. Positions come from the signal's
-    ``snapshots/position`` or else from ``packing``. ``index`` chooses the
+    scale (stated in the suptitle), so that the panels compare: the
+    :data:`ARROW_QUANTILE` quantile of |u| over the panels, longer arrows
+    clipped to it. Not the largest |u|: the few grains at the kicked wall move
+    far more than the front does, and on their scale the front's arrows
+    vanish. Positions come from the signal's ``snapshots/position`` or else
+    from ``packing``. ``index`` chooses the
     snapshots (default: up to four, evenly spread).
 
     Bottom row, when ``fields`` (:func:`granwave.analysis.pulse_field.row_fields`)
@@ -101,9 +106,13 @@ def displacement_snapshot(signal: Signal, path, *, packing: Packing | None = Non
         ax = fig.add_subplot(top[0, k])
         q = _arrows(ax, position, u, has, dim, box, radius, scale=scale,
                     title=f"t = {float(signal.snapshot_time[i]):.4g} " + T_UNIT)
-    fig.colorbar(q, ax=fig.axes, label=r"$|u|/|u|_{\max}$ (one scale for all panels)", shrink=0.8)
-    fig.suptitle(f"displacement snapshots; longest arrow = {scale:.3g} (kick units), the same in "
-                 "every panel", fontsize=10)
+    largest = max((float(np.max(np.linalg.norm(u[has][:, list(plane_axes(dim))], axis=1)))
+                   for u, has in panels if has.any()), default=0.0)
+    fig.colorbar(q, ax=fig.axes, label=rf"$|u|/u_{{{ARROW_QUANTILE * 100:g}\%}}$, clipped at 1 "
+                 "(one scale for all panels)", shrink=0.8)
+    fig.suptitle(f"displacement snapshots; full arrow = {scale:.3g} (kick units, the "
+                 f"{ARROW_QUANTILE * 100:g}th percentile of |u| over the panels; longer arrows, up to "
+                 f"{largest:.3g}, clipped), the same in every panel", fontsize=10)
     if fields is not None:
         _front_maps(fig, gs[1].subgridspec(1, 2), fields)
     return save_figure(fig, path, pdf=pdf)
@@ -113,13 +122,20 @@ ENERGY_DECADES = 1e-6
 """The energy map's colour scale spans max × 1e-6 … max (values below drawn at the floor)."""
 
 
+ARROW_QUANTILE = 0.95
+"""The snapshots' full arrow: this quantile of the in-plane |u| over every panel's grains."""
+
+
 def snapshot_panels(signal: Signal, index: Sequence[int], n_grains: int, dim: int):
-    """The translational fields of the chosen snapshots and their ONE scale: the largest
-    in-plane |u| over all of them (so that the panels compare)."""
+    """The translational fields of the chosen snapshots and their ONE scale: the
+    :data:`ARROW_QUANTILE` quantile of the in-plane |u| over all of them (so that the panels
+    compare, and a few loud grains at the source do not shrink the front's arrows to dots)."""
     disp = np.atleast_2d(np.asarray(signal.snapshot_displacement, float))
     panels = [_field(signal.dof_grain, signal.dof_axis, disp[i], n_grains, dim) for i in index]
-    scale = max((float(np.max(np.linalg.norm(u[has][:, list(plane_axes(dim))], axis=1)))
-                 for u, has in panels if has.any()), default=0.0)
+    mags = [np.linalg.norm(u[has][:, list(plane_axes(dim))], axis=1) for u, has in panels if has.any()]
+    mags = np.concatenate(mags) if mags else np.zeros(0)
+    mags = mags[mags > 0]
+    scale = float(np.quantile(mags, ARROW_QUANTILE)) if mags.size else 0.0
     return panels, scale or 1.0
 
 

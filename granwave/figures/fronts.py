@@ -71,7 +71,7 @@ def amplitude_width(series: Mapping[str, Mapping], path, *, references: Mapping 
     Local exponents are taken between the ensemble means at consecutive
     distinct heights (:func:`granwave.analysis.ensemble.local_exponents_of_means`),
     with the propagated standard errors as error bars. ``references``: exponents
-    drawn as dashed lines (default: the chain's γ = 2/3 and α = 1/3).
+    drawn as dashed lines (default: the chain's γ = 2/3 and δ = 1/3 (key ``alpha``: W ∝ L^δ)).
     """
     from ..analysis.ensemble import local_exponents_of_means
 
@@ -85,7 +85,7 @@ def amplitude_width(series: Mapping[str, Mapping], path, *, references: Mapping 
         L = array(s["height"], f"{label}: height")
         col, mk = f"C{k}", markers[k % len(markers)]
         for ax, axe, key, sign, sym, fkey in ((axA, axg, "amplitude", -1, "γ", "gamma"),
-                                               (axW, axa, "width", 1, "α", "alpha")):
+                                               (axW, axa, "width", 1, "δ", "alpha")):
             if s.get(key) is None:
                 continue
             y = np.abs(np.asarray(s[key], float))
@@ -119,12 +119,12 @@ def amplitude_width(series: Mapping[str, Mapping], path, *, references: Mapping 
     axW.set_ylabel(r"width $W$  [$\bar d/\sqrt{E^*/\rho}$]")
     axg.set_ylabel(r"local $-\,d\log A/d\log L$")
     axa.set_ylabel(r"local $d\log W/d\log L$")
-    for ax, key, name in ((axg, "gamma", "γ"), (axa, "alpha", "α")):
+    for ax, key, name in ((axg, "gamma", "γ"), (axa, "alpha", "δ")):
         if ref.get(key) is not None:
             ax.axhline(ref[key], ls="--", color="k", lw=1.2, zorder=5,
                        label=f"{name} = {ref[key]:.3g} (reference)")
         ax.set_xlabel(L_LABEL)
         ax.legend(fontsize=8)
     axA.set_title(r"$A \propto L^{-\gamma}$: ensemble means ± standard error, line: fit")
-    axW.set_title(r"$W \propto L^{\alpha}$: ensemble means ± standard error, line: fit")
+    axW.set_title(r"$W \propto L^{\delta}$: ensemble means ± standard error, line: fit")
     return save_figure(fig, path, pdf=pdf)

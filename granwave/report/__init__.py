@@ -3,7 +3,8 @@
 | module | job |
 |---|---|
 | :mod:`.inputs` | read JSON files and folders, scenes, the config, figures |
-| :mod:`.references` | the chain's exact γ, α and front features (theory) |
+| :mod:`.references` | the chain's exact γ, δ and front features (theory) |
+| :mod:`.numbers` | the one rule for numbers: value ± error, counts, ranges, bounds |
 | :mod:`.tables` | cells and one table builder per section (rules in its docstring) |
 | :mod:`.continuum` | the continuum scenes' section (speeds against L, c_tof/c_ℓ, α(ω), c(ω)) |
 | :mod:`.html` | the HTML twin, rendered by the `markdown` package |

@@ -13,7 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .tables import fmt
+from .numbers import fmt, fmt_bound, fmt_count, fmt_named, fmt_positive, num, resolved
 
 
 def _kind(obj) -> str | None:
@@ -37,7 +37,23 @@ def continuum_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[s
 def _ci(pair, digits=3) -> str:
     if not pair or any(v is None or not math.isfinite(float(v)) for v in pair):
         return "—"
-    return f"[{float(pair[0]):.{digits}g}, {float(pair[1]):.{digits}g}]"
+    return f"[{fmt_bound(pair[0], digits)}, {fmt_bound(pair[1], digits)}]"
+
+
+def unconstrained(name: str, ci, unit: str = "") -> str:
+    """A phrase for a positive quantity whose 95 % interval ``ci`` reaches 0 or spans more than a
+    decade: the interval and the one bound it gives ("the fit does not constrain L* ...")."""
+    u = f" {unit}" if unit else ""
+    lo, hi = (num(v) for v in (ci or (math.nan, math.nan)))
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return f"the fit does not constrain {name} (no finite 95 % interval)"
+    if hi <= 0:
+        return f"the fit does not resolve {name} (95 % interval {_ci(ci)}{u}, at or below 0)"
+    if lo <= 0:
+        return (f"the fit does not constrain {name} (95 % interval {_ci(ci)}{u} reaches 0): "
+                f"only {name} < {fmt_bound(hi)}{u}")
+    return (f"the fit does not constrain {name} (95 % interval {_ci(ci)}{u}, over a decade wide): "
+            f"only {name} > {fmt_bound(lo)}{u}")
 
 
 def approach_sentence(app: Mapping) -> str:
@@ -46,11 +62,16 @@ def approach_sentence(app: Mapping) -> str:
     lmax = app.get("L_max")
     status = app.get("status")
     fit = ""
-    if app.get("L_star") is not None and math.isfinite(float(app.get("L_star", math.nan))):
-        fit = (f" The fit puts L* at {float(app['L_star']):.3g} d (95 % interval "
-               f"{_ci(app.get('L_star_ci'))} d)"
-               + (", an extrapolation beyond the tallest column." if app.get("L_star_extrapolated")
-                  else "."))
+    if app.get("L_star") is not None and math.isfinite(num(app.get("L_star"))):
+        ci = app.get("L_star_ci")
+        extra = (", an extrapolation beyond the tallest column." if app.get("L_star_extrapolated")
+                 else ".")
+        if resolved(app["L_star"], None, ci):
+            fit = (f" The fit puts L* at {fmt_bound(app['L_star'], 3)} d (95 % interval "
+                   f"{_ci(ci)} d)" + extra)
+        else:  # an interval over a decade wide, or reaching 0: a bound, not an estimate
+            phrase = unconstrained("L*", ci, "d")
+            fit = " " + phrase[0].upper() + phrase[1:] + "."
     if status == "beyond":
         return (f"**L* > {float(lmax):.3g} d (lower bound)**: at the tallest distance measured "
                 f"c_tof/c_l is still more than {tol:.0%} from 1 by over two standard errors." + fit)
@@ -59,6 +80,26 @@ def approach_sentence(app: Mapping) -> str:
                 f"c_l by over two standard errors." + fit)
     return (f"**L* undecided**: at the tallest distance ({float(lmax):.3g} d) the error bar of "
             f"c_tof/c_l straddles 1 ± {tol:g}." + fit if lmax is not None else "**L* undecided**.")
+
+
+def alpha_cell(att: Mapping, i: int) -> str:
+    """α at the i-th frequency: an estimate, or an upper bound when not resolved from 0."""
+    return fmt_positive(att["alpha"][i], att["alpha_err"][i])
+
+
+def q_cell(att: Mapping, i: int) -> str:
+    """Q = ω/(2αc) at the i-th frequency: an estimate only where α is resolved; else the lower
+    bound ω/(2 α_upper c) from α's upper bound α + 2 errors."""
+    a, ea = num(att["alpha"][i]), num(att["alpha_err"][i])
+    if resolved(a, ea):
+        return fmt_positive(att["Q"][i], att["Q_err"][i])
+    lower, upper = a - 2 * ea, a + 2 * ea
+    w, c = num(att["omega"][i]), num(att["c"][i])
+    if not (upper > 0 and w > 0 and c > 0):
+        return "not resolved (α not resolved)"
+    if lower > 0:  # α within a 95 % interval over a decade wide: Q within its image
+        return f"[{fmt_bound(w / (2 * upper * c))}, {fmt_bound(w / (2 * lower * c))}] (95 %)"
+    return f"> {fmt_bound(w / (2 * upper * c))} (α consistent with 0)"
 
 
 def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
@@ -96,7 +137,7 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                           f"{fmt(per['amplitude'][i], per['amplitude_sem'][i])} | "
                           f"{fmt(per['width'][i], per['width_sem'][i])} |")
             loc = front["local"]
-            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | α_eff |",
+            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | δ_eff |",
                    "|---|---|---|---|---|---|---|"]
             for i in range(len(loc["height"])):
                 md.append(f"| {fmt(loc['height'][i])} | {fmt(loc['c_tof'][i], loc['c_tof_err'][i])} | "
@@ -107,12 +148,18 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                           f"{fmt(loc['alpha_eff'][i], loc['alpha_eff_err'][i], 3)} |")
             app = front.get("approach", {})
             md += ["", f"Approach of the local c_tof/c_ℓ: {app.get('model', '')} fitted over "
-                   f"{app.get('n', '—')} distances: β = {fmt(app.get('beta'), app.get('beta_err'), 3)} "
+                   f"{fmt_count(app.get('n'))} distances: β = "
+                   f"{fmt_positive(app.get('beta'), app.get('beta_err'), app.get('beta_ci'), digits=3)} "
                    f"(95 % {_ci(app.get('beta_ci'))}), a = {fmt(app.get('a'), app.get('a_err'), 3)}."]
             free = app.get("free_limit") or {}
             if "r_inf" in free:
-                md[-1] += (f" With the limit free: c_tof/c_ℓ → {fmt(free['r_inf'], free.get('r_inf_err'))} "
-                           f"(95 % {_ci(free.get('r_inf_ci'), 4)}).")
+                ci = free.get("r_inf_ci")
+                if resolved(free["r_inf"], free.get("r_inf_err"), ci):
+                    md[-1] += (f" With the limit free: c_tof/c_ℓ → "
+                               f"{fmt(free['r_inf'], free.get('r_inf_err'))} (95 % {_ci(ci)}).")
+                else:
+                    md[-1] += (" With the limit free, " + unconstrained("the limit of c_tof/c_ℓ", ci)
+                               + ".")
             if app.get("fit_error"):
                 md[-1] += f" The fit failed: {app['fit_error']}."
             md += ["", approach_sentence(app), ""]
@@ -120,9 +167,12 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
             if appb.get("beta") is not None and math.isfinite(float(appb.get("beta") or math.nan)):
                 md += [f"Against the bulk c_ℓ∞ instead (local c_tof/c_ℓ∞ = "
                        + ", ".join(fmt(r, e) for r, e in zip(loc["ratio_bulk"], loc["ratio_bulk_err"]))
-                       + f"): β = {fmt(appb.get('beta'), appb.get('beta_err'), 3)} (95 % "
-                       f"{_ci(appb.get('beta_ci'))}), L* ≈ {fmt(appb.get('L_star'), digits=3)} d (95 % "
-                       f"{_ci(appb.get('L_star_ci'))}).", ""]
+                       + f"): β = {fmt_positive(appb.get('beta'), appb.get('beta_err'), appb.get('beta_ci'), digits=3)} "
+                       f"(95 % {_ci(appb.get('beta_ci'))}), "
+                       + (f"L* ≈ {fmt_bound(appb.get('L_star'), 3)} d (95 % {_ci(appb.get('L_star_ci'))})"
+                          if resolved(appb.get('L_star'), None, appb.get('L_star_ci'))
+                          else "and " + unconstrained("L*", appb.get("L_star_ci"), "d"))
+                       + ".", ""]
         if att:
             band = att.get("band", [math.nan, math.nan])
             md += [f"Attenuation and phase velocity of the coherent (ensemble-mean) signal over "
@@ -136,8 +186,10 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
             rel_idx = [i for i, ok in enumerate(att["reliable"]) if ok]
             if rel_idx:
                 i0, i1 = rel_idx[0], rel_idx[-1]
-                md[-1] += (f"; α = {fmt(att['alpha'][i0], att['alpha_err'][i0], 3)} /d̄ at the band's "
-                           f"bottom and {fmt(att['alpha'][i1], att['alpha_err'][i1], 3)} /d̄ at its top")
+                md[-1] += (f"; {fmt_named('α', fmt_positive(att['alpha'][i0], att['alpha_err'][i0]))} "
+                           f"/d̄ at the band's bottom and "
+                           f"{fmt_named('α', fmt_positive(att['alpha'][i1], att['alpha_err'][i1]))} "
+                           f"/d̄ at its top")
             md[-1] += (f"; low-frequency limit c0 = {fmt(att.get('c0'), att.get('c0_err'))} √(E*/ρ) "
                        f"(c = c0 + c2 ω² over ω = {fmt((att.get('omega_fit') or [math.nan])[0], digits=3)} … "
                        f"{fmt((att.get('omega_fit') or [math.nan, math.nan])[-1], digits=3)})")
@@ -157,13 +209,19 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                     md[-1] += f", c0/c_ℓ∞ = {fmt(rb, rbe)} (bulk c_ℓ∞)"
             md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
                        f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
-                       f"α = {fmt(att.get('alpha_ref'), att.get('alpha_ref_err'), 3)} /d̄")
+                       + (f"{fmt_named('α', fmt_positive(att.get('alpha_ref'), att.get('alpha_ref_err')))} /d̄"
+                          if num(band[0]) <= num(att.get("omega_ref")) <= num(band[1])
+                          else "α not shown (this ω is outside the reliable band)"))
             md[-1] += (f" (error bars: the larger of the fit's standard error and the bootstrap over "
                        f"packings, {att.get('bootstrap', 0)} resamplings).")
-            md += ["", "| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"]
+            md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
+                   "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
+                   "and Q then a lower bound, Q > ω/(2 α_upper c); where that interval spans more "
+                   "than a decade only the interval is shown, for α and for Q = ω/(2αc):", "",
+                   "| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"]
             idx = [i for i, ok in enumerate(att["reliable"]) if ok]
             for i in idx[:: max(1, len(idx) // 8)]:
-                md.append(f"| {fmt(att['omega'][i], digits=3)} | {fmt(att['alpha'][i], att['alpha_err'][i], 3)} | "
-                          f"{fmt(att['Q'][i], att['Q_err'][i], 3)} | {fmt(att['c'][i], att['c_err'][i])} |")
+                md.append(f"| {fmt(att['omega'][i], digits=3)} | {alpha_cell(att, i)} | "
+                          f"{q_cell(att, i)} | {fmt(att['c'][i], att['c_err'][i])} |")
             md.append("")
     return md

@@ -9,10 +9,10 @@ computed from the inputs:
   layout in docs/summaries.md): statics, moduli, provenance tables per scene,
   pressure and container height, and the continuum speeds c_ℓ, c_t;
 * **height series** (``granwave analyze heights --json``): c_tof, c_peak,
-  c_zero with their standard errors, γ and α;
+  c_zero with their standard errors, γ and δ;
 * **pressure sweeps** (``granwave pressure-sweep --json``): their fits as given;
 * **the theory** (:mod:`granwave.theory`): lattice speeds, the p^{1/6}
-  exponent, the chain's exact γ and α;
+  exponent, the chain's exact γ and δ;
 * **the damping table** (``granwave analyze damping --json``);
 * **the continuum scenes** (``granwave analyze continuum`` and ``attenuation --json``,
   :mod:`granwave.report.continuum`);
@@ -33,6 +33,21 @@ from . import tables as T
 from .html import markdown_to_html
 from .continuum import continuum_inputs, continuum_section
 from .inputs import Scenes, scene_of
+
+
+SYMBOLS = [
+    "Symbols (one per quantity on this page; the JSON keys of the inputs in code font):", "",
+    "| symbol | quantity |", "|---|---|",
+    "| p, L, n | pressure (E*); container height or source–detector distance (d̄); a count |",
+    "| ν | pressure exponent of a speed, c ∝ p^ν (`alpha_*` of `pressure-sweep`) |",
+    "| γ, δ | amplitude and width exponents of the front, \\|A\\| ∝ L^−γ, W ∝ L^δ "
+    "(`gamma`, `alpha` of `analyze heights`) |",
+    "| α, Q | attenuation of the coherent signal, \\|S\\| ∝ e^−αL (1/d̄), and quality "
+    "factor Q = ω/(2αc) |",
+    "| β, a, L* | approach of c_tof/c_ℓ to 1 with distance (continuum section) |",
+    "| μ, ζ, Φ2 | friction coefficient, contact damping (fraction of critical), area fraction |",
+    "",
+]
 
 
 def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
@@ -78,7 +93,11 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
            f"- inputs: {len(sums)} sample summaries, {len(hts)} height series, "
            f"{len(sweeps)} pressure sweeps, {len(figures)} figures",
            "- units (docs/method.md §1): lengths d̄, pressures and moduli E*, forces E* d̄², "
-           "speeds √(E*/ρ), times d̄/√(E*/ρ); every table says which apply", ""]
+           "speeds √(E*/ρ), times d̄/√(E*/ρ); every table says which apply",
+           "- numbers: value ± error with the error to 1–2 significant digits and the value "
+           "rounded to match; counts as integers; a positive quantity whose 95 % interval reaches "
+           "0 or spans more than a decade is shown as a bound, not an estimate", ""]
+    md += SYMBOLS
 
     per_scene: dict[str, list] = defaultdict(list)
     for s in sums:
@@ -99,7 +118,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     md += continuum_section(continuum_inputs(continuum))
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
-               "The fitted exponents c ∝ p^α of each sweep file, as computed by `pressure-sweep` "
+               "The fitted exponents ν (c ∝ p^ν) of each sweep file, as computed by `pressure-sweep` "
                "(through the per-pressure means of the summaries; dimensionless, ± one standard "
                "error; pressures: how many the fit used).", ""]
         for path, obj, _ in sweeps:

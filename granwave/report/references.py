@@ -34,7 +34,7 @@ def chain_series(n_balls: Sequence[int], *, ic: str = "A") -> dict:
 
 
 def chain_exact_exponents(ic: str = "A", *, n_balls: tuple[int, int] = (10**6, 8 * 10**6)) -> dict:
-    """γ and α of the chain from the theory's Airy asymptote (docs/method.md §12).
+    """γ and δ (key ``alpha``, W ∝ L^δ) of the chain from the Airy asymptote (docs/method.md §12).
 
     The front features of :func:`granwave.theory.chain_wall_force_airy` at two
     very large N give d log A / d log L and d log W / d log L; the corrections

@@ -12,6 +12,9 @@ Rules (also in docs/figures.md, "The report"):
   mean ± sample standard deviation over the n packings (the spread of the
   ensemble); speed tables give ± one standard error (of the mean over packings,
   or of the regression slope for time-of-flight speeds), and say so.
+* **Numbers** (:mod:`granwave.report.numbers`): value ± error with the error
+  to 1–2 significant digits and the value rounded to match, counts as
+  integers, positive quantities not resolved shown as bounds.
 * **Cells.** One value: the value. Values all equal: the value and "(all n
   equal)". Values all zero within precision (|x| ≤ 1e-12 × the row's largest
   modulus): "0 (< 1e-12 × max Cij)". A quantity measured on fewer packings than
@@ -35,6 +38,7 @@ import numpy as np
 from ..analysis.ensemble import describe
 from ..analysis.heights import group_heights
 from .inputs import Scenes, num
+from .numbers import fmt, fmt_bound, fmt_count, fmt_positive, fmt_range  # noqa: F401  (one rule)
 from .references import chain_exact_exponents
 
 STATICS_KEYS = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p",
@@ -55,18 +59,6 @@ GROUP_RTOL = 0.05
 
 
 # ====================================================================== cells
-def fmt(x, err=None, digits: int = 4) -> str:
-    """``x ± err`` with ``digits`` significant digits; '—' for a missing number."""
-    x = num(x)
-    if not math.isfinite(x):
-        return "—"
-    s = f"{x:.{digits}g}"
-    e = num(err)
-    if err is not None and math.isfinite(e) and e > 0:
-        s += f" ± {e:.2g}"
-    return s
-
-
 def cell(values, *, error: str = "std", zero_scale: float | None = None, of: int | None = None) -> str:
     """One table cell from the values over packings (rules: module docstring).
 
@@ -84,9 +76,10 @@ def cell(values, *, error: str = "std", zero_scale: float | None = None, of: int
         return f"0 (< {ZERO_RTOL:.0e} × max Cij)" + suffix
     d = describe(v)
     if n == 1:
-        return fmt(d["mean"]) + suffix
+        return (fmt_count(v[0]) if v[0] == round(v[0]) else fmt(v[0])) + suffix
     if np.all(v == v[0]):
-        return f"{fmt(v[0])} (all {n} equal)" + suffix
+        same = fmt_count(v[0]) if v[0] == round(v[0]) else fmt(v[0])
+        return f"{same} (all {n} equal)" + suffix
     return fmt(d["mean"], d[error]) + suffix
 
 
@@ -96,9 +89,10 @@ def value_or_range(values) -> str:
     v = v[np.isfinite(v)]
     if v.size == 0:
         return "—"
+    integers = bool(np.all(v == np.round(v)))
     if np.all(v == v[0]):
-        return fmt(v[0], digits=3)
-    return f"{v.min():.3g} … {v.max():.3g}"
+        return fmt_count(v[0]) if integers else fmt(v[0], digits=3)
+    return fmt_range(v.min(), v.max())
 
 
 def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
@@ -242,6 +236,22 @@ def count_notes(scene: str, groups: Groups, sections: Sequence[str], *,
     return notes
 
 
+def close_packing_note(groups: Groups) -> list[str]:
+    """One line when a row's mean Φ2 exceeds the close packing of equal discs π/(2√3)."""
+    close = math.pi / (2 * math.sqrt(3))
+    over = [np.nanmean([num(s["statics"].get("phi2")) for s in _with(items, "statics")])
+            for items in groups.cells.values() if _with(items, "statics")]
+    over = [v for v in over if math.isfinite(v) and round(v, 4) > round(close, 4)]  # as shown
+    if not over:
+        return []
+    return [f"Φ2 above the close packing of equal discs, π/(2√3) = {close:.4f} (up to "
+            f"{max(over):.4f} here), is a matter of definition, not of the packing: Φ2 counts "
+            "every disc's whole area, so the overlaps of compressed contacts count twice (about "
+            "+2δ/d̄ for a mean overlap δ), and the bulk slab L − 2l cuts the discs exactly but holds "
+            "a non-integer number of rows, so a lattice's row-density ripple does not average out "
+            "in a short container (docs/method.md §4).", ""]
+
+
 def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None = None) -> list[str]:
     md = ["## Statics per pressure and container height", "",
           "One row per scene, pressure p [E*] and nominal container height L [d̄] (mean of the "
@@ -256,6 +266,7 @@ def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None
             off = scenes is not None and scenes.spec.get(scene, {}).get("moduli") is False
             notes = count_notes(scene, groups, ["statics", "moduli"], moduli_off=off)
             md += (["Packings not in this table:", ""] + notes + [""]) if notes else []
+            md += close_packing_note(groups)
             any_table = True
     return md if any_table else md + ["No static measurements among the inputs.", ""]
 
@@ -305,7 +316,7 @@ def provenance_section(groups_by_scene: Mapping[str, Groups]) -> list[str]:
 
 # ====================================================================== speeds
 def power_exponent(p, c) -> tuple[float, float]:
-    """Fitted α of c ∝ p^α through the finite positive points (NaN if fewer than two)."""
+    """Fitted ν of c ∝ p^ν through the finite positive points (NaN if fewer than two)."""
     from ..analysis.fits import power_law_fit
 
     p, c = np.asarray(p, float), np.asarray(c, float)
@@ -331,9 +342,9 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
           "the n packings for c_ℓ and c_t, of the fitted slope for the time-of-flight speeds "
           "c_tof, c_peak, c_zero (`analyze heights`, docs/method.md §9; no ± where the slope "
           "goes through two points, one packing per height); c_tof/c_ℓ with relative errors in "
-          "quadrature. Exponents: least-squares fit c ∝ p^α over the pressures (± its standard "
+          "quadrature. Exponents: least-squares fit c ∝ p^ν over the pressures (± its standard "
           f"error). Fixed Hertzian network (triangular-lattice formula, docs/method.md §12): "
-          f"α = {hertz:.4f}.", ""]
+          f"ν = {hertz:.4f}.", ""]
     names = sorted(s for s in set(groups_by_scene) | set(h_by_scene) if scenes.kind_of(s) == "disordered")
     if not names:
         return md + ["No disordered scenes among the inputs.", ""]
@@ -382,7 +393,8 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                     if near:
                         cl, ecl = cl_of[near[0]]
                 row = [f"{p:.3g}", "–".join(f"{x:.3g}" for x in edges) or "—",
-                       str(h.get("n_signals", "—"))]
+                       fmt_count(h.get("n_signals")) + (f" ({aliased_of(h)[0]} aliased)"
+                                                         if aliased_of(h)[0] else "")]
                 for k in SPEED_KEYS:
                     row.append(fmt(h.get(k), h.get(k + "_err")))
                     cols[k].append(num(h.get(k)))
@@ -398,6 +410,7 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
             md += ["Time-of-flight speeds between the two edge heights L1–L2 (n signals in the "
                    "height series" + ("; c_ℓ of the packings at L2):" if len(header) > 6 else "):"), ""]
             md += table(header, tof)
+            md += aliased_note(list(series.values()))
             if len(cols["p"]) >= 2:
                 fits = [[k, fmt(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
                         for k in SPEED_KEYS] + fits
@@ -408,21 +421,59 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                    "at each pressure, and c_tof, c_peak, c_zero need a height series of two or "
                    "more heights (docs/method.md §9).", ""]
         if fits:
-            md += table(["speed", "exponent α (c ∝ p^α)", "pressures"], fits)
+            md += table(["speed", "exponent ν (c ∝ p^ν)", "pressures"], fits)
         elif cont or series:
             md += ["One pressure: no exponent fit.", ""]
     return md
 
 
+# ====================================================================== aliasing
+def aliased_of(h: Mapping) -> tuple[int, float]:
+    """(aliased signals, largest Nyquist ratio h ω_max/π among them) of a height series;
+    (0, nan) for a series that records none (``analyze heights`` output before the flag)."""
+    samples = [s for s in (h.get("samples") or []) if isinstance(s, Mapping)]
+    flagged = [s for s in samples if s.get("aliased")]
+    n = int(h["n_aliased"]) if h.get("n_aliased") is not None else len(flagged)
+    ratios = [num(s.get("nyquist_ratio")) for s in flagged]
+    ratios = [r for r in ratios if math.isfinite(r)]
+    return n, max(ratios, default=math.nan)
+
+
+def aliased_note(series: Sequence[Mapping]) -> list[str]:
+    """One paragraph when some of the series' signals are aliased (else nothing)."""
+    marked = [(h, *aliased_of(h)) for h in series]
+    marked = [(h, n, r) for h, n, r in marked if n > 0]
+    if not marked:
+        return []
+    worst = max((r for _, _, r in marked if math.isfinite(r)), default=math.nan)
+    total = sum(n for _, n, _ in marked)
+    return [f"Rows marked \"aliased\": {total} signal{'s' if total != 1 else ''} in "
+            f"{len(marked)} height series {'were' if total != 1 else 'was'} sampled more coarsely "
+            "than the Nyquist interval π/ω_max of the system's highest mode (AliasingWarning of "
+            "`granwave propagate`"
+            + (f"; largest h ω_max/π = {fmt_bound(worst, 3)}" if math.isfinite(worst) else "")
+            + "). They stay in the fits: their samples are the exact signal at the sample times, "
+            "and the front is far slower than the highest mode; but a spectrum of such a record "
+            "folds the modes above π/h, and a narrow pulse is resolved by fewer samples. Rerun "
+            "with more `samples` (or a shorter `t_max`) to remove the mark.", ""]
+
+
+def n_at_k(h: Mapping) -> str:
+    """The "n at k" cell of a height series, marked when some of its signals are aliased."""
+    n_al, _ = aliased_of(h)
+    cell_ = f"{fmt_count(h.get('n_signals'))} at {fmt_count(h.get('n_heights'))}"
+    return cell_ + (f" ({n_al} aliased)" if n_al else "")
+
+
 # ====================================================================== exponents
 def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequence[str]) -> list[str]:
-    md = ["## Front scaling with distance: γ and α", "",
-          "A ∝ L^−γ and W ∝ L^α fitted over every signal of a height series (± one standard "
+    md = ["## Front scaling with distance: γ and δ", "",
+          "A ∝ L^−γ and W ∝ L^δ fitted over every signal of a height series (± one standard "
           "error of the fitted slope; none with two points), against the identical-ball chain's "
           "exact values (Airy asymptote, docs/method.md §12). n: signals at k nominal heights. "
-          "γ and α are dimensionless.", ""]
+          "γ and δ are dimensionless (the fits' JSON keys: `gamma`, `alpha`).", ""]
     exact = {ic: chain_exact_exponents(ic) for ic in ("A", "B")}
-    md += table(["chain (exact)", "γ", "α"],
+    md += table(["chain (exact)", "γ", "δ"],
                 [[f"initial condition {ic}", fmt(e["gamma"]), fmt(e["alpha"])] for ic, e in exact.items()])
     with_fit = [h for h in hts if h.get("gamma") is not None or h.get("alpha") is not None]
     rows = []
@@ -431,18 +482,19 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
         e = exact.get(ic.upper(), exact["A"])
         g, a = num(h.get("gamma")), num(h.get("alpha"))
         rows.append([h["_scene"], scenes.kind_of(h["_scene"]), fmt(h.get("pressure"), digits=3), ic,
-                     f"{h.get('n_signals', '—')} at {h.get('n_heights', '—')}",
+                     n_at_k(h),
                      fmt(g, h.get("gamma_err")), fmt(a, h.get("alpha_err")),
-                     fmt(g / e["gamma"]) if math.isfinite(g) else "—",
-                     fmt(a / e["alpha"]) if math.isfinite(a) else "—"])
+                     fmt(g / e["gamma"], num(h.get("gamma_err")) / e["gamma"]),
+                     fmt(a / e["alpha"], num(h.get("alpha_err")) / e["alpha"])])
     if rows:
-        md += table(["scene", "kind", "p", "ic", "n at k", "γ", "α", "γ/γ chain", "α/α chain"], rows)
+        md += table(["scene", "kind", "p", "ic", "n at k", "γ", "δ", "γ/γ chain", "δ/δ chain"], rows)
+        md += aliased_note(with_fit)
     else:
         md += ["No height series among the inputs.", ""]
     have = {h["_scene"] for h in with_fit}
     lonely = sorted(s for s in all_scenes if s not in have and scenes.kind_of(s) == "disordered")
     if lonely:
-        md += [f"No γ or α for {', '.join(lonely)}: one container height per pressure (a height "
+        md += [f"No γ or δ for {', '.join(lonely)}: one container height per pressure (a height "
                "series needs two or more).", ""]
     return md
 
@@ -470,10 +522,11 @@ def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[s
                    fmt(c)]
             for k in SPEED_KEYS:
                 v = num(h.get(k))
-                row += [fmt(v, h.get(k + "_err")), fmt(v / c)]
+                row += [fmt(v, h.get(k + "_err")), fmt(v / c, num(h.get(k + "_err")) / c)]
             rows.append(row)
     return md + table(["scene", "μ", "p", "L1–L2", "c_theory", "c_tof", "c_tof/c_theory", "c_peak",
-                       "c_peak/c_theory", "c_zero", "c_zero/c_theory"], rows)
+                       "c_peak/c_theory", "c_zero", "c_zero/c_theory"], rows) \
+        + aliased_note([h for scene in names for h in h_by_scene[scene].values()])
 
 
 # ====================================================================== damping, sweeps
@@ -483,16 +536,35 @@ def damping_section(rows: Sequence[Mapping]) -> list[str]:
           "One packing (n = 1) kicked in the Hertz–Mindlin DEM with contact damping ζ (fraction "
           "of critical, dimensionless). Amplitude A and tail rms in the DEM signal's units (force "
           "change over the kick's scale, the linear model's normalization), width W in "
-          "d̄/√(E*/ρ). Tail rms: rms of the signal after the least damped signal's first zero "
-          "crossing plus one pulse width (`granwave analyze damping`).", ""]
+          "d̄/√(E*/ρ). Tail rms: rms of the signal over one window for every ζ, from the "
+          "latest end of a first pulse (max over ζ of its zero crossing plus one pulse width) to "
+          "the end of the record (`granwave analyze damping`)"]
+    starts = sorted({num(r.get("tail_start")) for r in rows if math.isfinite(num(r.get("tail_start")))})
+    if starts:
+        md[-1] += f": t ≥ {' / '.join(fmt(t, digits=4) for t in starts)} d̄/√(E*/ρ)"
+    md[-1] += "."
+    if any(r.get("tail_in_pulse") for r in rows):
+        md[-1] += (" Rows marked \"window in pulse\": their own first pulse ends after the window "
+                   "starts, so part of the pulse counts as tail.")
+    md.append("")
     body = [[fmt(r.get("damping")), fmt(r.get("amplitude")), fmt(r.get("width")),
-             fmt(r.get("tail_rms")), fmt(r.get("tail_rms_over_amplitude"))]
+             fmt(r.get("tail_rms")) + (" (window in pulse)" if r.get("tail_in_pulse") else ""),
+             fmt(r.get("tail_rms_over_amplitude"))]
             for r in sorted(rows, key=lambda r: float(r.get("damping", 0.0)))]
     return md + table(["ζ", "amplitude A", "width W", "tail rms", "tail rms / A"], body)
 
 
+SWEEP_SPEEDS = {"tof": "c_tof", "peak": "c_peak", "zero": "c_zero", "l": "c_ℓ", "t": "c_t"}
+
+
+def sweep_label(key: str) -> str:
+    """``alpha_tof`` → "ν of c_tof (`alpha_tof`)": the report's symbol, the file's key."""
+    speed = SWEEP_SPEEDS.get(key.removeprefix("alpha_"))
+    return f"ν of {speed} (`{key}`)" if speed else key
+
+
 def sweep_table(obj) -> list[str]:
-    """The fitted exponents of a ``pressure-sweep --json`` object, as given."""
+    """The fitted exponents ν (c ∝ p^ν) of a ``pressure-sweep --json`` object, as given."""
     if not isinstance(obj, Mapping):
         return ["(not a sweep object)", ""]
     alphas = [k for k in obj if k.startswith("alpha_") and not k.endswith(("_err", "_n"))]
@@ -503,7 +575,7 @@ def sweep_table(obj) -> list[str]:
         return [f"No exponent fitted{': ' + why if why else ' (fewer than two pressures)'}.", ""]
     alphas = fitted
     if alphas:
-        rows = [[k, fmt(obj[k], obj.get(k + "_err")),
+        rows = [[sweep_label(k), fmt(obj[k], obj.get(k + "_err")),
                  str(obj.get(k + "_n", "")) if obj.get(k + "_n") is not None else ""] for k in alphas]
         if obj.get("expected_exponent") is not None:
             rows.append(["expected (fixed Hertzian network)", fmt(obj["expected_exponent"]), ""])
