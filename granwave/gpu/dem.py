@@ -62,6 +62,8 @@ BLOCK = 8 if simulated() else 128
 RBLOCK = 4 if simulated() else 256
 #: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
 NPART = 2 if simulated() else 264
+#: Most blocks a per-item kernel gets in the simulator (:func:`_blocks`).
+SIM_BLOCKS = 2
 
 # The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba 0.68's CUDA
 # target failed to type the builtin max() of two floats in these kernels (tests/test_gpu_ptx.py).
@@ -81,29 +83,34 @@ def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston, dt, gv2, gdis
     piston); per-grain |v|^2 and squared displacement since the last rebuild into ``gv2``,
     ``gdisp2``. Like every step kernel, nothing once ``ctl[C_STATUS]`` is set (the run stopped
     on the device: a rebuild without room, or a blown-up state)."""
-    i = cuda.grid(1)
     n = pos.shape[0]
     if ctl[C_STATUS] != 0:
         return
-    if i == 0 and piston[K.P_MASS] < math.inf:
+    if cuda.grid(1) == 0 and piston[K.P_MASS] < math.inf:
         piston[K.P_V] += 0.5 * dt * piston[K.P_A]
         piston[K.P_H] += dt * piston[K.P_V]
-    if i >= n:
-        return
-    v2, s = DF.drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, 0.5 * dt, dt)
-    gv2[i] = v2
-    gdisp2[i] = s
+    for i in range(cuda.grid(1), n, cuda.gridsize(1)):
+        v2, s = DF.drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, 0.5 * dt, dt)
+        gv2[i] = v2
+        gdisp2[i] = s
 
 
 @cuda.jit
 def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, ctl, pair_ft, pair_ov,
                 fpar, pf, tq_i, tq_j, pdelta):
-    """Force on i of every listed pair (the CPU force loop's pair body; ``ctl[C_NPAIRS]`` pairs),
-    its torques on i and j, and its overlap (-1: not touching); tangential history updated in
-    place."""
-    p = cuda.grid(1)
-    if p >= ctl[C_NPAIRS] or ctl[C_STATUS] != 0:
+    """Force on i of every listed pair (the CPU force loop's pair body; ``ctl[C_NPAIRS]`` pairs,
+    a grid-stride loop), its torques on i and j, and its overlap (-1: not touching); tangential
+    history updated in place."""
+    if ctl[C_STATUS] != 0:
         return
+    for p in range(cuda.grid(1), ctl[C_NPAIRS], cuda.gridsize(1)):
+        _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar, pf,
+                    tq_i, tq_j, pdelta)
+
+
+@cuda.jit(device=True)
+def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar, pf,
+                tq_i, tq_j, pdelta):
     d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar[K.F_DT]
@@ -147,15 +154,23 @@ def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, ct
 @cuda.jit
 def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
                  wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, ctl):
+    """:func:`_grain_force` of every grain (a grid-stride loop)."""
+    if ctl[C_STATUS] != 0:
+        return
+    for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
+        _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
+                     wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount)
+
+
+@cuda.jit(device=True)
+def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
+                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount):
     """Total force and torque of each grain (pairs in increasing pair order, then the bottom and
     top wall, then background damping), accelerations and the second half kick of velocity
     Verlet; per-grain piston force, top contacts, largest wall overlap and wall contacts.
 
     ``inc_pair`` holds p + 1 where the grain is the pair's i, -(p + 1) where it is its j."""
-    i = cuda.grid(1)
-    n, d = pos.shape
-    if i >= n or ctl[C_STATUS] != 0:
-        return
+    d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar[K.F_DT]
     zeta = fpar[K.F_ZETA]
@@ -447,7 +462,10 @@ def bytes_per_step(n: int, npairs: int, dim: int, rot: int) -> int:
 
 
 def _blocks(n: int) -> int:
-    return max(1, (n + BLOCK - 1) // BLOCK)
+    """Blocks of BLOCK threads for n items: one per item on a GPU; in the simulator at most
+    SIM_BLOCKS (the per-item kernels are grid-stride loops: each simulated thread costs)."""
+    b = max(1, (n + BLOCK - 1) // BLOCK)
+    return min(b, SIM_BLOCKS) if simulated() else b
 
 
 class GpuEngine(Engine):
@@ -471,6 +489,10 @@ class GpuEngine(Engine):
     device_rebuild = True
     #: Steps queued between two reads of the device when the run has no checks.
     SYNC_EVERY = 200
+    #: Grains up to which the device rebuild runs as one single-block kernel (granwave.gpu.neighbours).
+    small_rebuild = NB.SMALL
+    #: Times a device rebuild stopped for more room (:meth:`_make_room`).
+    room_made = 0
 
     # ------------------------------------------------------------ device session
     def upload(self) -> None:
@@ -613,7 +635,7 @@ class GpuEngine(Engine):
         the step (the host reads the reduction)."""
         fpar, ipar, out, g = self.fpar, self.ipar, self.out, self.g
         if self.device_rebuild:
-            NB.launch_rebuild(g, self.gp)
+            NB.launch_rebuild(g, self.gp, self.small_rebuild)
         elif self._host_rebuild() == 3:
             return 3
         gp = self.gp
@@ -685,6 +707,7 @@ class GpuEngine(Engine):
         self.download()
         self._grow_pairs(needed)
         self.upload()
+        self.room_made += 1
 
     # ------------------------------------------------------------ the engine's interface
     def run(self, n_steps: int) -> int:
@@ -703,21 +726,29 @@ class GpuEngine(Engine):
                         if status:
                             return status
                 return 0
-            while self.steps < target:
-                now = self.steps
-                stop = min(target, now + self.SYNC_EVERY if check <= 0 else (now // check + 1) * check)
-                for _ in range(stop - now):
-                    self.step()
-                status, needed = self.sync()
-                if status == 2:
-                    self._make_room(needed)
-                    continue
-                if status == 3:
-                    return 3
-                if check > 0 and self.steps % check == 0:
-                    status = self._check()
-                    if status:
-                        return status
-            return 0
+            return self.advance(target)
         finally:
             self.download()
+
+    def advance(self, target: int) -> int:
+        """Step on the device (between :meth:`upload` and :meth:`download`, ``device_rebuild``
+        on) until ``target`` steps in all: runs of steps queued up to the next check (or
+        :data:`SYNC_EVERY` steps), then one read of the device; room made when a rebuild asked
+        for it. Returns as :meth:`run`."""
+        check = int(self.ipar[K.I_CHECK])
+        while self.steps < target:
+            now = self.steps
+            stop = min(target, now + self.SYNC_EVERY if check <= 0 else (now // check + 1) * check)
+            for _ in range(stop - now):
+                self.step()
+            status, needed = self.sync()
+            if status == 2:
+                self._make_room(needed)
+                continue
+            if status == 3:
+                return 3
+            if check > 0 and self.steps % check == 0:
+                status = self._check()
+                if status:
+                    return status
+        return 0

@@ -66,8 +66,12 @@ R_VMAX = 6
 @cuda.jit
 def rb_trigger(red, fpar, piston, lateral, ctl, ncell_cap):
     """One thread: is a rebuild due before this step (and the cells per axis)?"""
-    if cuda.grid(1) != 0:
-        return
+    if cuda.grid(1) == 0:
+        _trigger(red, fpar, piston, lateral, ctl, ncell_cap)
+
+
+@cuda.jit(device=True)
+def _trigger(red, fpar, piston, lateral, ctl, ncell_cap):
     ctl[C_DUE] = 0
     if ctl[C_STATUS] != 0:
         return
@@ -121,23 +125,23 @@ def _cell_of(pos, i, lateral, piston, ctl):
 @cuda.jit
 def rb_cell_count(pos, lateral, piston, ctl, cell, ccount):
     """Each grain's cell, and the grains per cell (ccount[:, 0], zero on entry)."""
-    i = cuda.grid(1)
-    if i >= pos.shape[0] or ctl[C_DUE] == 0:
+    if ctl[C_DUE] == 0:
         return
-    c = _cell_of(pos, i, lateral, piston, ctl)
-    cell[i] = c
-    cuda.atomic.add(ccount, (c, 0), 1)
+    for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
+        c = _cell_of(pos, i, lateral, piston, ctl)
+        cell[i] = c
+        cuda.atomic.add(ccount, (c, 0), 1)
 
 
 @cuda.jit
 def rb_cell_fill(ctl, cell, ccount, cstart, members):
     """Each grain into a slot of its cell's block of ``members`` (ccount[:, 1] counts them)."""
-    i = cuda.grid(1)
-    if i >= cell.shape[0] or ctl[C_DUE] == 0:
+    if ctl[C_DUE] == 0:
         return
-    c = cell[i]
-    k = cuda.atomic.add(ccount, (c, 1), 1)
-    members[cstart[c, 0] + k] = i
+    for i in range(cuda.grid(1), cell.shape[0], cuda.gridsize(1)):
+        c = cell[i]
+        k = cuda.atomic.add(ccount, (c, 1), 1)
+        members[cstart[c, 0] + k] = i
 
 
 @cuda.jit(device=True)
@@ -215,40 +219,42 @@ def _neighbours(i, pos, rad, lateral, skin, ctl, cell, cstart, members, out, bas
 @cuda.jit
 def rb_count(pos, rad, lateral, fpar, ctl, cell, cstart, members, nbr, gcnt):
     """gcnt[i] = (neighbours above i, all neighbours) (``nbr`` is not written)."""
-    i = cuda.grid(1)
-    if i >= pos.shape[0] or ctl[C_DUE] == 0:
+    if ctl[C_DUE] == 0:
         return
-    cnt, lo = _neighbours(i, pos, rad, lateral, fpar[K.F_SKIN], ctl, cell, cstart, members, nbr, 0, False)
-    gcnt[i, 0] = cnt - lo
-    gcnt[i, 1] = cnt
+    for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
+        cnt, lo = _neighbours(i, pos, rad, lateral, fpar[K.F_SKIN], ctl, cell, cstart, members, nbr, 0, False)
+        gcnt[i, 0] = cnt - lo
+        gcnt[i, 1] = cnt
 
 
 @cuda.jit
 def rb_fill(pos, rad, lateral, fpar, ctl, cell, cstart, members, gptr, nbr, cap):
     """Capacity test, then each grain's sorted neighbours into nbr[gptr[i, 1]:gptr[i + 1, 1]]."""
-    i = cuda.grid(1)
     n = pos.shape[0]
     if ctl[C_DUE] == 0 or ctl[C_STATUS] != 0:
         return
     m = gptr[n, 0]
     if m > cap:
-        if i == 0:
+        if cuda.grid(1) == 0:
             ctl[C_NEED] = m
             ctl[C_STATUS] = 2
         return
-    if i >= n:
-        return
-    _neighbours(i, pos, rad, lateral, fpar[K.F_SKIN], ctl, cell, cstart, members, nbr, gptr[i, 1], True)
+    for i in range(cuda.grid(1), n, cuda.gridsize(1)):
+        _neighbours(i, pos, rad, lateral, fpar[K.F_SKIN], ctl, cell, cstart, members, nbr, gptr[i, 1], True)
 
 
 @cuda.jit
 def rb_merge(ctl, gptr, nbr, row, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code):
     """Grain i's new pairs with the history of its old block (``row``: the old offsets), and
     its incidence list (p + 1 where it is the pair's i, -(p + 1) where it is its j)."""
-    i = cuda.grid(1)
-    n = gptr.shape[0] - 1
-    if i >= n or ctl[C_DUE] == 0 or ctl[C_STATUS] != 0:
+    if ctl[C_DUE] == 0 or ctl[C_STATUS] != 0:
         return
+    for i in range(cuda.grid(1), gptr.shape[0] - 1, cuda.gridsize(1)):
+        _merge(i, gptr, nbr, row, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code)
+
+
+@cuda.jit(device=True)
+def _merge(i, gptr, nbr, row, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code):
     d = pair_ft.shape[1]
     base = gptr[i, 1]
     cnt = gptr[i + 1, 1] - base
@@ -288,10 +294,15 @@ def rb_commit(ctl, gptr, pos, pos0, new_i, new_j, new_ft, new_ov, new_code, pair
               row, inc_ptr, inc_code, ccount):
     """The new list over the current one (a grid-stride loop), pos0 = positions, cell counts
     cleared; thread 0 stores the pair count and counts the rebuild."""
-    g = cuda.grid(1)
     if ctl[C_DUE] == 0 or ctl[C_STATUS] != 0:
         return
-    stride = cuda.gridsize(1)
+    _commit(cuda.grid(1), cuda.gridsize(1), ctl, gptr, pos, pos0, new_i, new_j, new_ft, new_ov, new_code, pair_i,
+            pair_j, pair_ft, pair_ov, row, inc_ptr, inc_code, ccount)
+
+
+@cuda.jit(device=True)
+def _commit(g, stride, ctl, gptr, pos, pos0, new_i, new_j, new_ft, new_ov, new_code, pair_i, pair_j, pair_ft,
+            pair_ov, row, inc_ptr, inc_code, ccount):
     n, d = pos.shape
     m = gptr[n, 0]
     w = pair_ft.shape[1]
@@ -315,6 +326,72 @@ def rb_commit(ctl, gptr, pos, pos0, new_i, new_j, new_ft, new_ov, new_code, pair
     if g == 0:
         ctl[C_NPAIRS] = m
         ctl[C_REBUILDS] += 1
+
+
+@cuda.jit(device=True)
+def _serial_scan(x, out):
+    """out[k + 1] = sum of x[:k + 1] by column (two columns), out[0] = 0: one thread."""
+    a0 = 0
+    a1 = 0
+    out[0, 0] = 0
+    out[0, 1] = 0
+    for k in range(x.shape[0]):
+        a0 += x[k, 0]
+        a1 += x[k, 1]
+        out[k + 1, 0] = a0
+        out[k + 1, 1] = a1
+
+
+@cuda.jit
+def rb_small(red, fpar, piston, lateral, pos, rad, pos0, ctl, cell, ccount, cstart, members, gcnt, gptr, nbr, row,
+             pair_i, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code, inc_ptr, inc_code):
+    """The whole rebuild, trigger included, in one block (small systems: one launch per step
+    instead of twelve): the steps of the multi-kernel rebuild, the same device functions,
+    separated by barriers, the prefix sums by one thread."""
+    t = cuda.threadIdx.x
+    s = cuda.blockDim.x
+    if t == 0:
+        _trigger(red, fpar, piston, lateral, ctl, ccount.shape[0])
+    cuda.syncthreads()
+    if ctl[C_DUE] == 0:
+        return
+    n = pos.shape[0]
+    skin = fpar[K.F_SKIN]
+    for i in range(t, n, s):
+        c = _cell_of(pos, i, lateral, piston, ctl)
+        cell[i] = c
+        cuda.atomic.add(ccount, (c, 0), 1)
+    cuda.syncthreads()
+    if t == 0:
+        _serial_scan(ccount, cstart)
+    cuda.syncthreads()
+    for i in range(t, n, s):
+        c = cell[i]
+        k = cuda.atomic.add(ccount, (c, 1), 1)
+        members[cstart[c, 0] + k] = i
+    cuda.syncthreads()
+    for i in range(t, n, s):
+        cnt, lo = _neighbours(i, pos, rad, lateral, skin, ctl, cell, cstart, members, nbr, 0, False)
+        gcnt[i, 0] = cnt - lo
+        gcnt[i, 1] = cnt
+    cuda.syncthreads()
+    if t == 0:
+        _serial_scan(gcnt, gptr)
+    cuda.syncthreads()
+    m = gptr[n, 0]
+    if m > pair_i.shape[0]:  # no room: the old list stays, the run stops on the device
+        if t == 0:
+            ctl[C_NEED] = m
+            ctl[C_STATUS] = 2
+        return
+    for i in range(t, n, s):
+        _neighbours(i, pos, rad, lateral, skin, ctl, cell, cstart, members, nbr, gptr[i, 1], True)
+    cuda.syncthreads()
+    for i in range(t, n, s):
+        _merge(i, gptr, nbr, row, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code)
+    cuda.syncthreads()
+    _commit(t, s, ctl, gptr, pos, pos0, new_i, new_j, new_ft, new_ov, new_code, pair_i, pair_j, pair_ft, pair_ov,
+            row, inc_ptr, inc_code, ccount)
 
 
 # ---------------------------------------------------------------- exclusive prefix sums (int64)
@@ -424,11 +501,17 @@ def scan_apply(ctl, x, part, out):
 
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
 KERNELS = (rb_trigger, rb_cell_count, rb_cell_fill, rb_count, rb_fill, rb_merge, rb_commit, scan_partials,
-           scan_offsets, scan_apply)
+           scan_offsets, scan_apply, rb_small)
+
+#: Grains up to which the one-block rebuild (:func:`rb_small`) is used.
+SMALL = 4096
 
 
 def _blocks(n: int) -> int:
-    return max(1, (n + BLOCK - 1) // BLOCK)
+    """Blocks for n items (the kernels are grid-stride loops): one thread per item on a GPU, at
+    most two blocks in the simulator (each simulated thread costs)."""
+    b = max(1, (n + BLOCK - 1) // BLOCK)
+    return min(b, 2) if simulated() else b
 
 
 def cell_capacity(lateral, height: float, rmax: float, skin: float) -> int:
@@ -448,13 +531,22 @@ def scan(ctl, x, part, out) -> None:
     scan_apply[NPART, RBLOCK](ctl, x, part, out)
 
 
-def launch_rebuild(g: dict, gp: dict) -> None:
+def launch_rebuild(g: dict, gp: dict, small: int = SMALL) -> None:
     """Queue the rebuild kernels (each returns at once unless a rebuild is due): ``g`` the
-    engine's device state, ``gp`` its pair arrays (granwave.gpu.dem.GpuEngine.upload)."""
+    engine's device state, ``gp`` its pair arrays (granwave.gpu.dem.GpuEngine.upload); up to
+    ``small`` grains the one-block kernel :func:`rb_small`."""
     n = g["position"].shape[0]
     nb = _blocks(n)
     ctl = g["ctl"]
+    if n <= small:
+        rb_small[1, RBLOCK](g["red"], g["fpar"], g["piston"], g["lateral"], g["position"], g["radius"], g["pos0"],
+                            ctl, gp["cell"], gp["ccount"], gp["cstart"], gp["members"], gp["gcnt"], gp["gptr"],
+                            gp["nbr"], gp["row"], gp["i"], gp["j"], gp["ft"], gp["ov"], gp["ni"], gp["nj"],
+                            gp["nft"], gp["nov"], gp["ncode"], gp["ptr"], gp["code"])
+        return
     rb_trigger[1, 1](g["red"], g["fpar"], g["piston"], g["lateral"], ctl, gp["ccount"].shape[0])
+    if simulated() and ctl.copy_to_host()[C_DUE] == 0:
+        return  # the simulator only: every launch costs there, and each kernel below would return at once
     rb_cell_count[nb, BLOCK](g["position"], g["lateral"], g["piston"], ctl, gp["cell"], gp["ccount"])
     scan(ctl, gp["ccount"], gp["part"], gp["cstart"])
     rb_cell_fill[nb, BLOCK](ctl, gp["cell"], gp["ccount"], gp["cstart"], gp["members"])
