@@ -58,7 +58,7 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     p2 = lambda c: np.zeros((m, c))  # noqa: E731
     v = np.zeros(n)
     i64 = np.zeros(m, np.int64)
-    ctl = np.zeros(9, np.int64)
+    ctl = np.zeros(10, np.int64)
     sigs = {
         G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), np.zeros(dim - 1), f2(dim),
                              np.zeros(6), 1.0, v, v, ctl),

@@ -118,7 +118,8 @@ def pulse() -> dict:
             **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
 
 
-def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, small: int | None = None):
+def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, small: int | None = None,
+         every: int = 1):
     """A dense frictional gas in a 6 x 6 (x 6) box (radii 0.3-0.4 on a jittered grid, random
     velocities and a vertical squeeze, so that pairs form and the list is rebuilt every ~10
     steps); ``room``: the pair arrays cut to that many slots before the run (the GPU engine
@@ -139,6 +140,8 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
             velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)), check_every=0)
     if small is not None:
         e.small_rebuild = small
+    if every != 1:
+        e.rebuild_every = every
     if room is not None:
         m = e.n_pairs
         for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
@@ -152,7 +155,8 @@ def rebuild(steps: int = 60, steps_3d: int = 24) -> dict:
     with rebuilds mid-run, in 2D and 3D, by the one-block rebuild and by the multi-kernel one
     (``_multi``), and in 2D again with the pair arrays cut to the pairs of the first list
     (``_room``: a later rebuild needs more, the run stops on the device, the host makes room,
-    the run goes on). Pair lists (keys in order, histories) and states compared bitwise."""
+    the run goes on). Pair lists (keys in order, histories) and states compared bitwise. In 2D
+    also with the rebuild test every 3 steps (``every3``: other rebuild steps, the same state)."""
     from ..dem.integrator import Engine
     from .dem import GpuEngine
 
@@ -177,6 +181,10 @@ def rebuild(steps: int = 60, steps_3d: int = 24) -> dict:
             out[f"rebuilds_{key}"] = g.rebuilds
             out[f"room_made_{key}"] = g.room_made
             out[f"steps_{key}"] = g.steps
+        if dim == 2:  # the test every 3 steps, looking 3 steps ahead: other rebuild steps, the same bits
+            g = _gas(GpuEngine, dim, k, every=3)
+            out["same_state_2d_every3"] = all(getattr(cpu, s).tobytes() == getattr(g, s).tobytes() for s in STATE)
+            out["rebuilds_2d_every3"] = g.rebuilds
         out[f"rebuilds_cpu_{dim}d"] = cpu.rebuilds
         out[f"pairs_cpu_{dim}d"] = m
         out[f"grains_{dim}d"] = len(cpu.radius)

@@ -23,12 +23,16 @@ One step on the device (four kernels, no floating-point atomics):
 Hence repeated runs give identical bytes, and each grain's force is summed in the CPU's order;
 only the piston force, kinetic energy and the maxima are reduced in a different (fixed) order.
 
-Neighbour list, first version: the rebuild runs on the host. When a grain may have moved half
-a skin, the positions and pair histories are copied back, the CPU rebuild
-(:func:`granwave.dem.neighbours.rebuild`) runs, and the new pairs, histories and incidence list
-are copied to the device. After every step the host reads six numbers (the rebuild test needs
-the largest speed and displacement); every ``check_every`` steps the convergence statistics
-(nine numbers). Costs are estimated in docs/gpu.md.
+Neighbour list: rebuilt on the device (:mod:`granwave.gpu.neighbours`), the CPU's pairs in
+the CPU's order with their histories carried, its trigger (the CPU engine's: reach against
+half the skin, from the last step's reduction) evaluated there too, before every step. The
+host only queues kernels; it reads the device (control words and the step's reduction) at
+convergence checks, every :data:`GpuEngine.SYNC_EVERY` steps without checks, and at the end
+of a run. A rebuild that needs more pairs than the arrays hold sets a flag and stops the run
+on the device (every later kernel returns at once, the state stays that of the step before);
+the host sees it at its next read, makes room, and goes on from there: the same bits. The
+pulse (:mod:`granwave.gpu.pulse`) keeps the first version's host rebuild
+(``device_rebuild = False``), because its contact flags are carried on the host.
 """
 
 from __future__ import annotations
@@ -489,6 +493,11 @@ class GpuEngine(Engine):
     device_rebuild = True
     #: Steps queued between two reads of the device when the run has no checks.
     SYNC_EVERY = 200
+    #: Steps between two launches of the device rebuild's kernels (its test then looks that many
+    #: steps ahead: granwave.gpu.neighbours.rb_trigger). 1: the CPU engine's test before every
+    #: step, the CPU's rebuild steps; k > 1 launches a k-th of the kernels (fewer launches per
+    #: step) and rebuilds earlier, and changes no bit of the state (docs/gpu.md).
+    rebuild_every = 1
     #: Grains up to which the device rebuild runs as one single-block kernel (granwave.gpu.neighbours).
     small_rebuild = NB.SMALL
     #: Times a device rebuild stopped for more room (:meth:`_make_room`).
@@ -523,7 +532,9 @@ class GpuEngine(Engine):
         ctl = np.zeros(N_CTL, np.int64)
         ctl[C_STEPS] = self.ipar[K.I_STEPS]
         ctl[C_REBUILDS] = self.ipar[K.I_REBUILDS]
+        ctl[NB.C_AHEAD] = max(1, int(self.rebuild_every))
         self.g["ctl"] = to(ctl)
+        self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
         self._upload_pairs()
 
     def _upload_pairs(self) -> None:
@@ -635,7 +646,9 @@ class GpuEngine(Engine):
         the step (the host reads the reduction)."""
         fpar, ipar, out, g = self.fpar, self.ipar, self.out, self.g
         if self.device_rebuild:
-            NB.launch_rebuild(g, self.gp, self.small_rebuild)
+            if self._queued % max(1, int(self.rebuild_every)) == 0:
+                NB.launch_rebuild(g, self.gp, self.small_rebuild)
+            self._queued += 1
         elif self._host_rebuild() == 3:
             return 3
         gp = self.gp

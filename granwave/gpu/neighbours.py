@@ -11,7 +11,8 @@ result, so its layout need not be the CPU's.
 Steps (one kernel each, all gated by ``ctl[C_DUE]``; with no rebuild due they return at once):
 
 1. :func:`rb_trigger` (one thread): the CPU engine's test, reach = sqrt(disp2) + 2 vmax dt
-   against half the skin, from the last step's reduction; a non-finite reach stops the run
+   against half the skin, from the last step's reduction (with the test made only every
+   k = ``ctl[C_AHEAD]`` steps, reach = sqrt(disp2) + 2 k vmax dt); a non-finite reach stops the run
    (``ctl[C_STATUS] = 3``); the cells per axis (at least 2 R_max + skin wide; one cell for
    all when a lateral axis has fewer than 3, as the CPU);
 2. :func:`rb_cell_count` and a prefix sum: grains per cell (integer atomics: counts, whose
@@ -55,8 +56,8 @@ RBLOCK = 4 if simulated() else 256
 NPART = 2 if simulated() else 264
 
 # the control words (int64) the device keeps and the host reads at checks
-C_STATUS, C_DUE, C_STEPS, C_REBUILDS, C_NPAIRS, C_NEED, C_NC0, C_NC1, C_NC2 = range(9)
-N_CTL = 9
+C_STATUS, C_DUE, C_STEPS, C_REBUILDS, C_NPAIRS, C_NEED, C_NC0, C_NC1, C_NC2, C_AHEAD = range(10)
+N_CTL = 10
 
 # the per-step reduction the trigger reads (granwave.gpu.dem's ``red``)
 R_DISP2 = 5
@@ -75,7 +76,12 @@ def _trigger(red, fpar, piston, lateral, ctl, ncell_cap):
     ctl[C_DUE] = 0
     if ctl[C_STATUS] != 0:
         return
-    reach = math.sqrt(red[R_DISP2]) + 2.0 * red[R_VMAX] * fpar[K.F_DT]
+    # the CPU engine's reach, for the C_AHEAD steps until the test runs again (1: the CPU's own)
+    ahead = ctl[C_AHEAD]
+    if ahead == 1:
+        reach = math.sqrt(red[R_DISP2]) + 2.0 * red[R_VMAX] * fpar[K.F_DT]
+    else:
+        reach = math.sqrt(red[R_DISP2]) + 2.0 * ahead * red[R_VMAX] * fpar[K.F_DT]
     if not reach < math.inf:  # the state blew up (unstable step): stop before the rebuild
         ctl[C_STATUS] = 3
         return
