@@ -102,7 +102,10 @@ class _NeedRoom(Exception):
 
 class _Session(GpuEngine):
     """A GpuEngine over the arrays of a CPU engine (the same objects): growing them is left to
-    the caller, as with the CPU loop."""
+    the caller, as with the CPU loop. The first version's host rebuild: the contact flags are
+    carried across rebuilds on the host (``on_rebuild``)."""
+
+    device_rebuild = False
 
     def grow(self, needed: int, width: int = 0) -> None:
         raise _NeedRoom(needed, width)
