@@ -466,7 +466,7 @@ def packing_statics(grains: int, seeds: int, tiny: bool, deadline: float) -> dic
 
 
 ALL_FULL = dict(total_s=380.0, checks_s=100.0, td_s=90.0, dem_s=80.0, statics_s=380.0, td=(1000, 1000),
-                dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=20, td_steps=200,
+                dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=30, td_steps=200,
                 cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, seeds=12)
 ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, statics_s=3000.0, td=(6, 4),
                 dem_grains=40, dem_steps=30, dem_plain_steps=3, cpu_dem_steps=3, td_steps=3, cpu_td_steps=3,
