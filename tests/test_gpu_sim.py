@@ -4,7 +4,7 @@ The simulator executes the kernels (threads, blocks, shared memory, barriers) as
 the CPU, so these tests need no GPU; they cannot tell whether a kernel compiles for a real one
 (tests/test_gpu_ptx.py does). They run in a subprocess: the simulator is chosen when
 numba.cuda is first imported, and the rest of the suite must not see it. All checks run in
-one subprocess (granwave.gpu.checks: ~30 s of CPU time, 55 s wall on a loaded 2-core machine).
+one subprocess (granwave.gpu.checks: 10 min wall on a 2-core machine under load 8).
 """
 
 from __future__ import annotations
