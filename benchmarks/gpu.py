@@ -1,6 +1,21 @@
 """GPU backend speed: ratios to one CPU core and fractions of the memory-bandwidth roofline.
 
     python benchmarks/gpu.py [--tiny] [--dry-run] [--skip-crossing] [--skip-packing] [--full-crossing]
+    python benchmarks/gpu.py --all [--tiny] [--out FILE] [--budget SECONDS]
+
+``--all`` is the one prepared measurement (it replaces the list below): device, date and
+versions; the agreement checks of granwave.gpu.checks (time-domain signal, two-body collision,
+DEM pulse, device neighbour rebuild) as pass/fail with their largest differences; the memory
+bandwidth; the time-domain step at 10^6 grains against one core and the roofline; DEM
+grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
+rebuilt on the device (the tiled packing drifts along the periodic axis: a rebuild about every
+25 steps; the rebuild count is reported) and over 200 steps without rebuilds; the statics of
+twelve 600-grain 2D packings (p = 1e-4, seeds 0..11) prepared on the GPU against the same seeds
+prepared on the CPU. Parts run in the order bandwidth, checks, DEM, packings, time domain;
+each has its own time budget and is skipped, with a note, when the whole budget
+(``--budget``, default 380 s wall, compilation included) is spent; the JSON is
+written (to ``--out``, else stdout) after every part, so a run stopped from outside still
+leaves the parts done.
 
 On one NVIDIA GPU (``pip install -e '.[gpu]'``) it measures, in one run:
 
@@ -215,6 +230,340 @@ def plan(size: dict) -> dict:
                 crossing_csr_bytes_estimate=int(3 * R * W * 21 * 12))
 
 
+# ------------------------------------------------------------------------------------ --all
+def versions() -> dict:
+    """Python, numpy, scipy, numba, numba-cuda, CUDA runtime and driver, granwave's revision."""
+    import platform
+    import subprocess
+    from importlib import metadata
+
+    out = {"python": platform.python_version()}
+    for name in ("numpy", "scipy", "numba", "numba-cuda", "h5py"):
+        try:
+            out[name] = metadata.version(name)
+        except Exception:  # noqa: BLE001 - not installed
+            out[name] = None
+    try:
+        from numba import cuda
+
+        out["cuda_runtime"] = ".".join(map(str, cuda.runtime.get_version()))
+    except Exception as exc:  # noqa: BLE001 - simulator, or an older API
+        out["cuda_runtime"] = f"unknown ({type(exc).__name__})"
+    try:
+        from numba.cuda.cudadrv.driver import driver
+
+        out["cuda_driver"] = str(driver.get_version())
+    except Exception as exc:  # noqa: BLE001
+        out["cuda_driver"] = f"unknown ({type(exc).__name__})"
+    try:
+        out["git"] = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
+                                    cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip() or None
+    except Exception:  # noqa: BLE001 - no git
+        out["git"] = None
+    return out
+
+
+#: Pass criteria of the agreement checks (those of tests/test_gpu_sim.py; on a GPU the results
+#: agree up to rounding, fused multiply-adds included, so bitwise equality is reported, not asked).
+def _verdicts(name: str, r: dict) -> tuple[bool, dict]:
+    if name == "time_domain":
+        worst = max(r[f"{k}_{ic}"] for k in ("signal_rel", "snapshot_rel") for ic in "AB")
+        return worst < 1e-10, {"max_rel": worst}
+    if name == "two_body":
+        return r["state_abs"] < 1e-12 and r["tangential_force"] > 1e-4, {"max_abs": r["state_abs"]}
+    if name == "pulse":
+        same = all(r[f"{k}_gpu"] == r[f"{k}_cpu"] for k in ("n_opened", "n_formed", "n_sliding",
+                                                            "neighbour_rebuilds", "n_contacts_initial"))
+        worst = max(r["signal_rel"], r["max_displacement_rel"])
+        return same and worst < 1e-10, {"max_rel": worst, "same_counts": same}
+    if name == "rebuild":
+        keys = [k[len("same_pairs_"):] for k in r if k.startswith("same_pairs_")]
+        same = all(r[f"same_pairs_{k}"] for k in keys)
+        worst = max(r[f"state_abs_{k}"] for k in keys)
+        rebuilds = all(r[f"rebuilds_{k}"] == r[f"rebuilds_cpu_{k[:2]}"] for k in keys)
+        return (same and worst < 1e-9 and rebuilds and r.get("room_made_2d_room", 0) > 0
+                and r.get("room_made_2d_room_multi", 0) > 0,
+                {"max_abs": worst, "same_pairs": same, "same_rebuilds": rebuilds,
+                 "bitwise": all(r[f"same_state_{k}"] and r[f"same_history_{k}"] for k in keys)})
+    raise KeyError(name)
+
+
+def agreement(deadline: float) -> dict:
+    """The checks of granwave.gpu.checks, each while time is left before ``deadline``."""
+    from granwave.gpu import checks
+
+    out = {}
+    for name in ("two_body", "time_domain", "pulse", "rebuild"):
+        if time.perf_counter() > deadline:
+            out[name] = {"skipped": "time budget of the checks spent"}
+            continue
+        t0 = time.perf_counter()
+        try:
+            r = checks.CHECKS[name]()
+            ok, summary = _verdicts(name, r)
+            out[name] = {"pass": bool(ok), **summary, "seconds": time.perf_counter() - t0, "detail": r}
+        except Exception as exc:  # noqa: BLE001 - reported, the other parts go on
+            out[name] = {"pass": False, "error": f"{type(exc).__name__}: {exc}"[:500],
+                         "seconds": time.perf_counter() - t0}
+    return out
+
+
+def dem_with_rebuilds(grains: int, gpu_steps: int, plain_steps: int, cpu_steps: int, tiny: bool,
+                      deadline: float) -> dict:
+    """DEM grain-steps/s at ``grains`` grains (the tiled packing of :func:`tiled_packing`), GPU
+    against one core. The whole packing drifts along the periodic axis at a speed U that
+    uses half the skin in about 25 steps, so that the pair list is rebuilt on the device about
+    every 25 steps (a uniform drift changes no contact force; the walls' friction slows the
+    layers next to them). Also the GPU rate without drift (no rebuilds) over ``plain_steps``."""
+    from granwave.dem.integrator import Engine
+    from granwave.dem import kernels as K
+    from granwave.dem.protocol import pressure_scales
+    from granwave.gpu import dem as G
+    from granwave.threads import set_threads
+
+    base, pos, rad, width, tiles = tiled_packing(grains, tiny)
+    rng = np.random.default_rng(0)
+    kw = dict(friction=base.friction, damping=0.5, piston_mass=float(base.attrs["piston_mass"]) * tiles,
+              piston_force=base.pressure * width, velocity=rng.normal(0, 1e-4, pos.shape),
+              overlap_floor=pressure_scales(base.pressure, float(base.mass.mean()))[0], check_every=0)
+    set_threads(1)
+    out = {"grains": len(rad)}
+
+    def engine(cls, drift: bool):
+        eng = cls(pos, rad, [width], base.box[1], **kw)
+        if drift:
+            u = 0.5 * eng.skin / (25 * eng.dt)
+            eng.velocity[:, 0] += u
+            out["drift_speed"] = u
+        return eng
+
+    # GPU, no rebuilds (no drift): the step alone
+    eng = engine(G.GpuEngine, False)
+    t0 = time.perf_counter()
+    eng.run(2)  # compilation of every kernel, device rebuild included
+    out["gpu_compile_s"] = time.perf_counter() - t0
+    for every in (1, 8):
+        eng.rebuild_every = every
+        r0 = eng.rebuilds
+        eng.upload()
+        _sync()
+        t0 = time.perf_counter()
+        for _ in range(plain_steps):
+            eng.step()
+        queued = time.perf_counter() - t0  # host time to queue the launches (~ el: the host is the limit)
+        _sync()
+        el = time.perf_counter() - t0
+        eng.download()
+        out["gpu_plain" if every == 1 else f"gpu_plain_rebuild_every_{every}"] = dict(
+            steps=plain_steps, seconds=el, host_queue_s=queued, grain_steps_per_s=len(rad) * plain_steps / el,
+            rebuilds=eng.rebuilds - r0, pairs=eng.n_pairs)
+    if time.perf_counter() > deadline:
+        out["note"] = "time budget spent after the plain steps"
+        return out
+    # GPU with drift: the device rebuilds; the host reads the device every G.GpuEngine.SYNC_EVERY steps
+    # (rebuild_every 1: the CPU's test before every step; 8: the rebuild's kernels with every 8th step)
+    for every in (1, 8):
+        if every > 1 and time.perf_counter() > deadline:
+            break
+        eng = engine(G.GpuEngine, True)
+        eng.rebuild_every = every
+        eng.run(2)
+        eng.upload()
+        r0, s0 = eng.rebuilds, eng.steps
+        _sync()
+        t0 = time.perf_counter()
+        status = eng.advance(s0 + gpu_steps)  # GpuEngine.run's loop: a read of the device every SYNC_EVERY steps
+        _sync()
+        el = time.perf_counter() - t0
+        eng.download()
+        out["gpu" if every == 1 else f"gpu_rebuild_every_{every}"] = dict(
+            steps=eng.steps - s0, seconds=el, grain_steps_per_s=len(rad) * (eng.steps - s0) / el,
+            rebuilds=eng.rebuilds - r0, pairs=eng.n_pairs, status=status, room_made=eng.room_made,
+            sync_every=G.GpuEngine.SYNC_EVERY, rebuild_every=every)
+    if time.perf_counter() > deadline:
+        out["note"] = "time budget spent before the CPU reference"
+        return out
+    # one core, the same drifting system
+    eng = engine(Engine, True)
+    eng.run(2)
+    r0 = eng.rebuilds
+    t0 = time.perf_counter()
+    eng.run(cpu_steps)
+    el = time.perf_counter() - t0
+    out["cpu"] = dict(steps=cpu_steps, seconds=el, grain_steps_per_s=len(rad) * cpu_steps / el,
+                      rebuilds=eng.rebuilds - r0)
+    out["speedup_vs_one_core"] = out["gpu"]["grain_steps_per_s"] / out["cpu"]["grain_steps_per_s"]
+    out["bytes_per_step"] = G.bytes_per_step(len(rad), out["gpu"]["pairs"], 2, 1)
+    return out
+
+
+STATIC_KEYS = ("phi2", "z_star", "rattler_fraction", "mean_force_over_p", "Z2", "F2", "stress_ratio",
+               "max_force_residual", "piston_balance")
+
+
+def packing_statics(grains: int, seeds: int, tiny: bool, deadline: float) -> dict:
+    """Packings of ``grains`` grains (2D, p = 1e-4; tiny: 10 grains at p = 1e-2, loose tol) for
+    seeds 0, 1, ..., prepared on the GPU and on the CPU (one core) in turn while time is left;
+    the statics (granwave.analysis.statics) of each, their means and standard errors per
+    device, whether the means agree within errors (|difference| < 3 combined standard
+    errors), and whether the GPU packings are byte-identical to the CPU ones."""
+    from granwave import api
+    from granwave.analysis.statics import statics
+    from granwave.threads import set_threads
+
+    set_threads(1)
+    kw = dict(grains=grains, pressure=1e-2 if tiny else 1e-4)
+    if tiny:
+        kw["tol"] = 1e-2
+    rows = {"cpu": [], "gpu": []}
+    identical, steps, secs, errors = [], {"cpu": [], "gpu": []}, {"cpu": [], "gpu": []}, []
+    note = None
+    for seed in range(seeds):
+        if time.perf_counter() > deadline:
+            note = f"time budget spent after {seed} seeds"
+            break
+        got = {}
+        try:
+            for device in ("gpu", "cpu"):
+                t0 = time.perf_counter()
+                p = api.prepare_packing(**kw, seed=seed, device=device)
+                secs[device].append(time.perf_counter() - t0)
+                steps[device].append(int(p.attrs["steps"]))
+                s = statics(p, layer=0.5) if tiny else statics(p)  # the default bulk layer
+                got[device] = (p, [float(s[k]) for k in STATIC_KEYS])
+        except Exception as exc:  # noqa: BLE001 - this seed is left out, said why
+            errors.append(f"seed {seed}: {type(exc).__name__}: {exc}"[:300])
+            continue
+        for device in ("gpu", "cpu"):
+            rows[device].append(got[device][1])
+        got = {d: got[d][0] for d in got}
+        a, b = got["cpu"], got["gpu"]
+        identical.append(bool(a.position.tobytes() == b.position.tobytes() and a.height == b.height
+                              and len(a.contacts) == len(b.contacts)))
+    out = {"grains": grains, "pressure": kw["pressure"], "seeds_done": len(identical), "seeds_asked": seeds,
+           "byte_identical": identical, "steps": steps, "seconds": secs}
+    if note:
+        out["note"] = note
+    if errors:
+        out["errors"] = errors
+    k = len(identical)
+    if k >= 2:
+        agree = {}
+        for c, key in enumerate(STATIC_KEYS):
+            stats = {}
+            for device in ("cpu", "gpu"):
+                x = np.array([r[c] for r in rows[device]])
+                x = x[np.isfinite(x)]
+                stats[device] = (float(x.mean()), float(x.std(ddof=1) / math.sqrt(len(x)))) if len(x) >= 2 else (
+                    float("nan"), float("nan"))
+            (m1, e1), (m2, e2) = stats["cpu"], stats["gpu"]
+            err = math.hypot(e1, e2)
+            agree[key] = {"cpu_mean": m1, "cpu_stderr": e1, "gpu_mean": m2, "gpu_stderr": e2,
+                          "agree_3_sigma": bool(abs(m1 - m2) <= 3 * err) if err > 0 else bool(m1 == m2)}
+        out["statics"] = agree
+        out["all_agree"] = all(v["agree_3_sigma"] for v in agree.values())
+    out["per_seed"] = {d: [dict(zip(STATIC_KEYS, r)) for r in rows[d]] for d in rows}
+    return out
+
+
+ALL_FULL = dict(total_s=380.0, checks_s=100.0, td_s=90.0, dem_s=80.0, statics_s=130.0, td=(1000, 1000),
+                dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=30, td_steps=200,
+                cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, seeds=12)
+ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, statics_s=3000.0, td=(6, 4),
+                dem_grains=40, dem_steps=30, dem_plain_steps=3, cpu_dem_steps=3, td_steps=3, cpu_td_steps=3,
+                copy_bytes=1 << 12, packing_grains=10, seeds=2)
+
+
+def run_all(args) -> int:
+    size = dict(ALL_TINY if args.tiny else ALL_FULL)
+    if args.budget:
+        size["total_s"] = float(args.budget)
+    start = time.perf_counter()
+    end = start + size["total_s"]
+    res = {"benchmark": "benchmarks/gpu.py --all", "simulator": bool(args.tiny),
+           "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "goals": GOALS,
+           "columns": "not implemented (issue 46 item 1: mean-flow compaction on the GPU)"}
+
+    def write() -> None:
+        res["wall_s"] = time.perf_counter() - start
+        text = json.dumps(res, indent=1, default=float)
+        if args.out:
+            tmp = args.out + ".tmp"
+            with open(tmp, "w") as f:
+                f.write(text + "\n")
+            os.replace(tmp, args.out)
+
+    def stage(what: str) -> None:
+        print(f"[gpu.py {time.strftime('%H:%M:%S')} +{time.perf_counter() - start:.0f}s] {what}", file=sys.stderr,
+              flush=True)
+
+    def part(name: str, budget: float, fn) -> None:
+        left = end - time.perf_counter()
+        if left < 0.25 * budget:
+            res[name] = {"skipped": f"whole time budget spent ({left:.0f} s left, part budget {budget:.0f} s)"}
+            stage(f"{name}: skipped")
+        else:
+            stage(f"{name} (budget {min(budget, left):.0f} s)")
+            t0 = time.perf_counter()
+            try:
+                res[name] = fn(t0 + min(budget, left))
+            except Exception as exc:  # noqa: BLE001 - reported; the other parts go on
+                import traceback
+
+                res[name] = {"error": f"{type(exc).__name__}: {exc}"[:800],
+                             "traceback": traceback.format_exc()[-2000:]}
+            res[name + "_seconds"] = time.perf_counter() - t0
+        write()
+
+    from numba import cuda
+
+    try:
+        dev = cuda.get_current_device()
+        res["device"] = dev.name.decode() if hasattr(dev.name, "decode") else str(dev.name)
+    except Exception as exc:  # noqa: BLE001
+        res["device"] = f"unknown ({type(exc).__name__})"
+    res["versions"] = versions()
+    write()
+    bw = {}
+
+    def do_bandwidth(deadline):
+        bw["value"] = bandwidth(size["copy_bytes"])
+        return {"copy_GBps": bw["value"] / 1e9, "bytes": size["copy_bytes"]}
+
+    def do_td(deadline):
+        t0 = time.perf_counter()
+        system = lattice_system(*size["td"])
+        td = {"lattice": list(size["td"]), "build_s": time.perf_counter() - t0}
+        td.update(td_step_times(system, size["td_steps"], size["cpu_td_steps"]))
+        td["speedup_vs_one_core"] = td["cpu_s_per_step"] / td["gpu_s_per_step"]
+        td["roofline_fraction"] = td["bytes_per_step"] / td["gpu_s_per_step"] / bw.get("value", math.nan)
+        return td
+
+    def do_dem(deadline):
+        d = dem_with_rebuilds(size["dem_grains"], size["dem_steps"], size["dem_plain_steps"],
+                              size["cpu_dem_steps"], args.tiny, deadline)
+        if "gpu" in d and "value" in bw and "bytes_per_step" in d:
+            d["roofline_fraction"] = d["bytes_per_step"] * d["gpu"]["grain_steps_per_s"] / d["grains"] / bw["value"]
+        if "gpu" in d:
+            d["goal_ratio_rate"] = d["gpu"]["grain_steps_per_s"] / GOALS["dem_rate"]
+        return d
+
+    part("bandwidth", 30.0, do_bandwidth)
+    part("checks", size["checks_s"], agreement)
+    # the new parts first; the time domain (its code unchanged, measured before) last
+    part("dem", size["dem_s"], do_dem)
+    part("packings", size["statics_s"],
+         lambda deadline: packing_statics(size["packing_grains"], size["seeds"], args.tiny, deadline))
+    part("time_domain", size["td_s"], do_td)
+    if args.tiny:
+        res["note"] = "CUDA simulator at toy sizes: these numbers say nothing about a GPU"
+    write()
+    stage("done")
+    if not args.out:
+        print(json.dumps(res, indent=1, default=float))
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tiny", action="store_true", help="toy sizes in the CUDA simulator")
@@ -222,6 +571,9 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-crossing", action="store_true")
     ap.add_argument("--skip-packing", action="store_true")
     ap.add_argument("--full-crossing", action="store_true", help="run the whole crossing")
+    ap.add_argument("--all", action="store_true", help="the one prepared measurement (module docstring)")
+    ap.add_argument("--out", help="with --all: write the JSON here (else stdout)")
+    ap.add_argument("--budget", type=float, help="with --all: whole wall-time budget in seconds (default 380)")
     args = ap.parse_args(argv)
     size = TINY if args.tiny else FULL
     if args.dry_run:
@@ -237,6 +589,8 @@ def main(argv=None) -> int:
     except InputError as exc:
         print(f"benchmarks/gpu.py: {exc}", file=sys.stderr)
         return 2
+    if args.all:
+        return run_all(args)
     res = {"simulator": bool(args.tiny)}
     if not args.tiny:
         from numba import cuda

@@ -58,18 +58,19 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     p2 = lambda c: np.zeros((m, c))  # noqa: E731
     v = np.zeros(n)
     i64 = np.zeros(m, np.int64)
+    ctl = np.zeros(10, np.int64)
     sigs = {
         G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), np.zeros(dim - 1), f2(dim),
-                             np.zeros(6), 1.0, v, v),
-        G.pair_forces: _types(f2(dim), f2(dim), f2(rot), v, v, v, np.zeros(dim - 1), i64, i64, 1,
+                             np.zeros(6), 1.0, v, v, ctl),
+        G.pair_forces: _types(f2(dim), f2(dim), f2(rot), v, v, v, np.zeros(dim - 1), i64, i64, ctl,
                               p2(dim), np.zeros(m), np.zeros(14), p2(3), p2(max(rot, 1)),
                               p2(max(rot, 1)), np.zeros(m)),
         G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
                                np.zeros(n + 1, np.int64), i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)),
                                np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v,
-                               v),
-        G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), 1, np.zeros((3, 6))),
-        G.finish: _types(np.zeros((3, 6)), np.zeros(6), np.zeros(14), np.zeros(6)),
+                               v, ctl),
+        G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), ctl, np.zeros((3, 7))),
+        G.finish: _types(np.zeros((3, 7)), np.zeros(6), np.zeros(14), np.zeros(7), ctl),
         G.measure_kernel: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(5)),
     }
     assert set(sigs) == set(G.KERNELS)
@@ -83,6 +84,30 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
         P.track_displacement: _types(f2(dim), f2(dim), np.zeros(dim - 1), v),
     })
     assert set(P.KERNELS) <= set(sigs)
+    from granwave.gpu import neighbours as NB
+
+    i2 = np.zeros((n, 2), np.int64)
+    i2p = np.zeros((n + 1, 2), np.int64)
+    iv = np.zeros(n, np.int64)
+    ip = np.zeros(n + 1, np.int64)
+    lat = np.zeros(dim - 1)
+    sigs.update({
+        NB.rb_trigger: _types(np.zeros(7), np.zeros(14), np.zeros(6), lat, ctl, 1),
+        NB.rb_cell_count: _types(f2(dim), lat, np.zeros(6), ctl, iv, i2),
+        NB.rb_cell_fill: _types(ctl, iv, i2, i2p, iv),
+        NB.rb_count: _types(f2(dim), v, lat, np.zeros(14), ctl, iv, i2p, iv, i64, i2),
+        NB.rb_fill: _types(f2(dim), v, lat, np.zeros(14), ctl, iv, i2p, iv, i2p, i64, 1),
+        NB.rb_merge: _types(ctl, i2p, i64, ip, i64, p2(dim), np.zeros(m), i64, i64, p2(dim), np.zeros(m), i64),
+        NB.rb_commit: _types(ctl, i2p, f2(dim), f2(dim), i64, i64, p2(dim), np.zeros(m), i64, i64, i64, p2(dim),
+                             np.zeros(m), ip, ip, i64, i2),
+        NB.scan_partials: _types(ctl, i2, i2),
+        NB.scan_offsets: _types(ctl, i2),
+        NB.scan_apply: _types(ctl, i2, i2, i2p),
+        NB.rb_small: _types(np.zeros(7), np.zeros(14), np.zeros(6), lat, f2(dim), v, f2(dim), ctl, iv, i2, i2p, iv,
+                            i2, i2p, i64, ip, i64, i64, p2(dim), np.zeros(m), i64, i64, p2(dim), np.zeros(m), i64,
+                            ip, i64),
+    })
+    assert set(NB.KERNELS) <= set(sigs)
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx

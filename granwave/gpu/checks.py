@@ -118,7 +118,81 @@ def pulse() -> dict:
             **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
 
 
-CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse}
+def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, small: int | None = None,
+         every: int = 1):
+    """A dense frictional gas in a 6 x 6 (x 6) box (radii 0.3-0.4 on a jittered grid, random
+    velocities and a vertical squeeze, so that pairs form and the list is rebuilt every ~10
+    steps); ``room``: the pair arrays cut to that many slots before the run (the GPU engine
+    must make room on the device's request); ``small``: the GPU engine's ``small_rebuild`` (0:
+    the multi-kernel rebuild of large systems)."""
+    rng = np.random.default_rng(seed)
+    side = 6 if dim == 2 else 5
+    axes = np.meshgrid(*[np.arange(side) + 0.5] * dim, indexing="ij")
+    pos = np.stack([a.ravel() for a in axes], axis=1)
+    pos = pos[rng.permutation(len(pos))[: len(pos) * 2 // 3]]  # room to move
+    pos += rng.uniform(-0.1, 0.1, pos.shape)
+    n = len(pos)
+    rad = rng.uniform(0.3, 0.4, n)
+    vel = rng.normal(0.0, 1.0, pos.shape)
+    vel[:, -1] -= 0.5 * (pos[:, -1] - side / 2)
+    rot = 1 if dim == 2 else 3
+    e = cls(pos, rad, [float(side)] * (dim - 1), float(side), friction=0.5, damping=0.3, dt=4e-3, skin=0.2,
+            velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)), check_every=0)
+    if small is not None:
+        e.small_rebuild = small
+    if every != 1:
+        e.rebuild_every = every
+    if room is not None:
+        m = e.n_pairs
+        for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
+            setattr(e, name, getattr(e, name)[: max(m, room)].copy())
+    e.run(steps)
+    return e
+
+
+def rebuild(steps: int = 60, steps_3d: int = 24) -> dict:
+    """The device rebuild against the CPU's: a dense gas (:func:`_gas`) run on both devices
+    with rebuilds mid-run, in 2D and 3D, by the one-block rebuild and by the multi-kernel one
+    (``_multi``), and in 2D again with the pair arrays cut to the pairs of the first list
+    (``_room``: a later rebuild needs more, the run stops on the device, the host makes room,
+    the run goes on). Pair lists (keys in order, histories) and states compared bitwise. In 2D
+    also with the rebuild test every 3 steps (``every3``: other rebuild steps, the same state)."""
+    from ..dem.integrator import Engine
+    from .dem import GpuEngine
+
+    out = {}
+    for dim, k in ((2, steps), (3, steps_3d)):
+        cpu, gpu = _gas(Engine, dim, k), _gas(GpuEngine, dim, k)
+        runs = {"": gpu, "_multi": _gas(GpuEngine, dim, k, small=0)}
+        if dim == 2:
+            runs["_room"] = _gas(GpuEngine, dim, k, room=0)
+            runs["_room_multi"] = _gas(GpuEngine, dim, k, room=0, small=0)
+        m = cpu.n_pairs
+        for tag, g in runs.items():
+            key = f"{dim}d{tag}"
+            out[f"pairs_{key}"] = g.n_pairs
+            out[f"same_pairs_{key}"] = bool(g.n_pairs == m and np.array_equal(cpu.pair_i[:m], g.pair_i[:m])
+                                            and np.array_equal(cpu.pair_j[:m], g.pair_j[:m]))
+            out[f"same_history_{key}"] = bool(g.n_pairs == m and cpu.pair_ft[:m].tobytes() == g.pair_ft[:m].tobytes()
+                                              and cpu.pair_ov[:m].tobytes() == g.pair_ov[:m].tobytes())
+            out[f"same_state_{key}"] = all(getattr(cpu, s).tobytes() == getattr(g, s).tobytes() for s in STATE)
+            out[f"state_abs_{key}"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(g, s)), initial=0.0))
+                                          for s in STATE)
+            out[f"rebuilds_{key}"] = g.rebuilds
+            out[f"room_made_{key}"] = g.room_made
+            out[f"steps_{key}"] = g.steps
+        if dim == 2:  # the test every 3 steps, looking 3 steps ahead: other rebuild steps, the same bits
+            g = _gas(GpuEngine, dim, k, every=3)
+            out["same_state_2d_every3"] = all(getattr(cpu, s).tobytes() == getattr(g, s).tobytes() for s in STATE)
+            out["rebuilds_2d_every3"] = g.rebuilds
+        out[f"rebuilds_cpu_{dim}d"] = cpu.rebuilds
+        out[f"pairs_cpu_{dim}d"] = m
+        out[f"grains_{dim}d"] = len(cpu.radius)
+    return out
+
+
+CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse,
+          "rebuild": rebuild}
 
 
 def main(argv=None) -> None:

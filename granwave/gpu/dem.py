@@ -23,12 +23,16 @@ One step on the device (four kernels, no floating-point atomics):
 Hence repeated runs give identical bytes, and each grain's force is summed in the CPU's order;
 only the piston force, kinetic energy and the maxima are reduced in a different (fixed) order.
 
-Neighbour list, first version: the rebuild runs on the host. When a grain may have moved half
-a skin, the positions and pair histories are copied back, the CPU rebuild
-(:func:`granwave.dem.neighbours.rebuild`) runs, and the new pairs, histories and incidence list
-are copied to the device. After every step the host reads six numbers (the rebuild test needs
-the largest speed and displacement); every ``check_every`` steps the convergence statistics
-(nine numbers). Costs are estimated in docs/gpu.md.
+Neighbour list: rebuilt on the device (:mod:`granwave.gpu.neighbours`), the CPU's pairs in
+the CPU's order with their histories carried, its trigger (the CPU engine's: reach against
+half the skin, from the last step's reduction) evaluated there too, before every step. The
+host only queues kernels; it reads the device (control words and the step's reduction) at
+convergence checks, every :data:`GpuEngine.SYNC_EVERY` steps without checks, and at the end
+of a run. A rebuild that needs more pairs than the arrays hold sets a flag and stops the run
+on the device (every later kernel returns at once, the state stays that of the step before);
+the host sees it at its next read, makes room, and goes on from there: the same bits. The
+pulse (:mod:`granwave.gpu.pulse`) keeps the first version's host rebuild
+(``device_rebuild = False``), because its contact flags are carried on the host.
 """
 
 from __future__ import annotations
@@ -41,6 +45,8 @@ from ..dem import kernels as K
 from ..dem.integrator import Engine
 from . import load_cuda, simulated
 from .compile import device_functions
+from . import neighbours as NB
+from .neighbours import C_NPAIRS, C_REBUILDS, C_STATUS, C_STEPS, C_NEED, N_CTL
 
 cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
@@ -60,43 +66,55 @@ BLOCK = 8 if simulated() else 128
 RBLOCK = 4 if simulated() else 256
 #: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
 NPART = 2 if simulated() else 264
+#: Most blocks a per-item kernel gets in the simulator (:func:`_blocks`).
+SIM_BLOCKS = 2
 
 # The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba 0.68's CUDA
 # target failed to type the builtin max() of two floats in these kernels (tests/test_gpu_ptx.py).
 
 # indices of the per-step reduction (``red``)
-R_FPISTON, R_NTOP, R_NCONTACT, R_DMAX, R_VMAX2, R_DISP2 = range(6)
-N_RED = 6
+R_FPISTON, R_NTOP, R_NCONTACT, R_DMAX, R_VMAX2, R_DISP2, R_VMAX = range(7)
+N_RED = 7  # the per-step partials use the first six; finish adds R_VMAX = sqrt(R_VMAX2)
+assert (R_DISP2, R_VMAX) == (NB.R_DISP2, NB.R_VMAX)
 # indices of the check statistics (``stat``)
 S_AMAX2, S_ALMAX2, S_VMAX2, S_WMAX2, S_KIN = range(5)
 N_STAT = 5
 
 
 @cuda.jit
-def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston, dt, gv2, gdisp2):
+def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston, dt, gv2, gdisp2, ctl):
     """Half kick and drift of every grain (the CPU's ``drift_grain``; thread 0 also moves the
     piston); per-grain |v|^2 and squared displacement since the last rebuild into ``gv2``,
-    ``gdisp2``."""
-    i = cuda.grid(1)
+    ``gdisp2``. Like every step kernel, nothing once ``ctl[C_STATUS]`` is set (the run stopped
+    on the device: a rebuild without room, or a blown-up state)."""
     n = pos.shape[0]
-    if i == 0 and piston[K.P_MASS] < math.inf:
+    if ctl[C_STATUS] != 0:
+        return
+    if cuda.grid(1) == 0 and piston[K.P_MASS] < math.inf:
         piston[K.P_V] += 0.5 * dt * piston[K.P_A]
         piston[K.P_H] += dt * piston[K.P_V]
-    if i >= n:
-        return
-    v2, s = DF.drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, 0.5 * dt, dt)
-    gv2[i] = v2
-    gdisp2[i] = s
+    for i in range(cuda.grid(1), n, cuda.gridsize(1)):
+        v2, s = DF.drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, 0.5 * dt, dt)
+        gv2[i] = v2
+        gdisp2[i] = s
 
 
 @cuda.jit
-def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, npairs, pair_ft, pair_ov,
+def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, ctl, pair_ft, pair_ov,
                 fpar, pf, tq_i, tq_j, pdelta):
-    """Force on i of every listed pair (the CPU force loop's pair body), its torques on i and j,
-    and its overlap (-1: not touching); tangential history updated in place."""
-    p = cuda.grid(1)
-    if p >= npairs:
+    """Force on i of every listed pair (the CPU force loop's pair body; ``ctl[C_NPAIRS]`` pairs,
+    a grid-stride loop), its torques on i and j, and its overlap (-1: not touching); tangential
+    history updated in place."""
+    if ctl[C_STATUS] != 0:
         return
+    for p in range(cuda.grid(1), ctl[C_NPAIRS], cuda.gridsize(1)):
+        _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar, pf,
+                    tq_i, tq_j, pdelta)
+
+
+@cuda.jit(device=True)
+def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar, pf,
+                tq_i, tq_j, pdelta):
     d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar[K.F_DT]
@@ -139,16 +157,24 @@ def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, np
 
 @cuda.jit
 def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
+                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, ctl):
+    """:func:`_grain_force` of every grain (a grid-stride loop)."""
+    if ctl[C_STATUS] != 0:
+        return
+    for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
+        _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
+                     wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount)
+
+
+@cuda.jit(device=True)
+def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
                  wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount):
     """Total force and torque of each grain (pairs in increasing pair order, then the bottom and
     top wall, then background damping), accelerations and the second half kick of velocity
     Verlet; per-grain piston force, top contacts, largest wall overlap and wall contacts.
 
     ``inc_pair`` holds p + 1 where the grain is the pair's i, -(p + 1) where it is its j."""
-    i = cuda.grid(1)
-    n, d = pos.shape
-    if i >= n:
-        return
+    d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar[K.F_DT]
     zeta = fpar[K.F_ZETA]
@@ -239,9 +265,12 @@ def _tree(t, s_sum0, s_sum1, s_sum2, s_max0, s_max1, s_max2):
 
 
 @cuda.jit
-def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
+def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl, part):
     """NPART blocks: block b's share (a fixed grid stride) of the step's sums and maxima into
     ``part[b]`` (piston force, top contacts, contacts, largest overlap, |v|^2, displacement^2)."""
+    if ctl[C_STATUS] != 0:
+        return
+    npairs = ctl[C_NPAIRS]
     t = cuda.threadIdx.x
     b = cuda.blockIdx.x
     n = gfp.shape[0]
@@ -291,9 +320,11 @@ def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
 
 
 @cuda.jit
-def finish(part, piston, fpar, red):
+def finish(part, piston, fpar, red, ctl):
     """One block: the NPART partial results combined in a fixed order into ``red``, then the
-    piston's acceleration and second half kick."""
+    piston's acceleration and second half kick; the step counted in ``ctl[C_STEPS]``."""
+    if ctl[C_STATUS] != 0:
+        return
     t = cuda.threadIdx.x
     s_fp = cuda.shared.array(RBLOCK, np.float64)
     s_top = cuda.shared.array(RBLOCK, np.float64)
@@ -307,7 +338,7 @@ def finish(part, piston, fpar, red):
     dmax = 0.0
     v2 = 0.0
     disp = 0.0
-    for b in range(t, part.shape[0], RBLOCK):
+    for b in range(t, NPART, RBLOCK):
         fp += part[b, R_FPISTON]
         top += part[b, R_NTOP]
         cnt += part[b, R_NCONTACT]
@@ -331,6 +362,8 @@ def finish(part, piston, fpar, red):
         red[R_DMAX] = s_dmax[0]
         red[R_VMAX2] = s_v2[0]
         red[R_DISP2] = s_disp[0]
+        red[R_VMAX] = math.sqrt(s_v2[0])
+        ctl[C_STEPS] += 1
         piston[K.P_FCON] = s_fp[0]
         piston[K.P_A] = piston_acceleration(piston, fpar[K.F_GAMMA])
         if piston[K.P_MASS] < math.inf:
@@ -433,7 +466,10 @@ def bytes_per_step(n: int, npairs: int, dim: int, rot: int) -> int:
 
 
 def _blocks(n: int) -> int:
-    return max(1, (n + BLOCK - 1) // BLOCK)
+    """Blocks of BLOCK threads for n items: one per item on a GPU; in the simulator at most
+    SIM_BLOCKS (the per-item kernels are grid-stride loops: each simulated thread costs)."""
+    b = max(1, (n + BLOCK - 1) // BLOCK)
+    return min(b, SIM_BLOCKS) if simulated() else b
 
 
 class GpuEngine(Engine):
@@ -441,13 +477,31 @@ class GpuEngine(Engine):
 
     Between calls of :meth:`run` the state lives in the host arrays, exactly as for the CPU
     engine; a call copies it to the device (:meth:`upload`), steps (:meth:`step`), and copies
-    it back (:meth:`download`). ``on_rebuild`` (None or a callable taking the old pair keys
-    (i, j) and their count) is called after every host rebuild, before the new list is
-    uploaded: the pulse runner carries its contact flags with it.
+    it back (:meth:`download`).
+
+    With ``device_rebuild`` (the default) the pair list is rebuilt on the device
+    (:mod:`granwave.gpu.neighbours`): :meth:`step` only queues kernels, and the host reads the
+    device (:meth:`sync`) only at convergence checks, every :data:`SYNC_EVERY` steps without
+    checks, and at the end of a run. Without it (the pulse, whose contact flags are carried on
+    the host) the first version's host rebuild runs: the host reads the step's reduction after
+    every step, and ``on_rebuild`` (None or a callable taking the old pair keys (i, j) and their
+    count) is called after every host rebuild, before the new list is uploaded.
     """
 
     device = "gpu"
     on_rebuild = None
+    device_rebuild = True
+    #: Steps queued between two reads of the device when the run has no checks.
+    SYNC_EVERY = 200
+    #: Steps between two launches of the device rebuild's kernels (its test then looks that many
+    #: steps ahead: granwave.gpu.neighbours.rb_trigger). 1: the CPU engine's test before every
+    #: step, the CPU's rebuild steps; k > 1 launches a k-th of the kernels (fewer launches per
+    #: step) and rebuilds earlier, and changes no bit of the state (docs/gpu.md).
+    rebuild_every = 1
+    #: Grains up to which the device rebuild runs as one single-block kernel (granwave.gpu.neighbours).
+    small_rebuild = NB.SMALL
+    #: Times a device rebuild stopped for more room (:meth:`_make_room`).
+    room_made = 0
 
     # ------------------------------------------------------------ device session
     def upload(self) -> None:
@@ -461,35 +515,99 @@ class GpuEngine(Engine):
         self.g["inv_rad"] = to(1.0 / self.radius)
         for name in ("v2", "disp2", "fp", "top", "dmax", "count"):
             self.g[name] = cuda.device_array(n)
-        self.g["red"] = cuda.device_array(N_RED)
-        self.g["part"] = cuda.device_array((NPART, N_RED))
-        self.g["stat"] = cuda.device_array(N_STAT)
-        self._upload_pairs()
         x = self.position - self.pos0
         x[:, :-1] -= self.lateral * np.round(x[:, :-1] / self.lateral)  # nearest image (folded drifts)
         self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
+        red = np.zeros(N_RED)
+        red[R_FPISTON] = self.piston[K.P_FCON]
+        red[R_NTOP] = self.out[K.O_NTOP]
+        red[R_NCONTACT] = self.out[K.O_NCONTACT]
+        red[R_DMAX] = self.out[K.O_DMAX]
+        red[R_VMAX2] = self.fpar[K.F_VMAX] ** 2
+        red[R_DISP2] = self._disp2
+        red[R_VMAX] = self.fpar[K.F_VMAX]
+        self.g["red"] = to(red)
+        self.g["part"] = cuda.device_array((NPART, N_RED))
+        self.g["stat"] = cuda.device_array(N_STAT)
+        ctl = np.zeros(N_CTL, np.int64)
+        ctl[C_STEPS] = self.ipar[K.I_STEPS]
+        ctl[C_REBUILDS] = self.ipar[K.I_REBUILDS]
+        ctl[NB.C_AHEAD] = max(1, int(self.rebuild_every))
+        self.g["ctl"] = to(ctl)
+        self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
+        self._upload_pairs()
 
     def _upload_pairs(self) -> None:
+        """The pair list, its history and incidence list, and the rebuild's work arrays, at the
+        host arrays' capacity; the pair count into ``ctl``."""
         n = self.position.shape[0]
         m = int(self.ipar[K.I_NPAIRS])
+        d = self.dim
         r = max(self.angular_velocity.shape[1], 1)
+        cap = max(len(self.pair_i), 1)
         ptr, code = incidence(self.pair_i, self.pair_j, m, n)
-        cap = max(m, 1)
+        code2 = np.zeros(2 * cap, np.int64)
+        code2[:len(code)] = code
+        row = np.zeros(n + 1, np.int64)
+        np.cumsum(np.bincount(self.pair_i[:m], minlength=n), out=row[1:])
         to = cuda.to_device
-        self.gp = dict(i=to(self.pair_i[:cap]), j=to(self.pair_j[:cap]), ft=to(self.pair_ft[:cap]),
-                       ov=to(self.pair_ov[:cap]), ptr=to(ptr),
-                       code=to(code if len(code) else np.zeros(1, np.int64)),
-                       pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
-                       tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), m=m)
+        gp = dict(i=to(self.pair_i), j=to(self.pair_j), ft=to(self.pair_ft), ov=to(self.pair_ov), ptr=to(ptr),
+                  code=to(code2), pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
+                  tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), row=to(row))
+        if self.device_rebuild:
+            ncell = NB.cell_capacity(self.lateral, self.piston[K.P_H], self.fpar[K.F_RMAX],
+                                     self.fpar[K.F_SKIN_MAX])
+            z = cuda.device_array
+            gp.update(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
+                      ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
+                      members=z(n, np.int64), ccount=to(np.zeros((ncell, 2), np.int64)),
+                      cstart=z((ncell + 1, 2), np.int64), gcnt=z((n, 2), np.int64),
+                      gptr=z((n + 1, 2), np.int64), part=z((NB.NPART, 2), np.int64))
+        self.gp = gp
+        self.g["ctl"][C_NPAIRS:C_NPAIRS + 1].copy_to_device(np.array([m], np.int64))
 
     def _download_pairs(self) -> None:
-        m = self.gp["m"]
-        if m:
+        m = int(self.ipar[K.I_NPAIRS])
+        if self.device_rebuild:  # the list itself may have been made on the device
+            if m > len(self.pair_i):
+                self._grow_pairs(m)
+            for name, key in (("pair_i", "i"), ("pair_j", "j"), ("pair_ft", "ft"), ("pair_ov", "ov")):
+                getattr(self, name)[:m] = self.gp[key].copy_to_host()[:m]
+        elif m:
             self.pair_ft[:m] = self.gp["ft"].copy_to_host()[:m]
             self.pair_ov[:m] = self.gp["ov"].copy_to_host()[:m]
 
+    def _grow_pairs(self, needed: int) -> None:
+        """Host pair arrays with room for ``needed`` pairs (as Engine.grow; contents kept)."""
+        cap = max(int(needed * 1.5) + 64, len(self.pair_i))
+        for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
+            old = getattr(self, name)
+            new = np.zeros((cap,) + old.shape[1:], old.dtype)
+            new[:len(old)] = old
+            setattr(self, name, new)
+
+    def sync(self) -> tuple[int, int]:
+        """Read the device's control words and the last step's reduction into the host's
+        counters (steps, rebuilds, pairs, largest speed, piston force, overlaps, contacts):
+        (status, pairs needed); status 0 running, 2 a rebuild needs more room, 3 blown up."""
+        ctl = self.g["ctl"].copy_to_host()
+        red = self.g["red"].copy_to_host()
+        ipar, out = self.ipar, self.out
+        ipar[K.I_STEPS] = ctl[C_STEPS]
+        ipar[K.I_REBUILDS] = ctl[C_REBUILDS]
+        ipar[K.I_NPAIRS] = ctl[C_NPAIRS]
+        self.fpar[K.F_VMAX] = red[R_VMAX]
+        self._disp2 = red[R_DISP2]
+        self.piston[K.P_FCON] = red[R_FPISTON]
+        out[K.O_DMAX] = red[R_DMAX]
+        out[K.O_NTOP] = red[R_NTOP]
+        out[K.O_NCONTACT] = red[R_NCONTACT]
+        return int(ctl[C_STATUS]), int(ctl[C_NEED])
+
     def download(self) -> None:
         """Copy the state back to the host arrays."""
+        if self.device_rebuild:
+            self.sync()
         for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
                      "pos0", "wall_ft", "wall_ov", "piston"):
             getattr(self, name)[...] = self.g[name].copy_to_host()
@@ -500,16 +618,14 @@ class GpuEngine(Engine):
         self.fpar[K.F_DT] = dt
         self.g["fpar"].copy_to_device(self.fpar)
 
-    def step(self) -> int:
-        """One velocity-Verlet step on the device (between :meth:`upload` and :meth:`download`):
-        0, or 3 when the state blew up (non-finite reach before a rebuild)."""
-        fpar, ipar, out, g = self.fpar, self.ipar, self.out, self.g
-        n = self.position.shape[0]
-        dt = fpar[K.F_DT]
-        reach = math.sqrt(self._disp2) + 2.0 * fpar[K.F_VMAX] * dt
+    def _host_rebuild(self) -> int:
+        """The first version's rebuild test and host rebuild before a step (``device_rebuild``
+        off): 0, or 3 when the state blew up (non-finite reach)."""
+        fpar, ipar, g = self.fpar, self.ipar, self.g
+        reach = math.sqrt(self._disp2) + 2.0 * fpar[K.F_VMAX] * fpar[K.F_DT]
         if not math.isfinite(reach):
             return 3
-        if reach > 0.5 * fpar[K.F_SKIN]:  # host rebuild (first version; module docstring)
+        if reach > 0.5 * fpar[K.F_SKIN]:
             self.position[...] = g["position"].copy_to_host()
             self._download_pairs()
             m_old = int(ipar[K.I_NPAIRS])
@@ -521,26 +637,44 @@ class GpuEngine(Engine):
             g["position"].copy_to_device(self.position)
             g["pos0"].copy_to_device(self.pos0)
             self._upload_pairs()
+        return 0
+
+    def step(self) -> int:
+        """Queue one velocity-Verlet step on the device (between :meth:`upload` and
+        :meth:`download`), the device rebuild's kernels first. Returns 0; without
+        ``device_rebuild``, 3 when the state blew up, and the host counters are updated after
+        the step (the host reads the reduction)."""
+        fpar, ipar, out, g = self.fpar, self.ipar, self.out, self.g
+        if self.device_rebuild:
+            if self._queued % max(1, int(self.rebuild_every)) == 0:
+                NB.launch_rebuild(g, self.gp, self.small_rebuild)
+            self._queued += 1
+        elif self._host_rebuild() == 3:
+            return 3
         gp = self.gp
-        m = gp["m"]
+        n = self.position.shape[0]
+        cap = gp["i"].shape[0]
+        ctl = g["ctl"]
+        dt = fpar[K.F_DT]
         nb = _blocks(n)
         kick_drift[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
                               g["angular_acceleration"], g["lateral"], g["pos0"], g["piston"], dt, g["v2"],
-                              g["disp2"])
-        if m:
-            pair_forces[_blocks(m), BLOCK](g["position"], g["velocity"], g["angular_velocity"], g["radius"],
-                                           g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], m,
-                                           gp["ft"], gp["ov"], g["fpar"], gp["pf"], gp["tqi"], gp["tqj"],
-                                           gp["delta"])
+                              g["disp2"], ctl)
+        pair_forces[_blocks(cap), BLOCK](g["position"], g["velocity"], g["angular_velocity"], g["radius"],
+                                         g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], ctl,
+                                         gp["ft"], gp["ov"], g["fpar"], gp["pf"], gp["tqi"], gp["tqj"],
+                                         gp["delta"])
         grain_forces[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
                                 g["angular_acceleration"], g["radius"], g["mass"], g["inertia"], gp["ptr"],
                                 gp["code"], gp["pf"], gp["tqi"], gp["tqj"], g["wall_ft"], g["wall_ov"],
-                                g["piston"], g["fpar"], g["fp"], g["top"], g["dmax"], g["count"])
+                                g["piston"], g["fpar"], g["fp"], g["top"], g["dmax"], g["count"], ctl)
         step_partials[NPART, RBLOCK](g["fp"], g["top"], g["dmax"], g["count"], g["v2"], g["disp2"],
-                                     gp["delta"], m, g["part"])
-        finish[1, RBLOCK](g["part"], g["piston"], g["fpar"], g["red"])
+                                     gp["delta"], ctl, g["part"])
+        finish[1, RBLOCK](g["part"], g["piston"], g["fpar"], g["red"], ctl)
+        if self.device_rebuild:
+            return 0
         red = g["red"].copy_to_host()
-        fpar[K.F_VMAX] = math.sqrt(red[R_VMAX2])
+        fpar[K.F_VMAX] = red[R_VMAX]
         self._disp2 = red[R_DISP2]
         self.piston[K.P_FCON] = red[R_FPISTON]
         out[K.O_DMAX] = red[R_DMAX]
@@ -579,20 +713,55 @@ class GpuEngine(Engine):
             return 1
         return 0
 
+    def _make_room(self, needed: int) -> None:
+        """After a device rebuild ran out of room (status 2): the state back to the host (that
+        of the step before, untouched), larger pair arrays, and up again; the next step redoes
+        the rebuild."""
+        self.download()
+        self._grow_pairs(needed)
+        self.upload()
+        self.room_made += 1
+
     # ------------------------------------------------------------ the engine's interface
     def run(self, n_steps: int) -> int:
         """Advance up to ``n_steps`` steps; same statuses as :meth:`Engine.run` (0, 1 converged
         candidate, 3 blown up)."""
         check = int(self.ipar[K.I_CHECK])
+        target = self.steps + int(n_steps)
         self.upload()
         try:
-            for _ in range(int(n_steps)):
-                if self.step() == 3:
-                    return 3
-                if check > 0 and self.ipar[K.I_STEPS] % check == 0:
-                    status = self._check()
-                    if status:
-                        return status
-            return 0
+            if not self.device_rebuild:
+                for _ in range(int(n_steps)):
+                    if self.step() == 3:
+                        return 3
+                    if check > 0 and self.ipar[K.I_STEPS] % check == 0:
+                        status = self._check()
+                        if status:
+                            return status
+                return 0
+            return self.advance(target)
         finally:
             self.download()
+
+    def advance(self, target: int) -> int:
+        """Step on the device (between :meth:`upload` and :meth:`download`, ``device_rebuild``
+        on) until ``target`` steps in all: runs of steps queued up to the next check (or
+        :data:`SYNC_EVERY` steps), then one read of the device; room made when a rebuild asked
+        for it. Returns as :meth:`run`."""
+        check = int(self.ipar[K.I_CHECK])
+        while self.steps < target:
+            now = self.steps
+            stop = min(target, now + self.SYNC_EVERY if check <= 0 else (now // check + 1) * check)
+            for _ in range(stop - now):
+                self.step()
+            status, needed = self.sync()
+            if status == 2:
+                self._make_room(needed)
+                continue
+            if status == 3:
+                return 3
+            if check > 0 and self.steps % check == 0:
+                status = self._check()
+                if status:
+                    return status
+        return 0

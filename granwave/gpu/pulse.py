@@ -38,9 +38,12 @@ normal_force = _DF.normal_force
 @cuda.jit
 def classify_pairs(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, mu, pair_state, initial):
     """The pair loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per pair."""
-    p = cuda.grid(1)
-    if p >= npairs:
-        return
+    for p in range(cuda.grid(1), npairs, cuda.gridsize(1)):
+        _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial)
+
+
+@cuda.jit(device=True)
+def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial):
     d = pair_ft.shape[1]
     ov = pair_ov[p]
     s = pair_state[p]
@@ -60,9 +63,12 @@ def classify_pairs(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, mu, pair_state
 @cuda.jit
 def classify_walls(rad, wall_ft, wall_ov, mu, wall_state, initial):
     """The wall loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per wall slot."""
-    w = cuda.grid(1)
-    if w >= wall_ov.shape[0]:
-        return
+    for w in range(cuda.grid(1), wall_ov.shape[0], cuda.gridsize(1)):
+        _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial)
+
+
+@cuda.jit(device=True)
+def _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial):
     d = wall_ft.shape[1]
     ov = wall_ov[w]
     s = wall_state[w]
@@ -79,12 +85,10 @@ def classify_walls(rad, wall_ft, wall_ov, mu, wall_state, initial):
 @cuda.jit
 def track_displacement(pos, pos_ref, lateral, best2):
     """best2[i] = max(best2[i], |r_i - r_i(0)|^2) (nearest periodic image)."""
-    i = cuda.grid(1)
-    if i >= pos.shape[0]:
-        return
-    s = periodic_distance2(pos, i, pos_ref, i, lateral)
-    if s > best2[i]:
-        best2[i] = s
+    for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
+        s = periodic_distance2(pos, i, pos_ref, i, lateral)
+        if s > best2[i]:
+            best2[i] = s
 
 
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
@@ -98,7 +102,10 @@ class _NeedRoom(Exception):
 
 class _Session(GpuEngine):
     """A GpuEngine over the arrays of a CPU engine (the same objects): growing them is left to
-    the caller, as with the CPU loop."""
+    the caller, as with the CPU loop. The first version's host rebuild: the contact flags are
+    carried across rebuilds on the host (``on_rebuild``)."""
+
+    device_rebuild = False
 
     def grow(self, needed: int, width: int = 0) -> None:
         raise _NeedRoom(needed, width)
