@@ -62,8 +62,31 @@ def summary(folder: Path = HERE) -> str:
     return "\n".join(out)
 
 
+#: docs/gpu.md's table of the newest GPU record sits between these two lines.
+GPU_TABLE = ("<!-- gpu-table: begin (generated; do not edit) -->", "<!-- gpu-table: end -->")
+
+
+def gpu_table(folder: Path = HERE) -> str:
+    """The newest record of gpu.jsonl as a Markdown table with its GPU, date and revision."""
+    path = folder / "gpu.jsonl"
+    records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rec = records[-1]
+    lines = [f"{rec['machine'].get('gpu', '?')}, {rec['date']}, revision {rec['git_revision']}, "
+             f"`{rec['command']}` ({rec['machine'].get('software', '')}):", "",
+             "| measure | value |", "|---|---|"]
+    lines += [f"| {k} | {_cell(v)} |" for k, v in _headline(rec).items()]
+    return "\n".join(lines)
+
+
+def write_gpu_table(doc: Path) -> None:
+    text = doc.read_text()
+    begin, end = text.index(GPU_TABLE[0]), text.index(GPU_TABLE[1])
+    doc.write_text(text[:begin + len(GPU_TABLE[0])] + "\n" + gpu_table() + "\n" + text[end:])
+
+
 def main() -> None:
     (HERE / "SUMMARY.md").write_text(summary())
+    write_gpu_table(HERE.parent.parent / "docs" / "gpu.md")
 
 
 if __name__ == "__main__":
