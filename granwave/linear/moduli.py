@@ -61,8 +61,9 @@ zero), used only when no degree of freedom along that axis is held fixed. If
 the factorization fails or its residual is not small against the load
 (``||D u - f|| > RESIDUAL_TOL ||f||``: a singular factorization returns a huge
 u whose residual is small only against ``|D| ||u||``), we fall back to the
-minimum-norm least-squares solution (dense LAPACK ``gelsd`` up to
-``DENSE_MAX_DOF`` free dofs, LSQR above). Above ``DENSE_MAX_DOF`` the minimum-norm
+minimum-norm least-squares solution (dense up to ``DENSE_MAX_DOF`` free dofs: for a
+symmetric D the pseudo-inverse from one eigendecomposition, reused for every load, else
+LAPACK ``gelsd``; LSQR above). Above ``DENSE_MAX_DOF`` the minimum-norm
 solution is first sought by iterated Tikhonov regularisation with one sparse LU of
 ``D + eps I`` (``eps`` = ``REGULARISATION`` times the mean diagonal of D): each sweep
 ``u += (D + eps I)^-1 (f - D u)`` from u = 0 shrinks the residual on a mode of stiffness
@@ -262,6 +263,7 @@ class _Solver:
         self.method = None
         self._lu = None
         self._lu_reg = None
+        self._eig = None
         nf = len(self.free)
         if nf == 0:
             return
@@ -307,7 +309,10 @@ class _Solver:
             if self._unbalanced(x, rhs) > RESIDUAL_TOL:
                 x = None
         if x is None:
-            if nf <= DENSE_MAX_DOF:
+            if nf <= DENSE_MAX_DOF and self._symmetric():
+                x = self._dense_min_norm(rhs)
+                method = "dense minimum-norm least squares (eigendecomposition)"
+            elif nf <= DENSE_MAX_DOF:
                 x = scipy.linalg.lstsq(self.D_ff.toarray(), rhs, cond=1e-13,
                                        lapack_driver="gelsd", check_finite=False)[0]
                 method = "dense minimum-norm least squares (gelsd)"
@@ -324,6 +329,23 @@ class _Solver:
                              "floppy mode?)")
         u[self.free] = x
         return u, method
+
+    def _symmetric(self) -> bool:
+        D = self.D_ff
+        return abs(D - D.T).max() <= 1e-12 * abs(D).max()
+
+    def _dense_min_norm(self, rhs: np.ndarray) -> np.ndarray:
+        """The minimum-norm least-squares solution from D_ff's eigendecomposition, made once
+        per solver and reused for every load (a global response solves three): at 4494 dofs
+        one eigh took 10.7 s against 18.3 s for each gelsd solve. D_ff is symmetric here, so
+        its singular values are |eigenvalues| and dropping |w| <= 1e-13 max|w| is gelsd's
+        cond=1e-13."""
+        if self._eig is None:
+            w, V = scipy.linalg.eigh(self.D_ff.toarray(), driver="evd", check_finite=False)
+            keep = np.abs(w) > 1e-13 * np.abs(w).max(initial=0.0)
+            self._eig = (np.ascontiguousarray(V[:, keep]), 1.0 / w[keep])
+        V, inverse = self._eig
+        return V @ (inverse * (V.T @ rhs))
 
     def _tikhonov(self, rhs: np.ndarray) -> np.ndarray | None:
         """Iterated Tikhonov sweeps (module docstring); None unless the residual falls below
