@@ -42,6 +42,7 @@ import numpy as np
 
 from .. import geometry
 from ..dem import kernels as K
+from ..dem.neighbours import _wrap_cell
 from . import load_cuda, simulated
 from .compile import _rebound, device_functions
 
@@ -150,13 +151,8 @@ def rb_cell_fill(ctl, cell, ccount, cstart, members):
         members[cstart[c, 0] + k] = i
 
 
-@cuda.jit(device=True)
-def _wrap(c, n):
-    if c < 0:
-        return c + n
-    if c >= n:
-        return c - n
-    return c
+#: The CPU cell list's periodic fold (granwave.dem.neighbours._wrap_cell), compiled for the device.
+_wrap = cuda.jit(device=True)(_wrap_cell.py_func)
 
 
 @cuda.jit(device=True)
@@ -401,6 +397,17 @@ def rb_small(red, fpar, piston, lateral, pos, rad, pos0, ctl, cell, ccount, csta
 
 
 # ---------------------------------------------------------------- exclusive prefix sums (int64)
+@cuda.jit(device=True)
+def _segment(b, length):
+    """Rows [lo, hi) of block b when ``length`` rows are cut into NPART contiguous segments."""
+    seg = (length + NPART - 1) // NPART
+    lo = b * seg
+    hi = lo + seg
+    if hi > length:
+        hi = length
+    return lo, hi
+
+
 @cuda.jit
 def scan_partials(ctl, x, part):
     """NPART blocks: block b sums its contiguous segment of each of x's two columns."""
@@ -408,12 +415,7 @@ def scan_partials(ctl, x, part):
         return
     t = cuda.threadIdx.x
     b = cuda.blockIdx.x
-    length = x.shape[0]
-    seg = (length + NPART - 1) // NPART
-    lo = b * seg
-    hi = lo + seg
-    if hi > length:
-        hi = length
+    lo, hi = _segment(b, x.shape[0])
     s0 = cuda.shared.array(RBLOCK, np.int64)
     s1 = cuda.shared.array(RBLOCK, np.int64)
     a0 = 0
@@ -460,12 +462,7 @@ def scan_apply(ctl, x, part, out):
         return
     t = cuda.threadIdx.x
     b = cuda.blockIdx.x
-    length = x.shape[0]
-    seg = (length + NPART - 1) // NPART
-    lo = b * seg
-    hi = lo + seg
-    if hi > length:
-        hi = length
+    lo, hi = _segment(b, x.shape[0])
     s0 = cuda.shared.array(RBLOCK, np.int64)
     s1 = cuda.shared.array(RBLOCK, np.int64)
     c0 = part[b, 0]
