@@ -49,7 +49,7 @@ the steps model of the relaxation (steps ~ H^1.43 at fixed width, 275,740 steps 
 model applied to the height in diameters, not a 3D measurement). ``--stop-at STEPS`` stops a
 preparation after that many steps (the same trajectory up to there: the budget only shortens
 the last chunk), to check its progress lines against another run's log at a fraction of the
-cost (benchmarks/same_progress.py).
+cost (benchmarks/investigations/same_progress.py).
 """
 
 from __future__ import annotations
@@ -605,7 +605,7 @@ def main() -> None:
                          "'none'; docs/dem.md 'End game')")
     ap.add_argument("--stop-at", type=int, default=None, metavar="STEPS",
                     help="with --large column|grid2d|grid3d: stop the preparation after STEPS steps (to compare "
-                         "its progress lines with another run's: benchmarks/same_progress.py)")
+                         "its progress lines with another run's: benchmarks/investigations/same_progress.py)")
     args = ap.parse_args()
     if args.stop_at is not None and (not args.large or args.stop_at < 1):
         raise SystemExit("--stop-at: a positive number of steps, with --large")
