@@ -1,7 +1,7 @@
 """The packing statistics with and without the adaptive end game (a script, not a test).
 
     python benchmarks/end_game.py [--dim 2] [--grains 600] [--pressures 1e-4 1e-7] [--seeds 20]
-        [--workers 2] [--results benchmarks/end_game_2d.jsonl] [--table-only]
+        [--workers 2] [--results benchmarks/results/ensembles/end_game_2d.jsonl] [--table-only]
 
 Prepares seeds 0..seeds-1 of the default protocol (PrepareParams; in 3D friction 0.5 and the
 'mean-flow' compaction of the large cubes) with ``end_game`` 'none' and 'adaptive' at every
@@ -120,10 +120,10 @@ def main(argv=None) -> int:
     ap.add_argument("--pressures", type=float, nargs="+", default=[1e-4, 1e-7])
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--results", type=Path, default=None, help="default: benchmarks/end_game_<dim>d.jsonl")
+    ap.add_argument("--results", type=Path, default=None, help="default: benchmarks/results/ensembles/end_game_<dim>d.jsonl")
     ap.add_argument("--table-only", action="store_true")
     args = ap.parse_args(argv)
-    results = args.results or Path(__file__).resolve().parent / f"end_game_{args.dim}d.jsonl"
+    results = args.results or Path(__file__).resolve().parent / "results" / "ensembles" / f"end_game_{args.dim}d.jsonl"
     done = load(results)
     tasks = [(args.dim, args.grains, p, s, rule) for p in args.pressures for s in range(args.seeds)
              for rule in RULES if (args.dim, args.grains, p, s, rule) not in done]

@@ -35,7 +35,7 @@ machine affects numerator and denominator alike; the load average is printed wit
    rate depended on the vCPU it landed on, so the first row's ratio does too (docs/dem.md
    "Sixteen cores, an eighth time").
 
-``--write-docs`` writes the table into docs/dem.md and docs/linear.md (marked blocks).
+``--write-docs`` writes the table into benchmarks/results/TABLES.md and docs/linear.md (marked blocks).
 
 ``--large NAME`` runs one of the large cases (or, with ``--dry-run``, prints its memory and
 time estimate only; with ``--tiny``, runs the same code path at a tiny size to show that it
@@ -455,9 +455,9 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
         text = (f"Measured by `python benchmarks/scale.py` on {time.strftime('%Y-%m-%d', time.gmtime())}, "
                 f"{os.cpu_count()} cores; {end} at the end of the run (a ratio measured on a loaded "
                 "machine understates what a quiet one gives).\n\n" + table)
-        for doc in ("dem.md", "linear.md"):
-            replace_marked_block(ROOT / "docs" / doc, BEGIN, END, text)
-        print("wrote docs/dem.md and docs/linear.md")
+        for doc in (ROOT / "benchmarks" / "results" / "TABLES.md", ROOT / "docs" / "linear.md"):
+            replace_marked_block(doc, BEGIN, END, text)
+        print("wrote benchmarks/results/TABLES.md and docs/linear.md")
 
 
 # ---------------------------------------------------------------- large runs
@@ -563,7 +563,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer steps (a smoke run)")
-    ap.add_argument("--write-docs", action="store_true", help="write the table into docs/dem.md, docs/linear.md")
+    ap.add_argument("--write-docs", action="store_true", help="write the table into benchmarks/results/TABLES.md, docs/linear.md")
     ap.add_argument("--threads", default="1,2",
                     help="comma-separated thread counts, 1 first (e.g. 1,2,4,8,16 on a 16-core machine)")
     ap.add_argument("--no-lammps", action="store_true", help="skip the per-core comparison with LAMMPS")
