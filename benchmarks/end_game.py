@@ -5,7 +5,7 @@
 
 Prepares seeds 0..seeds-1 of the default protocol (PrepareParams; in 3D friction 0.5 and the
 'mean-flow' compaction of the large cubes) with ``end_game`` 'none' and 'adaptive' at every
-pressure, and measures per packing what docs/dem.md's protocol tables list (docs/method.md
+pressure, and measures per packing what the protocol tables of benchmarks/results/TABLES.md list (docs/method.md
 §4, §6; bulk: 3 d excluded next to each wall): the solid fraction, z*, f0, <N>/p, F2,
 sigma1/sigma2 (2D) or the vertical over the mean horizontal stress (3D), the global moduli
 (2D C22, C33; 3D C33, C55) over p^(1/3), the steps, what the end game did (its changes of

@@ -28,12 +28,12 @@ machine affects numerator and denominator alike; the load average is printed wit
    separate one-thread processes at once, each on its own copy of a thread's share of the
    state (benchmarks/engine_copies.py), their summed rate while all ran at once over the
    one-thread rate of the first row, and the engine's rate at T threads as a fraction of that
-   sum (docs/dem.md "Sixteen cores, a sixth time" and "a seventh time");
+   sum (docs/decisions/0004-parallel-passes.md);
 7. with ``--each-cpu``, the one-thread DEM rate of the first row's state alone on each allowed
    CPU in turn (a one-thread process bound to it), and the largest thread count's rate over
    the fastest, the median and the slowest of them: on the lent 16-vCPU machines one thread's
-   rate depended on the vCPU it landed on, so the first row's ratio does too (docs/dem.md
-   "Sixteen cores, an eighth time").
+   rate depended on the vCPU it landed on, so the first row's ratio does too
+   (docs/decisions/0004-parallel-passes.md).
 
 ``--write-docs`` writes the table into benchmarks/results/TABLES.md and docs/linear.md (marked blocks).
 
@@ -573,7 +573,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="runs per thread count (the best counts)")
     ap.add_argument("--blocks-per-thread", type=int, default=None,
                     help="DEM blocks per thread above 4 threads (the engine's BLOCKS_PER_THREAD, default "
-                         "2; 4 and 8 were slower at 16 threads, docs/dem.md 'Sixteen cores')")
+                         "2; 4 and 8 were slower at 16 threads, docs/decisions/0004-parallel-passes.md)")
     ap.add_argument("--regions-too", action="store_true",
                     help="also time the DEM with a parallel region per pass instead of the team of "
                          "threads (alternated in each repetition)")

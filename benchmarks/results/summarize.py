@@ -94,7 +94,7 @@ def summary(folder: Path = HERE) -> str:
                     "| measure | value |", "|---|---|"]
             out += [f"| {k} | {_cell(v)} |" for k, v in _headline(rec).items()]
             notes = rec.get("notes") or rec.get("note")
-            if rec.get("transcribed"):
+            if rec.get("transcribed") and "transcribed" not in (notes or ""):
                 notes = "transcribed from an earlier document's prose" + (f"; {notes}" if notes else "")
             if notes:
                 out += ["", f"Notes: {notes}."]
