@@ -7,8 +7,7 @@ line per packing) from two files, keeps the records of ``--setting`` with seeds 
 ``--seeds`` (the last record of each (pressure, seed) in each file), and prints per pressure a
 table of mean +- standard error of the mean in each file and the difference in combined
 standard errors, and how many packings are the same bytes (equal digests). Used when a
-change of the engine changes the rounding of every run (docs/dem.md, "Positions folded at
-every drift"): the packings then differ seed by seed, and only their statistics can agree.
+change of the engine changes the rounding of every run (docs/decisions/0006-folded-positions-adaptive-skin.md): the packings then differ seed by seed, and only their statistics can agree.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
     python benchmarks/dem_team_times.py [--threads 1,16] [--tiles 17] [--steps 1000]
         [--repeat 2] [--packing FILE] [--blocks-per-thread 2,4 | --blocks 8,24] [--blocks-on-one 16]
 
-On the 16-vCPU machines of docs/dem.md ("Sixteen cores, a fourth time") the engine ran the
+On the lent 16-vCPU machines (docs/decisions/0004-parallel-passes.md) the engine ran the
 10^4-grain state 6-8x faster on 16 threads than on one, with 2.2-2.8 times the CPU time per
 step: either each thread's work slows down when all run (shared units, a host's limits), or
 threads wait for each other (imbalance, late vCPUs). The team's per-thread timers tell which:
@@ -26,8 +26,8 @@ The cycle counter's rate is measured against the wall clock in the same run. Wit
 ``--blocks-per-thread`` a list, the runs of each value (granwave.dem.kernels.BLOCKS_PER_THREAD,
 read when an engine starts: which thread computes which grains, not the bits) alternate in each
 repetition and each gets its table; with ``--blocks`` a list, the same for block counts given
-outright (at every thread count above 1; docs/dem.md "Sixteen cores, an eighth time" tried 8
-and 24 at two threads). (Commit 212ca46 also alternated a rule that let a thread done
+outright (at every thread count above 1; on the 2-core machine 8, 16 and 24 blocks at two
+threads differed by less than the host's scatter). (Commit 212ca46 also alternated a rule that let a thread done
 early take any block of a late one's share but its first: no gain at 16 threads, removed.)
 """
 

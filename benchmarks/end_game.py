@@ -1,11 +1,11 @@
 """The packing statistics with and without the adaptive end game (a script, not a test).
 
     python benchmarks/end_game.py [--dim 2] [--grains 600] [--pressures 1e-4 1e-7] [--seeds 20]
-        [--workers 2] [--results benchmarks/end_game_2d.jsonl] [--table-only]
+        [--workers 2] [--results benchmarks/results/ensembles/end_game_2d.jsonl] [--table-only]
 
 Prepares seeds 0..seeds-1 of the default protocol (PrepareParams; in 3D friction 0.5 and the
 'mean-flow' compaction of the large cubes) with ``end_game`` 'none' and 'adaptive' at every
-pressure, and measures per packing what docs/dem.md's protocol tables list (docs/method.md
+pressure, and measures per packing what the protocol tables of benchmarks/results/TABLES.md list (docs/method.md
 §4, §6; bulk: 3 d excluded next to each wall): the solid fraction, z*, f0, <N>/p, F2,
 sigma1/sigma2 (2D) or the vertical over the mean horizontal stress (3D), the global moduli
 (2D C22, C33; 3D C33, C55) over p^(1/3), the steps, what the end game did (its changes of
@@ -120,10 +120,10 @@ def main(argv=None) -> int:
     ap.add_argument("--pressures", type=float, nargs="+", default=[1e-4, 1e-7])
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--results", type=Path, default=None, help="default: benchmarks/end_game_<dim>d.jsonl")
+    ap.add_argument("--results", type=Path, default=None, help="default: benchmarks/results/ensembles/end_game_<dim>d.jsonl")
     ap.add_argument("--table-only", action="store_true")
     args = ap.parse_args(argv)
-    results = args.results or Path(__file__).resolve().parent / f"end_game_{args.dim}d.jsonl"
+    results = args.results or Path(__file__).resolve().parent / "results" / "ensembles" / f"end_game_{args.dim}d.jsonl"
     done = load(results)
     tasks = [(args.dim, args.grains, p, s, rule) for p in args.pressures for s in range(args.seeds)
              for rule in RULES if (args.dim, args.grains, p, s, rule) not in done]

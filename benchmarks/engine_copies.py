@@ -5,7 +5,7 @@
         [--kind processes,threads,threads-main] [--chunk 1000]
 
 The DEM engine's threads 1 -> 16 on the 10^4-grain benchmark state of scale.py ran 5.2-7.9x on
-the lent 16-vCPU machines (docs/dem.md "Sixteen cores"), and the team's timers said that the
+the lent 16-vCPU machines (docs/decisions/0004-parallel-passes.md), and the team's timers said that the
 threads' summed busy time per step was 1.5-1.9 times one thread's step: the work slows down
 when all vCPUs run, besides the waiting. This script measures that slow-down for the engine's
 own work with no threads, no blocks, no pairs across blocks and no waiting at all: ``C``
@@ -40,7 +40,7 @@ each making its own state and stepping it with the GIL released: the one-thread 
 ``nogil`` wrapper) or ``threads-main`` (the same, the states made by the main thread, so that
 their memory was first written there). Processes against threads tells whether being threads of
 one process (one address space, one allocator, pages first written by another thread) slows the
-work; docs/dem.md "Sixteen cores, a seventh time".
+work; docs/decisions/0004-parallel-passes.md.
 
 Each copy runs in a fresh interpreter with one numba thread (NUMBA_NUM_THREADS=1); the kernels
 are compiled once by this process before the copies start, so they load them from the cache.
@@ -211,8 +211,8 @@ def run_thread_copies(packing_file: str, copies: int, tiles: int, steps: int, pi
 def alone_on_each_cpu(packing_file: str, tiles: int, steps: int) -> dict[int, float]:
     """One copy alone, bound to each allowed CPU in turn (one after the other, nothing else of
     this script running): {cpu: its grain-steps per wall second}. On the lent 16-vCPU machines
-    one thread's rate depended on the vCPU it ran on (docs/dem.md, "Sixteen cores, a seventh
-    time"), so a ratio over one unpinned one-thread run depends on where that run landed."""
+    one thread's rate depended on the vCPU it ran on 
+    (docs/decisions/0004-parallel-passes.md), so a ratio over one unpinned one-thread run depends on where that run landed."""
     rates = {}
     for cpu in sorted(os.sched_getaffinity(0)):
         rates[cpu] = summary(run_copies(packing_file, 1, tiles, steps, pin=True, cpus=[cpu]))["aggregate"]

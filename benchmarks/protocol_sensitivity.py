@@ -1,7 +1,7 @@
 """How the packing statistics move with each preparation-protocol parameter (a script, not a test).
 
     python benchmarks/protocol_sensitivity.py [--seeds 10] [--grains 600] [--workers 1]
-        [--results benchmarks/protocol_sensitivity.jsonl] [--table-only] [--write-docs]
+        [--results benchmarks/results/ensembles/protocol_sensitivity.jsonl] [--table-only] [--write-docs]
 
 For the default 2D frictional protocol (granwave.dem.params.PrepareParams) and
 for each protocol knob moved one at a time (contact damping zeta, background
@@ -20,7 +20,7 @@ the (setting, pressure, seed) triples already there, so the script can be
 stopped and resumed). The tables (mean +- standard error of the mean over the
 seeds, the ensemble size n per row; each setting's shift from the default in
 combined standard errors) are printed, and with ``--write-docs`` they
-replace the part of docs/dem.md between the markers
+replace the part of benchmarks/results/TABLES.md between the markers
 ``<!-- protocol-sensitivity:begin -->`` and ``<!-- protocol-sensitivity:end -->``.
 Order: every setting at p = 1e-4 first (seed-major), then p = 1e-7 seed-major,
 the settings of ``FIRST_AT_LOW_P`` before the others, so that a stopped run
@@ -217,7 +217,7 @@ def spreads(records: list[dict]) -> str:
 def write_docs(text: str) -> None:
     from granwave.io.files import replace_marked_block
 
-    replace_marked_block(ROOT / "docs" / "dem.md", BEGIN, END, text)
+    replace_marked_block(ROOT / "benchmarks" / "results" / "TABLES.md", BEGIN, END, text)
 
 
 def main(argv=None) -> int:
@@ -225,11 +225,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--grains", type=int, default=600)
     ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "protocol_sensitivity.jsonl")
+    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results" / "ensembles" / "protocol_sensitivity.jsonl")
     ap.add_argument("--settings", nargs="+", choices=[name for name, _, _ in SETTINGS],
                     help="prepare only these settings (default: all)")
     ap.add_argument("--table-only", action="store_true", help="only tabulate the results file")
-    ap.add_argument("--write-docs", action="store_true", help="write the table into docs/dem.md")
+    ap.add_argument("--write-docs", action="store_true", help="write the table into benchmarks/results/TABLES.md")
     a = ap.parse_args(argv)
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     done = {(r["setting"], r["pressure"], r["seed"]) for r in load(a.results)

@@ -2,7 +2,7 @@
 
     python benchmarks/relaxation.py [--width 25] [--heights 25 50 100 200 400]
         [--pressures 1e-4 1e-7] [--seeds 1] [--old-max-height 200]
-        [--results benchmarks/relaxation.jsonl] [--table-only] [--write-docs]
+        [--results benchmarks/results/ensembles/relaxation.jsonl] [--table-only] [--write-docs]
 
 For each pressure, height H and seed, prepares a 2D frictional packing (the
 defaults of PrepareParams: mu = 0.5, polydispersity 0.2, zeta 0.5, b 0.3) of
@@ -22,7 +22,7 @@ marked "(…, fit)".
 Fit: log(steps) = a + k log(H) by least squares over the heights measured,
 k with its 95 % interval (Student t, n - 2 degrees of freedom). Every
 finished preparation appends one JSON line to ``--results``; a rerun skips
-what is there. ``--write-docs`` regenerates the block of docs/dem.md between
+what is there. ``--write-docs`` regenerates the block of benchmarks/results/TABLES.md between
 ``<!-- relaxation:begin -->`` and ``<!-- relaxation:end -->``. Run with
 NUMBA_NUM_THREADS=1 (set by default) so that numbers are per core.
 """
@@ -240,7 +240,7 @@ def main(argv=None) -> int:
     ap.add_argument("--only", choices=RULES, help="prepare only this rule (late: mean-flow with late settling)")
     ap.add_argument("--slab", type=float, default=DEFAULT_SLAB,
                     help="mean_flow_slab of the 'mean-flow' rule (d); the table shows the default's")
-    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "relaxation.jsonl")
+    ap.add_argument("--results", type=Path, default=ROOT / "benchmarks" / "results" / "ensembles" / "relaxation.jsonl")
     ap.add_argument("--table-only", action="store_true")
     ap.add_argument("--write-docs", action="store_true")
     a = ap.parse_args(argv)
@@ -269,7 +269,7 @@ def main(argv=None) -> int:
     if a.write_docs:
         from granwave.io.files import replace_marked_block
 
-        replace_marked_block(ROOT / "docs" / "dem.md", BEGIN, END, text)
+        replace_marked_block(ROOT / "benchmarks" / "results" / "TABLES.md", BEGIN, END, text)
     return 0
 
 

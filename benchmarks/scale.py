@@ -28,14 +28,14 @@ machine affects numerator and denominator alike; the load average is printed wit
    separate one-thread processes at once, each on its own copy of a thread's share of the
    state (benchmarks/engine_copies.py), their summed rate while all ran at once over the
    one-thread rate of the first row, and the engine's rate at T threads as a fraction of that
-   sum (docs/dem.md "Sixteen cores, a sixth time" and "a seventh time");
+   sum (docs/decisions/0004-parallel-passes.md);
 7. with ``--each-cpu``, the one-thread DEM rate of the first row's state alone on each allowed
    CPU in turn (a one-thread process bound to it), and the largest thread count's rate over
    the fastest, the median and the slowest of them: on the lent 16-vCPU machines one thread's
-   rate depended on the vCPU it landed on, so the first row's ratio does too (docs/dem.md
-   "Sixteen cores, an eighth time").
+   rate depended on the vCPU it landed on, so the first row's ratio does too
+   (docs/decisions/0004-parallel-passes.md).
 
-``--write-docs`` writes the table into docs/dem.md and docs/linear.md (marked blocks).
+``--write-docs`` writes the table into benchmarks/results/TABLES.md and docs/linear.md (marked blocks).
 
 ``--large NAME`` runs one of the large cases (or, with ``--dry-run``, prints its memory and
 time estimate only; with ``--tiny``, runs the same code path at a tiny size to show that it
@@ -49,7 +49,7 @@ the steps model of the relaxation (steps ~ H^1.43 at fixed width, 275,740 steps 
 model applied to the height in diameters, not a 3D measurement). ``--stop-at STEPS`` stops a
 preparation after that many steps (the same trajectory up to there: the budget only shortens
 the last chunk), to check its progress lines against another run's log at a fraction of the
-cost (benchmarks/same_progress.py).
+cost (benchmarks/investigations/same_progress.py).
 """
 
 from __future__ import annotations
@@ -455,9 +455,9 @@ def main_table(quick: bool, write_docs: bool, threads=(1, 2), lammps: bool = Tru
         text = (f"Measured by `python benchmarks/scale.py` on {time.strftime('%Y-%m-%d', time.gmtime())}, "
                 f"{os.cpu_count()} cores; {end} at the end of the run (a ratio measured on a loaded "
                 "machine understates what a quiet one gives).\n\n" + table)
-        for doc in ("dem.md", "linear.md"):
-            replace_marked_block(ROOT / "docs" / doc, BEGIN, END, text)
-        print("wrote docs/dem.md and docs/linear.md")
+        for doc in (ROOT / "benchmarks" / "results" / "TABLES.md", ROOT / "docs" / "linear.md"):
+            replace_marked_block(doc, BEGIN, END, text)
+        print("wrote benchmarks/results/TABLES.md and docs/linear.md")
 
 
 # ---------------------------------------------------------------- large runs
@@ -563,7 +563,7 @@ def large(name: str, dry_run: bool, tiny: bool, rate: float | None, compaction: 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer steps (a smoke run)")
-    ap.add_argument("--write-docs", action="store_true", help="write the table into docs/dem.md, docs/linear.md")
+    ap.add_argument("--write-docs", action="store_true", help="write the table into benchmarks/results/TABLES.md, docs/linear.md")
     ap.add_argument("--threads", default="1,2",
                     help="comma-separated thread counts, 1 first (e.g. 1,2,4,8,16 on a 16-core machine)")
     ap.add_argument("--no-lammps", action="store_true", help="skip the per-core comparison with LAMMPS")
@@ -573,7 +573,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="runs per thread count (the best counts)")
     ap.add_argument("--blocks-per-thread", type=int, default=None,
                     help="DEM blocks per thread above 4 threads (the engine's BLOCKS_PER_THREAD, default "
-                         "2; 4 and 8 were slower at 16 threads, docs/dem.md 'Sixteen cores')")
+                         "2; 4 and 8 were slower at 16 threads, docs/decisions/0004-parallel-passes.md)")
     ap.add_argument("--regions-too", action="store_true",
                     help="also time the DEM with a parallel region per pass instead of the team of "
                          "threads (alternated in each repetition)")
@@ -605,7 +605,7 @@ def main() -> None:
                          "'none'; docs/dem.md 'End game')")
     ap.add_argument("--stop-at", type=int, default=None, metavar="STEPS",
                     help="with --large column|grid2d|grid3d: stop the preparation after STEPS steps (to compare "
-                         "its progress lines with another run's: benchmarks/same_progress.py)")
+                         "its progress lines with another run's: benchmarks/investigations/same_progress.py)")
     args = ap.parse_args()
     if args.stop_at is not None and (not args.large or args.stop_at < 1):
         raise SystemExit("--stop-at: a positive number of steps, with --large")

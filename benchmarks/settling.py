@@ -1,7 +1,7 @@
 """Critical settling against the compaction rate to the end, in tall mean-flow columns (a script).
 
     python benchmarks/settling.py [--rule critical|late] [--heights 100] [--pressures 1e-4]
-        [--seeds 10] [--workers 2] [--results benchmarks/settling.jsonl] [--table-only]
+        [--seeds 10] [--workers 2] [--results benchmarks/results/ensembles/settling.jsonl] [--table-only]
         [--write-docs]
 
 For each pressure, height H and seed, prepares the 2D frictional column of
@@ -13,9 +13,9 @@ seeds for both rules and their difference over its standard error (paired by
 seed: the two runs of one seed share the gas and the compaction up to the
 switch). Runs are one core each (NUMBA_NUM_THREADS=1), ``--workers`` at a time;
 every finished pair appends one JSON line to ``--results`` and a rerun skips
-what is there (default files: benchmarks/settling.jsonl for 'critical',
-benchmarks/settling_late.jsonl for 'late'). ``--write-docs`` regenerates the block of
-docs/dem.md between ``<!-- settling:begin -->`` and ``<!-- settling:end -->`` (for
+what is there (default files: benchmarks/results/ensembles/settling.jsonl for 'critical',
+benchmarks/results/ensembles/settling_late.jsonl for 'late'). ``--write-docs`` regenerates the block of
+benchmarks/results/TABLES.md between ``<!-- settling:begin -->`` and ``<!-- settling:end -->`` (for
 'late': ``settling-late:begin`` / ``end``).
 """
 
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.results is None:
         name = "settling.jsonl" if args.rule == "critical" else f"settling_{args.rule}.jsonl"
-        args.results = ROOT / "benchmarks" / name
+        args.results = ROOT / "benchmarks" / "results" / "ensembles" / name
     records = [r for r in load(args.results) if args.rule in r]
     done = {(r["pressure"], r["height"], r["seed"]) for r in records}
     todo = [(p, h, args.width, s) for p in args.pressures for h in args.heights for s in range(args.seeds)
@@ -137,9 +137,9 @@ def main(argv=None) -> int:
         tag = "settling" if args.rule == "critical" else f"settling-{args.rule}"
         command = "python benchmarks/settling.py" + ("" if args.rule == "critical" else f" --rule {args.rule}")
         text = (f"Measured by `{command}` on {time.strftime('%Y-%m-%d', time.gmtime())} "
-                f"(records in benchmarks/{args.results.name}).\n\n" + table)
-        replace_marked_block(ROOT / "docs" / "dem.md", f"<!-- {tag}:begin -->", f"<!-- {tag}:end -->", text)
-        print("wrote docs/dem.md")
+                f"(records in benchmarks/results/ensembles/{args.results.name}).\n\n" + table)
+        replace_marked_block(ROOT / "benchmarks" / "results" / "TABLES.md", f"<!-- {tag}:begin -->", f"<!-- {tag}:end -->", text)
+        print("wrote benchmarks/results/TABLES.md")
     return 0
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The many-core measurements of docs/dem.md "Sixteen cores", prepared as one short run for a lent
+# The many-core measurements of docs/decisions/0004-parallel-passes.md, prepared as one short run for a lent
 # machine (one call of the device tool: at most 10 minutes, so every stage has its own time limit).
 #
 #   bash benchmarks/sixteen_cores.sh [OUT]        # from the repository's root; OUT: where the logs go

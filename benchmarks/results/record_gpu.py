@@ -4,7 +4,7 @@
 
 The headline (``summary``) is computed from the run's own fields, never typed: the DEM and
 time-domain rates with their ratios to one core and to the goals, the agreement checks and
-the packings' statistics. ``summarize.py`` then regenerates SUMMARY.md and docs/gpu.md's table.
+the packings' statistics. ``summarize.py`` then regenerates RESULTS.md, docs/gpu.md's and docs/dem.md's tables.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ The background damping -gamma m v, -gamma I w (gamma = b / t_i) sets the compact
 and with it what a packing is. Once every acceleration is small, the packing's contacts
 are settled and what is left to decay are its slowest modes. Those that are overdamped at
 gamma (soft collective modes; in 3D frictional packings grains rolling on the walls and
-on each other, docs/dem.md "Large runs") decay only at about omega^2 / gamma: 75 times
+on each other, docs/decisions/0008-end-game-rule.md) decay only at about omega^2 / gamma: 75 times
 slower than gamma itself in a 10^5-sphere cube, where they held the convergence test for
 most of the run. Lowering gamma by a factor f speeds such modes up by 1 / f (until they
 are critically damped) and slows the underdamped ones, which decay at gamma / 2 (the
@@ -38,9 +38,9 @@ and matches the rate to the slowest mode, the damping ratio that decays it faste
    the next sample: grains rearrange under the protocol's damping, which the statistics of a
    packing depend on.
 
-A first version (2026-11-27, code of ee14e17) read the decay from the kinetic energy and
-answered a rise with gamma, also a rise in a creep: in a 10^5-sphere cube the rate kept going
-back to gamma, and the cube did not converge sooner (docs/dem.md "End game").
+The decay is read from the speeds, not from the kinetic energy: a rule answering every rise of
+the kinetic energy with gamma also answers a creep with gamma, and kept undoing itself in a
+10^5-sphere cube (docs/decisions/0008-end-game-rule.md).
 
 The rate applies to every background damping (grains, mean flows and piston; none is
 raised above what it was). Nothing else changes: the convergence test is the same, and

@@ -367,7 +367,7 @@ def eta_seconds(quantities, steps_per_second: float, window: int = 60,
     within a factor 2 of the steps left over the second half of the run, where the slope of
     the last 8 chunks of max |a| itself said seconds for minutes, or nothing; max |a| alone
     said 30 s 9 minutes before the end of a 3D run that then waited for the speeds
-    (docs/dem.md; benchmarks/eta_check.py compares the two rules).
+    (docs/dem.md; benchmarks/investigations/eta_check.py compares the two rules).
     """
     if not steps_per_second > 0:
         return None

@@ -184,8 +184,8 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
 #: multiple of BLOCK_MULTIPLE so that 2 or 4 threads get equal shares of the blocks; with more
 #: threads, at least BLOCKS_PER_THREAD blocks per thread (a multiple of the thread count, none
 #: smaller than MIN_BLOCK_GRAINS grains), so that 16 threads on 10^4 grains have work (8 blocks
-#: would cap them at 8x; 1, 2 and 4 per thread gave 7.5x, 8.3x and 8.0x there, best of three
-#: runs on a 16-core virtual machine, docs/dem.md). The partition decides only which thread
+#: would cap them at 8x; more blocks per thread add incoming pairs faster than they balance
+#: the work, docs/decisions/0004-parallel-passes.md). The partition decides only which thread
 #: computes which grains: every grain adds its terms in the one-thread loop's order whatever
 #: the blocks, so the bits do not
 #: depend on it (tests/test_parallel.py runs several partitions); the blocks (not the threads)
@@ -254,9 +254,8 @@ def visit_order(t, threads, nblk, order):
     done early takes the others' last blocks (:func:`take_block`). Into ``order[nblk + j]`` the
     first block of the share of block ``order[j]``, -1 for t's own. Made once per pass (a team:
     once per run) so that :func:`claim_block` looks blocks up: computing each from the thread
-    count, several integer divisions per block, took 2.4 us per pass for a thread's scan of the
-    32 blocks of 16 threads on the 2-core machine (docs/dem.md, "Sixteen cores, an eighth
-    time"), on the path of the last thread to the barrier."""
+    count takes several integer divisions per block, on the path of the last thread to the
+    barrier (benchmarks/investigations/claim_scan.py times both)."""
     j = 0
     for b in range(t * nblk // threads, (t + 1) * nblk // threads):
         order[j] = b
@@ -529,8 +528,8 @@ def grown_workspace(ws: tuple, cap: int, width: int, boundary: int, keep_lists: 
     offsets keep their contents with ``keep_lists`` and are cleared otherwise (the next rebuild
     makes them); every other entry is recomputed from the lists by the next
     :func:`run_chunk`. Making the whole workspace again at every growth (its arrays take about
-    1 KB per grain in 3D) was measured to leave an 87 MB step in the resident memory of a
-    10^5-sphere preparation (docs/dem.md)."""
+    1 KB per grain in 3D) would leave the freed arrays in the allocator's heap: a step in the
+    resident memory of a large preparation."""
     new = list(ws)
     n = ws[W_NCNT].shape[0]
     if width != ws[W_NBR].shape[1]:
@@ -728,8 +727,8 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     ncontact = 0
     # the block's slots are in the order of its grains g and then of k (incoming_lists): one
     # sequential walk, not the neighbour rows (two cache lines per grain, read for a pair or two).
-    # Staged, not pair at a time (_pair_law): 39 against 45-49 ns per incoming pair on one thread
-    # of the 2-core machine (docs/dem.md "Sixteen cores, a seventh time")
+    # Staged, not pair at a time (_pair_law): the tile's roots and divisions run as vector loops
+    # (docs/decisions/0005-pair-law-in-tiles.md)
     s = slot_start[b]
     while s < slot_start[b + 1]:
         s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
@@ -837,8 +836,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     # early, the other's last blocks still untaken (an atomic flag per block) while their owner
     # has not come near them (:func:`worth_taking`): with the gas numbered from the bottom up,
     # the static split alone gave one thread a compacting column's dilute bottom and the other
-    # its dense top (perf on a 25 x 800 d column: the first thread waited at the barrier in half
-    # of its samples, docs/dem.md). Which thread computes a block never changes a bit.
+    # its dense top, and the first thread waited at the barrier for half of the compaction
+    # (docs/decisions/0004-parallel-passes.md). Which thread computes a block never changes a bit.
     threads = open_claims(claims, nblk, tile.shape[0])
     slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
     claims[nblk + 1] = SLABS_TODO if slab_job else SLABS_READY
@@ -1184,8 +1183,9 @@ def stable_dt(fpar):
       (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n) and, since
       c_t = 2 zeta sqrt(m k_t) uses the translational mass (docs/method.md §2), damping ratio
       zeta sqrt(3.5).
-    Measured on 40-grain packings (docs/dem.md) the true limit is 0.8-1.0 of this estimate
-    for zeta in [0, 1], with and without friction; hence ``safety`` <= 0.06 (params).
+    A grain has several contacts, so the true limit is 0.7-1.0 of this estimate for zeta in
+    [0, 1], with and without friction; hence ``safety`` <= 0.06 (params;
+    docs/decisions/0009-time-step-rule.md).
     """
     k = C.normal_stiffness(fpar[F_DFLOOR], fpar[F_RMAX], C.effective_young(True))
     omega = math.sqrt(k / fpar[F_MMIN])
@@ -1238,10 +1238,9 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
 # --------------------------------------------------------------------------- team of threads
 # Plain steps (no rebuild, no check, no wall list to remake) in one parallel
 # region, the two passes of each separated by granwave.team's spin barrier. numba opens a region
-# (an OpenMP fork and join) per pass; on the 16-vCPU machines of docs/dem.md a region cost
-# 7-8 us at 16 threads and some vCPU was late in most of them. There the 10^4-grain benchmark
-# state ran 5.98x one thread at 16 threads with the team against 5.27x with a region per pass
-# (alternated in one process), and the same on 2 cores. Every block runs the same code as in
+# (an OpenMP fork and join) per pass, and each region ends in a wait for its slowest thread; a
+# team saves the forks and joins of the plain steps (on many threads a region costs several
+# microseconds: docs/decisions/0004-parallel-passes.md). Every block runs the same code as in
 # the regions' passes and every thread takes the same decisions from the same numbers, so the
 # bits are those of the regions' path (tests/test_parallel.py).
 

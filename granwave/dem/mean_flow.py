@@ -65,7 +65,7 @@ def slab_means(pos, vel, mass, gamma, mflow, slabs):
     # Consecutive grains mostly share a slab (the gas is numbered layer by layer): a slab's sums
     # are carried in registers over such a run and stored when the slab changes. Each slab still
     # adds its grains' terms in grain order (the same bits); a memory chain through slabs[., k]
-    # made the pass latency-bound, about twice as slow (docs/dem.md).
+    # made the pass latency-bound, about twice as slow.
     k_run = -1
     vz = m = u0 = u1 = 0.0
     for i in range(n):

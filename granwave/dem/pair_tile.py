@@ -11,7 +11,7 @@ arithmetic) with loops that only take roots and quotients. Every contact gets ex
 operations of :func:`granwave.dem.kernels.contact_force3`, in the same order (square
 roots and divisions are correctly rounded, in a vector lane as in a scalar register), so
 the bits are those of the pair-at-a-time law (tests/test_dem.py compares them).
-Measured on 600 grains, one thread: docs/dem.md, "Per-core work".
+Why, and what it gained: docs/decisions/0005-pair-law-in-tiles.md.
 
 Compiled with ``error_model="numpy"``: numba's default (Python's) checks every float
 division for a zero divisor, and that branch keeps the division loops scalar. A zero

@@ -2,7 +2,7 @@
 
 The parallel engine (:mod:`granwave.dem.kernels`) runs this same pass per block of grain
 indices, after a first pass over the pairs that cross into each block; on one thread that
-costs 10-15 % more CPU time per step (10 200 grains, docs/dem.md "Parallel engine"), so
+is extra work (the incoming pairs, the blocks' bookkeeping; docs/dem.md "Parallel engine"), so
 :class:`granwave.dem.integrator.Engine` runs this loop when it has one thread. Both add a
 grain's contributions in the same order (pairs in list order, then its walls), so they
 give the same bits; tests/test_parallel.py checks it. The pair list and its rebuild are

@@ -194,19 +194,13 @@ def _kick_rows(lo, hi, indptr, indices, data, minv, u, v, a, dt, flush):
 
 
 #: Chunks of rows per thread in the team (:func:`_verlet_team`): a thread done early takes over
-#: the far end of a late one's share. On 16-vCPU virtual machines, 30 132 dofs at 16 threads:
-#: a fixed share per thread 5.9-6.9x one thread, 8 chunks 6.5-7.5x (no gain on one of three
-#: machines), 16 7.0-7.2x, 32 6.3x; 299 880 dofs 9.0-10.2x against 10.5-11.8x with 8
-#: (docs/linear.md "Shared chunks"). Since a thread reads only one or two claims of a share it
-#: cannot take from (granwave.team.next_chunk), 16 ran 2-4 % faster than 8 (two machines).
+#: the far end of a late one's share. 16 balanced best at 16 threads (fewer chunks leave a late
+#: thread's work where it is, more cost claims; docs/linear.md "Shared chunks").
 CHUNKS_PER_THREAD = 16
 #: Above this many threads each step is one phase (:func:`_verlet_team_fused`): a chunk's kick
 #: and the next step's drift at once, the drift writing a second buffer of u, one barrier a
-#: step instead of two. On 16 vCPUs (30 132 dofs) 0.0613 against 0.0691-0.0732 ms per step,
-#: 0.0868 against 0.0894 and 0.0698 against 0.0768 (three machines), at 8 threads 0.1338
-#: against 0.1380; on two threads of the 2-core machine 10-14 % slower (the kick-drift of a row
-#: costs more than the two apart), and on one thread 11-12 % (docs/linear.md "Early break and
-#: one barrier a step").
+#: step instead of two. The saved barrier pays on many threads; on few, the fused kick-drift of
+#: a row costs more than the two apart (docs/linear.md "Early break and one barrier a step").
 FUSED_ABOVE = 4
 
 

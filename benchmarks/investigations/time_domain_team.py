@@ -1,6 +1,6 @@
 """The time domain's team of threads against numba's two parallel regions per step (a script, not a test).
 
-    python benchmarks/time_domain_team.py [--threads 1,2,4,8,16] [--grains 10000,100000] [--repeat 3]
+    python benchmarks/investigations/time_domain_team.py [--threads 1,2,4,8,16] [--grains 10000,100000] [--repeat 3]
         [--chunks 2,4,16]
 
 In one process, on 2D frictional triangular lattices (benchmarks/linear.py's), best of
@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE.parent))  # benchmarks/linear.py
+sys.path.insert(0, str(HERE.parents[1]))
 
 import granwave.threads  # noqa: E402,F401  (threading layer first)
 import numba  # noqa: E402

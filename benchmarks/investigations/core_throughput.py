@@ -1,6 +1,6 @@
 """How much throughput do the machine's cores give together? (a script, not a test)
 
-    python benchmarks/core_throughput.py [--threads 1,2,4,8,16] [--repeat 3]
+    python benchmarks/investigations/core_throughput.py [--threads 1,2,4,8,16] [--repeat 3]
 
 The engines' ratios at 16 threads (docs/dem.md "Sixteen cores") are bounded by what the
 machine's 16 vCPUs give to code like theirs. scale.py's "ideal compute loop" is a dependent
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import granwave.threads  # noqa: E402,F401  (threading layer first)
 import numba  # noqa: E402

@@ -1,6 +1,6 @@
 """What a thread's walk over the block claims costs in one force pass (a script, not a test).
 
-    python benchmarks/claim_scan.py [--threads 2,16] [--blocks-per-thread 2,4] [--passes 200000]
+    python benchmarks/investigations/claim_scan.py [--threads 2,16] [--blocks-per-thread 2,4] [--passes 200000]
 
 In each force pass of the DEM block engine a thread offers to take every block: its own share
 first, then the other threads' shares from their far ends (granwave.dem.kernels.visit_order,
@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402

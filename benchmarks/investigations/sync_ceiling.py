@@ -1,6 +1,6 @@
 """Is the 16-thread ceiling of short parallel steps the barrier's? (a script, not a test)
 
-    python benchmarks/sync_ceiling.py [--threads 1,2,4,8,16] [--step-us 150] [--phases 2]
+    python benchmarks/investigations/sync_ceiling.py [--threads 1,2,4,8,16] [--step-us 150] [--phases 2]
         [--first-share 0.15] [--repeat 3]
 
 The DEM engine at 10^4 grains reaches about what a perfectly parallel loop of its region size
@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import granwave.threads  # noqa: E402,F401  (threading layer first)
 import numba  # noqa: E402

@@ -1,6 +1,6 @@
 """Do two preparations follow the same trajectory? Their progress logs, compared (a script, not a test).
 
-    python benchmarks/same_progress.py A.log B.log
+    python benchmarks/investigations/same_progress.py A.log B.log
 
 A preparation prints a progress line about once a second (granwave prepare-packing, or
 ``benchmarks/scale.py --large``): the step, max |a|, max |v|, max |w| R, kinetic energy,

@@ -1,6 +1,6 @@
 """How well the preparation's progress line foretells its end (a script, not a test).
 
-    python benchmarks/eta_check.py [--dim 3] [--grains 5000] [--pressure 1e-4]
+    python benchmarks/investigations/eta_check.py [--dim 3] [--grains 5000] [--pressure 1e-4]
         [--friction 0.5] [--seed 1] [--threads 2] [--log FILE]
 
 Prepares one packing (granwave.api.prepare_packing, the default protocol) and, at every
@@ -26,7 +26,7 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 

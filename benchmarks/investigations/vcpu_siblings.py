@@ -1,6 +1,6 @@
 """Which vCPUs share a physical core? (a script, not a test)
 
-    python benchmarks/vcpu_siblings.py [--passes 120000] [--places FILE]
+    python benchmarks/investigations/vcpu_siblings.py [--passes 120000] [--places FILE]
 
 A virtual machine presents each vCPU as a core of its own ("one thread per core" in lscpu), but
 on the host two vCPUs may be the two hardware threads of one core, sharing its vector units and
