@@ -30,7 +30,8 @@ from .errors import InputError
 BULK_LAYER = 3.0
 
 #: Largest accepted DEM time-step safety: 0.6 of the estimated stability limit
-#: (granwave.dem.kernels.stable_dt), measured limits being 0.8-1.0 of the estimate.
+#: (granwave.dem.kernels.stable_dt), whose true limit is 0.7-1.0 of the estimate
+#: (docs/decisions/0009-time-step-rule.md).
 MAX_SAFETY = 0.06
 
 #: Initial solid fraction of the granular gas when none is given, by dimension
@@ -254,20 +255,19 @@ class PrepareParams(Params):
                                     "reference_height: how the column settles once the plug has arrived. "
                                     "'late' keeps the compaction rate until the kinetic energy has fallen "
                                     "1000-fold, then damps the mean vertical and lateral flow near "
-                                    "critically for the column's breathing (measured from the piston's "
-                                    "first upward swing): the statistics of 'compaction', a fifth fewer "
-                                    "steps at p = 1e-4 (docs/dem.md 'Late settling'); 'compaction' keeps "
-                                    "the compaction rate to the end (the rule before); 'critical' "
-                                    "switches at the end of the swing: about a third fewer steps, but "
+                                    "critically for the column's breathing (read from the piston's "
+                                    "first upward swing): the statistics of 'compaction' in fewer steps "
+                                    "(docs/dem.md 'Late settling'); 'compaction' keeps "
+                                    "the compaction rate to the end; 'critical' "
+                                    "switches at the end of the swing: fewer steps still, but "
                                     "other stresses (docs/dem.md 'Critical settling').",
                                     choices=("late", "compaction", "critical"))
     end_game: str = param("none", help="The background damping once every acceleration is below "
                           "100 tol (after the mean flow's settling, where that rule is on): 'none' keeps "
                           "it; 'adaptive' matches it to the slowest mode, read from the decay of the largest "
                           "speed (between 0.05 and 1 times b / t_i; 0.05 while the speeds creep, b / t_i again "
-                          "at a rearrangement): a 10^5-sphere cube converged after 219 240 steps (98 min on 2 cores) "
-                          "where 'none' had not after 270 800 (2 h); over 10 cubes of 5000 spheres the statistics "
-                          "agreed within 0.04 standard errors (docs/dem.md 'End game').", choices=("none", "adaptive"))
+                          "at a rearrangement): large 3D packings converge where 'none' creeps for hours, with the "
+                          "same statistics (docs/dem.md 'End game').", choices=("none", "adaptive"))
     piston_mass: float | None = param(None, help="Piston mass [default: one layer of grains, mean "
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)

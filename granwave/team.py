@@ -182,8 +182,8 @@ def spin_pause(typingctx):
 
 #: POSIX sched_yield in long waits: where threads outnumber free cores (more threads than cores,
 #: other work on the machine) a thread that spins while the one it waits for has no core keeps
-#: it off the core: 4 threads on 2 cores ran the time domain 25x slower than numba's own loops
-#: (8.3 against 0.35 ms per step, 3e4 dofs) before the waits yielded
+#: it off the core, and a step can take tens of times longer than numba's own loops
+#: (docs/decisions/0012-thread-wait-policy.md)
 _YIELD = sys.platform != "win32"
 #: PAUSEd loads of a wait before it starts yielding the core (tens of microseconds)
 YIELD_AFTER = 2000

@@ -7,22 +7,11 @@ must not depend on it: parallel kernels sum in a fixed order.
 The threading layer is chosen here too, on import (every module with parallel
 kernels imports this one): OpenMP, whose idle threads spin ``GOMP_SPINCOUNT``
 (SPIN_COUNT) times before they sleep. The engine opens two parallel regions per
-step, so waking sleeping threads is what limits small steps: on a quiet 2-core
-machine (benchmarks/scale.py, threads 1 -> 2) a passive wait policy (no spinning,
-60 us per region) gave 1.08x (DEM, 10^4 grains) and 1.43x (time domain, 3 * 10^4
-dofs). The spin was 100000 turns until 2026-11-26: with threads taking over blocks
-(DEM) and the time domain's own barriers (granwave/team.py), 1000 turns measured the
-same there (DEM 1.61-1.85x against 1.57-1.85x for 100000, time domain 1.91-1.98x
-against 1.83-2.00x; four alternated runs of each, best of three inside), and the
-worst case of the time domain, one step per sample, 1-5 % slower. But with two
-2-thread processes on the 2 cores, a long spin made each thread keep the core that
-the other process's thread waited for: the DEM ran at 1.0-6.1e6 grain-steps/s per
-process with 100000 turns, 5.8-7.9e6 with 10000 and 1.15e7 with 1000 (1.5e7 on one
-thread alone). A process sharing its cores (two commands at once, a busy node) must
-not fall below one thread's speed, hence 1000 (libgomp's own spin when its threads
-outnumber the cores). An unbounded spin (``OMP_WAIT_POLICY=ACTIVE`` alone) kept the
-threads busy after the parallel work (a single-thread rate measured after it fell by
-half). numba's workqueue layer costs about 100 us per region. An explicit
+step, so waking sleeping threads is what limits small steps: a passive policy (no spin) makes
+the threads barely faster than one, an unbounded spin keeps the cores busy after the parallel
+work, and a long spin makes two processes sharing the cores starve each other's threads.
+1000 turns (libgomp's own spin when threads outnumber the cores) avoids all three
+(docs/decisions/0012-thread-wait-policy.md). An explicit
 ``NUMBA_THREADING_LAYER``, ``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT`` in the
 environment is kept.
 """
