@@ -482,7 +482,8 @@ def nonfinite_error(config) -> str | None:
         elif isinstance(node, float) and not math.isfinite(node):
             return f"config: {_key(path)}: must be a finite number, got {node!r}"
         elif isinstance(node, int) and not isinstance(node, bool) and abs(node) > sys.float_info.max:
-            return f"config: {_key(path)}: {node:.3g} is beyond the range of a float"
+            return (f"config: {_key(path)}: must be a number within the range of a float "
+                    f"(|x| <= {sys.float_info.max:.4g}), got an integer of about {int(abs(node).bit_length() * 0.30103) + 1} digits")
     return None
 
 
