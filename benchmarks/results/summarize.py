@@ -14,6 +14,11 @@ benchmarks: relaxation.py, settling.py, end_game.py, protocol_sensitivity.py) ar
 shown: their tables are in TABLES.md. Two tables go into the docs between marker comments:
 docs/gpu.md's (the newest GPU record) and docs/dem.md's (the newest value of every DEM
 measure, see :func:`dem_table`).
+
+It also regenerates the workflow's job counts and measured run times quoted in README.md
+and config/README.md (the spans between ``<!-- gen:NAME -->`` and ``<!-- /gen -->``: job counts
+by `snakemake -n` per config, run times from workflow.jsonl). tests/test_generated_docs.py checks
+that they are current.
 """
 
 from __future__ import annotations
@@ -165,12 +170,86 @@ def write_block(doc: Path, markers: tuple[str, str], text: str) -> None:
     body = doc.read_text()
     begin, end = body.index(markers[0]), body.index(markers[1])
     doc.write_text(body[:begin + len(markers[0])] + "\n" + text + "\n" + body[end:])
+ROOT = HERE.parent.parent
+
+#: Documents whose workflow job counts and timings are generated: each generated span is
+#: ``<!-- gen:NAME -->text<!-- /gen -->``, NAME one of :func:`generated_value`'s names.
+GENERATED_DOCS = ("README.md", "config/README.md")
+_SPAN = re.compile(r"(<!-- gen:(?P<name>[^>]*?) -->)(?P<text>.*?)(<!-- /gen -->)", re.S)
+
+
+def workflow_jobs(config: str) -> int:
+    """Jobs of a fresh run of the workflow with ``config`` (relative to the repository), as
+    `snakemake -n` counts them in an empty folder."""
+    import os
+    import subprocess
+    import sys
+    import tempfile
+
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    with tempfile.TemporaryDirectory() as work:
+        run = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
+                              "-n", "--quiet", "rules", "--configfile", str(ROOT / config)],
+                             cwd=work, capture_output=True, text=True, env=env, timeout=600)
+    totals = re.findall(r"^total\s+(\d+)\s*$", run.stdout + run.stderr, re.M)
+    if run.returncode or not totals:
+        raise RuntimeError(f"snakemake -n with {config} failed:\n{run.stderr[-2000:]}")
+    return int(totals[-1])
+
+
+def _min_s(seconds: float) -> str:
+    m, s = divmod(round(seconds), 60)
+    return f"{m} min {s:02d} s" if m else f"{s} s"
+
+
+def workflow_runs(folder: Path = HERE) -> list:
+    """workflow.jsonl's whole-workflow runs of the quick config, oldest first."""
+    path = folder / "workflow.jsonl"
+    records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    return sorted(records, key=lambda r: r.get("date", ""))  # stable: file order within a date
+
+
+def generated_value(name: str, jobs=workflow_jobs, folder: Path = HERE) -> str:
+    """The text of one generated span: ``jobs CONFIG`` (the job count of that config),
+    ``workflow-about`` ("about N min", the latest measured quick run rounded to the minute),
+    ``workflow-runs`` (every measured run's wall time and the range of their CPU times)."""
+    if name.startswith("jobs "):
+        return str(jobs(name[len("jobs "):]))
+    runs = workflow_runs(folder)
+    if name == "workflow-about":
+        return f"about {round(runs[-1]['summary']['wall (s)'] / 60)} min"
+    if name == "workflow-runs":
+        walls = [_min_s(r["summary"]["wall (s)"]) for r in runs]
+        cpus = [r["summary"]["CPU (s, user + system)"] for r in runs]
+        walls = walls[0] if len(walls) == 1 else ", ".join(walls[:-1]) + " and " + walls[-1]
+        cpu = f"{min(cpus):.0f}" if len(cpus) == 1 else f"{min(cpus):.0f}–{max(cpus):.0f}"
+        return f"{walls} in {len(runs)} run{'s' if len(runs) > 1 else ''}, {cpu} CPU-s"
+    raise KeyError(f"unknown generated span {name!r}")
+
+
+def generated_docs(root: Path = ROOT, jobs=workflow_jobs) -> dict:
+    """{path: text} of every document of :data:`GENERATED_DOCS` with its spans regenerated
+    (each job count computed once)."""
+    from functools import lru_cache
+
+    value = lru_cache(maxsize=None)(lambda name: generated_value(name, jobs=jobs))
+    return {root / doc: _SPAN.sub(lambda m: m.group(1) + value(m.group("name")) + m.group(4),
+                                  (root / doc).read_text())
+            for doc in GENERATED_DOCS}
+
+
+def write_generated_docs(root: Path = ROOT) -> None:
+    for path, text in generated_docs(root).items():
+        if path.read_text() != text:
+            path.write_text(text)
+            print(f"updated {path.relative_to(root)}")
 
 
 def main() -> None:
     (HERE / "RESULTS.md").write_text(summary())
     write_gpu_table(HERE.parent.parent / "docs" / "gpu.md")
     write_block(HERE.parent.parent / "docs" / "dem.md", DEM_TABLE, dem_table())
+    write_generated_docs()
 
 
 if __name__ == "__main__":

@@ -24,15 +24,30 @@ def _stop(message):
 
 
 def _check_config():
+    """The whole config, before any sample is listed: each config file read strictly (a key
+    given twice, a binary or non-mapping file), no NaN or infinity, the schema, cross
+    references, the labels that become paths, the number of samples and the results folder.
+    Every failure is one line naming the key (granwave.workflow_support)."""
     import yaml
-    from granwave.workflow_support import cross_reference_error, schema_error
+    from granwave import workflow_support as ws
 
+    for path in workflow.configfiles:
+        message = ws.config_file_error(path)
+        if message:
+            _stop(message)
+    message = ws.nonfinite_error(config)
+    if message:
+        _stop(message)
     with open(os.path.join(workflow.basedir, "schemas", "config.schema.yaml")) as f:
-        message = schema_error(config, yaml.safe_load(f))
+        message = ws.schema_error(config, yaml.safe_load(f))
     if message:
         _stop(message)
     validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
-    message = cross_reference_error(config)
+    for check in (ws.cross_reference_error, ws.labels_error, ws.count_error):
+        message = check(config)
+        if message:
+            _stop(message)
+    message = ws.results_error(config["results"])
     if message:
         _stop(message)
 
@@ -42,9 +57,7 @@ _check_config()
 R = config["results"]
 
 
-def fmt_p(p):
-    """The pressure as it appears in paths (p1e-07, p0.0001, ...)."""
-    return f"{float(p):g}"
+from granwave.workflow_support import WILDCARDS, height_label, pressure_label as fmt_p
 
 
 def _disordered_entries(spec):
@@ -52,12 +65,12 @@ def _disordered_entries(spec):
     out = {}
     for p in spec["pressures"]:
         for h in spec["heights"]:
-            out[(fmt_p(p), f"h{h:g}")] = spec["seeds"]
+            out[(fmt_p(p), height_label(h))] = spec["seeds"]
     series = spec.get("series")
     if series:
         for p in series["pressures"]:
             for h in series["heights"]:
-                key = (fmt_p(p), f"h{h:g}")
+                key = (fmt_p(p), height_label(h))
                 out[key] = max(out.get(key, 0), series["seeds"])
     return out
 
@@ -82,7 +95,7 @@ def samples(scene):
     if kind == "lattices":
         return [(fmt_p(p), f"r{r}", 0) for p in spec["pressures"] for r in spec["rows"]]
     if kind == "continuum":
-        return [(fmt_p(spec["pressure"]), f"h{h:g}", s) for h in sorted(spec["heights"])
+        return [(fmt_p(spec["pressure"]), height_label(h), s) for h in sorted(spec["heights"])
                 for s in range(continuum_seeds(spec, h))]
     return [(fmt_p(spec["pressure"]), f"n{n}", s) for n in spec["balls"] for s in range(spec["seeds"])]
 
@@ -159,11 +172,7 @@ def t_max(wildcards):
 
 
 wildcard_constraints:
-    pressure=r"[0-9.e+-]+",
-    size=r"[hrn][0-9.]+",
-    seed=r"\d+",
-    scene=r"[A-Za-z0-9_]+",
-    zeta=r"[0-9.e+-]+",
+    **WILDCARDS,
 
 
 # ---- helpers of rules/packings.smk
@@ -393,25 +402,46 @@ def all_summaries():
 
 def damping_packing():
     d = config["damping"]
-    return f"{R}/packing/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
+    return f"{R}/packing/{d['scene']}/p{fmt_p(d['pressure'])}/{height_label(d['height'])}/s0.h5"
 
 
 def crossing_time_of_damping():
     from granwave.workflow_support import crossing_time
     d = config["damping"]
-    return crossing_time("disordered", scene_spec(d["scene"]), d["pressure"], f"h{d['height']:g}")
+    return crossing_time("disordered", scene_spec(d["scene"]), d["pressure"], height_label(d["height"]))
+
+
+def damping_t_max():
+    """Record length of the DEM damping pulses: t_max_factor crossings of the damped sample."""
+    return config["t_max_factor"] * crossing_time_of_damping()
+
+
+def snapshot_times(wildcards):
+    """Times of the snapshot signal's displacement fields: 1/4 ... 1 of the crossing time."""
+    return [float(f"{t_max(wildcards) * f / config['t_max_factor']:.6g}") for f in (0.25, 0.5, 0.75, 1.0)]
 
 
 def damping_linear_reference():
     d = config["damping"]
-    return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/h{d['height']:g}/s0.h5"
+    return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/{height_label(d['height'])}/s0.h5"
 
 
 def _check_samples():
-    """Every sample's options through its stage's own parameter checks (one line, exit 2)."""
-    from granwave.workflow_support import samples_error
+    """Every job's options through its stage's own parameter checks (granwave/params.py), as the
+    jobs will pass them: each sample of each batch, the height series, the continuum analyses,
+    the damping pulses and the snapshot signal (one line naming the config key, exit 2)."""
+    from granwave.workflow_support import analyses_error, samples_error
 
-    message = samples_error(batches())
+    message = samples_error(batches(), config)
+    if message is None:
+        snapshot = None
+        if main_sample():
+            scene, p, size = main_sample()
+            wc = SimpleNamespace(scene=scene, pressure=p, size=size, seed=0)
+            snapshot = (float(f"{t_max(wc):.6g}"), snapshot_times(wc))
+        message = analyses_error(
+            config, snapshot=snapshot,
+            damping_t_max=float(f"{damping_t_max():.6g}") if config["damping"]["enabled"] else None)
     if message:
         _stop(message)
 

@@ -160,8 +160,7 @@ rule snapshot_signal:
     params:
         ic=config["ic"],
         t_max=t_max,
-        times=lambda w: ",".join(f"{t_max(w) * f / config['t_max_factor']:.6g}"
-                                 for f in (0.25, 0.5, 0.75, 1.0)),
+        times=lambda w: ",".join(f"{t:.6g}" for t in snapshot_times(w)),
     resources:
         runtime=10,
     shell:
@@ -240,7 +239,7 @@ rule damping_signal:
     benchmark:
         f"{R}/benchmarks/damping/zeta{{zeta}}.tsv"
     params:
-        t_max=lambda w: config["t_max_factor"] * crossing_time_of_damping(),
+        t_max=lambda w: damping_t_max(),
         ic=config["ic"],
         amplitude=config["damping"]["amplitude"],
         samples=config["samples"],
