@@ -245,19 +245,14 @@ def find_figures(paths: Iterable) -> list[Path]:
 
 
 def load_config(path) -> dict:
-    """The workflow config (YAML or JSON) as a dict."""
+    """The workflow config (YAML or JSON) as a dict, read as strictly as the workflow reads it
+    (no duplicate keys, text only, a mapping at the top level)."""
+    from ..workflow_support import read_config_file
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such config file")
-    text = path.read_text()
-    try:
-        import yaml
-
-        obj = yaml.safe_load(text)
-    except ImportError:  # pragma: no cover - pyyaml ships with snakemake
-        obj = json.loads(text)
-    except Exception as exc:  # yaml.YAMLError
-        raise InputError(f"{path}: not a YAML file ({exc.__class__.__name__})") from None
-    if not isinstance(obj, dict):
-        raise InputError(f"{path}: the config must be a mapping")
+    obj, message = read_config_file(path)
+    if message:
+        raise InputError(message)
     return obj
