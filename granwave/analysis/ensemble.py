@@ -165,11 +165,14 @@ def write_ensemble(path, ens: Ensemble, extra_attrs: dict | None = None) -> None
 
 
 def read_ensemble(path) -> Ensemble:
-    """Read an ensemble file, refusing a foreign schema, major version or NaN data."""
+    """Read an ensemble file, validated (:func:`granwave.io.validate.ensemble`) before use."""
+    from ..io import validate as V
+
     with F.open_checked(path, S.ENSEMBLE) as f:
-        g = lambda name: F._get(f, path, name)  # noqa: E731
-        return Ensemble(time=g("ensemble/time"), mean=g("ensemble/mean"), rms=g("ensemble/rms"),
-                        attrs=F.read_attrs(f))
+        a = F._read_all(f, path, S.ENSEMBLE)
+        attrs = F.read_attrs(f)
+    V.ensemble(path, a, attrs)
+    return Ensemble(time=a["ensemble/time"], mean=a["ensemble/mean"], rms=a["ensemble/rms"], attrs=attrs)
 
 
 # ---------------------------------------------------------------- heights

@@ -469,6 +469,7 @@ def open_checked(path: str | os.PathLike, schema: str) -> Iterator[h5py.File]:
         missing = [a for a in S.REQUIRED_ATTRS[schema] if a not in attrs]
         if missing:
             raise InputError(f"{path}: missing root attribute(s) {', '.join(missing)}")
+        V.attr_types(path, attrs, S.REQUIRED_ATTRS[schema])
         try:
             V.check_layout(path, f, schema, attrs)
         except (OSError, RuntimeError, KeyError) as exc:  # a damaged HDF5 structure
@@ -498,12 +499,44 @@ def _finite(path, name: str, arr: np.ndarray) -> np.ndarray:
 
 
 def _read(f: h5py.File, path, name: str) -> np.ndarray:
-    """One dataset's values; a damaged (truncated) file is an InputError naming it."""
+    """One dataset's values in native byte order, floats as float64 and integers as int64
+    (:func:`native`); a damaged (truncated) file is an InputError naming it."""
     try:
-        return f[name][()]
+        a = f[name][()]
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise InputError(f"{path}: {name}: unreadable ({exc.__class__.__name__}: "
                          f"{str(exc).splitlines()[0] if str(exc) else 'damaged file'})") from None
+    return native(path, name, a)
+
+
+def native(path, name: str, a) -> np.ndarray:
+    """``a`` as the kernels take it: float64 or int64 in native byte order.
+
+    Exact conversions are made silently: another byte order (a big-endian file), smaller
+    floats (float16, float32) and other integer widths. Extended precision (long double)
+    is converted only when float64 holds every value exactly (a file converted up from
+    float64); otherwise it is refused, since rounding would change the values without a
+    word. Unsigned integers beyond the int64 range are refused. Strings stay as they are.
+    """
+    a = np.asarray(a)
+    kind = a.dtype.kind
+    if kind == "f":
+        if a.dtype.itemsize > 8:
+            with np.errstate(over="ignore", invalid="ignore"):
+                b = a.astype(np.float64)
+                exact = np.array_equal(b.astype(a.dtype), a, equal_nan=True)
+            if not exact:
+                raise InputError(f"{path}: {name}: has dtype {a.dtype} (extended precision) with "
+                                 "values float64 cannot hold exactly; granwave computes in float64: "
+                                 "round the values to float64 and write them as float64")
+            return b
+        return a.astype(np.float64, copy=False) if a.dtype != np.float64 else a
+    if kind in "iu":
+        if kind == "u" and a.dtype.itemsize >= 8 and a.size and int(a.max()) > np.iinfo(np.int64).max:
+            k = int(np.argmax(a))
+            raise InputError(f"{path}: {name}: index {int(a.flat[k])} at entry {k} is out of range")
+        return a.astype(np.int64, copy=False) if a.dtype != np.int64 else a
+    return a
 
 
 def _get(f: h5py.File, path, name: str) -> np.ndarray:
@@ -579,6 +612,9 @@ def read_packing(path) -> Packing:
 # names: the layout itself lives once, in io/schema.py.
 def write_linear(path, system: LinearSystem) -> None:
     D = sp.csr_matrix(system.stiffness)
+    if not D.has_canonical_format:  # readers take sorted, unique column indices per row
+        D = D.copy()
+        D.sum_duplicates()
     size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
                    system.source_displacement, system.detector)
     with atomic_h5(path, S.LINEAR, system.attrs, nbytes=size) as f:

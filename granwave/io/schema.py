@@ -336,6 +336,36 @@ REQUIRED_ATTRS: dict[str, tuple[str, ...]] = {
 }
 
 
+# Types of the root attributes the stages read (any schema: a name means the same thing in
+# every file). "number": an int or float scalar (not a bool, not a string); "int": an integer
+# scalar; "bool": a boolean scalar (HDF5 enum) or the integers 0 and 1; "str": a string;
+# "int[]": a 1D integer array. A reader refuses another type before any stage sees the value
+# (granwave.io.validate.attr_types): a string "False" where a bool belongs would be true, an
+# array where a scalar belongs fails deep inside. A number that was None when written is the
+# string "none" (files._set_attr); it is accepted for attributes a schema does not require.
+ATTR_TYPES: dict[str, str] = {
+    **dict.fromkeys((
+        "pressure", "friction", "poisson", "height", "max_acceleration", "t_max", "dt", "damping",
+        "amplitude", "safety", "omega_max", "omega2_max", "omega_max_band", "nyquist_ratio",
+        "zero_mode_threshold", "max_displacement", "height_mean", "height_std", "piston_mass",
+        "background_damping_rate", "modified_energy_max_rel_deviation", "asymmetry",
+        "contact_force", "wall_force", "spacing", "row_spacing", "polydispersity", "stiffness"),
+        "number"),
+    **dict.fromkeys((
+        "dim", "seed", "n_zero_modes", "n_negative_modes", "expected_zero_modes", "n_rotations",
+        "n_dof", "n_modes", "n_signals", "samples", "n_grains", "steps", "n_steps", "rebuilds",
+        "n_rattlers", "n_spins_removed", "n_contacts", "rows", "width", "balls", "grains",
+        "packing_seed"), "int"),
+    **dict.fromkeys((
+        "converged", "prestress", "aliased", "partial", "has_vectors", "forced_unconverged",
+        "n_zero_modes_exact", "psd_check_converged", "modal_truncated"), "bool"),
+    **dict.fromkeys((
+        "schema", "schema_version", "kind", "ic", "method", "linear_source", "modes_source",
+        "source_file", "packing_source", "device", "linear_digest", "packing_digest"), "str"),
+    "spin_removed_grains": "int[]",
+}
+
+
 def formats_markdown() -> str:
     """The docs/formats.md text, generated from the tables above."""
     lines = [
