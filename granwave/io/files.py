@@ -617,7 +617,8 @@ def write_linear(path, system: LinearSystem) -> None:
         D.sum_duplicates()
     size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
                    system.source_displacement, system.detector)
-    with atomic_h5(path, S.LINEAR, system.attrs, nbytes=size) as f:
+    attrs = {**system.attrs, "linear_digest": linear_digest(system)}
+    with atomic_h5(path, S.LINEAR, attrs, nbytes=size) as f:
         put(f, S.LINEAR, "matrix/data", D.data)
         put(f, S.LINEAR, "matrix/indices", D.indices.astype(np.int64))
         put(f, S.LINEAR, "matrix/indptr", D.indptr.astype(np.int64))
@@ -628,6 +629,78 @@ def write_linear(path, system: LinearSystem) -> None:
         put(f, S.LINEAR, "source/velocity", system.source_velocity)
         put(f, S.LINEAR, "source/displacement", system.source_displacement)
         put(f, S.LINEAR, "detector", system.detector)
+
+
+#: Entries of the stiffness data and column indices that enter :func:`linear_digest` (strided
+#: sample above this; the per-dof vectors and row pointers enter whole).
+DIGEST_SAMPLE = 1 << 20
+
+
+def linear_digest(system: LinearSystem) -> str:
+    """An identity of a linear system: a hash of D's row pointers and (a strided sample of)
+    its entries, M, the dof map and the source and detector vectors.
+
+    Not a checksum against tampering but a name for "this system": the modes file records
+    the digest of the system it was computed from (``linear_digest``, copied from the
+    linear file's attributes), so that propagate can tell whether the file named by
+    ``linear_source`` is still that system. Cost O(n) plus DIGEST_SAMPLE entries.
+    """
+    import hashlib
+
+    D = sp.csr_matrix(system.stiffness)
+    h = hashlib.sha256(np.asarray(D.shape, dtype="<i8").tobytes())
+    step = max(1, D.nnz // DIGEST_SAMPLE)
+    for a, dtype in ((D.indptr, "<i8"), (D.indices[::step], "<i8"), (D.data[::step], "<f8"),
+                     (system.mass, "<f8"), (system.dof_grain, "<i8"), (system.dof_axis, "<i8"),
+                     (system.source_velocity, "<f8"), (system.source_displacement, "<f8"),
+                     (system.detector, "<f8")):
+        h.update(np.ascontiguousarray(a, dtype=dtype).tobytes())
+    return h.hexdigest()[:32]
+
+
+def source_reference(source, output) -> str:
+    """How a file written at ``output`` names its input ``source``: relative to the output's
+    folder (the pair may move together), or absolute where no relative path exists."""
+    try:
+        return os.path.relpath(os.path.abspath(source), os.path.dirname(os.path.abspath(output)))
+    except ValueError:  # another drive (Windows)
+        return os.path.abspath(source)
+
+
+def linear_of_modes(path, modes: Modes) -> LinearSystem:
+    """The linear system a modes file at ``path`` was computed from, read from the file its
+    ``linear_source`` attribute names, and checked to be that system.
+
+    A relative ``linear_source`` is looked up beside the modes file first (how eigensolve
+    writes it), then, for files written before that rule, from the current folder; an
+    absolute one as it is. The file found must match the modes
+    (:func:`granwave.io.validate.modes_match_linear`: its digest where the modes file
+    records one, its size and sample attributes always); otherwise InputError, one line.
+    """
+    src = modes.attrs.get("linear_source")
+    if not isinstance(src, str) or not src or src == "none":
+        raise InputError(f"{path}: no linear_source attribute: snapshots need the dof map of the "
+                         "linear file it came from; run propagate on the linear file instead "
+                         "(--method modal or time)")
+    ref = Path(src)
+    candidates = [ref] if ref.is_absolute() else [Path(path).parent / ref, ref]
+    found = []
+    for c in candidates:
+        if c.is_file() and not any(os.path.samefile(c, f) for f in found):
+            found.append(c)
+    if not found:
+        raise InputError(f"{path}: snapshots need the dof map of the linear file it came from "
+                         f"({src}, not found beside it{'' if ref.is_absolute() else ' nor here'}); "
+                         "run propagate on the linear file instead (--method modal or time)")
+    problems = []
+    for c in found:
+        system = read_linear(c)
+        why = V.modes_match_linear(modes, system)
+        if why is None:
+            return system
+        problems.append(f"{c} {why}")
+    raise InputError(f"{path}: its linear_source {src!r} is not the system of these modes: "
+                     f"{'; '.join(problems)}; run propagate on the right linear file instead")
 
 
 def read_linear(path) -> LinearSystem:
@@ -641,11 +714,15 @@ def read_linear(path) -> LinearSystem:
     V.linear(path, a, attrs, shape)
     n = len(a["mass"])
     D = sp.csr_matrix((a["matrix/data"], a["matrix/indices"], a["matrix/indptr"]), shape=(n, n))
-    return LinearSystem(
+    system = LinearSystem(
         stiffness=D, mass=a["mass"], dof_grain=a["dof/grain"], dof_axis=a["dof/axis"],
         source_velocity=a["source/velocity"], source_displacement=a["source/displacement"],
         detector=a["detector"], attrs=attrs,
     )
+    # the identity of what was read (a stored one may be stale after an edit); eigensolve
+    # copies it into the modes file
+    system.attrs["linear_digest"] = linear_digest(system)
+    return system
 
 
 # ---------------------------------------------------------------- modes

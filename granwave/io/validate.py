@@ -425,6 +425,43 @@ def modes(path, a: dict, attrs: dict) -> None:
         _fail(path, "omega2", f"not ascending at entry {int(np.flatnonzero(np.diff(w) < 0)[0]) + 1}")
 
 
+#: Attributes a modes file copies from its linear file that must agree with the linear file
+#: it names (floats to 1e-12 relative).
+MATCHING_ATTRS = ("dim", "n_dof", "pressure", "friction", "poisson", "height", "seed", "kind",
+                  "prestress", "n_rattlers")
+
+
+def modes_match_linear(modes, system) -> str | None:
+    """Why ``system`` (a LinearSystem) is not the one ``modes`` were computed from, or None.
+
+    The digest ``linear_digest`` decides where the modes record one; sizes (eigenvector
+    rows = dofs, no more modes than dofs) and the sample attributes of MATCHING_ATTRS
+    always count (files written before the digest, and a digest collision nobody made).
+    """
+    n = system.n_dof
+    if modes.vectors is not None and modes.vectors.shape[0] != n:
+        return f"has {n} dofs, the eigenvectors {modes.vectors.shape[0]}"
+    if len(modes.omega2) > n:
+        return f"has {n} dofs, fewer than the {len(modes.omega2)} modes"
+    for key in MATCHING_ATTRS:
+        a, b = modes.attrs.get(key), system.attrs.get(key)
+        if a is None or b is None:
+            continue
+        if isinstance(a, float) or isinstance(b, float):
+            try:
+                same = math.isclose(float(a), float(b), rel_tol=1e-12)
+            except (TypeError, ValueError):
+                same = False
+        else:
+            same = a == b
+        if not same:
+            return f"has {key} = {b!r}, the modes {a!r}"
+    want, got = modes.attrs.get("linear_digest"), system.attrs.get("linear_digest")
+    if isinstance(want, str) and want and want != "none" and got is not None and want != got:
+        return f"is not the system the modes were computed from (linear_digest {got}, the modes {want})"
+    return None
+
+
 # ---------------------------------------------------------------- signal
 def signal(path, a: dict, attrs: dict) -> None:
     """Invariants of a signal file: finite values, a regular increasing time axis, snapshot
