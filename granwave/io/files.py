@@ -573,7 +573,8 @@ def write_packing(path, packing: Packing) -> None:
     size = _nbytes(packing.position, packing.radius, packing.mass, packing.inertia, c.i, c.j,
                    c.normal, c.overlap, c.force_normal, c.force_tangential, c.stiffness_normal,
                    c.stiffness_tangential)
-    with atomic_h5(path, S.PACKING, {**packing.attrs, "dim": packing.dim}, nbytes=size) as f:
+    attrs = {**packing.attrs, "dim": packing.dim, "packing_digest": packing_digest(packing)}
+    with atomic_h5(path, S.PACKING, attrs, nbytes=size) as f:
         put(f, S.PACKING, "grains/position", packing.position)
         put(f, S.PACKING, "grains/radius", packing.radius)
         put(f, S.PACKING, "grains/mass", packing.mass)
@@ -587,6 +588,22 @@ def write_packing(path, packing: Packing) -> None:
         put(f, S.PACKING, "contacts/force_tangential", c.force_tangential)
         put(f, S.PACKING, "contacts/stiffness_normal", c.stiffness_normal)
         put(f, S.PACKING, "contacts/stiffness_tangential", c.stiffness_tangential)
+
+
+def packing_digest(packing: Packing) -> str:
+    """An identity of a packing: a hash of its grains (centres, radii), box and contact pairs.
+
+    Like :func:`linear_digest`, a name, not a checksum: linearize copies it into the linear
+    file, and from there it reaches the modes and signal files, so that a figure drawing a
+    signal's snapshots on a packing's grains can tell whether they belong together.
+    """
+    import hashlib
+
+    h = hashlib.sha256(np.asarray(packing.position.shape, dtype="<i8").tobytes())
+    for a, dtype in ((packing.position, "<f8"), (packing.radius, "<f8"), (packing.box, "<f8"),
+                     (packing.contacts.i, "<i8"), (packing.contacts.j, "<i8")):
+        h.update(np.ascontiguousarray(a, dtype=dtype).tobytes())
+    return h.hexdigest()[:32]
 
 
 def read_packing(path) -> Packing:
@@ -603,8 +620,10 @@ def read_packing(path) -> Packing:
         stiffness_normal=g("contacts/stiffness_normal"),
         stiffness_tangential=g("contacts/stiffness_tangential"),
     )
-    return Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
-                   inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)
+    packing = Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
+                      inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)
+    packing.attrs["packing_digest"] = packing_digest(packing)  # of what was read (see linear_digest)
+    return packing
 
 
 # ---------------------------------------------------------------- linear system

@@ -462,6 +462,64 @@ def modes_match_linear(modes, system) -> str | None:
     return None
 
 
+#: Attributes of a packing that a linear, modes or signal file made from it carries
+#: (under the same name, except the seed: ``packing_seed`` where present).
+PACKING_ATTRS = ("dim", "pressure", "friction", "poisson", "kind", "n_grains")
+
+
+def belongs_to_packing(obj, packing) -> str | None:
+    """Why ``obj`` (a LinearSystem, Modes or Signal with its attrs) was not made from
+    ``packing``, or None: the recorded ``packing_digest`` where both have one; the grain
+    indices of its dof map within the packing's grains; stored reference positions equal to
+    the packing's; the sample attributes PACKING_ATTRS and the seed."""
+    want, got = obj.attrs.get("packing_digest"), packing.attrs.get("packing_digest")
+    if isinstance(want, str) and want not in ("", "none") and got is not None and want != got:
+        return f"was made from another packing (packing_digest {want}, the packing's {got})"
+    n = packing.n_grains
+    grains = getattr(obj, "dof_grain", None)
+    if grains is not None and len(grains) and int(np.max(grains)) >= n:
+        return f"refers to grain {int(np.max(grains))}, the packing has {n} grains"
+    position = getattr(obj, "position", None)
+    if position is not None:
+        if position.shape != packing.position.shape:
+            return f"stores positions of shape {position.shape}, the packing's are {packing.position.shape}"
+        if not np.allclose(position, packing.position, rtol=1e-9, atol=1e-12):
+            return "stores other grain positions than the packing's"
+    seed = obj.attrs.get("packing_seed", obj.attrs.get("seed"))
+    pairs = [(key, obj.attrs.get(key), packing.n_grains if key == "n_grains" else packing.attrs.get(key))
+             for key in PACKING_ATTRS]
+    pairs.append(("seed", seed, packing.attrs.get("seed")))
+    pairs.append(("height", obj.attrs.get("height"), float(packing.box[-1])))  # wall to wall
+    for key, a, b in pairs:
+        if a is None or b is None or a == "none" or b == "none":
+            continue
+        if isinstance(a, float) or isinstance(b, float):
+            try:
+                same = math.isclose(float(a), float(b), rel_tol=1e-12)
+            except (TypeError, ValueError):
+                same = False
+        else:
+            same = a == b
+        if not same:
+            return f"has {key} = {a!r}, the packing {b!r}"
+    return None
+
+
+def same_packing(path, obj, packing_path, packing) -> None:
+    """InputError unless ``obj`` (read from ``path``) was made from ``packing``."""
+    why = belongs_to_packing(obj, packing)
+    if why is not None:
+        _fail(path, "", f"{why}: it does not belong to {packing_path}; give the packing it was "
+                        "computed from")
+
+
+def same_system(path, modes, linear_path, system) -> None:
+    """InputError unless ``modes`` (read from ``path``) are those of ``system``."""
+    why = modes_match_linear(modes, system)
+    if why is not None:
+        _fail(path, "", f"{linear_path} {why}: give the linear file these modes were computed from")
+
+
 # ---------------------------------------------------------------- signal
 def signal(path, a: dict, attrs: dict) -> None:
     """Invariants of a signal file: finite values, a regular increasing time axis, snapshot
