@@ -47,7 +47,16 @@ def _params(cls, params, fields: dict):
     """``params`` (or the class defaults) with ``fields`` replaced; validated on creation."""
     if params is not None and not isinstance(params, cls):
         raise InputError(f"expected {cls.__name__}, got {type(params).__name__}")
+    known = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(fields) - set(known))
+    if unknown:
+        raise InputError(f"unknown parameter(s) {', '.join(unknown)} (the fields of {cls.__name__}: "
+                         f"{', '.join(known)})")
     if params is None:
+        missing = [name for name, f in known.items() if name not in fields and f.init
+                   and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        if missing:
+            raise InputError(f"missing parameter(s) {', '.join(missing)} ({cls.__name__})")
         return cls(**fields)
     return dataclasses.replace(params, **fields) if fields else params
 

@@ -778,6 +778,11 @@ def write_signal(path, signal: Signal) -> None:
         if values is not None and not np.all(np.isfinite(values)):
             raise ConvergenceError(f"{path}: the {name} is not finite (NaN or inf): the integration "
                                    f"became unstable; use a smaller time step (--dt or --safety)")
+        if values is not None and name != "time axis" and np.size(values) and \
+                float(np.max(np.abs(values))) > V.MAX_MAGNITUDE:  # what the reader would refuse
+            raise ConvergenceError(f"{path}: the {name} reaches {float(np.max(np.abs(values))):.3g}, "
+                                   f"beyond +-{V.MAX_MAGNITUDE:g}: the integration became unstable; "
+                                   "use a smaller time step (--dt or --safety)")
     size = _nbytes(signal.time, signal.force, signal.snapshot_time, signal.snapshot_displacement,
                    signal.dof_grain, signal.dof_axis, signal.position)
     with atomic_h5(path, S.SIGNAL, signal.attrs, nbytes=size) as f:
