@@ -398,7 +398,12 @@ def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
 
     _need(packing, Packing, "packing")
     if system is not None:
+        from .io.validate import belongs_to_packing
+
         _need(system, LinearSystem, "system")
+        why = belongs_to_packing(system, packing)
+        if why is not None:
+            raise InputError(f"the linear system is not that of the packing: it {why}")
     p = _params(ModuliParams, params, fields)
     if system is not None and p.prestress and not bool(system.attrs.get("prestress", False)):
         raise InputError("--prestress conflicts with the linear file (built without prestress)")
@@ -484,10 +489,12 @@ def spectrum(modes: Modes, params: SpectrumParams | None = None, /, *,
     p = _params(SpectrumParams, params, fields)
     dof_grain = dof_axis = None
     if system is not None:
+        from .io.validate import modes_match_linear
+
         _need(system, LinearSystem, "system")
-        if modes.vectors is not None and system.n_dof != modes.vectors.shape[0]:
-            raise InputError(f"the linear system has {system.n_dof} dofs, the eigenvectors "
-                             f"{modes.vectors.shape[0]}: not the same system")
+        why = modes_match_linear(modes, system)
+        if why is not None:
+            raise InputError(f"the linear system is not the same system as the modes: it {why}")
         dof_grain, dof_axis = system.dof_grain, system.dof_axis
     return spectrum_summary(modes, ic=p.ic, dof_grain=dof_grain, dof_axis=dof_axis, arrays=p.arrays)
 

@@ -354,6 +354,16 @@ def test_snapshots_on_another_packing(valid, tmp_path):
     assert r.exit_code == 2 and "does not belong to" in r.output, r.output
 
 
+def test_linear_and_modes_of_another_system(valid):
+    """analyze moduli --packing and analyze spectrum --linear with files of another system."""
+    r = run(["analyze", "moduli", valid["linear"], "--packing", valid["other_packing"]])
+    assert r.exit_code == 2 and "does not belong to" in r.output, r.output
+    assert len(r.output.strip().splitlines()) == 1
+    r = run(["analyze", "spectrum", valid["modes"], "--linear", valid["other_linear"]])
+    assert r.exit_code == 2 and "not the same system" in r.output, r.output
+    assert len(r.output.strip().splitlines()) == 1
+
+
 @pytest.mark.parametrize("case", ["empty", "zero_stiffness", "unsorted", "duplicate", "shape_attr",
                                   "short_mass", "indptr", "huge_detector", "tiny_mass"])
 def test_linear_file_cases(valid, tmp_path, case):
