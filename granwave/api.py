@@ -47,14 +47,65 @@ def _params(cls, params, fields: dict):
     """``params`` (or the class defaults) with ``fields`` replaced; validated on creation."""
     if params is not None and not isinstance(params, cls):
         raise InputError(f"expected {cls.__name__}, got {type(params).__name__}")
+    known = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(fields) - set(known))
+    if unknown:
+        raise InputError(f"unknown parameter(s) {', '.join(unknown)} (the fields of {cls.__name__}: "
+                         f"{', '.join(known)})")
     if params is None:
+        missing = [name for name, f in known.items() if name not in fields and f.init
+                   and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        if missing:
+            raise InputError(f"missing parameter(s) {', '.join(missing)} ({cls.__name__})")
         return cls(**fields)
     return dataclasses.replace(params, **fields) if fields else params
+
+
+def _need(obj, cls, name: str):
+    """``obj`` if it is a ``cls`` (a class or a tuple of them); else InputError naming it.
+
+    The library's entry points check the kinds of their objects here, so that a path, a
+    dict or another stage's object is one line, not an AttributeError deep inside.
+    """
+    if not isinstance(obj, cls):
+        want = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
+        hint = " (read it first: granwave.io.files.read_*)" if isinstance(obj, (str, bytes)) or hasattr(obj, "__fspath__") else ""
+        raise InputError(f"{name} must be a {want}, got {type(obj).__name__}{hint}")
+    return obj
+
+
+def _need_all(objs, cls, name: str) -> list:
+    """A list of ``cls`` objects from a sequence (not a single object, not a string)."""
+    if isinstance(objs, (str, bytes, dict)) or not hasattr(objs, "__iter__") or isinstance(objs, cls):
+        raise InputError(f"{name} must be a sequence of {cls.__name__} objects, got {type(objs).__name__}")
+    objs = list(objs)
+    for k, obj in enumerate(objs):
+        _need(obj, cls, f"{name}[{k}]")
+    return objs
+
+
+def _labels(labels, n: int):
+    if labels is None:
+        return None
+    if isinstance(labels, (str, bytes)) or not hasattr(labels, "__iter__"):
+        raise InputError(f"labels must be a sequence of strings, got {type(labels).__name__}")
+    labels = [str(x) for x in labels]
+    if len(labels) != n:
+        raise InputError(f"{len(labels)} labels for {n} objects")
+    return labels
+
+
+def _progress(progress):
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress must be a callable taking one line of text, got {type(progress).__name__}")
+    return progress
 
 
 def _threads(threads: int | None) -> None:
     """Set the parallel kernels' thread count; None leaves the process's setting alone."""
     if threads is not None:
+        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+            raise InputError(f"threads must be a positive integer, got {threads!r}")
         from .threads import set_threads
 
         set_threads(threads)
@@ -76,6 +127,7 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     from .gpu import backend
 
     p = _params(PrepareParams, params, fields)
+    _progress(progress)
     kernels = backend(device)
     _threads(threads)
     packing = run(p, progress=progress, engine=kernels.engine)
@@ -118,6 +170,8 @@ def linearize(packing: Packing, params: LinearizeParams | None = None, /, *,
     """
     from .linear.assemble import linearize as build
 
+    _need(packing, Packing, "packing")
+    _progress(progress)
     p = _params(LinearizeParams, params, fields)
     _threads(threads)
     system = build(packing, prestress=p.prestress, force=p.force, check=p.check, progress=progress)
@@ -134,6 +188,7 @@ def eigensolve(system: LinearSystem, params: EigenParams | None = None, /, *,
     """
     from .linear.eigen import eigensolve as solve
 
+    _need(system, LinearSystem, "system")
     p = _params(EigenParams, params, fields)
     _threads(threads)
     modes = solve(system, vectors=p.vectors, k=p.lowest)
@@ -252,6 +307,7 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
             else "packing" if isinstance(source, Packing) else None)
     if kind is None:
         raise InputError(f"propagate needs a Modes, LinearSystem or Packing, got {type(source).__name__}")
+    _progress(progress)
     p = _params(PropagateParams, params, fields)
     method = p.method or {"modes": "modal", "linear": "time", "packing": "dem"}[kind]
     allowed = {"modes": ("modal", "auto"), "linear": ("modal", "time", "auto"), "packing": ("dem",)}[kind]
@@ -278,6 +334,13 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
         if p.snapshots is not None and system is None:
             raise InputError("snapshots from a modes file need the dof map of the linear system it "
                              "came from (system=...)")
+        if system is not None:
+            from .io.validate import modes_match_linear
+
+            _need(system, LinearSystem, "system")
+            why = modes_match_linear(source, system)
+            if why is not None:
+                raise InputError(f"system= is not the linear system of these modes: it {why}")
         sig = modal_propagate(source, ic=p.ic, t_max=p.t_max, samples=p.samples, snapshots=p.snapshots,
                               dof_grain=None if system is None else system.dof_grain,
                               dof_axis=None if system is None else system.dof_axis)
@@ -319,6 +382,7 @@ def statics(packing: Packing, params: StaticsParams | None = None, /, **fields) 
     """Solid fractions, coordination, force statistics, fabric and stress (docs/method.md §4)."""
     from .analysis.statics import statics as compute
 
+    _need(packing, Packing, "packing")
     p = _params(StaticsParams, params, fields)
     return compute(packing, layer=p.layer, min_contacts=p.min_contacts)
 
@@ -332,6 +396,14 @@ def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
     """
     from .linear.moduli import moduli as compute
 
+    _need(packing, Packing, "packing")
+    if system is not None:
+        from .io.validate import belongs_to_packing
+
+        _need(system, LinearSystem, "system")
+        why = belongs_to_packing(system, packing)
+        if why is not None:
+            raise InputError(f"the linear system is not that of the packing: it {why}")
     p = _params(ModuliParams, params, fields)
     if system is not None and p.prestress and not bool(system.attrs.get("prestress", False)):
         raise InputError("--prestress conflicts with the linear file (built without prestress)")
@@ -348,6 +420,7 @@ def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dic
     """
     from .analysis.front import front_features
 
+    _need(signal, Signal, "signal")
     p = _params(FrontParams, params, fields)
     d = front_features(signal.time, signal.force, **p.as_dict()).as_dict()
     out = {k: d[k] for k in ("t_lead10", "t_peak", "amplitude", "polarity", "t_zero", "width")}
@@ -364,8 +437,10 @@ def heights(signals: Sequence[Signal], params: HeightsParams | None = None, /, *
     """Arrival times, speeds and exponents over a container-height series (docs/method.md §9)."""
     from .analysis.heights import height_series
 
+    signals = _need_all(signals, Signal, "signals")
+    labels = _labels(labels, len(signals))
     p = _params(HeightsParams, params, fields)
-    return height_series(list(signals), labels=labels, edge_heights=p.edge_heights,
+    return height_series(signals, labels=labels, edge_heights=p.edge_heights,
                          group_rtol=p.group_tolerance, **p.front_kw())
 
 
@@ -380,6 +455,8 @@ def ensemble(signals: Sequence[Signal], params: EnsembleParams | None = None, /,
 
     from .analysis.ensemble import analyze_ensemble
 
+    signals = _need_all(signals, Signal, "signals")
+    labels = _labels(labels, len(signals))
     p = _params(EnsembleParams, params, fields)
     if not signals:
         raise InputError("no signal files given")
@@ -408,12 +485,16 @@ def spectrum(modes: Modes, params: SpectrumParams | None = None, /, *,
     """
     from .analysis.spectrum import spectrum_summary
 
+    _need(modes, Modes, "modes")
     p = _params(SpectrumParams, params, fields)
     dof_grain = dof_axis = None
     if system is not None:
-        if modes.vectors is not None and system.n_dof != modes.vectors.shape[0]:
-            raise InputError(f"the linear system has {system.n_dof} dofs, the eigenvectors "
-                             f"{modes.vectors.shape[0]}: not the same system")
+        from .io.validate import modes_match_linear
+
+        _need(system, LinearSystem, "system")
+        why = modes_match_linear(modes, system)
+        if why is not None:
+            raise InputError(f"the linear system is not the same system as the modes: it {why}")
         dof_grain, dof_axis = system.dof_grain, system.dof_axis
     return spectrum_summary(modes, ic=p.ic, dof_grain=dof_grain, dof_axis=dof_axis, arrays=p.arrays)
 
@@ -426,8 +507,10 @@ def damping(signals: Sequence[Signal], params: DampingParams | None = None, /, *
     """
     from .dem.pulse import damping_table
 
+    signals = _need_all(signals, Signal, "signals")
+    labels = _labels(labels, len(signals))
     p = _params(DampingParams, params, fields)
-    return damping_table(list(signals), tail_start=p.tail_start, labels=labels)
+    return damping_table(signals, tail_start=p.tail_start, labels=labels)
 
 
 def pressure_sweep(summaries: Sequence[dict], params: SweepParams | None = None, /, *,
@@ -435,6 +518,9 @@ def pressure_sweep(summaries: Sequence[dict], params: SweepParams | None = None,
     """Per-pressure statistics and speed exponents from per-sample summaries (docs/method.md §10)."""
     from .analysis.sweep import pressure_sweep as run
 
+    for name, value in (("summaries", summaries), ("height_series", height_series)):
+        if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
+            raise InputError(f"{name} must be a sequence of summary dicts, got {type(value).__name__}")
     p = _params(SweepParams, params, fields)
     if not summaries and not height_series:
         raise InputError("no summary files given")

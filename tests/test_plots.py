@@ -302,6 +302,7 @@ def files(tmp_path_factory, packing):
     gio.write_packing(d / "packing.h5", packing)
     n = packing.n_grains
     sig = synthetic_signal(snapshots=True, n=n)
+    sig.attrs["height"] = float(packing.box[-1])  # drawn on this packing: plot snapshot checks it
     gio.write_signal(d / "signal.h5", sig)
     for k in range(3):
         gio.write_signal(d / f"s{k}.h5", synthetic_signal(seed=k + 1))

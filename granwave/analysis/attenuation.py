@@ -273,7 +273,8 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     if len(groups) < 2:
         raise InputError("attenuation needs signals at two or more different heights")
     labels = labels or [[f"height {g} signal {i}" for i in range(len(s))] for g, s in enumerate(groups)]
-    ens = [ensemble_average(list(s), labels=list(lab)) for s, lab in zip(groups, labels)]
+    ens = [ensemble_average(list(s), labels=list(lab), height_rtol=math.inf)  # grouped by the caller
+           for s, lab in zip(groups, labels)]
     L = np.array([e.attrs["height_mean"] for e in ens])
     order = np.argsort(L)
     groups = [list(groups[i]) for i in order]

@@ -17,9 +17,12 @@ Choices (also in ``docs/summaries.md`` and the CLI help)
   standard deviation (1/(n-1); NaN for one signal), standard error of the
   mean std/sqrt(n) and count, for every numeric feature; and the features of
   the mean signal.
-* Signals at different pressures or with different initial conditions are
-  refused (their average means nothing). Heights of disordered packings
-  differ slightly per sample: the mean and std of ``height`` are recorded.
+* Signals at different pressures, with different initial conditions, of
+  different kinds of system (``kind``, ``dim``, ``friction``, ``poisson``,
+  ``prestress``) or of different container heights are refused (their average
+  means nothing). Heights of disordered packings differ slightly per sample
+  (they must lie within the height group tolerance of ``analyze heights``,
+  5 %): the mean and std of ``height`` are recorded.
 
 Units: times d/sqrt(E*/rho), forces E* d^2.
 """
@@ -71,8 +74,39 @@ def common_grid(times: Sequence[np.ndarray]) -> tuple[np.ndarray, str]:
     return lo + step * np.arange(n), "overlap"
 
 
-def ensemble_average(signals: Sequence["Signal"], *, labels: Sequence[str] | None = None) -> Ensemble:
-    """Mean signal and rms deviation over packings (docs/method.md §9); rule in the module docstring."""
+#: Attributes that name the kind of system: signals that differ in one are not one ensemble.
+SYSTEM_ATTRS = ("kind", "dim", "friction", "poisson", "prestress")
+
+
+def _one_height(signals, labels, rtol: float) -> None:
+    """Refuse signals of different container heights: the heights must form one group of
+    :func:`granwave.analysis.heights.group_heights` (disordered packings of one nominal
+    height differ by a few per cent at most; a height series differs by factors)."""
+    from .heights import group_heights
+
+    h = np.array([float(s.attrs.get("height", np.nan)) for s in signals])
+    have = np.isfinite(h)
+    if have.sum() < 2:
+        return
+    groups = group_heights(h[have], rtol)
+    if groups.max() > 0:
+        idx = np.flatnonzero(have)
+        lo, hi = idx[int(np.argmin(h[have]))], idx[int(np.argmax(h[have]))]
+        raise InputError(f"mixed heights: {labels[lo]} has height={h[lo]:.6g}, {labels[hi]} has "
+                         f"height={h[hi]:.6g} (more than {rtol:g} apart, relative): average the "
+                         "signals of one container height (analyze heights takes a series)")
+
+
+def ensemble_average(signals: Sequence["Signal"], *, labels: Sequence[str] | None = None,
+                     height_rtol: float | None = None) -> Ensemble:
+    """Mean signal and rms deviation over packings (docs/method.md §9); rule in the module docstring.
+
+    ``height_rtol``: the relative gap of heights that still counts as one height (default:
+    the group tolerance of ``analyze heights``).
+    """
+    from .heights import DEFAULT_GROUP_RTOL
+
+    height_rtol = DEFAULT_GROUP_RTOL if height_rtol is None else height_rtol
     signals = list(signals)
     if not signals:
         raise InputError("no signals given")
@@ -84,6 +118,11 @@ def ensemble_average(signals: Sequence["Signal"], *, labels: Sequence[str] | Non
             raise InputError(f"{lab}: signal times must be strictly increasing")
     pressure = common_attr(signals, labels, "pressure", rtol=1e-9)
     ic = common_attr(signals, labels, "ic")
+    for key in SYSTEM_ATTRS:  # among the signals that record it
+        have = [(s, lab) for s, lab in zip(signals, labels) if s.attrs.get(key) is not None]
+        if have:
+            common_attr([s for s, _ in have], [lab for _, lab in have], key)
+    _one_height(signals, labels, height_rtol)
     time, grid = common_grid([s.time for s in signals])
     if grid == "identical":
         stack = np.stack([s.force for s in signals])
@@ -165,11 +204,14 @@ def write_ensemble(path, ens: Ensemble, extra_attrs: dict | None = None) -> None
 
 
 def read_ensemble(path) -> Ensemble:
-    """Read an ensemble file, refusing a foreign schema, major version or NaN data."""
+    """Read an ensemble file, validated (:func:`granwave.io.validate.ensemble`) before use."""
+    from ..io import validate as V
+
     with F.open_checked(path, S.ENSEMBLE) as f:
-        g = lambda name: F._get(f, path, name)  # noqa: E731
-        return Ensemble(time=g("ensemble/time"), mean=g("ensemble/mean"), rms=g("ensemble/rms"),
-                        attrs=F.read_attrs(f))
+        a = F._read_all(f, path, S.ENSEMBLE)
+        attrs = F.read_attrs(f)
+    V.ensemble(path, a, attrs)
+    return Ensemble(time=a["ensemble/time"], mean=a["ensemble/mean"], rms=a["ensemble/rms"], attrs=attrs)
 
 
 # ---------------------------------------------------------------- heights

@@ -396,7 +396,7 @@ def read_sweep(path) -> dict:
         for name in S.DATASETS[S.SWEEP]:
             if name not in f:
                 raise InputError(f"{path}: missing dataset {name}")
-            v = f[name][()]
+            v = F._read(f, path, name)  # native float64 / int64, or one line
             out[name.split("/", 1)[1]] = [b.decode() for b in v] if v.dtype.kind == "S" else v
         out["attrs"] = F.read_attrs(f)
     return out

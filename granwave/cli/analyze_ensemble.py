@@ -16,8 +16,9 @@ from .common import echo_json, echo_table, options_from, output_option, params_f
 def ensemble(signals, output, as_json, **options):
     """Average signal and rms deviation over independent packings (docs/method.md §9).
 
-    SIGNALS are signal files (from `granwave propagate`) of one pressure and
-    one initial condition. Writes OUTPUT (schema granwave.ensemble):
+    SIGNALS are signal files (from `granwave propagate`) of one pressure, one
+    initial condition, one kind of system and one container height (within
+    5 %); a mix is refused. Writes OUTPUT (schema granwave.ensemble):
     ensemble/time, ensemble/mean = (1/n) sum F_i and ensemble/rms =
     sqrt((1/n) sum (F_i - mean)^2), forces in E* d^2, times in
     d/sqrt(E*/rho). Signals with identical sample times are averaged as they

@@ -52,6 +52,9 @@ def moduli(source, packing_path, threads, as_json, **options):
             raise InputError(f"{source} is a linear file: pass its packing with --packing FILE")
         system = read_linear(source)
         packing = read_packing(packing_path)
+        from ..io.validate import same_packing
+
+        same_packing(source, system, packing_path, packing)
     else:
         raise InputError(f"{source}: expected a granwave.packing or granwave.linear file, "
                          f"found schema {kind!r}")

@@ -72,7 +72,7 @@ def eigensolve(linear, output, threads, as_json, **options):
     params = params_from(EigenParams, options)
     files.check_writable(output)
     system = files.read_linear(linear)
-    system.attrs["linear_source"] = str(linear)
+    system.attrs["linear_source"] = files.source_reference(linear, output)  # beside the modes file
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         modes = api.eigensolve(system, params, threads=threads)

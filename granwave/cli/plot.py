@@ -132,18 +132,24 @@ def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf):
     figs = _figures()
     from ..errors import InputError
     from ..io.files import read_linear, read_modes, read_packing, read_signal
+    from ..io.validate import same_packing, same_system
 
     figs.output_paths(output, pdf)
     if (modes is None) != (linear is None) or (modes and not packing):
         raise InputError("--modes needs --linear and --packing (and the other way round)")
     sig = read_signal(signal)
     pk = read_packing(packing) if packing else None
+    if pk is not None:
+        same_packing(signal, sig, packing, pk)
     fields = None
     if modes:
         from ..analysis.pulse_field import row_fields
 
         cut = {} if cutoff_factor is None else {"cutoff_factor": cutoff_factor}
-        fields = row_fields(read_linear(linear), read_modes(modes, vectors=True), pk.position,
+        lin, mo = read_linear(linear), read_modes(modes, vectors=True)
+        same_packing(linear, lin, packing, pk)
+        same_system(modes, mo, linear, lin)
+        fields = row_fields(lin, mo, pk.position,
                             ic=str(sig.attrs.get("ic", "A")), t_max=float(sig.time[-1]), **cut)
     _done(figs.displacement_snapshot(sig, output, packing=pk, index=list(index) or None,
                                      fields=fields, pdf=pdf))

@@ -34,12 +34,7 @@ def _read_source(path: str, kind: str, params: PropagateParams):
         system = None
         if params.snapshots is not None:
             # The modes file has no dof map: take it from the linear file it was made from.
-            linear = modes.attrs.get("linear_source")
-            if not linear or not Path(linear).is_file():
-                raise InputError(f"{path}: snapshots need the dof map of the linear file it came from "
-                                 f"({linear or 'unknown'}, not found); run propagate on the linear "
-                                 "file instead (--method modal or time)")
-            system = files.read_linear(linear)
+            system = files.linear_of_modes(path, modes)
         return modes, system
     if kind == S.LINEAR:
         system = files.read_linear(path)

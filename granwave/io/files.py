@@ -469,6 +469,7 @@ def open_checked(path: str | os.PathLike, schema: str) -> Iterator[h5py.File]:
         missing = [a for a in S.REQUIRED_ATTRS[schema] if a not in attrs]
         if missing:
             raise InputError(f"{path}: missing root attribute(s) {', '.join(missing)}")
+        V.attr_types(path, attrs, S.REQUIRED_ATTRS[schema])
         try:
             V.check_layout(path, f, schema, attrs)
         except (OSError, RuntimeError, KeyError) as exc:  # a damaged HDF5 structure
@@ -498,12 +499,44 @@ def _finite(path, name: str, arr: np.ndarray) -> np.ndarray:
 
 
 def _read(f: h5py.File, path, name: str) -> np.ndarray:
-    """One dataset's values; a damaged (truncated) file is an InputError naming it."""
+    """One dataset's values in native byte order, floats as float64 and integers as int64
+    (:func:`native`); a damaged (truncated) file is an InputError naming it."""
     try:
-        return f[name][()]
+        a = f[name][()]
     except (OSError, RuntimeError, ValueError, KeyError) as exc:
         raise InputError(f"{path}: {name}: unreadable ({exc.__class__.__name__}: "
                          f"{str(exc).splitlines()[0] if str(exc) else 'damaged file'})") from None
+    return native(path, name, a)
+
+
+def native(path, name: str, a) -> np.ndarray:
+    """``a`` as the kernels take it: float64 or int64 in native byte order.
+
+    Exact conversions are made silently: another byte order (a big-endian file), smaller
+    floats (float16, float32) and other integer widths. Extended precision (long double)
+    is converted only when float64 holds every value exactly (a file converted up from
+    float64); otherwise it is refused, since rounding would change the values without a
+    word. Unsigned integers beyond the int64 range are refused. Strings stay as they are.
+    """
+    a = np.asarray(a)
+    kind = a.dtype.kind
+    if kind == "f":
+        if a.dtype.itemsize > 8:
+            with np.errstate(over="ignore", invalid="ignore"):
+                b = a.astype(np.float64)
+                exact = np.array_equal(b.astype(a.dtype), a, equal_nan=True)
+            if not exact:
+                raise InputError(f"{path}: {name}: has dtype {a.dtype} (extended precision) with "
+                                 "values float64 cannot hold exactly; granwave computes in float64: "
+                                 "round the values to float64 and write them as float64")
+            return b
+        return a.astype(np.float64, copy=False) if a.dtype != np.float64 else a
+    if kind in "iu":
+        if kind == "u" and a.dtype.itemsize >= 8 and a.size and int(a.max()) > np.iinfo(np.int64).max:
+            k = int(np.argmax(a))
+            raise InputError(f"{path}: {name}: index {int(a.flat[k])} at entry {k} is out of range")
+        return a.astype(np.int64, copy=False) if a.dtype != np.int64 else a
+    return a
 
 
 def _get(f: h5py.File, path, name: str) -> np.ndarray:
@@ -540,7 +573,8 @@ def write_packing(path, packing: Packing) -> None:
     size = _nbytes(packing.position, packing.radius, packing.mass, packing.inertia, c.i, c.j,
                    c.normal, c.overlap, c.force_normal, c.force_tangential, c.stiffness_normal,
                    c.stiffness_tangential)
-    with atomic_h5(path, S.PACKING, {**packing.attrs, "dim": packing.dim}, nbytes=size) as f:
+    attrs = {**packing.attrs, "dim": packing.dim, "packing_digest": packing_digest(packing)}
+    with atomic_h5(path, S.PACKING, attrs, nbytes=size) as f:
         put(f, S.PACKING, "grains/position", packing.position)
         put(f, S.PACKING, "grains/radius", packing.radius)
         put(f, S.PACKING, "grains/mass", packing.mass)
@@ -554,6 +588,22 @@ def write_packing(path, packing: Packing) -> None:
         put(f, S.PACKING, "contacts/force_tangential", c.force_tangential)
         put(f, S.PACKING, "contacts/stiffness_normal", c.stiffness_normal)
         put(f, S.PACKING, "contacts/stiffness_tangential", c.stiffness_tangential)
+
+
+def packing_digest(packing: Packing) -> str:
+    """An identity of a packing: a hash of its grains (centres, radii), box and contact pairs.
+
+    Like :func:`linear_digest`, a name, not a checksum: linearize copies it into the linear
+    file, and from there it reaches the modes and signal files, so that a figure drawing a
+    signal's snapshots on a packing's grains can tell whether they belong together.
+    """
+    import hashlib
+
+    h = hashlib.sha256(np.asarray(packing.position.shape, dtype="<i8").tobytes())
+    for a, dtype in ((packing.position, "<f8"), (packing.radius, "<f8"), (packing.box, "<f8"),
+                     (packing.contacts.i, "<i8"), (packing.contacts.j, "<i8")):
+        h.update(np.ascontiguousarray(a, dtype=dtype).tobytes())
+    return h.hexdigest()[:32]
 
 
 def read_packing(path) -> Packing:
@@ -570,8 +620,10 @@ def read_packing(path) -> Packing:
         stiffness_normal=g("contacts/stiffness_normal"),
         stiffness_tangential=g("contacts/stiffness_tangential"),
     )
-    return Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
-                   inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)
+    packing = Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
+                      inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)
+    packing.attrs["packing_digest"] = packing_digest(packing)  # of what was read (see linear_digest)
+    return packing
 
 
 # ---------------------------------------------------------------- linear system
@@ -579,9 +631,13 @@ def read_packing(path) -> Packing:
 # names: the layout itself lives once, in io/schema.py.
 def write_linear(path, system: LinearSystem) -> None:
     D = sp.csr_matrix(system.stiffness)
+    if not D.has_canonical_format:  # readers take sorted, unique column indices per row
+        D = D.copy()
+        D.sum_duplicates()
     size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
                    system.source_displacement, system.detector)
-    with atomic_h5(path, S.LINEAR, system.attrs, nbytes=size) as f:
+    attrs = {**system.attrs, "linear_digest": linear_digest(system)}
+    with atomic_h5(path, S.LINEAR, attrs, nbytes=size) as f:
         put(f, S.LINEAR, "matrix/data", D.data)
         put(f, S.LINEAR, "matrix/indices", D.indices.astype(np.int64))
         put(f, S.LINEAR, "matrix/indptr", D.indptr.astype(np.int64))
@@ -592,6 +648,78 @@ def write_linear(path, system: LinearSystem) -> None:
         put(f, S.LINEAR, "source/velocity", system.source_velocity)
         put(f, S.LINEAR, "source/displacement", system.source_displacement)
         put(f, S.LINEAR, "detector", system.detector)
+
+
+#: Entries of the stiffness data and column indices that enter :func:`linear_digest` (strided
+#: sample above this; the per-dof vectors and row pointers enter whole).
+DIGEST_SAMPLE = 1 << 20
+
+
+def linear_digest(system: LinearSystem) -> str:
+    """An identity of a linear system: a hash of D's row pointers and (a strided sample of)
+    its entries, M, the dof map and the source and detector vectors.
+
+    Not a checksum against tampering but a name for "this system": the modes file records
+    the digest of the system it was computed from (``linear_digest``, copied from the
+    linear file's attributes), so that propagate can tell whether the file named by
+    ``linear_source`` is still that system. Cost O(n) plus DIGEST_SAMPLE entries.
+    """
+    import hashlib
+
+    D = sp.csr_matrix(system.stiffness)
+    h = hashlib.sha256(np.asarray(D.shape, dtype="<i8").tobytes())
+    step = max(1, D.nnz // DIGEST_SAMPLE)
+    for a, dtype in ((D.indptr, "<i8"), (D.indices[::step], "<i8"), (D.data[::step], "<f8"),
+                     (system.mass, "<f8"), (system.dof_grain, "<i8"), (system.dof_axis, "<i8"),
+                     (system.source_velocity, "<f8"), (system.source_displacement, "<f8"),
+                     (system.detector, "<f8")):
+        h.update(np.ascontiguousarray(a, dtype=dtype).tobytes())
+    return h.hexdigest()[:32]
+
+
+def source_reference(source, output) -> str:
+    """How a file written at ``output`` names its input ``source``: relative to the output's
+    folder (the pair may move together), or absolute where no relative path exists."""
+    try:
+        return os.path.relpath(os.path.abspath(source), os.path.dirname(os.path.abspath(output)))
+    except ValueError:  # another drive (Windows)
+        return os.path.abspath(source)
+
+
+def linear_of_modes(path, modes: Modes) -> LinearSystem:
+    """The linear system a modes file at ``path`` was computed from, read from the file its
+    ``linear_source`` attribute names, and checked to be that system.
+
+    A relative ``linear_source`` is looked up beside the modes file first (how eigensolve
+    writes it), then, for files written before that rule, from the current folder; an
+    absolute one as it is. The file found must match the modes
+    (:func:`granwave.io.validate.modes_match_linear`: its digest where the modes file
+    records one, its size and sample attributes always); otherwise InputError, one line.
+    """
+    src = modes.attrs.get("linear_source")
+    if not isinstance(src, str) or not src or src == "none":
+        raise InputError(f"{path}: no linear_source attribute: snapshots need the dof map of the "
+                         "linear file it came from; run propagate on the linear file instead "
+                         "(--method modal or time)")
+    ref = Path(src)
+    candidates = [ref] if ref.is_absolute() else [Path(path).parent / ref, ref]
+    found = []
+    for c in candidates:
+        if c.is_file() and not any(os.path.samefile(c, f) for f in found):
+            found.append(c)
+    if not found:
+        raise InputError(f"{path}: snapshots need the dof map of the linear file it came from "
+                         f"({src}, not found beside it{'' if ref.is_absolute() else ' nor here'}); "
+                         "run propagate on the linear file instead (--method modal or time)")
+    problems = []
+    for c in found:
+        system = read_linear(c)
+        why = V.modes_match_linear(modes, system)
+        if why is None:
+            return system
+        problems.append(f"{c} {why}")
+    raise InputError(f"{path}: its linear_source {src!r} is not the system of these modes: "
+                     f"{'; '.join(problems)}; run propagate on the right linear file instead")
 
 
 def read_linear(path) -> LinearSystem:
@@ -605,11 +733,15 @@ def read_linear(path) -> LinearSystem:
     V.linear(path, a, attrs, shape)
     n = len(a["mass"])
     D = sp.csr_matrix((a["matrix/data"], a["matrix/indices"], a["matrix/indptr"]), shape=(n, n))
-    return LinearSystem(
+    system = LinearSystem(
         stiffness=D, mass=a["mass"], dof_grain=a["dof/grain"], dof_axis=a["dof/axis"],
         source_velocity=a["source/velocity"], source_displacement=a["source/displacement"],
         detector=a["detector"], attrs=attrs,
     )
+    # the identity of what was read (a stored one may be stale after an edit); eigensolve
+    # copies it into the modes file
+    system.attrs["linear_digest"] = linear_digest(system)
+    return system
 
 
 # ---------------------------------------------------------------- modes
@@ -646,6 +778,11 @@ def write_signal(path, signal: Signal) -> None:
         if values is not None and not np.all(np.isfinite(values)):
             raise ConvergenceError(f"{path}: the {name} is not finite (NaN or inf): the integration "
                                    f"became unstable; use a smaller time step (--dt or --safety)")
+        if values is not None and name != "time axis" and np.size(values) and \
+                float(np.max(np.abs(values))) > V.MAX_MAGNITUDE:  # what the reader would refuse
+            raise ConvergenceError(f"{path}: the {name} reaches {float(np.max(np.abs(values))):.3g}, "
+                                   f"beyond +-{V.MAX_MAGNITUDE:g}: the integration became unstable; "
+                                   "use a smaller time step (--dt or --safety)")
     size = _nbytes(signal.time, signal.force, signal.snapshot_time, signal.snapshot_displacement,
                    signal.dof_grain, signal.dof_axis, signal.position)
     with atomic_h5(path, S.SIGNAL, signal.attrs, nbytes=size) as f:

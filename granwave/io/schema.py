@@ -336,6 +336,36 @@ REQUIRED_ATTRS: dict[str, tuple[str, ...]] = {
 }
 
 
+# Types of the root attributes the stages read (any schema: a name means the same thing in
+# every file). "number": an int or float scalar (not a bool, not a string); "int": an integer
+# scalar; "bool": a boolean scalar (HDF5 enum) or the integers 0 and 1; "str": a string;
+# "int[]": a 1D integer array. A reader refuses another type before any stage sees the value
+# (granwave.io.validate.attr_types): a string "False" where a bool belongs would be true, an
+# array where a scalar belongs fails deep inside. A number that was None when written is the
+# string "none" (files._set_attr); it is accepted for attributes a schema does not require.
+ATTR_TYPES: dict[str, str] = {
+    **dict.fromkeys((
+        "pressure", "friction", "poisson", "height", "max_acceleration", "t_max", "dt", "damping",
+        "amplitude", "safety", "omega_max", "omega2_max", "omega_max_band", "nyquist_ratio",
+        "zero_mode_threshold", "max_displacement", "height_mean", "height_std", "piston_mass",
+        "background_damping_rate", "modified_energy_max_rel_deviation", "asymmetry",
+        "contact_force", "wall_force", "spacing", "row_spacing", "polydispersity", "stiffness"),
+        "number"),
+    **dict.fromkeys((
+        "dim", "seed", "n_zero_modes", "n_negative_modes", "expected_zero_modes", "n_rotations",
+        "n_dof", "n_modes", "n_signals", "samples", "n_grains", "steps", "n_steps", "rebuilds",
+        "n_rattlers", "n_spins_removed", "n_contacts", "rows", "width", "balls", "grains",
+        "packing_seed"), "int"),
+    **dict.fromkeys((
+        "converged", "prestress", "aliased", "partial", "has_vectors", "forced_unconverged",
+        "n_zero_modes_exact", "psd_check_converged", "modal_truncated"), "bool"),
+    **dict.fromkeys((
+        "schema", "schema_version", "kind", "ic", "method", "linear_source", "modes_source",
+        "source_file", "packing_source", "device", "linear_digest", "packing_digest"), "str"),
+    "spin_removed_grains": "int[]",
+}
+
+
 def formats_markdown() -> str:
     """The docs/formats.md text, generated from the tables above."""
     lines = [
@@ -399,6 +429,18 @@ def formats_markdown() -> str:
         "inertia and box lengths > 0; centres between the walls; overlaps >= 0 and at most",
         "half the smaller radius; no two centres closer than the radii and the stored",
         "overlap allow; friction >= 0, 0 <= Poisson ratio < 0.5, pressure >= 0, height > 0.",
+        "Also: no file without grains, degrees of freedom or modes; CSR column indices sorted",
+        "and unique within each row; D not all zero; k_n > 0 where grains overlap; every float",
+        "value within +-1e100 (time axes: finite) and every positive quantity at least 1e-100;",
+        "sample times (signals, ensembles) at least two, increasing and evenly spaced (to 1e-6",
+        "of the step); root attributes of the types the stages take (a number, an integer, a",
+        "boolean, a string: never an array, nor a string where a number or boolean belongs).",
+        "Arrays are converted to native float64 / int64 when that is exact (another byte order,",
+        "float32, other integer widths; long double only when every value is a float64);",
+        "otherwise refused. A modes file's `linear_source` is relative to its own folder (or",
+        "absolute), and the linear file found must be the one the modes came from",
+        "(`linear_digest`, sizes, sample attributes); `packing_digest` ties linear, modes and",
+        "signal files to their packing the same way.",
         "A failure is one line naming the file, the dataset and what is wrong.",
         "",
     ]

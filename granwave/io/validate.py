@@ -32,6 +32,17 @@ MAX_OVERLAP_FRACTION = 0.5
 NORMAL_TOL = 1e-6
 #: Tolerance on centre distance below R_i + R_j - overlap, relative to R_i + R_j.
 DISTANCE_TOL = 1e-6
+#: Largest magnitude of any float value in a file. Reduced units (d, rho, E*) keep every
+#: quantity of a granular packing within a few decades of 1; a value beyond this is a
+#: corrupt file, and a product of two such values must stay finite (a coupling of 1e300
+#: times an amplitude overflows to a NaN signal).
+MAX_MAGNITUDE = 1e100
+#: Smallest value of a positive quantity (radius, mass, inertia, box): its reciprocal
+#: (1/sqrt(m) in the mass-weighted matrix) stays finite.
+MIN_POSITIVE = 1e-100
+#: Largest deviation of a sample interval from the mean one, relative to it (linspace
+#: rounding is ~1e-16 relative to t_max).
+REGULAR_RTOL = 1e-6
 
 
 def _fail(path, name: str, what: str):
@@ -90,17 +101,100 @@ def check_layout(path, f, schema: str, attrs: dict) -> None:
                 sizes[base] = (size - extra, name)
 
 
+def attr_types(path, attrs: dict, required=()) -> None:
+    """Every root attribute named in ``schema.ATTR_TYPES`` has its type (no array where a
+    scalar belongs, no string where a number or a bool belongs, no bool where a number
+    belongs). ``required``: attributes the file's schema requires (for these the string
+    "none", a None when written, is refused too)."""
+    for key, kind in S.ATTR_TYPES.items():
+        if key not in attrs:
+            continue
+        v = attrs[key]
+        if isinstance(v, np.ndarray) and v.ndim == 0:
+            v = v[()]
+        if isinstance(v, np.generic):
+            v = v.item()
+        if kind == "int[]":
+            if not (isinstance(v, np.ndarray) and v.ndim == 1 and (v.dtype.kind in "iu" or v.size == 0)):
+                _fail(path, "", f"root attribute {key} must be a 1D integer array, found {_show(v)}")
+            continue
+        if isinstance(v, np.ndarray):
+            _fail(path, "", f"root attribute {key} must be {_KIND_WORDS[kind]}, "
+                            f"found an array of shape {v.shape}")
+        if v == "none" and kind != "str" and key not in required:
+            continue  # a None when written (files._set_attr)
+        if kind == "str":
+            ok = isinstance(v, str)
+        elif kind == "bool":
+            ok = isinstance(v, bool) or (isinstance(v, int) and v in (0, 1))
+        elif kind == "int":
+            ok = isinstance(v, int) and not isinstance(v, bool)
+        else:
+            ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if not ok:
+            _fail(path, "", f"root attribute {key} must be {_KIND_WORDS[kind]}, found {_show(v)}")
+
+
+_KIND_WORDS = {"number": "a number", "int": "an integer", "bool": "a boolean (true/false)",
+               "str": "a string", "int[]": "a 1D integer array"}
+
+
+def _show(v) -> str:
+    """A short description of an attribute value for a message (type and value)."""
+    text = repr(v)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{type(v).__name__} {text}"
+
+
 # ---------------------------------------------------------------- shared value checks
 def _finite(path, arrays: dict) -> None:
+    """Finite values in every float array, of magnitude at most MAX_MAGNITUDE except on time
+    axes (only compared and subtracted; a modal sum may sample a record of any length)."""
     for name, a in arrays.items():
-        if a is not None and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+        if a is None or a.dtype.kind != "f":
+            continue
+        if not np.all(np.isfinite(a)):
             _fail(path, name, "contains NaN or infinite values")
+        if a.size and not name.endswith("time"):
+            k = int(np.argmax(np.abs(a)))
+            if abs(a.flat[k]) > MAX_MAGNITUDE:
+                _fail(path, name, f"entry {k} is {a.flat[k]:g}, beyond +-{MAX_MAGNITUDE:g}: no "
+                                  "quantity in granwave's reduced units comes near (a corrupt file?)")
 
 
 def _positive(path, name: str, a: np.ndarray) -> None:
+    """> 0, and for floats at least MIN_POSITIVE (its reciprocal must stay finite)."""
     if a.size and not np.all(a > 0):
         k = int(np.argmin(a))
         _fail(path, name, f"must be > 0, entry {k} is {a.flat[k]:g}")
+    if a.size and a.dtype.kind == "f" and np.min(a) < MIN_POSITIVE:
+        k = int(np.argmin(a))
+        _fail(path, name, f"entry {k} is {a.flat[k]:g}, below {MIN_POSITIVE:g}: no quantity in "
+                          "granwave's reduced units comes near (a corrupt file?)")
+
+
+def _not_empty(path, name: str, n: int, what: str) -> None:
+    if n == 0:
+        _fail(path, name, f"is empty: the file holds no {what}")
+
+
+def time_axis(path, name: str, t: np.ndarray) -> None:
+    """At least two sample times, increasing and evenly spaced (to REGULAR_RTOL of the step):
+    the front features, spectra, interpolation onto common grids and the Nyquist check all
+    take a regular axis."""
+    if t.size < 2:
+        _fail(path, name, f"has {t.size} sample time(s), at least 2 are needed")
+    d = np.diff(t)
+    if np.any(d <= 0):
+        k = int(np.flatnonzero(d <= 0)[0])
+        _fail(path, name, f"times must increase (entry {k + 1} is {t[k + 1]:g} after {t[k]:g})")
+    h = (t[-1] - t[0]) / (t.size - 1)
+    off = np.abs(d - h)
+    k = int(np.argmax(off))
+    if off[k] > REGULAR_RTOL * h:
+        _fail(path, name, f"times are not evenly spaced (step {d[k]:g} after entry {k}, mean step "
+                          f"{h:g}): granwave's analyses take a regular time axis")
 
 
 def _non_negative(path, name: str, a: np.ndarray) -> None:
@@ -167,6 +261,7 @@ def packing(path, a: dict, attrs: dict) -> None:
     pos, radius = a["grains/position"], a["grains/radius"]
     box = a["box/size"]
     n, dim = pos.shape
+    _not_empty(path, "grains/position", n, "grains")
     for name in ("grains/radius", "grains/mass", "grains/inertia", "box/size"):
         _positive(path, name, a[name])
     if n:
@@ -183,6 +278,11 @@ def packing(path, a: dict, attrs: dict) -> None:
     for name in ("contacts/overlap", "contacts/force_normal", "contacts/stiffness_normal",
                  "contacts/stiffness_tangential"):
         _non_negative(path, name, a[name])
+    loaded = (a["contacts/overlap"] > 0) & (a["contacts/stiffness_normal"] <= 0)
+    if np.any(loaded):
+        k = int(np.flatnonzero(loaded)[0])
+        _fail(path, "contacts/stiffness_normal", f"contact {k} overlaps by {a['contacts/overlap'][k]:g} "
+                                                 "but has zero stiffness (the contact law gives k_n > 0)")
     normal = a["contacts/normal"]
     if len(normal):
         err = np.abs(np.linalg.norm(normal, axis=1) - 1.0)
@@ -274,6 +374,7 @@ def linear(path, a: dict, attrs: dict, shape) -> None:
         _fail(path, "matrix", f"shape attribute {shape!r} is not a pair of integers")
     if shape != (n, n):
         _fail(path, "matrix", f"shape attribute {shape} does not match the {n} dofs of mass")
+    _not_empty(path, "mass", n, "degrees of freedom")
     indptr, indices = a["matrix/indptr"], a["matrix/indices"]
     nnz = len(indices)
     if indptr[0] != 0 or indptr[-1] != nnz:
@@ -281,7 +382,10 @@ def linear(path, a: dict, attrs: dict, shape) -> None:
     if np.any(np.diff(indptr) < 0):
         _fail(path, "matrix/indptr", f"decreases at row {int(np.flatnonzero(np.diff(indptr) < 0)[0])}")
     _in_range(path, "matrix/indices", indices, 0, n)
+    _sorted_unique_rows(path, indptr, indices)
     _finite(path, {k: v for k, v in a.items() if k != "matrix/indptr"})
+    if not np.any(a["matrix/data"]):
+        _fail(path, "matrix/data", "every entry is zero: D holds no stiffness (no contacts?)")
     _positive(path, "mass", a["mass"])
     _non_negative(path, "dof/grain", a["dof/grain"])
     dim = int(attrs.get("dim", 3))
@@ -290,24 +394,148 @@ def linear(path, a: dict, attrs: dict, shape) -> None:
               S.SPIN_REDUCED_AXES[-1] + 1 if dim == 3 else dim + dim * (dim - 1) // 2)
 
 
+def _sorted_unique_rows(path, indptr: np.ndarray, indices: np.ndarray) -> None:
+    """Column indices strictly increasing within every row (canonical CSR, as granwave writes
+    it): a repeated index would be summed into an entry no writer meant (an asymmetric D)."""
+    if len(indices) < 2:
+        return
+    step = np.diff(indices)
+    # positions k where k and k+1 lie in the same row: k+1 is not the start of a row
+    same_row = np.ones(len(indices) - 1, dtype=bool)
+    starts = indptr[1:-1]
+    starts = starts[(starts > 0) & (starts < len(indices))]
+    same_row[starts - 1] = False
+    bad = same_row & (step <= 0)
+    if np.any(bad):
+        k = int(np.flatnonzero(bad)[0]) + 1
+        row = int(np.searchsorted(indptr, k, side="right")) - 1
+        what = "repeated" if step[k - 1] == 0 else "not sorted"
+        _fail(path, "matrix/indices", f"column indices of row {row} are {what} (entry {k}: "
+                                      f"{indices[k]} after {indices[k - 1]}); CSR rows must be sorted "
+                                      "and unique")
+
+
 # ---------------------------------------------------------------- modes
 def modes(path, a: dict, attrs: dict) -> None:
     """Invariants of a modes file: finite values, omega^2 ascending, height > 0."""
     material_attrs(path, attrs)
+    _not_empty(path, "omega2", len(a["omega2"]), "modes")
     _finite(path, a)
     w = a["omega2"]
     if np.any(np.diff(w) < 0):
         _fail(path, "omega2", f"not ascending at entry {int(np.flatnonzero(np.diff(w) < 0)[0]) + 1}")
 
 
+#: Attributes a modes file copies from its linear file that must agree with the linear file
+#: it names (floats to 1e-12 relative).
+MATCHING_ATTRS = ("dim", "n_dof", "pressure", "friction", "poisson", "height", "seed", "kind",
+                  "prestress", "n_rattlers")
+
+
+def modes_match_linear(modes, system) -> str | None:
+    """Why ``system`` (a LinearSystem) is not the one ``modes`` were computed from, or None.
+
+    The digest ``linear_digest`` decides where the modes record one; sizes (eigenvector
+    rows = dofs, no more modes than dofs) and the sample attributes of MATCHING_ATTRS
+    always count (files written before the digest, and a digest collision nobody made).
+    """
+    n = system.n_dof
+    if modes.vectors is not None and modes.vectors.shape[0] != n:
+        return f"has {n} dofs, the eigenvectors {modes.vectors.shape[0]}"
+    if len(modes.omega2) > n:
+        return f"has {n} dofs, fewer than the {len(modes.omega2)} modes"
+    for key in MATCHING_ATTRS:
+        a, b = modes.attrs.get(key), system.attrs.get(key)
+        if a is None or b is None:
+            continue
+        if isinstance(a, float) or isinstance(b, float):
+            try:
+                same = math.isclose(float(a), float(b), rel_tol=1e-12)
+            except (TypeError, ValueError):
+                same = False
+        else:
+            same = a == b
+        if not same:
+            return f"has {key} = {b!r}, the modes {a!r}"
+    want, got = modes.attrs.get("linear_digest"), system.attrs.get("linear_digest")
+    if isinstance(want, str) and want and want != "none" and got is not None and want != got:
+        return f"is not the system the modes were computed from (linear_digest {got}, the modes {want})"
+    return None
+
+
+#: Attributes of a packing that a linear, modes or signal file made from it carries
+#: (under the same name, except the seed: ``packing_seed`` where present).
+PACKING_ATTRS = ("dim", "pressure", "friction", "poisson", "kind", "n_grains")
+
+
+def belongs_to_packing(obj, packing) -> str | None:
+    """Why ``obj`` (a LinearSystem, Modes or Signal with its attrs) was not made from
+    ``packing``, or None: the recorded ``packing_digest`` where both have one; the grain
+    indices of its dof map within the packing's grains; stored reference positions equal to
+    the packing's; the sample attributes PACKING_ATTRS and the seed."""
+    want, got = obj.attrs.get("packing_digest"), packing.attrs.get("packing_digest")
+    if isinstance(want, str) and want not in ("", "none") and got is not None and want != got:
+        return f"was made from another packing (packing_digest {want}, the packing's {got})"
+    n = packing.n_grains
+    grains = getattr(obj, "dof_grain", None)
+    if grains is not None and len(grains) and int(np.max(grains)) >= n:
+        return f"refers to grain {int(np.max(grains))}, the packing has {n} grains"
+    position = getattr(obj, "position", None)
+    if position is not None:
+        if position.shape != packing.position.shape:
+            return f"stores positions of shape {position.shape}, the packing's are {packing.position.shape}"
+        if not np.allclose(position, packing.position, rtol=1e-9, atol=1e-12):
+            return "stores other grain positions than the packing's"
+    seed = obj.attrs.get("packing_seed", obj.attrs.get("seed"))
+    pairs = [(key, obj.attrs.get(key), packing.n_grains if key == "n_grains" else packing.attrs.get(key))
+             for key in PACKING_ATTRS]
+    pairs.append(("seed", seed, packing.attrs.get("seed")))
+    pairs.append(("height", obj.attrs.get("height"), float(packing.box[-1])))  # wall to wall
+    for key, a, b in pairs:
+        if a is None or b is None or a == "none" or b == "none":
+            continue
+        if isinstance(a, float) or isinstance(b, float):
+            try:
+                same = math.isclose(float(a), float(b), rel_tol=1e-12)
+            except (TypeError, ValueError):
+                same = False
+        else:
+            same = a == b
+        if not same:
+            return f"has {key} = {a!r}, the packing {b!r}"
+    return None
+
+
+def same_packing(path, obj, packing_path, packing) -> None:
+    """InputError unless ``obj`` (read from ``path``) was made from ``packing``."""
+    why = belongs_to_packing(obj, packing)
+    if why is not None:
+        _fail(path, "", f"{why}: it does not belong to {packing_path}; give the packing it was "
+                        "computed from")
+
+
+def same_system(path, modes, linear_path, system) -> None:
+    """InputError unless ``modes`` (read from ``path``) are those of ``system``."""
+    why = modes_match_linear(modes, system)
+    if why is not None:
+        _fail(path, "", f"{linear_path} {why}: give the linear file these modes were computed from")
+
+
 # ---------------------------------------------------------------- signal
 def signal(path, a: dict, attrs: dict) -> None:
-    """Invariants of a signal file: finite values, increasing sample times, snapshot
+    """Invariants of a signal file: finite values, a regular increasing time axis, snapshot
     times >= 0 (in the order asked for, not necessarily sorted), dof map >= 0."""
     material_attrs(path, attrs)
     _finite(path, a)
-    if np.any(np.diff(a["signal/time"]) <= 0):
-        _fail(path, "signal/time", "times must increase")
+    time_axis(path, "signal/time", a["signal/time"])
     for name in ("snapshots/time", "snapshots/dof_grain", "snapshots/dof_axis"):
         if a.get(name) is not None:
             _non_negative(path, name, a[name])
+
+
+# ---------------------------------------------------------------- ensemble
+def ensemble(path, a: dict, attrs: dict) -> None:
+    """Invariants of an ensemble file: finite values, a regular increasing time axis, rms >= 0."""
+    _finite(path, a)
+    time_axis(path, "ensemble/time", a["ensemble/time"])
+    _non_negative(path, "ensemble/rms", a["ensemble/rms"])

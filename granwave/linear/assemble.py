@@ -107,7 +107,8 @@ SHIFT_INVERT_MAX_DOF = 200_000
 #: Seconds between progress lines of the check.
 PROGRESS_SECONDS = 5.0
 
-_COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains")
+_COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains",
+                 "packing_digest")  # the identity of the packing (granwave.io.files.packing_digest)
 
 
 def expected_zero_modes(dim: int, friction: float) -> int:

@@ -48,7 +48,8 @@ DEFAULT_SAFETY = 0.1
 
 #: Attributes carried from the linear / modes file into the signal file.
 CARRIED_ATTRS = (*SAMPLE_ATTRS, "prestress", "n_dof", "n_rattlers", "packing_seed", "packing_source",
-                 "packing_git_revision", "n_zero_modes", "linear_source", "modes_source")
+                 "packing_git_revision", "n_zero_modes", "linear_source", "modes_source",
+                 "packing_digest", "linear_digest")
 
 
 def sample_times(t_max: float, samples: int) -> np.ndarray:
@@ -434,7 +435,12 @@ def stable_time_step(system: LinearSystem, *, safety: float = DEFAULT_SAFETY) ->
     # omega^2_max, so 1.02 x it bounds omega^2_max from above. Measured on a 3e5-dof
     # lattice: tol 1e-2 takes 1.5 s and is 0.3% low; tol 1e-4 takes 88 s; the
     # Gershgorin bound is instant but 40% high (a 20% smaller step).
-    wmax = math.sqrt(1.02 * omega2_max((sp.diags(s) @ D @ sp.diags(s)).tocsr(), tol=1e-2))
+    w2 = omega2_max((sp.diags(s) @ D @ sp.diags(s)).tocsr(), tol=1e-2)
+    if not w2 > 0:
+        raise InputError(f"D has no positive eigenvalue (largest omega^2 = {w2:.3g}): no mode "
+                         "oscillates, so velocity Verlet has no stable time step (a negative-"
+                         "definite or zero stiffness matrix is not a packing's)")
+    wmax = math.sqrt(1.02 * w2)
     return safety * 2.0 / wmax, wmax
 
 
