@@ -262,6 +262,14 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                 "packing": "a packing file (granwave.packing): linearize it first, or use --method dem"}
         raise InputError(f"cannot run --method {method} on {what[kind]}")
     p.check_method(method)
+    if p.source_kind != "normal":  # the kick's source and detector in the places of the normal ones
+        if kind == "packing":
+            if source.friction == 0.0:
+                from .model import no_shear_message
+
+                raise InputError(no_shear_message(source.attrs))
+        else:
+            source = source.for_source(p.source_kind)
     device = check_device(device)
     if device != "cpu" and method not in ("time", "dem"):
         raise InputError(f"--device {device}: --method {method} runs on the CPU only; use --device "
@@ -302,12 +310,14 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
 
         sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
                             amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
-                            damping=p.damping or 0.0, progress=progress, device=device)
+                            damping=p.damping or 0.0, progress=progress, device=device,
+                            source_kind=p.source_kind)
         omega_max = _dem_omega_max(source)
     if reason is not None:
         sig.attrs.update(method_requested="auto", method_reason=reason)
     if device != "cpu":
         sig.attrs["device"] = device
+    sig.attrs["source_kind"] = p.source_kind
     p.record(sig.attrs)
     if omega_max > 0:
         _check_band(sig, omega_max)

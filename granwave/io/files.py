@@ -580,7 +580,8 @@ def read_packing(path) -> Packing:
 def write_linear(path, system: LinearSystem) -> None:
     D = sp.csr_matrix(system.stiffness)
     size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
-                   system.source_displacement, system.detector)
+                   system.source_displacement, system.detector, system.shear_source_velocity,
+                   system.shear_detector)
     with atomic_h5(path, S.LINEAR, system.attrs, nbytes=size) as f:
         put(f, S.LINEAR, "matrix/data", D.data)
         put(f, S.LINEAR, "matrix/indices", D.indices.astype(np.int64))
@@ -592,6 +593,9 @@ def write_linear(path, system: LinearSystem) -> None:
         put(f, S.LINEAR, "source/velocity", system.source_velocity)
         put(f, S.LINEAR, "source/displacement", system.source_displacement)
         put(f, S.LINEAR, "detector", system.detector)
+        if system.shear_source_velocity is not None:
+            put(f, S.LINEAR, "shear/source_velocity", system.shear_source_velocity)
+            put(f, S.LINEAR, "shear/detector", system.shear_detector)
 
 
 def read_linear(path) -> LinearSystem:
@@ -609,18 +613,23 @@ def read_linear(path) -> LinearSystem:
         stiffness=D, mass=a["mass"], dof_grain=a["dof/grain"], dof_axis=a["dof/axis"],
         source_velocity=a["source/velocity"], source_displacement=a["source/displacement"],
         detector=a["detector"], attrs=attrs,
+        shear_source_velocity=a.get("shear/source_velocity"), shear_detector=a.get("shear/detector"),
     )
 
 
 # ---------------------------------------------------------------- modes
 def write_modes(path, modes: Modes) -> None:
-    size = _nbytes(modes.omega2, modes.amplitude_A, modes.amplitude_B, modes.coupling, modes.vectors)
+    size = _nbytes(modes.omega2, modes.amplitude_A, modes.amplitude_B, modes.coupling, modes.vectors,
+                   modes.shear_amplitude_A, modes.shear_coupling)
     with atomic_h5(path, S.MODES, {**modes.attrs, "has_vectors": modes.vectors is not None},
                    nbytes=size) as f:
         put(f, S.MODES, "omega2", modes.omega2)
         put(f, S.MODES, "amplitude_A", modes.amplitude_A)
         put(f, S.MODES, "amplitude_B", modes.amplitude_B)
         put(f, S.MODES, "coupling", modes.coupling)
+        if modes.shear_amplitude_A is not None:
+            put(f, S.MODES, "shear/amplitude_A", modes.shear_amplitude_A)
+            put(f, S.MODES, "shear/coupling", modes.shear_coupling)
         if modes.vectors is not None:
             put(f, S.MODES, "vectors", modes.vectors)
 
@@ -634,7 +643,8 @@ def read_modes(path, *, vectors: bool = False) -> Modes:
         attrs = read_attrs(f)
     V.modes(path, a, attrs)
     return Modes(omega2=a["omega2"], amplitude_A=a["amplitude_A"], amplitude_B=a["amplitude_B"],
-                 coupling=a["coupling"], vectors=a.get("vectors"), attrs=attrs)
+                 coupling=a["coupling"], vectors=a.get("vectors"), attrs=attrs,
+                 shear_amplitude_A=a.get("shear/amplitude_A"), shear_coupling=a.get("shear/coupling"))
 
 
 # ---------------------------------------------------------------- signal
@@ -666,6 +676,7 @@ def read_signal(path) -> Signal:
         a = _read_all(f, path, S.SIGNAL)
         attrs = read_attrs(f)
     V.signal(path, a, attrs)
+    attrs.setdefault("source_kind", "normal")  # files before 1.2 hold the normal kick only
     sig = Signal(time=a["signal/time"], force=a["signal/force"], attrs=attrs)
     if "snapshots/time" in a:
         sig.snapshot_time = a["snapshots/time"]
