@@ -174,3 +174,33 @@ def test_cli(tmp_path):
         r = run(main, ["propagate", *args, "--source", "shear", "--t-max", "10", "-o", str(out)])
         assert r.exit_code == 2 and msg in r.output and len(r.output.strip().splitlines()) == 1, r.output
         assert not out.exists()
+
+
+def test_analyze_front_shear_si(tmp_path):
+    """analyze front on a shear signal: every pick, c_t from --moduli, SI speeds for a material
+    (glass: sqrt(E*/rho) = 5.16 km/s as docs/units.md), G_max = Phi3* rho V_s^2."""
+    from granwave.units import material_scales
+
+    assert material_scales("glass", 1e-3)["speed"] == pytest.approx(5160, rel=2e-3)
+    run = CliRunner().invoke
+    lat = tmp_path / "lat.h5"
+    run(main, ["lattice", "--rows", "8", "--width", "4", "--pressure", "1e-5", "--friction", "0.5", "-o", str(lat)])
+    run(main, ["linearize", str(lat), "-o", str(tmp_path / "lin.h5")])
+    r = run(main, ["propagate", str(tmp_path / "lin.h5"), "--source", "shear", "--method", "modal",
+                   "--t-max", "600", "--samples", "3001", "-o", str(tmp_path / "s.h5")])
+    assert r.exit_code == 0, r.output
+    moduli = {"dim": 2, "c_t": theory.lattice_shear_speed(P_LAT), "phi3_star": 0.6, "C33": 0.011}
+    (tmp_path / "m.json").write_text(json.dumps(moduli))
+    r = run(main, ["analyze", "front", str(tmp_path / "s.h5"), "--moduli", str(tmp_path / "m.json"),
+                   "--pulse", "ricker", "--units", "si", "--material", "quartz", "--diameter", "0.2", "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    assert set(out["picks"]) == {"first_deflection", "edge10", "peak_to_peak", "cross_correlation", "phase",
+                                 "impulse_edge10", "impulse_peak"}
+    assert out["picks"]["first_deflection"]["ratio"] == pytest.approx(0.98, abs=0.05)  # docs/shear.md table
+    sc = material_scales("quartz", 0.2e-3)
+    vs = out["si"]["first_deflection_Vs_m_s"]
+    assert vs == pytest.approx(out["picks"]["first_deflection"]["speed"] * sc["speed"], rel=1e-12)
+    assert out["si"]["first_deflection_Gmax_MPa"] == pytest.approx(0.6 * 2650 * vs**2 / 1e6, rel=1e-12)
+    r = run(main, ["analyze", "front", str(tmp_path / "s.h5")])
+    assert r.exit_code == 2 and "--frequency" in r.output

@@ -20,8 +20,9 @@ Every travel time is a pick on the received F_w minus the same pick on w itself:
   of the received first peak's amplitude (source: the same fraction of its own first peak);
 * ``edge10``: the 10 % leading edges, ``peak_to_peak``: the first peaks, both by the
   first-pulse rule of :mod:`granwave.analysis.front` (the same rule as the compressional kick);
-* ``cross_correlation``: the lag τ ≥ 0 at which Σ F_w(t) w(t − τ) is largest (times the
-  polarity of the received first peak), refined by a parabola;
+* ``cross_correlation``: the lag τ at which Σ F_w(t) w(t − τ) is largest (times the
+  polarity of the received first peak), over 0 ≤ τ ≤ twice the received first peak's
+  time (before the first echo), refined by a parabola;
 * ``phase``: the phase velocity of the band [``band`` × f]: the transfer function
   H(ω) = FT[F_A] on a window ending at twice the cross-correlation arrival (before the
   first reflection, which comes at three times it; a cosine taper over the last quarter),
@@ -96,11 +97,14 @@ def _first_deflection(t, y, fraction) -> float:
     return float(t[k - 1] + (level - a0) * (t[k] - t[k - 1]) / (a1 - a0)) if a1 != a0 else float(t[k])
 
 
-def _xcorr_lag(t, y, w, polarity) -> float:
+def _xcorr_lag(t, y, w, polarity, t_last) -> float:
+    """Lag of the largest cross-correlation over lags 0 .. ``t_last`` (before the first echo)."""
     dt = t[1] - t[0]
     n = len(y)
     size = 1 << int(math.ceil(math.log2(2 * n)))
     xc = np.fft.irfft(np.fft.rfft(polarity * y, size) * np.conj(np.fft.rfft(w, size)), size)[:n]
+    xc = xc[: max(3, min(n, int(t_last / dt) + 1))]
+    n = len(xc)
     k = int(np.argmax(xc))
     if 0 < k < n - 1:
         tv, _ = _parabola_vertex(t[k - 1:k + 2], xc[k - 1:k + 2])
@@ -171,8 +175,10 @@ def shear_picks(time, force, *, height: float, frequency: float, pulse: str = "s
     attempt("peak_to_peak", lambda: front_features(t, y).t_peak - src.t_peak)
 
     def xc():
-        pol = front_features(t, y).polarity
-        return _xcorr_lag(t, y, w, pol)
+        feat = front_features(t, y)
+        # lags up to twice the received first peak's time: past the direct arrival, before
+        # the first echo (three times it)
+        return _xcorr_lag(t, y, w, feat.polarity, 2.0 * feat.t_peak)
 
     attempt("cross_correlation", xc)
     phase_std = math.nan
