@@ -318,6 +318,14 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                 "packing": "a packing file (granwave.packing): linearize it first, or use --method dem"}
         raise InputError(f"cannot run --method {method} on {what[kind]}")
     p.check_method(method)
+    if p.source_kind != "normal":  # the kick's source and detector in the places of the normal ones
+        if kind == "packing":
+            if source.friction == 0.0:
+                from .model import no_shear_message
+
+                raise InputError(no_shear_message(source.attrs))
+        else:
+            source = source.for_source(p.source_kind)
     device = check_device(device)
     if device != "cpu" and method not in ("time", "dem"):
         raise InputError(f"--device {device}: --method {method} runs on the CPU only; use --device "
@@ -365,12 +373,14 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
 
         sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
                             amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
-                            damping=p.damping or 0.0, progress=progress, device=device)
+                            damping=p.damping or 0.0, progress=progress, device=device,
+                            source_kind=p.source_kind)
         omega_max = _dem_omega_max(source)
     if reason is not None:
         sig.attrs.update(method_requested="auto", method_reason=reason)
     if device != "cpu":
         sig.attrs["device"] = device
+    sig.attrs["source_kind"] = p.source_kind
     p.record(sig.attrs)
     if omega_max > 0:
         _check_band(sig, omega_max)
@@ -429,6 +439,61 @@ def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dic
         if key in signal.attrs:
             out[key] = signal.attrs[key]
     out.update(rise=d["rise"], **p.as_dict())
+    return out
+
+
+def shear_front(signal: Signal, *, moduli: dict | None = None, frequency: float | None = None,
+                wavelength: float = 8.0, pulse: str = "sine", band=(0.5, 1.5),
+                deflection_fraction: float = 0.02, units: str = "reduced", material: str = "glass",
+                diameter: float = 1e-3) -> dict:
+    """Arrival picks of a shear signal (granwave.analysis.shear; docs/shear.md).
+
+    ``moduli``: ``analyze moduli`` output of the same packing (gives c_t, Phi3* and the
+    shear modulus); ``frequency`` of the source pulse (1/time), default c_t / ``wavelength``
+    (d). ``units`` "si": V_s (m/s) of every pick, G_max = Phi3* rho V_s^2 (MPa) and the
+    moduli's G (MPa), travel times (us) and the frequency (kHz) for ``material`` and the
+    mean grain ``diameter`` (m) (granwave.units.MATERIALS).
+    """
+    from .analysis.shear import shear_picks
+    from .units import material_scales
+
+    c_t = phi = g_mod = None
+    if moduli is not None:
+        c_t = moduli.get("c_t")
+        phi = moduli.get("phi3_star")
+        dim = int(moduli.get("dim", 2))
+        g_mod = moduli.get("C33") if dim == 2 else (0.5 * (moduli["C44"] + moduli["C55"])
+                                                    if "C44" in moduli and "C55" in moduli else None)
+        if c_t is None or not math.isfinite(float(c_t)):
+            raise InputError("the moduli give no finite c_t")
+        c_t = float(c_t)
+    if frequency is None:
+        if c_t is None:
+            raise InputError("give the source pulse's --frequency, or --moduli (then f = c_t / --wavelength)")
+        if not wavelength > 0:
+            raise InputError(f"wavelength must be positive (got {wavelength})")
+        frequency = c_t / wavelength
+    out = shear_picks(signal.time, signal.force, height=float(signal.attrs["height"]), frequency=frequency,
+                      pulse=pulse, c_t=c_t, deflection_fraction=deflection_fraction, band=band)
+    out["phi3_star"] = float(phi) if phi is not None else math.nan
+    out["G"] = float(g_mod) if g_mod is not None else math.nan
+    for key in ("ic", "method", "pressure", "source_kind"):
+        if key in signal.attrs:
+            out[key] = signal.attrs[key]
+    if units == "si":
+        sc = material_scales(material, diameter)
+        si = {"material": material, "diameter_mm": diameter * 1e3, "E_star_GPa": sc["E_star"] / 1e9,
+              "density": sc["rho"], "frequency_kHz": frequency / sc["time"] / 1e3,
+              "c_t_m_s": (c_t * sc["speed"]) if c_t else math.nan,
+              "G_moduli_MPa": out["G"] * sc["E_star"] / 1e6}
+        for name, pk in out["picks"].items():
+            vs = pk["speed"] * sc["speed"]
+            si[f"{name}_Vs_m_s"] = vs
+            si[f"{name}_time_us"] = pk["time"] * sc["time"] * 1e6
+            si[f"{name}_Gmax_MPa"] = out["phi3_star"] * sc["rho"] * vs * vs / 1e6
+        out["si"] = si
+    elif units != "reduced":
+        raise InputError(f"units must be reduced or si (got {units!r})")
     return out
 
 

@@ -6,12 +6,32 @@ turns them into HDF5 files and back. Units are those of docs/method.md §1.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
 
+from .errors import InputError
 from .io.schema import BOTTOM_WALL, TOP_WALL
+
+#: The kicks of ``propagate --source`` (docs/method.md §8): the bottom wall moved along the
+#: vertical (compressional, the default) or along x (shear); the detector reads the top wall's
+#: force along the same direction.
+SOURCE_KINDS = ("normal", "shear")
+
+
+def check_source_kind(kind: str) -> str:
+    kind = str(kind).lower()
+    if kind not in SOURCE_KINDS:
+        raise InputError(f"source must be one of {', '.join(SOURCE_KINDS)} (got {kind!r})")
+    return kind
+
+
+def no_shear_message(attrs: dict) -> str:
+    """The one line that refuses a shear kick on a frictionless system."""
+    return (f"no shear source: the packing is frictionless (friction = {float(attrs.get('friction', 0.0)):g}), "
+            "so its wall contacts have no tangential stiffness and a wall moved along x does not "
+            "couple to the grains; use a frictional packing")
 
 
 @dataclass
@@ -113,10 +133,27 @@ class LinearSystem:
     source_displacement: np.ndarray  # IC B initial displacement (n,)
     detector: np.ndarray  # F_sig = detector @ u (n,)
     attrs: dict = field(default_factory=dict)
+    # The shear kick (docs/method.md §8, "Shear source"): bottom wall moved along x, the top
+    # wall's force along x; None for a frictionless packing (no tangential wall coupling).
+    shear_source_velocity: np.ndarray | None = None  # IC A initial velocity (n,)
+    shear_detector: np.ndarray | None = None  # F_sig = shear_detector @ u (n,)
 
     @property
     def n_dof(self) -> int:
         return int(self.mass.shape[0])
+
+    def for_source(self, kind: str) -> "LinearSystem":
+        """This system with the source and detector of ``kind`` ("normal" or "shear") in the
+        places of the normal ones, ``attrs['source_kind']`` set. The shear kick has initial
+        condition A only (``source_displacement`` is NaN) and needs friction."""
+        kind = check_source_kind(kind)
+        if kind == "normal":
+            return replace(self, attrs={**self.attrs, "source_kind": kind})
+        if self.shear_source_velocity is None or self.shear_detector is None:
+            raise InputError(no_shear_message(self.attrs))
+        return replace(self, source_velocity=self.shear_source_velocity,
+                       source_displacement=np.full(self.n_dof, np.nan), detector=self.shear_detector,
+                       attrs={**self.attrs, "source_kind": kind})
 
     @property
     def height(self) -> float:
@@ -133,6 +170,24 @@ class Modes:
     coupling: np.ndarray  # b_n (n,)
     vectors: np.ndarray | None = None  # (n, n) columns, M-orthonormal, optional
     attrs: dict = field(default_factory=dict)
+    shear_amplitude_A: np.ndarray | None = None  # a_n of the shear kick (IC A) (n,)
+    shear_coupling: np.ndarray | None = None  # b_n = shear_detector . phi_n (n,)
+
+    def for_source(self, kind: str) -> "Modes":
+        """These modes with the projections of ``kind`` ("normal" or "shear") in the places of
+        the normal ones (as :meth:`LinearSystem.for_source`)."""
+        kind = check_source_kind(kind)
+        if kind == "normal":
+            return replace(self, attrs={**self.attrs, "source_kind": kind})
+        if self.shear_amplitude_A is None or self.shear_coupling is None:
+            if float(self.attrs.get("friction", 0.0)) == 0.0:
+                raise InputError(no_shear_message(self.attrs))
+            raise InputError("these modes hold no shear projections (a modes file from before the "
+                             "shear kick): run eigensolve again on the linear file")
+        return replace(self, amplitude_A=self.shear_amplitude_A,
+                       amplitude_B=np.full(len(self.omega2), np.nan), coupling=self.shear_coupling,
+                       attrs={**self.attrs, "source_kind": kind,
+                              "zero_mode_drift_A": self.attrs.get("shear_zero_mode_drift_A", 0.0)})
 
     @property
     def height(self) -> float:

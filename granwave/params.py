@@ -388,6 +388,11 @@ class PropagateParams(Params):
 
     ic: str = param("A", help="Initial condition: A = impulse on the grains touching the bottom "
                     "wall, B = their displacement (docs/conventions.md).", choices=("A", "B"))
+    source_kind: str = param("normal", help="The kick: normal = bottom wall moved along the "
+                             "vertical, signal = the top wall's vertical force; shear = bottom wall "
+                             "moved along x (needs friction; initial condition A), signal = the top "
+                             "wall's force along x (docs/shear.md).", choices=("normal", "shear"),
+                             cli="--source")
     t_max: float = param(help="Length of the signal (the crossing time is height / c).",
                          units="d/sqrt(E*/rho)", lo=0.0, lo_open=True, cli="--t-max")
     method: str | None = param(None, help="modal (needs a modes file, or eigensolves a linear file "
@@ -420,6 +425,7 @@ class PropagateParams(Params):
 
     def __post_init__(self):
         object.__setattr__(self, "ic", str(self.ic).upper())
+        object.__setattr__(self, "source_kind", str(self.source_kind).lower())
         if self.snapshots is not None:
             try:
                 if isinstance(self.snapshots, (str, bytes)) or any(isinstance(t, bool) for t in self.snapshots):
@@ -432,6 +438,9 @@ class PropagateParams(Params):
 
     def _cross_check(self):
         self.check_method(self.method)
+        if self.source_kind == "shear" and self.ic != "A":
+            raise InputError("--source shear has initial condition A only (an impulse: the wall's "
+                             "displacement has no unique shape once rotations take part); use --ic A")
         if self.snapshots is not None and not all(math.isfinite(t) and 0 <= t <= self.t_max
                                                   for t in self.snapshots):
             raise InputError(f"snapshot times must lie in [0, t_max = {self.t_max:g}]")
@@ -552,6 +561,7 @@ class SpectrumParams(Params):
 
     def __post_init__(self):
         object.__setattr__(self, "ic", str(self.ic).upper())
+        object.__setattr__(self, "source_kind", str(self.source_kind).lower())
         super().__post_init__()
 
 

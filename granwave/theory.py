@@ -58,6 +58,37 @@ walls, under vertical stress p. Rows map to a chain with spacing √3/2, mass
 force p/√3, which gives c = 3^{19/12} / (2^{3/2} π^{1/2}) p^{1/6}
 (× sqrt(1 + η/3) with friction), to leading order in p (the overlaps shorten
 the spacing by a relative O(p^{2/3})).
+
+Transverse waves of the frictional lattice (docs/method.md §12, "Shear")
+-----------------------------------------------------------------------
+Rows moving along x (u_j) with rotations θ_j, uniform along each row. Per
+ball (arm a = 1/2, row spacing h = √3/2, s = sin 60° = √3/2) the energy is
+
+    E = ½ k_t (2aθ_j)²                                 (in-row contact: the two
+                                                         contact points slide by 2aθ)
+      + 2 × ½ k_n (δu/2)²                              (two inclined contacts, normal part)
+      + 2 × ½ k_t (s δu + a(θ_j + θ_j+1))²            (their tangential part)
+
+with δu = u_{j+1} − u_j. A plane wave (U, Θ) e^{i j q}, q = k h, gives the
+2×2 dynamical matrix per ball
+
+    D_uu = (k_n + 3 k_t)(1 − cos q),   D_θθ = 4 k_t a² (2 + cos q),
+    D_uθ = −4 i k_t s a sin q,          det(D − ω² diag(m, I)) = 0.
+
+The rotations do not follow the translations for free: at long wavelength
+(q → 0) the rotation is slaved, Θ = −(2 s/3a) · (iq U/2)… i.e. minimizing E over a
+uniform θ at uniform strain gives 2aθ = −(2s/3) δu, and the effective row
+stiffness per ball drops from (k_n + 3k_t)/2 (rotations held) to
+
+    K_T = (k_n + k_t)/2,   c_t = h sqrt(K_T/m) = c_ℓ0 sqrt((1 + η)/3),
+
+c_ℓ0 the frictionless longitudinal speed above (c_t/c_ℓ = sqrt((1+η)/(3+η))
+with friction: 1/√2 at η = 1). The acoustic branch is *anomalous*: as q grows
+the rotations lag and the branch stiffens towards the rotations-held value,
+so its group velocity exceeds c_t at finite q (up to ≈ 1.3 c_t for η = 1):
+an impulsive shear kick sends a dispersive precursor ahead of the
+long-wavelength front, which only a band-limited pulse (docs/shear.md)
+resolves.
 """
 
 from __future__ import annotations
@@ -185,3 +216,35 @@ def lattice_speed(pressure, *, friction: bool = False, poisson: float = 0.0):
     if friction:
         c = c * np.sqrt(1.0 + contact.stiffness_ratio(poisson) / 3.0)
     return c if c.ndim else float(c)
+
+
+def lattice_shear_speed(pressure, *, poisson: float = 0.0):
+    """Long-wavelength transverse speed across the rows of the frictional triangular lattice
+    (polarization along the rows, rotations relaxed; module docstring), units sqrt(E*/ρ).
+
+    c_t = 3^{19/12} / (2^{3/2} π^{1/2}) (p/E*)^{1/6} sqrt((1 + η)/3), η = k_t/k_n
+    (:func:`granwave.contact.stiffness_ratio`). Leading order in p. A frictionless
+    lattice has no shear stiffness across its rows beyond k_n's (η = 0 here) and no
+    tangential wall coupling at all.
+    """
+    c = lattice_speed(pressure, friction=False, poisson=poisson)
+    return c * np.sqrt((1.0 + contact.stiffness_ratio(poisson)) / 3.0)
+
+
+def lattice_transverse_branches(q, *, kn: float, kt: float, mass: float = np.pi / 6,
+                                inertia: float = np.pi / 60, arm: float = 0.5):
+    """(ω_acoustic, ω_optical) of x-polarized, row-uniform waves across the lattice rows at the
+    reduced wavenumbers ``q`` = k h (module docstring: the 2×2 dynamical matrix per ball)."""
+    q = np.asarray(q, float)
+    s = np.sqrt(3.0) / 2.0
+    duu = (kn + 3.0 * kt) * (1.0 - np.cos(q))
+    dtt = 4.0 * kt * arm**2 * (2.0 + np.cos(q))
+    duq2 = (4.0 * kt * s * arm * np.sin(q)) ** 2
+    # det = (duu - m w2)(dtt - I w2) - |duq|^2 = 0
+    a = mass * inertia
+    b = -(duu * inertia + dtt * mass)
+    c = duu * dtt - duq2
+    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+    low = 2.0 * c / (-b + root)  # the small root without cancellation
+    high = (-b + root) / (2.0 * a)
+    return np.sqrt(np.maximum(low, 0.0)), np.sqrt(high)

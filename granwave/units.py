@@ -77,3 +77,31 @@ def registry(*, diameter: str | None = None, density: str | None = None, modulus
     ureg.define(f"E_star = {modulus} = Estar")
     ureg.define("t_bar = d_bar * (rho / E_star) ** 0.5 = tbar")
     return ureg
+
+
+#: Grain materials for ``analyze front --units si`` (docs/units.md): Young's modulus, Poisson
+#: ratio, density. Glass and steel as docs/units.md's table; quartz (alpha-quartz sand grains,
+#: isotropic average) E = 95 GPa, nu = 0.08, rho = 2650 kg/m^3 (suppliers and sands vary:
+#: recompute with your own).
+MATERIALS = {
+    "glass": {"E": 63e9, "nu": 0.23, "rho": 2500.0},
+    "quartz": {"E": 95e9, "nu": 0.08, "rho": 2650.0},
+    "steel": {"E": 210e9, "nu": 0.29, "rho": 7850.0},
+}
+
+
+def material_scales(material: str, diameter_m: float) -> dict:
+    """SI values of granwave's units for a material of :data:`MATERIALS` and a mean grain
+    diameter (m): modulus E* = E/(1 - nu^2) (Pa), speed sqrt(E*/rho) (m/s), time
+    d/sqrt(E*/rho) (s), density rho (kg/m^3)."""
+    from .errors import InputError
+
+    if material not in MATERIALS:
+        raise InputError(f"material must be one of {', '.join(MATERIALS)} (got {material!r})")
+    if not (diameter_m > 0):
+        raise InputError(f"grain diameter must be positive (got {diameter_m} m)")
+    m = MATERIALS[material]
+    e_star = m["E"] / (1.0 - m["nu"] ** 2)
+    speed = (e_star / m["rho"]) ** 0.5
+    return {"material": material, **m, "E_star": e_star, "speed": speed, "time": diameter_m / speed,
+            "diameter": diameter_m}

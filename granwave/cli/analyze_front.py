@@ -11,8 +11,24 @@ from .common import echo_result, options_from, params_from, stage
 @click.command()
 @click.argument("signal", type=click.Path(dir_okay=False))
 @options_from(FrontParams, json=True)
+@click.option("--moduli", "moduli_path", type=click.Path(dir_okay=False), default=None,
+              help="Shear signals: `granwave analyze moduli --json` output of the same packing "
+                   "(c_t, Phi3*, the shear modulus); the picks' speeds are divided by its c_t.")
+@click.option("--pulse", type=click.Choice(["sine", "ricker"]), default="sine", show_default=True,
+              help="Shear signals: the source pulse the impulse signal is convolved with.")
+@click.option("--frequency", type=float, default=None,
+              help="Shear signals: the pulse's frequency [1/(d/sqrt(E*/rho))]; default c_t / --wavelength.")
+@click.option("--wavelength", type=float, default=8.0, show_default=True,
+              help="Shear signals: the pulse's wavelength c_t / f in diameters (with --moduli).")
+@click.option("--units", type=click.Choice(["reduced", "si"]), default="reduced", show_default=True,
+              help="Shear signals: si adds V_s (m/s), G_max (MPa), times (us) for --material.")
+@click.option("--material", type=click.Choice(["glass", "quartz", "steel"]), default="glass",
+              show_default=True, help="Grain material for --units si (granwave.units.MATERIALS).")
+@click.option("--diameter", type=float, default=1.0, show_default=True,
+              help="Mean grain diameter in mm for --units si (times and frequencies scale with it).")
 @stage
-def front(signal, as_json, **options):
+def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, material, diameter,
+          **options):
     """Leading edge, first peak, zero crossing and width of a signal's first pulse.
 
     SIGNAL is a granwave.signal file (from `granwave propagate`). Printed:
@@ -27,10 +43,52 @@ def front(signal, as_json, **options):
     lobes under --noise-fraction of max|F| are ignored (docs/front.md).
     A signal whose first pulse does not reach its peak or does not cross
     zero inside the record is refused.
+
+    A shear signal (propagate --source shear) gets the bender-element picks
+    instead: first deflection, 10% edge, peak-to-peak, cross-correlation and
+    band phase velocity of the signal a --pulse of --frequency would give,
+    and the impulse's own edge and peak; speeds L/t and their ratio to the
+    --moduli file's c_t; --units si for V_s and G_max (docs/shear.md).
     """
     from .. import api
     from ..io.files import read_signal
 
     params = params_from(FrontParams, options)
-    out = api.front(read_signal(signal), params)
-    echo_result(out, as_json, title=f"front of {signal}")
+    sig = read_signal(signal)
+    if sig.attrs.get("source_kind", "normal") != "shear":
+        out = api.front(sig, params)
+        echo_result(out, as_json, title=f"front of {signal}")
+        return
+    import json
+
+    from ..errors import InputError
+
+    moduli = None
+    if moduli_path is not None:
+        try:
+            with open(moduli_path) as f:
+                moduli = json.load(f)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{moduli_path}: not a moduli JSON file ({exc})") from None
+        if not isinstance(moduli, dict) or "c_t" not in moduli:
+            raise InputError(f"{moduli_path}: no c_t (expected `granwave analyze moduli --json` output)")
+    out = api.shear_front(sig, moduli=moduli, frequency=frequency, wavelength=wavelength, pulse=pulse,
+                          units=units, material=material, diameter=diameter * 1e-3)
+    if as_json:
+        echo_result(out, True, title="")
+        return
+    click.echo(f"shear arrival picks of {signal}: L = {out['height']:.4g} d, {pulse} pulse f = "
+               f"{out['frequency']:.4g}, c_t = {out['c_t']:.4g}")
+    si = out.get("si")
+    head = f"  {'pick':<18} {'time':>10} {'speed':>10} {'speed/c_t':>10}"
+    click.echo(head + (f" {'Vs m/s':>9} {'Gmax MPa':>10}" if si else ""))
+    for name, pk in out["picks"].items():
+        line = f"  {name:<18} {pk['time']:10.4g} {pk['speed']:10.4g} {pk['ratio']:10.4g}"
+        if si:
+            line += f" {si[name + '_Vs_m_s']:9.4g} {si[name + '_Gmax_MPa']:10.4g}"
+        click.echo(line)
+    if si:
+        click.echo(f"  {material}, d = {diameter:g} mm: c_t = {si['c_t_m_s']:.4g} m/s, G (moduli) = "
+                   f"{si['G_moduli_MPa']:.4g} MPa, f = {si['frequency_kHz']:.4g} kHz")
+    for name, why in out["errors"].items():
+        click.echo(f"  {name}: {why}", err=True)

@@ -101,15 +101,33 @@ def _check_ic(ic: str) -> str:
     return ic
 
 
-def source(packing: Packing) -> tuple[np.ndarray, np.ndarray]:
-    """(grain indices, k_wall) of the force-carrying bottom-wall contacts (the source)."""
+def source(packing: Packing, kind: str = "normal") -> tuple[np.ndarray, np.ndarray]:
+    """(grain indices, k_wall) of the force-carrying bottom-wall contacts (the source);
+    k_wall is k_n for the normal kick, k_t for the shear kick."""
     c = packing.contacts
     on = c.is_bottom & (c.force_normal > 0.0)
     if not np.any(on):
         raise InputError("the packing has no force-carrying bottom-wall contact: no source")
     if not np.any(c.is_top & (c.force_normal > 0.0)):
         raise InputError("the packing has no force-carrying top-wall contact: no detector")
-    return c.i[on].astype(np.int64), c.stiffness_normal[on].astype(float)
+    k = c.stiffness_tangential if kind == "shear" else c.stiffness_normal
+    return c.i[on].astype(np.int64), k[on].astype(float)
+
+
+def shear_kick(packing: Packing) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(grains, velocities (m, dim), angular velocities (m, n_rot)) of the shear kick per unit
+    scale: the generalized force of the bottom wall moved along x
+    (:func:`granwave.linear.assemble.wall_push`: k_t on x and the torque of the dragged
+    contact point) divided by the mass and the moment of inertia, the linear model's IC A."""
+    from ..geometry import n_rotations
+    from ..linear.assemble import shear_direction, wall_push
+
+    c = packing.contacts
+    on = np.flatnonzero(c.is_bottom & (c.force_normal > 0.0))
+    n_rot = n_rotations(packing.dim, packing.friction)
+    grains, force, torque = wall_push(packing, on, shear_direction(packing.dim), n_rot)
+    return (grains.astype(np.int64), force / packing.mass[grains, None],
+            torque / packing.inertia[grains, None])
 
 
 def mean_overlap(packing: Packing) -> float:
@@ -121,10 +139,11 @@ def mean_overlap(packing: Packing) -> float:
     return float(np.mean(c.overlap[carrying]))
 
 
-def amplitude_scale(packing: Packing, ic: str, amplitude: float) -> float:
-    """The global scale s of the source for amplitude EPS (module docstring)."""
+def amplitude_scale(packing: Packing, ic: str, amplitude: float, kind: str = "normal") -> float:
+    """The global scale s of the source for amplitude EPS (module docstring; for the shear kick
+    k_wall = k_t)."""
     ic = _check_ic(ic)
-    grains, kw = source(packing)
+    grains, kw = source(packing, kind)
     dbar = mean_overlap(packing)
     if ic == "A":
         return amplitude * dbar / float(np.max(np.sqrt(kw / packing.mass[grains])))
@@ -213,7 +232,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
                   dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = 0.2,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
                   progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
-                  device: str = "cpu") -> Signal:
+                  device: str = "cpu", source_kind: str = "normal") -> Signal:
     """Kick the packing at the bottom wall in the nonlinear DEM; the top-wall signal.
 
     Parameters
@@ -240,6 +259,11 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         (F_t scaled by sqrt(n_new/n_old) on unloading, as in preparation: a first-order
         one-sided term for prestressed contacts; granwave/contact.py docstring).
     device : "cpu" or "gpu" (the steps on one GPU: granwave.gpu.pulse; docs/gpu.md).
+    source_kind : "normal" (default) or "shear": the bottom wall kicked along x (IC A only,
+        friction needed, CPU only): the source grains get the velocities and angular
+        velocities of :func:`shear_kick` times s, and the signal is the top wall's force
+        along x (:func:`granwave.dem.pulse_kernels.top_shear_force`), minus that of the
+        unkicked run, over s (docs/method.md §8, "Shear source").
 
     Returns
     -------
@@ -250,6 +274,17 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     max_displacement_over_overlap and the packing's attributes.
     """
     ic = _check_ic(ic)
+    from ..model import check_source_kind, no_shear_message
+
+    source_kind = check_source_kind(source_kind)
+    shear = source_kind == "shear"
+    if shear:
+        if packing.friction == 0.0:
+            raise InputError(no_shear_message(packing.attrs))
+        if ic != "A":
+            raise InputError("the shear kick has initial condition A only")
+        if device != "cpu":
+            raise InputError("the DEM shear pulse runs on the CPU only (--device cpu)")
     if unloading not in ("incremental", "rescale"):
         raise InputError(f"unloading must be 'incremental' or 'rescale' (got {unloading!r})")
     if not (amplitude > 0.0 and math.isfinite(amplitude)):
@@ -272,17 +307,24 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     sub = max(1, int(math.ceil(h / step * (1.0 - 1e-12))))
     step = h / sub
 
-    grains, kw = source(packing)
+    grains, kw = source(packing, source_kind)
     dbar = mean_overlap(packing)
-    scale = amplitude_scale(packing, ic, amplitude)
+    scale = amplitude_scale(packing, ic, amplitude, source_kind)
     c = packing.contacts
-    f_static = float(np.sum(c.force_normal[c.is_top]))
+    # the static force on the top wall: vertical, or along x (minus the stored F_t on the grains)
+    f_static = (float(-np.sum(c.force_tangential[c.is_top, 0])) if shear
+                else float(np.sum(c.force_normal[c.is_top])))
     run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
                progress=progress, progress_interval=progress_interval, unloading=unloading,
-               device=device)
+               device=device, shear=shear)
     t_wall0 = _time.perf_counter()
-    # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains)
-    values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
+    # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains);
+    # shear: (velocities, angular velocities) of the source grains
+    if shear:
+        grains, v_kick, w_kick = shear_kick(packing)
+        values = (scale * v_kick, scale * w_kick)
+    else:
+        values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
     kicked = _run(packing, ic=ic, kick=(grains, values), **run)
     base = None
     if baseline:
@@ -292,7 +334,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     force = (kicked["top"] - reference) / scale
     attrs = carried(packing.attrs, CARRIED_ATTRS)
     attrs.update(
-        ic=ic, method="dem", height=packing.height, amplitude=float(amplitude), damping=float(damping),
+        ic=ic, source_kind=source_kind, method="dem", height=packing.height, amplitude=float(amplitude),
+        damping=float(damping),
         scale=float(scale), mean_overlap=dbar, amplitude_definition=AMPLITUDE_DEFINITION[ic],
         t_max=float(t_max), samples=samples, dt=float(step),
         dt_safety=float(dt_safety) if dt is None else float("nan"), n_steps=int(sub * (samples - 1)),
@@ -324,9 +367,11 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
          skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str,
-         device: str = "cpu") -> dict:
+         device: str = "cpu", shear: bool = False) -> dict:
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
-    values are the initial velocities (A) or imposed displacements (B), vertical.
+    values are the initial velocities (A) or imposed displacements (B), vertical, or with
+    ``shear`` a pair (velocities, angular velocities); ``shear`` records the top wall's force
+    along x instead of the vertical one (one output sample per kernel call).
 
     Returns the top-wall force at the output times, the contact counts, the
     largest displacement, the kick's energy and the static checks.
@@ -344,7 +389,14 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     energy_input = 0.0
     if kick is not None:
         grains, values = kick
-        if ic == "A":
+        if shear:
+            v_kick, w_kick = values
+            engine.velocity[grains] += v_kick
+            engine.angular_velocity[grains] += w_kick
+            energy_input = float(0.5 * np.sum(packing.mass[grains, None] * v_kick**2)
+                                 + 0.5 * np.sum(packing.inertia[grains, None] * w_kick**2))
+            _forces_now(engine)
+        elif ic == "A":
             engine.velocity[grains, d - 1] += values
             energy_input = float(0.5 * np.sum(packing.mass[grains] * values**2))
             _forces_now(engine)
@@ -364,6 +416,15 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
 
     top = np.empty(samples)
     top[0] = engine.piston[K.P_FCON]
+    if shear:
+        shear_force = np.empty(samples)
+
+        def read_shear(k):
+            shear_force[k] = PK.top_shear_force(engine.position, engine.velocity, engine.angular_velocity,
+                                                engine.radius, engine.mass, engine.wall_ft, engine.wall_ov,
+                                                engine.piston, engine.fpar)
+
+        read_shear(0)
     stats = np.zeros(2)
     stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)
     k = 1
@@ -374,7 +435,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     t_wall0 = t_last = _time.perf_counter()
     n_total = sub * (samples - 1)
     while k < samples:
-        k_stop = min(samples, k + chunk)
+        k_stop = k + 1 if shear else min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
             engine.ws[K.W_CLAIM][0] = numba.get_num_threads()  # the force passes' share per thread
@@ -392,6 +453,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             pair_state = grown
             continue
         k = r
+        if shear:
+            read_shear(k - 1)
         elapsed = _time.perf_counter() - t0
         if elapsed > 0:  # about one call per second
             chunk = int(max(1, min(samples, chunk * min(4.0, 1.0 / max(elapsed, 1e-3)))))
@@ -405,7 +468,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     m = engine.n_pairs
     states = np.concatenate([pair_state[:m], wall_state])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
-    return dict(top=top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
+    return dict(top=shear_force if shear else top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
                 n_contacts_initial=count(PK.INITIAL), n_opened=count(PK.OPENED), n_formed=count(PK.FORMED),
                 n_sliding=count(PK.SLID),
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.CONE0))),

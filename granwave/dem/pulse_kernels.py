@@ -204,3 +204,37 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
         stats[1] = 0.0
         force_out[k] = piston[K.P_FCON]
     return k_stop
+
+
+@numba.njit(cache=True)
+def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
+    """The force along x that the grains exert on the top wall (elastic + viscous tangential
+    parts of the top-wall contacts): the detector of the shear kick (docs/method.md §8).
+
+    Each top-wall contact is evaluated by the engine's own :func:`granwave.dem.kernels.wall_contact`
+    with slip step 0 (the history is read, not advanced) on a saved copy of its slots, which
+    are put back: the state is only read. Summed in grain order."""
+    n, d = pos.shape
+    e_wall = C.effective_young(True)
+    g_wall = C.effective_shear(fpar[K.F_POISSON], True)
+    zeta = fpar[K.F_ZETA]
+    mu = fpar[K.F_MU]
+    rescale = fpar[K.F_RESCALE] != 0.0
+    h = piston[K.P_H]
+    vp = piston[K.P_V]
+    saved = np.zeros(d)
+    total = 0.0
+    for i in range(n):
+        w = 2 * i + 1
+        if rad[i] - (h - pos[i, d - 1]) <= 0.0:
+            continue
+        ov = wall_ov[w]
+        for a in range(d):
+            saved[a] = wall_ft[w, a]
+        out = K.wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, 1, h, vp, e_wall, g_wall,
+                             0.0, zeta, mu, rescale)
+        total -= out[5]  # the wall feels minus the force on the grain
+        wall_ov[w] = ov
+        for a in range(d):
+            wall_ft[w, a] = saved[a]
+    return total

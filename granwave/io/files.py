@@ -635,7 +635,8 @@ def write_linear(path, system: LinearSystem) -> None:
         D = D.copy()
         D.sum_duplicates()
     size = _nbytes(D, system.mass, system.dof_grain, system.dof_axis, system.source_velocity,
-                   system.source_displacement, system.detector)
+                   system.source_displacement, system.detector, system.shear_source_velocity,
+                   system.shear_detector)
     attrs = {**system.attrs, "linear_digest": linear_digest(system)}
     with atomic_h5(path, S.LINEAR, attrs, nbytes=size) as f:
         put(f, S.LINEAR, "matrix/data", D.data)
@@ -648,6 +649,9 @@ def write_linear(path, system: LinearSystem) -> None:
         put(f, S.LINEAR, "source/velocity", system.source_velocity)
         put(f, S.LINEAR, "source/displacement", system.source_displacement)
         put(f, S.LINEAR, "detector", system.detector)
+        if system.shear_source_velocity is not None:
+            put(f, S.LINEAR, "shear/source_velocity", system.shear_source_velocity)
+            put(f, S.LINEAR, "shear/detector", system.shear_detector)
 
 
 #: Entries of the stiffness data and column indices that enter :func:`linear_digest` (strided
@@ -737,6 +741,7 @@ def read_linear(path) -> LinearSystem:
         stiffness=D, mass=a["mass"], dof_grain=a["dof/grain"], dof_axis=a["dof/axis"],
         source_velocity=a["source/velocity"], source_displacement=a["source/displacement"],
         detector=a["detector"], attrs=attrs,
+        shear_source_velocity=a.get("shear/source_velocity"), shear_detector=a.get("shear/detector"),
     )
     # the identity of what was read (a stored one may be stale after an edit); eigensolve
     # copies it into the modes file
@@ -746,13 +751,17 @@ def read_linear(path) -> LinearSystem:
 
 # ---------------------------------------------------------------- modes
 def write_modes(path, modes: Modes) -> None:
-    size = _nbytes(modes.omega2, modes.amplitude_A, modes.amplitude_B, modes.coupling, modes.vectors)
+    size = _nbytes(modes.omega2, modes.amplitude_A, modes.amplitude_B, modes.coupling, modes.vectors,
+                   modes.shear_amplitude_A, modes.shear_coupling)
     with atomic_h5(path, S.MODES, {**modes.attrs, "has_vectors": modes.vectors is not None},
                    nbytes=size) as f:
         put(f, S.MODES, "omega2", modes.omega2)
         put(f, S.MODES, "amplitude_A", modes.amplitude_A)
         put(f, S.MODES, "amplitude_B", modes.amplitude_B)
         put(f, S.MODES, "coupling", modes.coupling)
+        if modes.shear_amplitude_A is not None:
+            put(f, S.MODES, "shear/amplitude_A", modes.shear_amplitude_A)
+            put(f, S.MODES, "shear/coupling", modes.shear_coupling)
         if modes.vectors is not None:
             put(f, S.MODES, "vectors", modes.vectors)
 
@@ -766,7 +775,8 @@ def read_modes(path, *, vectors: bool = False) -> Modes:
         attrs = read_attrs(f)
     V.modes(path, a, attrs)
     return Modes(omega2=a["omega2"], amplitude_A=a["amplitude_A"], amplitude_B=a["amplitude_B"],
-                 coupling=a["coupling"], vectors=a.get("vectors"), attrs=attrs)
+                 coupling=a["coupling"], vectors=a.get("vectors"), attrs=attrs,
+                 shear_amplitude_A=a.get("shear/amplitude_A"), shear_coupling=a.get("shear/coupling"))
 
 
 # ---------------------------------------------------------------- signal
@@ -803,6 +813,7 @@ def read_signal(path) -> Signal:
         a = _read_all(f, path, S.SIGNAL)
         attrs = read_attrs(f)
     V.signal(path, a, attrs)
+    attrs.setdefault("source_kind", "normal")  # files before 1.2 hold the normal kick only
     sig = Signal(time=a["signal/time"], force=a["signal/force"], attrs=attrs)
     if "snapshots/time" in a:
         sig.snapshot_time = a["snapshots/time"]

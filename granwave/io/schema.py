@@ -28,15 +28,19 @@ Trees (dataset: shape, units)::
     ├── dof/axis                 (n,)       int, 0..dim-1 translation, dim.. rotation
     ├── source/velocity          (n,)       initial velocity of IC A
     ├── source/displacement      (n,)       initial displacement of IC B
-    └── detector                 (n,)       F_sig = detector . u   (E* d)
+    ├── detector                 (n,)       F_sig = detector . u   (E* d)
+    ├── shear/source_velocity    (n,)       optional (friction > 0): IC A of the shear kick
+    └── shear/detector           (n,)       optional: F_sig = shear/detector . u (top wall, x)
 
     granwave.modes                         (eigensolve)
     ├── omega2                   (n,)       1/t^2, ascending
     ├── amplitude_A, amplitude_B (n,)       a_n for IC A / B (mass-normalized modes)
     ├── coupling                 (n,)       b_n = detector . phi_n
+    ├── shear/amplitude_A, shear/coupling (n,)  optional: a_n, b_n of the shear kick
     └── vectors                  (n, n)     optional, columns phi_n (M-orthonormal)
 
-    granwave.signal                        (propagate)
+    granwave.signal                        (propagate; root attribute source_kind "normal"
+                                            or "shear", absent before 1.2: read as "normal")
     ├── signal/time              (T,)       t
     ├── signal/force             (T,)       E* d^2
     ├── snapshots/time           (S,)       optional
@@ -72,9 +76,9 @@ SWEEP = "granwave.sweep"
 
 VERSIONS = {
     PACKING: "1.1",
-    LINEAR: "1.1",
-    MODES: "1.1",
-    SIGNAL: "1.1",
+    LINEAR: "1.2",
+    MODES: "1.2",
+    SIGNAL: "1.2",
     ENSEMBLE: "1.1",
     SWEEP: "1.1",
 }
@@ -115,17 +119,25 @@ DATASETS: dict[str, dict[str, tuple[str, str]]] = {
         "source/velocity": (U.SPEED, "initial velocity vector of initial condition A (n,)"),
         "source/displacement": (U.LENGTH, "initial displacement vector of initial condition B (n,)"),
         "detector": (U.STIFFNESS, "F_sig = detector . u (n,)"),
+        "shear/source_velocity": (U.SPEED, "initial velocity of the shear kick (bottom wall along x, "
+                                  "initial condition A); only with friction (n,)"),
+        "shear/detector": (U.STIFFNESS, "F_sig = shear/detector . u, the top wall's force along x; "
+                           "only with friction (n,)"),
     },
     MODES: {
         "omega2": (U.OMEGA2, "eigenvalues omega^2 of D phi = omega^2 M phi, ascending (n,)"),
         "amplitude_A": (AMPLITUDE, "a_n for initial condition A: u = sum a_n phi_n sin(w_n t) (n,)"),
         "amplitude_B": (AMPLITUDE, "a_n for initial condition B: u = sum a_n phi_n cos(w_n t) (n,)"),
         "coupling": (U.STIFFNESS + " / (rho * d_bar**3)**0.5", "b_n = detector . phi_n (n,)"),
+        "shear/amplitude_A": (AMPLITUDE, "a_n of the shear kick (initial condition A), optional (n,)"),
+        "shear/coupling": (U.STIFFNESS + " / (rho * d_bar**3)**0.5",
+                           "b_n = shear/detector . phi_n, optional (n,)"),
         "vectors": ("(rho * d_bar**3)**-0.5", "M-orthonormal eigenvectors as columns (n, n), optional"),
     },
     SIGNAL: {
         "signal/time": (U.TIME, "sample times (T,)"),
-        "signal/force": (U.FORCE, "extra vertical force on the top wall (T,)"),
+        "signal/force": (U.FORCE, "extra force on the top wall: vertical, or along x when the root "
+                         "attribute source_kind is shear (T,)"),
         "snapshots/time": (U.TIME, "snapshot times (S,)"),
         "snapshots/displacement": (U.LENGTH, "displacement field at the snapshot times (S, n)"),
         "snapshots/dof_grain": (U.DIMENSIONLESS, "grain index of each dof (n,)"),
@@ -182,10 +194,12 @@ DIMS: dict[str, dict[str, tuple[str, ...]]] = {
         "mass": ("dof_index",), "dof/grain": ("dof_index",), "dof/axis": ("dof_index",),
         "source/velocity": ("dof_index",), "source/displacement": ("dof_index",),
         "detector": ("dof_index",),
+        "shear/source_velocity": ("dof_index",), "shear/detector": ("dof_index",),
     },
     MODES: {
         "omega2": ("mode",), "amplitude_A": ("mode",), "amplitude_B": ("mode",),
         "coupling": ("mode",), "vectors": ("dof", "mode"),
+        "shear/amplitude_A": ("mode",), "shear/coupling": ("mode",),
     },
     SIGNAL: {
         "signal/time": ("time",), "signal/force": ("time",),
@@ -222,6 +236,9 @@ EXTRA_ATTRS: dict[str, dict[str, dict[str, str]]] = {
         "source/displacement": {"units_rotation": U.DIMENSIONLESS,
                                 "units_rule": _ROT_RULE.format(axis="dof/axis")},
         "detector": {"units_rotation": U.FORCE, "units_rule": _ROT_RULE.format(axis="dof/axis")},
+        "shear/source_velocity": {"units_rotation": U.ANGULAR_SPEED,
+                                  "units_rule": _ROT_RULE.format(axis="dof/axis")},
+        "shear/detector": {"units_rotation": U.FORCE, "units_rule": _ROT_RULE.format(axis="dof/axis")},
         "matrix/data": {"units_translation_rotation": U.FORCE, "units_rotation": U.TORQUE,
                         "units_rule": "entry (r, c) of D is in units when r and c are translations "
                                       "(dof/axis < dim), units_translation_rotation when one is a "
@@ -275,12 +292,16 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
         "source/velocity": ("f", ("n",)),
         "source/displacement": ("f", ("n",)),
         "detector": ("f", ("n",)),
+        "shear/source_velocity": ("f", ("n",)),
+        "shear/detector": ("f", ("n",)),
     },
     MODES: {
         "omega2": ("f", ("n",)),
         "amplitude_A": ("f", ("n",)),
         "amplitude_B": ("f", ("n",)),
         "coupling": ("f", ("n",)),
+        "shear/amplitude_A": ("f", ("n",)),
+        "shear/coupling": ("f", ("n",)),
         "vectors": ("f", ("n_dof", "n")),
     },
     SIGNAL: {
@@ -312,14 +333,17 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
 
 #: Datasets a file may lack.
 OPTIONAL: dict[str, frozenset[str]] = {
-    PACKING: frozenset(), LINEAR: frozenset(), ENSEMBLE: frozenset(), SWEEP: frozenset(),
-    MODES: frozenset({"vectors"}),
+    PACKING: frozenset(), ENSEMBLE: frozenset(), SWEEP: frozenset(),
+    LINEAR: frozenset({"shear/source_velocity", "shear/detector"}),
+    MODES: frozenset({"vectors", "shear/amplitude_A", "shear/coupling"}),
     SIGNAL: frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
                        "snapshots/dof_axis", "snapshots/position"}),
 }
 
 #: Optional datasets that come together (all or none).
 GROUPS: dict[str, tuple[frozenset[str], ...]] = {
+    LINEAR: (frozenset({"shear/source_velocity", "shear/detector"}),),
+    MODES: (frozenset({"shear/amplitude_A", "shear/coupling"}),),
     SIGNAL: (frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
                         "snapshots/dof_axis"}),),
 }

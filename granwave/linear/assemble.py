@@ -425,6 +425,64 @@ def rotation_axes(system: LinearSystem) -> np.ndarray:
     return out
 
 
+def normal_direction(dim: int) -> np.ndarray:
+    """The wall motion of the normal (compressional) kick: along the last axis."""
+    return np.eye(dim)[dim - 1]
+
+
+def shear_direction(dim: int) -> np.ndarray:
+    """The wall motion of the shear kick: along x, parallel to the walls (dim >= 2)."""
+    if dim < 2:
+        raise InputError("a shear kick needs a 2D or 3D packing (a chain has no direction along its walls)")
+    return np.eye(dim)[0]
+
+
+def wall_push(packing: Packing, contacts: np.ndarray, direction: np.ndarray, n_rot: int):
+    """Per wall contact: (grain i, force K w (m, dim), torque (a_i n) x K w (m, n_rot)) when the
+    wall moves by the unit vector w (:func:`wall_coupling`; the DEM pulse kicks with it too)."""
+    c = packing.contacts
+    dim = packing.dim
+    w = np.asarray(direction, float)
+    n = np.asarray(c.normal[contacts], float).reshape(len(contacts), dim)
+    kn = c.stiffness_normal[contacts]
+    kt = c.stiffness_tangential[contacts] if packing.friction > 0.0 else np.zeros(len(contacts))
+    nw = n @ w
+    force = kn[:, None] * nw[:, None] * n + kt[:, None] * (w[None, :] - nw[:, None] * n)  # K w
+    i = c.i[contacts]
+    arm = packing.radius[i] - c.overlap[contacts]
+    torque = np.einsum("mrd,md->mr", _torque_arm_matrix(n, arm, n_rot), force)
+    return i, force, torque
+
+
+def wall_coupling(packing: Packing, layout: "DofLayout", contacts: np.ndarray, direction: np.ndarray,
+                  n_rot: int) -> np.ndarray:
+    """The generalized force g (n_dof,) on the grains when a wall moves by a unit vector w.
+
+    ``contacts``: indices of force-carrying contacts with one wall. A contact of
+    grain i with a fixed wall stretches by Delta = -(u_i + theta_i x (a_i n)) (the
+    contact point's motion, arm a_i = R_i - delta along the normal n from the
+    grain to the wall); moving the wall by w adds w to Delta, so the grain feels
+    the force K w and the torque (a_i n) x (K w), K = k_n n n^T + k_t (I - n n^T)
+    (k_t only with friction): g collects [K w; A_i K w] (A_i of
+    :func:`_torque_arm_matrix`, as in :func:`contact_blocks`). The same vector
+    read the other way is the detector: the force along w that the grains exert
+    on that wall is g . u (the contact point's motion through K, projected on w).
+    Normal kick, flat wall (n = -+ w): g = k_n w, no torque (the former source and
+    detector, bit for bit); shear kick (w = e_x): k_t on x and the torque a_i k_t
+    of the contact point dragged by the wall (docs/method.md §8). Free spins (3D)
+    are folded in by T^T, as forces are.
+    """
+    dim = packing.dim
+    i, force, torque = wall_push(packing, contacts, direction, n_rot)
+    g = np.zeros(layout.n_full)
+    first = layout.full_first[i]
+    for a in range(dim):
+        np.add.at(g, first + a, force[:, a])
+    for r in range(n_rot):
+        np.add.at(g, first + dim + r, torque[:, r])
+    return g if not layout.reduced else np.asarray(layout.T.T @ g).ravel()
+
+
 def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
               check: bool = True, progress=None) -> LinearSystem:
     """Build ``M u'' = -D u`` for a packing in equilibrium (docs/method.md §5).
@@ -471,18 +529,21 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     # Mass: translations m, rotations I.
     mass = np.where(dof_axis < dim, packing.mass[dof_grain], packing.inertia[dof_grain])
 
-    # Source and detector (docs/conventions.md): bottom-wall and top-wall contacts.
-    vert = dim - 1
+    # Source and detector (docs/conventions.md, docs/method.md §8 "Shear source"): the wall
+    # coupling g(w) of the bottom-wall contacts (source) and of the top-wall ones (detector),
+    # w the vertical (normal kick) or x (shear kick, with friction only).
     bottom = keep[c.is_bottom[keep]]
     top = keep[c.is_top[keep]]
-    kb = np.zeros(n_dof)
-    np.add.at(kb, first[c.i[bottom]] + vert, c.stiffness_normal[bottom])
-    source_velocity = kb / mass
-    source_displacement = kb / c.stiffness_normal[bottom].mean() if len(bottom) else kb
-    detector = np.zeros(n_dof)
-    np.add.at(detector, first[c.i[top]] + vert, c.stiffness_normal[top])
     if not len(bottom) or not len(top):
         raise InputError("the packing does not touch both walls: no source or no detector")
+    kb = wall_coupling(packing, layout, bottom, normal_direction(dim), n_rot)
+    source_velocity = kb / mass
+    source_displacement = kb / c.stiffness_normal[bottom].mean()
+    detector = wall_coupling(packing, layout, top, normal_direction(dim), n_rot)
+    shear_velocity = shear_detector = None
+    if friction > 0.0:
+        shear_velocity = wall_coupling(packing, layout, bottom, shear_direction(dim), n_rot) / mass
+        shear_detector = wall_coupling(packing, layout, top, shear_direction(dim), n_rot)
 
     out_attrs = {k: attrs[k] for k in _COPIED_ATTRS if k in attrs}
     out_attrs.update(
@@ -502,7 +563,8 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     )
     system = LinearSystem(stiffness=D, mass=mass, dof_grain=dof_grain, dof_axis=dof_axis,
                           source_velocity=source_velocity, source_displacement=source_displacement,
-                          detector=detector, attrs=out_attrs)
+                          detector=detector, shear_source_velocity=shear_velocity,
+                          shear_detector=shear_detector, attrs=out_attrs)
     if progress is not None and n_dof > DENSE_CHECK_MAX_DOF:
         progress(f"assembled D: {n_dof} dofs, {D.nnz} non-zeros in {time.perf_counter() - t0:.1f} s")
     if check:

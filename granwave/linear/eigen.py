@@ -127,6 +127,11 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
     proj_u = V.T @ (sqrt_m * system.source_displacement)  # phi^T M u0
     coupling = V.T @ (system.detector / sqrt_m)  # detector . phi
     amp_A = np.divide(proj_v, omega, out=np.zeros_like(proj_v), where=~zero)
+    shear_amp_A = shear_coupling = None
+    if system.shear_source_velocity is not None and system.shear_detector is not None:
+        shear_v = V.T @ (sqrt_m * system.shear_source_velocity)
+        shear_coupling = V.T @ (system.shear_detector / sqrt_m)
+        shear_amp_A = np.divide(shear_v, omega, out=np.zeros_like(shear_v), where=~zero)
     n_neg = int(negative.sum())
     if n_neg:
         warnings.warn(f"{n_neg} eigenvalue(s) below -{threshold:g} omega^2_max "
@@ -142,5 +147,8 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
         min_omega2=float(w[0]), stiffness_asymmetry=asym,
         zero_mode_drift_A=float(np.sum(proj_v[zero] * coupling[zero])),
     )
+    if shear_amp_A is not None:
+        attrs["shear_zero_mode_drift_A"] = float(np.sum(shear_v[zero] * shear_coupling[zero]))
     return Modes(omega2=omega2, amplitude_A=amp_A, amplitude_B=proj_u, coupling=coupling,
-                 vectors=(V / sqrt_m[:, None]) if vectors else None, attrs=attrs)
+                 vectors=(V / sqrt_m[:, None]) if vectors else None, attrs=attrs,
+                 shear_amplitude_A=shear_amp_A, shear_coupling=shear_coupling)

@@ -1,0 +1,236 @@
+"""Arrival picks of a shear signal, as a bender-element experiment makes them (docs/shear.md).
+
+The kick of ``propagate`` is an impulse (initial condition A: the wall moved for an
+infinitesimal time), so its signal F_A(t) is the impulse response of the path from the
+bottom wall's displacement to the top wall's force. The signal a finite wall motion w(t)
+(a bender element's tip) would give is the convolution
+
+    F_w(t) = ∫ F_A(t − τ) w(τ) dτ        (:func:`received`, on the signal's own grid).
+
+The rule (also in docs/shear.md and ``granwave analyze front --help``)
+---------------------------------------------------------------------
+Source pulses w(t) (:func:`source_pulse`), frequency f (1 / time unit):
+``sine`` one period sin(2π f t) on [0, 1/f] (the bender-element standard; its spectrum
+falls as 1/ω² only), ``ricker`` (1 − 2u²) exp(−u²), u = π f (t − 1.5/f) (no energy
+above ~3 f: no grain-scale branch is excited).
+
+Every travel time is a pick on the received F_w minus the same pick on w itself:
+
+* ``first_deflection``: first time |F| reaches ``deflection_fraction`` (default 0.02)
+  of the received first peak's amplitude (source: the same fraction of its own first peak);
+* ``edge10``: the 10 % leading edges, ``peak_to_peak``: the first peaks, both by the
+  first-pulse rule of :mod:`granwave.analysis.front` (the same rule as the compressional kick);
+* ``cross_correlation``: the lag τ at which Σ F_w(t) w(t − τ) is largest (times the
+  polarity of the received first peak), over 0 ≤ τ ≤ twice the received first peak's
+  time (before the first echo), refined by a parabola;
+* ``phase``: the phase velocity of the band [``band`` × f]: the transfer function
+  H(ω) = FT[F_A] on a window ending at twice the cross-correlation arrival (before the
+  first reflection, which comes at three times it; a cosine taper over the last quarter),
+  zero-padded 8x, phase unwrapped from ω = 0 (and the static sign removed), T(ω) = −φ/ω,
+  c(ω) = L/T(ω) averaged over the band;
+* ``impulse_peak`` / ``impulse_edge10``: the first peak and 10 % edge of F_A itself (the
+  compressional kick's picks, docs/method.md §9); the kick is at t = 0.
+
+Speeds are L/T with L the wall-to-wall distance (``height``); ratios are to c_t, the
+packing's own shear speed from its global moduli (2D sqrt(C33/Φ3*), 3D
+sqrt(((C44 + C55)/2)/Φ3*); ``granwave analyze moduli``). A pick that cannot be made
+(no complete first pulse, an empty band) is NaN with its reason in ``errors``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from .front import _parabola_vertex, front_features
+
+PULSES = ("sine", "ricker")
+PICKS = ("first_deflection", "edge10", "peak_to_peak", "cross_correlation", "phase", "impulse_edge10",
+         "impulse_peak")
+DEFAULT_DEFLECTION_FRACTION = 0.02
+DEFAULT_BAND = (0.5, 1.5)
+
+
+def source_pulse(times, frequency: float, shape: str = "sine") -> np.ndarray:
+    """The wall displacement w(t) of a source pulse of ``frequency`` (module docstring)."""
+    if not (frequency > 0 and math.isfinite(frequency)):
+        raise InputError(f"pulse frequency must be positive (got {frequency})")
+    t = np.asarray(times, float)
+    if shape == "sine":
+        return np.where((t >= 0) & (t <= 1.0 / frequency), np.sin(2 * np.pi * frequency * t), 0.0)
+    if shape == "ricker":
+        u = np.pi * frequency * (t - 1.5 / frequency)
+        return (1.0 - 2.0 * u * u) * np.exp(-u * u)
+    raise InputError(f"pulse must be one of {', '.join(PULSES)} (got {shape!r})")
+
+
+def _uniform_step(time) -> float:
+    t = np.asarray(time, float)
+    dt = np.diff(t)
+    if t.size < 3 or abs(t[0]) > 1e-12 * max(1.0, abs(t[-1])) or np.ptp(dt) > 1e-6 * dt.mean():
+        raise InputError("the shear picks need a signal sampled uniformly from t = 0 (a propagate output)")
+    return float(dt.mean())
+
+
+def received(time, force, pulse) -> np.ndarray:
+    """F_w = F_A * w on the signal's grid (the first len(time) samples of the discrete
+    convolution times the step)."""
+    dt = _uniform_step(time)
+    f = np.asarray(force, float)
+    w = np.asarray(pulse, float)
+    n = len(f)
+    size = 1 << int(math.ceil(math.log2(2 * n)))
+    out = np.fft.irfft(np.fft.rfft(f, size) * np.fft.rfft(w, size), size)[:n]
+    return out * dt
+
+
+def _first_deflection(t, y, fraction) -> float:
+    feat = front_features(t, y)
+    level = fraction * feat.amplitude
+    k = int(np.argmax(np.abs(y) >= level))
+    if k == 0:
+        return float(t[0])
+    a0, a1 = abs(y[k - 1]), abs(y[k])
+    return float(t[k - 1] + (level - a0) * (t[k] - t[k - 1]) / (a1 - a0)) if a1 != a0 else float(t[k])
+
+
+def _xcorr_lag(t, y, w, polarity, t_last) -> float:
+    """Lag of the largest cross-correlation over lags 0 .. ``t_last`` (before the first echo)."""
+    dt = t[1] - t[0]
+    n = len(y)
+    size = 1 << int(math.ceil(math.log2(2 * n)))
+    xc = np.fft.irfft(np.fft.rfft(polarity * y, size) * np.conj(np.fft.rfft(w, size)), size)[:n]
+    xc = xc[: max(3, min(n, int(t_last / dt) + 1))]
+    n = len(xc)
+    k = int(np.argmax(xc))
+    if 0 < k < n - 1:
+        tv, _ = _parabola_vertex(t[k - 1:k + 2], xc[k - 1:k + 2])
+        return float(tv)
+    return float(k * dt)
+
+
+def _phase_speed(t, f, height, t_arrival, frequency, band) -> tuple[float, float]:
+    """(mean phase speed over the band, its std over the band's frequencies)."""
+    dt = t[1] - t[0]
+    t_end = 2.0 * t_arrival
+    if t_end > t[-1] + 1e-9 * t[-1]:
+        raise InputError(f"the phase pick needs the record up to twice the arrival ({t_end:.4g}; "
+                         f"record ends at {t[-1]:.4g})")
+    n = int(round(t_end / dt)) + 1
+    win = np.ones(n)
+    m = n // 4
+    win[n - m:] = 0.5 * (1 + np.cos(np.pi * np.arange(1, m + 1) / m))
+    y = f[:n] * win
+    size = 8 * (1 << int(math.ceil(math.log2(n))))
+    H = np.fft.rfft(y, size)
+    omega = 2 * np.pi * np.fft.rfftfreq(size, dt)
+    phi = np.unwrap(np.angle(H))
+    phi -= np.pi * np.round(phi[0] / np.pi)  # the static response's sign (0 or pi)
+    lo, hi = band[0] * frequency * 2 * np.pi, band[1] * frequency * 2 * np.pi
+    sel = (omega >= lo) & (omega <= hi) & (omega > 0)
+    if not np.any(sel):
+        raise InputError("no frequency of the record lies in the band")
+    delay = -phi[sel] / omega[sel]
+    c = height / delay
+    return float(np.mean(c)), float(np.std(c))
+
+
+def shear_picks(time, force, *, height: float, frequency: float, pulse: str = "sine",
+                c_t: float | None = None, deflection_fraction: float = DEFAULT_DEFLECTION_FRACTION,
+                band: Sequence[float] = DEFAULT_BAND) -> dict:
+    """Travel times, speeds and (with ``c_t``) speed ratios of every pick (module docstring).
+
+    ``time``, ``force``: an impulse signal (propagate, IC A) on a uniform grid from 0;
+    ``height``: source-detector distance L (d); ``frequency``: the source pulse's (1/time).
+    Returns {"picks": {name: {"time", "speed", "ratio"}}, "errors": {name: reason}, ...}.
+    """
+    t = np.asarray(time, float)
+    f = np.asarray(force, float)
+    _uniform_step(t)
+    if not (height > 0):
+        raise InputError(f"height must be positive (got {height})")
+    if not (0 < deflection_fraction < 1):
+        raise InputError(f"deflection fraction must be in (0, 1) (got {deflection_fraction})")
+    if not (0 < band[0] < band[1]):
+        raise InputError(f"band must be two increasing positive multiples of the frequency (got {band})")
+    w = source_pulse(t, frequency, pulse)
+    y = received(t, f, w)
+    times: dict[str, float] = {}
+    errors: dict[str, str] = {}
+
+    def attempt(name, fn):
+        try:
+            times[name] = float(fn())
+        except InputError as exc:
+            times[name] = math.nan
+            errors[name] = str(exc)
+
+    src = front_features(t, w)
+    attempt("first_deflection", lambda: _first_deflection(t, y, deflection_fraction)
+            - _first_deflection(t, w, deflection_fraction))
+    attempt("edge10", lambda: front_features(t, y).t_lead10 - src.t_lead10)
+    attempt("peak_to_peak", lambda: front_features(t, y).t_peak - src.t_peak)
+
+    def xc():
+        feat = front_features(t, y)
+        # lags up to twice the received first peak's time: past the direct arrival, before
+        # the first echo (three times it)
+        return _xcorr_lag(t, y, w, feat.polarity, 2.0 * feat.t_peak)
+
+    attempt("cross_correlation", xc)
+    phase_std = math.nan
+
+    def phase():
+        nonlocal phase_std
+        t_arr = times.get("cross_correlation", math.nan)
+        if not math.isfinite(t_arr):
+            raise InputError("the phase pick needs the cross-correlation arrival for its window")
+        c, phase_std = _phase_speed(t, f, height, t_arr, frequency, band)
+        return height / c
+
+    attempt("phase", phase)
+    attempt("impulse_edge10", lambda: front_features(t, f).t_lead10)
+    attempt("impulse_peak", lambda: front_features(t, f).t_peak)
+    picks = {}
+    for name in PICKS:
+        tt = times[name]
+        speed = height / tt if tt > 0 else math.nan
+        picks[name] = {"time": tt, "speed": speed,
+                       "ratio": speed / c_t if (c_t and math.isfinite(c_t) and c_t > 0) else math.nan}
+    return {"picks": picks, "errors": errors, "height": float(height), "frequency": float(frequency),
+            "pulse": pulse, "wavelength": (float(c_t / frequency) if c_t else math.nan),
+            "c_t": float(c_t) if c_t else math.nan, "deflection_fraction": float(deflection_fraction),
+            "band": [float(band[0]), float(band[1])], "phase_speed_spread": phase_std}
+
+
+def shear_series(results: Sequence[dict], *, group_rtol: float = 0.05) -> dict:
+    """Ratios speed / c_t of every pick against distance, with ensemble errors.
+
+    ``results``: :func:`shear_picks` outputs (each with its own c_t) of several packings
+    and heights. Heights are grouped as in ``analyze heights``; per nominal height and
+    pick the mean ratio, its standard error over the packings (``describe``) and the
+    count; ``within_5pct``: the picks whose mean ratio lies within 5 % of 1.
+    """
+    from .ensemble import describe
+    from .heights import group_heights
+
+    if not results:
+        raise InputError("no shear pick results")
+    heights = np.array([r["height"] for r in results])
+    groups = group_heights(heights, group_rtol)
+    rows = []
+    for g in range(int(groups.max()) + 1):
+        members = [r for r, k in zip(results, groups) if k == g]
+        row = {"height": describe([r["height"] for r in members])["mean"], "n": len(members),
+               "c_t": describe([r["c_t"] for r in members])["mean"],
+               "frequency": describe([r["frequency"] for r in members])["mean"]}
+        for name in PICKS:
+            d = describe([r["picks"][name]["ratio"] for r in members])
+            row[name] = d["mean"]
+            row[f"{name}_err"] = d["sem"]
+        row["within_5pct"] = [name for name in PICKS if math.isfinite(row[name]) and abs(row[name] - 1) <= 0.05]
+        rows.append(row)
+    return {"rows": rows, "picks": list(PICKS), "n_signals": len(results)}
