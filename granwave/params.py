@@ -561,7 +561,6 @@ class SpectrumParams(Params):
 
     def __post_init__(self):
         object.__setattr__(self, "ic", str(self.ic).upper())
-        object.__setattr__(self, "source_kind", str(self.source_kind).lower())
         super().__post_init__()
 
 
