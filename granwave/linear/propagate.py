@@ -37,7 +37,7 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..threads import at_most  # (importing it selects the threading layer first)
 from ..model import LinearSystem, Modes, Signal
-from ..resources import check_propagate, check_time_domain
+from ..resources import check_propagate, check_run_time, check_time_domain, predicted_seconds
 from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
@@ -479,6 +479,8 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     if wmax * dt >= 2.0:
         raise InputError(f"time step {dt:.3g} is unstable: omega_max dt = {wmax * dt:.3g} >= 2 "
                          f"(use dt <= {2 / wmax:.3g})")
+    check_run_time(predicted_seconds("time-domain", system.stiffness.nnz, sub * (samples - 1)),
+                   f"the time-domain run ({sub * (samples - 1):.3g} steps of {system.n_dof} dofs)", progress)
     D = system.stiffness.tocsr()
     D.sort_indices()
     indptr = D.indptr.astype(np.int64)
