@@ -306,7 +306,9 @@ def stage(func):
         limit = allow_long_run() if kwargs.pop("allow_long_run", False) else contextlib.nullcontext()
         try:
             _check_outputs(kwargs)
-            with limit:
+            from ..io.files import outputs_together
+
+            with limit, outputs_together(keep=_printing):  # all of a command's outputs, or none
                 return func(*args, **kwargs)
         except InputError as exc:
             raise BadInput(str(exc)) from None

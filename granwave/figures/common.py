@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..io.files import atomic_file
+from ..io.files import atomic_file, check_writable
 
 DPI = 100
 """Resolution of the PNG files (pixels per inch)."""
@@ -62,6 +62,8 @@ def output_paths(path: str | os.PathLike, pdf: bool = False) -> list[Path]:
 def save_figure(fig, path: str | os.PathLike, *, pdf: bool = False) -> list[Path]:
     """Save ``fig`` atomically to ``path`` (and its .pdf twin); return the files."""
     paths = output_paths(path, pdf)
+    for p in paths:  # every file checked before the first is written (the PDF twin too)
+        check_writable(p)
     for p in paths:
         fmt = p.suffix.lower().lstrip(".")
         with atomic_file(p, suffix=f".{fmt}") as tmp:

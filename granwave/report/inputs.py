@@ -246,10 +246,18 @@ def find_figures(paths: Iterable) -> list[Path]:
 
 def load_config(path) -> dict:
     """The workflow config (YAML or JSON) as a dict."""
+    from ..io.files import record_input
+
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such config file")
-    text = path.read_text()
+    record_input(path)  # an input: no output of this command may replace it
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a YAML file (not UTF-8 text)") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror})") from None
     try:
         import yaml
 
