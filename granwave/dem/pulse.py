@@ -79,6 +79,8 @@ DEFAULT_AMPLITUDE = 1e-3
 #: Default tangential unloading rule of the pulses: the plain incremental Mindlin law, the one
 #: the linear model (frozen history) linearizes (granwave/contact.py docstring, docs/damping.md).
 DEFAULT_UNLOADING = "incremental"
+#: Seconds of stepping per kernel call (signals are handled between calls).
+CALL_SECONDS = 0.2
 #: Default number of output samples.
 DEFAULT_SAMPLES = 2001
 
@@ -401,8 +403,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
         _check_sound(engine, top, k, r, stats, step, times, device)
         k = r
         elapsed = _time.perf_counter() - t0
-        if elapsed > 0:  # about one call per second
-            chunk = int(max(1, min(samples, chunk * min(4.0, 1.0 / max(elapsed, 1e-3)))))
+        if elapsed > 0:  # about 0.2 s per call: Ctrl-C and SIGTERM wait for the call to return
+            chunk = int(max(1, min(samples, chunk * min(4.0, CALL_SECONDS / max(elapsed, 1e-3)))))
         now = _time.perf_counter()
         if progress is not None and now - t_last >= progress_interval:
             t_last = now
