@@ -271,15 +271,17 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     step = default_time_step(packing, dt_safety) if dt is None else float(dt)
     if not (step > 0.0 and math.isfinite(step)):
         raise InputError(f"time step must be positive (got {dt})")
-    sub = max(1, int(math.ceil(h / step * (1.0 - 1e-12))))
-    step = h / sub
-    n_steps = sub * (samples - 1) * (2 if baseline else 1)
-    if n_steps > 2**62:
+    ratio = h / step * (1.0 - 1e-12)
+    sub = max(1, int(math.ceil(ratio))) if ratio < 2.0**62 else None
+    n_steps = None if sub is None else sub * (samples - 1) * (2 if baseline else 1)
+    if n_steps is None or n_steps > 2**62:
+        n_steps = ratio * (samples - 1) * (2 if baseline else 1)
         raise InputError(f"t_max {t_max:g} needs {n_steps:.3g} time steps of {step:.3g}, more than "
                          "the engine can count: use a shorter --t-max or a longer --dt")
     check_run_time(predicted_seconds("dem-pulse", packing.n_grains, n_steps),
                    f"the DEM pulse ({n_steps:.3g} steps of {packing.n_grains} grains"
                    f"{', kicked run and baseline' if baseline else ''})", progress)
+    step = h / sub
 
     grains, kw = source(packing)
     dbar = mean_overlap(packing)

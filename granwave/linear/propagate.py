@@ -471,7 +471,11 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
         dt = dt_auto
     if not (dt > 0 and math.isfinite(dt)):
         raise InputError(f"time step must be positive (got {dt})")
-    sub = max(1, int(math.ceil(h / dt * (1 - 1e-12))))
+    ratio = h / dt * (1 - 1e-12)  # inf for a denormal dt
+    if not ratio * (samples - 1) <= MAX_TIME_STEPS:
+        raise InputError(f"t_max {t_max:g} needs {ratio * (samples - 1):.3g} time steps of {dt:.3g}, "
+                         f"more than the kernel can count ({MAX_TIME_STEPS:.3g}): use a shorter --t-max")
+    sub = max(1, int(math.ceil(ratio)))
     dt = h / sub
     if sub * (samples - 1) > MAX_TIME_STEPS:
         raise InputError(f"t_max {t_max:g} needs {sub * (samples - 1):.3g} time steps of {dt:.3g}, "
