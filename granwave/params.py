@@ -272,8 +272,10 @@ class PrepareParams(Params):
                                       "mass x L1 (2D) or L1 L2 (3D)].", units="rho d^3",
                                       lo=0.0, lo_open=True)
     gas_density: float | None = param(None, help="Initial solid fraction of the granular gas "
-                                      "[default: 0.5 in 2D, 0.3 in 3D].", lo=0.0, lo_open=True,
-                                      hi=0.6, hi_open=True)
+                                      "[default: 0.5 in 2D, 0.3 in 3D].", lo=0.01,
+                                      hi=0.6, hi_open=True,
+                                      why="a sparser gas starts over 50 times taller than the packing "
+                                          "(a denormal one infinitely tall)")
     tol: float = param(1e-10, help="Convergence threshold on every acceleration; velocities are "
                        "tested too.", units="E*/(rho d)", lo=0.0, lo_open=True)
     max_steps: int | None = param(None, help="Step budget [default: 2e6 per 100 d of the column's "

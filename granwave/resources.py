@@ -187,3 +187,86 @@ def check_time_domain(n_dof: int, n_entries: int, samples: int, snapshots: int =
     need = (11 * DOUBLE * float(n_dof) + 40.0 * float(n_entries) + 4 * DOUBLE * float(samples)
             + 3 * DOUBLE * float(snapshots) * float(n_dof))
     require_memory(need, f"the time-domain run of {n_dof} dofs ({n_entries} stiffness entries)")
+
+
+# ---------------------------------------------------------------- run time
+#: Longest predicted run (s) that starts without an explicit ``--allow-long-run``: one day.
+RUN_LIMIT = 86400.0
+
+#: Seconds of one core per unit of work, (per-unit cost, fixed cost per step), the one home of
+#: the run-time model. Measured on a 2-core AMD EPYC shared with other jobs (load ~3 per core,
+#: about 3x an idle core), so that the prediction errs long: the time domain on 16- and 3600-
+#: grain frictional lattices (4.2-5.2e-9 s per stored entry of D per step; 3e-6 s per step of a
+#: 16-dof system), the DEM pulse on a 20-grain packing (2.6e-4 s per step, kicked run and
+#: baseline counted apart).
+SECONDS_PER_UNIT = {
+    "time-domain": (6e-9, 3e-6),   # per stored entry of D per step, per step
+    "dem-pulse": (3e-6, 2e-4),     # per grain per step, per step
+}
+
+_run_limit = [RUN_LIMIT]
+
+
+def format_duration(seconds: float) -> str:
+    """A duration in the largest fitting unit: 45 s, 12 min, 3.5 h, 2.1 days, 3.2e+292 years."""
+    s = float(seconds)
+    if not math.isfinite(s):
+        return "forever"
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if s >= size:
+            x = s / size
+            text = f"{x:.2g}" if x < 100 else f"{x:.0f}" if x < 1e6 else f"{x:.2g}"
+            return "1 day" if text == "1" and unit == "days" else f"{text} {unit}"
+    return f"{s:.0f} s"
+
+
+def predicted_seconds(kind: str, units: float, steps: float, threads: int | None = None) -> float:
+    """Predicted wall time of ``steps`` steps over ``units`` (stored entries of D for
+    "time-domain", grains for "dem-pulse") with :data:`SECONDS_PER_UNIT`, on ``threads``
+    threads at half parallel efficiency (default: numba's thread count)."""
+    per_unit, per_step = SECONDS_PER_UNIT[kind]
+    if threads is None:
+        try:
+            import numba
+
+            threads = numba.get_num_threads()
+        except Exception:  # noqa: BLE001 - no numba: one thread
+            threads = 1
+    speedup = max(1.0, 0.5 * float(threads)) if units > 10_000 else 1.0
+    return float(steps) * (float(units) * per_unit / speedup + per_step)
+
+
+def run_time_limit() -> float:
+    """The current limit (s) above which :func:`check_run_time` refuses a run."""
+    return _run_limit[0]
+
+
+class allow_long_run:  # noqa: N801 - used like a function: ``with allow_long_run():``
+    """Context manager lifting :data:`RUN_LIMIT` (``limit``: another limit, s) for the runs
+    started inside it: what ``--allow-long-run`` does on the command line."""
+
+    def __init__(self, limit: float = math.inf):
+        self.limit = float(limit)
+
+    def __enter__(self):
+        self.saved = _run_limit[0]
+        _run_limit[0] = self.limit
+        return self
+
+    def __exit__(self, *exc):
+        _run_limit[0] = self.saved
+        return False
+
+
+def check_run_time(seconds: float, what: str, progress=None) -> float:
+    """Refuse ``what`` if it is predicted to take ``seconds`` > :func:`run_time_limit`
+    (ResourceError, one line naming the estimate and ``--allow-long-run``); tell ``progress``
+    the estimate of a run longer than a minute. Returns ``seconds``."""
+    limit = run_time_limit()
+    if not seconds <= limit:
+        raise ResourceError(f"{what} is predicted to take about {format_duration(seconds)} on this "
+                            f"machine, over the {format_duration(limit)} limit: shorten it, or rerun "
+                            "with --allow-long-run to start it anyway")
+    if progress is not None and seconds > 60.0:
+        progress(f"{what}: predicted to take about {format_duration(seconds)}")
+    return seconds

@@ -7,6 +7,7 @@ unit and help text is written once, in :mod:`granwave.params`.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import json
@@ -196,6 +197,12 @@ def _default_threads():
     return available_cores()
 
 
+#: ``--allow-long-run`` of the stages that predict their run time before starting
+#: (:func:`granwave.resources.check_run_time`); :func:`stage` applies it.
+long_run_option = click.option(
+    "--allow-long-run", "allow_long_run", is_flag=True,
+    help="Start even a run predicted to take longer than a day (the prediction is printed).")
+
 threads_option = click.option(
     "--threads", type=click.IntRange(min=1), default=_default_threads,
     show_default="the cores this process may run on",
@@ -259,6 +266,27 @@ def _check_outputs(kwargs: dict) -> None:
         check_name_length(out)
 
 
+def _printing(exc: OSError) -> bool:
+    """Whether ``exc`` was raised by printing (click.echo, a flush of standard output): a
+    full device or a closed pipe behind stdout, after the outputs were written."""
+    tb = exc.__traceback__
+    while tb is not None:
+        code = tb.tb_frame.f_code
+        if code.co_name in ("echo", "flush") and "click" in code.co_filename:
+            return True
+        tb = tb.tb_next
+    return False
+
+
+def _silence_stdout() -> None:
+    """Point standard output at /dev/null, so that the interpreter's last flush at exit cannot
+    fail a second time (the recipe of Python's documentation for SIGPIPE)."""
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(null, sys.stdout.fileno())
+        os.close(null)
+
+
 def stage(func):
     """Turn user errors into a one-line message and a non-zero exit (no traceback).
 
@@ -271,10 +299,17 @@ def stage(func):
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        signal.signal(signal.SIGTERM, _interrupt)
+        from ..resources import allow_long_run
+
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, _interrupt)
+        limit = allow_long_run() if kwargs.pop("allow_long_run", False) else contextlib.nullcontext()
         try:
             _check_outputs(kwargs)
-            return func(*args, **kwargs)
+            from ..io.files import outputs_together
+
+            with limit, outputs_together(keep=_printing):  # all of a command's outputs, or none
+                return func(*args, **kwargs)
         except InputError as exc:
             raise BadInput(str(exc)) from None
         except OutputError as exc:
@@ -289,6 +324,13 @@ def stage(func):
         except KeyboardInterrupt:
             click.echo("\ninterrupted; no output written", err=True)
             sys.exit(130)
+        except OSError as exc:
+            if not _printing(exc):
+                raise
+            _silence_stdout()
+            raise click.ClickException(
+                f"cannot print on standard output ({exc.strerror or exc}); the files this command "
+                "wrote are complete") from None
 
     return wrapper
 

@@ -13,8 +13,8 @@ from pathlib import Path
 import click
 
 from ..params import PropagateParams
-from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
-                     progress_printer, quiet_option, stage, threads_option)
+from .common import (echo_result, echo_warnings, json_option, long_run_option, options_from, output_option,
+                     params_from, progress_printer, quiet_option, stage, threads_option)
 from .prepare import device_option
 
 ROWS = ("ic", "method", "method_reason", "height", "t_max", "samples", "dt", "omega_max_dt",
@@ -55,6 +55,7 @@ def _read_source(path: str, kind: str, params: PropagateParams):
 @device_option
 @quiet_option
 @json_option
+@long_run_option
 @stage
 def propagate(source, output, threads, device, quiet, as_json, **options):
     """Signal F_sig(t) on the top wall, in E* d^2, after a kick at the bottom (docs/method.md §8).

@@ -50,13 +50,15 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
-    from ..io.files import check_name_length
+    from ..io.files import check_name_length, check_target
     from ..report import build_report, collect_json, find_figures, load_config, write_report
     from pathlib import Path
 
     out = Path(output)  # its suffix is checked by stage() (output_path_option)
-    check_name_length(out.with_suffix(".html"))  # the HTML twin: a longer name, checked before any work
-    cfg = load_config(config) if config else None
+    cfg = load_config(config) if config else None  # recorded as an input first
+    html = out.with_suffix(".html")  # the HTML twin, checked like -o before any work (the
+    check_target(html)                # folder may be missing: write_report makes it)
+    check_name_length(html)
     damping = []
     if damping_json:
         damping = collect_json([damping_json])[0][1]

@@ -8,6 +8,10 @@ from ..params import SweepParams
 from .common import echo_json, echo_table, options_from, output_option, params_from, stage
 
 
+#: The tables pressure-sweep writes beside its output, as <stem>_<name> (analysis.sweep.write_tables).
+TABLE_FILES = tuple(f"{t}.{ext}" for t in ("statics", "moduli", "speeds") for ext in ("md", "csv"))
+
+
 @click.command("pressure-sweep")
 @click.argument("summaries", nargs=-1, type=click.Path(dir_okay=False))
 @output_option
@@ -52,6 +56,9 @@ def pressure_sweep(summaries, heights_files, output, tables_dir, as_json, **opti
     folder = Path(tables_dir) if tables_dir is not None else (out.parent if str(out.parent) else Path("."))
     if not folder.is_dir() and not folder.parent.is_dir():
         raise InputError(f"tables folder {folder}: its parent folder does not exist")
+    if folder.is_dir():  # every table checked before any work (all are written, or none)
+        for name in TABLE_FILES:
+            check_writable(folder / f"{out.stem}_{name}")
     sums, series = load_inputs([*summaries, *heights_files])
     res = api.pressure_sweep(sums, params, height_series=series)
     folder.mkdir(exist_ok=True)  # only now that the inputs are known to be good

@@ -345,10 +345,9 @@ def steps_to_tol(history, tol: float, window: int = 60) -> float | None:
     if not np.any(s):
         return None
     slope = float(np.dot(s, envelope - envelope.mean()) / np.dot(s, s))
-    lowest = math.exp(envelope[-1])
-    if lowest <= tol or not slope < 0:
-        return math.inf
-    return math.log(tol / lowest) / slope
+    if not tol > 0.0 or envelope[-1] <= math.log(tol) or not slope < 0:
+        return math.inf  # (a threshold so small it underflowed to 0 is never reached)
+    return (math.log(tol) - float(envelope[-1])) / slope  # logs: tol / lowest may underflow
 
 
 def eta_seconds(quantities, steps_per_second: float, window: int = 60,

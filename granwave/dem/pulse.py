@@ -63,9 +63,9 @@ from typing import Callable, Sequence
 import numba
 import numpy as np
 
-from ..errors import InputError
+from ..errors import ConvergenceError, InputError
 from ..model import Packing, Signal
-from ..resources import check_propagate
+from ..resources import check_propagate, check_run_time, predicted_seconds
 from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
 from . import kernels as K
@@ -79,6 +79,8 @@ DEFAULT_AMPLITUDE = 1e-3
 #: Default tangential unloading rule of the pulses: the plain incremental Mindlin law, the one
 #: the linear model (frozen history) linearizes (granwave/contact.py docstring, docs/damping.md).
 DEFAULT_UNLOADING = "incremental"
+#: Seconds of stepping per kernel call (signals are handled between calls).
+CALL_SECONDS = 0.2
 #: Default number of output samples.
 DEFAULT_SAMPLES = 2001
 
@@ -304,7 +306,16 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     step = default_time_step(packing, dt_safety) if dt is None else float(dt)
     if not (step > 0.0 and math.isfinite(step)):
         raise InputError(f"time step must be positive (got {dt})")
-    sub = max(1, int(math.ceil(h / step * (1.0 - 1e-12))))
+    ratio = h / step * (1.0 - 1e-12)
+    sub = max(1, int(math.ceil(ratio))) if ratio < 2.0**62 else None
+    n_steps = None if sub is None else sub * (samples - 1) * (2 if baseline else 1)
+    if n_steps is None or n_steps > 2**62:
+        n_steps = ratio * (samples - 1) * (2 if baseline else 1)
+        raise InputError(f"t_max {t_max:g} needs {n_steps:.3g} time steps of {step:.3g}, more than "
+                         "the engine can count: use a shorter --t-max or a longer --dt")
+    check_run_time(predicted_seconds("dem-pulse", packing.n_grains, n_steps),
+                   f"the DEM pulse ({n_steps:.3g} steps of {packing.n_grains} grains"
+                   f"{', kicked run and baseline' if baseline else ''})", progress)
     step = h / sub
 
     grains, kw = source(packing, source_kind)
@@ -452,12 +463,13 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             grown[: len(pair_state)] = pair_state
             pair_state = grown
             continue
+        _check_sound(engine, top, k, r, stats, step, times, device)
         k = r
         if shear:
             read_shear(k - 1)
         elapsed = _time.perf_counter() - t0
-        if elapsed > 0:  # about one call per second
-            chunk = int(max(1, min(samples, chunk * min(4.0, 1.0 / max(elapsed, 1e-3)))))
+        if elapsed > 0:  # about 0.2 s per call: Ctrl-C and SIGTERM wait for the call to return
+            chunk = int(max(1, min(samples, chunk * min(4.0, CALL_SECONDS / max(elapsed, 1e-3)))))
         now = _time.perf_counter()
         if progress is not None and now - t_last >= progress_interval:
             t_last = now
@@ -474,6 +486,21 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.CONE0))),
                 n_at_cone_initial=count(PK.CONE0), max_displacement=float(stats[0]),
                 rebuilds=int(engine.rebuilds))
+
+
+def _check_sound(engine: Engine, top: np.ndarray, k0: int, k1: int, stats: np.ndarray, step: float,
+                 times: np.ndarray, device: str) -> None:
+    """Stop a pulse whose state blew up (the time step too long for the contacts), as the
+    preparation does: a top-wall force or displacement that is not finite, or (CPU engine)
+    an overlap beyond the largest grain radius after the samples ``k0 .. k1 - 1``."""
+    bad = not (np.all(np.isfinite(top[k0:k1])) and math.isfinite(float(stats[0])))
+    if not bad and device == "cpu":
+        bad = not float(engine.out[K.O_DMAX]) < float(engine.fpar[K.F_RMAX])
+    if bad:
+        raise ConvergenceError(
+            f"the DEM pulse blew up by t = {times[k1 - 1]:.4g} (non-finite motion or an overlap beyond "
+            f"a grain radius) at dt {step:.3g}: the step is unstable; use a smaller --dt "
+            "(default: 0.01 x the shortest contact period); no output written")
 
 
 # ---------------------------------------------------------------- damping series

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..io.files import atomic_file
+from ..io.files import atomic_file, check_writable
 
 DPI = 100
 """Resolution of the PNG files (pixels per inch)."""
@@ -59,9 +59,54 @@ def output_paths(path: str | os.PathLike, pdf: bool = False) -> list[Path]:
     return out
 
 
+#: Most points a drawn curve keeps (docs/figures.md): a longer series is thinned by :func:`thin`.
+#: A figure is at most a few thousand pixels wide, so 20 000 points (the minimum and the
+#: maximum of each of 10 000 equal bins) draw the same picture as 10^9 points, whose paths
+#: would take ~16 GB of memory and as much PDF or SVG.
+MAX_POINTS = 20_000
+
+
+def thin_indices(y: np.ndarray, max_points: int = MAX_POINTS) -> np.ndarray | slice:
+    """Indices of the points of ``y`` to draw: all up to ``max_points``; else, in order, the
+    first, the last and the minimum and maximum of each of ``max_points // 2 - 1`` equal
+    bins (the envelope at any zoom the figure can show)."""
+    y = np.asarray(y)
+    n = len(y)
+    if n <= max_points:
+        return slice(None)
+    bins = max(1, max_points // 2 - 1)
+    edges = np.linspace(0, n, bins + 1).astype(np.int64)
+    keep = [np.array([0, n - 1])]
+    finite = np.where(np.isfinite(y), y, 0.0)
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        if hi > lo:
+            seg = finite[lo:hi]
+            keep.append(np.array([lo + int(np.argmin(seg)), lo + int(np.argmax(seg))]))
+    return np.unique(np.concatenate(keep))
+
+
+def thin(x, *ys, max_points: int = MAX_POINTS):
+    """``x`` and every array of ``ys`` at the points :func:`thin_indices` keeps for ``ys[0]``."""
+    idx = thin_indices(ys[0], max_points)
+    return (np.asarray(x)[idx], *(np.asarray(y)[idx] for y in ys))
+
+
+def _thin_lines(fig) -> None:
+    """Thin every curve of ``fig`` longer than :data:`MAX_POINTS` (the rule of :func:`thin`)."""
+    for ax in fig.get_axes():
+        for line in ax.get_lines():
+            x, y = line.get_xdata(orig=True), line.get_ydata(orig=True)
+            if np.ndim(y) == 1 and np.size(y) > MAX_POINTS and np.size(x) == np.size(y):
+                line.set_data(*thin(x, y))
+
+
 def save_figure(fig, path: str | os.PathLike, *, pdf: bool = False) -> list[Path]:
-    """Save ``fig`` atomically to ``path`` (and its .pdf twin); return the files."""
+    """Save ``fig`` atomically to ``path`` (and its .pdf twin); return the files. Curves
+    longer than :data:`MAX_POINTS` are thinned first (:func:`thin`)."""
     paths = output_paths(path, pdf)
+    for p in paths:  # every file checked before the first is written (the PDF twin too)
+        check_writable(p)
+    _thin_lines(fig)
     for p in paths:
         fmt = p.suffix.lower().lstrip(".")
         with atomic_file(p, suffix=f".{fmt}") as tmp:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .common import F_LABEL, T_LABEL, need, new_figure, save_figure
+from .common import F_LABEL, T_LABEL, need, new_figure, save_figure, thin
 
 if TYPE_CHECKING:
     from ..model import Signal
@@ -47,7 +47,7 @@ def signals_overlay(signals: Sequence[Signal], path, *, ensemble: Mapping | None
     ax2 = fig.add_subplot(1, 2, 2, sharex=ax, sharey=ax)
     ens = dict(ensemble) if ensemble is not None else _average(signals)
     if ens is not None:
-        t, m, r = (np.asarray(ens[k], float) for k in ("time", "mean", "rms"))
+        t, m, r = thin(*(np.asarray(ens[k], float) for k in ("time", "mean", "rms")))
         ax2.fill_between(t, m - r, m + r, color="C1", alpha=0.3, lw=0, label="± rms")
         ax2.plot(t, m, color="C0", lw=1.2, label="mean")
         n = ens.get("n", ens.get("n_signals"))
@@ -137,11 +137,12 @@ def coherent_heights(series: Sequence[Mapping], path, *, pdf: bool = False) -> l
     for k, s in enumerate(series):
         col = cmap(k / max(len(series) - 1, 1))
         t, m = np.asarray(s["time"], float), np.asarray(s["mean"], float)
+        r = None if s.get("rms") is None else np.asarray(s["rms"], float)
+        t, m, r = thin(t, m, r) if r is not None else (*thin(t, m), None)
         L = float(s["height"])
         lab = f"L = {L:.3g}" + (f" ({int(s['n'])} packings)" if s.get("n") is not None else "")
         ax1.plot(t, m, color=col, lw=1.1, label=lab)
-        if s.get("rms") is not None:
-            r = np.asarray(s["rms"], float)
+        if r is not None:
             ax1.fill_between(t, m - r, m + r, color=col, alpha=0.12, lw=0)
         peak = np.max(np.abs(m)) or 1.0
         ax2.plot(t / L, m / peak, color=col, lw=1.1, label=lab)

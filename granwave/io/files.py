@@ -110,6 +110,24 @@ def check_target(path: str | os.PathLike, inputs=None) -> None:
     if same is not None:
         raise InputError(f"cannot write {path}: it is the input file {same}; "
                          "choose another output name")
+    if _read_only(path):
+        raise InputError(f"cannot write {path}: it exists and is read-only; remove it or make it "
+                         "writable first (granwave does not replace a read-only file)")
+
+
+def _read_only(path) -> bool:
+    """Whether an existing file is read-only for this user: no write permission where the
+    kernel would check it (owner, else any write bit; root is not exempt, so that a file
+    protected with chmod a-w is never replaced by the rename of an atomic write)."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return False
+    if st.st_uid == os.geteuid():
+        return not st.st_mode & stat.S_IWUSR
+    if os.geteuid() == 0:
+        return not st.st_mode & (stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH)
+    return not os.access(path, os.W_OK)
 
 
 def check_writable(path: str | os.PathLike, *, replace_input: bool = False) -> Path:
@@ -252,12 +270,74 @@ def _write_failure(path: Path, exc: OSError) -> OutputError:
     return OutputError(f"cannot write {path}: {reason}")
 
 
+#: Renames held back until the running command has written all its outputs
+#: (:func:`outputs_together`): (temporary, target, replace_input); None: rename at once.
+_PENDING: list | None = None
+
+
+@contextlib.contextmanager
+def outputs_together(keep=None) -> Iterator[None]:
+    """All the atomic writes inside the block appear together, or none does.
+
+    Each write goes to its temporary file as usual, but the renames wait for the end of
+    the block: then every target is checked again (:func:`check_writable`) and all are
+    renamed. A failure anywhere inside (a later output refused, an error, Ctrl-C, SIGTERM)
+    removes every temporary, so a command never leaves some of its outputs behind (a
+    report without its HTML twin, part of a VTK series, a sweep's tables without the
+    sweep). ``keep``: a test of the exception under which the files written so far are
+    still renamed into place before it propagates (the command line's: printing the
+    summary failed, after the outputs were complete). Nested blocks join the outermost
+    one. :func:`granwave.cli.common.stage` runs every command inside one.
+    """
+    global _PENDING
+    if _PENDING is not None:
+        yield
+        return
+    _PENDING = pending = []
+    try:
+        try:
+            yield
+        except BaseException as exc:
+            if keep is not None and isinstance(exc, Exception) and keep(exc):
+                _rename_all(pending)
+            raise
+        _rename_all(pending)
+    finally:
+        _PENDING = None
+        for tmp, _, _ in pending:  # what was not renamed (an error, an interrupt)
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+
+
+def _rename_all(pending: list) -> None:
+    """Check every held-back target again, then rename them all; a rename that fails takes
+    back the files this command already put in place (one OutputError line)."""
+    for _, path, replace_input in pending:  # a target may have appeared meanwhile
+        check_writable(path, replace_input=replace_input)
+    done: list[Path] = []
+    for entry in list(pending):
+        tmp, path, _ = entry
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            for p in done:
+                with contextlib.suppress(OSError):
+                    os.unlink(p)
+            raise _write_failure(Path(path), exc) from None
+        pending.remove(entry)  # renamed: no longer a temporary to remove
+        done.append(path)
+
+
 @contextlib.contextmanager
 def _replace_on_success(path: Path, tmp: str, replace_input: bool) -> Iterator[None]:
-    """Rename ``tmp`` to ``path`` when the body succeeds; remove it otherwise."""
+    """Rename ``tmp`` to ``path`` when the body succeeds (at the end of the enclosing
+    :func:`outputs_together` block, if any); remove it otherwise."""
     try:
         yield
         check_writable(path, replace_input=replace_input)  # the target may have appeared meanwhile
+        if _PENDING is not None:
+            _PENDING.append((tmp, path, replace_input))
+            return
         os.replace(tmp, path)
     except OSError as exc:
         with contextlib.suppress(OSError):

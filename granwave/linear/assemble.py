@@ -617,7 +617,9 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
     residual, converged = 0.0, True
     if n <= dense_max:
         wmax = omega2_max(A, tol=1e-3)  # only sets the scale of the zero-mode threshold
-        w = scipy.linalg.eigvalsh(A.toarray(), driver="evd", check_finite=False)
+        from .lapack import dense_eigh
+
+        w = dense_eigh(A, vectors=False)  # in a child process: Ctrl-C and SIGTERM stop it at once
         exact = True
         wmax = max(wmax, float(w[-1]))
         method = "dense eigvalsh"

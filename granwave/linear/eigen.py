@@ -43,6 +43,7 @@ from ..errors import InputError
 from ..model import LinearSystem, Modes
 from ..resources import check_eigensolve
 from ..provenance import FILE_ATTRS
+from .lapack import dense_eigh
 from .assemble import ZERO_MODE_THRESHOLD, asymmetry, omega2_max, symmetric_part
 
 #: Above this many dofs a full dense solve is refused unless asked for explicitly (memory ~ 3 n^2 x 8 B).
@@ -103,7 +104,7 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
                                                  check_finite=False)
             solver = "tridiagonal LAPACK stemr (scipy.linalg.eigh_tridiagonal)"
         else:
-            w, V = scipy.linalg.eigh(A.toarray(), driver="evd", overwrite_a=True, check_finite=False)
+            w, V = dense_eigh(A)
             solver = "dense LAPACK syevd (scipy.linalg.eigh driver=evd)"
         w2max = float(max(abs(w[0]), abs(w[-1])))
         partial = False

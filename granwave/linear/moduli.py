@@ -341,7 +341,9 @@ class _Solver:
         its singular values are |eigenvalues| and dropping |w| <= 1e-13 max|w| is gelsd's
         cond=1e-13."""
         if self._eig is None:
-            w, V = scipy.linalg.eigh(self.D_ff.toarray(), driver="evd", check_finite=False)
+            from .lapack import dense_eigh
+
+            w, V = dense_eigh(self.D_ff)  # in a child process: Ctrl-C and SIGTERM stop it at once
             keep = np.abs(w) > 1e-13 * np.abs(w).max(initial=0.0)
             self._eig = (np.ascontiguousarray(V[:, keep]), 1.0 / w[keep])
         V, inverse = self._eig

@@ -37,7 +37,7 @@ import scipy.sparse as sp
 from ..errors import InputError
 from ..threads import at_most  # (importing it selects the threading layer first)
 from ..model import LinearSystem, Modes, Signal
-from ..resources import check_propagate, check_time_domain
+from ..resources import check_propagate, check_run_time, check_time_domain, predicted_seconds
 from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
@@ -471,7 +471,11 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
         dt = dt_auto
     if not (dt > 0 and math.isfinite(dt)):
         raise InputError(f"time step must be positive (got {dt})")
-    sub = max(1, int(math.ceil(h / dt * (1 - 1e-12))))
+    ratio = h / dt * (1 - 1e-12)  # inf for a denormal dt
+    if not ratio * (samples - 1) <= MAX_TIME_STEPS:
+        raise InputError(f"t_max {t_max:g} needs {ratio * (samples - 1):.3g} time steps of {dt:.3g}, "
+                         f"more than the kernel can count ({MAX_TIME_STEPS:.3g}): use a shorter --t-max")
+    sub = max(1, int(math.ceil(ratio)))
     dt = h / sub
     if sub * (samples - 1) > MAX_TIME_STEPS:
         raise InputError(f"t_max {t_max:g} needs {sub * (samples - 1):.3g} time steps of {dt:.3g}, "
@@ -479,6 +483,8 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     if wmax * dt >= 2.0:
         raise InputError(f"time step {dt:.3g} is unstable: omega_max dt = {wmax * dt:.3g} >= 2 "
                          f"(use dt <= {2 / wmax:.3g})")
+    check_run_time(predicted_seconds("time-domain", system.stiffness.nnz, sub * (samples - 1)),
+                   f"the time-domain run ({sub * (samples - 1):.3g} steps of {system.n_dof} dofs)", progress)
     D = system.stiffness.tocsr()
     D.sort_indices()
     indptr = D.indptr.astype(np.int64)

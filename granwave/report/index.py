@@ -87,8 +87,8 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     scenes = Scenes(config, sums)
 
     name = (config or {}).get("name") or (Path(config_path).stem if config_path else "(none given)")
-    md = [f"# {title}", ""]
-    md += [f"- configuration: **{name}**" + (f" (`{config_path}`)" if config_path else ""),
+    md = [f"# {_plain(title)}", ""]
+    md += [f"- configuration: **{_plain(name)}**" + (f" (`{config_path}`)" if config_path else ""),
            f"- granwave {__version__}, git revision `{git_revision()}`",
            f"- inputs: {len(sums)} sample summaries, {len(hts)} height series, "
            f"{len(sweeps)} pressure sweeps, {len(figures)} figures",
@@ -136,6 +136,14 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         if twin.exists() and twin != Path(f):
             md += [f"[PDF]({Path(os.path.relpath(twin, out_dir)).as_posix()})", ""]
     return "\n".join(md).rstrip() + "\n"
+
+
+def _plain(text) -> str:
+    """User text (``--title``, the config's name) as literal text of one Markdown line: HTML
+    special characters escaped (no markup reaches the HTML page), line breaks as spaces."""
+    import html
+
+    return " ".join(html.escape(str(text), quote=False).split())
 
 
 def write_report(path, markdown: str, *, title: str = "granwave report") -> list[Path]:

@@ -11,7 +11,6 @@ or the scene name (``lattice*``, ``chain*``).
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
@@ -247,11 +246,13 @@ def find_figures(paths: Iterable) -> list[Path]:
 def load_config(path) -> dict:
     """The workflow config (YAML or JSON) as a dict, read as strictly as the workflow reads it
     (no duplicate keys, text only, a mapping at the top level)."""
+    from ..io.files import record_input
     from ..workflow_support import read_config_file
 
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such config file")
+    record_input(path)  # an input: no output of this command may replace it
     obj, message = read_config_file(path)
     if message:
         raise InputError(message)
