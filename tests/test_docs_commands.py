@@ -111,13 +111,21 @@ def docs_commands() -> list[tuple[str, str]]:
 
 
 def runnable(command: str) -> list[str]:
-    """The arguments (after `granwave`) a docs line runs with here."""
+    """The arguments (after `granwave`) a docs line runs with here (a trailing ``> FILE``
+    kept as the last two: :func:`split_redirect` takes it off)."""
     text = re.sub(r"\s*\[[^\[\]]*\]", "", command)  # optional parts of a synopsis
     for old, new in SUBSTITUTIONS:
         text = re.sub(rf"(?<![\w.-]){re.escape(old)}(?![\w-])", new, text)
     args = shlex.split(text)
     assert args[0] == "granwave", command
     return args[1:]
+
+
+def split_redirect(args: list[str]) -> tuple[list[str], str | None]:
+    """``args`` without a trailing shell redirection ``> FILE``, and FILE (None without one)."""
+    if len(args) >= 2 and args[-2] == ">":
+        return args[:-2], args[-1]
+    return args, None
 
 
 def test_docs_commands_are_all_run_or_skipped():
@@ -128,7 +136,7 @@ def test_docs_commands_are_all_run_or_skipped():
     assert not stale, f"SKIP names lines no docs hold any more: {stale}"
     for where, command in commands:
         if command not in SKIP:
-            args = runnable(command)
+            args, _ = split_redirect(runnable(command))
             assert not any(re.search(r"[<>]|\b[A-Z]{2,}\b", a) for a in args), \
                 f"{where}: placeholder left in {args}: add a substitution or a SKIP entry"
 
@@ -143,9 +151,11 @@ def test_docs_commands_run_as_written(tmp_path, monkeypatch):
     for where, command in plan:
         if command in SKIP:
             continue
-        args = runnable(command)
+        args, redirect = split_redirect(runnable(command))
         # Each line runs as its own process would: forget the files earlier lines read
         # (a file read in this process may not be replaced by a later write).
         files._INPUTS.clear()
         result = runner.invoke(main, args, catch_exceptions=False)
         assert result.exit_code == 0, f"{where}: `granwave {' '.join(args)}` failed:\n{result.output}"
+        if redirect:
+            Path(redirect).write_text(result.stdout)
