@@ -683,3 +683,65 @@ def analyses_error(config: dict, *, damping_t_max=None, snapshot=None) -> str | 
         if message:
             return message
     return None
+
+
+# ---- compiling the kernels once, before the jobs that use them (workflow/rules/compile.smk)
+#: Kernel families compiled by separate warm-up jobs: they share few kernels, so the two jobs
+#: can run side by side without compiling the same function twice.
+KERNEL_FAMILIES = ("dem", "linear")
+
+
+def _tiny_make(kind: str, make: dict) -> dict:
+    """A lattice's or chain's ``make`` shrunk to a few grains, with the same options (the same
+    kernels run); a packing's unchanged (the DEM needs its width and height)."""
+    make = dict(make)
+    if kind == "lattices":
+        make["rows"] = min(int(make["rows"]), 10)
+        make["width"] = min(int(make["width"]), 6)
+    elif kind == "chains":
+        make["n_balls"] = min(int(make["n_balls"]), 16)
+    return make
+
+
+def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None = None,
+                 log=print) -> dict:
+    """Compile one family of kernels into numba's cache by running tiny copies of the samples.
+
+    On a cold cache every job of a parallel workflow would compile the kernels it uses, and
+    two jobs starting together compile the same ones at once; one warm-up job per family,
+    run before the others, compiles each kernel once. ``family``: "dem" (the preparation of
+    every disordered and continuum sample's kind, and the DEM pulse with ``pulse``'s options)
+    or "linear" (linearize, both signal methods, statics and moduli, on the lattices and
+    chains). ``samples``: one sample per scene (:func:`run_sample`'s dicts); their files are
+    written under ``folder``. Returns what ran and its CPU seconds.
+    """
+    from . import api
+    from .params import PropagateParams
+
+    if family not in KERNEL_FAMILIES:
+        raise ValueError(f"unknown kernel family {family!r}")
+    folder = Path(folder)
+    ran = []
+    for sample in samples:
+        c0 = time.process_time()
+        tiny = {**sample, "make": _tiny_make(sample["kind"], sample["make"])}
+        tag = f"{sample['scene']}"
+        if family == "dem":
+            if sample["kind"] not in ("disordered", "continuum"):
+                continue
+            packing = make_sample(tiny["kind"], tiny["make"])
+            if pulse and sample["scene"] == pulse.get("scene"):
+                api.propagate(packing, PropagateParams(method="dem", t_max=1.0, samples=10,
+                                                       ic=pulse.get("ic", "A"),
+                                                       damping=pulse.get("damping", 0.1)))
+        else:
+            if sample["kind"] not in ("lattices", "chains"):
+                continue
+            tiny["out"] = {k: str(folder / f"{tag}.{k}{Path(v).suffix}") for k, v in sample["out"].items()}
+            tiny["signal"] = {**sample["signal"], "samples": 50}
+            for method in ("time", "modal"):
+                tiny["signal"]["method"] = method
+                run_sample(tiny, log=lambda line: None)
+        ran.append({"sample": tag, "cpu_s": round(time.process_time() - c0, 2)})
+        log(f"{family}: {tag}: {ran[-1]['cpu_s']} CPU-s")
+    return {"family": family, "ran": ran}

@@ -46,6 +46,13 @@ PLAIN_STEPS_IN_TEAM = True
 UNLOADING_RULES = ("rescale", "incremental")
 
 
+def one_thread(n_grains: int) -> bool:
+    """Whether the engine's kernels run on one thread for ``n_grains`` (one thread set, or a
+    system below K.MIN_PARALLEL_GRAINS, as :func:`granwave.threads.at_most` makes it): then the
+    one-loop kernels of :mod:`granwave.dem.serial` run (the same bits)."""
+    return numba.get_num_threads() == 1 or n_grains < K.MIN_PARALLEL_GRAINS
+
+
 class Engine:
     """A DEM system: grains between a bottom wall and a top wall (piston).
 
@@ -205,10 +212,11 @@ class Engine:
             raise InputError("mean-flow compaction runs on the CPU only for now (use --device cpu)")
 
     def _forces(self) -> None:
-        K.compute_forces(self.position, self.velocity, self.angular_velocity, self.radius, self.mass,
-                         self.inertia, self.lateral, self.pair_i, self.pair_j, self.pair_ft, self.pair_ov,
-                         self.wall_ft, self.wall_ov, self.piston, self.fpar, self.ipar, self.acceleration,
-                         self.angular_acceleration, self.out, self.ws)
+        compute_forces = serial.compute_forces if one_thread(len(self.radius)) else K.compute_forces
+        compute_forces(self.position, self.velocity, self.angular_velocity, self.radius, self.mass,
+                       self.inertia, self.lateral, self.pair_i, self.pair_j, self.pair_ft, self.pair_ov,
+                       self.wall_ft, self.wall_ov, self.piston, self.fpar, self.ipar, self.acceleration,
+                       self.angular_acceleration, self.out, self.ws)
         K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
         self.piston[K.P_A] = K.piston_acceleration(
             self.piston, self.mflow[0] if self.mflow.shape[0] > 0 else self.fpar[K.F_GAMMA])

@@ -70,7 +70,8 @@ from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
 from . import kernels as K
 from . import pulse_kernels as PK
-from .integrator import Engine
+from .integrator import Engine, one_thread
+from . import serial
 
 #: Default time step as a fraction of the shortest single-contact period 2π sqrt(m_min/k_max).
 DEFAULT_DT_SAFETY = 0.01
@@ -167,11 +168,12 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     (0: the history is evaluated, not advanced), as the engine does at construction."""
     keep = engine.fpar[K.F_DT]
     engine.fpar[K.F_DT] = dt
-    K.compute_forces(engine.position, engine.velocity, engine.angular_velocity, engine.radius,
-                     engine.mass, engine.inertia, engine.lateral, engine.pair_i, engine.pair_j,
-                     engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
-                     engine.fpar, engine.ipar, engine.acceleration, engine.angular_acceleration,
-                     engine.out, engine.ws)
+    compute_forces = serial.compute_forces if one_thread(len(engine.radius)) else K.compute_forces
+    compute_forces(engine.position, engine.velocity, engine.angular_velocity, engine.radius,
+                   engine.mass, engine.inertia, engine.lateral, engine.pair_i, engine.pair_j,
+                   engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                   engine.fpar, engine.ipar, engine.acceleration, engine.angular_acceleration,
+                   engine.out, engine.ws)
     K.to_accelerations(engine.acceleration, engine.angular_acceleration, engine.mass, engine.inertia)
     engine.fpar[K.F_DT] = keep
 
@@ -450,7 +452,9 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
             engine.ws[K.W_CLAIM][0] = numba.get_num_threads()  # the force passes' share per thread
-            r = samples_kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
+            # one thread: the one-loop engine (same bits; its kernels compile several times faster)
+            kernel = PK.pulse_samples_serial if device == "cpu" and numba.get_num_threads() == 1 else samples_kernel
+            r = kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
                                  engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
                                  engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
                                  engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,

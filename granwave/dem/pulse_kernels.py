@@ -37,6 +37,7 @@ import numpy as np
 from .. import contact as C
 from ..geometry import periodic_distance2
 from . import kernels as K
+from . import serial
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 INITIAL, OPENED, FORMED, SLID, CONE0 = 1, 2, 4, 8, 16
@@ -160,6 +161,27 @@ def _block_displacement2(b, pos, pos_ref, lateral):
 
 
 @numba.njit(cache=True)
+def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, mu,
+                ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats):
+    """The bookkeeping after one step of :func:`pulse_samples`: the contact flags carried over
+    a rebuild (``rebuilds``: the count before the step), the contacts classified, the largest
+    displacement into ``stats[0]`` and the step counted in ``stats[1]``. Returns the pair
+    keys and count of the current list (new arrays after a rebuild)."""
+    if ipar[K.I_REBUILDS] != rebuilds:
+        old_state = pair_state[:npairs].copy()
+        carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar[K.I_NPAIRS], pair_state)
+        npairs = ipar[K.I_NPAIRS]
+        old_i = pair_i[:npairs].copy()
+        old_j = pair_j[:npairs].copy()
+    classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state, wall_state, False)
+    u = max_displacement(pos, pos_ref, lateral)
+    if u > stats[0]:
+        stats[0] = u
+    stats[1] += 1.0
+    return old_i, old_j, npairs
+
+
+@numba.njit(cache=True)
 def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
                   wall_state, k_start, k_stop, sub, force_out, stats):
@@ -181,26 +203,41 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     old_i = pair_i[:npairs].copy()
     old_j = pair_j[:npairs].copy()
     for k in range(k_start, k_stop):
-        done = int(stats[1])
-        for _ in range(done, sub):
+        for _ in range(int(stats[1]), sub):
             rebuilds = ipar[K.I_REBUILDS]
-            status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
-                                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
-            if status == 2:
+            if K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
+                           pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
                 return -k
-            if ipar[K.I_REBUILDS] != rebuilds:
-                old_state = pair_state[:npairs].copy()
-                carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar[K.I_NPAIRS],
-                            pair_state)
-                npairs = ipar[K.I_NPAIRS]
-                old_i = pair_i[:npairs].copy()
-                old_j = pair_j[:npairs].copy()
-            classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu,
-                     pair_state, wall_state, False)
-            u = max_displacement(pos, pos_ref, lateral)
-            if u > stats[0]:
-                stats[0] = u
-            stats[1] += 1.0
+            old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
+                                               wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
+                                               wall_state, npairs, stats)
+        stats[1] = 0.0
+        force_out[k] = piston[K.P_FCON]
+    return k_stop
+
+
+@numba.njit(cache=True)
+def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
+                         pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
+                         wall_state, k_start, k_stop, sub, force_out, stats):
+    """:func:`pulse_samples` on one thread, stepping with :func:`granwave.dem.serial.run_chunk`
+    (same arguments, returns and bits): the parallel engine's kernels take several times longer
+    to compile, which a one-thread process would spend for nothing on a cold cache."""
+    n = pos.shape[0]
+    mu = fpar[K.F_MU]
+    ipar[K.I_NSTEPS] = 1
+    npairs = ipar[K.I_NPAIRS]
+    old_i = pair_i[:npairs].copy()
+    old_j = pair_j[:npairs].copy()
+    for k in range(k_start, k_stop):
+        for _ in range(int(stats[1]), sub):
+            rebuilds = ipar[K.I_REBUILDS]
+            if serial.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
+                                pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
+                return -k
+            old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
+                                               wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
+                                               wall_state, npairs, stats)
         stats[1] = 0.0
         force_out[k] = piston[K.P_FCON]
     return k_stop

@@ -114,6 +114,21 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
 
 
 @numba.njit(cache=True)
+def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft,
+                   wall_ov, piston, fpar, ipar, force, torque, out, ws):
+    """:func:`granwave.dem.kernels.compute_forces` in one loop over pairs (same arguments and
+    bits), for one thread: it compiles in a fraction of the parallel passes' time, which a
+    one-thread process (a workflow job) would otherwise spend on a cold cache."""
+    walls = ws[W_WALLS]
+    mflow = ws[W_MFLOW]
+    refresh_wall_list(pos, rad, piston, fpar, wall_ov, walls, True)  # for these positions
+    _force_loop(pos, vel, omega, rad, ws[W_PAIRC], mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
+                pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow,
+                ws[W_SLABS], ws[W_TILE], ws[W_TILEP])
+    piston[P_A] = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA])
+
+
+@numba.njit(cache=True)
 def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
               pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws):
     """:func:`granwave.dem.kernels.run_chunk` in one loop over pairs (same arguments, statuses

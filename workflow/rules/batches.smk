@@ -16,6 +16,8 @@ for _name, _scene, _samples in batches():
             _name
         conda:
             "../envs/granwave.yaml"
+        input:
+            kernels_of(_scene),
         output:
             [path for s in _samples for path in s["out"].values()],
             timings=f"{R}/timings/{_name}.tsv",

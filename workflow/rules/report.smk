@@ -231,7 +231,8 @@ rule damping_signal:
     conda:
         "../envs/granwave.yaml"
     input:
-        lambda w: damping_packing(),
+        packing=lambda w: damping_packing(),
+        kernels=kernels_marker("dem"),
     output:
         f"{R}/damping/zeta{{zeta}}.h5",
     log:
@@ -246,7 +247,7 @@ rule damping_signal:
     resources:
         runtime=60,
     shell:
-        "granwave propagate {input} --method dem --ic {params.ic} --damping {wildcards.zeta} "
+        "granwave propagate {input.packing} --method dem --ic {params.ic} --damping {wildcards.zeta} "
         "--amplitude {params.amplitude} --t-max {params.t_max:.6g} --samples {params.samples} "
         "-o {output} > {log} 2>&1"
 
