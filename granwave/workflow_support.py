@@ -737,10 +737,10 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
         else:
             if sample["kind"] not in ("lattices", "chains"):
                 continue
-            tiny["out"] = {k: str(folder / f"{tag}.{k}{Path(v).suffix}") for k, v in sample["out"].items()}
-            tiny["signal"] = {**sample["signal"], "samples": 50}
             for method in ("time", "modal"):
-                tiny["signal"]["method"] = method
+                tiny["out"] = {k: str(folder / f"{tag}.{method}.{k}{Path(v).suffix}")
+                               for k, v in sample["out"].items()}
+                tiny["signal"] = {**sample["signal"], "samples": 50, "method": method}
                 run_sample(tiny, log=lambda line: None)
         ran.append({"sample": tag, "cpu_s": round(time.process_time() - c0, 2)})
         log(f"{family}: {tag}: {ran[-1]['cpu_s']} CPU-s")
