@@ -203,9 +203,12 @@ def _min_s(seconds: float) -> str:
 
 
 def workflow_runs(folder: Path = HERE) -> list:
-    """workflow.jsonl's whole-workflow runs of the quick config, oldest first."""
+    """workflow.jsonl's whole-workflow runs of the quick config on quiet cores, oldest first
+    (a run marked ``"shared_cores": true`` had other work beside it: its wall time is not
+    what a user's machine gives, so the docs do not quote it; RESULTS.md lists it)."""
     path = folder / "workflow.jsonl"
     records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    records = [r for r in records if not r.get("shared_cores")]
     return sorted(records, key=lambda r: r.get("date", ""))  # stable: file order within a date
 
 
