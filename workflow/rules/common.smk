@@ -447,3 +447,28 @@ def _check_samples():
 
 
 _check_samples()
+
+
+# ---- helpers of rules/compile.smk (the kernel warm-ups)
+def warm_up_samples():
+    """One sample per scene, its cheapest to make (fewest grains, then highest pressure):
+    the warm-ups run these, the lattices and chains shrunk further."""
+    best = {}
+    for _name, scene, samples in batches():
+        for s in samples:
+            key = (s["make"].get("grains", s["make"].get("n_balls", s["make"].get("rows", 0))),
+                   -float(s["pressure"]))
+            if scene not in best or key < best[scene][0]:
+                best[scene] = (key, s)
+    return [s for _key, s in best.values()]
+
+
+def kernels_marker(family):
+    return ancient(f"{R}/kernels/{family}.json")
+
+
+def kernels_of(scene):
+    """The warm-up markers a scene's batches wait for."""
+    if scene_kind(scene) in ("disordered", "continuum"):
+        return [kernels_marker("dem"), kernels_marker("linear")]
+    return [kernels_marker("linear")]
