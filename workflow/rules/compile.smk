@@ -23,7 +23,9 @@ def kernels_marker(family):
 
 
 def kernels_of(scene):
-    """The warm-up markers a scene's batches wait for."""
+    """The warm-up markers a scene's batches wait for (a shear scene: the time domain's)."""
+    if scene in shear_scenes():
+        return [kernels_marker("linear")]
     if scene_kind(scene) in ("disordered", "continuum"):
         return [kernels_marker("dem"), kernels_marker("linear")]
     return [kernels_marker("linear")]
