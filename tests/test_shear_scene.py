@@ -171,3 +171,17 @@ def test_quick_config_dry_run_includes_the_shear_scene(tmp_path):
     out = run.stdout + run.stderr
     for rule in ("shear_batch_shear2d_0", "shear_analysis", "figure_shear"):
         assert rule in out, rule
+
+
+def test_docs_scene_pick_table_is_the_generated_one():
+    """docs/shear.md's scene table is what benchmarks/results/summarize.py writes from the newest
+    shear_scene.jsonl record (rerun it after recording a run)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("summarize", ROOT / "benchmarks" / "results" / "summarize.py")
+    summarize = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(summarize)
+    doc = (ROOT / "docs" / "shear.md").read_text()
+    begin, end = summarize.SHEAR_TABLE
+    block = doc[doc.index(begin) + len(begin):doc.index(end)]
+    assert block.strip() == summarize.shear_scene_table().strip()
