@@ -6,7 +6,7 @@ benchmarks/results/summarize.py writes docs/shear.md's scene pick table.
     python benchmarks/results/summarize.py
 
 ``--benchmarks``: the run's Snakemake benchmark folder; the CPU seconds of the scene's jobs
-(its batches; the analysis and figure jobs have no benchmark file) go into the record.
+(its batches, benchmarks/shear/; the analysis and figure jobs have no benchmark file) go into the record.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ OUT = Path(__file__).resolve().parent / "results" / "shear_scene.jsonl"
 
 def _cpu(folder: Path, scene: str) -> float | None:
     total, found = 0.0, False
-    for path in sorted((folder / "batch").glob(f"shear_batch_{scene}_*.tsv")):
+    for path in sorted((folder / "shear").glob(f"shear_batch_{scene}_*.tsv")):
         row = next(csv.DictReader(path.open(), delimiter="\t"))
         total += float(row["cpu_time"])
         found = True

@@ -18,11 +18,11 @@ for _name, _scene, _samples in shear_batches():
             [path for s in _samples for path in s["in"].values()],
         output:
             [path for s in _samples for path in s["out"].values()],
-            timings=f"{R}/timings/{_name}.tsv",
+            timings=f"{R}/timings/shear/{_name}.tsv",  # not timings/: benchmarks/workflow_runtime.py models the sample batches only
         log:
             f"{R}/logs/batch/{_name}.log",
         benchmark:
-            f"{R}/benchmarks/batch/{_name}.tsv"
+            f"{R}/benchmarks/shear/{_name}.tsv"
         params:
             samples=_samples,
         threads: 1
