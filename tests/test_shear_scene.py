@@ -120,9 +120,17 @@ def test_report_section_and_figure_from_a_made_analysis(tmp_path):
     from granwave.report import build_report
     from granwave.report.shear import shear_section
 
-    a = {**shear_scene(_records(), pick="cross_correlation"), "scene": "shear2d",
-         "source_scene": "frictional2d"}
+    a = {**shear_scene(_records(), pick="cross_correlation", material="quartz", diameter_mm=0.5),
+         "scene": "shear2d", "source_scene": "frictional2d"}
     md = "\n".join(shear_section({"shear2d": a}))
+    from granwave.units import material_scales
+
+    sc = material_scales("quartz", 0.5e-3)  # V_s in m/s = reduced V_s x sqrt(E*/rho)
+    row = a["si"]["rows"][-1]
+    assert row["V_s_m_s"]["mean"] == pytest.approx(a["pressures"][-1]["V_s"]["mean"] * sc["speed"])
+    assert row["G_max_MPa"]["mean"] == pytest.approx(a["pressures"][-1]["G_max"]["mean"] * sc["E_star"] / 1e6)
+    assert row["f_shear_kHz"] == pytest.approx(a["pressures"][-1]["c_t"]["mean"] * sc["speed"] / (8 * 0.5e-3) / 1e3)
+    assert "In SI units for quartz grains" in md and "| p (kPa) | V_s (m/s)" in md
     assert "## Shear waves" in md and "### shear2d (2D, packings of frictional2d)" in md
     assert "ν_s = 0.25" in md                      # exponent ± error, error to 1-2 digits
     assert "| 1e-07 | 3 |" in md                   # counts as integers

@@ -114,6 +114,19 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
                    f"p^n, rms log residual {fmt(free['rms_log_residual'], digits=2)}"
                    + (f"; n − 1/3 = {fmt(dev, digits=2)} standard errors." if math.isfinite(dev) else "."),
                    ""]
+        si = a.get("si")
+        if si:
+            md += [f"In SI units for {si['material']} grains (E* = {num(si['E_star_GPa']):.4g} GPa, "
+                   f"ρ = {num(si['density']):g} kg/m³) of mean diameter {num(si['diameter_mm']):g} mm "
+                   f"(docs/units.md; f: the source frequency of λ = {num(si['wavelength']):g} d̄):", "",
+                   "| p (kPa) | V_s (m/s) | c_t (m/s) | V_p (m/s) | c_ℓ (m/s) | G_max (MPa) | G moduli (MPa) "
+                   "| f shear (kHz) | f compr. (kHz) |", "|---|---|---|---|---|---|---|---|---|"]
+            for r in si["rows"]:
+                md.append(f"| {fmt(r['pressure_kPa'], digits=3)} | {_s(r['V_s_m_s'], 3)} | {_s(r['c_t_m_s'], 3)} | "
+                          f"{_s(r['V_p_m_s'], 3)} | {_s(r['c_l_m_s'], 3)} | {_s(r['G_max_MPa'], 3)} | "
+                          f"{_s(r['G_moduli_MPa'], 3)} | {fmt(r['f_shear_kHz'], digits=3)} | "
+                          f"{fmt(r['f_normal_kHz'], digits=3)} |")
+            md.append("")
         md += [f"V_p/V_s and the Poisson ratio: from waves r = V_p/V_s, from the moduli r = c_ℓ/c_t; "
                f"ν by the isotropic formula {a.get('poisson_formula', '')}; the tensor's own ratio "
                f"{a.get('tensor_formula', '')} differs where the packing is anisotropic.", "",

@@ -45,6 +45,8 @@ rule shear_analysis:
     params:
         pick=lambda w: config["shear"][w.scene]["pick"],
         source=lambda w: config["shear"][w.scene]["scene"],
+        material=lambda w: config["shear"][w.scene]["material"],
+        diameter_mm=lambda w: config["shear"][w.scene]["diameter_mm"],
     resources:
         runtime=5,
     script:
