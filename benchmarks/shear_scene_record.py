@@ -6,7 +6,7 @@ benchmarks/results/summarize.py writes docs/shear.md's scene pick table.
     python benchmarks/results/summarize.py
 
 ``--benchmarks``: the run's Snakemake benchmark folder; the CPU seconds of the scene's jobs
-(its batches, benchmarks/shear/; the analysis and figure jobs have no benchmark file) go into the record.
+(its batches: the shear subfolder of that folder; the analysis and figure jobs have no benchmark file) go into the record.
 """
 
 from __future__ import annotations
