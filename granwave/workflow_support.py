@@ -745,3 +745,142 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
         ran.append({"sample": tag, "cpu_s": round(time.process_time() - c0, 2)})
         log(f"{family}: {tag}: {ran[-1]['cpu_s']} CPU-s")
     return {"family": family, "ran": ran}
+
+
+# ---- the shear scene (workflow/rules/shear.smk; docs/shear.md "The shear scene")
+def shear_record_length(height: float, speed: float, *, record: float, wavelengths) -> float:
+    """Record of a shear-scene signal: ``record`` crossings at ``speed`` plus four periods of the
+    longest source wavelength (the Ricker pulse is centred at 1.5/f and the phase pick windows to
+    twice the arrival)."""
+    return (record * height + 4.0 * max(wavelengths)) / speed
+
+
+def _nyquist_samples(system, t_max: float, samples: int) -> int:
+    """At least ``samples``, and enough that the record resolves the system's highest frequency
+    (Gershgorin bound): the picks convolve the signal on its own grid, so nothing may alias."""
+    from .api import _omega_max_bound
+
+    return max(int(samples), int(math.ceil(1.05 * t_max * _omega_max_bound(system) / math.pi)) + 1)
+
+
+def run_shear_sample(sample: dict, log=print) -> list[dict]:
+    """One packing of a shear scene: the shear and the compressional kick (impulses, time
+    domain) on the source scene's linear system, every bender-element pick of both at each
+    source wavelength, and one record (:func:`granwave.analysis.shear_scene.sample_record`).
+
+    ``sample``: ``scene``, ``source_scene``, ``pressure``, ``size``, ``seed``, ``wavelengths``
+    (d; f = c/λ with c the packing's own c_t, c_l), ``pulse``, ``safety``, ``samples``,
+    ``record`` (crossings, :func:`shear_record_length`), ``in`` (``linear``, ``moduli``: the
+    source scene's files) and ``out`` (``shear_signal``, ``normal_signal``, ``picks``). A packing
+    whose moduli give no finite c_t or c_l is recorded with its reason and no picks.
+    Returns the timing of each stage (CPU and wall seconds).
+    """
+    from . import api
+    from .analysis.shear import shear_picks
+    from .analysis.shear_scene import sample_record
+    from .io import files
+    from .params import PropagateParams
+
+    timings = []
+
+    def timed(stage, fn):
+        c0, w0 = time.process_time(), time.perf_counter()
+        result = fn()
+        timings.append({"stage": stage, "cpu_s": time.process_time() - c0,
+                        "wall_s": time.perf_counter() - w0})
+        return result
+
+    out = sample["out"]
+    for path in out.values():
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    system = files.read_linear(sample["in"]["linear"])
+    mod = json.loads(Path(sample["in"]["moduli"]).read_text())
+    lams = [float(w) for w in sample["wavelengths"]]
+    meta = {k: sample[k] for k in ("scene", "source_scene", "pressure", "size", "seed")}
+    picks = {}
+    error = None
+    for kind, key in (("shear", "c_t"), ("normal", "c_l")):
+        c = mod.get(key)
+        if c is None or not math.isfinite(float(c)) or float(c) <= 0:
+            error = f"{sample['in']['moduli']}: no finite {key}"
+            break
+        c = float(c)
+        height = float(system.attrs["height"])
+        t_max = float(f"{shear_record_length(height, c, record=sample['record'], wavelengths=lams):.6g}")
+        params = PropagateParams(method="time", ic="A", source_kind=kind, t_max=t_max,
+                                 samples=_nyquist_samples(system, t_max, sample["samples"]),
+                                 safety=sample["safety"])
+
+        def signal_stage():
+            system.attrs["linear_source"] = str(sample["in"]["linear"])
+            sig = api.propagate(system, params)
+            sig.attrs["source_file"] = str(sample["in"]["linear"])
+            files.write_signal(out[f"{kind}_signal"], sig)
+            return sig
+
+        sig = timed(f"{kind}_signal", signal_stage)
+        picks[kind] = timed(f"{kind}_picks", lambda: [
+            shear_picks(sig.time, sig.force, height=float(sig.attrs["height"]), frequency=c / lam,
+                        pulse=sample["pulse"], c_t=c) for lam in lams])
+    if error:
+        log(error)
+        rec = {**meta, "error": error, "dim": int(mod.get("dim", 2))}
+    else:
+        rec = sample_record(**meta, moduli=mod, shear=picks["shear"], normal=picks["normal"],
+                            wavelengths=lams, pulse=sample["pulse"],
+                            extra={"linear": str(sample["in"]["linear"])})
+    _write_json(out["picks"], rec)
+    for t in timings:
+        t.update(n_dof=int(system.n_dof))
+    log(f"{out['picks']}: " + ", ".join(f"{t['stage']} {t['cpu_s']:.2f} s" for t in timings))
+    return timings
+
+
+def shear_error(config: dict) -> str | None:
+    """The first problem of a (schema-valid, defaulted) config's shear scenes, as one line naming
+    the key: the source scene must be a frictional disordered scene with moduli, and every
+    selected pressure and height one of its own; each scene's signals pass PropagateParams'
+    checks (the record estimated from the lattice shear speed, an upper bound of c_t)."""
+    from .params import PropagateParams
+    from .theory import lattice_shear_speed
+
+    disordered = config.get("disordered") or {}
+    for scene, spec in (config.get("shear") or {}).items():
+        base = f"shear.{scene}"
+        for kind in SCENE_KINDS:
+            if scene in (config.get(kind) or {}):
+                return f"config: scene {scene!r} is defined twice ({kind}.{scene} and {base})"
+        src = spec["scene"]
+        if src not in disordered:
+            have = ", ".join(disordered) or "none"
+            return f"config: {base}.scene = {src!r} is not a disordered scene; disordered scenes: {have}"
+        s = disordered[src]
+        if not s["friction"] > 0:
+            return (f"config: {base}.scene = {src!r} is frictionless (friction 0): the shear kick "
+                    "needs tangential wall contacts (docs/shear.md)")
+        if not s.get("moduli", True):
+            return f"config: {base}.scene = {src!r} has moduli: false; the shear scene needs its c_t and c_l"
+        series = s.get("series") or {"pressures": [], "heights": []}
+        all_p = list(s["pressures"])
+        all_h = list(s["heights"]) + list(series["heights"])
+        for i, p in enumerate(spec.get("pressures") or []):
+            if p not in all_p:
+                return (f"config: {base}.pressures[{i}] = {p:g} is not a pressure of disordered.{src} "
+                        f"({', '.join(f'{q:g}' for q in all_p)})")
+        for i, h in enumerate(spec.get("heights") or []):
+            if h not in all_h:
+                return (f"config: {base}.heights[{i}] = {h:g} is not a height of disordered.{src} "
+                        f"({', '.join(f'{q:g}' for q in sorted(set(all_h)))})")
+        lams = spec["wavelengths"]
+        p_low = min(spec.get("pressures") or all_p)
+        h_top = max(spec.get("heights") or all_h)
+        t_max = shear_record_length(h_top, float(lattice_shear_speed(p_low, poisson=s["poisson"])),
+                                    record=spec["record"], wavelengths=lams)
+        message = params_error(PropagateParams,
+                               dict(method="time", ic="A", source_kind="shear", t_max=t_max,
+                                    samples=spec["samples"], safety=spec["time_safety"]),
+                               {"t_max": f"{base}.record", "samples": f"{base}.samples",
+                                "safety": f"{base}.time_safety"}, f" (shear scene {scene})")
+        if message:
+            return message
+    return None

@@ -11,9 +11,10 @@ prose of an earlier document carries ``"transcribed": true`` and says where from
 
 The per-packing records of ``ensembles/`` (one packing a line, written and read by the ensemble
 benchmarks: relaxation.py, settling.py, end_game.py, protocol_sensitivity.py) are listed, not
-shown: their tables are in TABLES.md. Two tables go into the docs between marker comments:
-docs/gpu.md's (the newest GPU record) and docs/dem.md's (the newest value of every DEM
-measure, see :func:`dem_table`).
+shown: their tables are in TABLES.md. Three tables go into the docs between marker comments:
+docs/gpu.md's (the newest GPU record), docs/dem.md's (the newest value of every DEM
+measure, see :func:`dem_table`) and docs/shear.md's (the pick table of the newest shear-scene
+run, see :func:`shear_scene_table`).
 
 It also regenerates the workflow's job counts and measured run times quoted in README.md
 and config/README.md (the spans between ``<!-- gen:NAME -->`` and ``<!-- /gen -->``: job counts
@@ -166,6 +167,29 @@ def dem_table(folder: Path = HERE) -> str:
     return "\n".join(lines)
 
 
+#: docs/shear.md's table of the workflow's shear scene sits between these two lines.
+SHEAR_TABLE = ("<!-- shear-scene-table: begin (generated; do not edit) -->", "<!-- shear-scene-table: end -->")
+
+
+def shear_scene_table(folder: Path = HERE) -> str:
+    """The pick table of the newest record of shear_scene.jsonl (a workflow shear scene's
+    analysis, written by benchmarks/shear_scene_record.py), as the report prints it
+    (granwave.report.shear.pick_table), with the run it came from."""
+    import sys
+
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from granwave.report.shear import pick_table
+
+    rec = sorted(_records(folder / "shear_scene.jsonl"), key=lambda r: r.get("date", ""))[-1]
+    a = rec["result"]
+    lines = [f"Scene `{a.get('scene')}` ({a['dim']}D, packings of `{a.get('source_scene')}`), "
+             f"{a.get('pulse')} pulse, {a['n_records']} packings; {rec['date']}, revision "
+             f"{rec['git_revision']}, `{rec['command']}`. V/c_t of every pick, mean ± standard "
+             "error over the packings of a row (no error: one packing).", ""]
+    return "\n".join(lines + pick_table(a))
+
+
 def write_block(doc: Path, markers: tuple[str, str], text: str) -> None:
     body = doc.read_text()
     begin, end = body.index(markers[0]), body.index(markers[1])
@@ -252,6 +276,7 @@ def main() -> None:
     (HERE / "RESULTS.md").write_text(summary())
     write_gpu_table(HERE.parent.parent / "docs" / "gpu.md")
     write_block(HERE.parent.parent / "docs" / "dem.md", DEM_TABLE, dem_table())
+    write_block(HERE.parent.parent / "docs" / "shear.md", SHEAR_TABLE, shear_scene_table())
     write_generated_docs()
 
 

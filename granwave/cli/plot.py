@@ -398,3 +398,22 @@ def continuum(front_json, attenuation_json, output, pdf):
     figs.output_paths(output, pdf)
     att = load_json(attenuation_json) if attenuation_json else None
     _done(figs.continuum_panels(load_json(front_json), att, output, pdf=pdf))
+
+
+@plot.command()
+@click.argument("analysis_json", type=click.Path(dir_okay=False))
+@fig_output
+@pdf_option
+@stage
+def shear(analysis_json, output, pdf):
+    """A shear scene from its analysis (results/shear/<scene>/analysis.json): V_s, V_p and c_t,
+    c_l against pressure, G_max against p^1/3, V_p/V_s and the Poisson ratio from waves and
+    moduli, and every pick's V/c_t against distance (docs/shear.md)."""
+    from ..errors import InputError
+
+    figs = _figures()
+    figs.output_paths(output, pdf)
+    data = load_json(analysis_json)
+    if not (isinstance(data, dict) and "pick_table" in data and "pressures" in data):
+        raise InputError(f"{analysis_json}: not a shear-scene analysis (no pick_table / pressures)")
+    _done(figs.shear_panels(data, output, pdf=pdf))

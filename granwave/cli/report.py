@@ -27,10 +27,14 @@ from .common import output_path_option, quiet_option, stage
 @click.option("--continuum", multiple=True, type=click.Path(),
               help="`analyze continuum --json` and `analyze attenuation --json` files or folders "
                    "(results/continuum/<scene>/{front,attenuation}.json): the continuum section.")
+@click.option("--shear", multiple=True, type=click.Path(),
+              help="Shear-scene analyses (results/shear/<scene>/analysis.json, the workflow's "
+                   "shear_analysis rule), files or folders: the shear section (docs/shear.md).")
 @click.option("--title", default="granwave report", show_default=True)
 @quiet_option
 @stage
-def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, title, quiet):
+def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, shear, title,
+           quiet):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
 
@@ -46,7 +50,9 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     exponents and c_tof/c_l; gamma and alpha of every height series against the
     chain's exact values; lattice speeds against the formula of docs/method.md §12;
     the damping table; the continuum section (--continuum: speeds, c_tof/c_l and its
-    approach, alpha(omega), c(omega), docs/continuum.md); the sweep fits; every figure; the config name, the granwave
+    approach, alpha(omega), c(omega), docs/continuum.md); the shear section (--shear: V_s,
+    V_p, G_max against pressure, V_p/V_s and the Poisson ratio from waves and moduli, the pick
+    table, docs/shear.md); the sweep fits; every figure; the config name, the granwave
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
@@ -66,7 +72,7 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
             raise InputError(f"{damping_json}: expected the list printed by `analyze damping --json`")
     inputs = dict(summaries=collect_json(summaries), heights=collect_json(heights),
                   sweeps=collect_json(sweeps), figures=find_figures(figures),
-                  continuum=collect_json(continuum))
+                  continuum=collect_json(continuum), shear=_shear_analyses(shear))
     if not (any(inputs.values()) or damping):
         refused = click.ClickException("nothing to report: give --summaries, --heights, --sweep, "
                                        "--figures or --damping (files, or folders that hold some)")
@@ -78,3 +84,17 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     for p in write_report(out, md, title=title):
         if not quiet:
             click.echo(f"wrote {p}", err=True)
+
+
+def _shear_analyses(paths):
+    """The shear-scene analyses among ``paths`` (a folder such as results/shear also holds the
+    per-packing records: only files named analysis.json are read)."""
+    from pathlib import Path
+
+    from ..report import collect_json
+
+    files = []
+    for p in paths:
+        p = Path(p)
+        files += sorted(p.rglob("analysis.json")) if p.is_dir() else [p]
+    return collect_json([str(f) for f in files]) if files else []

@@ -19,6 +19,7 @@ statistics of their own: averages, fits and exponents come from
 | :mod:`.damping` | the damping series |
 | :mod:`.chain` | the chain against the Airy shape |
 | :mod:`.continuum` | the continuum scene: speeds, c_tof/c_l, A, W, alpha(omega), c(omega) against L |
+| :mod:`.shear` | the shear scene: V_s, V_p, G_max against p, Poisson ratios, picks against L |
 | :mod:`.registry` | figure names and captions |
 """
 
@@ -29,6 +30,7 @@ from .damping import damping_series
 from .fields import displacement_snapshot, mode_shapes, select_modes
 from .fronts import amplitude_width, arrival_times
 from .pressure import speeds_vs_pressure
+from .shear import shear_panels
 from .registry import FIGURES, caption_for
 from .signals import coherent_heights, signal_comparison, signal_label, signals_overlay
 from .spectrum import spectrum
@@ -37,5 +39,5 @@ from .statics import contact_angles, contact_roses, contact_segments, force_netw
 __all__ = ["DPI", "FIGURES", "amplitude_width", "arrival_times", "caption_for", "chain_airy",
            "coherent_heights", "contact_angles", "continuum_panels", "contact_roses", "contact_segments",
            "damping_series", "displacement_snapshot", "force_network", "mode_shapes",
-           "output_paths", "save_figure", "select_modes", "signal_comparison", "signal_label",
+           "output_paths", "save_figure", "select_modes", "shear_panels", "signal_comparison", "signal_label",
            "signals_overlay", "spectrum", "speeds_vs_pressure"]

@@ -25,6 +25,9 @@ FIGURES: dict[str, str] = {
     "continuum": "Continuum scene: local speeds and c_l against L, c_tof/c_l with the fit "
                  "1 + a L^-beta, amplitude and width with local exponents, attenuation and phase "
                  "velocity of the coherent signal",
+    "shear": "Shear scene: V_s, V_p (waves) and c_t, c_l (moduli) against pressure with fits, "
+             "G_max against p^1/3 and the measured exponent, V_p/V_s and the Poisson ratio from "
+             "waves and moduli, every arrival pick's V/c_t against distance",
 }
 """Figure name (the ``granwave plot`` subcommand) -> caption used by the report."""
 

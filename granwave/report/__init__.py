@@ -7,6 +7,7 @@
 | :mod:`.numbers` | the one rule for numbers: value ± error, counts, ranges, bounds |
 | :mod:`.tables` | cells and one table builder per section (rules in its docstring) |
 | :mod:`.continuum` | the continuum scenes' section (speeds against L, c_tof/c_ℓ, α(ω), c(ω)) |
+| :mod:`.shear` | the shear scenes' section (V_s, V_p, G_max against p, Poisson ratios, pick table) |
 | :mod:`.html` | the HTML twin, rendered by the `markdown` package |
 | :mod:`.index` | the page: :func:`build_report`, :func:`write_report` |
 """

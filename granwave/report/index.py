@@ -16,6 +16,7 @@ computed from the inputs:
 * **the damping table** (``granwave analyze damping --json``);
 * **the continuum scenes** (``granwave analyze continuum`` and ``attenuation --json``,
   :mod:`granwave.report.continuum`);
+* **the shear scenes** (``results/shear/<scene>/analysis.json``, :mod:`granwave.report.shear`);
 * **figures**: every PNG given, linked relative to the page, captioned from its
   file name (:func:`granwave.figures.caption_for`).
 """
@@ -32,6 +33,7 @@ from ..io.files import atomic_text
 from . import tables as T
 from .html import markdown_to_html
 from .continuum import continuum_inputs, continuum_section
+from .shear import shear_inputs, shear_section
 from .inputs import Scenes, scene_of
 
 
@@ -56,13 +58,15 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
                  figures: Sequence[Path] = (), out_dir: Path = Path("."),
                  config: Mapping | None = None, config_path: str | None = None,
                  title: str = "granwave report", damping: Sequence[Mapping] = (),
-                 continuum: Sequence[tuple[Path, object, str | None]] = ()) -> str:
+                 continuum: Sequence[tuple[Path, object, str | None]] = (),
+                 shear: Sequence[tuple[Path, object, str | None]] = ()) -> str:
     """The report as Markdown (sources: module docstring).
 
     ``summaries``, ``heights``, ``sweeps``: (path, object, scene guess) from
     :func:`granwave.report.collect_json`; ``damping``: rows of
     ``granwave analyze damping --json``; ``continuum``: (path, object, guess) of the
-    continuum scenes' analyses (:mod:`granwave.report.continuum`). Refuses (InputError) a call with no
+    continuum scenes' analyses (:mod:`granwave.report.continuum`); ``shear``: the shear scenes'
+    analyses (:mod:`granwave.report.shear`). Refuses (InputError) a call with no
     input at all: an empty report would look like a finished study.
     """
     from .. import __version__
@@ -70,7 +74,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     from ..figures.registry import caption_for
     from ..provenance import git_revision
 
-    if not (summaries or heights or sweeps or figures or damping or continuum):
+    if not (summaries or heights or sweeps or figures or damping or continuum or shear):
         raise InputError("nothing to report: give --summaries, --heights, --sweep, --figures "
                          "or --damping (files or folders that hold some)")
     sums = []
@@ -116,6 +120,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     if damping:
         md += T.damping_section(damping)
     md += continuum_section(continuum_inputs(continuum))
+    md += shear_section(shear_inputs(shear))
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
                "The fitted exponents ν (c ∝ p^ν) of each sweep file, as computed by `pressure-sweep` "

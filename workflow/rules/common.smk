@@ -43,7 +43,7 @@ def _check_config():
     if message:
         _stop(message)
     validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
-    for check in (ws.cross_reference_error, ws.labels_error, ws.count_error):
+    for check in (ws.cross_reference_error, ws.labels_error, ws.count_error, ws.shear_error):
         message = check(config)
         if message:
             _stop(message)
@@ -359,6 +359,7 @@ def figure_targets():
     if config["damping"]["enabled"]:
         figs.append(f"{F}/damping.png")
     figs += [f"{F}/continuum_{s}.png" for s in scenes("continuum")]
+    figs += [f"{F}/shear_{s}.png" for s in shear_scenes()]
     return figs
 
 
@@ -426,6 +427,56 @@ def damping_linear_reference():
     return f"{R}/signal/{d['scene']}/p{fmt_p(d['pressure'])}/{height_label(d['height'])}/s0.h5"
 
 
+# ---- helpers of rules/shear.smk
+# The shear scenes kick packings of a frictional disordered scene (its linear systems and moduli).
+
+
+def shear_scenes():
+    return list(config.get("shear") or {})
+
+
+def shear_samples(scene):
+    """(pressure, size, seed) of the source scene's samples a shear scene uses."""
+    spec = config["shear"][scene]
+    ps = {fmt_p(p) for p in spec["pressures"]} if spec.get("pressures") else None
+    hs = {height_label(h) for h in spec["heights"]} if spec.get("heights") else None
+    n = spec.get("seeds")
+    return [(p, sz, s) for p, sz, s in samples(spec["scene"])
+            if (ps is None or p in ps) and (hs is None or sz in hs) and (n is None or s < n)]
+
+
+def shear_sample(scene, p, size, seed):
+    """What workflow/scripts/shear_batch.py needs for one packing (options and paths)."""
+    spec = config["shear"][scene]
+    src, tail = spec["scene"], f"p{p}/{size}/s{seed}"
+    return {"scene": scene, "source_scene": src, "pressure": p, "size": size, "seed": seed,
+            "wavelengths": [float(w) for w in spec["wavelengths"]], "pulse": spec["pulse"],
+            "safety": spec["time_safety"], "samples": spec["samples"], "record": spec["record"],
+            "in": {"linear": f"{R}/linear/{src}/{tail}.h5", "moduli": f"{R}/moduli/{src}/{tail}.json"},
+            "out": {"shear_signal": f"{R}/shear_signal/{scene}/{tail}.h5",
+                    "normal_signal": f"{R}/shear_pwave/{scene}/{tail}.h5",
+                    "picks": f"{R}/shear/{scene}/{tail}.json"}}
+
+
+def shear_batches():
+    """[(name, scene, samples)] of every shear scene, cut into its batch_size pieces."""
+    out = []
+    for scene in shear_scenes():
+        items, n = shear_samples(scene), config["shear"][scene]["batch_size"]
+        for k in range(0, len(items), n):
+            out.append((f"shear_batch_{scene}_{k // n}", scene,
+                        [shear_sample(scene, *s) for s in items[k:k + n]]))
+    return out
+
+
+def shear_picks(scene):
+    return [shear_sample(scene, *s)["out"]["picks"] for s in shear_samples(scene)]
+
+
+def shear_outputs():
+    return [f"{R}/shear/{s}/analysis.json" for s in shear_scenes()]
+
+
 def _check_samples():
     """Every job's options through its stage's own parameter checks (granwave/params.py), as the
     jobs will pass them: each sample of each batch, the height series, the continuum analyses,
@@ -442,6 +493,11 @@ def _check_samples():
         message = analyses_error(
             config, snapshot=snapshot,
             damping_t_max=float(f"{damping_t_max():.6g}") if config["damping"]["enabled"] else None)
+    for scene in shear_scenes() if message is None else []:
+        if not shear_samples(scene):
+            message = (f"config: shear.{scene}: selects no packing of disordered."
+                       f"{config['shear'][scene]['scene']} (pressures, heights and seeds together)")
+            break
     if message:
         _stop(message)
 
@@ -468,7 +524,9 @@ def kernels_marker(family):
 
 
 def kernels_of(scene):
-    """The warm-up markers a scene's batches wait for."""
+    """The warm-up markers a scene's batches wait for (a shear scene: the time domain's)."""
+    if scene in shear_scenes():
+        return [kernels_marker("linear")]
     if scene_kind(scene) in ("disordered", "continuum"):
         return [kernels_marker("dem"), kernels_marker("linear")]
     return [kernels_marker("linear")]

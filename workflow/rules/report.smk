@@ -210,6 +210,7 @@ rule report:
                  if scene_spec(s).get("spectrum")],
         damping=[f"{R}/damping/table.json"] if config["damping"]["enabled"] else [],
         continuum=continuum_outputs(),
+        shear=shear_outputs(),
     output:
         md=f"{R}/report/index.md",
         html=f"{R}/report/index.html",
@@ -222,7 +223,8 @@ rule report:
                                         flags("--sweep", input.sweeps),
                                         flags("--figures", input.figures),
                                         flags("--damping", input.damping),
-                                        flags("--continuum", input.continuum)]),
+                                        flags("--continuum", input.continuum),
+                                        flags("--shear", input.shear)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
 

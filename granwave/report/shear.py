@@ -1,0 +1,142 @@
+"""The report's shear section (docs/shear.md, "The shear scene"): V_s(p), V_p(p), G_max(p)
+against p^(1/3) and the measured exponent, V_p/V_s and the Poisson ratio from waves and from
+the moduli, and the pick table (which pick lands within 5 % of c_t at which distance and
+wavelength).
+
+Input: the workflow's shear analyses (``results/shear/<scene>/analysis.json``, written by
+:func:`granwave.analysis.shear_scene.shear_scene`). Every number is copied from them;
+errors are one standard error (over packings, or of a fit through the per-pressure means).
+:func:`pick_table` is also what docs/shear.md's generated table is made of.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from .numbers import MISSING, fmt, fmt_count, num
+
+
+def _is_analysis(obj) -> bool:
+    return isinstance(obj, Mapping) and "pick_table" in obj and "pressures" in obj
+
+
+def shear_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, Mapping]:
+    """{scene: analysis} of the shear analyses among ``items`` (the scene: the analysis's own
+    ``scene``, else the file's folder name)."""
+    out: dict[str, Mapping] = {}
+    for path, obj, _ in items:
+        if _is_analysis(obj):
+            out[str(obj.get("scene") or Path(path).parent.name)] = obj
+    return out
+
+
+def _s(stat: Mapping | None, digits: int = 4) -> str:
+    stat = stat or {}
+    return fmt(stat.get("mean"), stat.get("sem"), digits)
+
+
+def _fit(fit: Mapping | None) -> str:
+    if not fit:
+        return MISSING
+    return fmt(fit.get("exponent"), fit.get("exponent_err"), 3)
+
+
+def pick_table(analysis: Mapping) -> list[str]:
+    """The pick table as Markdown lines: per pressure, wavelength and height, every pick's
+    V/c_t (mean ± standard error over the packings) and the picks within the tolerance."""
+    picks = list(analysis["picks"])
+    tol = num(analysis.get("tolerance", 0.05))
+    lines = ["| p (E*) | λ (d̄) | L (d̄) | n | " + " | ".join(f"`{p}`" for p in picks)
+             + f" | within {tol:.0%} |", "|---|---|---|---|" + "---|" * len(picks) + "---|"]
+    for row in analysis["pick_table"]:
+        cells = [fmt(row.get(p), row.get(f"{p}_err"), 3) for p in picks]
+        ok = ", ".join(f"`{p}`" for p in row.get("within_5pct", [])) or "none"
+        lines.append(f"| {num(row['pressure']):g} | {num(row['wavelength']):g} | "
+                     f"{fmt(row.get('height'), digits=3)} | {fmt_count(row.get('n'))} | "
+                     + " | ".join(cells) + f" | {ok} |")
+    return lines
+
+
+def _verdict(analysis: Mapping) -> str:
+    """Which picks come within the tolerance at every height, some, or never (over all rows)."""
+    rows = analysis["pick_table"]
+    if not rows:
+        return ""
+    always = [p for p in analysis["picks"] if all(p in r.get("within_5pct", []) for r in rows)]
+    never = [p for p in analysis["picks"] if not any(p in r.get("within_5pct", []) for r in rows)]
+    tol = f"{num(analysis.get('tolerance', 0.05)):.0%}"
+    parts = [f"within {tol} of c_t in every row: " + (", ".join(f"`{p}`" for p in always) or "no pick"),
+             f"in no row: " + (", ".join(f"`{p}`" for p in never) or "none")]
+    return "Over the rows below, " + "; ".join(parts) + "."
+
+
+def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
+    """The section's Markdown lines (empty without a shear scene)."""
+    if not scenes:
+        return []
+    md = ["## Shear waves: V_s, V_p, G_max and the arrival picks", "",
+          "Packings of a frictional scene kicked along x (shear) and along y (compressional) as a "
+          "bender element would (docs/shear.md): both kicks are impulses convolved with the source "
+          "pulse at f = c/λ (c the packing's own c_t or c_ℓ from its moduli); V = L/T of the scene's "
+          "pick. Speeds in √(E*/ρ), moduli in E* (grain density 1; G_max = Φ3* V_s²); errors one "
+          "standard error over packings (rows) or of the fit through the per-pressure means "
+          "(exponents).", ""]
+    for scene, a in sorted(scenes.items()):
+        dim = int(a.get("dim", 2))
+        md += [f"### {scene} ({dim}D, packings of {a.get('source_scene', '?')})", ""]
+        h = a.get("fit_height")
+        md += [f"- pick `{a['pick']}`, {a.get('pulse')} pulse, λ = {num(a['wavelengths'][0]):g} d̄; "
+               f"speeds at the nominal height {num(h):g} d̄; {fmt_count(a['n_records'])} packings in all"
+               + (f" ({fmt_count(a['n_skipped'])} without moduli, skipped)" if a.get("n_skipped") else ""),
+               ""]
+        md += ["| p (E*) | n | V_s | c_t | V_s/c_t | V_p | c_ℓ | V_p/c_ℓ | G_max | G (moduli) |",
+               "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in a["pressures"]:
+            md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {_s(r['V_s'])} | {_s(r['c_t'])} | "
+                      f"{_s(r['V_s_over_c_t'], 3)} | {_s(r['V_p'])} | {_s(r['c_l'])} | "
+                      f"{_s(r['V_p_over_c_l'], 3)} | {_s(r['G_max'])} | {_s(r['G_moduli'])} |")
+        f = a.get("fits", {})
+        md += ["", "Pressure exponents (c ∝ p^ν; G ∝ p^n):", "",
+               "| quantity | from waves | from the moduli |", "|---|---|---|",
+               f"| shear speed | ν_s = {_fit(f.get('V_s'))} | {_fit(f.get('c_t'))} |",
+               f"| compressional speed | ν_p = {_fit(f.get('V_p'))} | {_fit(f.get('c_l'))} |",
+               f"| G_max | n = {_fit(f.get('G_max'))} | {_fit(f.get('G_moduli'))} |", ""]
+        g = a.get("G_max", {})
+        hz, free = g.get("hertz"), g.get("free")
+        if hz and free:
+            dev = num(g.get("deviation_from_hertz"))
+            md += [f"G_max against p^(1/3) (Hertz–Mindlin effective medium): G_max = "
+                   f"{fmt(hz['prefactor'], hz.get('prefactor_err'), 3)} p^(1/3), rms log residual "
+                   f"{fmt(hz['rms_log_residual'], digits=2)}; with the measured exponent "
+                   f"n = {_fit(free)}: G_max = {fmt(free['prefactor'], free.get('prefactor_err'), 3)} "
+                   f"p^n, rms log residual {fmt(free['rms_log_residual'], digits=2)}"
+                   + (f"; n − 1/3 = {fmt(dev, digits=2)} standard errors." if math.isfinite(dev) else "."),
+                   ""]
+        si = a.get("si")
+        if si:
+            md += [f"In SI units for {si['material']} grains (E* = {num(si['E_star_GPa']):.4g} GPa, "
+                   f"ρ = {num(si['density']):g} kg/m³) of mean diameter {num(si['diameter_mm']):g} mm "
+                   f"(docs/units.md; f: the source frequency of λ = {num(si['wavelength']):g} d̄):", "",
+                   "| p (kPa) | V_s (m/s) | c_t (m/s) | V_p (m/s) | c_ℓ (m/s) | G_max (MPa) | G moduli (MPa) "
+                   "| f shear (kHz) | f compr. (kHz) |", "|---|---|---|---|---|---|---|---|---|"]
+            for r in si["rows"]:
+                md.append(f"| {fmt(r['pressure_kPa'], digits=3)} | {_s(r['V_s_m_s'], 3)} | {_s(r['c_t_m_s'], 3)} | "
+                          f"{_s(r['V_p_m_s'], 3)} | {_s(r['c_l_m_s'], 3)} | {_s(r['G_max_MPa'], 3)} | "
+                          f"{_s(r['G_moduli_MPa'], 3)} | {fmt(r['f_shear_kHz'], digits=3)} | "
+                          f"{fmt(r['f_normal_kHz'], digits=3)} |")
+            md.append("")
+        md += [f"V_p/V_s and the Poisson ratio: from waves r = V_p/V_s, from the moduli r = c_ℓ/c_t; "
+               f"ν by the isotropic formula {a.get('poisson_formula', '')}; the tensor's own ratio "
+               f"{a.get('tensor_formula', '')} differs where the packing is anisotropic.", "",
+               "| p (E*) | V_p/V_s | c_ℓ/c_t | ν (waves) | ν (moduli) | ν (tensor) |",
+               "|---|---|---|---|---|---|"]
+        for r in a["pressures"]:
+            md.append(f"| {num(r['pressure']):g} | {_s(r['ratio_waves'], 3)} | {_s(r['ratio_moduli'], 3)} | "
+                      f"{_s(r['poisson_waves'], 3)} | {_s(r['poisson_moduli'], 3)} | "
+                      f"{_s(r['poisson_tensor'], 3)} |")
+        md += ["", f"Pick table: V/c_t of every pick (docs/shear.md) per pressure, wavelength and "
+               f"nominal height (L its mean wall-to-wall distance). " + _verdict(a), ""]
+        md += pick_table(a) + [""]
+    return md
