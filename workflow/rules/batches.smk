@@ -28,6 +28,7 @@ for _name, _scene, _samples in batches():
         params:
             samples=_samples,
         threads: 1
+        priority: batch_priority(_samples)
         resources:
             mem_mb=2000,
             runtime=60,

@@ -22,6 +22,7 @@ rule compile_kernels:
                          "damping": max(config["damping"]["zetas"])}
         if config["damping"]["enabled"] else None,
     threads: 1
+    priority: 100  # before everything that waits for it
     resources:
         mem_mb=1000,
         runtime=30,
