@@ -56,6 +56,7 @@ sqrt(E*/rho). The functions do not care: they return the units they are given.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -65,6 +66,7 @@ from ..errors import InputError
 from .ensemble import ensemble_average
 from .front import front_features
 from .heights import group_heights
+from .packings import packing_check, pooled_variance
 
 if TYPE_CHECKING:
     from ..model import Signal
@@ -72,7 +74,7 @@ if TYPE_CHECKING:
 DEFAULT_WINDOW_WIDTHS = 5.0
 DEFAULT_THRESHOLD = 0.05
 DEFAULT_MAX_ERROR = 0.1
-DEFAULT_MIN_PERIODS = 0.5
+DEFAULT_MIN_PERIODS = 1.0
 DEFAULT_MIN_SNR = 2.0
 DEFAULT_MIN_HEIGHTS = 3
 DEFAULT_MIN_FIT_P = 0.01
@@ -119,52 +121,83 @@ def _unwrapped_phase(omega, S, t_ref, i_ref) -> np.ndarray:
     return psi - omega[None, :] * np.asarray(t_ref)[:, None]
 
 
-def _slopes(L: np.ndarray, Y: np.ndarray, use: np.ndarray | None = None):
+def _slopes(L: np.ndarray, Y: np.ndarray, use: np.ndarray | None = None, var: np.ndarray | None = None):
     """Least-squares slope of every column of Y (heights x freq) against L over the rows
-    ``use`` marks (heights x freq booleans; all rows when None).
+    ``use`` marks (heights x freq booleans; all rows when None), weighted by 1/``var`` (heights
+    x freq variances of Y) where every used row of the column has a finite positive variance,
+    unweighted in the other columns.
 
-    Returns (slope, slope_err, resid, n): the slope's standard error is NaN with fewer than
-    three rows (no residual), the slope NaN with fewer than two; ``resid`` (heights x freq)
-    is 0 on the rows not used.
+    Returns (slope, slope_err, resid, n, chi2): weighted, the slope's standard error is the
+    absolute one, 1/sqrt(Σ w (L − L̄)²), times sqrt(χ²/(n − 2)) where that exceeds 1 (a misfit
+    widens it, never narrows it); unweighted, the scatter's (NaN with fewer than three rows).
+    The slope is NaN with fewer than two rows; ``resid`` (heights x freq) is 0 on the rows not
+    used; ``chi2`` = Σ w resid² (NaN in unweighted columns).
     """
     use = np.ones(Y.shape, bool) if use is None else np.asarray(use, bool)
-    w = use.astype(float)
+    if var is None:
+        weighted = np.zeros(Y.shape[1], bool)
+        w = use.astype(float)
+    else:
+        v = np.asarray(var, float)
+        good = np.isfinite(v) & (v > 0)
+        weighted = np.all(good | ~use, axis=0) & use.any(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.where(weighted[None, :], np.where(use & good, 1.0 / np.where(good, v, 1.0), 0.0),
+                         use.astype(float))
     Yz = np.where(use, Y, 0.0)
-    n = w.sum(axis=0)
+    n = use.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        Lbar = (w * L[:, None]).sum(axis=0) / n
-        Ybar = Yz.sum(axis=0) / n
-        x = (L[:, None] - Lbar[None, :]) * w
-        sxx = (x * x).sum(axis=0)
-        slope = (x * (Yz - Ybar[None, :])).sum(axis=0) / sxx
-        resid = (Yz - Ybar[None, :] - x * slope[None, :]) * w
-        ss = (resid**2).sum(axis=0)
-        err = np.where(n > 2, np.sqrt(ss / (n - 2) / sxx), np.nan)
+        sw = w.sum(axis=0)
+        Lbar = (w * L[:, None]).sum(axis=0) / sw
+        Ybar = (w * Yz).sum(axis=0) / sw
+        x = np.where(use, L[:, None] - Lbar[None, :], 0.0)
+        sxx = (w * x * x).sum(axis=0)
+        slope = (w * x * (Yz - Ybar[None, :])).sum(axis=0) / sxx
+        resid = np.where(use, Yz - Ybar[None, :] - x * slope[None, :], 0.0)
+        chi2 = (w * resid**2).sum(axis=0)
+        scatter = np.where(n > 2, np.sqrt(chi2 / (n - 2) / sxx), np.nan)
+        absolute = np.sqrt(1.0 / sxx)
+        birge = np.where(n > 2, np.sqrt(chi2 / np.maximum(n - 2, 1)), 1.0)
+        err = np.where(weighted, absolute * np.fmax(birge, 1.0), scatter)
     slope = np.where(n >= 2, slope, np.nan)
-    return slope, err, resid, n.astype(int)
+    return slope, err, resid, n.astype(int), np.where(weighted, chi2, np.nan)
 
 
-def _alpha_c(L, omega, S, t_ref, i_ref, use=None):
-    """(alpha, alpha_fit_err, c, c_fit_err, k, k_err, lnA_resid) at every ω from spectra at
-    heights L, each ω fitted over the heights ``use`` marks (all when None)."""
+def _fit_lines(L, omega, lnA, phi, use=None, var_lnA=None, var_phi=None):
+    """(alpha, alpha_fit_err, c, c_fit_err, k, k_err, lnA_resid, chi2) at every ω from ln|S| and
+    the unwrapped phase at heights L (heights x ω), each ω fitted over the heights ``use``
+    marks (all when None), weighted by the variances where given (:func:`_slopes`)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        lnA = np.log(np.abs(S))
-        a_slope, a_err, a_res, _ = _slopes(L, lnA, use)
-        phi = _unwrapped_phase(omega, S, t_ref, i_ref)
-        p_slope, p_err, _, _ = _slopes(L, phi, use)
+        a_slope, a_err, a_res, _, chi2 = _slopes(L, lnA, use, var_lnA)
+        p_slope, p_err, _, _, _ = _slopes(L, phi, use, var_phi)
         k = -p_slope
         c = omega / k
         c_err = omega * p_err / k**2
-    return -a_slope, a_err, c, np.abs(c_err), k, p_err, a_res
+    return -a_slope, a_err, c, np.abs(c_err), k, p_err, a_res, chi2
 
 
-def fit_p_value(resid, S, noise, use) -> np.ndarray:
+def _alpha_c(L, omega, S, t_ref, i_ref, use=None):
+    """:func:`_fit_lines` of the spectra S (heights x ω), unweighted, ln|S| not debiased."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lnA = np.log(np.abs(S))
+    return _fit_lines(L, omega, lnA, _unwrapped_phase(omega, S, t_ref, i_ref), use)[:7]
+
+
+def group_velocity(omega, k) -> np.ndarray:
+    """c_g = dω/dk = 1 / (dk/dω), by central differences of k(ω) on the frequency grid."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return 1.0 / np.gradient(np.asarray(k, float), np.asarray(omega, float))
+
+
+def fit_p_value(resid, S, noise, use, var=None) -> np.ndarray:
     """p-value, at every ω, of the ln|S| fit's χ² = Σ (resid / σ)² over the heights used, with
-    σ = noise / |S| (the noise floor's share of the coherent amplitude) and n − 2 degrees of
-    freedom (rule 8c). NaN with fewer than three heights or an unknown noise floor."""
+    σ² = ``var`` (the variance of ln|S| per height, :func:`coherent_spectra`) when given, else
+    σ = noise / |S| (the noise floor's share of the coherent amplitude), and n − 2 degrees of
+    freedom (rule 8c). NaN with fewer than three heights or an unknown σ."""
     use = np.asarray(use, bool)
     with np.errstate(invalid="ignore", divide="ignore"):
-        sig = np.asarray(noise) / np.abs(S)
+        sig = np.sqrt(np.asarray(var, float)) if var is not None else np.asarray(noise) / np.abs(S)
+        sig = np.where(sig > 0, sig, np.nan)
         chi2 = np.where(use, (resid / sig) ** 2, 0.0).sum(axis=0)
         dof = use.sum(axis=0) - 2
         known = np.all(np.isfinite(sig) | ~use, axis=0) & (dof > 0)
@@ -172,6 +205,36 @@ def fit_p_value(resid, S, noise, use) -> np.ndarray:
     return np.where(known, p, np.nan)
 
 
+def coherent_spectra(P: np.ndarray) -> dict:
+    """The coherent spectrum of one height from its packings' spectra P (packings x ω).
+
+    ``S`` = the mean; ``noise`` = :func:`noise_floor`; ``lnA`` = ln of the debiased coherent
+    amplitude, ½ ln(|S̄|² − noise²): the incoherent remainder adds its variance to the mean's
+    power, E|S̄|² = |⟨S⟩|² + σ²/n, so |S̄| alone is biased up by ≈ σ²/(2 n |⟨S⟩|) (NaN where
+    |S̄| ≤ noise; not corrected with one packing); ``var_lnA``, ``var_phi``: the variances of
+    ln|S̄| and of its phase, Σ Re(δ_i/S̄)² / (n (n − 1)) and the same with Im, δ_i = S_i − S̄
+    (first order in δ; the jitter of arrival times goes mostly into the phase, an incoherent
+    remainder into both); NaN with one packing.
+    """
+    P = np.asarray(P)
+    n = P.shape[0]
+    S = P.mean(axis=0)
+    noise = noise_floor(P)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if n < 2:
+            var_lnA = var_phi = np.full(S.shape, np.nan)
+            lnA = np.log(np.abs(S))
+        else:
+            r = (P - S) / S
+            # identical packings (a scatter at the rounding level): no variance of their own
+            flat = noise <= 1e-9 * np.abs(S)
+            var_lnA = (r.real**2).sum(axis=0) / (n * (n - 1))
+            var_phi = (r.imag**2).sum(axis=0) / (n * (n - 1))
+            power = np.abs(S) ** 2 - noise**2
+            lnA = np.where(power > 0, 0.5 * np.log(np.where(power > 0, power, 1.0)), np.nan)
+            var_lnA[flat] = np.nan
+            var_phi[flat] = np.nan
+    return {"S": S, "noise": noise, "lnA": lnA, "var_lnA": var_lnA, "var_phi": var_phi, "n": n}
 
 
 def noise_floor(spectra_of_packings: np.ndarray) -> np.ndarray:
@@ -255,23 +318,37 @@ def low_frequency_limit(omega, c, band, c_err=None, span: float = DEFAULT_C0_SPA
             "omega_fit": [float(omega[lower[0]]), float(omega[lower[-1]])]}
 
 
+def lateral_cutoff(c_t: float, width: float) -> float:
+    """The first lateral shear cutoff of a column of lateral period ``width``: ω = 2π c_t / W.
+    Above it the lowest transverse mode of the waveguide propagates and α(ω), c(ω) are the
+    column's, not the medium's."""
+    if not (c_t > 0 and width > 0):
+        raise InputError(f"the lateral cutoff needs c_t > 0 and a width > 0 (got {c_t}, {width})")
+    return 2.0 * math.pi * float(c_t) / float(width)
+
+
 def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                             window_widths: float = DEFAULT_WINDOW_WIDTHS,
                             threshold: float = DEFAULT_THRESHOLD, max_error: float = DEFAULT_MAX_ERROR,
                             bootstrap: int = 200, min_periods: float = DEFAULT_MIN_PERIODS,
                             min_snr: float = DEFAULT_MIN_SNR, min_heights: int = DEFAULT_MIN_HEIGHTS,
                             min_fit_p: float = DEFAULT_MIN_FIT_P, seed: int = 0, c_l: float | None = None,
+                            omega_cutoff: float | None = None,
                             labels: Sequence[Sequence[str]] | None = None, **front_kw) -> dict:
     """α(ω), Q(ω), c(ω) from signals already grouped by nominal height (rule: module docstring).
 
     ``groups``: one list of signals per height (at least two heights, all on one pressure and
-    initial condition). Returns a JSON-ready dict: ``omega``, ``alpha``, ``c``, ``Q`` and their
-    ``*_err``, ``*_fit_err``, ``*_boot_err``; ``reliable`` (mask), ``band`` [ω_lo, ω_hi],
-    ``omega_ref``, per-height ``heights``, ``counts``, ``t_ref``, ``t_end``; the low-frequency
-    limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` when ``c_l`` is given).
+    initial condition). Returns a JSON-ready dict: ``omega``, ``alpha``, ``c``, ``c_group``,
+    ``Q`` and their ``*_err``, ``*_fit_err``, ``*_boot_err``; ``reliable`` (mask), ``band``
+    [ω_lo, ω_hi], ``omega_ref``, per-height ``heights``, ``counts``, ``t_ref``, ``t_end``,
+    ``error_model``; the low-frequency limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` when
+    ``c_l`` is given); ``omega_cutoff`` and ``above_cutoff`` when the lateral cutoff is given;
+    ``packings`` (:func:`granwave.analysis.packings.packing_check`, the rule for fits).
     """
     if len(groups) < 2:
         raise InputError("attenuation needs signals at two or more different heights")
+    if omega_cutoff is not None and not omega_cutoff > 0:
+        raise InputError(f"the lateral cutoff must be a positive frequency (got {omega_cutoff})")
     labels = labels or [[f"height {g} signal {i}" for i in range(len(s))] for g, s in enumerate(groups)]
     ens = [ensemble_average(list(s), labels=list(lab), height_rtol=math.inf)  # grouped by the caller
            for s, lab in zip(groups, labels)]
@@ -298,54 +375,108 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     t_end = np.array([min(w[1], r) for w, r in zip(win, record_end)])
     # the taper (one front width) stays behind the peak when the record cuts the window
     taper = np.array([min(w[2], 0.5 * (te - tr)) for w, te, tr in zip(win, t_end, t_ref)])
-    omega, S = spectra(grid, means, t_end, taper)
-    i_ref = int(np.argmax(np.abs(S[-1])))
     stacks = [np.array([on_grid(s.time, s.force) for s in g]) for g in groups]
-    noise = np.array([noise_floor(spectra(grid, st, [te] * len(st), [tp] * len(st))[1])
-                      for st, te, tp in zip(stacks, t_end, taper)])
+    # every packing's windowed spectrum: the mean of the spectra is the spectrum of the mean
+    P = [spectra(grid, st, [te] * len(st), [tp] * len(st)) for st, te, tp in zip(stacks, t_end, taper)]
+    omega = P[0][0]
+    P = [p[1] for p in P]
+    coh = [coherent_spectra(p) for p in P]
+    S = np.array([h["S"] for h in coh])
+    noise = np.array([h["noise"] for h in coh])
+    counts = np.array([len(g) for g in groups])
+    # a height with one packing borrows the per-packing variance pooled over the others
+    var_lnA, pooled = pooled_variance(np.array([h["var_lnA"] for h in coh]) * counts[:, None], counts - 1)
+    var_phi, _ = pooled_variance(np.array([h["var_phi"] for h in coh]) * counts[:, None], counts - 1)
+    var_lnA, var_phi = var_lnA / counts[:, None], var_phi / counts[:, None]
+    error_model = np.array(["pooled" if n < 2 else "sample" for n in counts])
+    lnA = np.array([h["lnA"] for h in coh])
+    i_ref = int(np.argmax(np.abs(S[-1])))
+    phi = _unwrapped_phase(omega, S, t_ref, i_ref)
     duration = t_end - t_lead
     use = usable(omega, S, noise, duration, min_periods=min_periods, min_snr=min_snr)
+    use &= np.isfinite(lnA)
     n_used = use.sum(axis=0)
     need = max(2, min(int(min_heights), L.size))  # two heights given: both needed, no χ² test
-    alpha, alpha_fit, c, c_fit, k, k_fit, resid = _alpha_c(L, omega, S, t_ref, i_ref, use)
-    fit_p = fit_p_value(resid, S, noise, use)
+    alpha, alpha_fit, c, c_fit, k, k_fit, resid, chi2 = _fit_lines(L, omega, lnA, phi, use, var_lnA,
+                                                                    var_phi)
+    cg = group_velocity(omega, k)
+    fit_p = fit_p_value(resid, S, noise, use, var=var_lnA)
 
-    n_boot = int(bootstrap) if all(len(g) > 1 for g in groups) else 0
-    boot_a, boot_c = [], []
+    # Bootstrap over the packings of every height, through the chain: mean spectra, noise
+    # floors, debiased amplitudes, weights and fits of every resampling (windows, t_ref and the
+    # heights used at each ω kept). A height with one packing cannot be resampled: its ln|S|
+    # and phase are drawn about their values with the pooled variances instead.
+    n_boot = int(bootstrap) if np.any(counts > 1) else 0
+    boot = {"alpha": [], "c": [], "cg": []}
     if n_boot:
         rng = np.random.default_rng(seed)
         for _ in range(n_boot):
-            m = np.array([st[rng.integers(0, st.shape[0], st.shape[0])].mean(axis=0) for st in stacks])
-            _, Sb = spectra(grid, m, t_end, taper)
-            a_b, _, c_b, *_ = _alpha_c(L, omega, Sb, t_ref, i_ref, use)
-            boot_a.append(a_b)
-            boot_c.append(c_b)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        alpha_boot = np.std(boot_a, axis=0, ddof=1) if n_boot > 1 else np.full(omega.size, np.nan)
-        c_boot = np.std(boot_c, axis=0, ddof=1) if n_boot > 1 else np.full(omega.size, np.nan)
+            lb, pb, vb, vp = [], [], [], []
+            for h, p in enumerate(P):
+                if counts[h] > 1:
+                    # deviations widened by sqrt(n / (n − 1)): the resampled means then scatter
+                    # with the unbiased variance s²/n, not the plug-in (n − 1) s² / n²
+                    n_h = counts[h]
+                    dev = p[rng.integers(0, n_h, n_h)] - S[h]
+                    cb = coherent_spectra(S[h] + math.sqrt(n_h / (n_h - 1)) * dev)
+                    lb.append(cb["lnA"])
+                    pb.append(cb["S"])
+                    vb.append(cb["var_lnA"])
+                    vp.append(cb["var_phi"])
+                else:
+                    lb.append(lnA[h] + np.sqrt(var_lnA[h]) * rng.standard_normal(omega.size))
+                    pb.append(S[h] * np.exp(1j * np.sqrt(var_phi[h]) * rng.standard_normal(omega.size)))
+                    vb.append(var_lnA[h])
+                    vp.append(var_phi[h])
+            phib = _unwrapped_phase(omega, np.array(pb), t_ref, i_ref)
+            a_b, _, c_b, _, k_b, *_ = _fit_lines(L, omega, np.array(lb), phib, use, np.array(vb),
+                                                 np.array(vp))
+            boot["alpha"].append(a_b)
+            boot["c"].append(c_b)
+            boot["cg"].append(group_velocity(omega, k_b))
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: no estimate there
+
+        def spread(key):
+            return (np.nanstd(boot[key], axis=0, ddof=1) if n_boot > 1
+                    else np.full(omega.size, np.nan))
+        alpha_boot, c_boot, cg_boot = spread("alpha"), spread("c"), spread("cg")
         alpha_err = np.fmax(alpha_fit, alpha_boot)
         c_err = np.fmax(c_fit, c_boot)
-        Q = omega / (2.0 * alpha * c)
-        Q_err = np.abs(Q) * np.hypot(alpha_err / alpha, c_err / c)
+        # the group velocity's error: the bootstrap's; without one, the phase fit's error of k
+        # differenced like k (an upper bound: neighbouring errors are correlated)
+        cg_fit = np.abs(cg) ** 2 * np.abs(np.gradient(k_fit, omega)) if omega.size > 1 else k_fit
+        cg_err = cg_boot if n_boot > 1 else cg_fit
+        # Q = ω / (2 α c_g): the amplitude e^{−αL} decays in time t = L / c_g as e^{−ωt/(2Q)}
+        Q = omega / (2.0 * alpha * cg)
+        Q_err = np.abs(Q) * np.hypot(alpha_err / alpha, cg_err / cg)
 
+    # the quoted 95 % intervals, value ± ci95_factor × error: Student t with the degrees of
+    # freedom of the thinnest height (n − 1; 1 where a height has a single packing)
+    dof95 = int(max(1, counts.min() - 1))
+    ci95 = float(stats.t.ppf(0.975, dof95))
     with np.errstate(invalid="ignore", divide="ignore"):
         band = reliable_band(omega, S, threshold, i_ref, c_err / np.abs(c), max_error, use=use,
                              n_used=n_used, min_heights=need, fit_p=fit_p, min_fit_p=min_fit_p)
     low = low_frequency_limit(omega, c, band, c_err)
     # neighbouring frequencies of a zero-padded spectrum are not independent: the bootstrap
     # over packings gives the honest error of c0 (the larger of the two is kept)
-    c0_boot = [low_frequency_limit(omega, cb, band, c_err)["c0"] for cb in boot_c]
+    c0_boot = [low_frequency_limit(omega, cb, band, c_err)["c0"] for cb in boot["c"]]
     low["c0_fit_err"] = low["c0_err"]
     low["c0_boot_err"] = float(np.nanstd(c0_boot, ddof=1)) if len(c0_boot) > 1 else math.nan
     low["c0_err"] = float(np.fmax(low["c0_fit_err"], low["c0_boot_err"]))
     out = {
         "n_signals": int(sum(len(g) for g in groups)),
-        "heights": L, "counts": np.array([len(g) for g in groups]),
+        "heights": L, "counts": counts, "error_model": error_model,
+        "packings": packing_check(counts, L, fit=True),
         "t_ref": t_ref, "t_end": t_end, "taper": taper, "window_clipped": clipped,
         "window_widths": float(window_widths), "threshold": float(threshold),
         "max_error": float(max_error), "min_periods": float(min_periods), "min_snr": float(min_snr),
         "min_heights": need, "min_fit_p": float(min_fit_p), "duration": duration,
         "bootstrap": n_boot, "seed": int(seed), "front_options": dict(front_kw),
+        "weighted": "1/var of ln|S| and of the phase per height", "amplitude": "debiased",
+        "Q_definition": "omega / (2 alpha c_group)",
+        "ci95_factor": ci95, "ci95_dof": dof95,
         "omega_ref": float(omega[i_ref]), "c_ref": float(c[i_ref]), "c_ref_err": float(c_err[i_ref]),
         "alpha_ref": float(alpha[i_ref]), "alpha_ref_err": float(alpha_err[i_ref]),
         "band": [float(omega[band][0]), float(omega[band][-1])] if band.any() else [math.nan, math.nan],
@@ -355,14 +486,24 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         out["c_l"] = float(c_l)
         out["c0_over_c_l"] = low["c0"] / c_l
         out["c0_over_c_l_err"] = low["c0_err"] / c_l
+    out["omega_cutoff"] = None if omega_cutoff is None else float(omega_cutoff)
+    if omega_cutoff is not None:
+        out["band_above_cutoff"] = bool(band.any() and omega[band][-1] > omega_cutoff)
     # Keep the arrays up to twice the band's top (or the whole spectrum when no band).
     top = int(np.flatnonzero(band)[-1]) if band.any() else omega.size - 1
     keep = slice(0, min(omega.size, 2 * top + 2))
     out.update(omega=omega[keep], reliable=band[keep], alpha=alpha[keep], alpha_err=alpha_err[keep],
                alpha_fit_err=alpha_fit[keep], alpha_boot_err=alpha_boot[keep], c=c[keep],
-               c_err=c_err[keep], c_fit_err=c_fit[keep], c_boot_err=c_boot[keep], Q=Q[keep],
-               Q_err=Q_err[keep], spectrum_amplitude=np.abs(S[:, keep]), noise_floor=noise[:, keep],
+               c_err=c_err[keep], c_fit_err=c_fit[keep], c_boot_err=c_boot[keep],
+               c_group=cg[keep], c_group_err=cg_err[keep], Q=Q[keep],
+               alpha_ci95=np.stack([alpha - ci95 * alpha_err, alpha + ci95 * alpha_err], 1)[keep],
+               c_ci95=np.stack([c - ci95 * c_err, c + ci95 * c_err], 1)[keep],
+               c_group_ci95=np.stack([cg - ci95 * cg_err, cg + ci95 * cg_err], 1)[keep],
+               Q_err=Q_err[keep], spectrum_amplitude=np.abs(S[:, keep]),
+               coherent_amplitude=np.exp(lnA[:, keep]), noise_floor=noise[:, keep],
                used=use[:, keep], n_used=n_used[keep], fit_p=fit_p[keep])
+    if omega_cutoff is not None:
+        out["above_cutoff"] = omega[keep] > omega_cutoff
     return out
 
 
