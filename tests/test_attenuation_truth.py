@@ -44,7 +44,8 @@ def source(w):
     return 1j * w * np.exp(-0.5 * (w / W0) ** 2)
 
 
-def packing(L, rng, *, jitter=S_JITTER, incoherent=INCOHERENT):
+def packing(L, rng, *, jitter=S_JITTER, incoherent=None):
+    incoherent = INCOHERENT if incoherent is None else incoherent
     tau = np.sqrt(jitter * L) * rng.standard_normal()
     S = source(W) * np.exp(-alpha_true(W) * L - 1j * W * (L / c_true(W) + T0 + tau))
     f = np.fft.irfft(S / DT, N)

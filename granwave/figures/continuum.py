@@ -113,7 +113,7 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
             cut = attenuation.get("omega_cutoff")
             if cut is not None and np.isfinite(cut):
                 ax.axvline(cut, color="C3", ls="-.", lw=1,
-                           label=r"lateral cutoff $2\pi c_t/W$ (waveguide above)")
+                           label=r"lateral cutoff $2\pi c_t/W$")
             if key == "c":
                 cl = front.get("c_l", {}).get("mean")
                 if cl:
