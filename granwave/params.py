@@ -644,6 +644,11 @@ class ContinuumParams(Params):
                              "fraction of c_l.", lo=0.0, lo_open=True, hi=1.0, hi_open=True)
     group_tolerance: float = param(0.05, help="Heights within this relative gap of each other form "
                                    "one nominal height.", lo=0.0, hi=1.0, hi_open=True)
+    bootstrap: int = param(200, help="Resamplings of the packings within each height, through the "
+                           "chain (arrival times, local speeds, ratios, the approach fit and L*), "
+                           "for the error bars (0: propagated errors only).", lo=0)
+    seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0, hi=MAX_SEED,
+                      why="files store seeds as 64-bit signed integers")
     peak_fraction: float | None = _front_override()
 
     def front_kw(self) -> dict:
