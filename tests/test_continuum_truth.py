@@ -67,3 +67,25 @@ def test_L_star_bootstrap_interval_holds_the_known_answer(lone):
         else:
             assert r["packings"]["quotable"] and per["quotable"].all()
     assert inside >= 4
+
+
+def test_report_section_says_the_packing_rule_the_bootstrap_interval_and_the_cutoff():
+    import json
+    import sys
+    from pathlib import Path
+
+    from granwave.analysis.attenuation import attenuation
+    from granwave.report.continuum import continuum_section
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_attenuation_truth import ensemble
+
+    front = continuum_from_features(*data(np.random.default_rng(1), 10, 640.0), bootstrap=50)
+    att = attenuation(ensemble(3, n=3), window_widths=10, bootstrap=20, omega_cutoff=1.5)
+    tojson = lambda d: json.loads(json.dumps(d, default=lambda x: x.tolist()))  # noqa: E731
+    md = "\n".join(continuum_section({"sc": {"front": tojson(front), "attenuation": tojson(att)}}))
+    assert "Bootstrap over the packings within each height through the whole chain" in md
+    assert "**Not quotable: 1 of 7 heights have fewer than 10 packings" in md
+    assert "**Not quotable: 4 of 4 heights have fewer than 10 packings" in md
+    assert "First lateral shear cutoff 2π c_t/W = 1.5 " in md and "the waveguide's" in md
+    assert "Q = ω/(2 α c_g)" in md and "| c_g(ω) |" in md and "(above the cutoff)" in md
