@@ -628,6 +628,11 @@ class AttenuationParams(Params):
                                        "2 pi c_t / W (W the lateral period): marked on the output and "
                                        "the figure; above it alpha and c are the waveguide's, not the "
                                        "medium's.", units="sqrt(E*/rho)/d", lo=0.0, lo_open=True)
+    continuum_c_tolerance: float = param(0.02, help="Continuum length lambda*: the wavelength beyond "
+                                         "which |c(omega)/c0 - 1| stays at most this ...",
+                                         lo=0.0, lo_open=True, hi=1.0)
+    continuum_q_inverse: float = param(0.05, help="... and 1/Q = 2 alpha c_g/omega at most this.",
+                                       lo=0.0, lo_open=True)
     peak_fraction: float | None = _front_override()
 
     def front_kw(self) -> dict:

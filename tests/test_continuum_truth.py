@@ -89,3 +89,33 @@ def test_report_section_says_the_packing_rule_the_bootstrap_interval_and_the_cut
     assert "**Not quotable: 4 of 4 heights have fewer than 10 packings" in md
     assert "First lateral shear cutoff 2π c_t/W = 1.5 " in md and "the waveguide's" in md
     assert "Q = ω/(2 α c_g)" in md and "| c_g(ω) |" in md and "(above the cutoff)" in md
+
+
+def test_arrival_times_of_a_sine_pulse_are_exact():
+    from granwave.analysis.continuum import arrival_times
+
+    t = np.arange(0, 60, 0.001)
+    ta, T = 10.0, 8.0
+    f = np.where((t > ta) & (t < ta + 2 * T), np.sin(np.pi * (t - ta) / T), 0.0)
+    a = arrival_times(t, f)
+    for lev in (0.02, 0.05, 0.1, 0.2, 0.5):
+        assert a[f"edge_{lev:g}"] == pytest.approx(ta + T / np.pi * np.arcsin(lev), abs=2e-3)
+    assert a["peak"] == pytest.approx(ta + T / 2, abs=1e-6)
+    assert a["energy"] == pytest.approx(ta + T / 2, abs=2e-3)  # the lobe is symmetric
+
+
+def test_candidate_lengths_table_moves_with_rule_tolerance_and_reference():
+    from granwave.analysis.continuum import candidate_lengths
+
+    H = np.repeat([10.0, 20.0, 40.0, 80.0, 160.0], 3)
+    times = {"edge_0.1": arrivals(H), "peak": 7.0 + H / (1.01 * CL)}
+    jitter = np.tile([-0.01, 0.0, 0.01], 5)
+    times = {k: v + jitter for k, v in times.items()}
+    r = candidate_lengths(H, times, np.full(H.size, CL), draws=200)
+    np.testing.assert_allclose(r["speeds"]["peak"]["ratio"], 1.01, rtol=1e-9)
+    assert len(r["table"]) == 2 * 3 * 3
+    row = {(x["rule"], x["tolerance"], x["c_l_scale"]): x for x in r["table"]}
+    # the edge's L* grows as the tolerance tightens and as the reference c_l is lowered
+    e = [row[("edge_0.1", tol, 1.0)]["L_star"] for tol in (0.10, 0.05, 0.03)]
+    assert e[0] < e[1] < e[2]
+    assert row[("edge_0.1", 0.05, 0.99)]["L_star"] > row[("edge_0.1", 0.05, 1.01)]["L_star"]

@@ -79,6 +79,8 @@ DEFAULT_MIN_SNR = 2.0
 DEFAULT_MIN_HEIGHTS = 3
 DEFAULT_MIN_FIT_P = 0.01
 DEFAULT_C0_SPAN = 2.0
+DEFAULT_C_TOL = 0.02  # continuum length: |c/c0 − 1| at most this
+DEFAULT_Q_TOL = 0.05  # and Q⁻¹ at most this
 
 
 def window(time: np.ndarray, t_end: float, taper: float) -> np.ndarray:
@@ -318,6 +320,66 @@ def low_frequency_limit(omega, c, band, c_err=None, span: float = DEFAULT_C0_SPA
             "omega_fit": [float(omega[lower[0]]), float(omega[lower[-1]])]}
 
 
+def continuum_wavelength(omega, c, alpha, c_group, band, c0, *, c_tol: float = DEFAULT_C_TOL,
+                         q_tol: float = DEFAULT_Q_TOL) -> dict:
+    """The continuum length in frequency: the wavelength λ* = 2π c(ω*)/ω* beyond which (at every
+    reliable ω ≤ ω*, from the band's bottom up) the medium is a continuum to the stated
+    thresholds: |c(ω)/c0 − 1| ≤ ``c_tol`` (dispersion) and Q⁻¹ = 2 α c_g / ω ≤ ``q_tol``
+    (scattering loss per radian).
+
+    ``status``: ``within`` (the thresholds are first crossed inside the band: λ* estimated),
+    ``whole band`` (they hold up to the band's top: λ* ≤ its λ, an upper bound), ``beyond``
+    (they fail already at the band's bottom: λ* > its λ, a lower bound), ``undetermined`` (no
+    band or no c0).
+    """
+    idx = np.flatnonzero(np.asarray(band, bool))
+    out = {"c_tolerance": float(c_tol), "q_inverse_tolerance": float(q_tol), "omega_star": math.nan,
+           "lambda_star": math.nan, "lambda_bound": math.nan, "status": "undetermined"}
+    if not idx.size or not math.isfinite(c0):
+        return out
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dev = np.abs(np.asarray(c)[idx] / c0 - 1.0)
+        qinv = 2.0 * np.asarray(alpha)[idx] * np.asarray(c_group)[idx] / omega[idx]
+        lam = 2.0 * np.pi * np.asarray(c)[idx] / omega[idx]
+    ok = (dev <= c_tol) & (qinv <= q_tol)
+    if not ok[0]:
+        out.update(status="beyond", lambda_bound=float(lam[0]))
+        return out
+    j = int(np.argmin(ok)) if not ok.all() else ok.size
+    out.update(omega_star=float(omega[idx[j - 1]]), lambda_star=float(lam[j - 1]),
+               status="within" if j < ok.size else "whole band")
+    if j == ok.size:
+        out["lambda_bound"] = float(lam[-1])
+    return out
+
+
+def continuum_distance(heights, omega, amplitude, omega_star: float) -> dict:
+    """The distance beyond which the coherent pulse is made of wavelengths longer than λ*: where
+    the spectral centroid ω_c(L) = Σ ω |S|² / Σ |S|² of each height's coherent spectrum falls
+    to ω* (interpolated in ln L between the heights; a bound outside them)."""
+    amp = np.nan_to_num(np.asarray(amplitude, float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wc = (omega[None, :] * amp**2).sum(axis=1) / (amp**2).sum(axis=1)
+    L = np.asarray(heights, float)
+    out = {"centroid_frequency": wc, "L_lambda": math.nan, "L_lambda_status": "undetermined"}
+    if not math.isfinite(omega_star):
+        return out
+    below = wc <= omega_star
+    if below.all():
+        out.update(L_lambda_status="below the shortest", L_lambda_bound=float(L[0]))
+    elif not below.any():
+        out.update(L_lambda_status="beyond the tallest", L_lambda_bound=float(L[-1]))
+    else:
+        k = int(np.argmax(below))
+        if k == 0:
+            out.update(L_lambda_status="below the shortest", L_lambda_bound=float(L[0]))
+            return out
+        f = (wc[k - 1] - omega_star) / (wc[k - 1] - wc[k])
+        out.update(L_lambda=float(np.exp(np.log(L[k - 1]) + f * (np.log(L[k]) - np.log(L[k - 1])))),
+                   L_lambda_status="within")
+    return out
+
+
 def lateral_cutoff(c_t: float, width: float) -> float:
     """The first lateral shear cutoff of a column of lateral period ``width``: ω = 2π c_t / W.
     Above it the lowest transverse mode of the waveguide propagates and α(ω), c(ω) are the
@@ -333,7 +395,8 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                             bootstrap: int = 200, min_periods: float = DEFAULT_MIN_PERIODS,
                             min_snr: float = DEFAULT_MIN_SNR, min_heights: int = DEFAULT_MIN_HEIGHTS,
                             min_fit_p: float = DEFAULT_MIN_FIT_P, seed: int = 0, c_l: float | None = None,
-                            omega_cutoff: float | None = None,
+                            omega_cutoff: float | None = None, c_tol: float = DEFAULT_C_TOL,
+                            q_tol: float = DEFAULT_Q_TOL,
                             labels: Sequence[Sequence[str]] | None = None, **front_kw) -> dict:
     """α(ω), Q(ω), c(ω) from signals already grouped by nominal height (rule: module docstring).
 
@@ -465,6 +528,25 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     low["c0_fit_err"] = low["c0_err"]
     low["c0_boot_err"] = float(np.nanstd(c0_boot, ddof=1)) if len(c0_boot) > 1 else math.nan
     low["c0_err"] = float(np.fmax(low["c0_fit_err"], low["c0_boot_err"]))
+    # the continuum length in frequency, and its bootstrap interval
+    cont = continuum_wavelength(omega, c, alpha, cg, band, low["c0"], c_tol=c_tol, q_tol=q_tol)
+    cont.update(continuum_distance(L, omega, np.exp(lnA), cont["omega_star"]))
+    if n_boot > 1:
+        lam_b = [continuum_wavelength(omega, cb, ab, gb, band, c0b, c_tol=c_tol, q_tol=q_tol)
+                 for cb, ab, gb, c0b in zip(boot["c"], boot["alpha"], boot["cg"], c0_boot)]
+        vals = np.array([d["lambda_star"] if d["status"] == "within" else
+                         (math.inf if d["status"] == "beyond" else -math.inf) if d["status"] != "undetermined"
+                         else math.nan for d in lam_b])
+        vals = vals[~np.isnan(vals)]
+        if vals.size > 1:
+            # ±inf: a resampling whose thresholds fail at the band's bottom (λ* beyond) or hold
+            # over the whole band (λ* within its top): the interval then reaches past the band
+            lo, hi = np.quantile(vals, [0.025, 0.975], method="inverted_cdf")
+            cont["lambda_star_ci"] = [float(lo), float(hi)]
+            cont["lambda_star_boot_err"] = float(np.std(vals[np.isfinite(vals)], ddof=1)) \
+                if np.isfinite(vals).sum() > 1 else math.nan
+            cont["lambda_star_boot_status"] = {k: int(sum(d["status"] == k for d in lam_b))
+                                               for k in ("within", "whole band", "beyond", "undetermined")}
     out = {
         "n_signals": int(sum(len(g) for g in groups)),
         "heights": L, "counts": counts, "error_model": error_model,
@@ -477,6 +559,7 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         "weighted": "1/var of ln|S| and of the phase per height", "amplitude": "debiased",
         "Q_definition": "omega / (2 alpha c_group)",
         "ci95_factor": ci95, "ci95_dof": dof95,
+        "continuum_length": cont,
         "omega_ref": float(omega[i_ref]), "c_ref": float(c[i_ref]), "c_ref_err": float(c_err[i_ref]),
         "alpha_ref": float(alpha[i_ref]), "alpha_ref_err": float(alpha_err[i_ref]),
         "band": [float(omega[band][0]), float(omega[band][-1])] if band.any() else [math.nan, math.nan],

@@ -440,9 +440,85 @@ def _safe_fit(L, r, e, tolerance):
         return {"fit_error": str(exc), "status": "undecided"}
 
 
+EDGE_LEVELS = (0.02, 0.05, 0.1, 0.2, 0.5)
+TOLERANCES = (0.03, 0.05, 0.10)
+CL_SCALES = (0.99, 1.0, 1.01)
+
+
+def arrival_times(time, force, levels: Sequence[float] = EDGE_LEVELS, **front_kw) -> dict:
+    """Every candidate arrival time of one signal: the leading edge at each fraction in
+    ``levels`` of the first peak (``edge_<level>``, :func:`granwave.analysis.front.front_features`
+    with that ``lead_fraction``), the peak (``peak``) and the energy centroid of the first lobe,
+    Σ t F² / Σ F² over t ≤ t_zero (``energy``)."""
+    from .front import front_features
+
+    front_kw = {k: v for k, v in front_kw.items() if k != "lead_fraction"}
+    out = {}
+    for lev in levels:
+        f = front_features(time, force, lead_fraction=float(lev), **front_kw)
+        out[f"edge_{lev:g}"] = f.t_lead10
+    out["peak"] = f.t_peak
+    t, y = np.asarray(time, float), np.asarray(force, float)
+    lobe = t <= f.t_zero
+    e = y[lobe] ** 2
+    out["energy"] = float(np.sum(t[lobe] * e) / np.sum(e))
+    return out
+
+
+def candidate_lengths(heights, times: dict, c_l, *, tolerances: Sequence[float] = TOLERANCES,
+                      cl_scales: Sequence[float] = CL_SCALES, group_rtol: float = 0.05,
+                      draws: int = 1000) -> dict:
+    """How each candidate "L*" moves with the picking rule, the tolerance and the c_ℓ reference.
+
+    ``times``: {rule: per-packing arrival times} (:func:`arrival_times`); ``c_l``: per packing.
+    Per rule, the local speed ΔL/Δt between consecutive heights (group means, errors from the
+    scatter model shared across heights, :func:`scatter_model`) and its ratio to c_ℓ (the
+    mean of both heights' packings) times each scale in ``cl_scales``; the approach fit
+    (:func:`approach_fit`) at each tolerance. Returns {"speeds": {rule: {height, c, c_err,
+    ratio, ratio_err}}, "table": [one row per rule, tolerance and c_ℓ scale: L_star, its
+    interval, status, beta]}.
+    """
+    L = np.asarray(heights, float)
+    cl = np.asarray(c_l, float)
+    g = group_heights(L, group_rtol)
+    n_g = int(g.max()) + 1
+    counts = np.array([(g == k).sum() for k in range(n_g)])
+    root_n = np.sqrt(counts)
+    Lm = np.array([L[g == k].mean() for k in range(n_g)])
+    Le = np.array([describe(L[g == k])["sem"] for k in range(n_g)])
+    Le = np.where(np.isfinite(Le), Le, 0.0)
+    cl_pair = np.array([np.nanmean(cl[(g == k) | (g == k + 1)]) for k in range(n_g - 1)])
+    speeds, table = {}, []
+    for rule, t in times.items():
+        t = np.asarray(t, float)
+        d = [describe(t[g == k]) for k in range(n_g)]
+        std = scatter_model(Lm, _pooled_where_thin(d), counts)
+        mid, c, ce = _local_speed(Lm, Le, np.array([x["mean"] for x in d]), std / root_n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            speeds[rule] = {"height": mid, "c": c, "c_err": ce, "ratio": c / cl_pair,
+                            "ratio_err": ce / cl_pair}
+        for scale in cl_scales:
+            r, e = c / (cl_pair * scale), ce / (cl_pair * scale)
+            for tol in tolerances:
+                row = {"rule": rule, "tolerance": float(tol), "c_l_scale": float(scale)}
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        fit = approach_fit(mid, r, e if np.all(np.isfinite(e) & (e > 0)) else None,
+                                           tolerance=tol, draws=draws)
+                except InputError as exc:
+                    fit = {"fit_error": str(exc), "status": "undecided", "L_star": math.nan}
+                row.update({k: fit.get(k) for k in ("L_star", "L_star_ci", "status", "beta",
+                                                      "L_star_extrapolated", "fit_error")
+                            if k in fit})
+                table.append(row)
+    return {"speeds": speeds, "table": table, "edge_levels": [float(x) for x in EDGE_LEVELS],
+            "tolerances": [float(x) for x in tolerances], "c_l_scales": [float(x) for x in cl_scales]}
+
+
 def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[str] | None = None,
               tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05, bootstrap: int = 200,
-              seed: int = 0, **front_kw) -> dict:
+              seed: int = 0, candidates: bool = True, **front_kw) -> dict:
     """:func:`continuum_from_features` of signals (one pressure, one initial condition)."""
     signals = list(signals)
     if not signals:
@@ -454,6 +530,11 @@ def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[st
     out = continuum_from_features([s.height for s in signals], feats, c_l, c_t,
                                   tolerance=tolerance, group_rtol=group_rtol, bootstrap=bootstrap,
                                   seed=seed)
+    if candidates:
+        arr = [arrival_times(s.time, s.force, **front_kw) for s in signals]
+        out["candidates"] = candidate_lengths([s.height for s in signals],
+                                              {k: [a[k] for a in arr] for k in arr[0]}, c_l,
+                                              group_rtol=group_rtol)
     return {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out,
             "samples": [{"source": str(lab), "height": s.height, "c_l": float(a),
                          **{k: float(f[k]) for k in FEATURES}}

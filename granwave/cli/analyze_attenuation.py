@@ -50,7 +50,8 @@ def attenuation(signals, as_json, **options):
               threshold=params.threshold, max_error=params.max_error,
               min_periods=params.min_periods, min_snr=params.min_snr, min_heights=params.min_heights,
               min_fit_p=params.min_fit_p, bootstrap=params.bootstrap, seed=params.seed,
-              c_l=params.c_l, omega_cutoff=params.omega_cutoff, **params.front_kw())
+              c_l=params.c_l, omega_cutoff=params.omega_cutoff, c_tol=params.continuum_c_tolerance,
+              q_tol=params.continuum_q_inverse, **params.front_kw())
     res["params"] = params.as_dict()
     if as_json:  # the JSON carries the rule's verdict (packings.warning) for the report
         echo_json(res)
@@ -61,6 +62,12 @@ def attenuation(signals, as_json, **options):
     scalars["band"] = res["band"]
     echo_table(scalars, title=f"attenuation: {res['n_signals']} signals, {len(res['heights'])} heights")
     m = res["reliable"]
+    cl = res["continuum_length"]
+    click.echo(f"  continuum length: |c/c0 - 1| <= {cl['c_tolerance']:g} and 1/Q <= "
+               f"{cl['q_inverse_tolerance']:g}: {cl['status']}, lambda* = {cl['lambda_star']:.4g} d "
+               f"(95 % {cl.get('lambda_star_ci')}), omega* = {cl['omega_star']:.4g}, "
+               f"the pulse's spectral centroid reaches omega* at L = {cl['L_lambda']:.4g} d "
+               f"({cl['L_lambda_status']})")
     cut = res.get("omega_cutoff")
     click.echo(f"  {'omega':>10} {'alpha':>12} {'err':>10} {'c':>10} {'err':>10} {'c_group':>10} "
                f"{'Q':>10}")

@@ -72,3 +72,18 @@ def continuum(signals, moduli_paths, as_json, **options):
         click.echo(f"  {loc['height'][i]:9.4g} {loc['c_tof'][i]:9.4g} {loc['c_peak'][i]:9.4g} "
                    f"{loc['c_zero'][i]:9.4g} {loc['c_l'][i]:9.4g} {loc['ratio'][i]:9.4g} "
                    f"{loc['ratio_err'][i]:8.2g} {loc['gamma_eff'][i]:8.3g} {loc['alpha_eff'][i]:8.3g}")
+    cand = res.get("candidates")
+    if cand:
+        click.echo("  candidate L* (d) by arrival rule, tolerance and c_l reference "
+                   "(c_l x " + " / ".join(f"{x:g}" for x in cand["c_l_scales"]) + "); "
+                   "local speed/c_l at the tallest pair")
+        rows = {(r["rule"], r["tolerance"], r["c_l_scale"]): r for r in cand["table"]}
+        for rule, sp in cand["speeds"].items():
+            for tol in cand["tolerances"]:
+                cells = []
+                for sc in cand["c_l_scales"]:
+                    r = rows[(rule, tol, sc)]
+                    v = r.get("L_star")
+                    cells.append(f"{v:9.4g}" if v is not None else f"{'-':>9}")
+                click.echo(f"  {rule:>10} tol {tol:<5g} " + " ".join(cells)
+                           + f"   ratio {sp['ratio'][-1]:.4g} ± {sp['ratio_err'][-1]:.2g}")
