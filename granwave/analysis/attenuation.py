@@ -16,27 +16,35 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
 3. **Spectra.** S(ω, L) = Σ_n F(t_n) e^{-iω t_n} Δt (``numpy.fft.rfft``, zero-padded to
    at least 4 × the longest window, on the common sampling step of all heights).
 4. **Attenuation.** At each ω, ln|S(ω, L)| = ln|S0(ω)| − α(ω) L, a straight line over the
-   heights usable at that ω (rule 8a, 8b); α = −slope.
+   heights usable at that ω (rule 8a, 8b); α = −slope. |S| is the debiased coherent amplitude
+   sqrt(|S̄|² − noise²) (:func:`coherent_spectra`); each height is weighted by 1/var of its
+   ln|S| over its packings (one packing: the per-packing variance pooled over the others).
 5. **Phase velocity.** The phase of S(ω, L) e^{iω t_ref(L)} (t_ref = the mean signal's
    peak time, which removes the bulk of the delay) is unwrapped along ω and shifted by a
    multiple of 2π to lie in (−π, π] at the reference frequency (the spectral peak of the
    tallest height); adding −ω t_ref back gives φ(ω, L) = φ0(ω) − k(ω) L, a straight line
-   over the same heights: k = −slope, c(ω) = ω / k.
-6. **Q.** Q(ω) = ω / (2 α(ω) c(ω)) (amplitude decay e^{−αL} = e^{−ωt/(2Q)} at t = L/c).
-7. **Error bars.** ``*_fit_err``: one standard error of the slope (undetermined, NaN, with
-   two heights); ``*_boot_err``: standard deviation over ``bootstrap`` resamplings of the
-   packings at every height (with replacement; windows, t_ref and the heights used at each
-   ω kept); NaN with one packing per height. ``*_err`` is the larger of the two.
+   over the same heights, weighted by 1/var of the phase: k = −slope, c(ω) = ω / k; the
+   group velocity c_g = dω/dk (:func:`group_velocity`).
+6. **Q.** Q(ω) = ω / (2 α(ω) c_g(ω)) (amplitude decay e^{−αL} = e^{−ωt/(2Q)} at t = L/c_g).
+7. **Error bars.** ``*_fit_err``: the weighted slope's absolute standard error, widened by
+   sqrt(χ²/(n − 2)) where that exceeds 1 (unweighted where a variance is unknown: the
+   scatter's, NaN with two heights); ``*_boot_err``: standard deviation over ``bootstrap``
+   resamplings of the packings at every height (with replacement, deviations widened by
+   sqrt(n/(n − 1)); debiased amplitudes, weights and fits recomputed; windows, t_ref and the
+   heights used at each ω kept; a height with one packing drawn about its value with the
+   pooled variance); NaN when no height has two packings. ``*_err`` is the larger of the
+   two; ``*_ci95`` = value ± t(0.975, n_min − 1) × error. Fewer than 10 packings at a
+   height: ``packings.quotable`` false (:mod:`granwave.analysis.packings`).
 8. **Which heights, which frequencies.** A height enters the fits at ω only where
    (a) the window after its front's arrival, D = t_end − t_lead10, holds at least
-   ``min_periods`` periods (ω D ≥ 2π ``min_periods``, default 0.5): below that the
+   ``min_periods`` periods (ω D ≥ 2π ``min_periods``, default 1): below that the
    record's end cuts the wave at that frequency (short columns, whose records are short,
-   bias α negative and c upward there); (b) its coherent amplitude |S(ω, L)| is at least
+   bias α and c there; half a period let α come out +70 % high where a short column enters); (b) its coherent amplitude |S(ω, L)| is at least
    ``min_snr`` (default 2) times the noise floor, the standard error of the complex mean
    spectrum over its packings (:func:`noise_floor`; not applied with one packing).
    A frequency is *reliable* where (c) at least ``min_heights`` (default 3) heights are
    usable and the ln|S| fit over them is acceptable: χ² of its residuals against the
-   noise floor's σ = noise/|S|, with n − 2 degrees of freedom, has p ≥ ``min_fit_p``
+   variance of ln|S| per height, with n − 2 degrees of freedom, has p ≥ ``min_fit_p``
    (default 0.01; not applied with one packing per height); (d) every usable height's |S| is at
    least ``threshold`` of its own maximum; (e) c(ω) is known to ``max_error`` (relative).
    The reliable band is the contiguous run of reliable frequencies around the reference
@@ -45,6 +53,13 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    ω_lo ≤ ω ≤ 2 ω_lo (at least 4 frequencies; weighted by 1/c_err², ``numpy.polyfit`` with
    its covariance); ``c0`` and its error, the larger of the fit's and the bootstrap's (the
    same fit on every resampling), and ``c0 / c_l`` when the effective-medium c_l is given.
+
+10. **Continuum length.** λ* = 2π c(ω*)/ω*, ω* the top of the run of band frequencies, from
+   its bottom, where |c/c0 − 1| ≤ ``c_tol`` and Q⁻¹ ≤ ``q_tol`` (:func:`continuum_wavelength`),
+   with a bootstrap interval; ``L_lambda`` where the pulse's spectral centroid reaches ω*
+   (:func:`continuum_distance`).
+11. **Lateral cutoff.** ``omega_cutoff`` (2π c_t / W, :func:`lateral_cutoff`), when given, is
+   recorded and the frequencies above it marked: there α and c are the waveguide's.
 
 ``c_ref``, ``alpha_ref``: the values at the reference frequency (the tallest height's
 spectral peak), the best-determined point of the band.
