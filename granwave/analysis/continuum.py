@@ -25,6 +25,17 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze continuum --help`
 * **Global fits**: :func:`granwave.analysis.heights.height_series_from_features`
   (c_tof, c_peak, c_zero between the two smallest heights and over all heights, γ, α).
 * **Approach to c_l**: :func:`approach_fit` of the local ratio against L.
+* **Errors** (issue #47): the local errors use the scatter model shared across heights
+  (:func:`scatter_model`: each arrival time's scatter one power law of L); a bootstrap over the
+  packings within each height runs through the chain (:func:`resample_local`: means, local
+  speeds, ratios and their errors, the approach fit and L*; ``local.*_boot_err``,
+  ``approach.L_star_boot_ci``); ``ratio_err`` is the larger of the propagated and the
+  bootstrap error. ``packings`` / ``packings_per_height``: the rule of
+  :mod:`granwave.analysis.packings` (10 packings per height for fits, 5 for a height's numbers).
+* **Candidates** (:func:`continuum`): the arrival time at edge levels of 2 … 50 %, the peak
+  and the first lobe's energy centroid (:func:`arrival_times`), their local speeds and the L*
+  of each at tolerances 3, 5, 10 % and c_l references × 0.99, 1, 1.01
+  (:func:`candidate_lengths`).
 * **Bulk c_l** (reported beside, not used by default): each packing's c_l comes from its
   global C22, which includes the softer layers at the two walls; in series with the bulk
   they add a fixed compliance, so 1/c_l² = 1/c_l∞² + b/L (:func:`bulk_speed`, fitted over
