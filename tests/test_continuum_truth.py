@@ -89,6 +89,7 @@ def test_report_section_says_the_packing_rule_the_bootstrap_interval_and_the_cut
     assert "**Not quotable: 4 of 4 heights have fewer than 10 packings" in md
     assert "First lateral shear cutoff 2π c_t/W = 1.5 " in md and "the waveguide's" in md
     assert "Q = ω/(2 α c_g)" in md and "| c_g(ω) |" in md and "(above the cutoff)" in md
+    assert "Continuum length in frequency: |c/c0 − 1| ≤ 0.02 and Q⁻¹ ≤ 0.05" in md
 
 
 def test_arrival_times_of_a_sine_pulse_are_exact():

@@ -113,6 +113,30 @@ def _warnings(obj: Mapping, keys) -> list[str]:
     return out
 
 
+def lambda_sentence(lam: Mapping) -> str:
+    """The continuum length in frequency (λ*) in one sentence, with its thresholds."""
+    thr = (f"|c/c0 − 1| ≤ {num(lam.get('c_tolerance')):g} and Q⁻¹ ≤ "
+           f"{num(lam.get('q_inverse_tolerance')):g}")
+    st = lam.get("status")
+    if st == "within":
+        ci = lam.get("lambda_star_ci")
+        txt = (f"Continuum length in frequency: {thr} for every wavelength above "
+               f"λ* = {fmt_bound(lam.get('lambda_star'), 3)} d̄"
+               + (f" (95 % bootstrap interval {_ci(ci)} d̄)" if ci else "")
+               + f", ω* = {fmt(lam.get('omega_star'), digits=3)}")
+        if lam.get("L_lambda_status") == "within":
+            txt += (f"; the pulse's spectral centroid falls to ω* at L ≈ "
+                    f"{fmt_bound(lam.get('L_lambda'), 3)} d̄")
+        return txt + "."
+    if st == "whole band":
+        return (f"Continuum length in frequency: {thr} over the whole reliable band, so "
+                f"λ* ≤ {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (an upper bound).")
+    if st == "beyond":
+        return (f"Continuum length in frequency: {thr} fails already at the band's bottom, so "
+                f"λ* > {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (a lower bound).")
+    return "Continuum length in frequency: undetermined (no reliable band or no c0)."
+
+
 def cutoff_sentence(att: Mapping) -> str:
     """Where the column's first lateral shear cutoff lies against the reliable band."""
     cut = att.get("omega_cutoff")
@@ -250,6 +274,9 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                            "packings, |S| is debiased for the incoherent remainder, and "
                            "Q = ω/(2 α c_g) with the group velocity c_g = dω/dk. "
                            + cutoff_sentence(att))
+            lam = att.get("continuum_length") or {}
+            if lam.get("status"):
+                md[-1] += " " + lambda_sentence(lam)
             md += [f"**{w}**" for w in _warnings(att, ("packings",))]
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
                    "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
