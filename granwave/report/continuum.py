@@ -280,7 +280,7 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
             md += [f"**{w}**" for w in _warnings(att, ("packings",))]
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
                    "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
-                   "and Q then a lower bound, Q > ω/(2 α_upper c); where that interval spans more "
+                   "and Q then a lower bound, Q > ω/(2 α_upper c_g); where that interval spans more "
                    "than a decade only the interval is shown, for α and for Q:", "",
                    *(["| ω | α (1/d̄) | Q | c(ω) | c_g(ω) |", "|---|---|---|---|---|"]
                      if "c_group" in att else ["| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"])]
