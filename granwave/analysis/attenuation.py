@@ -488,30 +488,36 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     boot = {"alpha": [], "c": [], "cg": []}
     if n_boot:
         rng = np.random.default_rng(seed)
+        # only the frequencies up to the last one where two heights are usable matter to the
+        # fits (the phase is unwrapped from ω = 0 up, so the prefix is kept whole)
+        top = int(max(i_ref, np.flatnonzero(n_used >= 2)[-1] if np.any(n_used >= 2) else 0)) + 2
+        top = min(top, omega.size)
+        om, Sb0, Pb = omega[:top], S[:, :top], [p[:, :top] for p in P]
+        pad = np.full(omega.size - top, np.nan)
         for _ in range(n_boot):
             lb, pb, vb, vp = [], [], [], []
-            for h, p in enumerate(P):
+            for h, p in enumerate(Pb):
                 if counts[h] > 1:
                     # deviations widened by sqrt(n / (n − 1)): the resampled means then scatter
                     # with the unbiased variance s²/n, not the plug-in (n − 1) s² / n²
                     n_h = counts[h]
-                    dev = p[rng.integers(0, n_h, n_h)] - S[h]
-                    cb = coherent_spectra(S[h] + math.sqrt(n_h / (n_h - 1)) * dev)
+                    dev = p[rng.integers(0, n_h, n_h)] - Sb0[h]
+                    cb = coherent_spectra(Sb0[h] + math.sqrt(n_h / (n_h - 1)) * dev)
                     lb.append(cb["lnA"])
                     pb.append(cb["S"])
                     vb.append(cb["var_lnA"])
                     vp.append(cb["var_phi"])
                 else:
-                    lb.append(lnA[h] + np.sqrt(var_lnA[h]) * rng.standard_normal(omega.size))
-                    pb.append(S[h] * np.exp(1j * np.sqrt(var_phi[h]) * rng.standard_normal(omega.size)))
-                    vb.append(var_lnA[h])
-                    vp.append(var_phi[h])
-            phib = _unwrapped_phase(omega, np.array(pb), t_ref, i_ref)
-            a_b, _, c_b, _, k_b, *_ = _fit_lines(L, omega, np.array(lb), phib, use, np.array(vb),
+                    lb.append(lnA[h, :top] + np.sqrt(var_lnA[h, :top]) * rng.standard_normal(top))
+                    pb.append(Sb0[h] * np.exp(1j * np.sqrt(var_phi[h, :top]) * rng.standard_normal(top)))
+                    vb.append(var_lnA[h, :top])
+                    vp.append(var_phi[h, :top])
+            phib = _unwrapped_phase(om, np.array(pb), t_ref, i_ref)
+            a_b, _, c_b, _, k_b, *_ = _fit_lines(L, om, np.array(lb), phib, use[:, :top], np.array(vb),
                                                  np.array(vp))
-            boot["alpha"].append(a_b)
-            boot["c"].append(c_b)
-            boot["cg"].append(group_velocity(omega, k_b))
+            boot["alpha"].append(np.concatenate([a_b, pad]))
+            boot["c"].append(np.concatenate([c_b, pad]))
+            boot["cg"].append(np.concatenate([group_velocity(om, k_b), pad]))
     with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: no estimate there
 
