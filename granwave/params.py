@@ -603,9 +603,10 @@ class AttenuationParams(Params):
                              hi_open=True)
     max_error: float = param(0.1, help="Reliable band: also the relative error of c(omega) at most "
                              "this.", lo=0.0, lo_open=True)
-    min_periods: float = param(0.5, help="A height enters the fits at omega only where the window "
+    min_periods: float = param(1.0, help="A height enters the fits at omega only where the window "
                                "after its front's arrival (t_end - t_lead10) holds at least this many "
-                               "periods 2 pi/omega.", lo=0.0)
+                               "periods 2 pi/omega (half a period let alpha come out +70 % high where "
+                               "a short column enters).", lo=0.0)
     min_snr: float = param(2.0, help="A height enters the fits at omega only where its coherent amplitude is at least this many times "
                            "the noise floor (standard error of the mean spectrum over its packings).",
                            lo=0.0)
@@ -623,6 +624,15 @@ class AttenuationParams(Params):
     c_l: float | None = param(None, help="Effective-medium longitudinal speed to compare the "
                               "low-frequency phase velocity with.", units="sqrt(E*/rho)", lo=0.0,
                               lo_open=True)
+    omega_cutoff: float | None = param(None, help="The column's first lateral shear cutoff, "
+                                       "2 pi c_t / W (W the lateral period): marked on the output and "
+                                       "the figure; above it alpha and c are the waveguide's, not the "
+                                       "medium's.", units="sqrt(E*/rho)/d", lo=0.0, lo_open=True)
+    continuum_c_tolerance: float = param(0.02, help="Continuum length lambda*: the wavelength beyond "
+                                         "which |c(omega)/c0 - 1| stays at most this ...",
+                                         lo=0.0, lo_open=True, hi=1.0)
+    continuum_q_inverse: float = param(0.05, help="... and 1/Q = 2 alpha c_g/omega at most this.",
+                                       lo=0.0, lo_open=True)
     peak_fraction: float | None = _front_override()
 
     def front_kw(self) -> dict:
@@ -639,6 +649,11 @@ class ContinuumParams(Params):
                              "fraction of c_l.", lo=0.0, lo_open=True, hi=1.0, hi_open=True)
     group_tolerance: float = param(0.05, help="Heights within this relative gap of each other form "
                                    "one nominal height.", lo=0.0, hi=1.0, hi_open=True)
+    bootstrap: int = param(200, help="Resamplings of the packings within each height, through the "
+                           "chain (arrival times, local speeds, ratios, the approach fit and L*), "
+                           "for the error bars (0: propagated errors only).", lo=0)
+    seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0, hi=MAX_SEED,
+                      why="files store seeds as 64-bit signed integers")
     peak_fraction: float | None = _front_override()
 
     def front_kw(self) -> dict:

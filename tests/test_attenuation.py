@@ -41,7 +41,10 @@ def test_known_alpha_and_c_recovered_exactly_with_a_wide_window():
     assert m.sum() > 50 and r["band"][0] < 0.1 and r["band"][1] > 3.5
     np.testing.assert_allclose(r["alpha"][m], alpha_true(w), rtol=0, atol=1e-8)
     np.testing.assert_allclose(r["c"][m], c_true(w), rtol=1e-8)
-    np.testing.assert_allclose(r["Q"][m], w / (2 * alpha_true(w) * c_true(w)), rtol=1e-6)
+    # Q with the group velocity c_g = dω/dk = 1/(1 + 0.03 ω²) (k = ω (1 + 0.01 ω²))
+    c_g = 1.0 / (1.0 + 0.03 * w**2)
+    np.testing.assert_allclose(r["c_group"][m], c_g, rtol=1e-6)
+    np.testing.assert_allclose(r["Q"][m], w / (2 * alpha_true(w) * c_g), rtol=1e-6)
     # c = 1 - 0.01 w^2 + 1e-4 w^4 ...: the quadratic fit's c0 is 1 within the quartic term
     assert abs(r["c0"] - 1.0) < 5e-4
 
@@ -88,20 +91,28 @@ def broad(L, record=None):
                                                    "method": "synthetic"})
 
 
-def test_short_records_are_left_out_below_half_a_period():
+def test_short_records_are_left_out_below_one_period():
     # the three short columns' records end 8 time units after the source's arrival time + L
     sigs = [broad(L, 20.0 + L + 8.0 if L < 50 else None) for L in (10, 20, 40, 80, 160)]
     r = attenuation(sigs, window_widths=30, bootstrap=0)
     D = r["duration"]
     assert D[:3].max() < 15 and D[3:].min() > 200
-    # below pi / D (half a period in the window) only the two long columns are usable: < 3 heights
-    assert r["band"][0] >= np.pi / D[2] and r["band"][0] < np.pi / D[2] + 2 * np.diff(r["omega"][:2])[0]
+    # below 2 pi / D (one period in the window) only the two long columns are usable: < 3 heights
+    step = np.diff(r["omega"][:2])[0]
+    assert 2 * np.pi / D[2] <= r["band"][0] < 2 * np.pi / D[2] + 2 * step
     m = r["reliable"]
     w = r["omega"][m]
-    np.testing.assert_array_equal(r["used"][:3, m], r["omega"][None, m] * D[:3, None] >= np.pi)
+    np.testing.assert_array_equal(r["used"][:3, m], r["omega"][None, m] * D[:3, None] >= 2 * np.pi)
     np.testing.assert_allclose(r["c"][m], c_true(w), rtol=2e-3)
     np.testing.assert_allclose(r["alpha"][m], alpha_true(w), rtol=0, atol=1e-3)
     assert abs(r["c0"] - 1.0) < 2e-3
+    # where the third short column enters: with half a period in its window (the former default)
+    # α there is off by more than its own size (-210 %), with a full period by less than half (-36 %)
+    half = attenuation(sigs, window_widths=30, bootstrap=0, min_periods=0.5)
+    assert np.pi / D[2] <= half["band"][0] < np.pi / D[2] + 2 * step
+    i_half, i_one = (np.flatnonzero(x["reliable"])[0] for x in (half, r))
+    assert abs(half["alpha"][i_half] / alpha_true(half["omega"][i_half]) - 1) > 1.0
+    assert abs(r["alpha"][i_one] / alpha_true(r["omega"][i_one]) - 1) < 0.5
     # every height at every frequency (the old rule): the truncated records bias c by > 10 %
     old = attenuation(sigs, window_widths=30, bootstrap=0, min_periods=0.0, min_snr=0.0)
     mo = old["reliable"]

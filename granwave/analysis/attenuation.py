@@ -16,27 +16,35 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
 3. **Spectra.** S(ω, L) = Σ_n F(t_n) e^{-iω t_n} Δt (``numpy.fft.rfft``, zero-padded to
    at least 4 × the longest window, on the common sampling step of all heights).
 4. **Attenuation.** At each ω, ln|S(ω, L)| = ln|S0(ω)| − α(ω) L, a straight line over the
-   heights usable at that ω (rule 8a, 8b); α = −slope.
+   heights usable at that ω (rule 8a, 8b); α = −slope. |S| is the debiased coherent amplitude
+   sqrt(|S̄|² − noise²) (:func:`coherent_spectra`); each height is weighted by 1/var of its
+   ln|S| over its packings (one packing: the per-packing variance pooled over the others).
 5. **Phase velocity.** The phase of S(ω, L) e^{iω t_ref(L)} (t_ref = the mean signal's
    peak time, which removes the bulk of the delay) is unwrapped along ω and shifted by a
    multiple of 2π to lie in (−π, π] at the reference frequency (the spectral peak of the
    tallest height); adding −ω t_ref back gives φ(ω, L) = φ0(ω) − k(ω) L, a straight line
-   over the same heights: k = −slope, c(ω) = ω / k.
-6. **Q.** Q(ω) = ω / (2 α(ω) c(ω)) (amplitude decay e^{−αL} = e^{−ωt/(2Q)} at t = L/c).
-7. **Error bars.** ``*_fit_err``: one standard error of the slope (undetermined, NaN, with
-   two heights); ``*_boot_err``: standard deviation over ``bootstrap`` resamplings of the
-   packings at every height (with replacement; windows, t_ref and the heights used at each
-   ω kept); NaN with one packing per height. ``*_err`` is the larger of the two.
+   over the same heights, weighted by 1/var of the phase: k = −slope, c(ω) = ω / k; the
+   group velocity c_g = dω/dk (:func:`group_velocity`).
+6. **Q.** Q(ω) = ω / (2 α(ω) c_g(ω)) (amplitude decay e^{−αL} = e^{−ωt/(2Q)} at t = L/c_g).
+7. **Error bars.** ``*_fit_err``: the weighted slope's absolute standard error, widened by
+   sqrt(χ²/(n − 2)) where that exceeds 1 (unweighted where a variance is unknown: the
+   scatter's, NaN with two heights); ``*_boot_err``: standard deviation over ``bootstrap``
+   resamplings of the packings at every height (with replacement, deviations widened by
+   sqrt(n/(n − 1)); debiased amplitudes, weights and fits recomputed; windows, t_ref and the
+   heights used at each ω kept; a height with one packing drawn about its value with the
+   pooled variance); NaN when no height has two packings. ``*_err`` is the larger of the
+   two; ``*_ci95`` = value ± t(0.975, n_min − 1) × error. Fewer than 10 packings at a
+   height: ``packings.quotable`` false (:mod:`granwave.analysis.packings`).
 8. **Which heights, which frequencies.** A height enters the fits at ω only where
    (a) the window after its front's arrival, D = t_end − t_lead10, holds at least
-   ``min_periods`` periods (ω D ≥ 2π ``min_periods``, default 0.5): below that the
+   ``min_periods`` periods (ω D ≥ 2π ``min_periods``, default 1): below that the
    record's end cuts the wave at that frequency (short columns, whose records are short,
-   bias α negative and c upward there); (b) its coherent amplitude |S(ω, L)| is at least
+   bias α and c there; half a period let α come out +70 % high where a short column enters); (b) its coherent amplitude |S(ω, L)| is at least
    ``min_snr`` (default 2) times the noise floor, the standard error of the complex mean
    spectrum over its packings (:func:`noise_floor`; not applied with one packing).
    A frequency is *reliable* where (c) at least ``min_heights`` (default 3) heights are
    usable and the ln|S| fit over them is acceptable: χ² of its residuals against the
-   noise floor's σ = noise/|S|, with n − 2 degrees of freedom, has p ≥ ``min_fit_p``
+   variance of ln|S| per height, with n − 2 degrees of freedom, has p ≥ ``min_fit_p``
    (default 0.01; not applied with one packing per height); (d) every usable height's |S| is at
    least ``threshold`` of its own maximum; (e) c(ω) is known to ``max_error`` (relative).
    The reliable band is the contiguous run of reliable frequencies around the reference
@@ -45,6 +53,13 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    ω_lo ≤ ω ≤ 2 ω_lo (at least 4 frequencies; weighted by 1/c_err², ``numpy.polyfit`` with
    its covariance); ``c0`` and its error, the larger of the fit's and the bootstrap's (the
    same fit on every resampling), and ``c0 / c_l`` when the effective-medium c_l is given.
+
+10. **Continuum length.** λ* = 2π c(ω*)/ω*, ω* the top of the run of band frequencies, from
+   its bottom, where |c/c0 − 1| ≤ ``c_tol`` and Q⁻¹ ≤ ``q_tol`` (:func:`continuum_wavelength`),
+   with a bootstrap interval; ``L_lambda`` where the pulse's spectral centroid reaches ω*
+   (:func:`continuum_distance`).
+11. **Lateral cutoff.** ``omega_cutoff`` (2π c_t / W, :func:`lateral_cutoff`), when given, is
+   recorded and the frequencies above it marked: there α and c are the waveguide's.
 
 ``c_ref``, ``alpha_ref``: the values at the reference frequency (the tallest height's
 spectral peak), the best-determined point of the band.
@@ -56,6 +71,7 @@ sqrt(E*/rho). The functions do not care: they return the units they are given.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -65,6 +81,7 @@ from ..errors import InputError
 from .ensemble import ensemble_average
 from .front import front_features
 from .heights import group_heights
+from .packings import packing_check, pooled_variance
 
 if TYPE_CHECKING:
     from ..model import Signal
@@ -72,11 +89,13 @@ if TYPE_CHECKING:
 DEFAULT_WINDOW_WIDTHS = 5.0
 DEFAULT_THRESHOLD = 0.05
 DEFAULT_MAX_ERROR = 0.1
-DEFAULT_MIN_PERIODS = 0.5
+DEFAULT_MIN_PERIODS = 1.0
 DEFAULT_MIN_SNR = 2.0
 DEFAULT_MIN_HEIGHTS = 3
 DEFAULT_MIN_FIT_P = 0.01
 DEFAULT_C0_SPAN = 2.0
+DEFAULT_C_TOL = 0.02  # continuum length: |c/c0 − 1| at most this
+DEFAULT_Q_TOL = 0.05  # and Q⁻¹ at most this
 
 
 def window(time: np.ndarray, t_end: float, taper: float) -> np.ndarray:
@@ -119,52 +138,83 @@ def _unwrapped_phase(omega, S, t_ref, i_ref) -> np.ndarray:
     return psi - omega[None, :] * np.asarray(t_ref)[:, None]
 
 
-def _slopes(L: np.ndarray, Y: np.ndarray, use: np.ndarray | None = None):
+def _slopes(L: np.ndarray, Y: np.ndarray, use: np.ndarray | None = None, var: np.ndarray | None = None):
     """Least-squares slope of every column of Y (heights x freq) against L over the rows
-    ``use`` marks (heights x freq booleans; all rows when None).
+    ``use`` marks (heights x freq booleans; all rows when None), weighted by 1/``var`` (heights
+    x freq variances of Y) where every used row of the column has a finite positive variance,
+    unweighted in the other columns.
 
-    Returns (slope, slope_err, resid, n): the slope's standard error is NaN with fewer than
-    three rows (no residual), the slope NaN with fewer than two; ``resid`` (heights x freq)
-    is 0 on the rows not used.
+    Returns (slope, slope_err, resid, n, chi2): weighted, the slope's standard error is the
+    absolute one, 1/sqrt(Σ w (L − L̄)²), times sqrt(χ²/(n − 2)) where that exceeds 1 (a misfit
+    widens it, never narrows it); unweighted, the scatter's (NaN with fewer than three rows).
+    The slope is NaN with fewer than two rows; ``resid`` (heights x freq) is 0 on the rows not
+    used; ``chi2`` = Σ w resid² (NaN in unweighted columns).
     """
     use = np.ones(Y.shape, bool) if use is None else np.asarray(use, bool)
-    w = use.astype(float)
+    if var is None:
+        weighted = np.zeros(Y.shape[1], bool)
+        w = use.astype(float)
+    else:
+        v = np.asarray(var, float)
+        good = np.isfinite(v) & (v > 0)
+        weighted = np.all(good | ~use, axis=0) & use.any(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            w = np.where(weighted[None, :], np.where(use & good, 1.0 / np.where(good, v, 1.0), 0.0),
+                         use.astype(float))
     Yz = np.where(use, Y, 0.0)
-    n = w.sum(axis=0)
+    n = use.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        Lbar = (w * L[:, None]).sum(axis=0) / n
-        Ybar = Yz.sum(axis=0) / n
-        x = (L[:, None] - Lbar[None, :]) * w
-        sxx = (x * x).sum(axis=0)
-        slope = (x * (Yz - Ybar[None, :])).sum(axis=0) / sxx
-        resid = (Yz - Ybar[None, :] - x * slope[None, :]) * w
-        ss = (resid**2).sum(axis=0)
-        err = np.where(n > 2, np.sqrt(ss / (n - 2) / sxx), np.nan)
+        sw = w.sum(axis=0)
+        Lbar = (w * L[:, None]).sum(axis=0) / sw
+        Ybar = (w * Yz).sum(axis=0) / sw
+        x = np.where(use, L[:, None] - Lbar[None, :], 0.0)
+        sxx = (w * x * x).sum(axis=0)
+        slope = (w * x * (Yz - Ybar[None, :])).sum(axis=0) / sxx
+        resid = np.where(use, Yz - Ybar[None, :] - x * slope[None, :], 0.0)
+        chi2 = (w * resid**2).sum(axis=0)
+        scatter = np.where(n > 2, np.sqrt(chi2 / (n - 2) / sxx), np.nan)
+        absolute = np.sqrt(1.0 / sxx)
+        birge = np.where(n > 2, np.sqrt(chi2 / np.maximum(n - 2, 1)), 1.0)
+        err = np.where(weighted, absolute * np.fmax(birge, 1.0), scatter)
     slope = np.where(n >= 2, slope, np.nan)
-    return slope, err, resid, n.astype(int)
+    return slope, err, resid, n.astype(int), np.where(weighted, chi2, np.nan)
 
 
-def _alpha_c(L, omega, S, t_ref, i_ref, use=None):
-    """(alpha, alpha_fit_err, c, c_fit_err, k, k_err, lnA_resid) at every ω from spectra at
-    heights L, each ω fitted over the heights ``use`` marks (all when None)."""
+def _fit_lines(L, omega, lnA, phi, use=None, var_lnA=None, var_phi=None):
+    """(alpha, alpha_fit_err, c, c_fit_err, k, k_err, lnA_resid, chi2) at every ω from ln|S| and
+    the unwrapped phase at heights L (heights x ω), each ω fitted over the heights ``use``
+    marks (all when None), weighted by the variances where given (:func:`_slopes`)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        lnA = np.log(np.abs(S))
-        a_slope, a_err, a_res, _ = _slopes(L, lnA, use)
-        phi = _unwrapped_phase(omega, S, t_ref, i_ref)
-        p_slope, p_err, _, _ = _slopes(L, phi, use)
+        a_slope, a_err, a_res, _, chi2 = _slopes(L, lnA, use, var_lnA)
+        p_slope, p_err, _, _, _ = _slopes(L, phi, use, var_phi)
         k = -p_slope
         c = omega / k
         c_err = omega * p_err / k**2
-    return -a_slope, a_err, c, np.abs(c_err), k, p_err, a_res
+    return -a_slope, a_err, c, np.abs(c_err), k, p_err, a_res, chi2
 
 
-def fit_p_value(resid, S, noise, use) -> np.ndarray:
+def _alpha_c(L, omega, S, t_ref, i_ref, use=None):
+    """:func:`_fit_lines` of the spectra S (heights x ω), unweighted, ln|S| not debiased."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lnA = np.log(np.abs(S))
+    return _fit_lines(L, omega, lnA, _unwrapped_phase(omega, S, t_ref, i_ref), use)[:7]
+
+
+def group_velocity(omega, k) -> np.ndarray:
+    """c_g = dω/dk = 1 / (dk/dω), by central differences of k(ω) on the frequency grid."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return 1.0 / np.gradient(np.asarray(k, float), np.asarray(omega, float))
+
+
+def fit_p_value(resid, S, noise, use, var=None) -> np.ndarray:
     """p-value, at every ω, of the ln|S| fit's χ² = Σ (resid / σ)² over the heights used, with
-    σ = noise / |S| (the noise floor's share of the coherent amplitude) and n − 2 degrees of
-    freedom (rule 8c). NaN with fewer than three heights or an unknown noise floor."""
+    σ² = ``var`` (the variance of ln|S| per height, :func:`coherent_spectra`) when given, else
+    σ = noise / |S| (the noise floor's share of the coherent amplitude), and n − 2 degrees of
+    freedom (rule 8c). NaN with fewer than three heights or an unknown σ."""
     use = np.asarray(use, bool)
     with np.errstate(invalid="ignore", divide="ignore"):
-        sig = np.asarray(noise) / np.abs(S)
+        sig = np.sqrt(np.asarray(var, float)) if var is not None else np.asarray(noise) / np.abs(S)
+        sig = np.where(sig > 0, sig, np.nan)
         chi2 = np.where(use, (resid / sig) ** 2, 0.0).sum(axis=0)
         dof = use.sum(axis=0) - 2
         known = np.all(np.isfinite(sig) | ~use, axis=0) & (dof > 0)
@@ -172,6 +222,36 @@ def fit_p_value(resid, S, noise, use) -> np.ndarray:
     return np.where(known, p, np.nan)
 
 
+def coherent_spectra(P: np.ndarray) -> dict:
+    """The coherent spectrum of one height from its packings' spectra P (packings x ω).
+
+    ``S`` = the mean; ``noise`` = :func:`noise_floor`; ``lnA`` = ln of the debiased coherent
+    amplitude, ½ ln(|S̄|² − noise²): the incoherent remainder adds its variance to the mean's
+    power, E|S̄|² = |⟨S⟩|² + σ²/n, so |S̄| alone is biased up by ≈ σ²/(2 n |⟨S⟩|) (NaN where
+    |S̄| ≤ noise; not corrected with one packing); ``var_lnA``, ``var_phi``: the variances of
+    ln|S̄| and of its phase, Σ Re(δ_i/S̄)² / (n (n − 1)) and the same with Im, δ_i = S_i − S̄
+    (first order in δ; the jitter of arrival times goes mostly into the phase, an incoherent
+    remainder into both); NaN with one packing.
+    """
+    P = np.asarray(P)
+    n = P.shape[0]
+    S = P.mean(axis=0)
+    noise = noise_floor(P)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if n < 2:
+            var_lnA = var_phi = np.full(S.shape, np.nan)
+            lnA = np.log(np.abs(S))
+        else:
+            r = (P - S) / S
+            # identical packings (a scatter at the rounding level): no variance of their own
+            flat = noise <= 1e-9 * np.abs(S)
+            var_lnA = (r.real**2).sum(axis=0) / (n * (n - 1))
+            var_phi = (r.imag**2).sum(axis=0) / (n * (n - 1))
+            power = np.abs(S) ** 2 - noise**2
+            lnA = np.where(power > 0, 0.5 * np.log(np.where(power > 0, power, 1.0)), np.nan)
+            var_lnA[flat] = np.nan
+            var_phi[flat] = np.nan
+    return {"S": S, "noise": noise, "lnA": lnA, "var_lnA": var_lnA, "var_phi": var_phi, "n": n}
 
 
 def noise_floor(spectra_of_packings: np.ndarray) -> np.ndarray:
@@ -255,23 +335,98 @@ def low_frequency_limit(omega, c, band, c_err=None, span: float = DEFAULT_C0_SPA
             "omega_fit": [float(omega[lower[0]]), float(omega[lower[-1]])]}
 
 
+def continuum_wavelength(omega, c, alpha, c_group, band, c0, *, c_tol: float = DEFAULT_C_TOL,
+                         q_tol: float = DEFAULT_Q_TOL) -> dict:
+    """The continuum length in frequency: the wavelength λ* = 2π c(ω*)/ω* beyond which (at every
+    reliable ω ≤ ω*, from the band's bottom up) the medium is a continuum to the stated
+    thresholds: |c(ω)/c0 − 1| ≤ ``c_tol`` (dispersion) and Q⁻¹ = 2 α c_g / ω ≤ ``q_tol``
+    (scattering loss per radian).
+
+    ``status``: ``within`` (the thresholds are first crossed inside the band: λ* estimated),
+    ``whole band`` (they hold up to the band's top: λ* ≤ its λ, an upper bound), ``beyond``
+    (they fail already at the band's bottom: λ* > its λ, a lower bound), ``undetermined`` (no
+    band or no c0).
+    """
+    idx = np.flatnonzero(np.asarray(band, bool))
+    out = {"c_tolerance": float(c_tol), "q_inverse_tolerance": float(q_tol), "omega_star": math.nan,
+           "lambda_star": math.nan, "lambda_bound": math.nan, "status": "undetermined"}
+    if not idx.size or not math.isfinite(c0):
+        return out
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dev = np.abs(np.asarray(c)[idx] / c0 - 1.0)
+        qinv = 2.0 * np.asarray(alpha)[idx] * np.asarray(c_group)[idx] / omega[idx]
+        lam = 2.0 * np.pi * np.asarray(c)[idx] / omega[idx]
+    ok = (dev <= c_tol) & (qinv <= q_tol)
+    if not ok[0]:
+        out.update(status="beyond", lambda_bound=float(lam[0]))
+        return out
+    j = int(np.argmin(ok)) if not ok.all() else ok.size
+    out.update(omega_star=float(omega[idx[j - 1]]), lambda_star=float(lam[j - 1]),
+               status="within" if j < ok.size else "whole band")
+    if j == ok.size:
+        out["lambda_bound"] = float(lam[-1])
+    return out
+
+
+def continuum_distance(heights, omega, amplitude, omega_star: float) -> dict:
+    """The distance beyond which the coherent pulse is made of wavelengths longer than λ*: where
+    the spectral centroid ω_c(L) = Σ ω |S|² / Σ |S|² of each height's coherent spectrum falls
+    to ω* (interpolated in ln L between the heights; a bound outside them)."""
+    amp = np.nan_to_num(np.asarray(amplitude, float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        wc = (omega[None, :] * amp**2).sum(axis=1) / (amp**2).sum(axis=1)
+    L = np.asarray(heights, float)
+    out = {"centroid_frequency": wc, "L_lambda": math.nan, "L_lambda_status": "undetermined"}
+    if not math.isfinite(omega_star):
+        return out
+    below = wc <= omega_star
+    if below.all():
+        out.update(L_lambda_status="below the shortest", L_lambda_bound=float(L[0]))
+    elif not below.any():
+        out.update(L_lambda_status="beyond the tallest", L_lambda_bound=float(L[-1]))
+    else:
+        k = int(np.argmax(below))
+        if k == 0:
+            out.update(L_lambda_status="below the shortest", L_lambda_bound=float(L[0]))
+            return out
+        f = (wc[k - 1] - omega_star) / (wc[k - 1] - wc[k])
+        out.update(L_lambda=float(np.exp(np.log(L[k - 1]) + f * (np.log(L[k]) - np.log(L[k - 1])))),
+                   L_lambda_status="within")
+    return out
+
+
+def lateral_cutoff(c_t: float, width: float) -> float:
+    """The first lateral shear cutoff of a column of lateral period ``width``: ω = 2π c_t / W.
+    Above it the lowest transverse mode of the waveguide propagates and α(ω), c(ω) are the
+    column's, not the medium's."""
+    if not (c_t > 0 and width > 0):
+        raise InputError(f"the lateral cutoff needs c_t > 0 and a width > 0 (got {c_t}, {width})")
+    return 2.0 * math.pi * float(c_t) / float(width)
+
+
 def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                             window_widths: float = DEFAULT_WINDOW_WIDTHS,
                             threshold: float = DEFAULT_THRESHOLD, max_error: float = DEFAULT_MAX_ERROR,
                             bootstrap: int = 200, min_periods: float = DEFAULT_MIN_PERIODS,
                             min_snr: float = DEFAULT_MIN_SNR, min_heights: int = DEFAULT_MIN_HEIGHTS,
                             min_fit_p: float = DEFAULT_MIN_FIT_P, seed: int = 0, c_l: float | None = None,
+                            omega_cutoff: float | None = None, c_tol: float = DEFAULT_C_TOL,
+                            q_tol: float = DEFAULT_Q_TOL,
                             labels: Sequence[Sequence[str]] | None = None, **front_kw) -> dict:
     """α(ω), Q(ω), c(ω) from signals already grouped by nominal height (rule: module docstring).
 
     ``groups``: one list of signals per height (at least two heights, all on one pressure and
-    initial condition). Returns a JSON-ready dict: ``omega``, ``alpha``, ``c``, ``Q`` and their
-    ``*_err``, ``*_fit_err``, ``*_boot_err``; ``reliable`` (mask), ``band`` [ω_lo, ω_hi],
-    ``omega_ref``, per-height ``heights``, ``counts``, ``t_ref``, ``t_end``; the low-frequency
-    limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` when ``c_l`` is given).
+    initial condition). Returns a JSON-ready dict: ``omega``, ``alpha``, ``c``, ``c_group``,
+    ``Q`` and their ``*_err``, ``*_fit_err``, ``*_boot_err``; ``reliable`` (mask), ``band``
+    [ω_lo, ω_hi], ``omega_ref``, per-height ``heights``, ``counts``, ``t_ref``, ``t_end``,
+    ``error_model``; the low-frequency limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` when
+    ``c_l`` is given); ``omega_cutoff`` and ``above_cutoff`` when the lateral cutoff is given;
+    ``packings`` (:func:`granwave.analysis.packings.packing_check`, the rule for fits).
     """
     if len(groups) < 2:
         raise InputError("attenuation needs signals at two or more different heights")
+    if omega_cutoff is not None and not omega_cutoff > 0:
+        raise InputError(f"the lateral cutoff must be a positive frequency (got {omega_cutoff})")
     labels = labels or [[f"height {g} signal {i}" for i in range(len(s))] for g, s in enumerate(groups)]
     ens = [ensemble_average(list(s), labels=list(lab), height_rtol=math.inf)  # grouped by the caller
            for s, lab in zip(groups, labels)]
@@ -298,54 +453,134 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     t_end = np.array([min(w[1], r) for w, r in zip(win, record_end)])
     # the taper (one front width) stays behind the peak when the record cuts the window
     taper = np.array([min(w[2], 0.5 * (te - tr)) for w, te, tr in zip(win, t_end, t_ref)])
-    omega, S = spectra(grid, means, t_end, taper)
-    i_ref = int(np.argmax(np.abs(S[-1])))
     stacks = [np.array([on_grid(s.time, s.force) for s in g]) for g in groups]
-    noise = np.array([noise_floor(spectra(grid, st, [te] * len(st), [tp] * len(st))[1])
-                      for st, te, tp in zip(stacks, t_end, taper)])
+    # every packing's windowed spectrum: the mean of the spectra is the spectrum of the mean
+    P = [spectra(grid, st, [te] * len(st), [tp] * len(st)) for st, te, tp in zip(stacks, t_end, taper)]
+    omega = P[0][0]
+    P = [p[1] for p in P]
+    coh = [coherent_spectra(p) for p in P]
+    S = np.array([h["S"] for h in coh])
+    noise = np.array([h["noise"] for h in coh])
+    counts = np.array([len(g) for g in groups])
+    # a height with one packing borrows the per-packing variance pooled over the others
+    var_lnA, pooled = pooled_variance(np.array([h["var_lnA"] for h in coh]) * counts[:, None], counts - 1)
+    var_phi, _ = pooled_variance(np.array([h["var_phi"] for h in coh]) * counts[:, None], counts - 1)
+    var_lnA, var_phi = var_lnA / counts[:, None], var_phi / counts[:, None]
+    error_model = np.array(["pooled" if n < 2 else "sample" for n in counts])
+    lnA = np.array([h["lnA"] for h in coh])
+    i_ref = int(np.argmax(np.abs(S[-1])))
+    phi = _unwrapped_phase(omega, S, t_ref, i_ref)
     duration = t_end - t_lead
     use = usable(omega, S, noise, duration, min_periods=min_periods, min_snr=min_snr)
+    use &= np.isfinite(lnA)
     n_used = use.sum(axis=0)
     need = max(2, min(int(min_heights), L.size))  # two heights given: both needed, no χ² test
-    alpha, alpha_fit, c, c_fit, k, k_fit, resid = _alpha_c(L, omega, S, t_ref, i_ref, use)
-    fit_p = fit_p_value(resid, S, noise, use)
+    alpha, alpha_fit, c, c_fit, k, k_fit, resid, chi2 = _fit_lines(L, omega, lnA, phi, use, var_lnA,
+                                                                    var_phi)
+    cg = group_velocity(omega, k)
+    fit_p = fit_p_value(resid, S, noise, use, var=var_lnA)
 
-    n_boot = int(bootstrap) if all(len(g) > 1 for g in groups) else 0
-    boot_a, boot_c = [], []
+    # Bootstrap over the packings of every height, through the chain: mean spectra, noise
+    # floors, debiased amplitudes, weights and fits of every resampling (windows, t_ref and the
+    # heights used at each ω kept). A height with one packing cannot be resampled: its ln|S|
+    # and phase are drawn about their values with the pooled variances instead.
+    n_boot = int(bootstrap) if np.any(counts > 1) else 0
+    boot = {"alpha": [], "c": [], "cg": []}
     if n_boot:
         rng = np.random.default_rng(seed)
+        # only the frequencies up to the last one where two heights are usable matter to the
+        # fits (the phase is unwrapped from ω = 0 up, so the prefix is kept whole)
+        top = int(max(i_ref, np.flatnonzero(n_used >= 2)[-1] if np.any(n_used >= 2) else 0)) + 2
+        top = min(top, omega.size)
+        om, Sb0, Pb = omega[:top], S[:, :top], [p[:, :top] for p in P]
+        pad = np.full(omega.size - top, np.nan)
         for _ in range(n_boot):
-            m = np.array([st[rng.integers(0, st.shape[0], st.shape[0])].mean(axis=0) for st in stacks])
-            _, Sb = spectra(grid, m, t_end, taper)
-            a_b, _, c_b, *_ = _alpha_c(L, omega, Sb, t_ref, i_ref, use)
-            boot_a.append(a_b)
-            boot_c.append(c_b)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        alpha_boot = np.std(boot_a, axis=0, ddof=1) if n_boot > 1 else np.full(omega.size, np.nan)
-        c_boot = np.std(boot_c, axis=0, ddof=1) if n_boot > 1 else np.full(omega.size, np.nan)
+            lb, pb, vb, vp = [], [], [], []
+            for h, p in enumerate(Pb):
+                if counts[h] > 1:
+                    # deviations widened by sqrt(n / (n − 1)): the resampled means then scatter
+                    # with the unbiased variance s²/n, not the plug-in (n − 1) s² / n²
+                    n_h = counts[h]
+                    dev = p[rng.integers(0, n_h, n_h)] - Sb0[h]
+                    cb = coherent_spectra(Sb0[h] + math.sqrt(n_h / (n_h - 1)) * dev)
+                    lb.append(cb["lnA"])
+                    pb.append(cb["S"])
+                    vb.append(cb["var_lnA"])
+                    vp.append(cb["var_phi"])
+                else:
+                    lb.append(lnA[h, :top] + np.sqrt(var_lnA[h, :top]) * rng.standard_normal(top))
+                    pb.append(Sb0[h] * np.exp(1j * np.sqrt(var_phi[h, :top]) * rng.standard_normal(top)))
+                    vb.append(var_lnA[h, :top])
+                    vp.append(var_phi[h, :top])
+            phib = _unwrapped_phase(om, np.array(pb), t_ref, i_ref)
+            a_b, _, c_b, _, k_b, *_ = _fit_lines(L, om, np.array(lb), phib, use[:, :top], np.array(vb),
+                                                 np.array(vp))
+            boot["alpha"].append(np.concatenate([a_b, pad]))
+            boot["c"].append(np.concatenate([c_b, pad]))
+            boot["cg"].append(np.concatenate([group_velocity(om, k_b), pad]))
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns: no estimate there
+
+        def spread(key):
+            return (np.nanstd(boot[key], axis=0, ddof=1) if n_boot > 1
+                    else np.full(omega.size, np.nan))
+        alpha_boot, c_boot, cg_boot = spread("alpha"), spread("c"), spread("cg")
         alpha_err = np.fmax(alpha_fit, alpha_boot)
         c_err = np.fmax(c_fit, c_boot)
-        Q = omega / (2.0 * alpha * c)
-        Q_err = np.abs(Q) * np.hypot(alpha_err / alpha, c_err / c)
+        # the group velocity's error: the bootstrap's; without one, the phase fit's error of k
+        # differenced like k (an upper bound: neighbouring errors are correlated)
+        cg_fit = np.abs(cg) ** 2 * np.abs(np.gradient(k_fit, omega)) if omega.size > 1 else k_fit
+        cg_err = cg_boot if n_boot > 1 else cg_fit
+        # Q = ω / (2 α c_g): the amplitude e^{−αL} decays in time t = L / c_g as e^{−ωt/(2Q)}
+        Q = omega / (2.0 * alpha * cg)
+        Q_err = np.abs(Q) * np.hypot(alpha_err / alpha, cg_err / cg)
 
+    # the quoted 95 % intervals, value ± ci95_factor × error: Student t with the degrees of
+    # freedom of the thinnest height (n − 1; 1 where a height has a single packing)
+    dof95 = int(max(1, counts.min() - 1))
+    ci95 = float(stats.t.ppf(0.975, dof95))
     with np.errstate(invalid="ignore", divide="ignore"):
         band = reliable_band(omega, S, threshold, i_ref, c_err / np.abs(c), max_error, use=use,
                              n_used=n_used, min_heights=need, fit_p=fit_p, min_fit_p=min_fit_p)
     low = low_frequency_limit(omega, c, band, c_err)
     # neighbouring frequencies of a zero-padded spectrum are not independent: the bootstrap
     # over packings gives the honest error of c0 (the larger of the two is kept)
-    c0_boot = [low_frequency_limit(omega, cb, band, c_err)["c0"] for cb in boot_c]
+    c0_boot = [low_frequency_limit(omega, cb, band, c_err)["c0"] for cb in boot["c"]]
     low["c0_fit_err"] = low["c0_err"]
     low["c0_boot_err"] = float(np.nanstd(c0_boot, ddof=1)) if len(c0_boot) > 1 else math.nan
     low["c0_err"] = float(np.fmax(low["c0_fit_err"], low["c0_boot_err"]))
+    # the continuum length in frequency, and its bootstrap interval
+    cont = continuum_wavelength(omega, c, alpha, cg, band, low["c0"], c_tol=c_tol, q_tol=q_tol)
+    cont.update(continuum_distance(L, omega, np.exp(lnA), cont["omega_star"]))
+    if n_boot > 1:
+        lam_b = [continuum_wavelength(omega, cb, ab, gb, band, c0b, c_tol=c_tol, q_tol=q_tol)
+                 for cb, ab, gb, c0b in zip(boot["c"], boot["alpha"], boot["cg"], c0_boot)]
+        vals = np.array([d["lambda_star"] if d["status"] == "within" else
+                         (math.inf if d["status"] == "beyond" else -math.inf) if d["status"] != "undetermined"
+                         else math.nan for d in lam_b])
+        vals = vals[~np.isnan(vals)]
+        if vals.size > 1:
+            # ±inf: a resampling whose thresholds fail at the band's bottom (λ* beyond) or hold
+            # over the whole band (λ* within its top): the interval then reaches past the band
+            lo, hi = np.quantile(vals, [0.025, 0.975], method="inverted_cdf")
+            cont["lambda_star_ci"] = [float(lo), float(hi)]
+            cont["lambda_star_boot_err"] = float(np.std(vals[np.isfinite(vals)], ddof=1)) \
+                if np.isfinite(vals).sum() > 1 else math.nan
+            cont["lambda_star_boot_status"] = {k: int(sum(d["status"] == k for d in lam_b))
+                                               for k in ("within", "whole band", "beyond", "undetermined")}
     out = {
         "n_signals": int(sum(len(g) for g in groups)),
-        "heights": L, "counts": np.array([len(g) for g in groups]),
+        "heights": L, "counts": counts, "error_model": error_model,
+        "packings": packing_check(counts, L, fit=True),
         "t_ref": t_ref, "t_end": t_end, "taper": taper, "window_clipped": clipped,
         "window_widths": float(window_widths), "threshold": float(threshold),
         "max_error": float(max_error), "min_periods": float(min_periods), "min_snr": float(min_snr),
         "min_heights": need, "min_fit_p": float(min_fit_p), "duration": duration,
         "bootstrap": n_boot, "seed": int(seed), "front_options": dict(front_kw),
+        "weighted": "1/var of ln|S| and of the phase per height", "amplitude": "debiased",
+        "Q_definition": "omega / (2 alpha c_group)",
+        "ci95_factor": ci95, "ci95_dof": dof95,
+        "continuum_length": cont,
         "omega_ref": float(omega[i_ref]), "c_ref": float(c[i_ref]), "c_ref_err": float(c_err[i_ref]),
         "alpha_ref": float(alpha[i_ref]), "alpha_ref_err": float(alpha_err[i_ref]),
         "band": [float(omega[band][0]), float(omega[band][-1])] if band.any() else [math.nan, math.nan],
@@ -355,14 +590,24 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         out["c_l"] = float(c_l)
         out["c0_over_c_l"] = low["c0"] / c_l
         out["c0_over_c_l_err"] = low["c0_err"] / c_l
+    out["omega_cutoff"] = None if omega_cutoff is None else float(omega_cutoff)
+    if omega_cutoff is not None:
+        out["band_above_cutoff"] = bool(band.any() and omega[band][-1] > omega_cutoff)
     # Keep the arrays up to twice the band's top (or the whole spectrum when no band).
     top = int(np.flatnonzero(band)[-1]) if band.any() else omega.size - 1
     keep = slice(0, min(omega.size, 2 * top + 2))
     out.update(omega=omega[keep], reliable=band[keep], alpha=alpha[keep], alpha_err=alpha_err[keep],
                alpha_fit_err=alpha_fit[keep], alpha_boot_err=alpha_boot[keep], c=c[keep],
-               c_err=c_err[keep], c_fit_err=c_fit[keep], c_boot_err=c_boot[keep], Q=Q[keep],
-               Q_err=Q_err[keep], spectrum_amplitude=np.abs(S[:, keep]), noise_floor=noise[:, keep],
+               c_err=c_err[keep], c_fit_err=c_fit[keep], c_boot_err=c_boot[keep],
+               c_group=cg[keep], c_group_err=cg_err[keep], Q=Q[keep],
+               alpha_ci95=np.stack([alpha - ci95 * alpha_err, alpha + ci95 * alpha_err], 1)[keep],
+               c_ci95=np.stack([c - ci95 * c_err, c + ci95 * c_err], 1)[keep],
+               c_group_ci95=np.stack([cg - ci95 * cg_err, cg + ci95 * cg_err], 1)[keep],
+               Q_err=Q_err[keep], spectrum_amplitude=np.abs(S[:, keep]),
+               coherent_amplitude=np.exp(lnA[:, keep]), noise_floor=noise[:, keep],
                used=use[:, keep], n_used=n_used[keep], fit_p=fit_p[keep])
+    if omega_cutoff is not None:
+        out["above_cutoff"] = omega[keep] > omega_cutoff
     return out
 
 

@@ -25,6 +25,17 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze continuum --help`
 * **Global fits**: :func:`granwave.analysis.heights.height_series_from_features`
   (c_tof, c_peak, c_zero between the two smallest heights and over all heights, γ, α).
 * **Approach to c_l**: :func:`approach_fit` of the local ratio against L.
+* **Errors** (issue #47): the local errors use the scatter model shared across heights
+  (:func:`scatter_model`: each arrival time's scatter one power law of L); a bootstrap over the
+  packings within each height runs through the chain (:func:`resample_local`: means, local
+  speeds, ratios and their errors, the approach fit and L*; ``local.*_boot_err``,
+  ``approach.L_star_boot_ci``); ``ratio_err`` is the larger of the propagated and the
+  bootstrap error. ``packings`` / ``packings_per_height``: the rule of
+  :mod:`granwave.analysis.packings` (10 packings per height for fits, 5 for a height's numbers).
+* **Candidates** (:func:`continuum`): the arrival time at edge levels of 2 … 50 %, the peak
+  and the first lobe's energy centroid (:func:`arrival_times`), their local speeds and the L*
+  of each at tolerances 3, 5, 10 % and c_l references × 0.99, 1, 1.01
+  (:func:`candidate_lengths`).
 * **Bulk c_l** (reported beside, not used by default): each packing's c_l comes from its
   global C22, which includes the softer layers at the two walls; in series with the bulk
   they add a fixed compliance, so 1/c_l² = 1/c_l∞² + b/L (:func:`bulk_speed`, fitted over
@@ -36,6 +47,7 @@ Units: lengths d, times d/sqrt(E*/rho), speeds sqrt(E*/rho), forces E* d^2.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -45,6 +57,7 @@ from ..errors import InputError
 from .ensemble import describe, local_exponents_of_means
 from .front import features_of_signals
 from .heights import FEATURES, common_attr, group_heights, height_series_from_features
+from .packings import MIN_PACKINGS, packing_check
 
 if TYPE_CHECKING:
     from ..model import Signal
@@ -180,10 +193,6 @@ def _local_speed(L, Lerr, t, terr):
     return np.sqrt(L[1:] * L[:-1]), c, err
 
 
-def _nan0(x):
-    return np.where(np.isfinite(x), x, 0.0)
-
-
 def _pooled_where_thin(groups: Sequence[dict]) -> np.ndarray:
     """Each height's standard deviation; a height with a single packing (no scatter of its own)
     gets |mean| times the coefficient of variation pooled over the heights with two or more
@@ -203,12 +212,116 @@ def _pooled_where_thin(groups: Sequence[dict]) -> np.ndarray:
     return std
 
 
+def resample_local(g, L, times: dict, cl, std: dict, *, n_boot: int, seed: int = 0) -> dict:
+    """Local speeds and c_tof/c_l of ``n_boot`` resamplings of the packings within each height.
+
+    ``g``: each packing's height group; ``L``, ``cl``: per packing; ``times``: {speed name:
+    per-packing arrival times}; ``std``: {name: per-height standard deviation} (pooled where a
+    height is thin, :func:`_pooled_where_thin`), for ``cl`` and every time. A height with n ≥ 2
+    packings is resampled with replacement, its deviations from its mean widened by
+    sqrt(n / (n − 1)) (the resampled means then scatter with s²/n, not the plug-in
+    (n − 1) s²/n²); a height with one packing cannot be resampled: its time and c_l are drawn
+    about their values with the pooled standard deviation (its L is exact). Returns
+    {"c_<name>": (n_boot x pairs), "c_l": ..., "ratio": ..., "height": ...}.
+    """
+    rng = np.random.default_rng(seed)
+    n_g = int(g.max()) + 1
+    members = [np.flatnonzero(g == k) for k in range(n_g)]
+    counts = np.array([m.size for m in members])
+    out = {f"c_{name}": np.empty((n_boot, n_g - 1)) for name in times}
+    out.update(c_l=np.empty((n_boot, n_g - 1)), height=np.empty((n_boot, n_g - 1)))
+    keys = ["L", "cl", *times]
+    values = {"L": L, "cl": cl, **times}
+    out["ratio_err"] = np.empty((n_boot, n_g - 1))
+    first = next(iter(times))
+    for b in range(n_boot):
+        mean = {k: np.empty(n_g) for k in keys}
+        sem = {k: np.empty(n_g) for k in keys}
+        for k, m in enumerate(members):
+            n = m.size
+            if n > 1:
+                j = m[rng.integers(0, n, n)]
+                widen = math.sqrt(n / (n - 1))
+                for q in keys:
+                    x = values[q]
+                    y = x[m].mean() + widen * (x[j] - x[m].mean())
+                    mean[q][k] = y.mean()
+                    sem[q][k] = y.std(ddof=1) / math.sqrt(n)
+            else:
+                mean["L"][k], sem["L"][k] = L[m[0]], 0.0
+                for q in keys[1:]:
+                    mean[q][k] = values[q][m[0]] + std[q][k] * rng.standard_normal()
+                    sem[q][k] = std[q][k]
+        for q in keys[1:]:
+            sem[q] = scatter_model(mean["L"], sem[q] * np.sqrt(counts), counts) / np.sqrt(counts)
+        dL = np.diff(mean["L"])
+        for name in times:
+            out[f"c_{name}"][b] = dL / np.diff(mean[name])
+        w = counts.astype(float)
+        out["c_l"][b] = (w[1:] * mean["cl"][1:] + w[:-1] * mean["cl"][:-1]) / (w[1:] + w[:-1])
+        out["height"][b] = np.sqrt(mean["L"][1:] * mean["L"][:-1])
+        # the ratio's error as the analysis computes it, from this resampling's own scatter
+        with np.errstate(invalid="ignore", divide="ignore"):
+            _, c, ce = _local_speed(mean["L"], sem["L"], mean[first], sem[first])
+            cle = np.sqrt(w[1:] ** 2 * sem["cl"][1:] ** 2 + w[:-1] ** 2 * sem["cl"][:-1] ** 2) / (w[1:] + w[:-1])
+            r = c / out["c_l"][b]
+            out["ratio_err"][b] = np.abs(r) * np.hypot(ce / np.abs(c), cle / out["c_l"][b])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["ratio"] = out["c_tof"] / out["c_l"]
+    return out
+
+
+def _L_star_draws(heights, ratios, err, tolerance, p0) -> np.ndarray:
+    """L* = (|a| / tolerance)^(1/β) of ratio = 1 + a L^−β fitted to every row of ``ratios``
+    (at the rows of ``heights``), weighted by the rows of ``err`` where all are known (None:
+    unweighted); +inf where β ≤ 0, NaN where the fit fails."""
+    out = np.full(len(ratios), np.nan)
+    err = [None] * len(ratios) if err is None else err
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for i, (h, r, e) in enumerate(zip(heights, ratios, err)):
+            ok = np.isfinite(h) & np.isfinite(r) & (h > 0)
+            if ok.sum() < 3:
+                continue
+            sigma = e[ok] if e is not None and np.all(np.isfinite(e[ok]) & (e[ok] > 0)) else None
+            try:
+                p, _ = optimize.curve_fit(_power_approach, h[ok], r[ok], p0=p0, sigma=sigma,
+                                          maxfev=5000)
+            except (RuntimeError, ValueError, optimize.OptimizeWarning):
+                continue
+            with np.errstate(over="ignore", divide="ignore"):
+                out[i] = (abs(p[0]) / tolerance) ** (1.0 / p[1]) if p[1] > 0 else math.inf
+    return out
+
+
+def scatter_model(L, std, counts) -> np.ndarray:
+    """The scatter of a feature between packings as one power law of height, std = s L^q,
+    fitted in log-log over the heights with two or more packings (weights 2 (n − 1), the
+    inverse variance of ln std), evaluated at every height. Each height's own standard
+    deviation from ten packings is uncertain by ~ 1/sqrt(2 (n − 1)) ≈ 24 %; weights taken
+    from it favour the heights whose scatter happens to come out small and bias the fit (the
+    approach fit's L* by +3 % in a synthetic study, docs/continuum.md). The model pools all
+    heights. Returns ``std`` unchanged where fewer than three heights have a positive scatter
+    of their own."""
+    L = np.asarray(L, float)
+    std = np.asarray(std, float)
+    dof = np.asarray(counts, float) - 1
+    own = (dof > 0) & np.isfinite(std) & (std > 0) & (L > 0)
+    if own.sum() < 3:
+        return std
+    coef = np.polyfit(np.log(L[own]), np.log(std[own]), 1, w=np.sqrt(2 * dof[own]))
+    return np.exp(np.polyval(coef, np.log(L)))
+
+
 def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
-                            tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05) -> dict:
+                            tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05,
+                            bootstrap: int = 200, seed: int = 0, confidence: float = 0.95) -> dict:
     """The analysis of the module docstring from per-sample front features.
 
     ``heights``: L of each sample (d); ``features``: :meth:`FrontFeatures.as_dict` per
-    sample; ``c_l``, ``c_t``: each sample's effective-medium speeds (NaN where unknown).
+    sample; ``c_l``, ``c_t``: each sample's effective-medium speeds (NaN where unknown);
+    ``bootstrap``: resamplings of the packings within each height, through the chain (arrival
+    times, local speeds, ratios, the approach fit and L*; :func:`resample_local`).
     """
     L = np.asarray(heights, float)
     cl = np.asarray(c_l, float)
@@ -243,23 +356,46 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
     with np.errstate(invalid="ignore", divide="ignore"):
         per["ratio_apparent"] = per["c_tof_apparent"] / per["c_l"]
         per["ratio_apparent_err"] = np.abs(per["ratio_apparent"]) * np.hypot(
-            _nan0(per["c_tof_apparent_sem"] / per["c_tof_apparent"]), _nan0(per["c_l_sem"] / per["c_l"]))
+            per["c_tof_apparent_sem"] / per["c_tof_apparent"], per["c_l_sem"] / per["c_l"])
 
     local = {}
-    Lm, Le = per["height"], _nan0(per["height_sem"])
+    # each packing's (L, t) pair is exact; the scatter of L between packings enters through the
+    # means (unknown with one packing per height everywhere: then only t's scatter counts)
+    Lm, Le = per["height"], np.where(np.isfinite(per["height_sem"]), per["height_sem"], 0.0)
+    root_n = np.sqrt(np.maximum(counts, 1))
     for name, key in SPEEDS:
-        mid, c, ce = _local_speed(Lm, Le, per[key], _nan0(per[key + "_sem"]))
+        # the errors that weight the fits: the scatter model shared across heights
+        per[key + "_std_model"] = scatter_model(Lm, per[key + "_std"], counts)
+        mid, c, ce = _local_speed(Lm, Le, per[key], per[key + "_std_model"] / root_n)
         local["height"] = mid
         local[f"c_{name}"] = c
         local[f"c_{name}_err"] = ce
     pair_cl = np.array([cl[(g == k) | (g == k + 1)] for k in range(n_g - 1)], dtype=object)
     cl_pair = [describe(v) for v in pair_cl]
     local["c_l"] = np.array([d["mean"] for d in cl_pair])
-    local["c_l_err"] = np.array([d["sem"] for d in cl_pair])
+    # the pair's c_l error from the scatter model (as in the bootstrap), counts as weights
+    cl_sem = scatter_model(Lm, per["c_l_std"], counts) / root_n
+    w = counts.astype(float)
+    local["c_l_err"] = np.sqrt(w[1:] ** 2 * cl_sem[1:] ** 2 + w[:-1] ** 2 * cl_sem[:-1] ** 2) / (w[1:] + w[:-1])
     with np.errstate(invalid="ignore", divide="ignore"):
         local["ratio"] = local["c_tof"] / local["c_l"]
         local["ratio_err"] = np.abs(local["ratio"]) * np.hypot(
-            local["c_tof_err"] / np.abs(local["c_tof"]), _nan0(local["c_l_err"] / local["c_l"]))
+            local["c_tof_err"] / np.abs(local["c_tof"]), local["c_l_err"] / local["c_l"])
+    n_boot = int(bootstrap) if n_g > 1 else 0
+    boot = None
+    if n_boot > 1:
+        boot = resample_local(g, L, {name: feats[key] for name, key in SPEEDS}, cl,
+                              {"cl": scatter_model(Lm, per["c_l_std"], counts),
+                               **{name: per[key + "_std_model"] for name, key in SPEEDS}},
+                              n_boot=n_boot, seed=seed)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            for name, _ in SPEEDS:
+                local[f"c_{name}_boot_err"] = np.nanstd(boot[f"c_{name}"], axis=0, ddof=1)
+            local["ratio_boot_err"] = np.nanstd(boot["ratio"], axis=0, ddof=1)
+        # the error of each ratio: the larger of the propagated one and the bootstrap's
+        local["ratio_err_propagated"] = local["ratio_err"]
+        local["ratio_err"] = np.fmax(local["ratio_err"], local["ratio_boot_err"])
     bulk = bulk_speed(L, cl)
     with np.errstate(invalid="ignore", divide="ignore"):
         local["ratio_bulk"] = local["c_tof"] / bulk["c_l_inf"]
@@ -283,6 +419,23 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
         out["approach"] = approach_fit(local["height"], local["ratio"], err, tolerance=tolerance)
     except InputError as exc:
         out["approach"] = {"fit_error": str(exc), "status": "undecided"}
+    app = out["approach"]
+    if boot is not None and math.isfinite(app.get("beta", math.nan)):
+        # L* of every resampling, with the weights of the fit itself: the whole chain's interval
+        draws = _L_star_draws(boot["height"], boot["ratio"], None if err is None else boot["ratio_err"],
+                              tolerance, (app["a"], app["beta"]))
+        good = draws[~np.isnan(draws)]
+        q = (1 - confidence) / 2
+        app["bootstrap"] = n_boot
+        app["L_star_boot_failed"] = int(np.isnan(draws).sum())
+        if good.size > 1:
+            lo, med, hi = np.quantile(good, [q, 0.5, 1 - q], method="inverted_cdf")
+            app["L_star_boot_ci"] = [float(lo), float(hi)]
+            app["L_star_boot_median"] = float(med)
+            app["L_star_boot_beta_nonpositive"] = int(np.isinf(good).sum())
+    out["packings"] = packing_check(counts, per["height"], fit=True)
+    out["packings_per_height"] = packing_check(counts, per["height"], fit=False)
+    per["quotable"] = counts >= MIN_PACKINGS
     out["approach_bulk"] = (_safe_fit(local["height"], local["ratio_bulk"], local["ratio_bulk_err"],
                                       tolerance) if math.isfinite(bulk["c_l_inf"])
                             else {"fit_error": "no bulk c_l", "status": "undecided"})
@@ -298,8 +451,85 @@ def _safe_fit(L, r, e, tolerance):
         return {"fit_error": str(exc), "status": "undecided"}
 
 
+EDGE_LEVELS = (0.02, 0.05, 0.1, 0.2, 0.5)
+TOLERANCES = (0.03, 0.05, 0.10)
+CL_SCALES = (0.99, 1.0, 1.01)
+
+
+def arrival_times(time, force, levels: Sequence[float] = EDGE_LEVELS, **front_kw) -> dict:
+    """Every candidate arrival time of one signal: the leading edge at each fraction in
+    ``levels`` of the first peak (``edge_<level>``, :func:`granwave.analysis.front.front_features`
+    with that ``lead_fraction``), the peak (``peak``) and the energy centroid of the first lobe,
+    Σ t F² / Σ F² over t ≤ t_zero (``energy``)."""
+    from .front import front_features
+
+    front_kw = {k: v for k, v in front_kw.items() if k != "lead_fraction"}
+    out = {}
+    for lev in levels:
+        f = front_features(time, force, lead_fraction=float(lev), **front_kw)
+        out[f"edge_{lev:g}"] = f.t_lead10
+    out["peak"] = f.t_peak
+    t, y = np.asarray(time, float), np.asarray(force, float)
+    lobe = t <= f.t_zero
+    e = y[lobe] ** 2
+    out["energy"] = float(np.sum(t[lobe] * e) / np.sum(e))
+    return out
+
+
+def candidate_lengths(heights, times: dict, c_l, *, tolerances: Sequence[float] = TOLERANCES,
+                      cl_scales: Sequence[float] = CL_SCALES, group_rtol: float = 0.05,
+                      draws: int = 1000) -> dict:
+    """How each candidate "L*" moves with the picking rule, the tolerance and the c_ℓ reference.
+
+    ``times``: {rule: per-packing arrival times} (:func:`arrival_times`); ``c_l``: per packing.
+    Per rule, the local speed ΔL/Δt between consecutive heights (group means, errors from the
+    scatter model shared across heights, :func:`scatter_model`) and its ratio to c_ℓ (the
+    mean of both heights' packings) times each scale in ``cl_scales``; the approach fit
+    (:func:`approach_fit`) at each tolerance. Returns {"speeds": {rule: {height, c, c_err,
+    ratio, ratio_err}}, "table": [one row per rule, tolerance and c_ℓ scale: L_star, its
+    interval, status, beta]}.
+    """
+    L = np.asarray(heights, float)
+    cl = np.asarray(c_l, float)
+    g = group_heights(L, group_rtol)
+    n_g = int(g.max()) + 1
+    counts = np.array([(g == k).sum() for k in range(n_g)])
+    root_n = np.sqrt(counts)
+    Lm = np.array([L[g == k].mean() for k in range(n_g)])
+    Le = np.array([describe(L[g == k])["sem"] for k in range(n_g)])
+    Le = np.where(np.isfinite(Le), Le, 0.0)
+    cl_pair = np.array([np.nanmean(cl[(g == k) | (g == k + 1)]) for k in range(n_g - 1)])
+    speeds, table = {}, []
+    for rule, t in times.items():
+        t = np.asarray(t, float)
+        d = [describe(t[g == k]) for k in range(n_g)]
+        std = scatter_model(Lm, _pooled_where_thin(d), counts)
+        mid, c, ce = _local_speed(Lm, Le, np.array([x["mean"] for x in d]), std / root_n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            speeds[rule] = {"height": mid, "c": c, "c_err": ce, "ratio": c / cl_pair,
+                            "ratio_err": ce / cl_pair}
+        for scale in cl_scales:
+            r, e = c / (cl_pair * scale), ce / (cl_pair * scale)
+            for tol in tolerances:
+                row = {"rule": rule, "tolerance": float(tol), "c_l_scale": float(scale)}
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        fit = approach_fit(mid, r, e if np.all(np.isfinite(e) & (e > 0)) else None,
+                                           tolerance=tol, draws=draws)
+                except InputError as exc:
+                    fit = {"fit_error": str(exc), "status": "undecided", "L_star": math.nan}
+                row.update({k: fit.get(k) for k in ("L_star", "L_star_ci", "status", "beta",
+                                                      "L_star_extrapolated", "fit_error")
+                            if k in fit})
+                table.append(row)
+    return {"speeds": speeds, "table": table, "edge_levels": [float(x) for x in EDGE_LEVELS],
+            "tolerances": [float(x) for x in tolerances], "c_l_scales": [float(x) for x in cl_scales]}
+
+
 def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[str] | None = None,
-              tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05, **front_kw) -> dict:
+              tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05, bootstrap: int = 200,
+              seed: int = 0, candidates: bool = True, **front_kw) -> dict:
     """:func:`continuum_from_features` of signals (one pressure, one initial condition)."""
     signals = list(signals)
     if not signals:
@@ -309,7 +539,13 @@ def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[st
     ic = common_attr(signals, labels, "ic")
     feats = features_of_signals(signals, labels, **front_kw)
     out = continuum_from_features([s.height for s in signals], feats, c_l, c_t,
-                                  tolerance=tolerance, group_rtol=group_rtol)
+                                  tolerance=tolerance, group_rtol=group_rtol, bootstrap=bootstrap,
+                                  seed=seed)
+    if candidates:
+        arr = [arrival_times(s.time, s.force, **front_kw) for s in signals]
+        out["candidates"] = candidate_lengths([s.height for s in signals],
+                                              {k: [a[k] for a in arr] for k in arr[0]}, c_l,
+                                              group_rtol=group_rtol)
     return {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out,
             "samples": [{"source": str(lab), "height": s.height, "c_l": float(a),
                          **{k: float(f[k]) for k in FEATURES}}

@@ -21,9 +21,14 @@ def attenuation(signals, as_json, **options):
     averaged (the coherent signal), windowed from t = 0 to the front's zero crossing plus
     --window-widths front widths (cosine taper over the last width) and Fourier
     transformed. At every frequency omega: ln|S(omega, L)| = const - alpha L and the
-    unwrapped phase = const - k L are straight lines over the heights; alpha(omega) in 1/d,
-    c(omega) = omega/k in sqrt(E*/rho), Q = omega / (2 alpha c). Error bars: the larger of
-    the fit's standard error and the bootstrap over packings (--bootstrap). At each omega
+    unwrapped phase = const - k L are straight lines over the heights, weighted by each
+    height's variance of ln|S| and of the phase over its packings, |S| debiased for the
+    incoherent remainder (|S|^2 - noise^2); alpha(omega) in 1/d, c(omega) = omega/k in
+    sqrt(E*/rho), group velocity c_g = d omega/dk, Q = omega / (2 alpha c_g). Error bars: the
+    larger of the fit's standard error and the bootstrap over packings (--bootstrap). Fewer
+    than 10 packings at a height: a warning, the result is not quotable; a height with one
+    packing takes the variance pooled over the others. --omega-cutoff marks the column's
+    first lateral shear cutoff 2 pi c_t/W (the waveguide's, not the medium's, above it). At each omega
     a height is used only where the window after its front's arrival holds --min-periods
     periods and its coherent amplitude is --min-snr times its noise floor (the standard
     error of the mean spectrum over its packings). Reliable band: around the tallest
@@ -45,17 +50,30 @@ def attenuation(signals, as_json, **options):
               threshold=params.threshold, max_error=params.max_error,
               min_periods=params.min_periods, min_snr=params.min_snr, min_heights=params.min_heights,
               min_fit_p=params.min_fit_p, bootstrap=params.bootstrap, seed=params.seed,
-              c_l=params.c_l, **params.front_kw())
+              c_l=params.c_l, omega_cutoff=params.omega_cutoff, c_tol=params.continuum_c_tolerance,
+              q_tol=params.continuum_q_inverse, **params.front_kw())
     res["params"] = params.as_dict()
-    if as_json:
+    if as_json:  # the JSON carries the rule's verdict (packings.warning) for the report
         echo_json(res)
         return
+    if res["packings"]["warning"]:  # the rule of granwave.analysis.packings, said every time
+        click.echo(f"warning: {res['packings']['warning']}")
     scalars = {k: v for k, v in res.items() if not hasattr(v, "__len__") or isinstance(v, str)}
     scalars["band"] = res["band"]
     echo_table(scalars, title=f"attenuation: {res['n_signals']} signals, {len(res['heights'])} heights")
     m = res["reliable"]
-    click.echo(f"  {'omega':>10} {'alpha':>12} {'err':>10} {'c':>10} {'err':>10} {'Q':>10}")
+    cl = res["continuum_length"]
+    click.echo(f"  continuum length: |c/c0 - 1| <= {cl['c_tolerance']:g} and 1/Q <= "
+               f"{cl['q_inverse_tolerance']:g}: {cl['status']}, lambda* = {cl['lambda_star']:.4g} d "
+               f"(95 % {cl.get('lambda_star_ci')}), omega* = {cl['omega_star']:.4g}, "
+               f"the pulse's spectral centroid reaches omega* at L = {cl['L_lambda']:.4g} d "
+               f"({cl['L_lambda_status']})")
+    cut = res.get("omega_cutoff")
+    click.echo(f"  {'omega':>10} {'alpha':>12} {'err':>10} {'c':>10} {'err':>10} {'c_group':>10} "
+               f"{'Q':>10}")
     idx = [i for i in range(len(m)) if m[i]]
     for i in idx[:: max(1, len(idx) // 12)]:
+        mark = "  above the lateral cutoff" if cut is not None and res["omega"][i] > cut else ""
         click.echo(f"  {res['omega'][i]:10.4g} {res['alpha'][i]:12.4g} {res['alpha_err'][i]:10.2g} "
-                   f"{res['c'][i]:10.4g} {res['c_err'][i]:10.2g} {res['Q'][i]:10.4g}")
+                   f"{res['c'][i]:10.4g} {res['c_err'][i]:10.2g} {res['c_group'][i]:10.4g} "
+                   f"{res['Q'][i]:10.4g}{mark}")

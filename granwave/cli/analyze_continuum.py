@@ -26,9 +26,11 @@ def continuum(signals, moduli_paths, as_json, **options):
     of the apparent speeds L/t. Between consecutive heights: the local speeds c_tof (10%
     edge), c_peak, c_zero = dL/dt of the means, c_tof/c_l, and the local exponents
     gamma_eff = -dln|A|/dlnL, alpha_eff = dlnW/dlnL, all with error bars from the standard
-    errors. The approach c_tof/c_l = 1 + a L^-beta is fitted (95% intervals) and L*, where
-    c_tof is within --tolerance of c_l, is given, or a lower bound when the tallest height
-    is still outside it. Units: d, sqrt(E*/rho). See docs/continuum.md.
+    errors and a bootstrap over the packings within each height through the whole chain
+    (--bootstrap). The approach c_tof/c_l = 1 + a L^-beta is fitted (95% intervals, from the
+    fit's covariance and from the bootstrap) and L*, where c_tof is within --tolerance of
+    c_l, is given, or a lower bound when the tallest height is still outside it. Fewer than
+    5 packings at a height (10 for the fits): a warning, not quotable. Units: d, sqrt(E*/rho). See docs/continuum.md.
     """
     from ..analysis.continuum import continuum as run
     from ..errors import InputError
@@ -52,11 +54,15 @@ def continuum(signals, moduli_paths, as_json, **options):
         c_l.append(float("nan") if m["c_l"] is None else float(m["c_l"]))
         c_t.append(float("nan") if m.get("c_t") is None else float(m["c_t"]))
     res = run([read_signal(p) for p in signals], c_l, c_t, labels=list(signals),
-              tolerance=params.tolerance, group_rtol=params.group_tolerance, **params.front_kw())
+              tolerance=params.tolerance, group_rtol=params.group_tolerance,
+              bootstrap=params.bootstrap, seed=params.seed, **params.front_kw())
     res["params"] = params.as_dict()
-    if as_json:
+    if as_json:  # the JSON carries the packing rule's verdict (packings.warning)
         echo_json(res)
         return
+    for key in ("packings_per_height", "packings"):  # granwave.analysis.packings, said every time
+        if res[key]["warning"]:
+            click.echo(f"warning: {res[key]['warning']}")
     echo_table({k: v for k, v in res["approach"].items() if k != "free_limit"},
                title=f"continuum: {res['n_signals']} signals, {res['n_heights']} heights")
     loc = res["local"]
@@ -66,3 +72,18 @@ def continuum(signals, moduli_paths, as_json, **options):
         click.echo(f"  {loc['height'][i]:9.4g} {loc['c_tof'][i]:9.4g} {loc['c_peak'][i]:9.4g} "
                    f"{loc['c_zero'][i]:9.4g} {loc['c_l'][i]:9.4g} {loc['ratio'][i]:9.4g} "
                    f"{loc['ratio_err'][i]:8.2g} {loc['gamma_eff'][i]:8.3g} {loc['alpha_eff'][i]:8.3g}")
+    cand = res.get("candidates")
+    if cand:
+        click.echo("  candidate L* (d) by arrival rule, tolerance and c_l reference "
+                   "(c_l x " + " / ".join(f"{x:g}" for x in cand["c_l_scales"]) + "); "
+                   "local speed/c_l at the tallest pair")
+        rows = {(r["rule"], r["tolerance"], r["c_l_scale"]): r for r in cand["table"]}
+        for rule, sp in cand["speeds"].items():
+            for tol in cand["tolerances"]:
+                cells = []
+                for sc in cand["c_l_scales"]:
+                    r = rows[(rule, tol, sc)]
+                    v = r.get("L_star")
+                    cells.append(f"{v:9.4g}" if v is not None else f"{'-':>9}")
+                click.echo(f"  {rule:>10} tol {tol:<5g} " + " ".join(cells)
+                           + f"   ratio {sp['ratio'][-1]:.4g} ± {sp['ratio_err'][-1]:.2g}")

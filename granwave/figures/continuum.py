@@ -110,6 +110,10 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
                 pad = 0.2 * (hi - lo) if hi > lo else 1.0
                 ax.set_ylim(lo - pad, hi + pad)
                 ax.set_xlim(0, min(om[-1], 1.5 * om[rel][-1]))
+            cut = attenuation.get("omega_cutoff")
+            if cut is not None and np.isfinite(cut):
+                ax.axvline(cut, color="C3", ls="-.", lw=1,
+                           label=r"lateral cutoff $2\pi c_t/W$")
             if key == "c":
                 cl = front.get("c_l", {}).get("mean")
                 if cl:

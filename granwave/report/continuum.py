@@ -88,18 +88,66 @@ def alpha_cell(att: Mapping, i: int) -> str:
 
 
 def q_cell(att: Mapping, i: int) -> str:
-    """Q = ω/(2αc) at the i-th frequency: an estimate only where α is resolved; else the lower
-    bound ω/(2 α_upper c) from α's upper bound α + 2 errors."""
+    """Q = ω/(2 α c_g) at the i-th frequency: an estimate only where α is resolved; else the
+    lower bound ω/(2 α_upper c_g) from α's upper bound α + 2 errors."""
     a, ea = num(att["alpha"][i]), num(att["alpha_err"][i])
     if resolved(a, ea):
         return fmt_positive(att["Q"][i], att["Q_err"][i])
     lower, upper = a - 2 * ea, a + 2 * ea
-    w, c = num(att["omega"][i]), num(att["c"][i])
+    # Q = ω/(2 α c_g) where the analysis gives the group velocity (older files: c)
+    w, c = num(att["omega"][i]), num(att.get("c_group", att["c"])[i])
     if not (upper > 0 and w > 0 and c > 0):
         return "not resolved (α not resolved)"
     if lower > 0:  # α within a 95 % interval over a decade wide: Q within its image
         return f"[{fmt_bound(w / (2 * upper * c))}, {fmt_bound(w / (2 * lower * c))}] (95 %)"
     return f"> {fmt_bound(w / (2 * upper * c))} (α consistent with 0)"
+
+
+def _warnings(obj: Mapping, keys) -> list[str]:
+    """The packing rule's warnings of an analysis (granwave.analysis.packings), capitalised."""
+    out = []
+    for k in keys:
+        w = (obj.get(k) or {}).get("warning")
+        if w:
+            out.append(w[0].upper() + w[1:] + ".")
+    return out
+
+
+def lambda_sentence(lam: Mapping) -> str:
+    """The continuum length in frequency (λ*) in one sentence, with its thresholds."""
+    thr = (f"|c/c0 − 1| ≤ {num(lam.get('c_tolerance')):g} and Q⁻¹ ≤ "
+           f"{num(lam.get('q_inverse_tolerance')):g}")
+    st = lam.get("status")
+    if st == "within":
+        ci = lam.get("lambda_star_ci")
+        txt = (f"Continuum length in frequency: {thr} for every wavelength above "
+               f"λ* = {fmt_bound(lam.get('lambda_star'), 3)} d̄"
+               + (f" (95 % bootstrap interval {_ci(ci)} d̄)" if ci else "")
+               + f", ω* = {fmt(lam.get('omega_star'), digits=3)}")
+        if lam.get("L_lambda_status") == "within":
+            txt += (f"; the pulse's spectral centroid falls to ω* at L ≈ "
+                    f"{fmt_bound(lam.get('L_lambda'), 3)} d̄")
+        return txt + "."
+    if st == "whole band":
+        return (f"Continuum length in frequency: {thr} over the whole reliable band, so "
+                f"λ* ≤ {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (an upper bound).")
+    if st == "beyond":
+        return (f"Continuum length in frequency: {thr} fails already at the band's bottom, so "
+                f"λ* > {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (a lower bound).")
+    return "Continuum length in frequency: undetermined (no reliable band or no c0)."
+
+
+def cutoff_sentence(att: Mapping) -> str:
+    """Where the column's first lateral shear cutoff lies against the reliable band."""
+    cut = att.get("omega_cutoff")
+    if cut is None or not math.isfinite(num(cut)):
+        return ("The column's first lateral shear cutoff 2π c_t/W was not given: whether α(ω) and "
+                "c(ω) are the medium's or the waveguide's is not checked here.")
+    band = att.get("band") or [math.nan, math.nan]
+    where = ("the reliable band lies below it: α and c there are the medium's"
+             if num(band[1]) <= num(cut) else
+             "the reliable band reaches above it: there α and c are the waveguide's, not the medium's")
+    return f"First lateral shear cutoff 2π c_t/W = {fmt(cut, digits=3)} √(E*/ρ)/d̄: {where}."
 
 
 def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
@@ -162,7 +210,14 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                                + ".")
             if app.get("fit_error"):
                 md[-1] += f" The fit failed: {app['fit_error']}."
-            md += ["", approach_sentence(app), ""]
+            md += ["", approach_sentence(app)]
+            bci = app.get("L_star_boot_ci")
+            if bci and all(v is not None for v in bci):
+                md[-1] += (f" Bootstrap over the packings within each height through the whole chain "
+                           f"(arrival times, local speeds, ratios, fit; {app.get('bootstrap')} "
+                           f"resamplings): L* 95 % interval {_ci(bci)} d.")
+            md += [f"**{w}**" for w in _warnings(front, ("packings_per_height", "packings"))]
+            md.append("")
             appb = front.get("approach_bulk") or {}
             if appb.get("beta") is not None and math.isfinite(float(appb.get("beta") or math.nan)):
                 md += [f"Against the bulk c_ℓ∞ instead (local c_tof/c_ℓ∞ = "
@@ -214,14 +269,29 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                           else "α not shown (this ω is outside the reliable band)"))
             md[-1] += (f" (error bars: the larger of the fit's standard error and the bootstrap over "
                        f"packings, {att.get('bootstrap', 0)} resamplings).")
+            if "c_group" in att:
+                md[-1] += (" The ln|S| and phase fits are weighted by each height's variance over its "
+                           "packings, |S| is debiased for the incoherent remainder, and "
+                           "Q = ω/(2 α c_g) with the group velocity c_g = dω/dk. "
+                           + cutoff_sentence(att))
+            lam = att.get("continuum_length") or {}
+            if lam.get("status"):
+                md[-1] += " " + lambda_sentence(lam)
+            md += [f"**{w}**" for w in _warnings(att, ("packings",))]
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
                    "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
-                   "and Q then a lower bound, Q > ω/(2 α_upper c); where that interval spans more "
-                   "than a decade only the interval is shown, for α and for Q = ω/(2αc):", "",
-                   "| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"]
+                   "and Q then a lower bound, Q > ω/(2 α_upper c_g); where that interval spans more "
+                   "than a decade only the interval is shown, for α and for Q:", "",
+                   *(["| ω | α (1/d̄) | Q | c(ω) | c_g(ω) |", "|---|---|---|---|---|"]
+                     if "c_group" in att else ["| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"])]
             idx = [i for i, ok in enumerate(att["reliable"]) if ok]
+            cut = num(att.get("omega_cutoff"))
             for i in idx[:: max(1, len(idx) // 8)]:
-                md.append(f"| {fmt(att['omega'][i], digits=3)} | {alpha_cell(att, i)} | "
-                          f"{q_cell(att, i)} | {fmt(att['c'][i], att['c_err'][i])} |")
+                row = (f"| {fmt(att['omega'][i], digits=3)}"
+                       + (" (above the cutoff)" if math.isfinite(cut) and num(att["omega"][i]) > cut else "")
+                       + f" | {alpha_cell(att, i)} | {q_cell(att, i)} | {fmt(att['c'][i], att['c_err'][i])} |")
+                if "c_group" in att:
+                    row += f" {fmt(att['c_group'][i], att['c_group_err'][i])} |"
+                md.append(row)
             md.append("")
     return md

@@ -45,7 +45,7 @@ SYMBOLS = [
     "| γ, δ | amplitude and width exponents of the front, \\|A\\| ∝ L^−γ, W ∝ L^δ "
     "(`gamma`, `alpha` of `analyze heights`) |",
     "| α, Q | attenuation of the coherent signal, \\|S\\| ∝ e^−αL (1/d̄), and quality "
-    "factor Q = ω/(2αc) |",
+    "factor Q = ω/(2αc_g), c_g = dω/dk the group velocity |",
     "| β, a, L* | approach of c_tof/c_ℓ to 1 with distance (continuum section) |",
     "| μ, ζ, Φ2 | friction coefficient, contact damping (fraction of critical), area fraction |",
     "",
