@@ -239,12 +239,16 @@ def workflow_runs(folder: Path = HERE) -> list:
 def generated_value(name: str, jobs=workflow_jobs, folder: Path = HERE) -> str:
     """The text of one generated span: ``jobs CONFIG`` (the job count of that config),
     ``workflow-about`` ("about N min", the latest measured quick run rounded to the minute),
+    ``workflow-latest`` (its wall time and CPU seconds),
     ``workflow-runs`` (every measured run's wall time and the range of their CPU times)."""
     if name.startswith("jobs "):
         return str(jobs(name[len("jobs "):]))
     runs = workflow_runs(folder)
     if name == "workflow-about":
         return f"about {round(runs[-1]['summary']['wall (s)'] / 60)} min"
+    if name == "workflow-latest":
+        last = runs[-1]["summary"]
+        return f"{_min_s(last['wall (s)'])}, {last['CPU (s, user + system)']:.0f} CPU-s"
     if name == "workflow-runs":
         walls = [_min_s(r["summary"]["wall (s)"]) for r in runs]
         cpus = [r["summary"]["CPU (s, user + system)"] for r in runs]
