@@ -219,6 +219,19 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+def _unraisable(hook_args, _default=sys.unraisablehook):
+    """An interrupt raised where Python cannot propagate it (a ctypes callback, e.g. numba's
+    compiler writing its object cache) is printed and dropped: the run would go on after
+    SIGTERM. Send the signal again a moment later, from a thread (a signal sent from here would
+    be handled inside this hook and dropped too); its handler then raises where it propagates."""
+    if isinstance(hook_args.exc_value, KeyboardInterrupt):
+        import threading
+
+        threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGTERM)).start()
+        return
+    _default(hook_args)
+
+
 def _paths(value) -> list[str]:
     """The file paths among a click parameter's value (a path or a tuple of paths)."""
     items = value if isinstance(value, (list, tuple)) else [value]
@@ -303,6 +316,7 @@ def stage(func):
 
         for sig in (signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, _interrupt)
+        sys.unraisablehook = _unraisable
         limit = allow_long_run() if kwargs.pop("allow_long_run", False) else contextlib.nullcontext()
         try:
             _check_outputs(kwargs)

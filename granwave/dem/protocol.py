@@ -187,6 +187,11 @@ def granular_gas(radius: np.ndarray, lateral: np.ndarray, gas_density: float, rn
     return pos, height
 
 
+#: Target length (s) of one engine call between Python's checks: a signal waits at most about
+#: this long (the progress lines still come about once a second).
+CALL_SECONDS = 0.3
+
+
 class Compression:
     """The engine of the piston protocol for given grains, and what it records.
 
@@ -307,9 +312,10 @@ class Compression:
                 progress(f"end game from step {self.end_game.start_step}: the background damping "
                          f"({self.gamma:.3g}) follows the slowest mode")
             elapsed = time.perf_counter() - t0
-            # about one progress line per second
+            # calls of about CALL_SECONDS: a signal (Ctrl-C, SIGTERM) is handled between calls,
+            # and the bits do not depend on the chunking (docs/dem.md)
             if elapsed > 0:
-                chunk = int(min(max(chunk * min(4.0, 1.0 / max(elapsed, 1e-3)), 200), 200_000))
+                chunk = int(min(max(chunk * min(4.0, CALL_SECONDS / max(elapsed, 1e-3)), 200), 200_000))
             if status == 1:
                 packing = self.packing({**attrs, "converged": True, "max_acceleration": 0.0})
                 res = static_residual(packing, self.piston_mass, self.piston_force)
