@@ -93,6 +93,39 @@ def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, s
     return sig
 
 
+def run_batch(run, samples, *, log_path, timings_path, fields, failed_key) -> None:
+    """A workflow batch (one process): ``run(sample, log)`` for every sample, its log lines
+    into ``log_path``, and one row per sample and stage of ``fields`` into the tab-separated
+    ``timings_path``. A sample that fails (InputError, ConvergenceError) ends the batch with
+    exit status 1 and its reason in the log (the sample named by ``sample['out'][failed_key]``)."""
+    import csv
+    import sys
+
+    from .errors import ConvergenceError, InputError
+
+    with open(log_path, "w") as log:
+        rows = []
+        for sample in samples:
+            try:
+                timings = run(sample, log=lambda line: print(line, file=log, flush=True))
+            except (InputError, ConvergenceError) as exc:
+                print(f"{sample['out'][failed_key]}: {exc}", file=log)
+                sys.exit(1)
+            rows += [{**{k: sample[k] for k in ("scene", "pressure", "size", "seed")}, **t} for t in timings]
+        with open(timings_path, "w", newline="") as f:
+            writer = csv.DictWriter(f, fields, delimiter="\t")
+            writer.writeheader()
+            writer.writerows({k: r[k] for k in fields} for r in rows)
+
+
+def _timed(timings: list, stage: str, fn):
+    """``fn()``, its CPU and wall seconds appended to ``timings`` under ``stage``."""
+    c0, w0 = time.process_time(), time.perf_counter()
+    result = fn()
+    timings.append({"stage": stage, "cpu_s": time.process_time() - c0, "wall_s": time.perf_counter() - w0})
+    return result
+
+
 def run_sample(sample: dict, log=print) -> list[dict]:
     """Run one sample's pipeline and write its files; return the timing of each stage.
 
@@ -118,11 +151,7 @@ def run_sample(sample: dict, log=print) -> list[dict]:
     timings = []
 
     def timed(stage, fn):
-        c0, w0 = time.process_time(), time.perf_counter()
-        result = fn()
-        timings.append({"stage": stage, "cpu_s": time.process_time() - c0,
-                        "wall_s": time.perf_counter() - w0})
-        return result
+        return _timed(timings, stage, fn)
 
     for path in out.values():
         Path(path).parent.mkdir(parents=True, exist_ok=True)
@@ -784,11 +813,7 @@ def run_shear_sample(sample: dict, log=print) -> list[dict]:
     timings = []
 
     def timed(stage, fn):
-        c0, w0 = time.process_time(), time.perf_counter()
-        result = fn()
-        timings.append({"stage": stage, "cpu_s": time.process_time() - c0,
-                        "wall_s": time.perf_counter() - w0})
-        return result
+        return _timed(timings, stage, fn)
 
     out = sample["out"]
     for path in out.values():

@@ -432,6 +432,16 @@ MATCHING_ATTRS = ("dim", "n_dof", "pressure", "friction", "poisson", "height", "
                   "prestress", "n_rattlers")
 
 
+def _same_attr(a, b) -> bool:
+    """Whether two recorded attribute values agree: numbers to 1e-12 relative, others exactly."""
+    if isinstance(a, float) or isinstance(b, float):
+        try:
+            return math.isclose(float(a), float(b), rel_tol=1e-12)
+        except (TypeError, ValueError):
+            return False
+    return a == b
+
+
 def modes_match_linear(modes, system) -> str | None:
     """Why ``system`` (a LinearSystem) is not the one ``modes`` were computed from, or None.
 
@@ -448,14 +458,7 @@ def modes_match_linear(modes, system) -> str | None:
         a, b = modes.attrs.get(key), system.attrs.get(key)
         if a is None or b is None:
             continue
-        if isinstance(a, float) or isinstance(b, float):
-            try:
-                same = math.isclose(float(a), float(b), rel_tol=1e-12)
-            except (TypeError, ValueError):
-                same = False
-        else:
-            same = a == b
-        if not same:
+        if not _same_attr(a, b):
             return f"has {key} = {b!r}, the modes {a!r}"
     want, got = modes.attrs.get("linear_digest"), system.attrs.get("linear_digest")
     if isinstance(want, str) and want and want != "none" and got is not None and want != got:
@@ -494,14 +497,7 @@ def belongs_to_packing(obj, packing) -> str | None:
     for key, a, b in pairs:
         if a is None or b is None or a == "none" or b == "none":
             continue
-        if isinstance(a, float) or isinstance(b, float):
-            try:
-                same = math.isclose(float(a), float(b), rel_tol=1e-12)
-            except (TypeError, ValueError):
-                same = False
-        else:
-            same = a == b
-        if not same:
+        if not _same_attr(a, b):
             return f"has {key} = {a!r}, the packing {b!r}"
     return None
 

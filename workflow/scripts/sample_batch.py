@@ -6,13 +6,11 @@ and are written atomically as each finishes. The per-stage CPU times of every sa
 to the batch's timing table (read by benchmarks/workflow_runtime.py).
 """
 
-import csv
 import signal
 import sys
 
-from granwave.errors import ConvergenceError, InputError
 from granwave.threads import set_threads
-from granwave.workflow_support import run_sample
+from granwave.workflow_support import run_batch, run_sample
 
 
 def _interrupt(signum, frame):
@@ -24,16 +22,5 @@ set_threads(snakemake.threads)
 sys.argv = ["workflow/scripts/sample_batch.py", snakemake.rule]  # provenance: command_line
 FIELDS = ["scene", "pressure", "size", "seed", "stage", "n_grains", "n_dof", "steps", "cpu_s", "wall_s"]
 
-with open(snakemake.log[0], "w") as log:
-    rows = []
-    for sample in snakemake.params.samples:
-        try:
-            timings = run_sample(sample, log=lambda line: print(line, file=log, flush=True))
-        except (InputError, ConvergenceError) as exc:
-            print(f"{sample['out']['summary']}: {exc}", file=log)
-            sys.exit(1)
-        rows += [{**{k: sample[k] for k in ("scene", "pressure", "size", "seed")}, **t} for t in timings]
-    with open(snakemake.output.timings, "w", newline="") as f:
-        writer = csv.DictWriter(f, FIELDS, delimiter="\t")
-        writer.writeheader()
-        writer.writerows({k: r[k] for k in FIELDS} for r in rows)
+run_batch(run_sample, snakemake.params.samples, log_path=snakemake.log[0],
+          timings_path=snakemake.output.timings, fields=FIELDS, failed_key="summary")
