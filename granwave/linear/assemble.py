@@ -484,7 +484,7 @@ def wall_coupling(packing: Packing, layout: "DofLayout", contacts: np.ndarray, d
 
 
 def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
-              check: bool = True, progress=None) -> LinearSystem:
+              check: bool = True, progress=None, remove_spins: bool = True) -> LinearSystem:
     """Build ``M u'' = -D u`` for a packing in equilibrium (docs/method.md §5).
 
     Parameters
@@ -498,6 +498,10 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
         zero modes (:func:`check_stiffness`); results go into ``attrs``.
     progress : a callable taking one line of text; above ``DENSE_CHECK_MAX_DOF``
         dofs it hears the assembly time and the check's method, iterations and time.
+    remove_spins : constrain the free spins (3D, module docstring; default). False keeps every
+        rotation: the dynamics the DEM integrates (the constraint theta . e = 0 also stops the
+        grain rolling, and so adds inertia; docs/decisions/0016), with a zero mode per spin
+        (negative with prestress).
 
     Returns
     -------
@@ -516,7 +520,7 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     friction = float(attrs.get("friction", 0.0))
     n_rot = n_rotations(dim, friction)
     p = dim + n_rot
-    layout = dof_layout(packing, n_rot)
+    layout = dof_layout(packing, n_rot, remove_spins=remove_spins)
     first, dof_grain, dof_axis = layout.first, layout.dof_grain, layout.dof_axis
     n_dof = len(dof_grain)
     if n_dof == 0:
