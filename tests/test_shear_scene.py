@@ -136,6 +136,12 @@ def test_report_section_and_figure_from_a_made_analysis(tmp_path):
     assert "| 1e-07 | 3 |" in md                   # counts as integers
     assert "`first_deflection`, `cross_correlation`" in md  # within 5 %
     assert "in no row: `edge10`, `peak_to_peak`, `phase`, `impulse_edge10`, `impulse_peak`" in md
+    # the compressional precursor's speed beside the picks: c_l/c_t of the moduli per pressure
+    from granwave.report.shear import compressional_ratio
+
+    for p, r in compressional_ratio(a).items():
+        assert r["mean"] == pytest.approx(A_P / A_S * p ** (NU_P - NU_S), rel=1e-12)
+    assert "| c_ℓ/c_t (P) |" in md
     page = build_report(shear=[(tmp_path / "shear2d" / "analysis.json", a, None)], out_dir=tmp_path)
     assert "## Shear waves" in page
     files = shear_panels(a, tmp_path / "shear_shear2d.png")

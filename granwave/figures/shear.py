@@ -31,7 +31,8 @@ def shear_panels(analysis: Mapping, path, *, pdf: bool = False) -> list[Path]:
     laws; (b) G_max = Φ3* V_s² and the moduli's G with the free fit and the p^(1/3) line;
     (c) V_p/V_s and c_l/c_t, and the Poisson ratios from waves, moduli and tensor; (d) V/c_t of
     every pick against L at the reference wavelength, one line per pressure's heights, the ±5 %
-    band shaded. Nothing is computed here."""
+    band shaded and c_l/c_t of the moduli dashed (the compressional precursor's speed: a pick
+    there reads the P wave, docs/shear.md). Nothing is computed here."""
     rows = analysis["pressures"]
     need(len(rows) >= 1, "the shear analysis has no pressure")
     p = np.array([r["pressure"] for r in rows], float)
@@ -100,6 +101,10 @@ def shear_panels(analysis: Mapping, path, *, pdf: bool = False) -> list[Path]:
         tol = analysis.get("tolerance", 0.05)
         ax.axhspan(1 - tol, 1 + tol, color="0.9", zorder=0)
         ax.axhline(1.0, color="k", lw=0.8)
+        # c_l/c_t of the moduli: where the shear kick's compressional precursor arrives
+        ratio = next((r.get("ratio_moduli") or {} for r in rows if r["pressure"] == pmax), {}).get("mean")
+        if ratio is not None and np.isfinite(ratio):
+            ax.axhline(ratio, color="k", ls="--", lw=0.8, label=r"$c_\ell/c_t$: P precursor")
         ax.set_title(f"p = {pmax:g}, " + r"$\lambda$" + f" = {lam0:g}", fontsize=9)
     ax.set_xscale("log")
     ax.set_xlabel(L_LABEL)

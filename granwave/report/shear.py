@@ -43,18 +43,28 @@ def _fit(fit: Mapping | None) -> str:
     return fmt(fit.get("exponent"), fit.get("exponent_err"), 3)
 
 
+def compressional_ratio(analysis: Mapping) -> dict[float, Mapping]:
+    """{pressure: c_ℓ/c_t of the moduli (mean and standard error over the packings of the fit
+    height)}: the speed, in units of c_t, at which the shear kick's compressional precursor
+    arrives (docs/shear.md); a pick near it reads that precursor, not the shear wave."""
+    return {num(r["pressure"]): r.get("ratio_moduli") or {} for r in analysis.get("pressures", [])}
+
+
 def pick_table(analysis: Mapping) -> list[str]:
-    """The pick table as Markdown lines: per pressure, wavelength and height, every pick's
-    V/c_t (mean ± standard error over the packings) and the picks within the tolerance."""
+    """The pick table as Markdown lines: per pressure, wavelength and height, c_ℓ/c_t (the
+    compressional precursor's speed, :func:`compressional_ratio`), every pick's V/c_t (mean ±
+    standard error over the packings) and the picks within the tolerance."""
     picks = list(analysis["picks"])
     tol = num(analysis.get("tolerance", 0.05))
-    lines = ["| p (E*) | λ (d̄) | L (d̄) | n | " + " | ".join(f"`{p}`" for p in picks)
-             + f" | within {tol:.0%} |", "|---|---|---|---|" + "---|" * len(picks) + "---|"]
+    ratio = compressional_ratio(analysis)
+    lines = ["| p (E*) | λ (d̄) | L (d̄) | n | c_ℓ/c_t (P) | " + " | ".join(f"`{p}`" for p in picks)
+             + f" | within {tol:.0%} |", "|---|---|---|---|---|" + "---|" * len(picks) + "---|"]
     for row in analysis["pick_table"]:
         cells = [fmt(row.get(p), row.get(f"{p}_err"), 3) for p in picks]
         ok = ", ".join(f"`{p}`" for p in row.get("within_5pct", [])) or "none"
         lines.append(f"| {num(row['pressure']):g} | {num(row['wavelength']):g} | "
                      f"{fmt(row.get('height'), digits=3)} | {fmt_count(row.get('n'))} | "
+                     f"{_s(ratio.get(num(row['pressure'])), 3)} | "
                      + " | ".join(cells) + f" | {ok} |")
     return lines
 
@@ -137,6 +147,9 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
                       f"{_s(r['poisson_waves'], 3)} | {_s(r['poisson_moduli'], 3)} | "
                       f"{_s(r['poisson_tensor'], 3)} |")
         md += ["", f"Pick table: V/c_t of every pick (docs/shear.md) per pressure, wavelength and "
-               f"nominal height (L its mean wall-to-wall distance). " + _verdict(a), ""]
+               f"nominal height (L its mean wall-to-wall distance). c_ℓ/c_t (P): the moduli's ratio "
+               f"at that pressure (packings of the fit height), the speed of the compressional "
+               f"precursor the shear kick launches; a pick near or above it reads that precursor, not "
+               f"the shear wave. " + _verdict(a), ""]
         md += pick_table(a) + [""]
     return md
