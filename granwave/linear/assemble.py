@@ -500,8 +500,8 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
         dofs it hears the assembly time and the check's method, iterations and time.
     remove_spins : constrain the free spins (3D, module docstring; default). False keeps every
         rotation: the dynamics the DEM integrates (the constraint theta . e = 0 also stops the
-        grain rolling, and so adds inertia; docs/decisions/0016), with a zero mode per spin
-        (negative with prestress).
+        grain rolling, and so adds inertia; docs/decisions/0016-free-spins-in-the-dem-comparison.md),
+        with a zero mode per spin (negative with prestress).
 
     Returns
     -------
