@@ -174,7 +174,8 @@ def linearize(packing: Packing, params: LinearizeParams | None = None, /, *,
     _progress(progress)
     p = _params(LinearizeParams, params, fields)
     _threads(threads)
-    system = build(packing, prestress=p.prestress, force=p.force, check=p.check, progress=progress)
+    system = build(packing, prestress=p.prestress, force=p.force, check=p.check, progress=progress,
+                   remove_spins=not p.keep_spins)
     p.record(system.attrs)
     return system
 

@@ -63,6 +63,31 @@ def test_dem_equals_linear_3d(frictional3d, kind):
         assert err > 0.1 * TOL  # measured 0.40 %
 
 
+def test_cli_keep_spins(frictional3d, tmp_path):
+    """`granwave linearize --keep-spins` keeps the free spins (the dofs the DEM integrates);
+    without it they are constrained, one dof fewer each."""
+    import json
+
+    from click.testing import CliRunner
+
+    from granwave.cli import main
+    from granwave.io import files
+
+    src = tmp_path / "p.h5"
+    files.write_packing(src, frictional3d)
+    out = {}
+    for flag in ([], ["--keep-spins"]):
+        dst = tmp_path / f"lin{len(flag)}.h5"
+        r = CliRunner().invoke(main, ["linearize", str(src), "-o", str(dst), "--no-check", "--json", "-q", *flag])
+        assert r.exit_code == 0, r.output
+        out[bool(flag)] = json.loads(r.stdout)
+    assert out[True]["n_spins_removed"] == 0
+    removed = out[False]["n_spins_removed"]
+    assert removed > 0
+    assert out[True]["n_dof"] == out[False]["n_dof"] + removed
+    assert json.loads(files.read_linear(tmp_path / "lin1.h5").attrs["linearize_params"])["keep_spins"] is True
+
+
 # ---------------------------------------------------------------- the compressional precursor
 @pytest.fixture(scope="module")
 def columns2d():
