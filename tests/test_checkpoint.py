@@ -200,3 +200,41 @@ def test_sigterm_then_resume_gives_the_file_of_an_uninterrupted_run(tmp_path):
     a, b = _packing_file(straight), _packing_file(out)
     assert a[0] == b[0] and b[1]["steps"] > step
     _same_attrs(a[1], b[1])
+
+
+def test_workflow_samples_resume_from_their_checkpoint(monkeypatch, tmp_path):
+    """A batch's sample with a checkpoint (workflow_support.make_sample) goes on from it to the
+    bytes of a straight preparation."""
+    from granwave import workflow_support
+
+    make = dict(grains=90, seed=11, tol=1e-9)
+    straight = workflow_support.make_sample("continuum", make)
+    path = tmp_path / "s.h5"
+    monkeypatch.setattr(protocol, "CALL_SECONDS", 1e-9)
+    step = _stopped_run(monkeypatch, PrepareParams(**make), path, lambda run, saves: saves == 4)
+    assert 0 < step < straight.attrs["steps"]
+    resumed = workflow_support.make_sample("continuum", make, str(path))
+    assert _bytes(resumed) == _bytes(straight) and path.exists()  # run_sample removes it once written
+
+
+def test_workflow_gives_tall_packings_threads_and_a_checkpoint(tmp_path):
+    """The per-sample rule of a tall column (12 800 grains) gets a thread per 4000 grains (three of
+    16 cores, two of 2) and a checkpoint under the results folder; a short one, neither."""
+    from test_workflow import ROOT, snakemake
+
+    def command(target, cores):
+        run = snakemake(target, "-n", "-p", "--cores", cores, "--configfile",
+                        str(ROOT / "config" / "continuum.yaml"), "--allowed-rules", "prepare_packing",
+                        cwd=tmp_path)
+        out = run.stdout + run.stderr
+        assert run.returncode == 0, out[-3000:]
+        return next(line for line in out.splitlines() if "granwave prepare-packing" in line)
+
+    tall = "results/packing/continuum2d_p4/p0.0001/h512/s0.h5"
+    ck = "results/checkpoints/continuum2d_p4/p0.0001/h512/s0.h5"
+    line = command(tall, "16")
+    assert line.startswith("Shell command: mkdir -p results/checkpoints/continuum2d_p4/p0.0001/h512 && ")
+    assert "--grains 12800" in line and "--threads 3 " in line and f"--checkpoint {ck} " in line, line
+    assert "--threads 2 " in command(tall, "2")
+    short = command("results/packing/continuum2d_p4/p0.0001/h64/s0.h5", "16")
+    assert "--threads 1 " in short and "--checkpoint" not in short and "mkdir" not in short, short
