@@ -9,6 +9,7 @@ import sys
 import time
 
 import h5py
+import numba
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -238,3 +239,22 @@ def test_workflow_gives_tall_packings_threads_and_a_checkpoint(tmp_path):
     assert "--threads 2 " in command(tall, "2")
     short = command("results/packing/continuum2d_p4/p0.0001/h64/s0.h5", "16")
     assert "--threads 1 " in short and "--checkpoint" not in short and "mkdir" not in short, short
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 threads")
+def test_a_run_stopped_on_one_thread_resumes_on_two_to_the_same_bytes(monkeypatch, tmp_path):
+    """The thread count is not part of a checkpoint's key: stopped on the one-thread loop and
+    resumed on two threads of the block engine (threshold lowered), the bytes are the same."""
+    params = PrepareParams(grains=90, seed=11, tol=1e-9)
+    straight = api.prepare_packing(params, threads=1)
+    path = tmp_path / "run.ckpt.h5"
+    monkeypatch.setattr(protocol, "CALL_SECONDS", 1e-9)
+    keep = numba.get_num_threads()
+    try:
+        step = _stopped_run(monkeypatch, params, path, lambda run, saves: saves == 6)
+        monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+        resumed = api.prepare_packing(params, checkpoint=path, threads=2)
+    finally:
+        numba.set_num_threads(keep)
+    assert 0 < step < straight.attrs["steps"]
+    assert _bytes(resumed) == _bytes(straight)
