@@ -113,7 +113,8 @@ def _threads(threads: int | None) -> None:
 
 # ----------------------------------------------------------------- packings
 def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callable[[str], None] | None = None,
-                    threads: int | None = None, device: str | None = None, **fields) -> Packing:
+                    threads: int | None = None, device: str | None = None, checkpoint=None,
+                    checkpoint_every: float = 600.0, keep_checkpoint: bool = False, **fields) -> Packing:
     """A disordered packing by piston compression of a granular gas (docs/method.md §3).
 
     ``progress`` receives one line of text about once a second. Raises
@@ -122,6 +123,14 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     recorded in ``packing.attrs`` (one attribute per parameter, and the whole
     parameter object as JSON in ``prepare_params``). ``device``: "cpu" (default)
     or "gpu" (docs/gpu.md; recorded as the attribute ``device`` when "gpu").
+
+    ``checkpoint``: a file path (CPU only). The run's state is written there atomically
+    every ``checkpoint_every`` seconds (0: at every chunk of steps); when the file exists at
+    the start and belongs to these parameters (seed included) and this granwave source, the
+    run goes on from it, and the packing is the same, bit for bit, as an uninterrupted
+    run's; another run's checkpoint is refused (InputError). The file is removed once the
+    packing is returned, unless ``keep_checkpoint`` (the command line removes it after
+    writing the packing). docs/dem.md "Checkpoints".
     """
     from .dem.protocol import prepare_packing as run
     from .gpu import backend
@@ -130,7 +139,17 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     _progress(progress)
     kernels = backend(device)
     _threads(threads)
-    packing = run(p, progress=progress, engine=kernels.engine)
+    saved = None
+    if checkpoint is not None:
+        from .dem.checkpoint import Checkpoint
+
+        if kernels.device != "cpu":
+            raise InputError("checkpoints run on the CPU only for now (use --device cpu)")
+        saved = Checkpoint(checkpoint, p, checkpoint_every)
+        saved.check()  # refuse another run's checkpoint before any work
+    packing = run(p, progress=progress, engine=kernels.engine, checkpoint=saved)
+    if saved is not None and not keep_checkpoint:
+        saved.remove()
     p.record(packing.attrs)
     if kernels.device != "cpu":
         packing.attrs["device"] = kernels.device

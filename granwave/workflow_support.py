@@ -51,13 +51,21 @@ def _write_json(path, obj) -> None:
     atomic_text(path, json.dumps(jsonable(obj), indent=1) + "\n")
 
 
-def make_sample(kind: str, make: dict):
-    """The sample's packing: DEM preparation, perfect lattice or chain (``make``: their options)."""
+def make_sample(kind: str, make: dict, checkpoint=None):
+    """The sample's packing: DEM preparation, perfect lattice or chain (``make``: their options).
+    ``checkpoint``: a DEM preparation's checkpoint file (None: none; granwave.dem.checkpoint),
+    resumed from when it exists and left in place (the caller removes it once the packing is written)."""
     if kind in ("disordered", "continuum"):
+        from .dem.checkpoint import Checkpoint
         from .dem.params import PrepareParams
         from .dem.protocol import prepare_packing
 
-        return prepare_packing(PrepareParams(**make))
+        params = PrepareParams(**make)
+        saved = None
+        if checkpoint is not None:
+            saved = Checkpoint(checkpoint, params)
+            saved.check()
+        return prepare_packing(params, checkpoint=saved)
     if kind == "lattices":
         from .systems import triangular_lattice
 
@@ -153,12 +161,15 @@ def run_sample(sample: dict, log=print) -> list[dict]:
     def timed(stage, fn):
         return _timed(timings, stage, fn)
 
-    for path in out.values():
+    checkpoint = sample.get("checkpoint")  # a tall preparation's (workflow/rules/common.smk)
+    for path in [*out.values(), *([checkpoint] if checkpoint else [])]:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
 
     def packing_stage():
-        pk = make_sample(sample["kind"], sample["make"])
+        pk = make_sample(sample["kind"], sample["make"], checkpoint)
         files.write_packing(out["packing"], pk)
+        if checkpoint:
+            Path(checkpoint).unlink(missing_ok=True)  # the packing is written
         return files.read_packing(out["packing"])
 
     packing = timed("packing", packing_stage)

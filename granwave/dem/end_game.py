@@ -181,6 +181,22 @@ class EndGame:
             self.lowest_rate = min(self.lowest_rate, rate)
             self.engine.cap_background_damping(rate, self._base)
 
+    def state(self) -> dict:
+        """What the rule carries from one sample to the next (numbers and lists: JSON as is);
+        :meth:`restore` on a rule built with the same arguments goes on with the same bits."""
+        base = None if self._base is None else [self._base[0], [float(x) for x in self._base[1]]]
+        return dict(rate=self.rate, start_step=self.start_step, changes=self.changes,
+                    lowest_rate=self.lowest_rate, time=self._time, last_sample=self._last_sample,
+                    fit=[list(self._fit[0]), list(self._fit[1])], base=base)
+
+    def restore(self, state: dict) -> None:
+        """Take back a :meth:`state`."""
+        self.rate, self.start_step, self.changes = state["rate"], state["start_step"], state["changes"]
+        self.lowest_rate, self._time, self._last_sample = state["lowest_rate"], state["time"], state["last_sample"]
+        self._fit = (list(state["fit"][0]), list(state["fit"][1]))
+        base = state["base"]
+        self._base = None if base is None else (base[0], np.array(base[1], dtype=np.float64))
+
     def attrs(self) -> dict:
         """What the rule did, for the packing's attributes (-1 / NaN: did not start): the threshold
         on every acceleration (E*/(rho d)), the step it started, how often it changed the rate,

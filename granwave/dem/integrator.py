@@ -252,6 +252,45 @@ class Engine:
                     return status
         return 0
 
+    #: the arrays that hold a run's state between two calls of :meth:`run` (the rest are fixed
+    #: by the constructor's arguments); ``mflow`` and ``slabs`` are shared with the workspace
+    STATE_ARRAYS = ("position", "velocity", "angular_velocity", "acceleration", "angular_acceleration",
+                    "pos0", "pair_i", "pair_j", "pair_ft", "pair_ov", "wall_ft", "wall_ov", "piston",
+                    "fpar", "ipar", "out", "mflow", "slabs")
+    #: workspace entries a call of :meth:`run` goes on from (the lists of the last rebuild, the
+    #: pair constants, the wall list, the incoming pairs' room); the others are rebuilt from them
+    #: at every call, are sized by the thread count (blocks, per-thread scratch) or are timings
+    STATE_WORKSPACE = (K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW, K.W_NEED, K.W_TOP, K.W_PAIRC,
+                       K.W_WALLS, K.W_SPAIR, K.W_OSLOT, K.W_BF, K.W_INVM, K.W_INVI)
+
+    def state(self) -> dict:
+        """Copies of every array a later :meth:`run` goes on from ({name: array}; workspace
+        entries as ``ws<index>``): with :meth:`restore` on an engine built with the same
+        arguments, the run continues with the same bits (granwave.dem.checkpoint)."""
+        out = {name: getattr(self, name).copy() for name in self.STATE_ARRAYS}
+        out.update({f"ws{w}": self.ws[w].copy() for w in self.STATE_WORKSPACE})
+        return out
+
+    def restore(self, state: dict) -> None:
+        """Take back a :meth:`state` of an engine built with the same arguments (the grains,
+        the rules' parameters); arrays whose length grew during that run come back at their
+        size. ``mflow`` and ``slabs`` are written in place (the workspace holds them)."""
+        for name in self.STATE_ARRAYS:
+            old, new = getattr(self, name), np.asarray(state[name])
+            if new.dtype != old.dtype or new.shape[1:] != old.shape[1:]:
+                raise InputError(f"engine state {name!r}: {new.dtype}{new.shape} does not fit "
+                                 f"{old.dtype}{old.shape}")
+            if name in ("mflow", "slabs"):
+                if new.shape != old.shape:
+                    raise InputError(f"engine state {name!r}: shape {new.shape}, expected {old.shape}")
+                old[...] = new
+            else:
+                setattr(self, name, np.array(new, order="C"))
+        ws = list(self.ws)
+        for w in self.STATE_WORKSPACE:
+            ws[w] = np.array(state[f"ws{w}"], dtype=ws[w].dtype, order="C")
+        self.ws = tuple(ws)
+
     def damping_rates(self) -> tuple:
         """The background damping rates now (1 / time unit): (gamma, a copy of ``mflow``), the
         argument ``base`` of :meth:`cap_background_damping`."""

@@ -275,21 +275,29 @@ class Compression:
                        contacts=contacts_of_engine(engine), attrs=a)
 
     def relax(self, attrs: dict, *, progress=None, blow_up_hint: str,
-              failure: str = "did not converge") -> Packing:
+              failure: str = "did not converge", checkpoint=None) -> Packing:
         """Run until every acceleration is below tol and the static residual agrees.
 
         ``attrs``: what the packing records beyond the protocol (kind, sizes, ...).
         ``progress`` is called about once a second. Raises ConvergenceError when the
         run blows up (with ``blow_up_hint``) or ``self.max_steps`` steps ``failure``.
+        ``checkpoint``: None, or a :class:`granwave.dem.checkpoint.Checkpoint` the run resumes
+        from (when its file exists) and writes at chunk boundaries when it is due.
         """
         p, engine = self.params, self.engine
         chunk = 2000
-        last = time.perf_counter()
-        last_steps = 0
         history = []  # (steps, max |a|) after every chunk: tells a stalled run from a slow one
         speeds = []  # (steps, largest of |v|, |w| R and the piston's |v|): the ETA waits for them too
-        announced = False  # the settling switch reported
-        announced_end = False  # the end game's start reported
+        resumed = None if checkpoint is None else checkpoint.resume(self)
+        if resumed is not None:
+            history, speeds = resumed
+            if progress is not None:
+                progress(f"resumed from step {engine.steps} ({checkpoint.path})")
+        last = time.perf_counter()
+        last_steps = engine.steps
+        # a resumed run reported these before its checkpoint
+        announced = self.settling is not None and self.settling.done  # the settling switch reported
+        announced_end = self.end_game is not None and self.end_game.started  # the end game's start reported
         while engine.steps < self.max_steps:
             t0 = time.perf_counter()
             status = self.advance(min(chunk, self.max_steps - engine.steps))
@@ -340,12 +348,14 @@ class Compression:
                          + f"  contacts {m['contacts']:>5d}  dt {engine.dt:.3g}  {rate:.3g} grain-steps/s"
                          f"  ETA {'?' if eta is None else f'{eta:.0f} s'}")
                 last, last_steps = now, engine.steps
+            if checkpoint is not None and checkpoint.due():
+                checkpoint.save(self, history, speeds)  # a chunk boundary: the state the run goes on from
         m = engine.measure()
         raise StepBudgetExceeded(f"{self.max_steps} steps {failure}: "
                                  + non_convergence_hint(history, m, p, engine.dt, self.max_steps), self.max_steps)
 
 
-def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Packing:
+def prepare_packing(params: PrepareParams, progress=None, engine=Engine, checkpoint=None) -> Packing:
     """Prepare one disordered packing in mechanical equilibrium (docs/method.md §3).
 
     ``progress``: optional callable taking one line of text, called about once
@@ -353,7 +363,9 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
     :class:`granwave.gpu.dem.GpuEngine`; granwave.gpu.backend picks it). Raises :class:`granwave.errors.ConvergenceError` when
     its step budget (:func:`step_budget`) does not converge. The returned packing lists the
     force-carrying contacts at the final positions (walls: j = -1 bottom,
-    -2 top) and records the protocol in ``attrs``.
+    -2 top) and records the protocol in ``attrs``. ``checkpoint``: None or a
+    :class:`granwave.dem.checkpoint.Checkpoint` (resumed from when its file exists; see
+    :meth:`Compression.relax`); the packing is the same, bit for bit.
     """
     p = params
     check_prepare(p.grains, p.dim)  # refuse a request that cannot fit, before allocating
@@ -370,7 +382,7 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine) -> Pack
     attrs = dict(kind="disordered", grains=p.grains, polydispersity=p.polydispersity, aspect=p.aspect,
                  gas_density=actual_gas_density, gas_height=height,
                  gas_numbering=GAS_NUMBERING)
-    return run.relax(attrs, progress=progress,
+    return run.relax(attrs, progress=progress, checkpoint=checkpoint,
                      blow_up_hint=(f"the explicit step is unstable for safety {p.safety:g}, damping "
                                    f"{p.damping:g}, friction {p.friction:g}; use a smaller --safety"))
 

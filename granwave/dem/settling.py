@@ -143,6 +143,21 @@ class CriticalSettling:
         e.mflow[M_GAMMA_L] = rate
         self.switch_step = e.steps
 
+    def state(self) -> dict:
+        """What the rule carries from one sample to the next (numbers: JSON as is);
+        :meth:`restore` on a rule built with the same arguments goes on with the same bits."""
+        return dict(rise_step=self.rise_step, swing_end_step=self.swing_end_step,
+                    switch_step=self.switch_step, kinetic_at_swing_end=self._kinetic_at_swing_end,
+                    breathing_frequency=self.breathing_frequency, swing_time=self._swing_time,
+                    last_sample=self._last_sample)
+
+    def restore(self, state: dict) -> None:
+        """Take back a :meth:`state` (the engine's damping rates come back with the engine's)."""
+        self.rise_step, self.swing_end_step = state["rise_step"], state["swing_end_step"]
+        self.switch_step, self._kinetic_at_swing_end = state["switch_step"], state["kinetic_at_swing_end"]
+        self.breathing_frequency, self._swing_time = state["breathing_frequency"], state["swing_time"]
+        self._last_sample = state["last_sample"]
+
     def attrs(self) -> dict:
         """What the rule measured, for the packing's attributes (-1 / NaN: did not happen)."""
         return dict(settling_rise_step=-1 if self.rise_step is None else self.rise_step,

@@ -489,6 +489,22 @@ def formats_markdown() -> str:
                     unit += f"; rotations `{extra[name]['units_rotation']}`"
                 lines.append(f"| `{name}`{flag} | {dtype} | {sizes} | ({dim}) | {unit} | {desc} |")
             lines.append("")
+    lines += [
+        "## Checkpoints (internal; `prepare-packing --checkpoint`)",
+        "",
+        "Not a granwave file kind: read only by `granwave.dem.checkpoint`, no schema, no units,",
+        "a layout that may change with granwave's code (a checkpoint of other code is refused).",
+        "HDF5 with root attributes `kind` = `granwave.checkpoint`, `version`, `params_digest`",
+        "(the preparation's parameters, seed included) and `source_digest` (granwave's source),",
+        "`prepare_params` (JSON), `granwave_version`, `step`, `written` (UTC) and `rules` (JSON:",
+        "the state of the settling and end-game rules); group `engine/`: the engine's arrays",
+        "(positions, velocities, spins, accelerations, the pair list with its tangential",
+        "histories, the wall contacts' histories, the piston, `fpar` / `ipar` with the time",
+        "step, skin and step counters, the mean-flow rates and slab means, and `ws<k>`: the",
+        "neighbour lists, pair constants and wall list of the last rebuild); `run/history` and",
+        "`run/speeds`: (step, max |a|) and (step, largest speed) after every chunk of steps.",
+        "",
+    ]
     return "\n".join(lines)
 
 

@@ -27,7 +27,7 @@ for _name, _scene, _samples in batches():
             f"{R}/benchmarks/batch/{_name}.tsv"
         params:
             samples=_samples,
-        threads: 1
+        threads: batch_threads(_samples)
         priority: batch_priority(_samples)
         resources:
             mem_mb=2000,

@@ -194,6 +194,55 @@ def moduli_args(wildcards):
     return "--local" if sample.get("local_moduli", True) else ""
 
 
+# ---- threads and checkpoints of the DEM preparations (rules/packings.smk, rules/batches.smk)
+
+#: A preparation of at least this many grains is tall: it writes a checkpoint under the results
+#: folder (prepare-packing --checkpoint; every 600 s, so that a killed workflow goes on from it
+#: with the same bits) and gets a thread per GRAINS_PER_THREAD grains. The quick default's
+#: tallest column (25 x 100 d) has 2500 grains.
+TALL_GRAINS = 4000
+#: Grains per thread of a tall preparation (two threads run a 10 200-grain column twice as fast
+#: as one: docs/dem.md "Performance").
+GRAINS_PER_THREAD = 4000
+
+
+def preparation_threads(grains):
+    """Threads for a preparation of ``grains`` grains: 1 below TALL_GRAINS, else one per
+    GRAINS_PER_THREAD grains, at most the cores the workflow was given (snakemake's --cores)."""
+    if grains < TALL_GRAINS:
+        return 1
+    cores = workflow.cores if isinstance(workflow.cores, int) and workflow.cores > 0 else math.inf
+    return int(max(1, min(cores, grains // GRAINS_PER_THREAD)))
+
+
+def batch_threads(samples):
+    """Threads of a batch: those of its largest DEM preparation (the stages after it use them too)."""
+    return preparation_threads(max((s["make"].get("grains", 0) for s in samples
+                                    if s["kind"] in ("disordered", "continuum")), default=0))
+
+
+def checkpoint_path(kind, make, tail):
+    """The checkpoint file of a tall preparation (None for the others): under the results folder,
+    outside every rule's outputs, so that snakemake keeps it when it removes a killed job's."""
+    if kind in ("disordered", "continuum") and make["grains"] >= TALL_GRAINS:
+        return f"{R}/checkpoints/{tail}.h5"
+    return None
+
+
+def packing_threads(wildcards):
+    """Threads of rules/packings.smk's prepare_packing (a lone packing, outside its batch)."""
+    sample = batch_sample(wildcards.scene, wildcards.pressure, f"h{wildcards.height}", int(wildcards.seed))
+    return preparation_threads(sample["make"]["grains"])
+
+
+def checkpoint_args(wildcards):
+    """For a lone packing, tall: the shell's start making the checkpoint's folder and the
+    --checkpoint option (its batch's checkpoint); ("", "") for the others."""
+    sample = batch_sample(wildcards.scene, wildcards.pressure, f"h{wildcards.height}", int(wildcards.seed))
+    path = sample.get("checkpoint")
+    return (f"mkdir -p {os.path.dirname(path)} && ", f"--checkpoint {path}") if path else ("", "")
+
+
 # ---- helpers of rules/batches.smk
 
 
@@ -224,6 +273,8 @@ def batch_sample(scene, p, size, seed):
                          "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
                          "safety": config["time_safety"]},
               "out": out}
+    if checkpoint_path(kind, make, tail):  # tall: resumes from its checkpoint (docs/dem.md)
+        sample["checkpoint"] = checkpoint_path(kind, make, tail)
     if kind == "continuum":  # the scene's compaction rule (mean-flow unless it says otherwise)
         make["compaction"] = spec["compaction"]
     if kind == "continuum":  # time domain, the scene's own step and record, global moduli only

@@ -11,12 +11,14 @@ rule prepare_packing:
         f"{R}/benchmarks/packing/{{scene}}/p{{pressure}}/h{{height}}/s{{seed}}.tsv"
     params:
         args=prepare_args,
-    threads: 1
+        checkpoint=checkpoint_args,
+    threads: packing_threads
     resources:
         mem_mb=1000,
         runtime=60,
     shell:
-        "granwave prepare-packing --threads {threads} {params.args} --quiet -o {output} > {log} 2>&1"
+        "{params.checkpoint[0]}granwave prepare-packing --threads {threads} {params.args} {params.checkpoint[1]} "
+        "--quiet -o {output} > {log} 2>&1"
 
 
 rule make_lattice:

@@ -1,0 +1,179 @@
+"""Checkpoints of a preparation: stop a long compression and go on later with the same bits.
+
+A checkpoint holds everything the run goes on from at a chunk boundary of
+:meth:`granwave.dem.protocol.Compression.relax`: the engine's state arrays
+(:meth:`granwave.dem.integrator.Engine.state`: positions, velocities, spins, accelerations,
+the pair list with its tangential histories, the wall contacts' histories, the piston, the
+time step and step counters, the neighbour lists of the last rebuild), the state of the
+settling and end-game rules, and the run's convergence history (for its ETA and its hint
+on failure). Nothing else is needed: the grains and the gas come again from the seed, and
+the chunking, the thread count and the moment a checkpoint is written change no bit of
+the run (docs/dem.md "Checkpoints").
+
+The file is HDF5, internal to granwave (docs/formats.md): written to a temporary file
+beside it and renamed (a run killed while writing leaves the previous checkpoint whole),
+keyed by a digest of the preparation's parameters (seed included) and one of granwave's
+source: a checkpoint of other parameters or of other code is refused, never resumed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..errors import InputError, OutputError
+
+#: what the file says it is (not a schema of granwave.io: nothing but this module reads it)
+KIND = "granwave.checkpoint"
+#: the layout's version; a checkpoint of another version is refused
+VERSION = 1
+#: default seconds between two checkpoints (``--checkpoint-every``)
+EVERY = 600.0
+
+
+def params_digest(params) -> str:
+    """A digest of a preparation's parameters (a frozen dataclass with ``as_dict``; the seed is
+    one of them): the run a checkpoint belongs to."""
+    text = json.dumps(params.as_dict(), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def source_digest() -> str:
+    """A digest of granwave's source files: other code may step to other bits."""
+    from ..kernel_cache import source_hash
+
+    return source_hash()[:32]
+
+
+class Checkpoint:
+    """The checkpoint file ``path`` of one preparation (parameters ``params``), written at most
+    every ``every`` seconds (0: at every chunk boundary).
+
+    :meth:`resume` restores a run from the file if it exists; :meth:`due` / :meth:`save` write
+    it; :meth:`remove` deletes it once the packing is safe.
+    """
+
+    def __init__(self, path, params, every: float = EVERY):
+        if not (isinstance(every, (int, float)) and every >= 0 and np.isfinite(every)):
+            raise InputError(f"checkpoint interval must be a number of seconds >= 0, got {every!r}")
+        self.path = Path(path)
+        self.every = float(every)
+        self.params = params
+        self.key = params_digest(params)
+        self.saves = 0  # checkpoints written by this process
+        self._last = time.monotonic()
+
+    # ------------------------------------------------------------------ reading
+    def check(self) -> None:
+        """Refuse, in one line, a checkpoint that is not one or belongs to another run or code
+        (before any work); nothing when the file does not exist yet."""
+        if not self.path.exists():
+            self._check_folder()
+            return
+        with self._open() as f:
+            a = f.attrs
+            if a.get("kind") != KIND or int(a.get("version", -1)) != VERSION:
+                raise InputError(f"checkpoint {self.path} is not a granwave checkpoint of version "
+                                 f"{VERSION}; remove it or choose another --checkpoint")
+            if a["params_digest"] != self.key:
+                raise InputError(f"checkpoint {self.path} belongs to another preparation (its parameters: "
+                                 f"{a['prepare_params']}); remove it or choose another --checkpoint")
+            if a["source_digest"] != source_digest():
+                raise InputError(f"checkpoint {self.path} was written by other granwave code (version "
+                                 f"{a['granwave_version']}), which may step to other bits; remove it to "
+                                 "start over")
+
+    def _check_folder(self) -> None:
+        from ..io.files import check_writable
+
+        check_writable(self.path)
+
+    @contextlib.contextmanager
+    def _open(self):
+        try:
+            f = h5py.File(self.path, "r")
+        except OSError as exc:
+            raise InputError(f"checkpoint {self.path} cannot be read ({exc}); remove it to start over") from None
+        with f:
+            yield f
+
+    def resume(self, run) -> tuple[list, list] | None:
+        """Restore ``run`` (a :class:`granwave.dem.protocol.Compression` just built from the same
+        parameters) from the file; returns the run's (history, speeds), or None when there is
+        no checkpoint yet."""
+        if not self.path.exists():
+            return None
+        self.check()
+        with self._open() as f:
+            engine = {k: f["engine"][k][()] for k in f["engine"]}
+            rules = json.loads(f.attrs["rules"])
+            history = [(int(s), float(a)) for s, a in f["run/history"][()]]
+            speeds = [(int(s), float(v)) for s, v in f["run/speeds"][()]]
+        if engine["position"].shape != run.engine.position.shape:
+            raise InputError(f"checkpoint {self.path} holds {engine['position'].shape[0]} grains, "
+                             f"the run {run.engine.position.shape[0]}; remove it to start over")
+        run.engine.restore(engine)
+        for name in ("settling", "end_game"):
+            rule = getattr(run, name)
+            if (rule is None) != (rules.get(name) is None):
+                raise InputError(f"checkpoint {self.path} does not match the run's {name} rule; remove it")
+            if rule is not None:
+                rule.restore(rules[name])
+        self._last = time.monotonic()
+        return history, speeds
+
+    # ------------------------------------------------------------------ writing
+    def due(self) -> bool:
+        """Whether ``every`` seconds have passed since the last checkpoint (or the start)."""
+        return time.monotonic() - self._last >= self.every
+
+    def save(self, run, history, speeds) -> None:
+        """Write the state of ``run`` at a chunk boundary: a temporary file beside ``path``,
+        then renamed over it at once (not held back with a command's outputs: it is not one)."""
+        from .. import __version__
+        from ..io.files import _temporary, _write_failure
+
+        rules = {name: (None if getattr(run, name) is None else getattr(run, name).state())
+                 for name in ("settling", "end_game")}
+        tmp = _temporary(self.path)
+        try:
+            with h5py.File(tmp, "w") as f:
+                f.attrs.update(kind=KIND, version=VERSION, params_digest=self.key,
+                               source_digest=source_digest(), granwave_version=__version__,
+                               prepare_params=json.dumps(self.params.as_dict(), sort_keys=True),
+                               step=run.engine.steps, written=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                               rules=json.dumps(rules))
+                g = f.create_group("engine")
+                for name, a in run.engine.state().items():
+                    g.create_dataset(name, data=a)
+                f.create_dataset("run/history", data=np.array(history, dtype=np.float64).reshape(-1, 2))
+                f.create_dataset("run/speeds", data=np.array(speeds, dtype=np.float64).reshape(-1, 2))
+            with open(tmp, "rb") as fh:  # on disk before it replaces the last good checkpoint
+                os.fsync(fh.fileno())
+            os.replace(tmp, self.path)
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise _write_failure(self.path, exc) from None
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+        self.saves += 1
+        self._last = time.monotonic()
+
+    def remove(self) -> None:
+        """Delete the checkpoint (the packing is written); nothing if there is none."""
+        try:
+            self.path.unlink()
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            raise OutputError(f"cannot remove checkpoint {self.path}: {exc.strerror or exc}") from None
