@@ -312,6 +312,46 @@ def height_signals(wildcards):
     return sample_paths("signal", wildcards.scene, pressure=wildcards.pressure)
 
 
+def scene_analyses():
+    """[(name, scene, commands)]: the light analyses of each scene, run in one job by
+    workflow/scripts/analysis_batch.py (granwave.workflow_support.run_command): a height series
+    per pressure with two sizes or more (`granwave analyze heights`, as rule heights runs it)
+    and, for disordered scenes, an ensemble per pressure and size (`granwave analyze ensemble`,
+    as rule ensemble runs it) and the pressure sweep (as rule pressure_sweep runs it). Each
+    command: its arguments, the input files made by other jobs and its output files (``tables``
+    a folder)."""
+    edges = ",".join(f"{h:g}" for h in config["edge_heights"])
+    out = []
+    for scene in scenes():
+        commands = []
+        for p in pressures(scene):
+            if len(sizes(scene, p)) < 2:
+                continue
+            signals = sample_paths("signal", scene, pressure=p)
+            commands.append({"scene": scene, "pressure": p, "size": "all", "stage": "heights",
+                             "args": ["analyze", "heights", *signals, "--edge-heights", edges, "--json"],
+                             "in": signals, "out": {"stdout": f"{R}/heights/{scene}/p{p}.json"}})
+        for p in pressures(scene) if scene_kind(scene) == "disordered" else []:
+            for size in sizes(scene, p):
+                signals = sample_paths("signal", scene, pressure=p, size=size)
+                h5 = f"{R}/ensemble/{scene}/p{p}/{size}.h5"
+                commands.append({"scene": scene, "pressure": p, "size": size, "stage": "ensemble",
+                                 "args": ["analyze", "ensemble", *signals, "-o", h5, "--json"],
+                                 "in": signals, "out": {"stdout": f"{R}/ensemble/{scene}/p{p}/{size}.json",
+                                                        "h5": h5}})
+        if scene_kind(scene) == "disordered":  # the sweep reads the height series made above
+            summaries = sample_paths("summary", scene, ext="json")
+            h5 = f"{R}/sweep/{scene}.h5"
+            commands.append({"scene": scene, "pressure": "all", "size": "all", "stage": "sweep",
+                             "args": ["pressure-sweep", *summaries, *height_series_paths(scene),
+                                      "-o", h5, "--tables", f"{R}/sweep/{scene}_tables", "--json"],
+                             "in": summaries, "out": {"stdout": f"{R}/sweep/{scene}.json", "h5": h5,
+                                                      "tables": f"{R}/sweep/{scene}_tables"}})
+        if commands:
+            out.append((f"analyses_{scene}", scene, commands))
+    return out
+
+
 def sweep_inputs(wildcards):
     inputs = {"summaries": sample_paths("summary", wildcards.scene, ext="json")}
     inputs["heights"] = [f"{R}/heights/{wildcards.scene}/p{p}.json"
