@@ -123,14 +123,15 @@ def run_batch(run, samples, *, log_path, timings_path, fields, failed_key,
 def run_command(item: dict, log=print) -> list[dict]:
     """Run one light `granwave` command in this process, as a workflow job would run it alone.
 
-    ``item``: ``args`` (the command line after `granwave`), ``stage`` (its name in the timings)
-    and ``out``, whose ``stdout`` is the file that gets what the command prints (written
-    atomically after the command; other entries name the files the command writes itself).
-    The files hold the same bytes as `granwave <args> > stdout` would write: the command line
-    the outputs record (provenance ``command_line``) is that command's, with the console script
-    beside this interpreter. What the command prints on stderr (warnings) goes to ``log``.
-    Returns the command's CPU and wall seconds under ``stage``; a refusal or a stage that did
-    not converge raises InputError with the command's one-line message.
+    ``item``: ``args`` (the command line after `granwave`), ``stage`` (its name in the timings),
+    ``out`` (the files it makes: ``result`` names the command, e.g. its JSON or figure) and
+    optionally ``printed``, the file that gets what the command prints (written atomically after
+    the command, as `granwave <args> > printed` would); without it the printed lines go to
+    ``log``, as do warnings. The files hold the same bytes as the command run alone: the command
+    line they record (provenance ``command_line``) is that command's, with the console script
+    beside this interpreter. Returns the command's CPU and wall seconds under ``stage``; a
+    refusal or a stage that did not converge raises InputError with the command's one-line
+    message.
     """
     import contextlib
     import io
@@ -158,10 +159,12 @@ def run_command(item: dict, log=print) -> list[dict]:
     except click.ClickException as exc:
         raise InputError(exc.format_message()) from None
     finally:
-        for line in warned.getvalue().splitlines():
+        lines = warned.getvalue().splitlines() + ([] if item.get("printed") else printed.getvalue().splitlines())
+        for line in lines:
             log(line)
-    atomic_text(item["out"]["stdout"], printed.getvalue())
-    log(f"{item['out']['stdout']}: {item['stage']} {timings[0]['cpu_s']:.2f} s")
+    if item.get("printed"):
+        atomic_text(item["printed"], printed.getvalue())
+    log(f"{item['out']['result']}: {item['stage']} {timings[0]['cpu_s']:.2f} s")
     return timings
 
 

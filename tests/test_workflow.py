@@ -326,9 +326,11 @@ def test_scene_analyses_in_one_process_write_what_each_command_writes_alone(tmp_
 
     signals = [_chain_signal(tmp_path / f"s{k}.h5", n, k) for k, n in enumerate((40, 40, 80, 80))]
     h5 = str(tmp_path / "ens.h5")
-    items = [{"stage": "heights", "out": {"stdout": str(tmp_path / "heights.json")},
+    items = [{"stage": "heights", "out": {"result": str(tmp_path / "heights.json")},
+              "printed": str(tmp_path / "heights.json"),
               "args": ["analyze", "heights", *signals, "--edge-heights", "41,81", "--json"]},
-             {"stage": "ensemble", "out": {"stdout": str(tmp_path / "ens.json"), "h5": h5},
+             {"stage": "ensemble", "out": {"result": str(tmp_path / "ens.json"), "h5": h5},
+              "printed": str(tmp_path / "ens.json"),
               "args": ["analyze", "ensemble", *signals[:2], "-o", h5, "--json"]}]
 
     def h5_contents(path):
@@ -346,7 +348,7 @@ def test_scene_analyses_in_one_process_write_what_each_command_writes_alone(tmp_
         lines = []
         timings = run_command(item, log=lines.append)
         assert [t["stage"] for t in timings] == [item["stage"]] and timings[0]["cpu_s"] > 0
-        assert Path(item["out"]["stdout"]).read_text() == alone.stdout
+        assert Path(item["printed"]).read_text() == alone.stdout
         if written:
             attrs, arrays = h5_contents(h5)
             for name, values in written[1].items():
@@ -356,7 +358,8 @@ def test_scene_analyses_in_one_process_write_what_each_command_writes_alone(tmp_
             for key in attrs:
                 assert str(attrs[key]) == str(written[0][key]), key
     # a refused command: one line, no output
-    bad = {"stage": "ensemble", "out": {"stdout": str(tmp_path / "bad.json"), "h5": str(tmp_path / "bad.h5")},
+    bad = {"stage": "ensemble", "out": {"result": str(tmp_path / "bad.json"), "h5": str(tmp_path / "bad.h5")},
+           "printed": str(tmp_path / "bad.json"),
            "args": ["analyze", "ensemble", str(tmp_path / "missing.h5"), "-o", str(tmp_path / "bad.h5"), "--json"]}
     with pytest.raises(InputError) as refused:
         run_command(bad, log=lambda line: None)
