@@ -765,10 +765,9 @@ def analyses_error(config: dict, *, damping_t_max=None, snapshot=None) -> str | 
 
 
 # ---- compiling the kernels once, before the jobs that use them (workflow/rules/compile.smk)
-#: Kernel families compiled by separate warm-up jobs: dem and linear share few kernels, so
-#: their jobs run side by side without compiling the same function twice; pulse (the nonlinear
-#: DEM pulse) runs after dem, whose preparation kernels it reuses, beside the first batches.
-KERNEL_FAMILIES = ("dem", "pulse", "linear")
+#: Kernel families compiled by separate warm-up jobs: they share few kernels, so the two jobs
+#: can run side by side without compiling the same function twice.
+KERNEL_FAMILIES = ("dem", "linear")
 
 
 def _tiny_make(kind: str, make: dict) -> dict:
@@ -790,8 +789,7 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
     On a cold cache every job of a parallel workflow would compile the kernels it uses, and
     two jobs starting together compile the same ones at once; one warm-up job per family,
     run before the others, compiles each kernel once. ``family``: "dem" (the preparation of
-    every disordered and continuum sample's kind), "pulse" (the DEM pulse with ``pulse``'s
-    options on ``pulse['scene']``'s sample: run it after "dem", whose kernels make its packing)
+    every disordered and continuum sample's kind, and the DEM pulse with ``pulse``'s options)
     or "linear" (linearize, both signal methods, statics and moduli, on the lattices and
     chains). ``samples``: one sample per scene (:func:`run_sample`'s dicts); their files are
     written under ``folder``. Returns what ran and its CPU seconds.
@@ -810,14 +808,11 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
         if family == "dem":
             if sample["kind"] not in ("disordered", "continuum"):
                 continue
-            make_sample(tiny["kind"], tiny["make"])
-        elif family == "pulse":
-            if not pulse or sample["scene"] != pulse.get("scene"):
-                continue
             packing = make_sample(tiny["kind"], tiny["make"])
-            api.propagate(packing, PropagateParams(method="dem", t_max=1.0, samples=10,
-                                                   ic=pulse.get("ic", "A"),
-                                                   damping=pulse.get("damping", 0.1)))
+            if pulse and sample["scene"] == pulse.get("scene"):
+                api.propagate(packing, PropagateParams(method="dem", t_max=1.0, samples=10,
+                                                       ic=pulse.get("ic", "A"),
+                                                       damping=pulse.get("damping", 0.1)))
         else:
             if sample["kind"] not in ("lattices", "chains"):
                 continue

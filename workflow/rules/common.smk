@@ -613,11 +613,6 @@ def kernels_marker(family):
     return ancient(f"{R}/kernels/{family}.json")
 
 
-def warm_up_inputs(wildcards):
-    """The pulse's warm-up makes its packing with the preparation kernels: after dem's."""
-    return [kernels_marker("dem")] if wildcards.family == "pulse" else []
-
-
 def kernels_of(scene):
     """The warm-up markers a scene's batches wait for (a shear scene: the time domain's)."""
     if scene in shear_scenes():

@@ -2,16 +2,12 @@
 # to granwave) every job would compile the kernels it uses, and jobs that start together
 # compile the same ones at once. One warm-up job per kernel family runs tiny copies of the
 # samples first; the jobs that use a family wait for it. The marker is ancient(): a finished
-# warm-up never makes the jobs after it out of date. The DEM pulse's kernels (family pulse)
-# compile after the preparation's (dem), beside the first batches: the batches do not wait for
-# them, only the damping pulses do. Helpers: common.smk.
+# warm-up never makes the jobs after it out of date. Helpers: common.smk.
 
 
 rule compile_kernels:
     conda:
         "../envs/granwave.yaml"
-    input:
-        warm_up_inputs,
     output:
         f"{R}/kernels/{{family}}.json",
     log:
@@ -19,7 +15,7 @@ rule compile_kernels:
     benchmark:
         f"{R}/benchmarks/kernels/{{family}}.tsv"
     wildcard_constraints:
-        family="dem|pulse|linear",
+        family="dem|linear",
     params:
         samples=lambda w: warm_up_samples(),
         pulse=lambda w: {"scene": config["damping"]["scene"], "ic": config["ic"],

@@ -272,7 +272,7 @@ rule damping_signal:
         "../envs/granwave.yaml"
     input:
         packing=lambda w: damping_packing(),
-        kernels=kernels_marker("pulse"),
+        kernels=kernels_marker("dem"),
     output:
         f"{R}/damping/zeta{{zeta}}.h5",
     log:
