@@ -94,8 +94,8 @@ for _name, _scene, _commands in scene_analyses():
             commands=_commands,
         threads: 1
         resources:
-            mem_mb=1000,
-            runtime=10,
+            mem_mb=2000,
+            runtime=30,  # the paper config: a scene's thousands of signals, read twice
         script:
             "../scripts/analysis_batch.py"
 
