@@ -136,8 +136,10 @@ def test_slurm_profile_dry_run_resolves_resources(tmp_path, config):
     out = run.stdout + run.stderr
     assert run.returncode == 0, out[-3000:]
     total = re.search(r"^total\s+(\d+)", out, re.M)
-    # the per-sample pipelines run as batches of config batch_size samples (rules/batches.smk)
-    assert total and int(total.group(1)) > 50
+    # the per-sample pipelines run as batches of config batch_size samples (rules/batches.smk),
+    # a scene's analyses and the study's figures as one job each: the whole study in ~46 jobs
+    # (the exact count: tests/test_generated_docs.py)
+    assert total and int(total.group(1)) > 40
     assert re.search(r"^batch_frictional2d_0\s+1$", out, re.M), out[-3000:]
     # a scene's height series, ensembles and sweep run in one job (rules/analysis.smk)
     assert re.search(r"^analyses_frictional2d\s+1$", out, re.M), out[-3000:]
