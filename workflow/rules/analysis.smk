@@ -73,7 +73,8 @@ rule summary:
 # A scene's height series, ensembles and pressure sweep in one job (one process): each
 # `granwave` command costs ~1-2 s of start-up, more than the analysis itself. As for the batches
 # (rules/batches.smk), the files keep their names and Snakemake prefers these rules without
-# wildcards; rules heights, ensemble and pressure_sweep below still make any single file on request.
+# wildcards (asking for one of their files runs the whole job); rules heights, ensemble and
+# pressure_sweep below make the files outside them (e.g. a lattice scene's ensembles).
 for _name, _scene, _commands in scene_analyses():
 
     rule:

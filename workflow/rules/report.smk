@@ -1,8 +1,8 @@
 # Figures of the study and the final report (results/report/index.md).
 
 # The main study's figures in one job (one process; a `granwave plot` command costs ~2-3 s of
-# start-up, matplotlib included): the rules figure_airy ... figure_speeds below still make any
-# single figure on request; this rule comes first for the figures it makes.
+# start-up, matplotlib included). This rule comes first for the figures it makes (asking for one
+# runs the whole job); the rules figure_airy ... figure_speeds below remain, with the same options.
 for _name, _commands in study_figures():
 
     rule:
