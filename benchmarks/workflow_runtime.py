@@ -13,8 +13,11 @@ Measured inputs (CPU seconds, not wall time: the machines these runs share drift
   excess over its samples' stages is the start-up of one batch process;
 - results/benchmarks/damping/*.tsv: the nonlinear damping pulses;
 - the signal and linear files: which method each signal used, its steps, nnz(D), omega_max;
-- here and now: the CPU time of one light `granwave` command (the gather, analysis and
-  figure jobs that stay one process each).
+- results/timings/analyses/*.tsv: the CPU seconds of each command of the jobs that run several
+  light commands in one process (a scene's height series, ensembles and sweep; the main
+  study's figures), per command kind (heights, ensemble, sweep, figure);
+- here and now: the CPU time of one light `granwave` command (the start-up of every job that
+  is not a batch; the gather, analysis and figure jobs that stay one process each).
 
 Models fitted to them (classes: dimension x frictional or not):
 - DEM preparation: cpu = k N x steps, steps = a H^g p^e S(tol). Relaxation steps grow with
@@ -215,8 +218,31 @@ def fit_models(results: Path) -> dict:
     damping = list((results / "benchmarks" / "damping").glob("*.tsv"))
     if damping:
         m["damping_signal"] = statistics.median(bench_cpu(t) for t in damping)
+    # commands run together in one job (analyses_<scene>, figures_study): median CPU per kind
+    commands = defaultdict(list)
+    for tsv in sorted((results / "timings" / "analyses").glob("*.tsv")):
+        for r in read_tsv(tsv):
+            commands[r["stage"]].append(float(r["cpu_s"]))
+    m["command"] = {stage: statistics.median(v) for stage, v in commands.items()}
     m["n_measured"] = len(rows)
     return m
+
+
+def command_kinds(outputs: list[str]) -> list[str]:
+    """The kinds of the commands a multi-command job runs, one per command, from its outputs."""
+    kinds = []
+    for path in outputs:
+        if "/timings/" in path:
+            continue
+        if path.endswith(".png"):
+            kinds.append("figure")
+        elif "/heights/" in path:
+            kinds.append("heights")
+        elif path.endswith(".h5") and "/ensemble/" in path:
+            kinds.append("ensemble")
+        elif path.endswith(".h5") and "/sweep/" in path:
+            kinds.append("sweep")
+    return kinds
 
 
 def light_job_cpu() -> float:
@@ -344,6 +370,13 @@ def estimate(config: Path, m: dict, light: float) -> tuple[Counter, Counter]:
                     batch += sum(cost.values())
                     longest_sample = max(longest_sample, sum(cost.values()))
             longest = max(longest, batch)
+            continue
+        if rule.startswith("analyses_") or rule == "figures_study":
+            # one start-up, then each command's measured CPU (not grown with its number of
+            # signals: an underestimate where a scene has thousands)
+            counts["analyses and figures (several commands each)"] += 1
+            seconds["analyses and figures"] += light + sum(m["command"].get(k, 0.0)
+                                                           for k in command_kinds(job["output"]))
             continue
         counts[rule] += 1
         if rule == "damping_signal" and "damping_signal" in m:

@@ -101,11 +101,13 @@ def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, s
     return sig
 
 
-def run_batch(run, samples, *, log_path, timings_path, fields, failed_key) -> None:
+def run_batch(run, samples, *, log_path, timings_path, fields, failed_key,
+              keys=("scene", "pressure", "size", "seed")) -> None:
     """A workflow batch (one process): ``run(sample, log)`` for every sample, its log lines
     into ``log_path``, and one row per sample and stage of ``fields`` into the tab-separated
-    ``timings_path``. A sample that fails (InputError, ConvergenceError) ends the batch with
-    exit status 1 and its reason in the log (the sample named by ``sample['out'][failed_key]``)."""
+    ``timings_path`` (the sample's ``keys``, then what ``run`` timed). A sample that fails
+    (InputError, ConvergenceError) ends the batch with exit status 1 and its reason in the log
+    (the sample named by ``sample['out'][failed_key]``)."""
     import csv
     import sys
 
@@ -119,11 +121,59 @@ def run_batch(run, samples, *, log_path, timings_path, fields, failed_key) -> No
             except (InputError, ConvergenceError) as exc:
                 print(f"{sample['out'][failed_key]}: {exc}", file=log)
                 sys.exit(1)
-            rows += [{**{k: sample[k] for k in ("scene", "pressure", "size", "seed")}, **t} for t in timings]
+            rows += [{**{k: sample[k] for k in keys}, **t} for t in timings]
         with open(timings_path, "w", newline="") as f:
             writer = csv.DictWriter(f, fields, delimiter="\t")
             writer.writeheader()
             writer.writerows({k: r[k] for k in fields} for r in rows)
+
+
+def run_command(item: dict, log=print) -> list[dict]:
+    """Run one light `granwave` command in this process, as a workflow job would run it alone.
+
+    ``item``: ``args`` (the command line after `granwave`), ``stage`` (its name in the timings),
+    ``out`` (the files it makes: ``result`` names the command, e.g. its JSON or figure) and
+    optionally ``printed``, the file that gets what the command prints (written atomically after
+    the command, as `granwave <args> > printed` would); without it the printed lines go to
+    ``log``, as do warnings. The files hold the same bytes as the command run alone: the command
+    line they record (provenance ``command_line``) is that command's, with the console script
+    beside this interpreter. Returns the command's CPU and wall seconds under ``stage``; a
+    refusal or a stage that did not converge raises InputError with the command's one-line
+    message.
+    """
+    import contextlib
+    import io
+    import sys
+
+    import click
+
+    from .cli import main
+    from .errors import InputError
+    from .io.files import atomic_text
+
+    args = [str(a) for a in item["args"]]
+    for path in item["out"].values():
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    script = Path(sys.executable).with_name("granwave")
+    sys.argv = [str(script) if script.is_file() else "granwave", *args]  # provenance: command_line
+    printed, warned, timings = io.StringIO(), io.StringIO(), []
+
+    def command():
+        with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(warned):
+            main.main(args, prog_name="granwave", standalone_mode=False)
+
+    try:
+        _timed(timings, item["stage"], command)
+    except click.ClickException as exc:
+        raise InputError(exc.format_message()) from None
+    finally:
+        lines = warned.getvalue().splitlines() + ([] if item.get("printed") else printed.getvalue().splitlines())
+        for line in lines:
+            log(line)
+    if item.get("printed"):
+        atomic_text(item["printed"], printed.getvalue())
+    log(f"{item['out']['result']}: {item['stage']} {timings[0]['cpu_s']:.2f} s")
+    return timings
 
 
 def _timed(timings: list, stage: str, fn):

@@ -136,9 +136,14 @@ def test_slurm_profile_dry_run_resolves_resources(tmp_path, config):
     out = run.stdout + run.stderr
     assert run.returncode == 0, out[-3000:]
     total = re.search(r"^total\s+(\d+)", out, re.M)
-    # the per-sample pipelines run as batches of config batch_size samples (rules/batches.smk)
-    assert total and int(total.group(1)) > 50
+    # the per-sample pipelines run as batches of config batch_size samples (rules/batches.smk),
+    # a scene's analyses and the study's figures as one job each: the whole study in ~46 jobs
+    # (the exact count: tests/test_generated_docs.py)
+    assert total and int(total.group(1)) > 40
     assert re.search(r"^batch_frictional2d_0\s+1$", out, re.M), out[-3000:]
+    # a scene's height series, ensembles and sweep run in one job (rules/analysis.smk)
+    assert re.search(r"^analyses_frictional2d\s+1$", out, re.M), out[-3000:]
+    assert not re.search(r"^(heights|ensemble|pressure_sweep)\s+\d+$", out, re.M), out[-3000:]
     assert "This was a dry-run" in out
 
 
@@ -292,3 +297,74 @@ def test_lone_continuum_packing_is_prepared_with_the_scenes_compaction_rule(tmp_
     assert run.returncode == 0, out[-3000:]
     command = next(line for line in out.splitlines() if "granwave analyze moduli" in line)
     assert "--local" not in command, command
+
+
+def _chain_signal(path, n, shift):
+    """An exact chain wall force (modal sum) of n balls, delayed by ``shift`` steps, as a file."""
+    import numpy as np
+
+    from granwave import theory
+    from granwave.io import files
+    from granwave.model import Signal
+
+    dt = 0.05
+    t = np.arange(0.0, theory.chain_travel_time(n) + 12.0, dt)
+    files.write_signal(path, Signal(t, theory.chain_wall_force(t - shift * dt, n, ic="A"),
+                                    attrs=dict(ic="A", method="modal", height=n + 1.0 + 0.01 * shift,
+                                               pressure=1e-4, kind="chain")))
+    return str(path)
+
+
+def test_scene_analyses_in_one_process_write_what_each_command_writes_alone(tmp_path):
+    """The analyses job of a scene (workflow/scripts/analysis_batch.py) runs `granwave analyze
+    heights / ensemble` in its own process (workflow_support.run_command): the printed JSON has
+    the bytes of the command run alone, the ensemble file the same arrays and attributes, its
+    command line the command's; a refused command raises one line and leaves no file."""
+    import h5py
+    import numpy as np
+
+    from granwave.errors import InputError
+    from granwave.workflow_support import run_command
+
+    signals = [_chain_signal(tmp_path / f"s{k}.h5", n, k) for k, n in enumerate((40, 40, 80, 80))]
+    h5 = str(tmp_path / "ens.h5")
+    items = [{"stage": "heights", "out": {"result": str(tmp_path / "heights.json")},
+              "printed": str(tmp_path / "heights.json"),
+              "args": ["analyze", "heights", *signals, "--edge-heights", "41,81", "--json"]},
+             {"stage": "ensemble", "out": {"result": str(tmp_path / "ens.json"), "h5": h5},
+              "printed": str(tmp_path / "ens.json"),
+              "args": ["analyze", "ensemble", *signals[:2], "-o", h5, "--json"]}]
+
+    def h5_contents(path):
+        with h5py.File(path) as f:
+            attrs = dict(f.attrs)
+            arrays = {name: f[name][()] for name in ("ensemble/time", "ensemble/mean", "ensemble/rms")}
+        return attrs, arrays
+
+    for item in items:
+        alone = subprocess.run([sys.executable, "-m", "granwave", *item["args"]], cwd=tmp_path,
+                               capture_output=True, text=True, timeout=300)
+        assert alone.returncode == 0, alone.stderr
+        written = {} if "h5" not in item["out"] else h5_contents(h5)
+        Path(h5).unlink(missing_ok=True)
+        lines = []
+        timings = run_command(item, log=lines.append)
+        assert [t["stage"] for t in timings] == [item["stage"]] and timings[0]["cpu_s"] > 0
+        assert Path(item["printed"]).read_text() == alone.stdout
+        if written:
+            attrs, arrays = h5_contents(h5)
+            for name, values in written[1].items():
+                np.testing.assert_array_equal(arrays[name], values)
+            assert attrs.pop("command_line").endswith(" " + " ".join(item["args"]))
+            assert set(attrs) == set(written[0]) - {"command_line"}
+            for key in attrs:
+                assert str(attrs[key]) == str(written[0][key]), key
+    # a refused command: one line, no output
+    bad = {"stage": "ensemble", "out": {"result": str(tmp_path / "bad.json"), "h5": str(tmp_path / "bad.h5")},
+           "printed": str(tmp_path / "bad.json"),
+           "args": ["analyze", "ensemble", str(tmp_path / "missing.h5"), "-o", str(tmp_path / "bad.h5"), "--json"]}
+    with pytest.raises(InputError) as refused:
+        run_command(bad, log=lambda line: None)
+    assert "missing.h5" in str(refused.value) and "\n" not in str(refused.value)
+    assert not (tmp_path / "bad.json").exists() and not (tmp_path / "bad.h5").exists()
+    assert not list(tmp_path.rglob("*.tmp"))

@@ -70,6 +70,37 @@ rule summary:
         "../scripts/merge_summary.py"
 
 
+# A scene's height series, ensembles and pressure sweep in one job (one process): each
+# `granwave` command costs ~1-2 s of start-up, more than the analysis itself. As for the batches
+# (rules/batches.smk), the files keep their names and Snakemake prefers these rules without
+# wildcards (asking for one of their files runs the whole job); rules heights, ensemble and
+# pressure_sweep below make the files outside them (e.g. a lattice scene's ensembles).
+for _name, _scene, _commands in scene_analyses():
+
+    rule:
+        name:
+            _name
+        conda:
+            "../envs/granwave.yaml"
+        input:
+            sorted({path for c in _commands for path in c["in"]}),
+        output:
+            [directory(path) if key == "tables" else path for c in _commands for key, path in c["out"].items()],
+            timings=f"{R}/timings/analyses/{_name}.tsv",
+        log:
+            f"{R}/logs/analyses/{_name}.log",
+        benchmark:
+            f"{R}/benchmarks/analyses/{_name}.tsv"
+        params:
+            commands=_commands,
+        threads: 1
+        resources:
+            mem_mb=2000,
+            runtime=30,  # the paper config: a scene's thousands of signals, read twice
+        script:
+            "../scripts/analysis_batch.py"
+
+
 rule heights:
     conda:
         "../envs/granwave.yaml"

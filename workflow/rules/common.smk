@@ -363,6 +363,46 @@ def height_signals(wildcards):
     return sample_paths("signal", wildcards.scene, pressure=wildcards.pressure)
 
 
+def scene_analyses():
+    """[(name, scene, commands)]: the light analyses of each scene, run in one job by
+    workflow/scripts/analysis_batch.py (granwave.workflow_support.run_command): a height series
+    per pressure with two sizes or more (`granwave analyze heights`, as rule heights runs it)
+    and, for disordered scenes, an ensemble per pressure and size (`granwave analyze ensemble`,
+    as rule ensemble runs it) and the pressure sweep (as rule pressure_sweep runs it). Each
+    command: its arguments, the input files made by other jobs, its output files (``tables``
+    a folder) and the file that gets what it prints."""
+    edges = ",".join(f"{h:g}" for h in config["edge_heights"])
+    out = []
+    for scene in scenes():
+        commands = []
+        for p in pressures(scene):
+            if len(sizes(scene, p)) < 2:
+                continue
+            signals = sample_paths("signal", scene, pressure=p)
+            path = f"{R}/heights/{scene}/p{p}.json"
+            commands.append({"scene": scene, "pressure": p, "size": "all", "stage": "heights",
+                             "args": ["analyze", "heights", *signals, "--edge-heights", edges, "--json"],
+                             "in": signals, "out": {"result": path}, "printed": path})
+        for p in pressures(scene) if scene_kind(scene) == "disordered" else []:
+            for size in sizes(scene, p):
+                signals = sample_paths("signal", scene, pressure=p, size=size)
+                h5, path = f"{R}/ensemble/{scene}/p{p}/{size}.h5", f"{R}/ensemble/{scene}/p{p}/{size}.json"
+                commands.append({"scene": scene, "pressure": p, "size": size, "stage": "ensemble",
+                                 "args": ["analyze", "ensemble", *signals, "-o", h5, "--json"],
+                                 "in": signals, "out": {"result": path, "h5": h5}, "printed": path})
+        if scene_kind(scene) == "disordered":  # the sweep reads the height series made above
+            summaries = sample_paths("summary", scene, ext="json")
+            h5, path = f"{R}/sweep/{scene}.h5", f"{R}/sweep/{scene}.json"
+            commands.append({"scene": scene, "pressure": "all", "size": "all", "stage": "sweep",
+                             "args": ["pressure-sweep", *summaries, *height_series_paths(scene),
+                                      "-o", h5, "--tables", f"{R}/sweep/{scene}_tables", "--json"],
+                             "in": summaries, "printed": path,
+                             "out": {"result": path, "h5": h5, "tables": f"{R}/sweep/{scene}_tables"}})
+        if commands:
+            out.append((f"analyses_{scene}", scene, commands))
+    return out
+
+
 def sweep_inputs(wildcards):
     inputs = {"summaries": sample_paths("summary", wildcards.scene, ext="json")}
     inputs["heights"] = [f"{R}/heights/{wildcards.scene}/p{p}.json"
@@ -422,6 +462,46 @@ def figure_targets():
     figs += [f"{F}/continuum_{s}.png" for s in scenes("continuum")]
     figs += [f"{F}/shear_{s}.png" for s in shear_scenes()]
     return figs
+
+
+def study_figures():
+    """[(name, commands)]: the figures of the main study (airy, network, roses, signals,
+    coherent, compare, arrivals, exponents, speeds: those of figure_targets() that its rules
+    figure_airy ... figure_speeds make), run in one job by workflow/scripts/analysis_batch.py
+    with the options those rules give them. Each command: its arguments, input files and figure."""
+    commands = []
+
+    def plot(kind, args, inputs):
+        path = f"{F}/{kind}.png"
+        commands.append({"scene": "figures", "pressure": "all", "size": kind, "stage": "figure",
+                         "args": ["plot", *args, "-o", path], "in": inputs, "out": {"result": path}})
+
+    plot("airy", ["airy", "--n", "100", "--n", "400", "--n", "1600"], [])
+    if main_sample():
+        scene, p, size = main_sample()
+        packing = first_sample_path("packing", scene)
+        for kind in ("network", "roses"):
+            plot(kind, [kind, packing], [packing])
+        signals = sample_paths("signal", scene, pressure=p, size=size)
+        ensemble = f"{R}/ensemble/{scene}/p{p}/{size}.h5"
+        plot("signals", ["signals", *signals, "--ensemble", ensemble], [*signals, ensemble])
+        ensembles = [f"{R}/ensemble/{scene}/p{p}/{sz}.h5" for sz in sizes(scene, p)]
+        plot("coherent", ["coherent", *ensembles], ensembles)
+        firsts = [first_sample_path("signal", s) for s in scenes("disordered")]
+        plot("compare", ["compare", *firsts, *flags("--label", scenes("disordered")).split()], firsts)
+        if len(sizes(scene, p)) >= 2:
+            heights = f"{R}/heights/{scene}/p{p}.json"
+            plot("arrivals", ["arrivals", heights], [heights])
+        if len(pressures(scene)) >= 2:
+            sweep = f"{R}/sweep/{scene}.json"
+            lattices = [lattice_heights(False), lattice_heights(True)]
+            plot("speeds", ["speeds", sweep, *flags("--lattice", lattices[0]).split(),
+                            *flags("--lattice-frictional", lattices[1]).split()], [sweep, *lattices[0], *lattices[1]])
+    series = exponent_series()
+    if series:
+        paths = [path for _, path in series]
+        plot("exponents", ["exponents", *paths, *flags("--label", [scene for scene, _ in series]).split()], paths)
+    return [("figures_study", commands)]
 
 
 def report_inputs():

@@ -1,5 +1,43 @@
 # Figures of the study and the final report (results/report/index.md).
 
+# The main study's figures in one job (one process; a `granwave plot` command costs ~2-3 s of
+# start-up, matplotlib included). This rule comes first for the figures it makes (asking for one
+# runs the whole job); the rules figure_airy ... figure_speeds below remain, with the same options.
+for _name, _commands in study_figures():
+
+    rule:
+        name:
+            _name
+        conda:
+            "../envs/granwave.yaml"
+        input:
+            sorted({path for c in _commands for path in c["in"]}),
+        output:
+            [c["out"]["result"] for c in _commands],
+            timings=f"{R}/timings/analyses/{_name}.tsv",
+        log:
+            f"{R}/logs/figures/{_name}.log",
+        benchmark:
+            f"{R}/benchmarks/analyses/{_name}.tsv"
+        params:
+            commands=_commands,
+        threads: 1
+        resources:
+            mem_mb=1000,
+            runtime=10,
+        script:
+            "../scripts/analysis_batch.py"
+
+
+ruleorder: figures_study > figure_airy
+ruleorder: figures_study > figure_signals
+ruleorder: figures_study > figure_coherent
+ruleorder: figures_study > figure_compare
+ruleorder: figures_study > figure_arrivals
+ruleorder: figures_study > figure_exponents
+ruleorder: figures_study > figure_speeds
+
+
 rule figure_network:
     conda:
         "../envs/granwave.yaml"
