@@ -5,7 +5,8 @@ longitudinal standing waves' speed, on columns prepared like the continuum scene
 
 Each column: 2D, periodic width ``--width`` (25 d), round(width x height) grains, piston pressure
 ``--pressure``, friction ``--friction`` (0.5: the continuum scene's), the mean-flow compaction
-rule, seeds 1 .. ``--seeds``. Per column: ``analyze moduli``'s c_l (whole-cell C22 over the bulk
+rule (``--compaction``; columns up to 25 d are prepared alike by every rule), seeds 1 ..
+``--seeds``. Per column: ``analyze moduli``'s c_l (whole-cell C22 over the bulk
 Phi3* of ``analyze statics``), c_l_slab (the slab layer <= y <= H - layer: its C22 over its own
 Phi3*, docs/moduli.md), sqrt(C22 / phi3_star_cell) (whole-cell C22 over the whole cell's density)
 and, up to ``--modes-max-dof`` dofs, the speeds of the standing waves n = 1, 2, 3
@@ -38,7 +39,7 @@ def column(height: float, seed: int, args) -> dict:
     t0 = time.perf_counter()
     pk = prepare_packing(PrepareParams(dim=2, grains=round(args.width * height),
                                        aspect=height / args.width, pressure=args.pressure,
-                                       friction=args.friction, compaction="mean-flow", seed=seed))
+                                       friction=args.friction, compaction=args.compaction, seed=seed))
     t1 = time.perf_counter()
     m = moduli(pk, layer=args.layer)
     t2 = time.perf_counter()
@@ -75,6 +76,7 @@ def main() -> None:
     ap.add_argument("--pressure", type=float, default=1e-4)
     ap.add_argument("--friction", type=float, default=0.5)
     ap.add_argument("--layer", type=float, default=3.0)
+    ap.add_argument("--compaction", default="mean-flow", choices=("fixed", "height-scaled", "mean-flow"))
     ap.add_argument("--modes-max-dof", type=int, default=4000)
     ap.add_argument("--record", action="store_true")
     ap.add_argument("--notes", default=None)
@@ -108,6 +110,7 @@ def main() -> None:
         summary = {f"L={t['height']:g}": {"values": f"c_l {t['c_l']:.4f}, c_l_slab {t['c_l_slab']:.4f}, "
                                                     f"modes {t['c_modes']:.4f} (n={t['n']})"}
                    for t in table}
+        summary["compaction"] = args.compaction
         rec = {"date": time.strftime("%Y-%m-%d"), "benchmark": "bulk_slab_heights",
                "command": "PYTHONPATH=. python benchmarks/bulk_slab_heights.py "
                           + " ".join(f"--{k.replace('_', '-')} {' '.join(map(str, v)) if isinstance(v, list) else v}"
