@@ -11,7 +11,8 @@ Phi3* of ``analyze statics``), c_l_slab (the slab layer <= y <= H - layer: its C
 Phi3*, docs/moduli.md), sqrt(C22 / phi3_star_cell) (whole-cell C22 over the whole cell's density)
 and, up to ``--modes-max-dof`` dofs, the speeds of the standing waves n = 1, 2, 3
 (granwave.linear.standing: weighted median of each profile's spectral weight, H_eff = H
-C22_slab / C22). Prints mean ± standard error per height; ``--record`` appends the run to
+C22_slab / C22); with ``--profile W`` also C22 and Phi3* of W-thick slabs at each depth from the
+walls. Prints mean ± standard error per height; ``--record`` appends the run to
 benchmarks/results/bulk_slab.jsonl (then run benchmarks/results/summarize.py).
 """
 
@@ -51,6 +52,8 @@ def column(height: float, seed: int, args) -> dict:
            "c_l_cell_density": math.sqrt(m["C22"] / m["phi3_star_cell"]),
            "c_t": m["c_t"], "c_t_slab": m["c_t_slab"], "slab": m["slab"],
            "wall_s": {"prepare": round(t1 - t0, 2), "moduli": round(t2 - t1, 2)}}
+    if args.profile:
+        row["profile"] = profile(pk, args.profile)
     system = linearize(pk)
     if system.n_dof <= args.modes_max_dof:
         modes = longitudinal_modes(system, pk, n_max=3)
@@ -58,6 +61,24 @@ def column(height: float, seed: int, args) -> dict:
         row["mode_overlap"] = modes["overlap"]
         row["wall_s"]["modes"] = round(time.perf_counter() - t2, 2)
     return row
+
+
+def profile(pk, width: float) -> list[dict]:
+    """C22 and Phi3* of slabs ``width`` thick at depths d0 = 0, width/2, ... from each wall (the
+    two walls' slabs of one depth averaged): how far the walls' influence reaches."""
+    from granwave.linear.moduli import _cell, global_response, slab_density, slab_response
+
+    cell = _cell(pk, False)
+    C, _ = global_response(cell)
+    H = float(pk.box[-1])
+    out = []
+    for d0 in np.arange(0.0, H / 2 - width + 1e-9, width / 2):
+        c22, phi = [], []
+        for lo, hi in ((d0, d0 + width), (H - d0 - width, H - d0)):
+            c22.append(slab_response(cell, C, lo, hi)["C22"][0])
+            phi.append(slab_density(cell, lo, hi))
+        out.append({"depth": float(d0), "C22": float(np.mean(c22)), "phi3_star": float(np.mean(phi))})
+    return out
 
 
 def _mean(rows, key, index=None):
@@ -78,6 +99,8 @@ def main() -> None:
     ap.add_argument("--layer", type=float, default=3.0)
     ap.add_argument("--compaction", default="mean-flow", choices=("fixed", "height-scaled", "mean-flow"))
     ap.add_argument("--modes-max-dof", type=int, default=4000)
+    ap.add_argument("--profile", type=float, default=0.0,
+                    help="also C22 and Phi3* of slabs this thick (d) at each depth from the walls")
     ap.add_argument("--record", action="store_true")
     ap.add_argument("--notes", default=None)
     args = ap.parse_args()
@@ -104,6 +127,17 @@ def main() -> None:
         f = lambda k: f"{line[k]:.4f} ± {line[k + '_sem']:.4f}"  # noqa: E731
         print(f"{h:6g} {len(sub):3d} {f('c_l'):>16} {f('c_l_slab'):>16} {f('c_l_cell_density'):>16} "
               f"{f('c_modes'):>18}")
+    if args.profile:
+        depths = sorted({p["depth"] for r in rows for p in r.get("profile", [])})
+        print(f"profile ({args.profile:g} d slabs, mean over the columns of each height): depth  C22  Phi3*")
+        for h in args.heights:
+            sub = [r for r in rows if r["height_nominal"] == h]
+            for d in depths:
+                v = np.array([[p["C22"], p["phi3_star"]] for r in sub for p in r["profile"] if p["depth"] == d])
+                if len(v):
+                    sem = v[:, 0].std(ddof=1) / math.sqrt(len(v)) if len(v) > 1 else math.nan
+                    print(f"  L {h:g} depth {d:5.1f}: C22 {v[:, 0].mean():.5f} ± {sem:.5f}  "
+                          f"Phi3* {v[:, 1].mean():.4f}")
     if args.record:
         from granwave.provenance import git_revision
 
