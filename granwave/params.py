@@ -486,7 +486,7 @@ class ModuliParams(Params):
                               "shear loadings [default: only for frictionless packings, whose "
                               "walls cannot drag].", negatable=True)
     layer: float = param(BULK_LAYER, help="Layer next to each wall left out of the bulk phi3_star "
-                         "(docs/method.md §4).", units="d", lo=0.0)
+                         "and of the bulk slab (docs/method.md §4, docs/moduli.md).", units="d", lo=0.0)
     force: bool = param(False, help="Accept a packing marked as not converged.")
 
 

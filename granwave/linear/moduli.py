@@ -102,6 +102,18 @@ that piecewise-linear displacement stores ``W = (n+1)^2 L1 C u0^2 / (2 L2)``
 Both are reported as ratios to the global normal (C22; 3D C33) and shear
 (C33; 3D C55) moduli.
 
+Bulk slab
+---------
+The whole cell's moduli include the layers at the two walls, softer and less dense than the
+bulk. Under the vertical normal strain and the wall shears nothing acts inside the column, so
+the traction on every horizontal plane is the cell's stress change; the strain of the slab
+``layer <= y <= H - layer`` is the least-squares slope of its grains' total displacements
+against y. Slab modulus = cell modulus x imposed strain / slab strain (``C22_slab``,
+``C33_slab``; 3D ``C33_slab``, ``C44_slab``, ``C55_slab``). Its density ``phi3_star_slab`` is
+the volume between the same planes of the same grains (those of D and M: the rattler rule of
+the linear model), so ``c_l_slab = sqrt(C22_slab / phi3_star_slab)`` uses one volume and one
+rattler rule. On a triangular lattice C22_slab is the bulk value K h / l exactly (tested).
+
 Phi3* (the mass density entering the sound speeds c_l = sqrt(C22/Phi3*),
 c_t = sqrt(C33/Phi3*)) is docs/method.md §4's bulk value from
 :func:`granwave.analysis.statics.statics` (slab excluding ``layer`` next to each
@@ -792,7 +804,8 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
         ``attrs['prestress']`` is used. The contact geometry always comes from
         the packing (a linear file does not hold it).
     force : accept a packing whose ``attrs['converged']`` is False.
-    layer : thickness next to each wall left out of the bulk Phi3* (docs/method.md §4).
+    layer : thickness next to each wall left out of the bulk Phi3* (docs/method.md §4) and of
+        the bulk slab.
 
     Returns
     -------
@@ -802,6 +815,10 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     cell when the cell has no bulk: ``phi3_star_region`` says which),
     ``phi3_star_cell`` (whole cell, normalizes the body force), ``static_stress``, the solver used,
     and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``);
+    the bulk slab's ``slab`` ([lo, hi], d; None when thinner than 1 d), ``C22_slab``,
+    ``C33_slab`` (3D ``C33_slab``, ``C44_slab``, ``C55_slab``) with ``*_slab_strain_factor``
+    (slab strain / imposed strain) and ``*_slab_fit_err`` (relative standard error of the
+    slab's slope), ``phi3_star_slab``, ``c_l_slab``, ``c_t_slab``, ``n_slab_grains``;
     ``n_spins_removed`` (3D free spins left out of the dofs) and the unbalanced load
     fractions ``global_unbalanced`` (and with ``local`` ``body_force_unbalanced``,
     ``lines_unbalanced``).

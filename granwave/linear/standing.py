@@ -65,12 +65,10 @@ def longitudinal_modes(system: LinearSystem, packing: Packing, *, n_max: int = 3
         s = np.where(along, np.sin(n * np.pi * y / H), 0.0)
         P = (phi.T @ (system.mass * s)) ** 2 / float(s @ (system.mass * s))
         cum = np.cumsum(P[order])
-        quantile = lambda q: float(omega[order][np.searchsorted(cum, q)]) if cum[-1] >= q else math.nan  # noqa: E731
         m = int(np.argmax(P))
         out["n"].append(n)
-        out["omega"].append(quantile(0.5))
-        out["omega_q1"].append(quantile(0.25))
-        out["omega_q3"].append(quantile(0.75))
+        for key, q in (("omega", 0.5), ("omega_q1", 0.25), ("omega_q3", 0.75)):
+            out[key].append(float(omega[order][np.searchsorted(cum, q)]) if cum[-1] >= q else math.nan)
         out["omega_top"].append(float(omega[m]))
         out["overlap"].append(float(P[m]))
         out["overlap_total"].append(float(cum[-1]))
