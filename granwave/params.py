@@ -490,7 +490,7 @@ class ModuliParams(Params):
                               "shear loadings [default: only for frictionless packings, whose "
                               "walls cannot drag].", negatable=True)
     layer: float = param(BULK_LAYER, help="Layer next to each wall left out of the bulk phi3_star "
-                         "(docs/method.md §4).", units="d", lo=0.0)
+                         "and of the bulk slab (docs/method.md §4, docs/moduli.md).", units="d", lo=0.0)
     force: bool = param(False, help="Accept a packing marked as not converged.")
 
 
@@ -658,6 +658,11 @@ class ContinuumParams(Params):
                            "for the error bars (0: propagated errors only).", lo=0)
     seed: int = param(0, help="Seed of the bootstrap resampling.", lo=0, hi=MAX_SEED,
                       why="files store seeds as 64-bit signed integers")
+    c_l_kind: str = param("slab", cli="--c-l", choices=("slab", "cell"),
+                          help="Which c_l of the --moduli files the ratios use: 'slab' "
+                          "(c_l_slab, c_t_slab: the bulk slab's moduli over the same slab's "
+                          "density) or 'cell' (c_l, c_t: whole-cell moduli over the bulk "
+                          "density; docs/continuum.md).")
     peak_fraction: float | None = _front_override()
 
     def front_kw(self) -> dict:

@@ -90,7 +90,7 @@ def _signal_files(tmp_path):
             p = tmp_path / f"h{L}_s{s}.h5"
             write_signal(p, sig)
             m = tmp_path / f"h{L}_s{s}.json"
-            m.write_text(json.dumps({"c_l": 0.8, "c_t": 0.5}))
+            m.write_text(json.dumps({"c_l": 0.8, "c_t": 0.5, "c_l_slab": 0.8, "c_t_slab": 0.5}))
             paths.append(str(p))
             moduli.append(str(m))
     return paths, moduli

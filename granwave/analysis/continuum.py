@@ -529,8 +529,14 @@ def candidate_lengths(heights, times: dict, c_l, *, tolerances: Sequence[float] 
 
 def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[str] | None = None,
               tolerance: float = DEFAULT_TOLERANCE, group_rtol: float = 0.05, bootstrap: int = 200,
-              seed: int = 0, candidates: bool = True, **front_kw) -> dict:
-    """:func:`continuum_from_features` of signals (one pressure, one initial condition)."""
+              seed: int = 0, candidates: bool = True, c_l_kind: str = "given",
+              c_l_by_kind: dict | None = None, **front_kw) -> dict:
+    """:func:`continuum_from_features` of signals (one pressure, one initial condition).
+
+    ``c_l_kind`` names the c_l given (``slab`` or ``cell`` from `analyze moduli`, recorded as
+    ``c_l_kind``); ``c_l_by_kind`` ({kind: per-signal c_l}) adds every kind's summary
+    (``c_l_by_kind``) and per-sample values beside the one used.
+    """
     signals = list(signals)
     if not signals:
         raise InputError("no signals given")
@@ -546,7 +552,12 @@ def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[st
         out["candidates"] = candidate_lengths([s.height for s in signals],
                                               {k: [a[k] for a in arr] for k in arr[0]}, c_l,
                                               group_rtol=group_rtol)
+    kinds = {k: np.asarray(v, float) for k, v in (c_l_by_kind or {}).items()}
+    out["c_l_kind"] = c_l_kind
+    out["c_l_by_kind"] = {k: describe(v) for k, v in kinds.items()}
     return {"pressure": pressure, "ic": ic, "front_options": dict(front_kw), **out,
             "samples": [{"source": str(lab), "height": s.height, "c_l": float(a),
+                         **{f"c_l_{k}": float(v[i]) for k, v in kinds.items()},
                          **{k: float(f[k]) for k in FEATURES}}
-                        for lab, s, a, f in zip(labels, signals, np.asarray(c_l, float), feats)]}
+                        for i, (lab, s, a, f) in enumerate(zip(labels, signals,
+                                                                np.asarray(c_l, float), feats))]}

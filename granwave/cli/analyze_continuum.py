@@ -42,7 +42,8 @@ def continuum(signals, moduli_paths, as_json, **options):
     if len(moduli_paths) != len(signals):
         raise InputError(f"one --moduli file per signal is needed ({len(signals)} signals, "
                          f"{len(moduli_paths)} moduli files)")
-    c_l, c_t = [], []
+    keys = {"slab": ("c_l_slab", "c_t_slab"), "cell": ("c_l", "c_t")}
+    speeds = {kind: ([], []) for kind in keys}  # both kinds, the other one is reported beside
     for path in moduli_paths:
         try:
             with open(path) as f:
@@ -51,9 +52,16 @@ def continuum(signals, moduli_paths, as_json, **options):
             raise InputError(f"{path}: not a moduli JSON file ({exc})") from None
         if not isinstance(m, dict) or "c_l" not in m:
             raise InputError(f"{path}: no c_l (expected `granwave analyze moduli --json` output)")
-        c_l.append(float("nan") if m["c_l"] is None else float(m["c_l"]))
-        c_t.append(float("nan") if m.get("c_t") is None else float(m["c_t"]))
+        failed = m["c_l"] is None  # a batch's failed moduli solve: no speed of either kind
+        if params.c_l_kind == "slab" and "c_l_slab" not in m and not failed:
+            raise InputError(f"{path}: no c_l_slab (written before the bulk-slab moduli): run "
+                             "`granwave analyze moduli --json` again, or pass --c-l cell")
+        for kind, (kl, kt) in keys.items():
+            speeds[kind][0].append(_speed(m.get(kl)))
+            speeds[kind][1].append(_speed(m.get(kt)))
+    c_l, c_t = speeds[params.c_l_kind]
     res = run([read_signal(p) for p in signals], c_l, c_t, labels=list(signals),
+              c_l_kind=params.c_l_kind, c_l_by_kind={k: v[0] for k, v in speeds.items()},
               tolerance=params.tolerance, group_rtol=params.group_tolerance,
               bootstrap=params.bootstrap, seed=params.seed, **params.front_kw())
     res["params"] = params.as_dict()
@@ -64,7 +72,8 @@ def continuum(signals, moduli_paths, as_json, **options):
         if res[key]["warning"]:
             click.echo(f"warning: {res[key]['warning']}")
     echo_table({k: v for k, v in res["approach"].items() if k != "free_limit"},
-               title=f"continuum: {res['n_signals']} signals, {res['n_heights']} heights")
+               title=f"continuum: {res['n_signals']} signals, {res['n_heights']} heights, "
+                     f"c_l = {res['c_l_kind']}")
     loc = res["local"]
     click.echo(f"  {'L':>9} {'c_tof':>9} {'c_peak':>9} {'c_zero':>9} {'c_l':>9} {'ratio':>9} "
                f"{'err':>8} {'gamma':>8} {'alpha':>8}")
@@ -87,3 +96,8 @@ def continuum(signals, moduli_paths, as_json, **options):
                     cells.append(f"{v:9.4g}" if v is not None else f"{'-':>9}")
                 click.echo(f"  {rule:>10} tol {tol:<5g} " + " ".join(cells)
                            + f"   ratio {sp['ratio'][-1]:.4g} ± {sp['ratio_err'][-1]:.2g}")
+
+
+def _speed(value) -> float:
+    """A speed from a moduli file: NaN for null or absent."""
+    return float("nan") if value is None else float(value)

@@ -31,7 +31,16 @@ def moduli(source, packing_path, threads, as_json, **options):
     c_t = sqrt(C33/phi3_star), phi3_star the bulk value of `analyze statics`
     (whole cell, phi3_star_cell, when there is no bulk). 3D: Voigt
     C11 C22 C33 C12 C13 C23 C44 C55 C66 with z vertical, c_l from C33, c_t
-    from (C44+C55)/2. Units E* and sqrt(E*/rho). See docs/moduli.md.
+    from (C44+C55)/2.
+
+    Bulk slab (the slab --layer <= y <= H - --layer, given as slab): C22_slab
+    and C33_slab (3D: C33_slab, C44_slab, C55_slab) from the slab's own strain
+    under the same loadings (the stress is uniform along the column),
+    phi3_star_slab over the same slab and the same grains (those of the
+    linear model), c_l_slab = sqrt(C22_slab/phi3_star_slab) and c_t_slab: the
+    bulk medium's speeds, without the wall layers (`analyze continuum` uses
+    them). NaN when the slab is thinner than 1 d. Units E* and sqrt(E*/rho).
+    See docs/moduli.md.
     """
     from .. import api
     from ..errors import InputError

@@ -102,6 +102,18 @@ that piecewise-linear displacement stores ``W = (n+1)^2 L1 C u0^2 / (2 L2)``
 Both are reported as ratios to the global normal (C22; 3D C33) and shear
 (C33; 3D C55) moduli.
 
+Bulk slab
+---------
+The whole cell's moduli include the layers at the two walls, softer and less dense than the
+bulk. Under the vertical normal strain and the wall shears nothing acts inside the column, so
+the traction on every horizontal plane is the cell's stress change; the strain of the slab
+``layer <= y <= H - layer`` is the least-squares slope of its grains' total displacements
+against y. Slab modulus = cell modulus x imposed strain / slab strain (``C22_slab``,
+``C33_slab``; 3D ``C33_slab``, ``C44_slab``, ``C55_slab``). Its density ``phi3_star_slab`` is
+the volume between the same planes of the same grains (those of D and M: the rattler rule of
+the linear model), so ``c_l_slab = sqrt(C22_slab / phi3_star_slab)`` uses one volume and one
+rattler rule. On a triangular lattice C22_slab is the bulk value K h / l exactly (tested).
+
 Phi3* (the mass density entering the sound speeds c_l = sqrt(C22/Phi3*),
 c_t = sqrt(C33/Phi3*)) is docs/method.md §4's bulk value from
 :func:`granwave.analysis.statics.statics` (slab excluding ``layer`` next to each
@@ -179,6 +191,7 @@ class _Cell:
     touches_wall: np.ndarray  # (N,) bool
     solvers: dict = field(default_factory=dict)
     unbalanced: dict = field(default_factory=dict)  # loading kind -> largest unbalanced fraction
+    relaxed: dict = field(default_factory=dict)  # (a, b, amplitude, held) -> relaxed u of a strain
 
     @property
     def n_dof(self) -> int:
@@ -528,7 +541,8 @@ def global_response(cell: _Cell, *, amplitude: float = DEFAULT_AMPLITUDE,
         fixed = np.zeros(cell.n_dof, bool)
         if a != b and b == vertical and _use_grip(cell, grip):
             fixed = _grip_mask(cell)
-        ds, _, method = _respond(cell, G, amplitude, fixed)
+        ds, u, method = _respond(cell, G, amplitude, fixed)
+        cell.relaxed[(a, b, amplitude, bool(fixed.any()))] = u  # the bulk slab reads its strain here
         methods.append(method)
         # sigma_cd with F along c and b along d (d vertical for the wall shears): the
         # traction on planes normal to d, energy-conjugate to the simple shear G_cd.
@@ -537,6 +551,93 @@ def global_response(cell: _Cell, *, amplitude: float = DEFAULT_AMPLITUDE,
         if a != b:
             C[:, col] *= 0.5  # engineering shear strain 2 eps_ab
     return C, methods
+
+
+# ----------------------------------------------------------------------------- bulk slab
+#: Thinnest slab (d) whose strain is measured; thinner: no slab moduli (NaN).
+SLAB_MIN_THICKNESS = 1.0
+
+
+def slab_bounds(cell: _Cell, layer: float) -> tuple[float, float] | None:
+    """The bulk slab ``layer <= y <= H - layer`` (d), or None when it is thinner than
+    ``SLAB_MIN_THICKNESS``."""
+    H = float(cell.box[-1])
+    lo, hi = float(layer), H - float(layer)
+    return (lo, hi) if hi - lo >= SLAB_MIN_THICKNESS else None
+
+
+def slab_grains(cell: _Cell, lo: float, hi: float) -> np.ndarray:
+    """Grains the linear model moves (non-rattlers: those with dofs in D and M) whose centre
+    lies in the slab."""
+    y = cell.position[:, -1]
+    return np.flatnonzero(cell.active & (y >= lo) & (y <= hi))
+
+
+def slab_density(cell: _Cell, lo: float, hi: float) -> float:
+    """Phi3* of the slab: the volume between the planes lo and hi of the grains the linear model
+    moves (the rattler rule of D and M), over L1 (hi - lo) x 1 d (3D: L1 L2 (hi - lo))."""
+    from ..analysis.statics import _amount_in_slab
+
+    y = cell.position[cell.active, -1]
+    vol = _amount_in_slab(y, cell.radius[cell.active], lo, hi, "volume")
+    return float(vol.sum() / (np.prod(cell.box[:-1]) * (hi - lo)))
+
+
+def slab_strain_ratio(cell: _Cell, G: np.ndarray, u: np.ndarray, axis: int, lo: float,
+                      hi: float) -> tuple[float, float]:
+    """(slab gradient / imposed gradient, relative standard error of the slab gradient).
+
+    The total displacement along ``axis`` of a slab grain is the affine ``-(G x)_axis`` plus
+    its relaxed translation ``u``; its slope against the height y (least squares over the
+    slab grains) is the slab's gradient, to be compared with the imposed ``-G[axis, vertical]``.
+    The standard error assumes independent residuals (the non-affine displacements are
+    correlated in space, so it is a lower bound).
+    """
+    vertical = cell.dim - 1
+    grains = slab_grains(cell, lo, hi)
+    if grains.size < 3:
+        return math.nan, math.nan
+    y = cell.position[grains, vertical]
+    total = -(cell.position[grains] @ G.T)[:, axis] + u[cell.first[grains] + axis]
+    slope, intercept = np.polyfit(y, total, 1)
+    imposed = -G[axis, vertical]
+    resid = total - (slope * y + intercept)
+    spread = float(np.sum((y - y.mean()) ** 2))
+    err = math.sqrt(float(resid @ resid) / max(grains.size - 2, 1) / spread) if spread > 0 else math.nan
+    return float(slope / imposed), (err / abs(slope) if slope != 0 else math.nan)
+
+
+def slab_response(cell: _Cell, C: np.ndarray, lo: float, hi: float, *,
+                  amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None) -> dict:
+    """Moduli of the bulk slab for the loadings whose stress is uniform along the column.
+
+    Under the vertical normal strain and the wall shears no force acts inside the column, so
+    the traction on every horizontal plane, the stress change ``C eps`` of the whole cell, is
+    the same in the slab; the slab's strain is read from its grains' displacements
+    (:func:`slab_strain_ratio`). Modulus of the slab = whole-cell modulus / (slab strain /
+    imposed strain). ``C`` from :func:`global_response` of the same cell (Voigt, E*).
+
+    Returns {Voigt key: (modulus, strain ratio, relative error of the slab gradient)}: 2D
+    ``C22`` (vertical normal) and ``C33`` (shear); 3D ``C33``, ``C44`` (yz), ``C55`` (xz).
+    """
+    dim = cell.dim
+    vertical = dim - 1
+    pairs = _strain_components(dim)
+    names = {2: {(1, 1): "C22", (0, 1): "C33"},
+             3: {(2, 2): "C33", (1, 2): "C44", (0, 2): "C55"}}[dim]
+    out = {}
+    for col, (a, b) in enumerate(pairs):
+        if b != vertical:
+            continue
+        G = _gradient(dim, a, b)
+        fixed = _grip_mask(cell) if (a != b and _use_grip(cell, grip)) else np.zeros(cell.n_dof, bool)
+        u = cell.relaxed.get((a, b, amplitude, bool(fixed.any())))
+        if u is None:
+            _, u, _ = _respond(cell, G, amplitude, fixed)
+        ratio, err = slab_strain_ratio(cell, G, u / amplitude, a, lo, hi)
+        value = C[col, col] / ratio if ratio > 0 else math.nan
+        out[names[(a, b)]] = (float(value), float(ratio), float(err))
+    return out
 
 
 # ----------------------------------------------------------------------------- local moduli
@@ -656,6 +757,37 @@ def _phi3_star(packing: Packing, cell: _Cell, layer: float) -> tuple[float, str]
     return cell.phi3_star, "whole cell (no bulk slab)"
 
 
+def _slab_outputs(cell: _Cell, C: np.ndarray, layer: float, *, amplitude: float,
+                  grip: bool | None) -> dict:
+    """The bulk slab's moduli, density and sound speeds (keys ``*_slab``; docs/moduli.md).
+
+    One volume and one rattler rule for all of them: the slab ``layer <= y <= H - layer``
+    and the grains the linear model moves. NaN (and ``slab`` None) when the slab is thinner
+    than ``SLAB_MIN_THICKNESS``.
+    """
+    bounds = slab_bounds(cell, layer)
+    keys = ("C22", "C33") if cell.dim == 2 else ("C33", "C44", "C55")
+    nan = float("nan")
+    out = {"slab": None if bounds is None else [bounds[0], bounds[1]],
+           "phi3_star_slab": nan, "c_l_slab": nan, "c_t_slab": nan, "n_slab_grains": 0}
+    for key in keys:
+        out.update({f"{key}_slab": nan, f"{key}_slab_strain_factor": nan, f"{key}_slab_fit_err": nan})
+    if bounds is None:
+        return out
+    lo, hi = bounds
+    res = slab_response(cell, C, lo, hi, amplitude=amplitude, grip=grip)
+    for key, (value, ratio, err) in res.items():
+        out.update({f"{key}_slab": value, f"{key}_slab_strain_factor": ratio, f"{key}_slab_fit_err": err})
+    phi = slab_density(cell, lo, hi)
+    normal = out[f"{keys[0]}_slab"]
+    shear = out["C33_slab"] if cell.dim == 2 else 0.5 * (out["C44_slab"] + out["C55_slab"])
+    out["phi3_star_slab"] = phi
+    out["n_slab_grains"] = int(slab_grains(cell, lo, hi).size)
+    out["c_l_slab"] = math.sqrt(normal / phi) if normal > 0 and phi > 0 else nan
+    out["c_t_slab"] = math.sqrt(shear / phi) if shear > 0 and phi > 0 else nan
+    return out
+
+
 def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
            amplitude: float = DEFAULT_AMPLITUDE, grip: bool | None = None,
            system: LinearSystem | None = None, force: bool = False,
@@ -676,7 +808,8 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
         ``attrs['prestress']`` is used. The contact geometry always comes from
         the packing (a linear file does not hold it).
     force : accept a packing whose ``attrs['converged']`` is False.
-    layer : thickness next to each wall left out of the bulk Phi3* (docs/method.md §4).
+    layer : thickness next to each wall left out of the bulk Phi3* (docs/method.md §4) and of
+        the bulk slab.
 
     Returns
     -------
@@ -686,6 +819,10 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     cell when the cell has no bulk: ``phi3_star_region`` says which),
     ``phi3_star_cell`` (whole cell, normalizes the body force), ``static_stress``, the solver used,
     and with ``local`` the ratios ``C22_body_n1_ratio`` ... (3D: ``C33_...``, ``C55_...``);
+    the bulk slab's ``slab`` ([lo, hi], d; None when thinner than 1 d), ``C22_slab``,
+    ``C33_slab`` (3D ``C33_slab``, ``C44_slab``, ``C55_slab``) with ``*_slab_strain_factor``
+    (slab strain / imposed strain) and ``*_slab_fit_err`` (relative standard error of the
+    slab's slope), ``phi3_star_slab``, ``c_l_slab``, ``c_t_slab``, ``n_slab_grains``;
     ``n_spins_removed`` (3D free spins left out of the dofs) and the unbalanced load
     fractions ``global_unbalanced`` (and with ``local`` ``body_force_unbalanced``,
     ``lines_unbalanced``).
@@ -720,6 +857,7 @@ def moduli(packing: Packing, *, local: bool = False, prestress: bool = False,
     out["phi3_star"] = phi
     out["phi3_star_region"] = region
     out["phi3_star_cell"] = cell.phi3_star
+    out.update(_slab_outputs(cell, C, layer, amplitude=amplitude, grip=grip))
     out["voigt"] = C
     out["static_stress"] = static_stress(cell)
     out["prestress"] = bool(prestress)

@@ -150,13 +150,19 @@ def cutoff_sentence(att: Mapping) -> str:
     return f"First lateral shear cutoff 2π c_t/W = {fmt(cut, digits=3)} √(E*/ρ)/d̄: {where}."
 
 
+#: The report's words for the c_ℓ an analysis used (``c_l_kind`` of `analyze continuum`).
+C_L_KINDS = {"slab": "c_ℓ and c_t of the bulk slab (its moduli over its own density)",
+             "cell": "c_ℓ and c_t of the whole cell (its moduli over the bulk density)"}
+
+
 def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
     """Markdown lines of the continuum section (one subsection per scene)."""
     if not scenes:
         return []
     md = ["## Continuum: the front against distance and its approach to c_ℓ", "",
           "Columns of several heights L (source–detector distance, d̄); time-domain signals; c_ℓ "
-          "and c_t from each packing's own global moduli. Local speeds are dL/dt between "
+          "and c_t from each packing's own moduli (which ones: each scene's line below). "
+          "Local speeds are dL/dt between "
           "consecutive heights (group means), at the geometric mean height; the apparent speed is "
           "L/t of each packing. Error bars: one standard error over packings (docs/continuum.md).",
           ""]
@@ -166,12 +172,12 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
         if front:
             cl, ct = front.get("c_l", {}), front.get("c_t", {})
             md += [f"- pressure {front.get('pressure')}, {front['n_signals']} packings at "
-                   f"{front['n_heights']} heights; c_ℓ = {fmt(cl.get('mean'), cl.get('sem'))}, "
+                   f"{front['n_heights']} heights; {C_L_KINDS.get(front.get('c_l_kind'), 'c_ℓ')}: "
+                   f"c_ℓ = {fmt(cl.get('mean'), cl.get('sem'))}, "
                    f"c_t = {fmt(ct.get('mean'), ct.get('sem'))} √(E*/ρ) (mean ± s.e. over all packings)"]
             bulk = front.get("c_l_bulk") or {}
             if bulk.get("c_l_inf") is not None and math.isfinite(float(bulk["c_l_inf"])):
-                md[-1] += (f"; the packings' c_ℓ rises with L as the walls' share falls: "
-                           f"1/c_ℓ² = 1/c_ℓ∞² + b/L over the packings gives the bulk "
+                md[-1] += (f"; 1/c_ℓ² = 1/c_ℓ∞² + b/L over the packings gives "
                            f"c_ℓ∞ = {fmt(bulk['c_l_inf'], bulk.get('c_l_inf_err'))} (b = {fmt(bulk.get('b'), digits=3)})")
             md.append("")
             per = front["per_height"]
