@@ -229,7 +229,14 @@ def _attr_number(path, attrs: dict, key: str, *, lo: float | None = None, lo_ope
 
 
 def material_attrs(path, attrs: dict) -> None:
-    """pressure >= 0, friction >= 0, Poisson ratio in [0, 0.5), height > 0 (where present)."""
+    """pressure >= 0, friction >= 0, Poisson ratio in [0, 0.5), height > 0, a known contact law
+    (absent: Hertz) and harmonic_stiffness > 0 (where present)."""
+    from ..params import CONTACT_LAWS
+
+    law = attrs.get("contact_law", CONTACT_LAWS[0])
+    if law not in CONTACT_LAWS:
+        _fail(path, "", f"root attribute contact_law must be one of {', '.join(CONTACT_LAWS)}, found {law!r}")
+    _attr_number(path, attrs, "harmonic_stiffness", lo=0.0, lo_open=True)
     _attr_number(path, attrs, "pressure", lo=0.0)
     _attr_number(path, attrs, "friction", lo=0.0)
     _attr_number(path, attrs, "poisson", lo=POISSON_MIN, hi=POISSON_MAX, hi_open=True)
