@@ -229,18 +229,23 @@ def _attr_number(path, attrs: dict, key: str, *, lo: float | None = None, lo_ope
 
 
 def material_attrs(path, attrs: dict) -> None:
-    """pressure >= 0, friction >= 0, Poisson ratio in [0, 0.5), height > 0, a known contact law
-    (absent: Hertz) and harmonic_stiffness > 0 (where present)."""
+    """pressure >= 0, friction >= 0, Poisson ratio in [0, 0.5), height > 0 (where present)."""
+    _attr_number(path, attrs, "pressure", lo=0.0)
+    _attr_number(path, attrs, "friction", lo=0.0)
+    _attr_number(path, attrs, "poisson", lo=POISSON_MIN, hi=POISSON_MAX, hi_open=True)
+    _attr_number(path, attrs, "height", lo=0.0, lo_open=True)
+
+
+def contact_law_attrs(path, attrs: dict) -> None:
+    """A packing's normal contact law is a known one (absent: Hertz), harmonic_stiffness > 0
+    where present (granwave.contact_models). Signal files use ``contact_law`` for a description
+    of the DEM pulse's law, so only packings are checked."""
     from ..params import CONTACT_LAWS
 
     law = attrs.get("contact_law", CONTACT_LAWS[0])
     if law not in CONTACT_LAWS:
         _fail(path, "", f"root attribute contact_law must be one of {', '.join(CONTACT_LAWS)}, found {law!r}")
     _attr_number(path, attrs, "harmonic_stiffness", lo=0.0, lo_open=True)
-    _attr_number(path, attrs, "pressure", lo=0.0)
-    _attr_number(path, attrs, "friction", lo=0.0)
-    _attr_number(path, attrs, "poisson", lo=POISSON_MIN, hi=POISSON_MAX, hi_open=True)
-    _attr_number(path, attrs, "height", lo=0.0, lo_open=True)
 
 
 def _nearest_image(x: np.ndarray, box: np.ndarray, dim: int) -> np.ndarray:
@@ -265,6 +270,7 @@ def packing(path, a: dict, attrs: dict) -> None:
     """
     _finite(path, a)
     material_attrs(path, attrs)
+    contact_law_attrs(path, attrs)
     pos, radius = a["grains/position"], a["grains/radius"]
     box = a["box/size"]
     n, dim = pos.shape
