@@ -8,7 +8,8 @@ jamming (z_iso = 2 d = 4 in 2D, frictionless). This prepares 2D frictionless pac
 pressures p (in units of k_n / d, so p is also the typical overlap) with several seeds,
 measures the bulk coordination without rattlers (granwave.analysis.statics, walls' layer
 of 2 d left out, rattlers: fewer than d + 1 = 3 contacts) and the global moduli (granwave.linear.moduli, no prestress terms:
-they are O(p / k_n) here), K = (C11 + C22 + 2 C12) / 4 and G = C33, and fits the
+they are O(p / k_n) here), K = (C11 + C22 + 2 C12) / 4, G = C33 and the other shear modulus
+G' = (C11 + C22 - 2 C12) / 4 (the packing, compressed by the piston, is not isotropic), and fits the
 exponents of z - 4 and G/K against p by least squares on the logs of all packings,
 with the slope's standard error (packings with z < 4 left out of the first), and also
 z = z_c + A p^b with z_c free (all packings). Appends one record to
@@ -71,10 +72,11 @@ def measure(pressure: float, seed: int, grains: int) -> dict:
     m = moduli(pk)
     bulk = 0.25 * (m["C11"] + m["C22"] + 2.0 * m["C12"])
     shear = m["C33"]
+    pure = 0.25 * (m["C11"] + m["C22"] - 2.0 * m["C12"])  # the other shear (pure shear at 45 degrees)
     return dict(pressure=pressure, seed=seed, grains=grains, steps=int(pk.attrs["steps"]),
                 z_star=float(st["z_star"]), excess_z=float(st["z_star"]) - Z_ISO,
                 rattler_fraction=float(st["rattler_fraction"]), K=float(bulk), G=float(shear),
-                G_over_K=float(shear / bulk), cpu_s=round(time.process_time() - t, 2))
+                G_over_K=float(shear / bulk), G_pure_over_K=float(pure / bulk), cpu_s=round(time.process_time() - t, 2))
 
 
 def main():
@@ -92,13 +94,15 @@ def main():
             r = measure(p, seed, args.grains)
             rows.append(r)
             print(json.dumps(r), flush=True)
-    ok = [r for r in rows if r["excess_z"] > 0 and r["G_over_K"] > 0]
+    ok = [r for r in rows if r["excess_z"] > 0 and r["G_over_K"] > 0 and r["G_pure_over_K"] > 0]
     bz, ez, _ = fit_power([r["pressure"] for r in ok], [r["excess_z"] for r in ok])
     bg, eg, _ = fit_power([r["pressure"] for r in ok], [r["G_over_K"] for r in ok])
+    bp, ep, _ = fit_power([r["pressure"] for r in ok], [r["G_pure_over_K"] for r in ok])
     bc, ec, zc, ezc = fit_offset_power([r["pressure"] for r in rows], [r["z_star"] for r in rows])
     summary = {"exponent of z - 4": f"{bz:.3f} ± {ez:.3f}",
                "exponent of z - z_c (z_c fitted)": f"{bc:.3f} ± {ec:.3f}", "z_c": f"{zc:.3f} ± {ezc:.3f}",
-               "exponent of G/K": f"{bg:.3f} ± {eg:.3f}", "expected (O'Hern 2003)": 0.5,
+               "exponent of G/K": f"{bg:.3f} ± {eg:.3f}",
+               "exponent of G'/K (G' = (C11 + C22 - 2 C12) / 4)": f"{bp:.3f} ± {ep:.3f}", "expected (O'Hern 2003)": 0.5,
                "packings used": f"{len(ok)} of {len(rows)}"}
     print(json.dumps(summary))
     if not args.no_record:
