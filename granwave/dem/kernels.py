@@ -117,15 +117,16 @@ def add_torque(torque, k, arm, n, f):
 @numba.njit(cache=True, inline="always")
 def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt,
                    zeta, mu, rescale, law):
-    """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, docs/method.md §2); returns it and
-    the elastic normal force. The single per-contact routine (scalar form).
+    """Force (fx, fy, fz) on i from one contact (the normal law of ``law``, Mindlin-type tangential
+    spring with Coulomb friction, damping; docs/method.md §2); returns it and the elastic normal
+    force. The single per-contact routine (scalar form).
 
     Three components always (2D: the third is 0, and adding zeros leaves the 2D
     arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
     (vx, vy, vz) the contact-point velocity of j relative to i, (hx, hy, hz) the
     tangential history F_t, ``overlap_old`` the overlap when it was last updated, ``root_r12``
     sqrt(R12) (kept per pair by the engines: a square root less per contact and step).
-    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
+    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: the law's F_n plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
     the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
     the new tangent plane (contact.project_tangential), then contact.update_tangential
     with slip = tangential velocity * dt and its unloading rescale when ``rescale``
