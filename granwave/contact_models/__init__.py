@@ -4,8 +4,9 @@ Each law is one small module (:mod:`.hertz`, :mod:`.harmonic`) declaring its nam
 code, parameters and five scalar ``numba`` formulas of one signature each:
 ``force`` and ``stiffness`` (overlap, sqrt(R12), E*12, k), ``energy`` (overlap, R12, E*12, k),
 ``tangential_stiffness`` (overlap, R12, G*12, k) and ``unloading_scale`` (old, new overlap),
-plus ``overlap_at_force`` in Python. It is registered by one line in :data:`NORMAL_LAWS` and
-one branch in each ``law_*`` dispatcher below.
+plus ``overlap_at_force`` in Python and the constants ``IMPACT_WORK``, ``STEP_CONTACTS`` and
+``LAMMPS_NORMAL``. It is registered by one line in :data:`NORMAL_LAWS`, its name in
+``granwave.params.CONTACT_LAWS`` and one branch in each ``law_*`` dispatcher below.
 
 The engines carry the selected law as a :class:`ContactModel` named tuple (the law's code
 and its stiffness k), built from the engine's parameters, and call the ``law_*``
