@@ -25,6 +25,10 @@ from dataclasses import MISSING, dataclass
 
 from .errors import InputError
 
+#: Names of the normal contact laws (granwave.contact_models registers one module per name; kept
+#: here, in plain Python, for the options and the file readers that do not load the kernels).
+CONTACT_LAWS = ("hertz", "harmonic")
+
 #: Thickness l (d) of the layers next to the bottom wall and the piston left out of bulk
 #: measurements (docs/method.md §4); statics and moduli use the same slab.
 BULK_LAYER = 3.0
@@ -195,7 +199,9 @@ class PrepareParams(Params):
     """Preparation of a disordered packing by piston compression of a granular gas (docs/method.md §3).
 
     dim 2 or 3; grains N; pressure p (piston force / (L1 x 1 d) in 2D, / (L1 L2)
-    in 3D, in E*); friction mu; poisson nu; polydispersity W; aspect (final
+    in 3D, in E*); friction mu; poisson nu; contact_law ('hertz' or 'harmonic',
+    granwave.contact_models) and harmonic_stiffness (k_n of a grain pair, E* d, harmonic only);
+    polydispersity W; aspect (final
     height / width); damping zeta (fraction of critical); background_damping b,
     the viscous rate gamma = b / t_i with t_i = sqrt(m_mean / (p d)) (force
     -gamma m v on grains and piston; it sets the compaction speed, hence density
@@ -230,6 +236,11 @@ class PrepareParams(Params):
     pressure: float = _pressure(1e-4, "Piston pressure p (2D: force / (L1 x 1 d); 3D: force / (L1 L2))")
     friction: float = _friction(0.5)
     poisson: float = _poisson()
+    contact_law: str = param("hertz", help="Normal contact law: 'hertz' (F_n ~ n^(3/2), Mindlin k_t) or "
+                             "'harmonic' (linear spring F_n = k_n n, constant k_t = eta k_n; "
+                             "docs/method.md).", choices=CONTACT_LAWS)
+    harmonic_stiffness: float = param(1.0, help="k_n of two grains under --contact-law harmonic "
+                                      "(a wall contact: twice it).", units="E* d", lo=0.0, lo_open=True)
     polydispersity: float = _polydispersity(0.2)
     aspect: float = param(1.0, help="Expected final height / periodic width.", lo=0.0, lo_open=True)
     damping: float = param(0.5, help="Contact damping zeta, fraction of critical (normal and "

@@ -86,12 +86,22 @@ def _check_common(pressure, friction, poisson):
 
 
 def triangular_lattice(*, rows: int, width: int, pressure: float, friction: float = 0.0,
-                       poisson: float = 0.0) -> Packing:
+                       poisson: float = 0.0, contact_law: str = "hertz",
+                       harmonic_stiffness: float = 1.0) -> Packing:
     """Perfect triangular lattice of unit balls under vertical stress ``pressure`` (module docstring).
 
     rows >= 2 rows of width >= 3 balls; pressure in E* (force per wall length
-    × one diameter); friction μ and Poisson ratio ν recorded and used for k_t.
+    × one diameter); friction μ and Poisson ratio ν recorded and used for k_t;
+    ``contact_law`` the normal law (granwave.contact_models; 'harmonic' with k_n =
+    ``harmonic_stiffness`` between two balls, E* d, and recorded in the attributes).
     """
+    from . import contact_models as CM
+
+    try:
+        law = CM.contact_model(contact_law, harmonic_stiffness)
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    module = CM.law_module(contact_law)
     if int(rows) != rows or rows < 2:
         raise InputError(f"rows must be an integer >= 2, got {rows}")
     if int(width) != width or width < 3:
@@ -105,13 +115,13 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
 
     # f = p a / sqrt(3) with a = 1 - delta(f): F_hertz(delta) - p (1 - delta)/sqrt(3) is increasing.
     def excess(delta):
-        return contact.normal_force(delta, r12_g, e12_g) - pressure * (1.0 - delta) / SQRT3
+        return CM.law_force(law, delta, math.sqrt(r12_g), e12_g) - pressure * (1.0 - delta) / SQRT3
 
     delta_g = optimize.brentq(excess, 0.0, 1.0, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200)
     a = 1.0 - delta_g
     f_g = pressure * a / SQRT3
     f_w = pressure * a  # wall force per ball: p times the wall length per ball (a) times 1 d
-    delta_w = hertz_overlap(f_w, r12_w, e12_w)
+    delta_w = module.overlap_at_force(f_w, r12_w, e12_w, law.stiffness)
     h = a * SQRT3 / 2.0
     y0 = radius - delta_w
     if not (y0 > 0.0 and a > 0.0):
@@ -151,11 +161,11 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
         overlap=np.where(wall, delta_w, delta_g),
         force_normal=np.where(wall, f_w, f_g),
         force_tangential=np.zeros((m, 2)),
-        stiffness_normal=np.where(wall, contact.normal_stiffness(delta_w, r12_w, e12_w),
-                                  contact.normal_stiffness(delta_g, r12_g, e12_g)),
+        stiffness_normal=np.where(wall, CM.law_stiffness(law, delta_w, math.sqrt(r12_w), e12_w),
+                                  CM.law_stiffness(law, delta_g, math.sqrt(r12_g), e12_g)),
         stiffness_tangential=np.where(
-            wall, contact.tangential_stiffness(delta_w, r12_w, contact.effective_shear(poisson, True)),
-            contact.tangential_stiffness(delta_g, r12_g, contact.effective_shear(poisson, False))),
+            wall, CM.law_tangential_stiffness(law, delta_w, r12_w, contact.effective_shear(poisson, True)),
+            CM.law_tangential_stiffness(law, delta_g, r12_g, contact.effective_shear(poisson, False))),
     )
     n = rows * width
     mass = grain_mass(np.full(n, radius))
@@ -165,6 +175,8 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
                  poisson=float(poisson), seed=0, converged=True, max_acceleration=residual,
                  rows=rows, width=width, spacing=a, row_spacing=h, contact_force=f_g,
                  wall_force=f_w)
+    if contact_law != CM.DEFAULT_LAW:  # files without it are Hertz (granwave.contact_models)
+        attrs.update(contact_law=contact_law, harmonic_stiffness=float(harmonic_stiffness))
     return Packing(position=position, radius=np.full(n, radius), mass=mass,
                    inertia=grain_inertia(np.full(n, radius)), box=box, contacts=contacts, attrs=attrs)
 

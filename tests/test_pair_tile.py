@@ -4,8 +4,12 @@ import numpy as np
 import pytest
 
 from granwave import contact as C
+from granwave import contact_models as CM
 from granwave.dem import kernels as K
 from granwave.dem import pair_tile as PT
+
+#: the normal law of these checks (Hertz; tests/test_harmonic.py runs them with the harmonic law)
+LAW = CM.contact_model()
 
 
 def dense_state(dim, n, seed):
@@ -44,7 +48,7 @@ def law_and_history(state, p, i, j, dt, zeta, mu, rescale, e12, g12):
     pos, vel, omega, rad, lateral, _, _, pair_c, pair_ft, pair_ov, _ = state
     touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = K._pair_law(
         pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e12, g12,
-        pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF])
+        pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF], LAW)
     if not touch:
         if pair_ov[p] != 0.0:
             pair_ov[p] = 0.0
@@ -91,8 +95,8 @@ def tiled(state, jmax, dt, zeta, mu, rescale):
     p, dmax, count, tiles = 0, 0.0, 0, 0
     while p < len(pair_i):
         p, dmax, count = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
-                                     len(pair_i), jmax, dt, zeta, mu, rescale, e12, g12, t[0], tp[0], force,
-                                     torque, dmax, count)
+                                     len(pair_i), jmax, dt, zeta, mu, rescale, e12, g12, LAW, t[0], tp[0],
+                                     force, torque, dmax, count)
         tiles += 1
     return (force, torque, pair_ft, pair_ov, dmax, count), tiles
 
@@ -176,7 +180,7 @@ def test_tiled_incoming_pairs_give_the_bits_of_the_pair_at_a_time_law(dim, zeta,
     while s < len(slots):
         s, dmax, count = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
                                               pair_ov, slots, s, len(slots), 0.01, zeta, mu, rescale, e12, g12,
-                                              t[0], tp[0], force, torque, bnd_f, dmax, count)
+                                              LAW, t[0], tp[0], force, torque, bnd_f, dmax, count)
         tiles += 1
     assert tiles >= 2 and ref[6] > PT.TILE  # more than one tile of contacts
     assert ref[6] == count and ref[5] == dmax

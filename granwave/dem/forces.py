@@ -16,6 +16,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import contact_models as CM
 from ..geometry import BOTTOM_WALL, TOP_WALL, n_rotations, nearest_image
 from ..model import Contacts, Packing
 from . import kernels as K
@@ -23,7 +24,7 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 
 @numba.njit(cache=True)
-def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, force, torque):
+def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque):
     n_grains, d = pos.shape
     r = rot.shape[1]
     e_pair = C.effective_young(False)
@@ -77,7 +78,7 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
         for a in range(d):
             ft[a] = ft_stored[c, a]
         # overlap_old = delta: no unloading rescale; mu = inf (or 0): no Coulomb cap
-        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, fvec, False)
+        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, fvec, False, law)
         for a in range(d):
             force[i, a] += fvec[a]
         if r > 0:
@@ -94,7 +95,8 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
     the grains by ``displacement`` (N, dim) and rotating them by ``rotation``
     (N, n_rot) from the stored state (docs/conventions.md).
 
-    Normal force: Hertz at the new overlap along the new normal. Tangential:
+    Normal force: the packing's normal law (attribute ``contact_law``, Hertz when absent;
+    granwave.contact_models) at the new overlap along the new normal. Tangential:
     stored F_t carried into the new tangent plane (contact.project_tangential)
     plus k_t(new overlap) times the tangential relative displacement of the
     contact point (rotation x arm included); no unloading rescale, no Coulomb
@@ -118,13 +120,14 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
                    np.ascontiguousarray(c.i, dtype=np.int64), np.ascontiguousarray(c.j, dtype=np.int64),
                    np.ascontiguousarray(c.force_tangential, dtype=float).reshape(len(c), d), disp, rot,
                    float(packing.attrs.get("poisson", 0.0)), math.inf if friction > 0.0 else 0.0,
-                   force, torque)
+                   CM.model_of_attrs(packing.attrs), force, torque)
     return force, torque
 
 
 def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wall_ft, *, friction,
-                  poisson) -> Contacts:
-    """Force-carrying contacts (overlap > 0) of a state, elastic forces only.
+                  poisson, law=None) -> Contacts:
+    """Force-carrying contacts (overlap > 0) of a state, elastic forces only, of the normal law
+    ``law`` (a :class:`granwave.contact_models.ContactModel`; None: Hertz).
 
     Pairs (sorted by i, j) first, then bottom-wall (j = -1) and top-wall (j = -2)
     contacts by grain. F_t is the history carried into the current tangent
@@ -158,6 +161,7 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
     overlap = np.concatenate(overlap)
     ft = np.array(np.concatenate(ft), dtype=float)
     m = len(ci)
+    law = CM.contact_model() if law is None else law
     fn = np.zeros(m)
     kn = np.zeros(m)
     kt = np.zeros(m)
@@ -165,10 +169,11 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
         wall = bool(cj[k] < 0)
         r12 = C.effective_radius(1.0 / radius[ci[k]], 0.0 if wall else 1.0 / radius[cj[k]])
         e12 = C.effective_young(wall)
-        fn[k] = C.normal_force(overlap[k], r12, e12)
-        kn[k] = C.normal_stiffness(overlap[k], r12, e12)
+        root = math.sqrt(r12)
+        fn[k] = CM.law_force(law, overlap[k], root, e12)
+        kn[k] = CM.law_stiffness(law, overlap[k], root, e12)
         if friction > 0.0:
-            kt[k] = C.tangential_stiffness(overlap[k], r12, C.effective_shear(poisson, wall))
+            kt[k] = CM.law_tangential_stiffness(law, overlap[k], r12, C.effective_shear(poisson, wall))
             C.project_tangential(ft[k], normal[k])
         else:
             ft[k] = 0.0
@@ -181,7 +186,8 @@ def contacts_of_engine(engine) -> Contacts:
     m = engine.n_pairs
     return contact_table(engine.position, engine.radius, engine.lateral, engine.height,
                          engine.pair_i[:m], engine.pair_j[:m], engine.pair_ft[:m], engine.wall_ft,
-                         friction=engine.friction, poisson=float(engine.fpar[K.F_POISSON]))
+                         friction=engine.friction, poisson=float(engine.fpar[K.F_POISSON]),
+                         law=K.law_of(engine.fpar))
 
 
 def static_residual(packing: Packing, piston_mass: float | None = None, piston_force: float | None = None):

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import contact_models as CM
 from .. import team
 from ..errors import InputError
 from ..geometry import grain_inertia, grain_mass, n_rotations
@@ -77,14 +78,15 @@ class Engine:
     the piston damped at gamma_m, the slabs' mean lateral flow at gamma_l (default
     ``background_damping``), the rest at ``background_damping``; ``mflow[M_GAMMA_M]`` and
     ``mflow[M_GAMMA_L]`` may be changed between runs); on the CPU only (the GPU kernels do
-    not have it).
+    not have it). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
+    ``"harmonic"``, the latter with k_n = ``harmonic_stiffness`` between two grains, E* d).
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
                  background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
                  overlap_floor=1e-3, skin=0.2, skin_min=None, velocity=None, angular_velocity=None,
                  tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale",
-                 mean_flow=None):
+                 mean_flow=None, contact_law="hertz", harmonic_stiffness=1.0):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
@@ -158,6 +160,13 @@ class Engine:
             raise InputError(f"unloading must be one of {UNLOADING_RULES}, got {unloading!r}")
         self.unloading = unloading
         self.fpar[K.F_RESCALE] = 1.0 if unloading == "rescale" else 0.0
+        try:
+            law = CM.contact_model(contact_law, harmonic_stiffness)
+        except ValueError as e:
+            raise InputError(str(e)) from None
+        self.contact_law = contact_law
+        self.fpar[K.F_LAW] = law.normal
+        self.fpar[K.F_KLAW] = law.stiffness
         self.ipar = np.zeros(K.N_IPAR, np.int64)
         self.ipar[K.I_ADAPTIVE] = dt is None
         self.ipar[K.I_CHECK] = check_every
@@ -363,11 +372,12 @@ def elastic_energy_kernel(engine: Engine) -> float:
     wall = c.j < 0
     ri = engine.radius[c.i]
     rj = np.where(wall, np.inf, engine.radius[np.maximum(c.j, 0)])
+    law = K.law_of(engine.fpar)
     e = 0.0
     for k in range(len(c)):
         r12 = C.effective_radius(1.0 / ri[k], 1.0 / rj[k])
-        e += C.normal_energy(c.overlap[k], r12, C.effective_young(bool(wall[k])))
-        kt = C.tangential_stiffness(c.overlap[k], r12, C.effective_shear(poisson, bool(wall[k])))
+        e += CM.law_energy(law, c.overlap[k], r12, C.effective_young(bool(wall[k])))
+        kt = CM.law_tangential_stiffness(law, c.overlap[k], r12, C.effective_shear(poisson, bool(wall[k])))
         if engine.friction > 0.0 and kt > 0.0:
             e += float(np.dot(c.force_tangential[k], c.force_tangential[k])) / (2.0 * kt)
     return e

@@ -31,7 +31,8 @@ overlap floor for the time step, acceleration tol, velocity tol, largest
 radius, smallest mass, last max speed, unloading rule (1: rescale F_t on
 unloading, 0: plain incremental; contact.update_tangential), piston height when the wall
 list was made (:func:`wall_list`), smallest and largest skin (an adaptive skin when they
-differ: :func:`next_skin`); ``ipar``: pairs listed, steps asked, steps done, steps between
+differ: :func:`next_skin`), the normal law's code and stiffness k (granwave.contact_models,
+:func:`law_of`); ``ipar``: pairs listed, steps asked, steps done, steps between
 checks, adaptive dt, rebuilds, sizes a rebuild needs (pairs, width), step of the last
 rebuild, whether plain steps run in a team of threads (1: yes, 0: no, -1: a team did not
 start; :func:`_team_steps`), steps run so far in teams; ``piston``: height, velocity,
@@ -46,6 +47,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import contact_models as CM
 from .. import team
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from ..geometry import fold_into_box, nearest_image, periodic_distance2
@@ -57,8 +59,8 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 # fpar indices
 F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
-    F_VMAX, F_RESCALE, F_WALLH, F_SKIN_MIN, F_SKIN_MAX = range(17)
-N_FPAR = 17
+    F_VMAX, F_RESCALE, F_WALLH, F_SKIN_MIN, F_SKIN_MAX, F_LAW, F_KLAW = range(19)
+N_FPAR = 19
 # piston indices
 P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
 N_PISTON = 6
@@ -114,27 +116,30 @@ def add_torque(torque, k, arm, n, f):
 
 @numba.njit(cache=True, inline="always")
 def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt,
-                   zeta, mu, rescale):
-    """Force (fx, fy, fz) on i from one contact (Hertz-Mindlin, docs/method.md §2); returns it and
-    the elastic normal force. The single per-contact routine (scalar form).
+                   zeta, mu, rescale, law):
+    """Force (fx, fy, fz) on i from one contact (the normal law of ``law``, Mindlin-type tangential
+    spring with Coulomb friction, damping; docs/method.md §2); returns it and the elastic normal
+    force. The single per-contact routine (scalar form).
 
     Three components always (2D: the third is 0, and adding zeros leaves the 2D
     arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
     (vx, vy, vz) the contact-point velocity of j relative to i, (hx, hy, hz) the
     tangential history F_t, ``overlap_old`` the overlap when it was last updated, ``root_r12``
     sqrt(R12) (kept per pair by the engines: a square root less per contact and step).
-    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: Hertz plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
+    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: the law's F_n plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
     the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
     the new tangent plane (contact.project_tangential), then contact.update_tangential
     with slip = tangential velocity * dt and its unloading rescale when ``rescale``
     (contact.py docstring: preparation True, pulses False); a viscous part c_t v_t is added to the force
-    (not to the history) while the contact sticks.
+    (not to the history) while the contact sticks. ``law``: the contact model
+    (:class:`granwave.contact_models.ContactModel`) whose normal law gives F_n, k_n, k_t and
+    the unloading factor.
     """
-    fel = C.normal_force_root(delta, root_r12, e12)
+    fel = CM.law_force(law, delta, root_r12, e12)
     vn = vx * nx + vy * ny + vz * nz
     fn = fel
     if zeta > 0.0:
-        kn = C.normal_stiffness_root(delta, root_r12, e12)
+        kn = CM.law_stiffness(law, delta, root_r12, e12)
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
     if mu > 0.0:
@@ -143,9 +148,14 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
         tz = vz - vn * nz
         # Scalar forms of the law (contact.py): the history stays in registers.
         gx, gy, gz = C.project_tangential3(hx, hy, hz, nx, ny, nz)
-        kt = C.tangential_stiffness(delta, r12, g12)
-        gx, gy, gz, slid = C.update_tangential3(gx, gy, gz, tx * dt, ty * dt, tz * dt,
-                                                overlap_old, delta, kt, fel, mu, rescale)
+        kt = CM.law_tangential_stiffness(law, delta, r12, g12)
+        # contact.update_tangential3's steps, with the law's unloading factor
+        if C.unloads(overlap_old, delta, rescale):
+            scale = CM.law_unloading_scale(law, overlap_old, delta)
+            gx *= scale
+            gy *= scale
+            gz *= scale
+        gx, gy, gz, slid = C.increment_and_cap3(gx, gy, gz, tx * dt, ty * dt, tz * dt, kt, fel, mu)
         ct = 0.0
         if zeta > 0.0 and not slid:
             ct = C.damping_coefficient(zeta, meff, kt)
@@ -156,7 +166,7 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
 
 @numba.njit(cache=True)
 def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, fvec,
-                  rescale=True):
+                  rescale=True, law=CM.ContactModel(CM.HERTZ, 0.0)):
     """Array form of :func:`contact_force3` (tests, frozen-history forces).
 
     ``n``, ``vrel``, ``ft``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
@@ -167,7 +177,7 @@ def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta
     fx, fy, fz, fel, hx, hy, hz = contact_force3(
         n[0], n[1], n[2] if three else 0.0, delta, r12, math.sqrt(r12), e12, g12, meff,
         vrel[0], vrel[1], vrel[2] if three else 0.0, ft[0], ft[1], ft[2] if three else 0.0,
-        overlap_old, dt, zeta, mu, rescale)
+        overlap_old, dt, zeta, mu, rescale, law)
     ft[0] = hx
     ft[1] = hy
     if three:
@@ -353,7 +363,7 @@ def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
 
 @numba.njit(cache=True, inline="always")
 def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wall, g_wall, dt, zeta,
-                 mu, rescale):
+                 mu, rescale, law):
     """Grain i against wall k (0 bottom: normal -e_z at 0; 1 top: +e_z at h, moving at vp):
     the pair law (:func:`contact_force3`) on the wall's own history slots (``wall_ft``,
     ``wall_ov``, updated here) with R12 = R_i, the wall moduli and the grain's mass.
@@ -397,7 +407,8 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
         if d == 3:
             hz = wall_ft[w, 2]
     fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, math.sqrt(R), e_wall, g_wall, mass[i],
-                                                 vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale)
+                                                 vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale,
+                                                 law)
     if mu > 0.0:
         wall_ft[w, 0] = hx
         wall_ft[w, 1] = hy
@@ -618,6 +629,13 @@ def boundary_fraction(ws, n_pairs: int) -> float:
 
 
 @numba.njit(cache=True, inline="always")
+def law_of(fpar):
+    """The contact model (:class:`granwave.contact_models.ContactModel`) of the engine's
+    parameters: the normal law's code ``fpar[F_LAW]`` and its stiffness ``fpar[F_KLAW]``."""
+    return CM.ContactModel(int(fpar[F_LAW]), fpar[F_KLAW])
+
+
+@numba.njit(cache=True, inline="always")
 def pair_constants3(inv_rad_i, inv_rad_j, mass_i, mass_j):
     """(R12, sqrt(R12), m_eff) of two grains from their 1/R and masses: what the contact law
     needs of a pair that does not change while it is listed."""
@@ -646,7 +664,7 @@ def pair_constants(pair_i, pair_j, npairs, rad, mass, pair_c):
 
 @numba.njit(cache=True, inline="always")
 def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e_pair, g_pair,
-              r12, root_r12, meff):
+              r12, root_r12, meff, law):
     """Pair p = (i, j) with constants R12, sqrt(R12), m_eff (:func:`pair_constants3`):
     (touching, delta, a_i, a_j, n, force on i, new tangential history), with the arithmetic
     of the one-thread loop (dem/serial.py) so that the bits are its own. Reads the history,
@@ -675,7 +693,7 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
             hz = pair_ft[p, 2]
     fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, root_r12, e_pair, g_pair, meff,
                                                  vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
-                                                 mu, rescale)
+                                                 mu, rescale, law)
     return True, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz
 
 
@@ -723,6 +741,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     rescale = fpar[F_RESCALE] != 0.0
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar[F_POISSON], False)
+    law = law_of(fpar)
     dmax = 0.0
     ncontact = 0
     # the block's slots are in the order of its grains g and then of k (incoming_lists): one
@@ -733,7 +752,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     while s < slot_start[b + 1]:
         s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
                                                  pair_ov, slot_pair, s, slot_start[b + 1], dt, zeta, mu, rescale,
-                                                 e_pair, g_pair, t, tp, acc, alpha, bnd_f, dmax, ncontact)
+                                                 e_pair, g_pair, law, t, tp, acc, alpha, bnd_f, dmax, ncontact)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
 
@@ -911,6 +930,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     g_pair = C.effective_shear(fpar[F_POISSON], False)
     e_wall = C.effective_young(True)
     g_wall = C.effective_shear(fpar[F_POISSON], True)
+    law = law_of(fpar)
     dmax = blk_g[b, G_DMAX]
     ncontact = int(blk_g[b, G_NC])
     # the block's rows a tile at a time (pair_tile: the pair law with its roots and quotients in
@@ -919,8 +939,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     p = row[b0]
     while p < row[b1]:
         p, dmax, ncontact = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov,
-                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, t, tp, acc,
-                                        alpha, dmax, ncontact)
+                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, law, t, tp,
+                                        acc, alpha, dmax, ncontact)
     # then those pairs' forces on their rows' grains, from the slots, in increasing pair index
     # (a row's are its last pairs, sorted by j). Nothing but row k adds to grain k once row k
     # is done (pairs have k < j) until the walls below, so each grain's order is the one-thread
@@ -947,7 +967,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
         for k in range(2):
             delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
                                                              i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
-                                                             rescale)
+                                                             rescale, law)
             if delta <= 0.0:
                 continue
             acc[i, 0] += fx
@@ -1185,9 +1205,11 @@ def stable_dt(fpar):
       zeta sqrt(3.5).
     A grain has several contacts, so the true limit is 0.7-1.0 of this estimate for zeta in
     [0, 1], with and without friction; hence ``safety`` <= 0.06 (params;
-    docs/decisions/0009-time-step-rule.md).
+    docs/decisions/0009-time-step-rule.md). k_n is the engine's normal law's
+    (contact_models.law_step_stiffness: a harmonic k_n, the same for every contact, counts twice,
+    for a grain's contacts acting together; eta is the same for both laws).
     """
-    k = C.normal_stiffness(fpar[F_DFLOOR], fpar[F_RMAX], C.effective_young(True))
+    k = CM.law_step_stiffness(law_of(fpar), fpar[F_DFLOOR], math.sqrt(fpar[F_RMAX]), C.effective_young(True))
     omega = math.sqrt(k / fpar[F_MMIN])
     zeta = fpar[F_ZETA]
     limit = verlet_limit(omega, zeta)

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from .. import contact as C
+from .. import contact_models as CM
 # through the module, not its names: kernels imports this module too (its parallel row pass)
 from . import kernels as K
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
@@ -78,7 +79,7 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
-             zeta, mu, rescale, e12, g12, t, tp, force, torque, dmax, ncontact):
+             zeta, mu, rescale, e12, g12, law, t, tp, force, torque, dmax, ncontact):
     """The pair law (:func:`granwave.dem.kernels.contact_force3`, the same bits) for the listed
     pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
     history untouched), until TILE of them touch; each contact's force and torque are added
@@ -104,7 +105,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             tp[nc] = p
             nc += 1
         p += 1
-    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d)
+    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, law, t, tp, nc, d)
     # forces and torques added in list order
     for c in range(nc):
         q = np.uint64(tp[c])
@@ -129,7 +130,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, slot_pair, s0, s1,
-                      dt, zeta, mu, rescale, e12, g12, t, tp, force, torque, bnd_f, dmax, ncontact):
+                      dt, zeta, mu, rescale, e12, g12, law, t, tp, force, torque, bnd_f, dmax, ncontact):
     """The pair law of :func:`law_tile` (the same bits) for a block's incoming pairs: the pairs
     ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
     contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
@@ -150,7 +151,7 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
             for a in range(d + r):
                 bnd_f[s, a] = 0.0
         s += 1
-    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d)
+    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, law, t, tp, nc, d)
     for c in range(nc):
         q = np.uint64(tp[c])
         slot = np.uint64(tp[TILE + c])
@@ -180,11 +181,13 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, t, tp, nc, d):
+def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, law, t, tp, nc, d):
     """The law's stages between the packing of ``nc`` touching pairs (their indices in
     ``tp``, geometry in the rows T_DX ... T_RS of ``t``) and the per-contact forces
     (:func:`_contact`): normals and overlaps, contact velocities, the carried history and
-    the pair's constants, then the roots and quotients of the law in vector loops."""
+    the pair's constants, then the roots and quotients of the law in vector loops. The normal
+    law (``law``, granwave.contact_models) is chosen once per tile, outside the vector loops,
+    so that each law's loop stays branch-free (Hertz's is the loop before the seam)."""
     # vector: distance, unit normal i -> j, overlap
     if d == 3:
         for c in range(nc):
@@ -238,19 +241,36 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
     # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the
     # projection's rescale (its quotient may be inf or NaN where stage 3 does not use it) and
     # the unloading's (contact.unloading_scale)
-    for c in range(nc):
-        delta = t[T_DELTA * ROW + c]
-        root = t[T_ROOT * ROW + c]
-        t[T_FEL * ROW + c] = C.normal_force_root(delta, root, e12)
-        t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], C.normal_stiffness_root(delta, root, e12))
-    if mu > 0.0:
+    if law.normal == CM.HERTZ:
         for c in range(nc):
             delta = t[T_DELTA * ROW + c]
-            kt = C.tangential_stiffness(delta, t[T_R12 * ROW + c], g12)
-            t[T_KT * ROW + c] = kt
-            t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
-            t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
-            t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
+            root = t[T_ROOT * ROW + c]
+            t[T_FEL * ROW + c] = C.normal_force_root(delta, root, e12)
+            t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
+                                                      C.normal_stiffness_root(delta, root, e12))
+        if mu > 0.0:
+            for c in range(nc):
+                delta = t[T_DELTA * ROW + c]
+                kt = C.tangential_stiffness(delta, t[T_R12 * ROW + c], g12)
+                t[T_KT * ROW + c] = kt
+                t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
+                t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
+                t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
+    else:  # any other law through the dispatchers (granwave.contact_models)
+        for c in range(nc):
+            delta = t[T_DELTA * ROW + c]
+            root = t[T_ROOT * ROW + c]
+            t[T_FEL * ROW + c] = CM.law_force(law, delta, root, e12)
+            t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
+                                                      CM.law_stiffness(law, delta, root, e12))
+        if mu > 0.0:
+            for c in range(nc):
+                delta = t[T_DELTA * ROW + c]
+                kt = CM.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12)
+                t[T_KT * ROW + c] = kt
+                t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
+                t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
+                t[T_SRES * ROW + c] = CM.law_unloading_scale(law, t[T_OVOLD * ROW + c], delta)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)

@@ -191,6 +191,9 @@ def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, sk
     """
     if packing.dim not in (2, 3):
         raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
+    law = str(packing.attrs.get("contact_law", "hertz"))
+    if law != "hertz":  # its contact-state flags (pulse_kernels.classify) assume Hertz
+        raise InputError(f"the DEM pulse supports the Hertz contact law only (the packing's is {law!r})")
     radius = np.asarray(packing.radius, float)
     engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
                     friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),

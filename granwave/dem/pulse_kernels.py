@@ -269,7 +269,7 @@ def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
         for a in range(d):
             saved[a] = wall_ft[w, a]
         out = K.wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, 1, h, vp, e_wall, g_wall,
-                             0.0, zeta, mu, rescale)
+                             0.0, zeta, mu, rescale, K.law_of(fpar))
         total -= out[5]  # the wall feels minus the force on the grain
         wall_ov[w] = ov
         for a in range(d):

@@ -27,7 +27,7 @@ from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN,
                       O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
                       W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, drift_grain, measure, needs_rebuild,
                       next_skin, pair_constants, piston_acceleration, piston_half_kick, piston_kick_drift,
-                      refresh_wall_list, stable_dt_at, wall_contact)
+                      law_of, refresh_wall_list, stable_dt_at, wall_contact)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -61,6 +61,7 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     e_wall = C.effective_young(True)
     g_pair = C.effective_shear(poisson, False)
     g_wall = C.effective_shear(poisson, True)
+    law = law_of(fpar)
     h = piston[P_H]
     vp = piston[P_V]
     force[:, :] = 0.0
@@ -74,8 +75,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     p = 0
     while p < npairs:
         p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
-                                     npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, t, tp, force,
-                                     torque, dmax, ncontact)
+                                     npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, t, tp,
+                                     force, torque, dmax, ncontact)
     # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
     fpiston = 0.0
     ntop = 0
@@ -84,7 +85,7 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
         for k in range(2):
             delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
                                                              i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
-                                                             rescale)
+                                                             rescale, law)
             if delta <= 0.0:
                 continue
             force[i, 0] += fx

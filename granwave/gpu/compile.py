@@ -1,7 +1,8 @@
 """CUDA device functions made from the CPU kernels' own source: the contact law is written once.
 
 :func:`device_functions` takes the Python functions behind the ``numba.njit`` kernels of
-:mod:`granwave.contact` (the scalar Hertz-Mindlin law) and the per-contact routine
+:mod:`granwave.contact` (the scalar Hertz-Mindlin law), of :mod:`granwave.contact_models` (the
+selectable normal laws and their dispatchers) and the per-contact routine
 :func:`granwave.dem.kernels.contact_force3` (``.py_func``: the very code the CPU compiles)
 and compiles them with ``cuda.jit(device=True)``. Only their global names are rebound: inside
 the device copies, a call to another contact function (``C.normal_force`` in
@@ -16,7 +17,7 @@ from __future__ import annotations
 import functools
 import types
 
-from .. import contact, geometry
+from .. import contact, contact_models, geometry
 from ..dem import kernels as K
 from . import load_cuda
 
@@ -32,7 +33,7 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
                      "unloading_scale", "increment_and_cap3", "update_tangential3")
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
-ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_contact_velocity", "_add_torque3",
+ENGINE_FUNCTIONS = ("law_of", "contact_force3", "_pair_geometry", "_spin", "_contact_velocity", "_add_torque3",
                     "wall_contact", "piston_acceleration", "pair_constants3", "drift_grain",
                     "_pair_law")  # _pair_law last: it calls the others
 
@@ -61,6 +62,20 @@ def device_functions() -> types.ModuleType:
         setattr(ns, name, fn)
     # contact_force3 calls the law through the module alias ``C``: give it the device namespace
     names["C"] = ns
+    # the normal laws (granwave.contact_models): each law module's formulas, then the dispatchers
+    # that call them as ``hertz.force`` etc. and that the engine calls as ``CM.law_force``
+    laws = {}
+    for module, name in contact_models.DEVICE_FUNCTIONS:
+        if module is not None:
+            laws.setdefault(module.NAME, types.ModuleType(f"granwave_{module.NAME}_device"))
+            setattr(laws[module.NAME], name, cuda.jit(device=True)(_rebound(getattr(module, name).py_func, names)))
+            continue
+        names.update(laws)
+        fn = cuda.jit(device=True)(_rebound(getattr(contact_models, name).py_func, names))
+        names[name] = fn
+        setattr(ns, name, fn)
+    ns.ContactModel = contact_models.ContactModel
+    names["CM"] = ns
     for name in ("nearest_image", "fold_into_box"):
         fn = cuda.jit(device=True)(_rebound(getattr(geometry, name).py_func, names))
         names[name] = fn

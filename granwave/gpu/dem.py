@@ -58,6 +58,7 @@ pair_law = DF._pair_law
 pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
+law_of = DF.law_of
 
 #: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
 #: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
@@ -133,7 +134,7 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
     r12, root_r12, meff = pair_constants3(inv_rad[i], inv_rad[j], mass[i], mass[j])
     touching, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = pair_law(
         pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
-        effective_young(False), effective_shear(poisson, False), r12, root_r12, meff)
+        effective_young(False), effective_shear(poisson, False), r12, root_r12, meff, law_of(fpar))
     if not touching:
         if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
             pair_ov[p] = 0.0
@@ -182,6 +183,7 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
     poisson = fpar[K.F_POISSON]
     gamma = fpar[K.F_GAMMA]
     rescale = fpar[K.F_RESCALE] != 0.0
+    law = law_of(fpar)
     h = piston[K.P_H]
     vp = piston[K.P_V]
     for a in range(d):
@@ -210,7 +212,7 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
         delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i,
                                                          k, h, vp, effective_young(True),
                                                          effective_shear(poisson, True), dt, zeta, mu,
-                                                         rescale)
+                                                         rescale, law)
         if delta <= 0.0:
             continue
         acc[i, 0] += fx

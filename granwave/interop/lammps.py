@@ -15,6 +15,11 @@ Out: :func:`export_lammps` writes ``DIR/packing.data`` (``atom_style sphere``) a
   F_n / n = (2/3) k_n for Hertz, the restitution e with x(e) = zeta sqrt(6/5) gives
   granwave's c_n = 2 zeta sqrt(m_eff k_n) exactly (zeta < sqrt(5/6) = 0.913).
   Tangential damping: LAMMPS' xgammat = c_t / c_n = sqrt(k_t / k_n);
+- a harmonic packing (``contact_law`` attribute 'harmonic', granwave.contact_models.harmonic):
+  ``hooke`` (F_n = k_n n, k_n = k E*12) and ``tangential linear_history`` (constant
+  k_t = 4 G*12 k) instead; LAMMPS' coeff_restitution damping of ``hooke`` is
+  c_n = 2 x(e) sqrt(m_eff k_n), so x(e) = zeta, e = exp(-pi zeta / sqrt(1 - zeta^2))
+  (zeta < 1);
 - the bottom wall: ``fix wall/gran`` at 0 along the vertical axis (rigid: k_n and k_t
   of a wall contact, E*12 = E*, G*12 = G*);
 - the piston: a flat rigid wall that moves. LAMMPS has no force-controlled granular
@@ -49,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import contact as C
+from .. import contact_models as CM
 from ..errors import InputError
 from ..geometry import grain_mass, wall_area
 from ..io.files import atomic_text
@@ -63,36 +69,56 @@ MAX_DAMPING = math.sqrt(5.0 / 6.0)
 
 
 # ---------------------------------------------------------------- contact law
-def restitution_for_damping(zeta: float) -> float:
+def restitution_for_damping(zeta: float, law: str = "hertz") -> float:
     """The coefficient of restitution e whose LAMMPS coeff_restitution damping equals
-    granwave's c_n = 2 zeta sqrt(m_eff k_n) for a Hertz contact (module docstring)."""
-    if not 0.0 <= zeta < MAX_DAMPING:
+    granwave's c_n = 2 zeta sqrt(m_eff k_n) for a contact of the normal law ``law``
+    (module docstring: x(e) = zeta sqrt(6/5) for Hertz, zeta for harmonic)."""
+    harmonic = law == "harmonic"
+    top = 1.0 if harmonic else MAX_DAMPING
+    if not 0.0 <= zeta < top:
         raise InputError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution "
-                         f"damping (needs 0 <= zeta < {MAX_DAMPING:.4f})")
-    x = zeta * math.sqrt(6.0 / 5.0)
+                         f"damping of a {law} contact (needs 0 <= zeta < {top:.4f})")
+    x = zeta if harmonic else zeta * math.sqrt(6.0 / 5.0)
     return math.exp(-math.pi * x / math.sqrt(1.0 - x * x))
 
 
-def lammps_coefficients(friction: float, poisson: float, damping: float) -> dict:
+def lammps_coefficients(friction: float, poisson: float, damping: float, law: str = "hertz",
+                        harmonic_stiffness: float = 1.0) -> dict:
     """Coefficients of ``pair_coeff ... hertz kn e tangential mindlin_rescale kt xt mu``
-    for grain pairs and for walls, in granwave units."""
+    (``law`` 'harmonic': ``hooke kn e tangential linear_history kt xt mu``) for grain pairs
+    and for walls, in granwave units."""
     e12_pair, e12_wall = C.effective_young(False), C.effective_young(True)
     g12_pair, g12_wall = C.effective_shear(poisson, False), C.effective_shear(poisson, True)
-    return dict(kn_pair=4.0 / 3.0 * e12_pair, kn_wall=4.0 / 3.0 * e12_wall,
-                kt_pair=8.0 * g12_pair, kt_wall=8.0 * g12_wall,
-                restitution=restitution_for_damping(damping),
-                xgammat=math.sqrt(C.stiffness_ratio(poisson)), mu=friction)
+    if law == "harmonic":  # granwave.contact_models.harmonic: k_n = k E*12, k_t = 4 G*12 k
+        k = CM.law_stiffness_k(law, harmonic_stiffness)
+        stiff = dict(kn_pair=k * e12_pair, kn_wall=k * e12_wall, kt_pair=4.0 * g12_pair * k,
+                     kt_wall=4.0 * g12_wall * k)
+    elif law == "hertz":
+        stiff = dict(kn_pair=4.0 / 3.0 * e12_pair, kn_wall=4.0 / 3.0 * e12_wall,
+                     kt_pair=8.0 * g12_pair, kt_wall=8.0 * g12_wall)
+    else:
+        raise InputError(f"no LAMMPS equivalent of the contact law {law!r}")
+    return dict(stiff, restitution=restitution_for_damping(damping, law),
+                xgammat=math.sqrt(C.stiffness_ratio(poisson)), mu=friction, normal=CM.law_module(law).LAMMPS_NORMAL,
+                tangential="linear_history" if law == "harmonic" else "mindlin_rescale")
 
 
-def granular_model(friction: float, poisson: float, damping: float, *, wall: bool) -> str:
+def granular_model(friction: float, poisson: float, damping: float, *, wall: bool, law: str = "hertz",
+                   harmonic_stiffness: float = 1.0) -> str:
     """The granular model words of ``pair_coeff * *`` (grain pairs) or of ``fix wall/gran
     granular`` (``wall``): granwave's contact law in LAMMPS (module docstring)."""
-    k = lammps_coefficients(friction, poisson, damping)
+    k = lammps_coefficients(friction, poisson, damping, law, harmonic_stiffness)
     side = "wall" if wall else "pair"
-    tangential = (f"tangential mindlin_rescale {k['kt_' + side]:.17g} {k['xgammat']:.17g} {friction:.17g}"
+    tangential = (f"tangential {k['tangential']} {k['kt_' + side]:.17g} {k['xgammat']:.17g} {friction:.17g}"
                   if friction > 0 else "tangential linear_nohistory 0 0")
-    return (f"hertz {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
+    return (f"{k['normal']} {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
             "damping coeff_restitution limit_damping")
+
+
+def _law(packing: Packing) -> dict:
+    """The packing's normal law as keyword arguments of :func:`granular_model` (none recorded: Hertz)."""
+    return dict(law=str(packing.attrs.get("contact_law", "hertz")),
+                harmonic_stiffness=float(packing.attrs.get("harmonic_stiffness", 1.0)))
 
 
 # ---------------------------------------------------------------- export
@@ -148,8 +174,8 @@ def deck_text(packing: Packing, *, piston_mass: float, steps: int, damping: floa
     poisson = float(packing.attrs.get("poisson", 0.0))
     vert = "yz"[d - 2]
     load = packing.pressure * wall_area(packing.box[:-1])
-    pair_model = granular_model(mu, poisson, damping, wall=False)
-    wall_model = granular_model(mu, poisson, damping, wall=True)
+    pair_model = granular_model(mu, poisson, damping, wall=False, **_law(packing))
+    wall_model = granular_model(mu, poisson, damping, wall=True, **_law(packing))
     plane = {2: "0 ${h0} 0 0 -1 0", 3: "0 0 ${h0} 0 0 -1"}[d]
     move = {2: "NULL v_dh NULL", 3: "NULL NULL v_dh"}[d]
     force_col = d + 1  # contacts output: column 1 a contact flag, then fx fy fz (force on the grain)
@@ -238,7 +264,9 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     piston_mass = float(pm) if isinstance(pm, (int, float)) and math.isfinite(pm) and pm > 0 else \
         float(packing.mass.mean()) * float(np.prod(packing.box[:-1]))
     margin = 2.0 * float(packing.radius.max())
-    coefficients = lammps_coefficients(packing.friction, float(attrs.get("poisson", 0.0)), zeta)
+    law = _law(packing)
+    coefficients = lammps_coefficients(packing.friction, float(attrs.get("poisson", 0.0)), zeta, law["law"],
+                                       law["harmonic_stiffness"])
     data = data_text(packing, piston_mass=piston_mass, margin=margin)
     deck = deck_text(packing, piston_mass=piston_mass, steps=int(steps), damping=zeta,
                      background_damping_rate=gamma, dt=_dt(packing), margin=margin)

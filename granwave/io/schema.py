@@ -373,7 +373,8 @@ ATTR_TYPES: dict[str, str] = {
         "amplitude", "safety", "omega_max", "omega2_max", "omega_max_band", "nyquist_ratio",
         "zero_mode_threshold", "max_displacement", "height_mean", "height_std", "piston_mass",
         "background_damping_rate", "modified_energy_max_rel_deviation", "asymmetry",
-        "contact_force", "wall_force", "spacing", "row_spacing", "polydispersity", "stiffness"),
+        "contact_force", "wall_force", "spacing", "row_spacing", "polydispersity", "stiffness",
+        "harmonic_stiffness"),
         "number"),
     **dict.fromkeys((
         "dim", "seed", "n_zero_modes", "n_negative_modes", "expected_zero_modes", "n_rotations",
@@ -385,7 +386,8 @@ ATTR_TYPES: dict[str, str] = {
         "n_zero_modes_exact", "psd_check_converged", "modal_truncated"), "bool"),
     **dict.fromkeys((
         "schema", "schema_version", "kind", "ic", "method", "linear_source", "modes_source",
-        "source_file", "packing_source", "device", "linear_digest", "packing_digest"), "str"),
+        "source_file", "packing_source", "device", "linear_digest", "packing_digest",
+        "contact_law"), "str"),
     "spin_removed_grains": "int[]",
 }
 

@@ -236,6 +236,18 @@ def material_attrs(path, attrs: dict) -> None:
     _attr_number(path, attrs, "height", lo=0.0, lo_open=True)
 
 
+def contact_law_attrs(path, attrs: dict) -> None:
+    """A packing's normal contact law is a known one (absent: Hertz), harmonic_stiffness > 0
+    where present (granwave.contact_models). Signal files use ``contact_law`` for a description
+    of the DEM pulse's law, so only packings are checked."""
+    from ..params import CONTACT_LAWS
+
+    law = attrs.get("contact_law", CONTACT_LAWS[0])
+    if law not in CONTACT_LAWS:
+        _fail(path, "", f"root attribute contact_law must be one of {', '.join(CONTACT_LAWS)}, found {law!r}")
+    _attr_number(path, attrs, "harmonic_stiffness", lo=0.0, lo_open=True)
+
+
 def _nearest_image(x: np.ndarray, box: np.ndarray, dim: int) -> np.ndarray:
     """Fold every lateral (periodic) component of the separation vectors x (M, dim)."""
     x = np.array(x, copy=True)
@@ -258,6 +270,7 @@ def packing(path, a: dict, attrs: dict) -> None:
     """
     _finite(path, a)
     material_attrs(path, attrs)
+    contact_law_attrs(path, attrs)
     pos, radius = a["grains/position"], a["grains/radius"]
     box = a["box/size"]
     n, dim = pos.shape

@@ -108,6 +108,7 @@ SHIFT_INVERT_MAX_DOF = 200_000
 PROGRESS_SECONDS = 5.0
 
 _COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains",
+                 "contact_law", "harmonic_stiffness",  # the normal law (granwave.contact_models)
                  "packing_digest")  # the identity of the packing (granwave.io.files.packing_digest)
 
 
