@@ -291,14 +291,6 @@ def test_hertz_lattice_records_no_law():
     assert CM.model_of_attrs(lat.attrs) == CM.contact_model("hertz")
 
 
-def test_dem_pulse_refuses_a_harmonic_packing(harmonic_packing):
-    from granwave.dem.pulse import engine_from_packing
-    from granwave.errors import InputError
-
-    with pytest.raises(InputError, match="Hertz contact law only"):
-        engine_from_packing(harmonic_packing, dt=1e-3)
-
-
 def test_lammps_hooke_equals_granwave_harmonic_law():
     """tests/test_interop.py's check of the exported model words, for the harmonic law: two grains
     (and one on a wall) moved by fix move in LAMMPS with ``hooke`` / ``linear_history``; the
@@ -395,3 +387,120 @@ def test_harmonic_packing_same_bytes_serial_passes_and_threads(dim, monkeypatch)
             assert two.attrs["steps"] == one.attrs["steps"] and state(two) == state(one)
     finally:
         numba.set_num_threads(keep)
+
+
+# ================================================================ the nonlinear DEM pulse (granwave.dem.pulse)
+# The pulse runs the packing's law through the seam (Engine(contact_law=...), kernels.law_of):
+# - at vanishing amplitude and zero damping it is the linear model of the same packing
+#   (linearize(prestress=True), its time domain), normal and shear kick, within 1 % of the peak,
+#   as tests/test_shear.py::test_dem_shear_equals_linear for Hertz;
+# - on the harmonic triangular lattice it is the exact 1D row chain (K_row above);
+# - the contact flags' Coulomb cone is the law's normal force; CLI files record the law.
+PULSE_T_MAX, PULSE_SAMPLES = 150.0, 301
+
+
+@pytest.mark.parametrize("kind", ["normal", "shear"])
+def test_dem_pulse_equals_linear_signal(harmonic_packing, kind):
+    """EPS = 1e-4, zeta = 0: the DEM signal of the harmonic packing = the time-domain signal of
+    linearize(prestress=True) within 1 % of its peak over the whole record (dt_safety 0.0025: the
+    Verlet floor, measured 0.04 % normal, 0.3 % shear); no contact opens, forms or slides. The same
+    stored state read as Hertz (the law's attribute removed) is far from it: the law is the packing's."""
+    from granwave.dem import pulse as P
+    from granwave.linear.propagate import time_domain_signal
+
+    p = harmonic_packing
+    run = dict(ic="A", amplitude=1e-4, t_max=PULSE_T_MAX, samples=PULSE_SAMPLES, dt_safety=0.0025,
+               source_kind=kind)
+    sig = P.propagate_dem(p, **run)
+    ref = time_domain_signal(linearize(p, prestress=True, check=False).for_source(kind), ic="A",
+                             t_max=PULSE_T_MAX, samples=PULSE_SAMPLES, safety=0.005)
+    peak = np.abs(ref.force).max()
+    assert peak > 0 and np.argmax(np.abs(ref.force)) > PULSE_SAMPLES // 10  # the pulse crossed
+    err = np.abs(sig.force - ref.force).max() / peak
+    assert err < 1e-2, err
+    a = sig.attrs
+    assert a["n_opened"] == a["n_formed"] == a["n_sliding"] == 0
+    assert a["contact_law"].startswith("harmonic") and a["harmonic_stiffness"] == 0.02
+    as_hertz = dataclasses.replace(p, attrs={k: v for k, v in p.attrs.items()
+                                             if k not in ("contact_law", "harmonic_stiffness")})
+    other = P.propagate_dem(as_hertz, **run)
+    assert other.attrs["contact_law"].startswith("Hertz") and "harmonic_stiffness" not in other.attrs
+    assert np.abs(other.force - ref.force).max() / peak > 0.1
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.5])
+def test_dem_pulse_of_the_lattice_is_the_row_chain(friction):
+    """The harmonic triangular lattice kicked at its bottom wall (IC A: every bottom ball at
+    v = s k_w / m, k_w = 2 k_n) is, at EPS = 1e-4 and zeta = 0, the exact row chain with the
+    prestress terms (K_row, walls k_w): F(t) = k_w W sum_k phi_k(top) phi_k(bottom) (k_w/m)
+    sin(w_k t) / w_k over the chain's modes, within 0.5 % of its peak over three crossings
+    (measured 0.05 % frictionless, 0.04 % frictional; 4 times more at twice the step: Verlet's dt^2)."""
+    from granwave.dem import pulse as P
+
+    rows, width, p, kn, nu = 10, 4, 1e-3, 0.05, 0.2
+    lat = systems.triangular_lattice(rows=rows, width=width, pressure=p, friction=friction, poisson=nu,
+                                     contact_law="harmonic", harmonic_stiffness=kn)
+    kt = C.stiffness_ratio(nu) * kn if friction else 0.0
+    k_row, k_wall = row_stiffness(kn, kt, p, True), 2.0 * kn
+    chain = (np.diag(np.full(rows, 2 * k_row)) - np.diag(np.full(rows - 1, k_row), 1)
+             - np.diag(np.full(rows - 1, k_row), -1))
+    chain[0, 0] = chain[-1, -1] = k_row + k_wall
+    w2, phi = np.linalg.eigh(chain / MASS)
+    w = np.sqrt(w2)
+    speed = harmonic_lattice_speed(kn, kt, p, True, lat.attrs["spacing"])
+    t_max = 3.0 * rows * math.sqrt(3) / 2 * lat.attrs["spacing"] / speed
+    sig = P.propagate_dem(lat, ic="A", amplitude=1e-4, t_max=t_max, samples=301, dt_safety=0.0025)
+    ref = np.sin(np.outer(sig.time, w)) @ (width * k_wall * phi[-1] * phi[0] * (k_wall / MASS) / w)
+    err = np.abs(sig.force - ref).max() / np.abs(ref).max()
+    assert err < 5e-3, err
+    assert sig.attrs["n_opened"] == sig.attrs["n_formed"] == sig.attrs["n_sliding"] == 0
+
+
+def test_contact_flags_cone_is_the_laws(harmonic_packing):
+    """pulse_kernels.classify puts a contact on the Coulomb cone when |F_t| reaches mu F_n of the
+    engine's law: F_t = mu k_n n (harmonic) is on it, 1e-6 less is not, for a grain pair and a
+    wall contact; Hertz's F_n at the same overlap differs by far more than that."""
+    from granwave.dem import kernels as K
+    from granwave.dem import pulse as P
+    from granwave.dem import pulse_kernels as PK
+
+    p = harmonic_packing
+    eng = P.engine_from_packing(p, dt=1e-2)
+    law = K.law_of(eng.fpar)
+    assert law == CM.contact_model("harmonic", 0.02)
+    mu = eng.friction
+    q = int(np.flatnonzero(eng.pair_ov[: eng.n_pairs] > 0)[0])
+    w = int(np.flatnonzero(eng.wall_ov > 0)[0])
+    i, j = eng.pair_i[q], eng.pair_j[q]
+    r12 = 1.0 / (1.0 / eng.radius[i] + 1.0 / eng.radius[j])
+    f_pair = 0.02 * eng.pair_ov[q]  # k_n = harmonic_stiffness between two grains
+    f_wall = 0.04 * eng.wall_ov[w]  # twice that at a wall
+    assert abs(C.normal_force(eng.pair_ov[q], r12, 0.5) / f_pair - 1) > 1e-3
+    for factor, on in ((1.0, True), (1.0 - 1e-6, False)):
+        eng.pair_ft[:] = 0.0
+        eng.wall_ft[:] = 0.0
+        eng.pair_ft[q, 0] = mu * f_pair * factor
+        eng.wall_ft[w, 0] = mu * f_wall * factor
+        ps = np.zeros(eng.pair_i.shape[0], np.int8)
+        ws = np.zeros(eng.wall_ov.shape[0], np.int8)
+        PK.classify(eng.radius, eng.pair_i, eng.pair_j, eng.n_pairs, eng.pair_ft, eng.pair_ov, eng.wall_ft,
+                    eng.wall_ov, mu, ps, ws, True, law)
+        assert bool(ps[q] & PK.CONE0) == on and bool(ws[w] & PK.CONE0) == on
+        assert np.count_nonzero(ps & PK.CONE0) + np.count_nonzero(ws & PK.CONE0) == 2 * on
+
+
+def test_cli_dem_pulse_of_a_harmonic_packing_records_the_law(tmp_path, harmonic_packing):
+    pk = tmp_path / "pk.h5"
+    files.write_packing(pk, harmonic_packing)
+    out = tmp_path / "sig.h5"
+    r = invoke("propagate", pk, "--method", "dem", "--t-max", 20, "--samples", 41, "-o", out)
+    assert r.exit_code == 0, r.output
+    sig = files.read_signal(out)
+    assert sig.attrs["method"] == "dem" and sig.attrs["contact_law"].startswith("harmonic")
+    assert sig.attrs["harmonic_stiffness"] == 0.02
+    # the GPU pulse's contact flags (granwave.gpu.pulse) are Hertz's: refused before any device work
+    from granwave.dem import pulse as P
+    from granwave.errors import InputError
+
+    with pytest.raises(InputError, match="harmonic packing runs on the CPU only"):
+        P.propagate_dem(harmonic_packing, t_max=20.0, samples=41, device="gpu")

@@ -1,8 +1,9 @@
 """Nonlinear pulse propagation with contact damping in the DEM engine (docs/method.md §8, §11).
 
 The stored packing is kicked at the bottom wall and integrated with the full
-Hertz–Mindlin law (:mod:`granwave.contact`, through the engine's own kernels):
-the signal is the extra force on the fixed top wall. At zero damping and
+nonlinear contact law of the packing (its ``contact_law`` attribute, Hertz–Mindlin
+when absent, or harmonic: :mod:`granwave.contact_models`, through the engine's own
+kernels): the signal is the extra force on the fixed top wall. At zero damping and
 small amplitude it must equal the linear signal (``granwave.linear``) of the
 same packing; docs/damping.md records the agreement measured.
 
@@ -68,6 +69,7 @@ from ..model import Packing, Signal
 from ..resources import check_propagate, check_run_time, predicted_seconds
 from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
+from .. import contact_models as CM
 from . import kernels as K
 from . import pulse_kernels as PK
 from .integrator import Engine, one_thread
@@ -91,6 +93,15 @@ AMPLITUDE_DEFINITION = {
     "B": "s = EPS * mean_overlap / max_i (k_wall_i / <k_wall>): the largest imposed "
          "displacement is EPS mean overlaps",
 }
+
+#: The signal's ``contact_law`` attribute: a description of the law the pulse ran, by law name.
+LAW_DESCRIPTION = {
+    "hertz": "Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history from the packing",
+    "harmonic": "harmonic: F_n = k_n n, k_n = harmonic_stiffness between two grains (twice that at a "
+                "wall), constant k_t = eta k_n, with Coulomb friction (granwave.contact_models.harmonic), "
+                "tangential history from the packing",
+}
+assert tuple(LAW_DESCRIPTION) == tuple(CM.NORMAL_LAWS), "describe every contact law"
 
 #: Attributes carried from the packing into the signal.
 CARRIED_ATTRS = (*SAMPLE_ATTRS, "grains", "polydispersity")
@@ -178,6 +189,17 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     engine.fpar[K.F_DT] = keep
 
 
+def packing_law(packing: Packing) -> tuple[str, float]:
+    """(law name, harmonic_stiffness) of the packing's normal contact law (attribute
+    ``contact_law``, Hertz when absent; granwave.contact_models); InputError for an unknown
+    law or a harmonic stiffness that is not > 0."""
+    try:
+        model = CM.model_of_attrs(packing.attrs)
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    return CM.name_of(model), float(packing.attrs.get("harmonic_stiffness", 1.0))
+
+
 def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, skin: float = 0.2,
                         unloading: str = "incremental") -> Engine:
     """A DEM engine in the stored state: fixed walls, the stored tangential forces as history.
@@ -187,19 +209,18 @@ def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, sk
     force on i from j, so a pair stored with i > j enters the engine's (i < j)
     slot with the opposite sign. Forces and accelerations are then evaluated
     (slip 0) so that the state is ready for velocity Verlet. ``unloading``: the
-    tangential unloading rule (:data:`DEFAULT_UNLOADING`; contact.py docstring).
+    tangential unloading rule (:data:`DEFAULT_UNLOADING`; contact.py docstring). The engine
+    runs the packing's normal law (:func:`packing_law`).
     """
     if packing.dim not in (2, 3):
         raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
-    law = str(packing.attrs.get("contact_law", "hertz"))
-    if law != "hertz":  # its contact-state flags (pulse_kernels.classify) assume Hertz
-        raise InputError(f"the DEM pulse supports the Hertz contact law only (the packing's is {law!r})")
+    law_name, harmonic_stiffness = packing_law(packing)
     radius = np.asarray(packing.radius, float)
     engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
                     friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),
                     damping=float(damping), background_damping=0.0, piston_mass=math.inf,
                     piston_force=0.0, dt=dt, skin=skin, check_every=0,  # fixed dt, no convergence test
-                    unloading=unloading)
+                    unloading=unloading, contact_law=law_name, harmonic_stiffness=harmonic_stiffness)
     if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
         raise InputError("the packing's grain masses are not rho pi d^3 / 6 (docs/method.md §1): "
                          "the DEM engine cannot represent them")
@@ -292,6 +313,9 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
             raise InputError("the shear kick has initial condition A only")
         if device != "cpu":
             raise InputError("the DEM shear pulse runs on the CPU only (--device cpu)")
+    law_name, harmonic_stiffness = packing_law(packing)
+    if device != "cpu" and law_name != CM.DEFAULT_LAW:  # granwave.gpu.pulse's contact flags are Hertz's
+        raise InputError(f"the DEM pulse of a {law_name} packing runs on the CPU only (--device cpu)")
     if unloading not in ("incremental", "rescale"):
         raise InputError(f"unloading must be 'incremental' or 'rescale' (got {unloading!r})")
     if not (amplitude > 0.0 and math.isfinite(amplitude)):
@@ -356,8 +380,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         t_max=float(t_max), samples=samples, dt=float(step),
         dt_safety=float(dt_safety) if dt is None else float("nan"), n_steps=int(sub * (samples - 1)),
         integrator="velocity Verlet (DEM engine)",
-        contact_law="Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history "
-                    "from the packing",
+        contact_law=LAW_DESCRIPTION[law_name],
         unloading=unloading,
         top_wall="fixed", bottom_wall="fixed", background_damping=0.0,
         baseline_subtracted=bool(baseline),
@@ -378,6 +401,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         energy_input=kicked["energy_input"], neighbour_rebuilds=kicked["rebuilds"],
         wall_time=float(wall_time),
     )
+    if law_name != CM.DEFAULT_LAW:  # Hertz signals keep their attributes (and bytes)
+        attrs.update(harmonic_stiffness=harmonic_stiffness)
     return Signal(time=times, force=force, attrs=attrs)
 
 
@@ -401,7 +426,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     wall_state = np.zeros(engine.wall_ov.shape[0], np.int8)
     PK.classify(engine.radius, engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ft,
                 engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.friction, pair_state, wall_state,
-                True)
+                True, K.law_of(engine.fpar))
     energy_input = 0.0
     if kick is not None:
         grains, values = kick

@@ -14,9 +14,10 @@ Contact state flags (``int8`` bit field, one per pair slot and per wall slot):
 ``INITIAL`` in contact at t = 0; ``OPENED`` an initial contact found without
 overlap after some step; ``FORMED`` a contact not present at t = 0 found with
 overlap after some step; ``SLID`` the tangential force found on the Coulomb
-cone, ``|F_t| >= (1 - CONE_TOL) mu F_n`` (``contact.update_tangential`` puts
-a sliding contact exactly on the cone, a sticking one stays inside), after
-some step; ``CONE0`` on the cone at t = 0 already (fully mobilized in the
+cone, ``|F_t| >= (1 - CONE_TOL) mu F_n`` with F_n the elastic normal force of the
+engine's law (``contact_models.law_force`` of ``kernels.law_of(fpar)``, as the engine's
+``contact_force3`` caps F_t: a sliding contact sits exactly on the cone, a sticking one
+stays inside), after some step; ``CONE0`` on the cone at t = 0 already (fully mobilized in the
 stored state).
 
 The pair list can be rebuilt by the engine during a step (grains moved more
@@ -35,6 +36,7 @@ import numpy as np
 # this file only, granwave.kernel_cache stamps it with the whole package's source (an edit of
 # kernels.py or contact.py recompiles it).
 from .. import contact as C
+from .. import contact_models as CM
 from ..geometry import periodic_distance2
 from . import kernels as K
 from . import serial
@@ -72,20 +74,21 @@ def _touching_state(s, cone, initial):
 
 @numba.njit(cache=True, parallel=True)
 def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state,
-             wall_state, initial):
+             wall_state, initial, law):
     """Update the contact flags from the current history arrays (after a force evaluation).
 
     ``initial``: set INITIAL / CONE0 from the current state instead of the run flags.
-    Parallel over contacts (each writes only its own flag).
+    ``law``: the engine's :class:`granwave.contact_models.ContactModel` (``kernels.law_of(fpar)``),
+    whose normal force sets the Coulomb cone. Parallel over contacts (each writes only its own flag).
     """
     for p in numba.prange(npairs):
-        _classify_pair(np.int64(p), rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial)
+        _classify_pair(np.int64(p), rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial, law)
     for w in numba.prange(wall_ov.shape[0]):
-        _classify_wall(np.int64(w), rad, wall_ft, wall_ov, mu, wall_state, initial)
+        _classify_wall(np.int64(w), rad, wall_ft, wall_ov, mu, wall_state, initial, law)
 
 
 @numba.njit(cache=True)
-def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial):
+def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial, law):
     d = pair_ft.shape[1]
     ov = pair_ov[p]
     s = pair_state[p]
@@ -95,7 +98,7 @@ def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, ini
             i = pair_i[p]
             j = pair_j[p]
             r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
-            fel = C.normal_force(ov, r12, C.effective_young(False))
+            fel = CM.law_force(law, ov, math.sqrt(r12), C.effective_young(False))
         s = _touching_state(s, mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu), initial)
     elif (s & INITIAL) and not initial:
         s |= OPENED
@@ -103,14 +106,15 @@ def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, ini
 
 
 @numba.njit(cache=True)
-def _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial):
+def _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial, law):
     d = wall_ft.shape[1]
     ov = wall_ov[w]
     s = wall_state[w]
     if ov > 0.0:
         fel = 0.0
         if mu > 0.0:
-            fel = C.normal_force(ov, rad[w // 2], C.effective_young(True))
+            r = rad[w // 2]  # a wall: R12 = R_i, as kernels.wall_contact
+            fel = CM.law_force(law, ov, math.sqrt(r), C.effective_young(True))
         s = _touching_state(s, mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu), initial)
     elif (s & INITIAL) and not initial:
         s |= OPENED
@@ -162,7 +166,7 @@ def _block_displacement2(b, pos, pos_ref, lateral):
 
 @numba.njit(cache=True)
 def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, mu,
-                ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats):
+                ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats, law):
     """The bookkeeping after one step of :func:`pulse_samples`: the contact flags carried over
     a rebuild (``rebuilds``: the count before the step), the contacts classified, the largest
     displacement into ``stats[0]`` and the step counted in ``stats[1]``. Returns the pair
@@ -173,7 +177,8 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
         npairs = ipar[K.I_NPAIRS]
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
-    classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state, wall_state, False)
+    classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state, wall_state, False,
+             law)
     u = max_displacement(pos, pos_ref, lateral)
     if u > stats[0]:
         stats[0] = u
@@ -197,6 +202,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     """
     n = pos.shape[0]
     mu = fpar[K.F_MU]
+    law = K.law_of(fpar)
     ipar[K.I_NSTEPS] = 1
     # the pair keys of the current list, refreshed only after a rebuild
     npairs = ipar[K.I_NPAIRS]
@@ -210,7 +216,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                 return -k
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
                                                wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
-                                               wall_state, npairs, stats)
+                                               wall_state, npairs, stats, law)
         stats[1] = 0.0
         force_out[k] = piston[K.P_FCON]
     return k_stop
@@ -225,6 +231,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
     to compile, which a one-thread process would spend for nothing on a cold cache."""
     n = pos.shape[0]
     mu = fpar[K.F_MU]
+    law = K.law_of(fpar)
     ipar[K.I_NSTEPS] = 1
     npairs = ipar[K.I_NPAIRS]
     old_i = pair_i[:npairs].copy()
@@ -237,7 +244,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
                 return -k
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
                                                wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
-                                               wall_state, npairs, stats)
+                                               wall_state, npairs, stats, law)
         stats[1] = 0.0
         force_out[k] = piston[K.P_FCON]
     return k_stop
