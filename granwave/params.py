@@ -416,8 +416,9 @@ class PropagateParams(Params):
                                "on the fly), time (velocity Verlet on a linear file), auto (modal "
                                "or time, whichever is predicted cheaper at the accuracy of "
                                "docs/tradeoffs.md; the choice is printed and recorded) or dem "
-                               "(nonlinear Hertz-Mindlin DEM on a packing file). Default: modal "
-                               "for a modes file, time for a linear file, dem for a packing file.",
+                               "(nonlinear DEM with the packing's contact law on a packing file). "
+                               "Default: modal for a modes file, time for a linear file, dem for a "
+                               "packing file.",
                                choices=METHODS)
     dt: float | None = param(None, help="Time step of the time-domain method (default: safety x "
                              "2/omega_max, shortened to fit an integer number of steps per "
