@@ -299,7 +299,10 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     linear normalization) and attrs: ic, method="dem", height, amplitude,
     damping, scale s, mean_overlap, amplitude_definition, dt, n_steps, the
     counts n_opened, n_formed, n_sliding (n_sliding_new, n_at_cone_initial),
-    max_displacement_over_overlap and the packing's attributes.
+    max_displacement_over_overlap, contact_law (a description of the packing's law that
+    the run used; with harmonic_stiffness for a harmonic packing) and the packing's attributes.
+    The engine runs the packing's normal law (``contact_law`` attribute, Hertz when absent);
+    ``device="gpu"`` takes Hertz packings only.
     """
     ic = _check_ic(ic)
     from ..model import check_source_kind, no_shear_message
