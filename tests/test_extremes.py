@@ -233,6 +233,14 @@ def test_ordinary_packing_is_prepared_for_every_seed(kw):
         prepare_packing(PrepareParams(max_steps=1, **kw))
 
 
+@pytest.mark.parametrize("aspect", [1e-300, 1e-3])
+def test_container_wider_than_one_layer_is_refused(aspect):
+    """12 grains cover ~12 d in one layer; aspect 1e-3 asks for a ~110 d wide wall (and 1e-300
+    for more gas cells than an index can count, formerly an OverflowError): one clear refusal."""
+    with pytest.raises(InputError, match="not a packing"):
+        prepare_packing(PrepareParams(grains=12, aspect=aspect))
+
+
 def test_single_row_packing():
     """6 grains, aspect 0.1: one layer; the piston rests on the largest grain."""
     pk = prepare_packing(PrepareParams(grains=6, aspect=0.1, max_steps=100_000))

@@ -384,6 +384,13 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine, checkpo
     radius = 0.5 * diameter
     width = lateral_size(radius, p.dim, p.aspect)
     lateral = np.full(p.dim - 1, width)
+    # a bottom wall more than twice the grains laid side by side cannot carry even one layer
+    # (and a tiny aspect would ask the gas for more cells than an index can count)
+    one_layer = float(np.sum(diameter ** (p.dim - 1)))
+    if width ** (p.dim - 1) > 2.0 * one_layer:
+        raise InputError(f"aspect {p.aspect:g} gives a container {width:.4g} d wide, more than twice "
+                         f"what the {p.grains} grains cover in one layer: not a packing (use a larger "
+                         "aspect or more grains)")
     gas_density = p.gas_density if p.gas_density is not None else default_gas_density(p.dim)
     position, height = granular_gas(radius, lateral, gas_density, rng)
     actual_gas_density = float(np.sum(grain_measure(radius, p.dim))) / (height * float(np.prod(lateral)))
