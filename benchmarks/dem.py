@@ -1,6 +1,7 @@
 """DEM engine speed against the DEM engine's speed goals (a script, not a test).
 
     python benchmarks/dem.py [--quick]
+    python benchmarks/dem.py --vs-lammps [--repeat 5] [--steps 4000] [--record] [--shared-cores]
 
 Prints, on one thread:
 1. grain-steps/s of the frictional, damped 2D engine on a dense packing of 600
@@ -14,6 +15,13 @@ Prints, on one thread:
    side by side when the ``lammps`` Python module can be loaded.
 Times are CPU times of this process (process_time) and wall times; on a shared
 machine the CPU time is the fairer measure.
+
+``--vs-lammps`` measures only the per-core comparison: granwave's one-thread engine and LAMMPS
+GRANULAR alternately on the same 600-grain state (p = 1e-4, ``--steps`` steps each, CPU
+time), ``--repeat`` pairs, each pair's ratio printed as it comes; the summary gives the
+median and the range of the pairs' ratios and the ratio of the best rates (what
+benchmarks/scale.py reports). ``--record`` appends it to benchmarks/results/dem.jsonl
+(``--shared-cores``: marked as measured beside other work).
 """
 
 from __future__ import annotations
@@ -171,6 +179,59 @@ def lammps_rate(packing, dt: float, steps: int, friction: float = 0.5) -> tuple[
     return out["n"] * out["steps"] / out["cpu"], f"LAMMPS {out['version']} GRANULAR"
 
 
+#: Per-core rate over LAMMPS GRANULAR's on the 600-grain state, at least (benchmarks/scale.py's goal).
+LAMMPS_GOAL = 3.0
+
+
+def vs_lammps(repeat: int, steps: int) -> dict:
+    """granwave and LAMMPS alternately, ``repeat`` pairs of runs of ``steps`` steps on the
+    600-grain state: every pair's rates and ratio, and the summary of the ratios."""
+    import statistics
+
+    import numba
+
+    numba.set_num_threads(1)
+    packing, _, _ = prepare(1e-4)
+    pairs, note = [], ""
+    for k in range(repeat):
+        rate, wall, n, dt = engine_rate(packing, 1, steps)
+        other, note = lammps_rate(packing, dt, steps)
+        if other is None:
+            raise SystemExit(note)
+        pairs.append(dict(granwave=rate, granwave_wall=wall, lammps=other, ratio=rate / other))
+        print(f"pair {k + 1}/{repeat}: granwave {rate:.3g}, {note} {other:.3g} grain-steps/s CPU; "
+              f"ratio {rate / other:.2f}", flush=True)
+    ratios = [p["ratio"] for p in pairs]
+    best = max(p["granwave"] for p in pairs) / max(p["lammps"] for p in pairs)
+    return dict(note=note, grains=n, steps=steps, dt=dt, pairs=pairs, median=statistics.median(ratios),
+                low=min(ratios), high=max(ratios), best=best,
+                granwave_best=max(p["granwave"] for p in pairs), lammps_best=max(p["lammps"] for p in pairs))
+
+
+def record_vs_lammps(result: dict, command: str, shared_cores: bool) -> dict:
+    """The record of :func:`vs_lammps` as a line of benchmarks/results/dem.jsonl."""
+    import datetime
+    import json
+
+    from granwave.provenance import git_revision, machine, software
+
+    key = (f"per core, {result['grains']} grains 2D frictional, granwave vs "
+           f"{result['note'].replace('GRANULAR', '').strip()} GRANULAR (CPU grain-steps/s)")
+    rec = dict(date=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+               benchmark="dem", command=command, git_revision=git_revision(),
+               machine={"cpu": machine(), "short": f"{machine().split(', ')[1]}, {os.cpu_count()} vCPUs",
+                        "software": software(), "load average": " ".join(f"{x:.2f}" for x in os.getloadavg())},
+               shared_cores=shared_cores,
+               summary={key: {"values": f"{result['granwave_best']:.3g} vs {result['lammps_best']:.3g} (best "
+                              f"of {len(result['pairs'])} each); pair ratios median {result['median']:.2f}, "
+                              f"{result['low']:.2f}-{result['high']:.2f}",
+                              "ratio": round(result["best"], 2), "goal": LAMMPS_GOAL}},
+               result=result)
+    with open(os.path.join(os.path.dirname(__file__), "results", "dem.jsonl"), "a") as f:
+        f.write(json.dumps(rec) + "\n")
+    return rec
+
+
 def main(quick: bool = False) -> None:
     rows = []
     packing, cpu, wall = prepare(1e-4)
@@ -204,4 +265,23 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main(quick="--quick" in sys.argv)
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer steps, no p = 1e-7 preparation")
+    ap.add_argument("--vs-lammps", action="store_true", help="only the per-core comparison with LAMMPS")
+    ap.add_argument("--repeat", type=int, default=5, help="pairs of alternated runs (--vs-lammps)")
+    ap.add_argument("--steps", type=int, default=4000, help="steps of each run (--vs-lammps)")
+    ap.add_argument("--record", action="store_true", help="append the result to benchmarks/results/dem.jsonl")
+    ap.add_argument("--shared-cores", action="store_true", help="mark the record as measured beside other work")
+    args = ap.parse_args()
+    if args.vs_lammps:
+        res = vs_lammps(args.repeat, args.steps)
+        print(f"{res['note']}: granwave / LAMMPS per core: pair ratios median {res['median']:.2f} "
+              f"(range {res['low']:.2f}-{res['high']:.2f}); best rates {res['granwave_best']:.3g} / "
+              f"{res['lammps_best']:.3g} = {res['best']:.2f} (goal {LAMMPS_GOAL:g})")
+        if args.record:
+            cmd = f"python benchmarks/dem.py --vs-lammps --repeat {args.repeat} --steps {args.steps}"
+            record_vs_lammps(res, cmd + (" --shared-cores" if args.shared_cores else ""), args.shared_cores)
+    else:
+        main(quick=args.quick)
