@@ -23,9 +23,9 @@ Two groups, by what decides their bits besides granwave:
   compaction) and the DEM pulses (normal and shear source, 2D and 3D). numba compiles the
   kernels without fast-math (no fused multiply-add, no reordered sums) and they use only
   + - * / and sqrt; numpy's CPU-dispatched loops are kept out of the results
-  (docs/decisions/0003-portable-bits.md). The same bits on any x86-64 CPU: checked with
-  numba's code generated for a generic x86-64 and for Haswell, and with numpy's dispatched
-  loops off (tests/data/README.md).
+  (docs/decisions/0003-portable-bits.md). The same bits came out with numba's code for a
+  generic x86-64 and for Haswell and with numpy's dispatched loops off (tests/data/README.md
+  says what was checked where).
 - ``openblas_haswell``: the linear results of the 2D frictional packing (linearize without
   and with prestress, the time-domain signal, the modes and the modal signal). Their last
   bits depend on OpenBLAS's kernels, which it picks by CPU (linearize's einsum calls BLAS;
