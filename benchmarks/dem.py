@@ -55,7 +55,7 @@ def benchmark_engine(packing, tiles: int, friction: float | None = None):
     rng = np.random.default_rng(0)
     delta_p = pressure_scales(packing.pressure, float(packing.mass.mean()))[0]
     friction = packing.friction if friction is None else friction
-    eng = Engine(pos, rad, [L * tiles], packing.box[1], friction=friction, damping=0.5,
+    eng = Engine(pos, rad, [L * tiles], packing.box[1], friction=friction, damping=0.5, skin=0.2,
                  piston_mass=float(packing.attrs["piston_mass"]) * tiles,
                  piston_force=packing.pressure * L * tiles, velocity=rng.normal(0, 1e-4, pos.shape),
                  overlap_floor=delta_p)

@@ -159,7 +159,7 @@ def dem_rates(grains: int, gpu_steps: int, cpu_steps: int, tiny: bool) -> dict:
 
     base, pos, rad, width, tiles = tiled_packing(grains, tiny)
     rng = np.random.default_rng(0)
-    kw = dict(friction=base.friction, damping=0.5, piston_mass=float(base.attrs["piston_mass"]) * tiles,
+    kw = dict(friction=base.friction, damping=0.5, skin=0.2, piston_mass=float(base.attrs["piston_mass"]) * tiles,
               piston_force=base.pressure * width, velocity=rng.normal(0, 1e-4, pos.shape),
               overlap_floor=pressure_scales(base.pressure, float(base.mass.mean()))[0])
     set_threads(1)
@@ -323,7 +323,7 @@ def dem_with_rebuilds(grains: int, gpu_steps: int, plain_steps: int, cpu_steps: 
 
     base, pos, rad, width, tiles = tiled_packing(grains, tiny)
     rng = np.random.default_rng(0)
-    kw = dict(friction=base.friction, damping=0.5, piston_mass=float(base.attrs["piston_mass"]) * tiles,
+    kw = dict(friction=base.friction, damping=0.5, skin=0.2, piston_mass=float(base.attrs["piston_mass"]) * tiles,
               piston_force=base.pressure * width, velocity=rng.normal(0, 1e-4, pos.shape),
               overlap_floor=pressure_scales(base.pressure, float(base.mass.mean()))[0], check_every=0)
     set_threads(1)

@@ -58,7 +58,7 @@ def one(grains: int, friction: float, steps: int, lmp) -> None:
         set(zip(ref.contacts.i.tolist(), ref.contacts.j.tolist()))
     # granwave's engine rate on the same packing and step count, for comparison
     from granwave.dem.integrator import Engine
-    e = Engine(ref.position, ref.radius, ref.box[:-1], ref.height, friction=friction, damping=0.5,
+    e = Engine(ref.position, ref.radius, ref.box[:-1], ref.height, friction=friction, damping=0.5, skin=0.2,
                piston_mass=float(p.attrs["piston_mass"]), piston_force=1e-4 * ref.box[0],
                dt=float(p.attrs["dt"]))
     e.run(100)  # compile outside the timing

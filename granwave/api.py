@@ -389,11 +389,12 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                                      safety=p.safety, snapshots=p.snapshots, progress=progress)
             omega_max = float(sig.attrs["omega_max"])
     else:
-        from .dem.pulse import DEFAULT_AMPLITUDE, propagate_dem
+        from .dem.pulse import DEFAULT_AMPLITUDE, DEFAULT_DAMPING, propagate_dem
 
         sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
                             amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
-                            damping=p.damping or 0.0, progress=progress, device=device,
+                            damping=DEFAULT_DAMPING if p.damping is None else p.damping,
+                            progress=progress, device=device,
                             source_kind=p.source_kind)
         omega_max = _dem_omega_max(source)
     if reason is not None:

@@ -343,7 +343,7 @@ def test_history_survives_neighbour_rebuilds():
     for skin in (0.0005, 0.6):
         pos = np.array([[3.0, 0.49], [3.0, 1.47]])
         vel = np.array([[0.0, 0.0], [0.02, 0.0]])
-        eng = Engine(pos, np.array([0.5, 0.5]), [12.0], 1.96, friction=0.5, dt=0.01, skin=skin,
+        eng = Engine(pos, np.array([0.5, 0.5]), [12.0], 1.96, friction=0.5, damping=0.0, dt=0.01, skin=skin,
                      velocity=vel)
         eng.run(2000)
         results.append((eng.pair_ft[: eng.n_pairs].copy(), eng.wall_ft.copy(), eng.rebuilds))

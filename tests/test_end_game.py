@@ -175,7 +175,7 @@ def test_engine_caps_every_background_rate_and_restores_from_base():
     their values at the start; a higher rate gives those values back."""
     rng = np.random.default_rng(0)
     pos = np.column_stack([rng.uniform(0, 10, 20), rng.uniform(0, 30, 20)])
-    e = Engine(pos, np.full(20, 0.2), np.array([10.0]), 31.0, background_damping=0.01,
+    e = Engine(pos, np.full(20, 0.2), np.array([10.0]), 31.0, damping=0.0, background_damping=0.01,
                mean_flow=(0.002, 4.0, 0.006))
     base = e.damping_rates()
     e.cap_background_damping(0.004, base)

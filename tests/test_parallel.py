@@ -105,7 +105,7 @@ def _shaken_engine(packing=None, **flow):
     rng = np.random.default_rng(0)
     lateral = packing.box[:-1]
     return integrator.Engine(packing.position, packing.radius, lateral, packing.box[-1],
-                             friction=packing.friction, damping=0.5,
+                             friction=packing.friction, damping=0.5, skin=0.2,  # lists rebuilt within 600 steps
                              piston_mass=float(packing.attrs["piston_mass"]),
                              piston_force=packing.pressure * float(np.prod(lateral)),
                              velocity=rng.normal(0.0, 1e-2, packing.position.shape), **flow)

@@ -175,7 +175,7 @@ def test_mean_flow_damping_splits_mean_and_fluctuation(v_mean, sign):
     gamma (exactly: the slab means vanish), their sum at gamma_m and gamma; the piston at gamma_m."""
     gamma, gamma_m = 2e-3, 5e-4
     pos, rad, vel, u = _loose_grains(v_mean, sign)
-    e = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, piston_mass=3.0,
+    e = Engine(pos, rad, [24.0], 20.0, friction=0.0, damping=0.0, background_damping=gamma, piston_mass=3.0,
                piston_force=0.0, velocity=vel, mean_flow=(gamma_m, 4.0))
     m = e.mass
     assert e.measure()["contacts"] == 0
@@ -189,7 +189,7 @@ def test_mean_flow_damping_splits_mean_and_fluctuation(v_mean, sign):
     e.piston[K.P_V] = -1e-3
     e._forces()
     assert e.piston[K.P_A] == pytest.approx(gamma_m * 1e-3, rel=1e-15)
-    off = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, piston_mass=3.0,
+    off = Engine(pos, rad, [24.0], 20.0, friction=0.0, damping=0.0, background_damping=gamma, piston_mass=3.0,
                  velocity=vel)  # rule off: everything at gamma
     np.testing.assert_allclose(off.acceleration[:, 1], -gamma * vel[:, 1], rtol=1e-14)
 
@@ -204,12 +204,12 @@ def test_lateral_mean_flow_at_its_own_rate():
     shear = 1e-3 * (1.0 + slab)  # mean lateral velocity of each slab
     fluct = 2e-4 * np.where(np.arange(16) % 2 == 0, 1.0, -1.0)  # zero mean in every slab
     vel[:, 0] = shear + fluct
-    e = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, velocity=vel,
+    e = Engine(pos, rad, [24.0], 20.0, friction=0.0, damping=0.0, background_damping=gamma, velocity=vel,
                mean_flow=(gamma_m, 4.0, gamma_l))
     np.testing.assert_allclose(e.acceleration[:, 0], -gamma_l * shear - gamma * fluct, rtol=1e-12, atol=1e-20)
-    same = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, velocity=vel,
+    same = Engine(pos, rad, [24.0], 20.0, friction=0.0, damping=0.0, background_damping=gamma, velocity=vel,
                   mean_flow=(gamma_m, 4.0, gamma))
-    two = Engine(pos, rad, [24.0], 20.0, friction=0.0, background_damping=gamma, velocity=vel,
+    two = Engine(pos, rad, [24.0], 20.0, friction=0.0, damping=0.0, background_damping=gamma, velocity=vel,
                  mean_flow=(gamma_m, 4.0))  # the default gamma_l: background_damping
     assert two.mflow[2] == gamma
     m = same.mass

@@ -31,6 +31,7 @@ from .. import contact_models as CM
 from .. import team
 from ..errors import InputError
 from ..geometry import grain_inertia, grain_mass, n_rotations
+from ..params import PrepareParams
 from ..threads import at_most
 from . import kernels as K
 from . import serial
@@ -80,13 +81,22 @@ class Engine:
     ``mflow[M_GAMMA_L]`` may be changed between runs); on the CPU only (the GPU kernels do
     not have it). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
     ``"harmonic"``, the latter with k_n = ``harmonic_stiffness`` between two grains, E* d).
+
+    Defaults: friction, poisson, damping, safety, skin, check_every, contact_law and
+    harmonic_stiffness are the preparation's, read from :class:`granwave.params.PrepareParams`
+    (their one home; the pulses pass theirs, :func:`granwave.dem.pulse.engine_from_packing`).
+    The others switch a feature off (no background damping, a fixed top wall, no convergence
+    test, a fixed skin, no mean-flow rule), take dt from the stability rule, or start at rest;
+    ``overlap_floor`` (d) is the protocol's overlap under its pressure, which it passes.
     """
 
-    def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
-                 background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
-                 overlap_floor=1e-3, skin=0.2, skin_min=None, velocity=None, angular_velocity=None,
-                 tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale",
-                 mean_flow=None, contact_law="hertz", harmonic_stiffness=1.0):
+    def __init__(self, position, radius, lateral, height, *, friction=PrepareParams.friction,
+                 poisson=PrepareParams.poisson, damping=PrepareParams.damping, background_damping=0.0,
+                 piston_mass=math.inf, piston_force=0.0, dt=None, safety=PrepareParams.safety,
+                 overlap_floor=1e-3, skin=PrepareParams.skin, skin_min=None, velocity=None,
+                 angular_velocity=None, tol_acceleration=0.0, tol_velocity=0.0,
+                 check_every=PrepareParams.check_every, unloading="rescale", mean_flow=None,
+                 contact_law=PrepareParams.contact_law, harmonic_stiffness=PrepareParams.harmonic_stiffness):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):

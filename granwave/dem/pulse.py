@@ -66,6 +66,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InputError
 from ..model import Packing, Signal
+from ..params import PropagateParams
 from ..resources import check_propagate, check_run_time, predicted_seconds
 from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
@@ -82,10 +83,14 @@ DEFAULT_AMPLITUDE = 1e-3
 #: Default tangential unloading rule of the pulses: the plain incremental Mindlin law, the one
 #: the linear model (frozen history) linearizes (granwave/contact.py docstring, docs/damping.md).
 DEFAULT_UNLOADING = "incremental"
+#: Default contact damping zeta of the pulses (fraction of critical): none, the linear model's.
+DEFAULT_DAMPING = 0.0
+#: Verlet skin of the pulses' pair list (d).
+DEFAULT_SKIN = 0.2
 #: Seconds of stepping per kernel call (signals are handled between calls).
 CALL_SECONDS = 0.2
-#: Default number of output samples.
-DEFAULT_SAMPLES = 2001
+#: Default number of output samples: propagate's.
+DEFAULT_SAMPLES = PropagateParams.samples
 
 AMPLITUDE_DEFINITION = {
     "A": "s = EPS * mean_overlap / max_i sqrt(k_wall_i / m_i): the largest single-contact "
@@ -200,8 +205,8 @@ def packing_law(packing: Packing) -> tuple[str, float]:
     return CM.name_of(model), float(packing.attrs.get("harmonic_stiffness", 1.0))
 
 
-def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, skin: float = 0.2,
-                        unloading: str = "incremental") -> Engine:
+def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, dt: float,
+                        skin: float = DEFAULT_SKIN, unloading: str = DEFAULT_UNLOADING) -> Engine:
     """A DEM engine in the stored state: fixed walls, the stored tangential forces as history.
 
     The engine builds its pair list from the positions; every stored contact
@@ -256,8 +261,8 @@ def engine_from_packing(packing: Packing, *, damping: float = 0.0, dt: float, sk
 
 # ---------------------------------------------------------------- the run
 def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT_AMPLITUDE,
-                  damping: float = 0.0, t_max: float, samples: int = DEFAULT_SAMPLES,
-                  dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = 0.2,
+                  damping: float = DEFAULT_DAMPING, t_max: float, samples: int = DEFAULT_SAMPLES,
+                  dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = DEFAULT_SKIN,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
                   progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
                   device: str = "cpu", source_kind: str = "normal") -> Signal:
