@@ -1,6 +1,7 @@
 """Stored digests pin the bits of tiny Hertz-Mindlin runs, on 1 and 2 threads.
 
-Each case is made through the library's API (granwave.api) with a fixed seed; its digest is
+Each case is made through the library's API (granwave.api) with a fixed seed (two of them also
+through the command line, read back from their files); its digest is
 the sha256 of the arrays that carry its result (positions, radii, masses, box and contact
 forces of a packing; the matrices and vectors of a linear system; the spectrum and
 projections of the modes; the time and force arrays of a signal), not of whole HDF5 files,
@@ -240,6 +241,28 @@ def test_linear_results_give_the_stored_bits_with_openblas_haswell_kernels():
     for t, got in by_threads.items():
         changed = _changed(got, stored()[f"openblas_{BLAS_CORE.lower()}"])
         assert not changed, _explain(f"linear (OpenBLAS {BLAS_CORE})", t, changed)
+
+
+def test_the_command_lines_files_hold_the_stored_bits(tmp_path):
+    """prepare-packing and a shear DEM pulse through the command line: the arrays read back
+    from their files give the API's stored digests."""
+    from click.testing import CliRunner
+
+    from granwave.cli import main as cli
+    from granwave.io.files import read_packing, read_signal
+
+    packing, signal = tmp_path / "packing.h5", tmp_path / "signal.h5"
+    kw = PACKINGS["packing_2d_frictional"]
+    run = CliRunner().invoke(cli, ["prepare-packing", "--grains", str(kw["grains"]), "--seed", str(kw["seed"]),
+                                   "--tol", str(kw["tol"]), "-o", str(packing)])
+    assert run.exit_code == 0, run.output
+    run = CliRunner().invoke(cli, ["propagate", str(packing), "--method", "dem", "--source", "shear", "-q",
+                                   "--t-max", str(PULSE["t_max"]), "--samples", str(PULSE["samples"]),
+                                   "-o", str(signal)])
+    assert run.exit_code == 0, run.output
+    want = stored()["portable"]
+    assert packing_digest(read_packing(packing)) == want["packing_2d_frictional"]
+    assert signal_digest(read_signal(signal)) == want["dem_pulse_2d_shear"]
 
 
 def main(update: bool) -> int:
