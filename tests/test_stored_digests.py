@@ -1,11 +1,11 @@
 """Stored digests pin the bits of tiny Hertz-Mindlin runs, on 1 and 2 threads.
 
 Each case is made through the library's API (granwave.api) with a fixed seed (two of them also
-through the command line, read back from their files); its digest is
-the sha256 of the arrays that carry its result (positions, radii, masses, box and contact
-forces of a packing; the matrices and vectors of a linear system; the spectrum and
-projections of the modes; the time and force arrays of a signal), not of whole HDF5 files,
-which also hold dates, revisions and the machine. Every run must give the digests stored in
+through the command line, read back from their files); its digest is the sha256 of the
+arrays that carry its result (positions, radii, masses, box and contact forces of a packing;
+the matrices and vectors of a linear system; the spectrum and projections of the modes; the
+time and force arrays of a signal), not of whole HDF5 files, which also hold dates,
+revisions and the machine. Every run must give the digests stored in
 tests/data/digests.json, on one thread and on two (the parallel passes forced on these small
 systems by lowering their thresholds, as tests/test_parallel.py does).
 
@@ -34,7 +34,8 @@ Two groups, by what decides their bits besides granwave:
   kernels (OPENBLAS_CORETYPE=Haswell, one BLAS thread), which every AVX2 or AVX-512 CPU runs;
   skipped on a CPU without AVX2 and FMA or where OpenBLAS does not take the setting.
 
-3D frictional linear results are not pinned: which spins they keep is being changed.
+3D frictional linear results are not pinned (the default for their free spins was being
+changed when this file was made); add them to :func:`linear` once it has settled.
 """
 
 from __future__ import annotations
