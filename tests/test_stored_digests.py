@@ -32,7 +32,10 @@ Two groups, by what decides their bits besides granwave:
   bits depend on OpenBLAS's kernels, which it picks by CPU (linearize's einsum calls BLAS;
   the eigensolve is LAPACK), so they are computed in a child process with OpenBLAS's Haswell
   kernels (OPENBLAS_CORETYPE=Haswell, one BLAS thread), which every AVX2 or AVX-512 CPU runs;
-  skipped on a CPU without AVX2 and FMA or where OpenBLAS does not take the setting.
+  skipped on a CPU without AVX2 and FMA or where OpenBLAS does not take the setting, and
+  skipped where numpy, scipy or OpenBLAS are other versions than those the digests were
+  stored with (``openblas_haswell_versions``): a new BLAS may round differently without
+  any change in granwave.
 
 3D frictional linear results are not pinned (the default for their free spins was being
 changed when this file was made); add them to :func:`linear` once it has settled.
@@ -177,6 +180,17 @@ def blas_core() -> str:
     return cores.pop() if len(cores) == 1 else "?" if not cores else "+".join(sorted(cores))
 
 
+def library_versions() -> dict:
+    """The versions that decide the linear group's last bits besides granwave."""
+    from threadpoolctl import threadpool_info
+
+    import scipy
+    import scipy.linalg  # noqa: F401  (loads scipy's BLAS too)
+
+    blas = sorted({str(lib.get("version")) for lib in threadpool_info() if lib.get("internal_api") == "openblas"})
+    return dict(numpy=np.__version__, scipy=scipy.__version__, openblas="+".join(blas))
+
+
 def blas_core_unavailable() -> str | None:
     """Why OpenBLAS's Haswell kernels cannot run here, or None."""
     try:
@@ -191,20 +205,21 @@ CHILD = """
 import json, sys
 sys.path[:0] = [{tests!r}, {root!r}]  # this checkout's granwave, whatever is installed
 import test_stored_digests as T
-print(json.dumps(dict(core=T.blas_core(), digests={{t: T.linear(t) for t in {threads!r}}})))
+print(json.dumps(dict(core=T.blas_core(), versions=T.library_versions(),
+                      digests={{t: T.linear(t) for t in {threads!r}}})))
 """
 
 
-def linear_in_child(threads=(1,)) -> tuple[str, dict]:
-    """(OpenBLAS's core, {threads: {case: sha256}}) of :func:`linear`, run in a child process
-    with OpenBLAS's Haswell kernels on one BLAS thread."""
+def linear_in_child(threads=(1,)) -> tuple[str, dict, dict]:
+    """(OpenBLAS's core, library versions, {threads: {case: sha256}}) of :func:`linear`, run in
+    a child process with OpenBLAS's Haswell kernels on one BLAS thread."""
     env = dict(os.environ, OPENBLAS_CORETYPE=BLAS_CORE, OPENBLAS_NUM_THREADS="1")
     here = Path(__file__).resolve().parent
     code = CHILD.format(tests=str(here), root=str(here.parent), threads=tuple(threads))
     run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=1800)
     assert run.returncode == 0, run.stderr[-3000:]
     out = json.loads(run.stdout.strip().splitlines()[-1])
-    return out["core"], {int(t): d for t, d in out["digests"].items()}
+    return out["core"], out["versions"], {int(t): d for t, d in out["digests"].items()}
 
 
 def stored() -> dict:
@@ -236,9 +251,12 @@ def test_linear_results_give_the_stored_bits_with_openblas_haswell_kernels():
     if why:
         pytest.skip(why)
     threads = (1, 2) if __import__("numba").config.NUMBA_NUM_THREADS >= 2 else (1,)
-    core, by_threads = linear_in_child(threads)
+    core, versions, by_threads = linear_in_child(threads)
     if core != BLAS_CORE:
         pytest.skip(f"OpenBLAS ran its {core} kernels, not {BLAS_CORE}'s (OPENBLAS_CORETYPE not taken)")
+    want_versions = stored().get(f"openblas_{BLAS_CORE.lower()}_versions")
+    if versions != want_versions:
+        pytest.skip(f"the linear digests were stored with {want_versions}, this machine has {versions}")
     for t, got in by_threads.items():
         changed = _changed(got, stored()[f"openblas_{BLAS_CORE.lower()}"])
         assert not changed, _explain(f"linear (OpenBLAS {BLAS_CORE})", t, changed)
@@ -275,9 +293,10 @@ def main(update: bool) -> int:
     key = f"openblas_{BLAS_CORE.lower()}"
     why = blas_core_unavailable()
     if why is None:
-        core, by_threads = linear_in_child((1,))
+        core, versions, by_threads = linear_in_child((1,))
         if core == BLAS_CORE:
             new[key] = by_threads[1]
+            new[f"{key}_versions"] = versions
         else:
             why = f"OpenBLAS ran its {core} kernels"
     if why is not None:
@@ -287,7 +306,7 @@ def main(update: bool) -> int:
         changed = _changed(new.get(group, {}), old.get(group, {}))
         changes += len(changed)
         print(f"{group}: " + ("unchanged" if not changed else f"{len(changed)} changed\n  " + "\n  ".join(changed)))
-    if update and (changes or old.get("about") != ABOUT):
+    if update and (changes or any(old.get(k) != new.get(k) for k in ("about", f"{key}_versions"))):
         STORE.write_text(json.dumps(new, indent=1, sort_keys=True) + "\n")
         print(f"wrote {STORE}")
     return 0 if not changes or update else 1
