@@ -119,13 +119,14 @@ def pulse() -> dict:
 
 
 def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, small: int | None = None,
-         every: int = 1, friction: float = 0.5, **rule):
+         every: int = 1, friction: float = 0.5, top: float | None = None, **rule):
     """A dense frictional gas in a 6 x 6 (x 6) box (radii 0.3-0.4 on a jittered grid, random
     velocities and a vertical squeeze, so that pairs form and the list is rebuilt every ~10
     steps); ``room``: the pair arrays cut to that many slots before the run (the GPU engine
     must make room on the device's request); ``small``: the GPU engine's ``small_rebuild`` (0:
-    the multi-kernel rebuild of large systems); ``rule``: more engine arguments (the mean-flow
-    rule's ``mean_flow`` and ``background_damping``)."""
+    the multi-kernel rebuild of large systems); ``top``: the top wall's height (default: the box
+    side); ``rule``: more engine arguments (the mean-flow rule's ``mean_flow`` and
+    ``background_damping``, a piston's mass and force)."""
     rng = np.random.default_rng(seed)
     side = 6 if dim == 2 else 5
     axes = np.meshgrid(*[np.arange(side) + 0.5] * dim, indexing="ij")
@@ -137,7 +138,7 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
     vel = rng.normal(0.0, 1.0, pos.shape)
     vel[:, -1] -= 0.5 * (pos[:, -1] - side / 2)
     rot = 1 if dim == 2 else 3
-    e = cls(pos, rad, [float(side)] * (dim - 1), float(side), friction=friction, damping=0.3, dt=4e-3, skin=0.2,
+    e = cls(pos, rad, [float(side)] * (dim - 1), float(side if top is None else top), friction=friction, damping=0.3, dt=4e-3, skin=0.2,
             velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)), check_every=0, **rule)
     if small is not None:
         e.small_rebuild = small
@@ -192,7 +193,7 @@ def rebuild(steps: int = 60, steps_3d: int = 24) -> dict:
     return out
 
 
-def mean_flow(steps: int = 40, steps_3d: int = 16) -> dict:
+def mean_flow(steps: int = 30, steps_3d: int = 12) -> dict:
     """The compaction rule 'mean-flow' in the engine: the dense gas of :func:`_gas` with
     background damping and the slabs' mean flows damped at rates of their own, on both devices,
     compared bitwise (state and the slabs' means of the last step): in 2D frictional with the
@@ -220,19 +221,63 @@ def mean_flow(steps: int = 40, steps_3d: int = 16) -> dict:
     return out
 
 
+def rules(steps: int = 6) -> dict:
+    """What the preparation's host-side rules do to a GPU engine between two runs, against the
+    CPU engine: a gas under a moving piston (the piston damped at the mean-flow rate) run for
+    ``steps`` steps, then the settling rule's switch (the mean flows' rates lowered, the lateral
+    one now apart from the background rate), ``steps`` more, then the end game's cap on every
+    background damping rate, ``steps`` more; in 2D frictional with the mean-flow rule, in 3D
+    frictionless without it (the rates 'fixed' and 'height-scaled' are one background rate).
+    The piston force is reduced in another order on the device, so the state agrees to rounding
+    (``state_abs``), not bit for bit; ``piston_moved``: the piston's travel (it takes part)."""
+    from ..dem import kernels as K
+    from ..dem.integrator import Engine
+    from ..dem.mean_flow import M_GAMMA_L, M_GAMMA_M
+    from .dem import GpuEngine
+
+    TOP = {2: 5.8, 3: 4.9}  # the piston starts on the top grains (box sides 6 and 5)
+
+    def run(cls, dim, friction, rule):
+        kw = dict(friction=friction, background_damping=2.0, piston_mass=1.0, piston_force=20.0,
+                  top=TOP[dim])
+        if rule is not None:
+            kw["mean_flow"] = rule
+        e = _gas(cls, dim, steps, **kw)
+        if rule is not None:  # the settling switch (granwave.dem.settling.CriticalSettling._switch)
+            e.mflow[M_GAMMA_M] = e.mflow[M_GAMMA_L] = 0.7
+        e.run(steps)
+        e.cap_background_damping(0.3, e.damping_rates())  # the end game (granwave.dem.end_game)
+        e.run(steps)
+        return e
+
+    out = {}
+    for dim, friction, rule in ((2, 0.5, (0.2, 1.0)), (3, 0.0, None)):
+        cpu, gpu = run(Engine, dim, friction, rule), run(GpuEngine, dim, friction, rule)
+        out[f"state_abs_{dim}d"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(gpu, s)), initial=0.0))
+                                       for s in (*STATE, "piston"))
+        out[f"piston_moved_{dim}d"] = abs(cpu.height - TOP[dim])
+        out[f"piston_force_{dim}d"] = float(cpu.piston[K.P_FCON])
+        out[f"steps_{dim}d"] = gpu.steps
+    return out
+
+
 #: Tiny preparations, one per protocol the CPU accepts (compaction rules, settling rules, end
 #: game; 2D and 3D; with and without friction). Loose tolerance, 2-step checks (the rules sample
 #: every 10 checks) and a reference height of 1 d so that the mean-flow rule is on in columns a
 #: few grains tall; background damping 0.1: the plug swings up, the settling rule switches.
 PROTOCOLS = {
-    "mean_flow_critical_2d": dict(dim=2, grains=30, friction=0.0, aspect=3.0, compaction="mean-flow",
+    "mean_flow_critical_3d": dict(dim=3, grains=40, friction=0.0, aspect=0.6, compaction="mean-flow",
                                   mean_flow_settling="critical", end_game="adaptive"),
-    "mean_flow_late_3d": dict(dim=3, grains=40, friction=0.5, aspect=0.6, compaction="mean-flow",
-                              mean_flow_settling="late", end_game="adaptive"),
-    "mean_flow_compaction_3d": dict(dim=3, grains=40, friction=0.0, aspect=0.6, compaction="mean-flow",
-                                    mean_flow_settling="compaction"),
-    "height_scaled_2d": dict(dim=2, grains=30, friction=0.5, aspect=3.0, compaction="height-scaled",
+    "height_scaled_2d": dict(dim=2, grains=20, friction=0.0, aspect=2.0, compaction="height-scaled",
                              end_game="adaptive"),
+    "mean_flow_late_2d": dict(dim=2, grains=20, friction=0.0, aspect=2.0, compaction="mean-flow",
+                              mean_flow_settling="late", end_game="adaptive"),
+    "mean_flow_critical_2d_friction": dict(dim=2, grains=20, friction=0.5, aspect=2.0, compaction="mean-flow",
+                                           mean_flow_settling="critical", end_game="adaptive"),
+    "mean_flow_compaction_2d_friction": dict(dim=2, grains=20, friction=0.5, aspect=2.0,
+                                             compaction="mean-flow", mean_flow_settling="compaction"),
+    "height_scaled_3d_friction": dict(dim=3, grains=40, friction=0.5, aspect=0.6, compaction="height-scaled",
+                                      end_game="adaptive"),
 }
 PROTOCOL_COMMON = dict(seed=1, tol=1e-3, pressure=1e-2, background_damping=0.1, reference_height=1.0,
                        mean_flow_slab=1.0, check_every=2)
@@ -270,9 +315,14 @@ CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, 
           "rebuild": rebuild, "mean_flow": mean_flow, "protocols": protocols}
 
 
+#: Checks run only when named: whole preparations take minutes in the CUDA simulator (about
+#: 0.3-0.6 s a step on a 2-core machine), seconds on a GPU (benchmarks/gpu.py --tiny runs them).
+HEAVY = ("protocols",)
+
+
 def main(argv=None) -> None:
-    """Print the named checks' results (all by default) as one JSON object."""
-    names = list(argv if argv is not None else sys.argv[1:]) or list(CHECKS)
+    """Print the named checks' results (all but :data:`HEAVY` by default) as one JSON object."""
+    names = list(argv if argv is not None else sys.argv[1:]) or [c for c in CHECKS if c not in HEAVY]
     print(json.dumps({name: CHECKS[name]() for name in names}))
 
 
