@@ -5,7 +5,7 @@ engine (:func:`granwave.dem.kernels.run_chunk`); only :meth:`GpuEngine.run` diff
 the state to the device, runs the steps there, and brings it back, so everything else
 (:class:`granwave.dem.protocol.Compression`, measurements, the packing written) is the CPU code.
 
-One step on the device (four kernels, no floating-point atomics):
+One step on the device (four kernels, six with the mean-flow rule; no floating-point atomics):
 
 1. ``kick_drift`` (a thread per grain): half kick and drift, as the CPU loop; thread 0 moves the
    piston;
@@ -16,6 +16,9 @@ One step on the device (four kernels, no floating-point atomics):
 3. ``grain_forces`` (a thread per grain): sums its pairs' forces over a per-grain incidence
    list in increasing pair order (the order in which the CPU loop adds them), then the two
    wall contacts, the background damping, the accelerations and the second half kick;
+   with the compaction rule 'mean-flow' two kernels before it compute the slabs' mean
+   velocities in the CPU's order (:mod:`granwave.gpu.mean_flow`), and ``grain_forces`` adds
+   each grain's slab term after its background damping;
 4. ``step_partials`` (NPART blocks) and ``finish`` (one block): the piston force, largest
    overlap, contact counts, largest speed and displacement by a two-stage reduction of fixed
    shape (grid stride, then trees), then the piston's half kick.
