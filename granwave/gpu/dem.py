@@ -177,8 +177,9 @@ def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_p
 def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
                  wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, mflow, slabs):
     """Total force and torque of each grain (pairs in increasing pair order, then the bottom and
-    top wall, then background damping and the mean-flow rule's slab term), accelerations and the second half kick of velocity
-    Verlet; per-grain piston force, top contacts, largest wall overlap and wall contacts.
+    top wall, then background damping and the mean-flow rule's slab term), accelerations and the
+    second half kick of velocity Verlet; per-grain piston force, top contacts, largest wall
+    overlap and wall contacts.
 
     ``inc_pair`` holds p + 1 where the grain is the pair's i, -(p + 1) where it is its j."""
     d = pos.shape[1]
