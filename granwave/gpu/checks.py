@@ -138,8 +138,9 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
     vel = rng.normal(0.0, 1.0, pos.shape)
     vel[:, -1] -= 0.5 * (pos[:, -1] - side / 2)
     rot = 1 if dim == 2 else 3
-    e = cls(pos, rad, [float(side)] * (dim - 1), float(side if top is None else top), friction=friction, damping=0.3, dt=4e-3, skin=0.2,
-            velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)), check_every=0, **rule)
+    e = cls(pos, rad, [float(side)] * (dim - 1), float(side if top is None else top), friction=friction,
+            damping=0.3, dt=4e-3, skin=0.2, velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)),
+            check_every=0, **rule)
     if small is not None:
         e.small_rebuild = small
     if every != 1:
