@@ -314,7 +314,7 @@ def protocols(names=None) -> dict:
 
 
 CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse,
-          "rebuild": rebuild, "mean_flow": mean_flow, "protocols": protocols}
+          "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols}
 
 
 #: Checks run only when named: whole preparations take minutes in the CUDA simulator (about
