@@ -5,15 +5,19 @@
 
 ``--all`` is the one prepared measurement (it replaces the list below): device, date and
 versions; the agreement checks of granwave.gpu.checks (time-domain signal, two-body collision,
-DEM pulse, device neighbour rebuild) as pass/fail with their largest differences; the memory
+the mean-flow rule, the preparation rules' changes between runs, tiny preparations under every
+protocol, DEM pulse, device neighbour rebuild) as pass/fail with their largest differences; the memory
 bandwidth; the time-domain step at 10^6 grains against one core and the roofline; DEM
 grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
 rebuilt on the device (the tiled packing drifts along the periodic axis: a rebuild about every
 25 steps; the rebuild count is reported) and over 200 steps without rebuilds; the statics of
 twelve 600-grain 2D packings (p = 1e-4, seeds 0..11) prepared on the GPU against the same seeds
-prepared on the CPU. Parts run in the order bandwidth, checks, DEM, packings, time domain;
+prepared on the CPU; the continuum study's 2048 d mean-flow column (51 200 grains) prepared on
+the GPU for 10 000 steps: seconds per step and the whole preparation predicted from its CPU step
+count (ten such columns in one batch need ensembles per launch, not implemented: predicted one
+after another). Parts run in the order bandwidth, checks, DEM, packings, columns, time domain;
 each has its own time budget and is skipped, with a note, when the whole budget
-(``--budget``, default 380 s wall, compilation included) is spent; the JSON is
+(``--budget``, default 450 s wall, compilation included) is spent; the JSON is
 written (to ``--out``, else stdout) after every part, so a run stopped from outside still
 leaves the parts done.
 
@@ -285,6 +289,18 @@ def _verdicts(name: str, r: dict) -> tuple[bool, dict]:
                 and r.get("room_made_2d_room_multi", 0) > 0,
                 {"max_abs": worst, "same_pairs": same, "same_rebuilds": rebuilds,
                  "bitwise": all(r[f"same_state_{k}"] and r[f"same_history_{k}"] for k in keys)})
+    if name == "mean_flow":
+        same = all(r[f"same_state_{d}"] and r[f"same_slabs_{d}"] for d in ("2d", "3d"))
+        worst = max(r["state_abs_2d"], r["state_abs_3d"])
+        return worst < 1e-9 and r["moved_2d"] > 1e-2, {"max_abs": worst, "bitwise": same}
+    if name == "rules":
+        worst = max(r["state_abs_2d"], r["state_abs_3d"])
+        return worst < 1e-9 and r["piston_force_2d"] > 0.0, {"max_abs": worst}
+    if name == "protocols":
+        keys = ("steps", "settling_step", "end_game_step", "end_game_changes")
+        same = all(v[f"{k}_gpu"] == v[f"{k}_cpu"] for v in r.values() for k in keys)
+        worst = max(v["position_abs"] for v in r.values())
+        return same and worst < 1e-6, {"max_abs": worst, "same_decisions": same}
     raise KeyError(name)
 
 
@@ -293,7 +309,7 @@ def agreement(deadline: float) -> dict:
     from granwave.gpu import checks
 
     out = {}
-    for name in ("two_body", "time_domain", "pulse", "rebuild"):
+    for name in ("two_body", "mean_flow", "rules", "protocols", "time_domain", "pulse", "rebuild"):
         if time.perf_counter() > deadline:
             out[name] = {"skipped": "time budget of the checks spent"}
             continue
@@ -466,12 +482,54 @@ def packing_statics(grains: int, seeds: int, tiny: bool, deadline: float) -> dic
     return out
 
 
-ALL_FULL = dict(total_s=380.0, checks_s=100.0, td_s=90.0, dem_s=80.0, statics_s=130.0, td=(1000, 1000),
+#: The continuum study's tallest column (config/continuum.yaml, continuum2d_p4): 2D frictional,
+#: width 25 d, 2048 d, W x H grains, p = 1e-4, tol 1e-8, compaction 'mean-flow' (settling
+#: 'late'), and the steps its preparation took on the CPU (docs/continuum.md, seed 0).
+COLUMN = dict(dim=2, width=25, height=2048.0, pressure=1e-4, friction=0.5, polydispersity=0.2, tol=1e-8,
+              compaction="mean-flow")
+COLUMN_CPU_STEPS = 2_232_260
+COLUMN_TINY = dict(dim=2, width=4, height=16.0, pressure=1e-2, friction=0.5, polydispersity=0.2, tol=1e-3,
+                   compaction="mean-flow", reference_height=4.0)
+
+
+def column_rate(spec: dict, steps: int, seed: int = 0) -> dict:
+    """One mean-flow column (``spec``: :data:`COLUMN`) prepared on the GPU for ``steps`` steps by
+    the preparation protocol itself (gas, compaction with the mean-flow rule and its settling
+    rule, checks; stopped by its step budget): seconds per step (the gas and the engine's set-up
+    on the host included, so an upper bound) and the whole preparation predicted from the CPU's
+    step count. Ten columns in one batch need ensembles per launch (issue 46 item 3): not here,
+    so ten columns are predicted one after another."""
+    from granwave import api
+    from granwave.errors import StepBudgetExceeded
+
+    kw = {k: v for k, v in spec.items() if k not in ("width", "height")}
+    kw.update(grains=int(round(spec["width"] * spec["height"])), aspect=spec["height"] / spec["width"],
+              max_steps=int(steps), seed=seed)
+    t0 = time.perf_counter()
+    note = None
+    try:
+        api.prepare_packing(**kw, device="gpu")
+        note = "converged within the steps asked"
+    except StepBudgetExceeded:
+        pass
+    secs = time.perf_counter() - t0
+    per_step = secs / steps
+    return {"grains": kw["grains"], "steps": steps, "seconds": secs, "s_per_step": per_step,
+            "grain_steps_per_s": kw["grains"] / per_step, "cpu_steps_of_one_column": COLUMN_CPU_STEPS,
+            "predicted_one_column_s": per_step * COLUMN_CPU_STEPS,
+            "predicted_ten_columns_one_after_another_s": 10 * per_step * COLUMN_CPU_STEPS,
+            "ten_in_one_batch": "not implemented (issue 46 item 3: ensembles per launch)",
+            **({"note": note} if note else {})}
+
+
+ALL_FULL = dict(total_s=450.0, checks_s=200.0, td_s=90.0, dem_s=80.0, statics_s=130.0, td=(1000, 1000),
                 dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=30, td_steps=200,
-                cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, seeds=12)
+                cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, seeds=12, columns_s=60.0,
+                column=COLUMN, column_steps=10000)
 ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, statics_s=3000.0, td=(6, 4),
                 dem_grains=40, dem_steps=30, dem_plain_steps=3, cpu_dem_steps=3, td_steps=3, cpu_td_steps=3,
-                copy_bytes=1 << 12, packing_grains=10, seeds=2)
+                copy_bytes=1 << 12, packing_grains=10, seeds=2, columns_s=600.0, column=COLUMN_TINY,
+                column_steps=20)
 
 
 def run_all(args) -> int:
@@ -481,8 +539,7 @@ def run_all(args) -> int:
     start = time.perf_counter()
     end = start + size["total_s"]
     res = {"benchmark": "benchmarks/gpu.py --all", "simulator": bool(args.tiny),
-           "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "goals": GOALS,
-           "columns": "not implemented (issue 46 item 1: mean-flow compaction on the GPU)"}
+           "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "goals": GOALS}
 
     def write() -> None:
         res["wall_s"] = time.perf_counter() - start
@@ -554,6 +611,7 @@ def run_all(args) -> int:
     part("dem", size["dem_s"], do_dem)
     part("packings", size["statics_s"],
          lambda deadline: packing_statics(size["packing_grains"], size["seeds"], args.tiny, deadline))
+    part("columns", size["columns_s"], lambda deadline: column_rate(size["column"], size["column_steps"]))
     part("time_domain", size["td_s"], do_td)
     if args.tiny:
         res["note"] = "CUDA simulator at toy sizes: these numbers say nothing about a GPU"
@@ -573,7 +631,7 @@ def main(argv=None) -> int:
     ap.add_argument("--full-crossing", action="store_true", help="run the whole crossing")
     ap.add_argument("--all", action="store_true", help="the one prepared measurement (module docstring)")
     ap.add_argument("--out", help="with --all: write the JSON here (else stdout)")
-    ap.add_argument("--budget", type=float, help="with --all: whole wall-time budget in seconds (default 380)")
+    ap.add_argument("--budget", type=float, help="with --all: whole wall-time budget in seconds (default 450)")
     args = ap.parse_args(argv)
     size = TINY if args.tiny else FULL
     if args.dry_run:

@@ -211,7 +211,7 @@ class PrepareParams(Params):
     compaction is the same in units of H at every height and the steps grow as H;
     tall columns then differ from 'fixed' ones, docs/dem.md; 'mean-flow': the
     per-slab mean vertical flow and the piston damped at b min(1, reference_height /
-    H_e), the fluctuations about it at b; CPU only, any thread count);
+    H_e), the fluctuations about it at b; any thread count, or the GPU);
     reference_height (d); mean_flow_slab (d, thickness of the horizontal slabs whose
     mass-weighted mean vertical velocity is the mean flow); mean_flow_settling
     ('late', the default: once the plug has arrived and the kinetic energy has fallen
@@ -254,7 +254,7 @@ class PrepareParams(Params):
                             "taller than reference_height (steps grow as H, but tall columns come "
                             "out denser than with 'fixed'; docs/dem.md); 'mean-flow' divides it "
                             "only for the mean vertical flow of horizontal slabs and the piston "
-                            "(CPU only; any thread count).",
+                            "(any thread count, or --device gpu).",
                             choices=("fixed", "height-scaled", "mean-flow"))
     reference_height: float = param(25.0, help="Height up to which b applies unscaled "
                                     "(compaction 'height-scaled' and 'mean-flow').", units="d", lo=0.0,

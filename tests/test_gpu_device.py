@@ -77,3 +77,26 @@ def test_gpu_device_names_and_methods_without_gpu_kernels_are_refused():
     system = api.linearize(packing)
     with pytest.raises(InputError, match="modal runs on the CPU only"):
         api.propagate(system, t_max=1.0, method="modal", device="gpu")
+
+
+def test_gpu_engine_takes_the_mean_flow_rule():
+    """The GPU engine runs every rule of the CPU engine (granwave.gpu.mean_flow): it no longer
+    refuses the compaction rule 'mean-flow'; an engine with its own stepping that lacks the
+    rule still does. Needs numba's CUDA target importable (no GPU: nothing runs on a device)."""
+    import numpy as np
+
+    pytest.importorskip("numba.cuda")
+    from granwave.dem.integrator import Engine
+    from granwave.gpu.dem import GpuEngine
+
+    pos = np.array([[1.0, 0.6], [3.0, 0.6], [2.0, 1.5]])
+    kw = dict(mean_flow=(0.1, 1.0), background_damping=0.5)
+    e = GpuEngine(pos, np.full(3, 0.5), [6.0], 3.0, **kw)
+    assert e.mflow.shape == (3,) and e.slabs.shape == (3, 5)
+
+    class Stepper(Engine):
+        def run(self, n_steps):  # its own stepping, without the rule
+            return 0
+
+    with pytest.raises(InputError, match="mean-flow compaction runs on the CPU only"):
+        Stepper(pos, np.full(3, 0.5), [6.0], 3.0, **kw)

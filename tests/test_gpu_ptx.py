@@ -68,9 +68,9 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
         G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
                                np.zeros(n + 1, np.int64), i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)),
                                np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v,
-                               v, ctl),
+                               v, ctl, np.zeros(3), np.zeros((dim + 1, 5))),
         G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), ctl, np.zeros((3, 7))),
-        G.finish: _types(np.zeros((3, 7)), np.zeros(6), np.zeros(14), np.zeros(7), ctl),
+        G.finish: _types(np.zeros((3, 7)), np.zeros(6), np.zeros(14), np.zeros(3), np.zeros(7), ctl),
         G.measure_kernel: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(5)),
     }
     assert set(sigs) == set(G.KERNELS)
@@ -108,6 +108,15 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
                             ip, i64),
     })
     assert set(NB.KERNELS) <= set(sigs)
+    from granwave.gpu import mean_flow as MF
+
+    ns = 5
+    sigs.update({
+        MF.slab_bin: _types(f2(dim), np.zeros(3), iv, np.zeros(ns, np.int64), np.zeros(ns, np.int64), ctl),
+        MF.slab_sums: _types(f2(dim), v, np.zeros(14), np.zeros(3), iv, np.zeros(ns, np.int64),
+                             np.zeros(ns, np.int64), np.zeros((dim + 1, ns)), ctl),
+    })
+    assert set(MF.KERNELS) <= set(sigs)
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx

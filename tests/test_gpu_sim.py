@@ -87,3 +87,31 @@ def test_gpu_device_rebuild_equals_cpu_rebuild(results):
     assert r["room_made_2d_room"] >= 1 and r["room_made_2d_room_multi"] >= 1 and r["room_made_2d"] == 0
     # the test every third step looks three steps ahead: rebuilds at other steps, the same bits
     assert r["same_state_2d_every3"] and r["rebuilds_2d_every3"] >= r["rebuilds_cpu_2d"]
+
+
+@pytest.mark.slow
+def test_gpu_mean_flow_rule_equals_cpu_bitwise(results):
+    """granwave.gpu.mean_flow against granwave.dem.mean_flow: a dense gas with the slabs' mean
+    flows damped at rates of their own, 2D frictionless (lateral rate the background one: no
+    lateral sums) and 3D frictional (lateral rate apart: both lateral means), with rebuilds
+    mid-run; the state and the slab means of the last step bit for bit, and the rule moves the
+    state."""
+    r = results["mean_flow"]
+    for dim in ("2d", "3d"):
+        assert r[f"same_state_{dim}"] and r[f"same_slabs_{dim}"], (dim, r[f"state_abs_{dim}"])
+        assert r[f"moved_{dim}"] > 1e-2, dim  # without the rule the velocities differ this much
+        assert r[f"rebuilds_{dim}"] >= 1 and r[f"occupied_slabs_{dim}"] >= 3, dim
+    assert r["lateral_sums_2d"] == 0.0 and r["lateral_sums_3d"] > 0.0
+
+
+@pytest.mark.slow
+def test_gpu_rules_between_runs_equal_cpu(results):
+    """The settling switch and the end game's cap, made on the host between runs, reach the
+    device: a gas under a loaded piston (damped at the mean-flow rate in 2D) on both engines.
+    The piston force is reduced in another order on the device: the state agrees to rounding
+    (1e-12 over 18 steps), not necessarily bit for bit."""
+    r = results["rules"]
+    for dim in ("2d", "3d"):
+        assert r[f"steps_{dim}"] == 18
+        assert r[f"piston_force_{dim}"] > 0.0 and r[f"piston_moved_{dim}"] > 1e-3, dim
+        assert r[f"state_abs_{dim}"] < 1e-12, dim

@@ -259,10 +259,10 @@ def test_slab_means_sum_in_grain_order(dim, gamma_l):
     assert np.all(slabs[n_rows:] == 0.0)  # rows not used are zeroed, not summed
 
 
-def test_mean_flow_refused_on_the_gpu():
+def test_mean_flow_refused_by_an_engine_without_it():
     pos, rad, vel, _ = _loose_grains(-1e-3, 1.0)
 
-    class OtherEngine(Engine):  # stands for the GPU engine, which steps elsewhere
+    class OtherEngine(Engine):  # steps elsewhere, without the rule (the GPU engine has it: test_gpu_device.py)
         def run(self, n_steps):
             return 0
 

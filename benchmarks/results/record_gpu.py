@@ -53,7 +53,14 @@ def headline(run: dict) -> dict:
             + ", ".join(f"{k} {'yes' if v['agree_3_sigma'] else 'no'}" for k, v in st.items()))
         out["packing seconds, GPU / CPU (means)"] = round(
             sum(pk["seconds"]["gpu"]) / max(sum(pk["seconds"]["cpu"]), 1e-300), 1)
-    out["columns (ten 2048 d)"] = run.get("columns", "")
+    col = run.get("columns", "")
+    if isinstance(col, dict) and "s_per_step" in col:  # one column measured, the preparation predicted
+        out[f"mean-flow column {col['grains']} grains: s/step on the GPU; whole preparation predicted"] = (
+            f"{col['s_per_step']:.3g} s/step over {col['steps']} steps; {col['predicted_one_column_s'] / 3600:.3g} h "
+            f"for one column ({col['cpu_steps_of_one_column']} steps, its CPU run); ten in one batch: "
+            f"{col['ten_in_one_batch']}")
+    else:  # older runs (a sentence), or a part skipped or failed
+        out["columns (ten 2048 d)"] = (col.get("skipped") or col.get("error", "")) if isinstance(col, dict) else col
     out["wall time of the run (s)"] = round(run.get("wall_s", float("nan")), 1)
     return out
 

@@ -78,8 +78,8 @@ class Engine:
     (:mod:`granwave.dem.mean_flow`: the mean vertical flow of slabs of thickness ``slab`` and
     the piston damped at gamma_m, the slabs' mean lateral flow at gamma_l (default
     ``background_damping``), the rest at ``background_damping``; ``mflow[M_GAMMA_M]`` and
-    ``mflow[M_GAMMA_L]`` may be changed between runs); on the CPU only (the GPU kernels do
-    not have it). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
+    ``mflow[M_GAMMA_L]`` may be changed between runs); the GPU engine has it too
+    (:mod:`granwave.gpu.mean_flow`). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
     ``"harmonic"``, the latter with k_n = ``harmonic_stiffness`` between two grains, E* d).
 
     Defaults: friction, poisson, damping, safety, skin, check_every, contact_law and
@@ -226,7 +226,8 @@ class Engine:
         self.pos0[:] = self.position
 
     def _cpu_only(self) -> None:
-        """Refuse the compaction rule 'mean-flow' on the GPU (its kernels do not have it)."""
+        """Refuse the compaction rule 'mean-flow' on an engine whose own stepping lacks it (a
+        subclass with its own ``run`` that does not override this; the GPU engine does)."""
         if type(self).run is not Engine.run:
             raise InputError("mean-flow compaction runs on the CPU only for now (use --device cpu)")
 

@@ -119,12 +119,14 @@ def pulse() -> dict:
 
 
 def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, small: int | None = None,
-         every: int = 1):
+         every: int = 1, friction: float = 0.5, top: float | None = None, **rule):
     """A dense frictional gas in a 6 x 6 (x 6) box (radii 0.3-0.4 on a jittered grid, random
     velocities and a vertical squeeze, so that pairs form and the list is rebuilt every ~10
     steps); ``room``: the pair arrays cut to that many slots before the run (the GPU engine
     must make room on the device's request); ``small``: the GPU engine's ``small_rebuild`` (0:
-    the multi-kernel rebuild of large systems)."""
+    the multi-kernel rebuild of large systems); ``top``: the top wall's height (default: the box
+    side); ``rule``: more engine arguments (the mean-flow rule's ``mean_flow`` and
+    ``background_damping``, a piston's mass and force)."""
     rng = np.random.default_rng(seed)
     side = 6 if dim == 2 else 5
     axes = np.meshgrid(*[np.arange(side) + 0.5] * dim, indexing="ij")
@@ -136,8 +138,9 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
     vel = rng.normal(0.0, 1.0, pos.shape)
     vel[:, -1] -= 0.5 * (pos[:, -1] - side / 2)
     rot = 1 if dim == 2 else 3
-    e = cls(pos, rad, [float(side)] * (dim - 1), float(side), friction=0.5, damping=0.3, dt=4e-3, skin=0.2,
-            velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)), check_every=0)
+    e = cls(pos, rad, [float(side)] * (dim - 1), float(side if top is None else top), friction=friction,
+            damping=0.3, dt=4e-3, skin=0.2, velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)),
+            check_every=0, **rule)
     if small is not None:
         e.small_rebuild = small
     if every != 1:
@@ -191,13 +194,137 @@ def rebuild(steps: int = 60, steps_3d: int = 24) -> dict:
     return out
 
 
+def mean_flow(steps: int = 30, steps_3d: int = 12) -> dict:
+    """The compaction rule 'mean-flow' in the engine: the dense gas of :func:`_gas` with
+    background damping and the slabs' mean flows damped at rates of their own, on both devices,
+    compared bitwise (state and the slabs' means of the last step): in 2D frictionless with the
+    lateral mean flow at the background rate (the compaction's case, no lateral sums), in 3D
+    frictional with it at its own rate too (the settling rule's case: both lateral means).
+    ``moved_2d``, ``moved_3d``: how far the rule moves the state (against the same run without
+    it): the comparison sees it. (:func:`rules` runs the rule in 2D with friction.)"""
+    from ..dem.integrator import Engine
+    from .dem import GpuEngine
+
+    out = {}
+    for dim, k, friction, rule in ((2, steps, 0.0, (0.2, 1.0)), (3, steps_3d, 0.5, (0.1, 1.5, 0.4))):
+        kw = dict(friction=friction, background_damping=2.0)
+        cpu = _gas(Engine, dim, k, mean_flow=rule, **kw)
+        gpu = _gas(GpuEngine, dim, k, mean_flow=rule, **kw)
+        plain = _gas(Engine, dim, k, **kw)
+        out[f"same_state_{dim}d"] = all(getattr(cpu, s).tobytes() == getattr(gpu, s).tobytes() for s in STATE)
+        out[f"same_slabs_{dim}d"] = bool(cpu.slabs.tobytes() == gpu.slabs.tobytes())
+        out[f"state_abs_{dim}d"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(gpu, s)), initial=0.0))
+                                       for s in STATE)
+        out[f"moved_{dim}d"] = float(np.max(np.abs(cpu.velocity - plain.velocity)))
+        out[f"lateral_sums_{dim}d"] = float(np.max(np.abs(cpu.slabs[2:]), initial=0.0))
+        out[f"slabs_{dim}d"] = int(cpu.slabs.shape[1])
+        out[f"occupied_slabs_{dim}d"] = int(np.count_nonzero(cpu.slabs[1]))
+        out[f"rebuilds_{dim}d"] = gpu.rebuilds
+    return out
+
+
+def rules(steps: int = 6) -> dict:
+    """What the preparation's host-side rules do to a GPU engine between two runs, against the
+    CPU engine: a gas under a moving piston (the piston damped at the mean-flow rate) run for
+    ``steps`` steps, then the settling rule's switch (the mean flows' rates lowered, the lateral
+    one now apart from the background rate), ``steps`` more, then the end game's cap on every
+    background damping rate, ``steps`` more; in 2D frictional with the mean-flow rule, in 3D
+    frictionless without it (the rates 'fixed' and 'height-scaled' are one background rate).
+    The piston force is reduced in another order on the device, so the state agrees to rounding
+    (``state_abs``), not bit for bit; ``piston_moved``: the piston's travel (it takes part)."""
+    from ..dem import kernels as K
+    from ..dem.integrator import Engine
+    from ..dem.mean_flow import M_GAMMA_L, M_GAMMA_M
+    from .dem import GpuEngine
+
+    TOP = {2: 5.8, 3: 4.9}  # the piston starts on the top grains (box sides 6 and 5)
+
+    def run(cls, dim, friction, rule):
+        kw = dict(friction=friction, background_damping=2.0, piston_mass=1.0, piston_force=20.0,
+                  top=TOP[dim])
+        if rule is not None:
+            kw["mean_flow"] = rule
+        e = _gas(cls, dim, steps, **kw)
+        if rule is not None:  # the settling switch (granwave.dem.settling.CriticalSettling._switch)
+            e.mflow[M_GAMMA_M] = e.mflow[M_GAMMA_L] = 0.7
+        e.run(steps)
+        e.cap_background_damping(0.3, e.damping_rates())  # the end game (granwave.dem.end_game)
+        e.run(steps)
+        return e
+
+    out = {}
+    for dim, friction, rule in ((2, 0.5, (0.2, 1.0)), (3, 0.0, None)):
+        cpu, gpu = run(Engine, dim, friction, rule), run(GpuEngine, dim, friction, rule)
+        out[f"state_abs_{dim}d"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(gpu, s)), initial=0.0))
+                                       for s in (*STATE, "piston"))
+        out[f"piston_moved_{dim}d"] = abs(cpu.height - TOP[dim])
+        out[f"piston_force_{dim}d"] = float(cpu.piston[K.P_FCON])
+        out[f"steps_{dim}d"] = gpu.steps
+    return out
+
+
+#: Tiny preparations, one per protocol the CPU accepts (compaction rules, settling rules, end
+#: game; 2D and 3D; with and without friction). Loose tolerance, 2-step checks (the rules sample
+#: every 10 checks) and a reference height of 1 d so that the mean-flow rule is on in columns a
+#: few grains tall; background damping 0.1: the plug swings up, the settling rule switches.
+PROTOCOLS = {
+    "mean_flow_critical_3d": dict(dim=3, grains=40, friction=0.0, aspect=0.6, compaction="mean-flow",
+                                  mean_flow_settling="critical", end_game="adaptive"),
+    "height_scaled_2d": dict(dim=2, grains=20, friction=0.0, aspect=2.0, compaction="height-scaled",
+                             end_game="adaptive"),
+    "mean_flow_late_2d": dict(dim=2, grains=20, friction=0.0, aspect=2.0, compaction="mean-flow",
+                              mean_flow_settling="late", end_game="adaptive"),
+    "mean_flow_critical_2d_friction": dict(dim=2, grains=20, friction=0.5, aspect=2.0, compaction="mean-flow",
+                                           mean_flow_settling="critical", end_game="adaptive"),
+    "mean_flow_compaction_2d_friction": dict(dim=2, grains=20, friction=0.5, aspect=2.0,
+                                             compaction="mean-flow", mean_flow_settling="compaction"),
+    "height_scaled_3d_friction": dict(dim=3, grains=40, friction=0.5, aspect=0.6, compaction="height-scaled",
+                                      end_game="adaptive"),
+}
+PROTOCOL_COMMON = dict(seed=1, tol=1e-3, pressure=1e-2, background_damping=0.1, reference_height=1.0,
+                       mean_flow_slab=1.0, check_every=2)
+
+
+def protocols(names=None) -> dict:
+    """Whole preparations (:data:`PROTOCOLS`) on both devices: steps, the rules' decisions (the
+    settling switch, the end game's start and rate changes) and the packing compared. The
+    trajectories agree to rounding only (the piston force is reduced in another order on the
+    device), so positions are compared with a tolerance; every decision must be the same."""
+    from .. import api
+
+    out = {}
+    for name in names or PROTOCOLS:
+        kw = {**PROTOCOL_COMMON, **PROTOCOLS[name]}
+        t0 = time.perf_counter()
+        cpu = api.prepare_packing(**kw)
+        t1 = time.perf_counter()
+        gpu = api.prepare_packing(**kw, device="gpu")
+        t2 = time.perf_counter()
+        r = {"position_abs": float(np.max(np.abs(cpu.position - gpu.position))),
+             "height_abs": abs(cpu.height - gpu.height), "seconds_cpu": t1 - t0, "seconds_gpu": t2 - t1,
+             "contacts_cpu": len(cpu.contacts), "contacts_gpu": len(gpu.contacts),
+             "device_attr": gpu.attrs.get("device")}
+        for key in ("steps", "rebuilds", "settling_step", "end_game_step", "end_game_changes",
+                    "background_damping_scale", "mean_flow_damping_scale"):
+            for tag, p in (("cpu", cpu), ("gpu", gpu)):
+                value = p.attrs.get(key)
+                r[f"{key}_{tag}"] = None if value is None else float(value)
+        out[name] = r
+    return out
+
+
 CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse,
-          "rebuild": rebuild}
+          "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols}
+
+
+#: Checks run only when named: whole preparations take minutes in the CUDA simulator (about
+#: 0.3-0.6 s a step on a 2-core machine), seconds on a GPU (benchmarks/gpu.py --tiny runs them).
+HEAVY = ("protocols",)
 
 
 def main(argv=None) -> None:
-    """Print the named checks' results (all by default) as one JSON object."""
-    names = list(argv if argv is not None else sys.argv[1:]) or list(CHECKS)
+    """Print the named checks' results (all but :data:`HEAVY` by default) as one JSON object."""
+    names = list(argv if argv is not None else sys.argv[1:]) or [c for c in CHECKS if c not in HEAVY]
     print(json.dumps({name: CHECKS[name]() for name in names}))
 
 

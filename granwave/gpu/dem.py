@@ -5,7 +5,7 @@ engine (:func:`granwave.dem.kernels.run_chunk`); only :meth:`GpuEngine.run` diff
 the state to the device, runs the steps there, and brings it back, so everything else
 (:class:`granwave.dem.protocol.Compression`, measurements, the packing written) is the CPU code.
 
-One step on the device (four kernels, no floating-point atomics):
+One step on the device (four kernels, six with the mean-flow rule; no floating-point atomics):
 
 1. ``kick_drift`` (a thread per grain): half kick and drift, as the CPU loop; thread 0 moves the
    piston;
@@ -16,6 +16,9 @@ One step on the device (four kernels, no floating-point atomics):
 3. ``grain_forces`` (a thread per grain): sums its pairs' forces over a per-grain incidence
    list in increasing pair order (the order in which the CPU loop adds them), then the two
    wall contacts, the background damping, the accelerations and the second half kick;
+   with the compaction rule 'mean-flow' two kernels before it compute the slabs' mean
+   velocities in the CPU's order (:mod:`granwave.gpu.mean_flow`), and ``grain_forces`` adds
+   each grain's slab term after its background damping;
 4. ``step_partials`` (NPART blocks) and ``finish`` (one block): the piston force, largest
    overlap, contact counts, largest speed and displacement by a two-stage reduction of fixed
    shape (grid stride, then trees), then the piston's half kick.
@@ -45,6 +48,8 @@ from ..dem import kernels as K
 from ..dem.integrator import Engine
 from . import load_cuda, simulated
 from .compile import device_functions
+from . import mean_flow as MF
+from ..dem.mean_flow import M_GAMMA_M
 from . import neighbours as NB
 from .neighbours import C_NPAIRS, C_REBUILDS, C_STATUS, C_STEPS, C_NEED, N_CTL
 
@@ -158,21 +163,23 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
 
 @cuda.jit
 def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
-                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, ctl):
-    """:func:`_grain_force` of every grain (a grid-stride loop)."""
+                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, ctl, mflow, slabs):
+    """:func:`_grain_force` of every grain (a grid-stride loop); ``mflow``, ``slabs``: the
+    compaction rule 'mean-flow' (empty ``mflow``: off; :mod:`granwave.gpu.mean_flow`)."""
     if ctl[C_STATUS] != 0:
         return
     for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
         _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
-                     wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount)
+                     wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, mflow, slabs)
 
 
 @cuda.jit(device=True)
 def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
-                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount):
+                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, mflow, slabs):
     """Total force and torque of each grain (pairs in increasing pair order, then the bottom and
-    top wall, then background damping), accelerations and the second half kick of velocity
-    Verlet; per-grain piston force, top contacts, largest wall overlap and wall contacts.
+    top wall, then background damping and the mean-flow rule's slab term), accelerations and the
+    second half kick of velocity Verlet; per-grain piston force, top contacts, largest wall
+    overlap and wall contacts.
 
     ``inc_pair`` holds p + 1 where the grain is the pair's i, -(p + 1) where it is its j."""
     d = pos.shape[1]
@@ -232,6 +239,8 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
             acc[i, a] -= gamma * mass[i] * vel[i, a]
         for a in range(r):
             alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+        if mflow.shape[0] > 0:  # after the grain's damping, as the CPU force loop
+            MF.add_slab_damping(i, i + 1, pos, mass, gamma, mflow, slabs, acc)
     inv = 1.0 / mass[i]
     for a in range(d):
         acc[i, a] *= inv
@@ -322,9 +331,10 @@ def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl, part):
 
 
 @cuda.jit
-def finish(part, piston, fpar, red, ctl):
+def finish(part, piston, fpar, mflow, red, ctl):
     """One block: the NPART partial results combined in a fixed order into ``red``, then the
-    piston's acceleration and second half kick; the step counted in ``ctl[C_STEPS]``."""
+    piston's acceleration (damped at gamma_m under the rule 'mean-flow', non-empty ``mflow``)
+    and second half kick; the step counted in ``ctl[C_STEPS]``."""
     if ctl[C_STATUS] != 0:
         return
     t = cuda.threadIdx.x
@@ -367,7 +377,8 @@ def finish(part, piston, fpar, red, ctl):
         red[R_VMAX] = math.sqrt(s_v2[0])
         ctl[C_STEPS] += 1
         piston[K.P_FCON] = s_fp[0]
-        piston[K.P_A] = piston_acceleration(piston, fpar[K.F_GAMMA])
+        gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[K.F_GAMMA]
+        piston[K.P_A] = piston_acceleration(piston, gamma_piston)
         if piston[K.P_MASS] < math.inf:
             piston[K.P_V] += 0.5 * fpar[K.F_DT] * piston[K.P_A]
 
@@ -536,8 +547,26 @@ class GpuEngine(Engine):
         ctl[C_REBUILDS] = self.ipar[K.I_REBUILDS]
         ctl[NB.C_AHEAD] = max(1, int(self.rebuild_every))
         self.g["ctl"] = to(ctl)
+        self._upload_mean_flow()
         self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
         self._upload_pairs()
+
+    def _upload_mean_flow(self) -> None:
+        """The rule 'mean-flow''s rates (as the host has them now: the settling and end-game rules
+        change them between runs) and slab arrays; empty ``mflow`` when the rule is off."""
+        to = cuda.to_device
+        g = self.g
+        g["mflow"] = to(self.mflow)
+        g["slabs"] = to(self.slabs)
+        if self.mflow.shape[0] > 0:
+            n, ns = self.position.shape[0], self.slabs.shape[1]
+            g["slab_of"] = cuda.device_array(n, np.int64)
+            g["slab_lo"] = to(np.full(ns, n, np.int64))
+            g["slab_hi"] = to(np.full(ns, -1, np.int64))
+
+    def _cpu_only(self) -> None:
+        """Nothing to refuse: the device runs every rule of the CPU engine (the CPU engine's
+        constructor calls this where a rule might be missing on another engine)."""
 
     def _upload_pairs(self) -> None:
         """The pair list, its history and incidence list, and the rebuild's work arrays, at the
@@ -611,7 +640,7 @@ class GpuEngine(Engine):
         if self.device_rebuild:
             self.sync()
         for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
-                     "pos0", "wall_ft", "wall_ov", "piston"):
+                     "pos0", "wall_ft", "wall_ov", "piston", "slabs"):
             getattr(self, name)[...] = self.g[name].copy_to_host()
         self._download_pairs()
 
@@ -666,13 +695,19 @@ class GpuEngine(Engine):
                                          g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], ctl,
                                          gp["ft"], gp["ov"], g["fpar"], gp["pf"], gp["tqi"], gp["tqj"],
                                          gp["delta"])
+        if self.mflow.shape[0] > 0 and fpar[K.F_GAMMA] > 0.0:  # the slab means the force kernel adds
+            MF.slab_bin[nb, BLOCK](g["position"], g["mflow"], g["slab_of"], g["slab_lo"], g["slab_hi"], ctl)
+            MF.slab_sums[_blocks(self.slabs.shape[1]), BLOCK](g["velocity"], g["mass"], g["fpar"], g["mflow"],
+                                                              g["slab_of"], g["slab_lo"], g["slab_hi"],
+                                                              g["slabs"], ctl)
         grain_forces[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
                                 g["angular_acceleration"], g["radius"], g["mass"], g["inertia"], gp["ptr"],
                                 gp["code"], gp["pf"], gp["tqi"], gp["tqj"], g["wall_ft"], g["wall_ov"],
-                                g["piston"], g["fpar"], g["fp"], g["top"], g["dmax"], g["count"], ctl)
+                                g["piston"], g["fpar"], g["fp"], g["top"], g["dmax"], g["count"], ctl,
+                                g["mflow"], g["slabs"])
         step_partials[NPART, RBLOCK](g["fp"], g["top"], g["dmax"], g["count"], g["v2"], g["disp2"],
                                      gp["delta"], ctl, g["part"])
-        finish[1, RBLOCK](g["part"], g["piston"], g["fpar"], g["red"], ctl)
+        finish[1, RBLOCK](g["part"], g["piston"], g["fpar"], g["mflow"], g["red"], ctl)
         if self.device_rebuild:
             return 0
         red = g["red"].copy_to_host()
