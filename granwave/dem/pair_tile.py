@@ -8,7 +8,7 @@ contact's time; in a loop over a packed array the compiler issues them as vector
 instructions, 4 to 8 at once. So :func:`law_tile` packs up to ``TILE`` touching pairs
 into columns of a scratch array and alternates scalar stages (gathers, the rest of the
 arithmetic) with loops that only take roots and quotients. Every contact gets exactly the
-operations of :func:`granwave.dem.kernels.contact_force3`, in the same order (square
+operations of :func:`granwave.dem.contact_law.contact_force3`, in the same order (square
 roots and divisions are correctly rounded, in a vector lane as in a scalar register), so
 the bits are those of the pair-at-a-time law (tests/test_dem.py compares them).
 Why, and what it gained: docs/decisions/0005-pair-law-in-tiles.md.
@@ -28,8 +28,7 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
-# through the module, not its names: kernels imports this module too (its parallel row pass)
-from . import kernels as K
+from .contact_law import PC_MEFF, PC_R12, PC_ROOT, _add_torque3, _contact_velocity, _pair_geometry
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: touching pairs per tile: the scratch (N_TROW x ROW doubles, 53 kB) stays in L2
@@ -60,7 +59,7 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
     """Stage 1 for pair q = (i, j): whether the grains touch; if so its geometry goes to column
     ``nc`` of the scratch ``t`` (the caller packs q), if not a history it had is destroyed (the
     contact opened)."""
-    dx, dy, dz = K._pair_geometry(pos, lateral, i, j)
+    dx, dy, dz = _pair_geometry(pos, lateral, i, j)
     r2 = dx * dx + dy * dy + dz * dz
     rs = rad[i] + rad[j]
     if r2 >= rs * rs:
@@ -80,7 +79,7 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
              zeta, mu, rescale, e12, g12, law, t, tp, force, torque, dmax, ncontact):
-    """The pair law (:func:`granwave.dem.kernels.contact_force3`, the same bits) for the listed
+    """The pair law (:func:`granwave.dem.contact_law.contact_force3`, the same bits) for the listed
     pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
     history untouched), until TILE of them touch; each contact's force and torque are added
     to both grains in list order, as the pair-at-a-time loop does.
@@ -94,7 +93,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
     # stage 1: geometry; pairs apart release their history, touching ones are packed. Pair and
     # grain indices are taken unsigned in all stages: numba tests every signed index for a
     # negative (wraparound) value, two instructions per access on the gathers and scatters
-    # (9-13 % of the force loop's time on 10^4 grains, kernels.grains)
+    # (9-13 % of the force loop's time on 10^4 grains, blocks.grains)
     nc = 0
     p = p0
     while p < p1 and nc < TILE:
@@ -120,8 +119,8 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             force[i, 2] += fz
             force[j, 2] -= fz
         if r > 0:
-            K._add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
-            K._add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+            _add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
+            _add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
         if delta > dmax:
             dmax = delta
         ncontact += 1
@@ -135,7 +134,7 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
     ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
     contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
     order; its force on k and k's torque a_k (n x f) go to the slot's row of ``bnd_f`` (zeros
-    for pairs apart), for k's row to add later (kernels._incoming_block). Returns (the first
+    for pairs apart), for k's row to add later (passes._incoming_block). Returns (the first
     slot not looked at, ``dmax`` and ``ncontact`` updated)."""
     d = pos.shape[1]
     r = omega.shape[1]
@@ -165,7 +164,7 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
             force[g, 2] -= fz
             bnd_f[slot, 2] = fz
         if r > 0:
-            K._add_torque3(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+            _add_torque3(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
         # the torque on k as _add_torque3 computes it (the same bits when k's row adds it)
         ai = t[T_AI * ROW + c]
         if r == 1:
@@ -215,13 +214,13 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
         nz = t[T_NZ * ROW + c] if d == 3 else 0.0
         ai = rad[i] - 0.5 * delta
         aj = rad[j] - 0.5 * delta
-        vx, vy, vz = K._contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
+        vx, vy, vz = _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
         t[T_AI * ROW + c] = ai
         t[T_AJ * ROW + c] = aj
         vn = vx * nx + vy * ny + vz * nz
         t[T_VN * ROW + c] = vn
-        t[T_ROOT * ROW + c] = pair_c[q, K.PC_ROOT]
-        t[T_MEFF * ROW + c] = pair_c[q, K.PC_MEFF]
+        t[T_ROOT * ROW + c] = pair_c[q, PC_ROOT]
+        t[T_MEFF * ROW + c] = pair_c[q, PC_MEFF]
         if mu > 0.0:
             t[T_TX * ROW + c] = vx - vn * nx
             t[T_TY * ROW + c] = vy - vn * ny
@@ -235,7 +234,7 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
             t[T_GX * ROW + c] = hx
             t[T_GY * ROW + c] = hy
             t[T_GZ * ROW + c] = hz
-            t[T_R12 * ROW + c] = pair_c[q, K.PC_R12]
+            t[T_R12 * ROW + c] = pair_c[q, PC_R12]
             t[T_OVOLD * ROW + c] = pair_ov[q]
     # vector: Hertz, k_n and the normal damping coefficient through contact.py's own functions
     # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the

@@ -21,13 +21,15 @@ from ..geometry import periodic_distance2
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
 from .pair_tile import law_tile
-from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
-                      F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS,
-                      I_STEPS, I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP,
-                      O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
-                      W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, drift_grain, measure, needs_rebuild,
-                      next_skin, pair_constants, piston_acceleration, piston_half_kick, piston_kick_drift,
-                      law_of, refresh_wall_list, stable_dt_at, wall_contact)
+from .contact_law import _add_torque3, law_of, pair_constants, wall_contact
+from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX, F_ZETA,
+                     I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS, I_WIDTH,
+                     O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A,
+                     P_FCON, P_H, P_V)
+from .passes import drift_grain, measure
+from .piston import piston_acceleration, piston_half_kick, piston_kick_drift
+from .time_step import needs_rebuild, next_skin, stable_dt_at
+from .workspace import W_INVI, W_INVM, W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
