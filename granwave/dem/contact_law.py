@@ -22,7 +22,7 @@ import numba
 from .. import contact as C
 from .. import contact_models as CM
 from ..geometry import nearest_image
-from .layout import F_KLAW, F_LAW
+from .layout import F_GROLL, F_KLAW, F_KROLL, F_LAW, F_MUROLL, F_ROLL
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -217,7 +217,7 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
     if delta <= 0.0:
         if wall_ov[w] != 0.0:
             wall_ov[w] = 0.0
-            for a in range(d):
+            for a in range(wall_ft.shape[1]):  # the tangential history and a rolling one after it
                 wall_ft[w, a] = 0.0
         return delta, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     sgn = -1.0 if k == 0 else 1.0
@@ -259,6 +259,85 @@ def law_of(fpar):
     """The contact model (:class:`granwave.contact_models.ContactModel`) of the engine's
     parameters: the normal law's code ``fpar[F_LAW]`` and its stiffness ``fpar[F_KLAW]``."""
     return CM.ContactModel(int(fpar[F_LAW]), fpar[F_KLAW])
+
+
+@numba.njit(cache=True, inline="always")
+def rolling_of(fpar):
+    """The rolling sub-model (:class:`granwave.contact_models.RollingModel`) of the engine's
+    parameters ``fpar[F_ROLL]`` (code), k_r, gamma_r, mu_r."""
+    return CM.RollingModel(int(fpar[F_ROLL]), fpar[F_KROLL], fpar[F_GROLL], fpar[F_MUROLL])
+
+
+@numba.njit(cache=True, inline="always")
+def rolling_history(hist, w, d):
+    """The rolling displacement of contact slot ``w`` (columns d.. of the history; zeros in 2D's z)."""
+    return hist[w, d], hist[w, d + 1], hist[w, d + 2] if d == 3 else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def store_rolling_history(hist, w, d, hx, hy, hz):
+    hist[w, d] = hx
+    hist[w, d + 1] = hy
+    if d == 3:
+        hist[w, d + 2] = hz
+
+
+@numba.njit(cache=True, inline="always")
+def relative_spin(omega, i, j):
+    """w_i - w_j as (x, y, z) (j < 0: a wall, at rest; 2D: only z)."""
+    wx, wy, wz = _spin(omega, i, 1.0)
+    if j >= 0:
+        ux, uy, uz = _spin(omega, j, 1.0)
+        return wx - ux, wy - uy, wz - uz
+    return wx, wy, wz
+
+
+@numba.njit(cache=True, inline="always")
+def pair_rolling(omega, pair_ft, q, i, j, nx, ny, nz, r12, fel, dt, roll):
+    """The rolling couple (cx, cy, cz) on i of listed pair q = (i, j) (the opposite one on j); its
+    rolling displacement in ``pair_ft[q, d:]`` updated (granwave.contact_models.rolling)."""
+    d = pair_ft.shape[1] // 2
+    rx, ry, rz = relative_spin(omega, i, j)
+    hx, hy, hz = rolling_history(pair_ft, q, d)
+    cx, cy, cz, hx, hy, hz = CM.rolling_couple(roll, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt)
+    store_rolling_history(pair_ft, q, d, hx, hy, hz)
+    return cx, cy, cz
+
+
+@numba.njit(cache=True, inline="always")
+def wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll):
+    """The rolling couple on grain i from its touching wall k (R12 = R_i, the wall at rest, F_n the
+    law's elastic force at ``delta``); its rolling displacement in ``wall_ft[2 i + k, d:]`` updated."""
+    d = wall_ft.shape[1] // 2
+    w = 2 * i + k
+    R = rad[i]
+    fel = CM.law_force(law, delta, math.sqrt(R), e_wall)
+    rx, ry, rz = relative_spin(omega, i, -1)
+    hx, hy, hz = rolling_history(wall_ft, w, d)
+    cx, cy, cz, hx, hy, hz = CM.rolling_couple(roll, nx, ny, nz, rx, ry, rz, R, fel, hx, hy, hz, dt)
+    store_rolling_history(wall_ft, w, d, hx, hy, hz)
+    return cx, cy, cz
+
+
+@numba.njit(cache=True, inline="always")
+def torque_with_couple(arm, nx, ny, nz, fx, fy, fz, cx, cy, cz):
+    """(arm n) x f + c, the torque of a contact with a rolling couple c, as the 3 components that one
+    addition per component puts on the grain (2D: the third, z, is the one used)."""
+    return (arm * (ny * fz - nz * fy) + cx, arm * (nz * fx - nx * fz) + cy, arm * (nx * fy - ny * fx) + cz)
+
+
+@numba.njit(cache=True, inline="always")
+def add_torque_with_couple(torque, k, arm, nx, ny, nz, fx, fy, fz, cx, cy, cz):
+    """torque[k] += (arm n) x f + c in one addition per component (the engines' order with rolling:
+    the same sum whether the torque is added at once or handed to another block first)."""
+    tx, ty, tz = torque_with_couple(arm, nx, ny, nz, fx, fy, fz, cx, cy, cz)
+    r = torque.shape[1]
+    if r == 1:
+        torque[k, 0] += tz
+    elif r == 3:
+        torque[k, 0] += tx
+        torque[k, 1] += ty
+        torque[k, 2] += tz
 
 
 @numba.njit(cache=True, inline="always")

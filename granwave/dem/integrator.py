@@ -80,13 +80,18 @@ class Engine:
     ``mflow[M_GAMMA_L]`` may be changed between runs); on the CPU only (the GPU kernels do
     not have it). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
     ``"harmonic"``, the latter with k_n = ``harmonic_stiffness`` between two grains, E* d).
+    ``rolling``: the rolling resistance sub-model, ``"none"`` or ``"sds"`` with k_r =
+    ``rolling_stiffness`` (E* d), gamma_r = ``rolling_damping`` and mu_r = ``rolling_friction``
+    (granwave.contact_models.rolling; needs friction > 0; its history in ``pair_ft`` and
+    ``wall_ft`` after the tangential columns).
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=0.5, poisson=0.0, damping=0.0,
                  background_damping=0.0, piston_mass=math.inf, piston_force=0.0, dt=None, safety=0.05,
                  overlap_floor=1e-3, skin=0.2, skin_min=None, velocity=None, angular_velocity=None,
                  tol_acceleration=0.0, tol_velocity=0.0, check_every=20, unloading="rescale",
-                 mean_flow=None, contact_law="hertz", harmonic_stiffness=1.0):
+                 mean_flow=None, contact_law="hertz", harmonic_stiffness=1.0, rolling="none",
+                 rolling_stiffness=0.0, rolling_damping=0.0, rolling_friction=0.0):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
@@ -115,7 +120,15 @@ class Engine:
         cap = max(64, (4 if d == 2 else 8) * n)
         self.pair_i = np.zeros(cap, np.int64)
         self.pair_j = np.zeros(cap, np.int64)
-        self.pair_ft = np.zeros((cap, d))
+        try:
+            self.rolling = CM.rolling_model(rolling, rolling_stiffness, rolling_damping, rolling_friction)
+        except ValueError as e:
+            raise InputError(str(e)) from None
+        if self.rolling.kind != 0 and n_rot == 0:
+            raise InputError(f"rolling {rolling!r} needs friction > 0 (rotational degrees of freedom)")
+        #: history columns per contact: the tangential force's, then the rolling displacement's
+        hist = CM.history_columns(d, self.rolling)
+        self.pair_ft = np.zeros((cap, hist))
         self.pair_ov = np.zeros(cap)
         #: compaction 'mean-flow': [gamma_m, slab, gamma_l] (empty: off) and the slabs' work array
         self.mflow = np.zeros(0)
@@ -133,7 +146,7 @@ class Engine:
         #: arrays of the parallel kernels (kernels.workspace): neighbour and incoming lists,
         #: per-block statistics, the mean-flow rule's arrays
         self.ws = K.workspace(n, d, n_rot, cap, NEIGHBOUR_WIDTH[d], mflow=self.mflow, slabs=self.slabs)
-        self.wall_ft = np.zeros((2 * n, d))
+        self.wall_ft = np.zeros((2 * n, hist))
         self.wall_ov = np.zeros(2 * n)
         self.piston = np.zeros(K.N_PISTON)
         self.piston[K.P_H] = height
@@ -167,6 +180,10 @@ class Engine:
         self.contact_law = contact_law
         self.fpar[K.F_LAW] = law.normal
         self.fpar[K.F_KLAW] = law.stiffness
+        self.fpar[K.F_ROLL] = self.rolling.kind
+        self.fpar[K.F_KROLL] = self.rolling.stiffness
+        self.fpar[K.F_GROLL] = self.rolling.damping
+        self.fpar[K.F_MUROLL] = self.rolling.friction
         self.ipar = np.zeros(K.N_IPAR, np.int64)
         self.ipar[K.I_ADAPTIVE] = dt is None
         self.ipar[K.I_CHECK] = check_every
@@ -186,7 +203,8 @@ class Engine:
         same_pairs = cap == len(self.pair_i)
         if cap > len(self.pair_i):
             for name, shape, dtype in (("pair_i", (cap,), np.int64), ("pair_j", (cap,), np.int64),
-                                       ("pair_ft", (cap, d), np.float64), ("pair_ov", (cap,), np.float64)):
+                                       ("pair_ft", (cap, self.pair_ft.shape[1]), np.float64),
+                                       ("pair_ov", (cap,), np.float64)):
                 old = getattr(self, name)
                 new = np.zeros(shape, dtype)
                 new[: len(old)] = old

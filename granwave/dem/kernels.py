@@ -13,14 +13,17 @@ those modules imports it.
 
 from __future__ import annotations
 
-from .layout import (F_DFLOOR, F_DT, F_GAMMA, F_KLAW, F_LAW, F_MMIN, F_MU, F_POISSON, F_RESCALE, F_RMAX,
-                     F_SAFETY, F_SKIN, F_SKIN_MAX, F_SKIN_MIN, F_TOLA, F_TOLV, F_VMAX, F_WALLH, F_ZETA,
-                     I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS, I_TEAM,
-                     I_TEAMSTEPS, I_WIDTH, N_FPAR, N_IPAR, N_OUT, N_PISTON, O_ALPHAMAX, O_AMAX, O_APISTON,
-                     O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A, P_FCON, P_FEXT, P_H, P_MASS, P_V)  # noqa: F401
+from .layout import (F_DFLOOR, F_DT, F_GAMMA, F_GROLL, F_KLAW, F_KROLL, F_LAW, F_MMIN, F_MU, F_MUROLL,
+                     F_POISSON, F_RESCALE, F_RMAX, F_ROLL, F_SAFETY, F_SKIN, F_SKIN_MAX, F_SKIN_MIN, F_TOLA,
+                     F_TOLV, F_VMAX, F_WALLH, F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS,
+                     I_NSTEPS, I_REBUILDS, I_STEPS, I_TEAM, I_TEAMSTEPS, I_WIDTH, N_FPAR, N_IPAR, N_OUT,
+                     N_PISTON, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
+                     O_WMAX, P_A, P_FCON, P_FEXT, P_H, P_MASS, P_V)  # noqa: F401
 from .contact_law import (_add_torque3, _contact_velocity, _pair_geometry, _pair_law, _spin, add_torque,
-                          contact_force, contact_force3, law_of, N_PCOL, pair_constants, pair_constants3,
-                          PC_MEFF, PC_R12, PC_ROOT, rotation_velocity, wall_contact)  # noqa: F401
+                          add_torque_with_couple, contact_force, contact_force3, law_of, N_PCOL,
+                          pair_constants, pair_constants3, pair_rolling, PC_MEFF, PC_R12, PC_ROOT,
+                          relative_spin, rolling_history, rolling_of, rotation_velocity,
+                          store_rolling_history, torque_with_couple, wall_contact, wall_rolling)  # noqa: F401
 from .blocks import (block_bounds, block_count, BLOCK_GRAINS, BLOCK_MULTIPLE, block_taken, BLOCKS_PER_THREAD,
                      claim_block, G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX,
                      G_WMAX, grains, MIN_BLOCK_GRAINS, N_GCOL, open_claims, take_block, visit_order)  # noqa: F401
@@ -31,8 +34,8 @@ from .workspace import (_lists, boundary_fraction, boundary_room, first_wall_ent
                         W_TEAMTIME, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, wall_list, with_blocks,
                         workspace)  # noqa: F401
 from .piston import (piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift)  # noqa: F401
-from .time_step import (needs_rebuild, next_skin, rebuild_due, ROTATION_FACTOR, SAFETY_AT_LIMIT, SKIN_STEPS,
-                        stable_dt, stable_dt_at, verlet_limit)  # noqa: F401
+from .time_step import (needs_rebuild, next_skin, rebuild_due, rolling_limit, ROTATION_FACTOR,
+                        SAFETY_AT_LIMIT, SKIN_STEPS, SPHERE_INERTIA, stable_dt, stable_dt_at, verlet_limit)  # noqa: F401
 from .passes import (_await_slab_means, _block_max, _displacement_pass, _drift_pass, _finish, _forces,
                      _incoming_block, _incoming_pass, _row_block, _row_pass, _slab_job, compute_forces,
                      drift_grain, measure, SLABS_READY, SLABS_RUNNING, SLABS_TODO, to_accelerations)  # noqa: F401

@@ -28,7 +28,8 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
-from .contact_law import PC_MEFF, PC_R12, PC_ROOT, _add_torque3, _contact_velocity, _pair_geometry
+from .contact_law import (PC_MEFF, PC_R12, PC_ROOT, _add_torque3, _contact_velocity, _pair_geometry,
+                          add_torque_with_couple, pair_rolling, torque_with_couple)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: touching pairs per tile: the scratch (N_TROW x ROW doubles, 53 kB) stays in L2
@@ -65,7 +66,7 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
     if r2 >= rs * rs:
         if pair_ov[q] != 0.0:
             pair_ov[q] = 0.0
-            for a in range(d):
+            for a in range(pair_ft.shape[1]):  # the tangential history and a rolling one after it
                 pair_ft[q, a] = 0.0
         return False
     t[T_DX * ROW + nc] = dx
@@ -78,14 +79,15 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
-             zeta, mu, rescale, e12, g12, law, t, tp, force, torque, dmax, ncontact):
+             zeta, mu, rescale, e12, g12, law, roll, t, tp, force, torque, dmax, ncontact):
     """The pair law (:func:`granwave.dem.contact_law.contact_force3`, the same bits) for the listed
     pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
     history untouched), until TILE of them touch; each contact's force and torque are added
     to both grains in list order, as the pair-at-a-time loop does.
 
     Pairs that no longer touch lose their history (``pair_ov``, ``pair_ft`` zeroed); touching
-    ones get the new one. ``t``, ``tp``: one tile's scratch (:func:`scratch`). Returns (the
+    ones get the new one. ``roll``: the rolling sub-model (granwave.contact_models.RollingModel;
+    none: the torques as before it). ``t``, ``tp``: one tile's scratch (:func:`scratch`). Returns (the
     first pair not looked at, the largest overlap and the contact count, ``dmax`` and
     ``ncontact`` updated)."""
     d = pos.shape[1]
@@ -119,8 +121,14 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             force[i, 2] += fz
             force[j, 2] -= fz
         if r > 0:
-            _add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
-            _add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+            if roll.kind != 0:  # a rolling couple c on i, -c on j, added with the force's torque
+                cx, cy, cz = pair_rolling(omega, pair_ft, q, i, j, nx, ny, nz, pair_c[q, PC_R12],
+                                          t[T_FEL * ROW + c], dt, roll)
+                add_torque_with_couple(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz, cx, cy, cz)
+                add_torque_with_couple(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
+            else:
+                _add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
+                _add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
         if delta > dmax:
             dmax = delta
         ncontact += 1
@@ -129,7 +137,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, slot_pair, s0, s1,
-                      dt, zeta, mu, rescale, e12, g12, law, t, tp, force, torque, bnd_f, dmax, ncontact):
+                      dt, zeta, mu, rescale, e12, g12, law, roll, t, tp, force, torque, bnd_f, dmax, ncontact):
     """The pair law of :func:`law_tile` (the same bits) for a block's incoming pairs: the pairs
     ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
     contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
@@ -163,6 +171,21 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
         if d == 3:
             force[g, 2] -= fz
             bnd_f[slot, 2] = fz
+        if r > 0 and roll.kind != 0:  # law_tile's torques with the rolling couple, k's into the slot
+            cx, cy, cz = pair_rolling(omega, pair_ft, q, np.uint64(pair_i[q]), g, nx, ny, nz, pair_c[q, PC_R12],
+                                      t[T_FEL * ROW + c], dt, roll)
+            add_torque_with_couple(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
+            tx, ty, tz = torque_with_couple(t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz, cx, cy, cz)
+            if r == 1:
+                bnd_f[slot, d] = tz
+            else:
+                bnd_f[slot, d] = tx
+                bnd_f[slot, d + 1] = ty
+                bnd_f[slot, d + 2] = tz
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+            continue
         if r > 0:
             _add_torque3(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
         # the torque on k as _add_torque3 computes it (the same bits when k's row adds it)

@@ -29,7 +29,7 @@ from ..geometry import fold_into_box, nearest_image, periodic_distance2
 from . import pair_tile as PT
 from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX, G_WMAX,
                      block_bounds, claim_block, grains, open_claims, visit_order)
-from .contact_law import _add_torque3, law_of, wall_contact
+from .contact_law import _add_torque3, add_torque_with_couple, law_of, rolling_of, wall_contact, wall_rolling
 from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_ZETA, O_ALPHAMAX, O_AMAX, O_APISTON,
                      O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V)
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
@@ -85,6 +85,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar[F_POISSON], False)
     law = law_of(fpar)
+    roll = rolling_of(fpar)
     dmax = 0.0
     ncontact = 0
     # the block's slots are in the order of its grains g and then of k (incoming_lists): one
@@ -95,7 +96,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     while s < slot_start[b + 1]:
         s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
                                                  pair_ov, slot_pair, s, slot_start[b + 1], dt, zeta, mu, rescale,
-                                                 e_pair, g_pair, law, t, tp, acc, alpha, bnd_f, dmax, ncontact)
+                                                 e_pair, g_pair, law, roll, t, tp, acc, alpha, bnd_f, dmax, ncontact)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
 
@@ -274,6 +275,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     e_wall = C.effective_young(True)
     g_wall = C.effective_shear(fpar[F_POISSON], True)
     law = law_of(fpar)
+    roll = rolling_of(fpar)
     dmax = blk_g[b, G_DMAX]
     ncontact = int(blk_g[b, G_NC])
     # the block's rows a tile at a time (pair_tile: the pair law with its roots and quotients in
@@ -282,7 +284,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     p = row[b0]
     while p < row[b1]:
         p, dmax, ncontact = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov,
-                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, law, t, tp,
+                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, law, roll, t, tp,
                                         acc, alpha, dmax, ncontact)
     # then those pairs' forces on their rows' grains, from the slots, in increasing pair index
     # (a row's are its last pairs, sorted by j). Nothing but row k adds to grain k once row k
@@ -318,7 +320,11 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             if d == 3:
                 acc[i, 2] += fz
             if r > 0:
-                _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
+                if roll.kind != 0:
+                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
+                    add_torque_with_couple(alpha, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
+                else:
+                    _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
             if k == 1:
                 top_f[b0 + ntop] = fz if d == 3 else fy
                 ntop += 1

@@ -9,8 +9,8 @@ import numba
 from .. import contact as C
 from .. import contact_models as CM
 from .contact_law import law_of
-from .layout import (F_DFLOOR, F_MMIN, F_MU, F_POISSON, F_RMAX, F_SAFETY, F_SKIN, F_SKIN_MAX, F_SKIN_MIN,
-                     F_ZETA, I_BUILT, I_STEPS)
+from .layout import (F_DFLOOR, F_GROLL, F_KROLL, F_MMIN, F_MU, F_POISSON, F_RMAX, F_ROLL, F_SAFETY, F_SKIN,
+                     F_SKIN_MAX, F_SKIN_MIN, F_ZETA, I_BUILT, I_STEPS)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -57,7 +57,24 @@ def stable_dt(fpar):
     if fpar[F_MU] > 0.0:
         omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar[F_POISSON]))
         limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
+    if fpar[F_ROLL] != 0.0:
+        limit = min(limit, rolling_limit(fpar))
     return fpar[F_SAFETY] / SAFETY_AT_LIMIT * limit
+
+
+#: I / (m R^2) of a solid sphere (I = m d^2 / 10, in 2D too)
+SPHERE_INERTIA = 0.4
+
+
+@numba.njit(cache=True, inline="always")
+def rolling_limit(fpar):
+    """The rolling spring's mode in :func:`stable_dt` (granwave.contact_models.rolling): the lightest
+    grain turning on a wall's rolling spring, I theta'' = -R^2 (k_r theta + gamma_r theta'), so
+    omega_r^2 = k_r / (0.4 m_min) and damping ratio gamma_r / (2 sqrt(0.4 m_min k_r)); twice k_r
+    (a grain's contacts acting together, as for the harmonic law)."""
+    k = 2.0 * fpar[F_KROLL]
+    m = SPHERE_INERTIA * fpar[F_MMIN]
+    return verlet_limit(math.sqrt(k / m), fpar[F_GROLL] / (2.0 * math.sqrt(m * k)))
 
 
 #: Adaptive skin: steps a pair list is meant to last (:func:`next_skin`). A rebuild of a
