@@ -110,6 +110,7 @@ PROGRESS_SECONDS = 5.0
 
 _COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains",
                  "contact_law", "harmonic_stiffness",  # the normal law (granwave.contact_models)
+                 "rolling", "rolling_stiffness", "rolling_damping", "rolling_friction",  # rolling sub-model
                  "packing_digest")  # the identity of the packing (granwave.io.files.packing_digest)
 
 
