@@ -95,17 +95,6 @@ def sds_couple(k, gamma, mu, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt):
             hx, hy, hz)
 
 
-def rolling_stiffness_block(r12: float, k: float, normal) -> "numpy.ndarray":  # noqa: F821
-    """d(couple on i)/d(theta_j) of the spring regime, (3, 3): R12^2 k_r (I - n n) (a wall:
-    theta_j = 0). The couple on i is R12^2 k_r P (theta_j - theta_i) for xi = R12 n x (theta_i -
-    theta_j) from zero; P = I - n n projects on the tangent plane."""
-    import numpy as np
-
-    n = np.zeros(3)
-    n[: len(normal)] = normal
-    return r12 * r12 * k * (np.eye(3) - np.outer(n, n))
-
-
 @numba.njit(cache=True, inline="always")
 def spring_couple(k, nx, ny, nz, rx, ry, rz, r12, hx, hy, hz):
     """The couple on grain i of the rolling spring alone with its history frozen (the linearization's
