@@ -47,6 +47,7 @@ import granwave.threads  # noqa: E402,F401  (threading layer first)
 import numba  # noqa: E402
 
 from granwave import team  # noqa: E402
+from granwave.dem import blocks  # noqa: E402
 from granwave.dem import kernels as K  # noqa: E402
 
 
@@ -136,7 +137,7 @@ def main() -> None:
     def apply(setting) -> None:
         kind, value = setting
         K.block_count = (lambda n, threads=1: value) if kind == "blocks" else keep_count
-        K.BLOCKS_PER_THREAD = value if kind == "per thread" else per_thread[0]
+        blocks.BLOCKS_PER_THREAD = value if kind == "per thread" else per_thread[0]  # read by block_count
     if threads[0] != 1:
         sys.exit("--threads must start with 1")
     if args.blocks_on_one > max(1, numba.config.NUMBA_NUM_THREADS):

@@ -610,11 +610,11 @@ def main() -> None:
     if args.stop_at is not None and (not args.large or args.stop_at < 1):
         raise SystemExit("--stop-at: a positive number of steps, with --large")
     if args.blocks_per_thread is not None:
-        from granwave.dem import kernels as K
+        from granwave.dem import blocks
 
         if args.blocks_per_thread < 1:
             raise SystemExit("--blocks-per-thread: at least 1")
-        K.BLOCKS_PER_THREAD = args.blocks_per_thread  # read by block_count when an engine starts
+        blocks.BLOCKS_PER_THREAD = args.blocks_per_thread  # read by block_count when an engine starts
     if args.engines_only and args.write_docs:
         raise SystemExit("--engines-only: a partial table; not with --write-docs")
     if args.large:

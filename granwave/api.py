@@ -136,6 +136,8 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     from .gpu import backend
 
     p = _params(PrepareParams, params, fields)
+    if p.rolling != "none" and device not in (None, "cpu"):
+        raise InputError(f"rolling resistance ({p.rolling}) runs on the CPU only for now (use --device cpu)")
     _progress(progress)
     kernels = backend(device)
     _threads(threads)

@@ -46,6 +46,9 @@ class Contacts:
     force_tangential: np.ndarray  # (M, dim), force on i from j
     stiffness_normal: np.ndarray  # (M,)
     stiffness_tangential: np.ndarray  # (M,)
+    #: (M, dim) rolling displacement xi of each contact (rolling resistance, granwave.contact_models.rolling);
+    #: None without the sub-model
+    rolling_displacement: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.i)

@@ -8,6 +8,7 @@ from scipy.special import beta
 
 from granwave import contact as C
 from granwave.dem import kernels as K
+from granwave.dem import workspace as WS
 from granwave.dem.integrator import Engine
 from granwave.dem.protocol import granular_gas
 
@@ -176,7 +177,7 @@ def test_pair_constants_follow_the_pair_list(threads, use_threads, monkeypatch):
     ref = run()  # the one-thread pair loop with lists of the default sizes
     use_threads(threads)
     monkeypatch.setattr(integrator, "NEIGHBOUR_WIDTH", {2: 2, 3: 2})
-    monkeypatch.setattr(K, "boundary_room", lambda n: 1)
+    monkeypatch.setattr(WS, "boundary_room", lambda n: 1)  # read by workspace() in its module
     grown = []
     grow = integrator.Engine.grow
     monkeypatch.setattr(integrator.Engine, "grow", lambda self, *a: grown.append(a) or grow(self, *a))

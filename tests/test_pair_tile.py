@@ -95,7 +95,7 @@ def tiled(state, jmax, dt, zeta, mu, rescale):
     p, dmax, count, tiles = 0, 0.0, 0, 0
     while p < len(pair_i):
         p, dmax, count = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
-                                     len(pair_i), jmax, dt, zeta, mu, rescale, e12, g12, LAW, t[0], tp[0],
+                                     len(pair_i), jmax, dt, zeta, mu, rescale, e12, g12, LAW, CM.NO_ROLLING, t[0], tp[0],
                                      force, torque, dmax, count)
         tiles += 1
     return (force, torque, pair_ft, pair_ov, dmax, count), tiles
@@ -180,7 +180,7 @@ def test_tiled_incoming_pairs_give_the_bits_of_the_pair_at_a_time_law(dim, zeta,
     while s < len(slots):
         s, dmax, count = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
                                               pair_ov, slots, s, len(slots), 0.01, zeta, mu, rescale, e12, g12,
-                                              LAW, t[0], tp[0], force, torque, bnd_f, dmax, count)
+                                              LAW, CM.NO_ROLLING, t[0], tp[0], force, torque, bnd_f, dmax, count)
         tiles += 1
     assert tiles >= 2 and ref[6] > PT.TILE  # more than one tile of contacts
     assert ref[6] == count and ref[5] == dmax

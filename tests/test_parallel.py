@@ -15,6 +15,7 @@ import pytest
 from granwave import team, threads
 from granwave.dem import integrator
 from granwave.dem import kernels as K
+from granwave.dem import workspace as WS
 from granwave.dem import serial
 from granwave.dem.params import PrepareParams
 from granwave.dem.protocol import prepare_packing
@@ -360,7 +361,7 @@ def test_blocks_grow_room_for_incoming_pairs_to_the_same_result(monkeypatch):
     params = PrepareParams(grains=90, seed=11, tol=1e-9)
     ref = prepare_packing(params)
     monkeypatch.setattr(serial, "run_chunk", K.run_chunk)
-    monkeypatch.setattr(K, "boundary_room", lambda n: 1)
+    monkeypatch.setattr(WS, "boundary_room", lambda n: 1)  # read by workspace() in its module
     rooms = []
     keep = integrator.Engine.grow
 

@@ -13,8 +13,13 @@ and its stiffness k), built from the engine's parameters, and call the ``law_*``
 dispatchers: one compiled signature for every law, a branch on the code per call
 (Hertz's arithmetic is untouched, so its bits are those before the seam). The GPU kernels
 compile these same functions for the device (:mod:`granwave.gpu.compile`,
-:data:`DEVICE_FUNCTIONS`). A later sub-model (e.g. rolling resistance) adds its fields to
-:class:`ContactModel` and its own dispatchers here.
+:data:`DEVICE_FUNCTIONS`).
+
+Rolling resistance (:mod:`.rolling`) is a second sub-model beside the normal law: its own named
+tuple :class:`RollingModel` (model code and coefficients), built by
+``granwave.dem.contact_law.rolling_of(fpar)`` and passed to the CPU engines' loops next to the
+:class:`ContactModel`, whose signature (and the GPU's device copies) it leaves alone; its
+per-contact history sits in the tangential history's arrays, after their ``dim`` columns.
 """
 
 from __future__ import annotations
@@ -23,8 +28,8 @@ from collections import namedtuple
 
 import numba
 
-from ..params import CONTACT_LAWS
-from . import harmonic, hertz
+from ..params import CONTACT_LAWS, ROLLING_MODELS
+from . import harmonic, hertz, rolling
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: the registry: law name -> module (one line per law; its CODE is its position here)
@@ -38,6 +43,57 @@ DEFAULT_LAW = hertz.NAME
 #: What the kernels receive of the contact model: ``normal`` the normal law's code,
 #: ``stiffness`` its parameter k (harmonic: k_n = k E*12, d; Hertz: unused).
 ContactModel = namedtuple("ContactModel", ("normal", "stiffness"))
+
+
+#: What the CPU engines receive of the rolling sub-model: ``kind`` (rolling.NONE or rolling.SDS),
+#: k_r (E* d), gamma_r (d^2 sqrt(rho E*)) and mu_r.
+RollingModel = namedtuple("RollingModel", ("kind", "stiffness", "damping", "friction"))
+assert rolling.NAMES == ROLLING_MODELS, "name the rolling model in granwave.params.ROLLING_MODELS too"
+NO_ROLLING = RollingModel(rolling.NONE, 0.0, 0.0, 0.0)
+
+
+def rolling_model(name: str = "none", stiffness: float = 0.0, damping: float = 0.0,
+                  friction: float = 0.0) -> RollingModel:
+    """The :class:`RollingModel` of the sub-model ``name`` and its coefficients; ValueError for
+    an unknown name or a stiffness that is not > 0 (sds)."""
+    if name not in rolling.NAMES:
+        raise ValueError(f"unknown rolling model {name!r}: choose one of {', '.join(rolling.NAMES)}")
+    if name == "none":
+        return NO_ROLLING
+    if not float(stiffness) > 0.0 or not float(damping) >= 0.0 or not float(friction) >= 0.0:
+        raise ValueError(f"rolling sds needs stiffness > 0, damping >= 0, friction >= 0, got "
+                         f"{stiffness!r}, {damping!r}, {friction!r}")
+    return RollingModel(rolling.NAMES.index(name), float(stiffness), float(damping), float(friction))
+
+
+def rolling_of_attrs(attrs) -> RollingModel:
+    """The rolling model a packing was made with, from its attributes (none recorded: none)."""
+    return rolling_model(str(attrs.get("rolling", "none")), float(attrs.get("rolling_stiffness", 0.0)),
+                         float(attrs.get("rolling_damping", 0.0)), float(attrs.get("rolling_friction", 0.0)))
+
+
+def rolling_attrs(model: RollingModel) -> dict:
+    """What a file records of a rolling model (nothing for none: files as before the sub-model)."""
+    if model.kind == rolling.NONE:
+        return {}
+    return dict(rolling=rolling.NAMES[model.kind], rolling_stiffness=model.stiffness,
+                rolling_damping=model.damping, rolling_friction=model.friction)
+
+
+def history_columns(dim: int, model: RollingModel) -> int:
+    """Columns of a contact's history (pair_ft, wall_ft): the tangential force's, then the rolling
+    sub-model's."""
+    return int(dim) + (rolling.history_width(dim) if model.kind != rolling.NONE else 0)
+
+
+@numba.njit(cache=True, inline="always")
+def rolling_couple(roll, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt):
+    """The rolling sub-model's couple on grain i and its new history (rolling.sds_couple's
+    arguments); none: zero couple, history unchanged."""
+    if roll.kind == rolling.SDS:
+        return rolling.sds_couple(roll.stiffness, roll.damping, roll.friction, nx, ny, nz, rx, ry, rz, r12, fel,
+                                  hx, hy, hz, dt)
+    return 0.0, 0.0, 0.0, hx, hy, hz
 
 
 def law_module(name: str):

@@ -19,12 +19,15 @@ from .. import contact as C
 from .. import contact_models as CM
 from ..geometry import BOTTOM_WALL, TOP_WALL, n_rotations, nearest_image
 from ..model import Contacts, Packing
+from ..contact_models import rolling as RL
 from . import kernels as K
+from .contact_law import relative_spin
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True)
-def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque):
+def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque, roll,
+                   rd_stored):
     n_grains, d = pos.shape
     r = rot.shape[1]
     e_pair = C.effective_young(False)
@@ -88,6 +91,22 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
                 force[j, a] -= fvec[a]
             if r > 0:
                 K.add_torque(torque, j, aj, nv, fvec)
+        if r > 0 and roll.kind != 0:  # the rolling spring: couple c on i, -c on j
+            rx, ry, rz = relative_spin(rot, i, j)
+            cx, cy, cz = RL.spring_couple(roll.stiffness, nv[0], nv[1], nv[2] if d == 3 else 0.0, rx, ry, rz, r12,
+                                          rd_stored[c, 0], rd_stored[c, 1], rd_stored[c, 2] if d == 3 else 0.0)
+            if r == 1:
+                torque[i, 0] += cz
+                if j >= 0:
+                    torque[j, 0] -= cz
+            else:
+                torque[i, 0] += cx
+                torque[i, 1] += cy
+                torque[i, 2] += cz
+                if j >= 0:
+                    torque[j, 0] -= cx
+                    torque[j, 1] -= cy
+                    torque[j, 2] -= cz
 
 
 def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
@@ -100,8 +119,11 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
     stored F_t carried into the new tangent plane (contact.project_tangential)
     plus k_t(new overlap) times the tangential relative displacement of the
     contact point (rotation x arm included); no unloading rescale, no Coulomb
-    cap. Walls fixed; only the stored contacts act (a contact whose overlap
-    becomes <= 0 gives nothing). Units: E* d^2 and E* d^3.
+    cap. Rolling resistance (attribute ``rolling``): the stored rolling displacement carried into
+    the new tangent plane plus R12 n x (theta_i - theta_j), times -k_r, as a couple
+    (granwave.contact_models.rolling.spring_couple; no dashpot, no cap). Walls fixed; only the
+    stored contacts act (a contact whose overlap becomes <= 0 gives nothing). Units: E* d^2 and
+    E* d^3.
     """
     n, d = packing.position.shape
     friction = packing.friction
@@ -120,8 +142,16 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
                    np.ascontiguousarray(c.i, dtype=np.int64), np.ascontiguousarray(c.j, dtype=np.int64),
                    np.ascontiguousarray(c.force_tangential, dtype=float).reshape(len(c), d), disp, rot,
                    float(packing.attrs.get("poisson", 0.0)), math.inf if friction > 0.0 else 0.0,
-                   CM.model_of_attrs(packing.attrs), force, torque)
+                   CM.model_of_attrs(packing.attrs), force, torque, CM.rolling_of_attrs(packing.attrs),
+                   _rolling_displacement(c, d))
     return force, torque
+
+
+def _rolling_displacement(contacts: Contacts, d: int) -> np.ndarray:
+    """The contacts' stored rolling displacements (M, d); zeros when none are stored."""
+    if contacts.rolling_displacement is None:
+        return np.zeros((len(contacts), d))
+    return np.ascontiguousarray(contacts.rolling_displacement, dtype=float).reshape(len(contacts), d)
 
 
 def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wall_ft, *, friction,
@@ -144,7 +174,9 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
     cj = [pair_j[keep]]
     normal = [dx[keep] / dist[keep, None]]
     overlap = [delta[keep]]
-    ft = [pair_ft[keep]]
+    ft = [pair_ft[keep, :d]]
+    rolls = pair_ft.shape[1] > d  # a rolling displacement after the tangential history
+    rd = [pair_ft[keep, d:]]
     y = position[:, d - 1]
     for k, (j_wall, dlt) in enumerate(((BOTTOM_WALL, radius - y), (TOP_WALL, radius - (height - y)))):
         on = np.nonzero(dlt > 0.0)[0]
@@ -154,12 +186,14 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
         nrm[:, d - 1] = -1.0 if j_wall == BOTTOM_WALL else 1.0
         normal.append(nrm)
         overlap.append(dlt[on])
-        ft.append(wall_ft[2 * on + k])
+        ft.append(wall_ft[2 * on + k, :d])
+        rd.append(wall_ft[2 * on + k, d:])
     ci = np.concatenate(ci).astype(np.int64)
     cj = np.concatenate(cj).astype(np.int64)
     normal = np.concatenate(normal)
     overlap = np.concatenate(overlap)
     ft = np.array(np.concatenate(ft), dtype=float)
+    rd = np.array(np.concatenate(rd), dtype=float) if rolls else None
     m = len(ci)
     law = CM.contact_model() if law is None else law
     fn = np.zeros(m)
@@ -177,8 +211,14 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
             C.project_tangential(ft[k], normal[k])
         else:
             ft[k] = 0.0
+        if rd is not None:  # carried into the tangent plane, as the next step would
+            n3 = np.zeros(3)
+            n3[:d] = normal[k]
+            h3 = np.zeros(3)
+            h3[:d] = rd[k]
+            rd[k] = np.array(RL.carried_into_plane(*h3, *n3))[:d]
     return Contacts(i=ci, j=cj, normal=normal, overlap=overlap, force_normal=fn, force_tangential=ft,
-                    stiffness_normal=kn, stiffness_tangential=kt)
+                    stiffness_normal=kn, stiffness_tangential=kt, rolling_displacement=rd)
 
 
 def contacts_of_engine(engine) -> Contacts:

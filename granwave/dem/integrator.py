@@ -81,13 +81,18 @@ class Engine:
     ``mflow[M_GAMMA_L]`` may be changed between runs); the GPU engine has it too
     (:mod:`granwave.gpu.mean_flow`). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
     ``"harmonic"``, the latter with k_n = ``harmonic_stiffness`` between two grains, E* d).
+    ``rolling``: the rolling resistance sub-model, ``"none"`` or ``"sds"`` with k_r =
+    ``rolling_stiffness`` (E* d), gamma_r = ``rolling_damping`` and mu_r = ``rolling_friction``
+    (granwave.contact_models.rolling; needs friction > 0; its history in ``pair_ft`` and
+    ``wall_ft`` after the tangential columns).
 
-    Defaults: friction, poisson, damping, safety, skin, check_every, contact_law and
-    harmonic_stiffness are the preparation's, read from :class:`granwave.params.PrepareParams`
-    (their one home; the pulses pass theirs, :func:`granwave.dem.pulse.engine_from_packing`).
-    The others switch a feature off (no background damping, a fixed top wall, no convergence
-    test, a fixed skin, no mean-flow rule), take dt from the stability rule, or start at rest;
-    ``overlap_floor`` (d) is the protocol's overlap under its pressure, which it passes.
+    Defaults: friction, poisson, damping, safety, skin, check_every, contact_law,
+    harmonic_stiffness and the rolling sub-model are the preparation's, read from
+    :class:`granwave.params.PrepareParams` (their one home; the pulses pass theirs,
+    :func:`granwave.dem.pulse.engine_from_packing`). The others switch a feature off (no
+    background damping, a fixed top wall, no convergence test, a fixed skin, no mean-flow rule),
+    take dt from the stability rule, or start at rest; ``overlap_floor`` (d) is the protocol's
+    overlap under its pressure, which it passes.
     """
 
     def __init__(self, position, radius, lateral, height, *, friction=PrepareParams.friction,
@@ -96,7 +101,9 @@ class Engine:
                  overlap_floor=1e-3, skin=PrepareParams.skin, skin_min=None, velocity=None,
                  angular_velocity=None, tol_acceleration=0.0, tol_velocity=0.0,
                  check_every=PrepareParams.check_every, unloading="rescale", mean_flow=None,
-                 contact_law=PrepareParams.contact_law, harmonic_stiffness=PrepareParams.harmonic_stiffness):
+                 contact_law=PrepareParams.contact_law, harmonic_stiffness=PrepareParams.harmonic_stiffness,
+                 rolling=PrepareParams.rolling, rolling_stiffness=PrepareParams.rolling_stiffness,
+                 rolling_damping=PrepareParams.rolling_damping, rolling_friction=PrepareParams.rolling_friction):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
@@ -125,7 +132,15 @@ class Engine:
         cap = max(64, (4 if d == 2 else 8) * n)
         self.pair_i = np.zeros(cap, np.int64)
         self.pair_j = np.zeros(cap, np.int64)
-        self.pair_ft = np.zeros((cap, d))
+        try:
+            self.rolling = CM.rolling_model(rolling, rolling_stiffness, rolling_damping, rolling_friction)
+        except ValueError as e:
+            raise InputError(str(e)) from None
+        if self.rolling.kind != 0 and n_rot == 0:
+            raise InputError(f"rolling {rolling!r} needs friction > 0 (rotational degrees of freedom)")
+        #: history columns per contact: the tangential force's, then the rolling displacement's
+        hist = CM.history_columns(d, self.rolling)
+        self.pair_ft = np.zeros((cap, hist))
         self.pair_ov = np.zeros(cap)
         #: compaction 'mean-flow': [gamma_m, slab, gamma_l] (empty: off) and the slabs' work array
         self.mflow = np.zeros(0)
@@ -143,7 +158,7 @@ class Engine:
         #: arrays of the parallel kernels (kernels.workspace): neighbour and incoming lists,
         #: per-block statistics, the mean-flow rule's arrays
         self.ws = K.workspace(n, d, n_rot, cap, NEIGHBOUR_WIDTH[d], mflow=self.mflow, slabs=self.slabs)
-        self.wall_ft = np.zeros((2 * n, d))
+        self.wall_ft = np.zeros((2 * n, hist))
         self.wall_ov = np.zeros(2 * n)
         self.piston = np.zeros(K.N_PISTON)
         self.piston[K.P_H] = height
@@ -177,6 +192,10 @@ class Engine:
         self.contact_law = contact_law
         self.fpar[K.F_LAW] = law.normal
         self.fpar[K.F_KLAW] = law.stiffness
+        self.fpar[K.F_ROLL] = self.rolling.kind
+        self.fpar[K.F_KROLL] = self.rolling.stiffness
+        self.fpar[K.F_GROLL] = self.rolling.damping
+        self.fpar[K.F_MUROLL] = self.rolling.friction
         self.ipar = np.zeros(K.N_IPAR, np.int64)
         self.ipar[K.I_ADAPTIVE] = dt is None
         self.ipar[K.I_CHECK] = check_every
@@ -196,7 +215,8 @@ class Engine:
         same_pairs = cap == len(self.pair_i)
         if cap > len(self.pair_i):
             for name, shape, dtype in (("pair_i", (cap,), np.int64), ("pair_j", (cap,), np.int64),
-                                       ("pair_ft", (cap, d), np.float64), ("pair_ov", (cap,), np.float64)):
+                                       ("pair_ft", (cap, self.pair_ft.shape[1]), np.float64),
+                                       ("pair_ov", (cap,), np.float64)):
                 old = getattr(self, name)
                 new = np.zeros(shape, dtype)
                 new[: len(old)] = old

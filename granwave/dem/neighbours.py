@@ -203,7 +203,7 @@ def rebuild(pos, rad, lateral, h, skin, pair_i, pair_j, pair_ft, pair_ov, n_old,
     if m > pair_i.shape[0] or width > nbr.shape[1]:
         return -1
     new_j = np.empty(m, np.int64)
-    new_ft = np.zeros((m, d))
+    new_ft = np.zeros((m, pair_ft.shape[1]))  # the whole history: F_t and a sub-model's columns after it
     new_ov = np.zeros(m)
     for i in numba.prange(n):
         _merge(np.int64(i), n_old, row, new_row, nbr, ncnt, nlo, pair_j, pair_ft, pair_ov, new_j, new_ft, new_ov)

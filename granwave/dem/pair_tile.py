@@ -8,7 +8,7 @@ contact's time; in a loop over a packed array the compiler issues them as vector
 instructions, 4 to 8 at once. So :func:`law_tile` packs up to ``TILE`` touching pairs
 into columns of a scratch array and alternates scalar stages (gathers, the rest of the
 arithmetic) with loops that only take roots and quotients. Every contact gets exactly the
-operations of :func:`granwave.dem.kernels.contact_force3`, in the same order (square
+operations of :func:`granwave.dem.contact_law.contact_force3`, in the same order (square
 roots and divisions are correctly rounded, in a vector lane as in a scalar register), so
 the bits are those of the pair-at-a-time law (tests/test_dem.py compares them).
 Why, and what it gained: docs/decisions/0005-pair-law-in-tiles.md.
@@ -28,8 +28,8 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
-# through the module, not its names: kernels imports this module too (its parallel row pass)
-from . import kernels as K
+from .contact_law import (PC_MEFF, PC_R12, PC_ROOT, _add_torque3, _contact_velocity, _pair_geometry,
+                          add_torque_with_couple, pair_rolling, torque_with_couple)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: touching pairs per tile: the scratch (N_TROW x ROW doubles, 53 kB) stays in L2
@@ -60,13 +60,13 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
     """Stage 1 for pair q = (i, j): whether the grains touch; if so its geometry goes to column
     ``nc`` of the scratch ``t`` (the caller packs q), if not a history it had is destroyed (the
     contact opened)."""
-    dx, dy, dz = K._pair_geometry(pos, lateral, i, j)
+    dx, dy, dz = _pair_geometry(pos, lateral, i, j)
     r2 = dx * dx + dy * dy + dz * dz
     rs = rad[i] + rad[j]
     if r2 >= rs * rs:
         if pair_ov[q] != 0.0:
             pair_ov[q] = 0.0
-            for a in range(d):
+            for a in range(pair_ft.shape[1]):  # the tangential history and a rolling one after it
                 pair_ft[q, a] = 0.0
         return False
     t[T_DX * ROW + nc] = dx
@@ -79,14 +79,15 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
-             zeta, mu, rescale, e12, g12, law, t, tp, force, torque, dmax, ncontact):
-    """The pair law (:func:`granwave.dem.kernels.contact_force3`, the same bits) for the listed
+             zeta, mu, rescale, e12, g12, law, roll, t, tp, force, torque, dmax, ncontact):
+    """The pair law (:func:`granwave.dem.contact_law.contact_force3`, the same bits) for the listed
     pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
     history untouched), until TILE of them touch; each contact's force and torque are added
     to both grains in list order, as the pair-at-a-time loop does.
 
     Pairs that no longer touch lose their history (``pair_ov``, ``pair_ft`` zeroed); touching
-    ones get the new one. ``t``, ``tp``: one tile's scratch (:func:`scratch`). Returns (the
+    ones get the new one. ``roll``: the rolling sub-model (granwave.contact_models.RollingModel;
+    none: the torques as before it). ``t``, ``tp``: one tile's scratch (:func:`scratch`). Returns (the
     first pair not looked at, the largest overlap and the contact count, ``dmax`` and
     ``ncontact`` updated)."""
     d = pos.shape[1]
@@ -94,7 +95,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
     # stage 1: geometry; pairs apart release their history, touching ones are packed. Pair and
     # grain indices are taken unsigned in all stages: numba tests every signed index for a
     # negative (wraparound) value, two instructions per access on the gathers and scatters
-    # (9-13 % of the force loop's time on 10^4 grains, kernels.grains)
+    # (9-13 % of the force loop's time on 10^4 grains, blocks.grains)
     nc = 0
     p = p0
     while p < p1 and nc < TILE:
@@ -120,8 +121,14 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             force[i, 2] += fz
             force[j, 2] -= fz
         if r > 0:
-            K._add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
-            K._add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+            if roll.kind != 0:  # a rolling couple c on i, -c on j, added with the force's torque
+                cx, cy, cz = pair_rolling(omega, pair_ft, q, i, j, nx, ny, nz, pair_c[q, PC_R12],
+                                          t[T_FEL * ROW + c], dt, roll)
+                add_torque_with_couple(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz, cx, cy, cz)
+                add_torque_with_couple(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
+            else:
+                _add_torque3(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz)
+                _add_torque3(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
         if delta > dmax:
             dmax = delta
         ncontact += 1
@@ -130,12 +137,12 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, slot_pair, s0, s1,
-                      dt, zeta, mu, rescale, e12, g12, law, t, tp, force, torque, bnd_f, dmax, ncontact):
+                      dt, zeta, mu, rescale, e12, g12, law, roll, t, tp, force, torque, bnd_f, dmax, ncontact):
     """The pair law of :func:`law_tile` (the same bits) for a block's incoming pairs: the pairs
     ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
     contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
     order; its force on k and k's torque a_k (n x f) go to the slot's row of ``bnd_f`` (zeros
-    for pairs apart), for k's row to add later (kernels._incoming_block). Returns (the first
+    for pairs apart), for k's row to add later (passes._incoming_block). Returns (the first
     slot not looked at, ``dmax`` and ``ncontact`` updated)."""
     d = pos.shape[1]
     r = omega.shape[1]
@@ -164,8 +171,23 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
         if d == 3:
             force[g, 2] -= fz
             bnd_f[slot, 2] = fz
+        if r > 0 and roll.kind != 0:  # law_tile's torques with the rolling couple, k's into the slot
+            cx, cy, cz = pair_rolling(omega, pair_ft, q, np.uint64(pair_i[q]), g, nx, ny, nz, pair_c[q, PC_R12],
+                                      t[T_FEL * ROW + c], dt, roll)
+            add_torque_with_couple(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
+            tx, ty, tz = torque_with_couple(t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz, cx, cy, cz)
+            if r == 1:
+                bnd_f[slot, d] = tz
+            else:
+                bnd_f[slot, d] = tx
+                bnd_f[slot, d + 1] = ty
+                bnd_f[slot, d + 2] = tz
+            if delta > dmax:
+                dmax = delta
+            ncontact += 1
+            continue
         if r > 0:
-            K._add_torque3(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
+            _add_torque3(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz)
         # the torque on k as _add_torque3 computes it (the same bits when k's row adds it)
         ai = t[T_AI * ROW + c]
         if r == 1:
@@ -215,13 +237,13 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
         nz = t[T_NZ * ROW + c] if d == 3 else 0.0
         ai = rad[i] - 0.5 * delta
         aj = rad[j] - 0.5 * delta
-        vx, vy, vz = K._contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
+        vx, vy, vz = _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
         t[T_AI * ROW + c] = ai
         t[T_AJ * ROW + c] = aj
         vn = vx * nx + vy * ny + vz * nz
         t[T_VN * ROW + c] = vn
-        t[T_ROOT * ROW + c] = pair_c[q, K.PC_ROOT]
-        t[T_MEFF * ROW + c] = pair_c[q, K.PC_MEFF]
+        t[T_ROOT * ROW + c] = pair_c[q, PC_ROOT]
+        t[T_MEFF * ROW + c] = pair_c[q, PC_MEFF]
         if mu > 0.0:
             t[T_TX * ROW + c] = vx - vn * nx
             t[T_TY * ROW + c] = vy - vn * ny
@@ -235,7 +257,7 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
             t[T_GX * ROW + c] = hx
             t[T_GY * ROW + c] = hy
             t[T_GZ * ROW + c] = hz
-            t[T_R12 * ROW + c] = pair_c[q, K.PC_R12]
+            t[T_R12 * ROW + c] = pair_c[q, PC_R12]
             t[T_OVOLD * ROW + c] = pair_ov[q]
     # vector: Hertz, k_n and the normal damping coefficient through contact.py's own functions
     # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the

@@ -196,6 +196,16 @@ def granular_gas(radius: np.ndarray, lateral: np.ndarray, gas_density: float, rn
 CALL_SECONDS = 0.3
 
 
+
+def rolling_options(p: PrepareParams) -> dict:
+    """The engine's rolling keywords of ``p`` (none: no keyword, so that an engine without the
+    sub-model, the GPU's, is built as before)."""
+    if p.rolling == "none":
+        return {}
+    return dict(rolling=p.rolling, rolling_stiffness=p.rolling_stiffness, rolling_damping=p.rolling_damping,
+                rolling_friction=p.rolling_friction)
+
+
 class Compression:
     """The engine of the piston protocol for given grains, and what it records.
 
@@ -234,7 +244,7 @@ class Compression:
                              tol_acceleration=p.tol, tol_velocity=self.tol_v,
                              check_every=p.check_every, velocity=velocity,
                              angular_velocity=angular_velocity, contact_law=p.contact_law,
-                             harmonic_stiffness=p.harmonic_stiffness, **extra)
+                             harmonic_stiffness=p.harmonic_stiffness, **extra, **rolling_options(p))
         #: compaction 'mean-flow', settling 'critical' or 'late': watches the piston and switches
         #: the mean flow to critical damping once the plug has arrived (and, 'late', the kinetic
         #: energy has fallen; None: off)
@@ -265,6 +275,8 @@ class Compression:
                  rebuilds=engine.rebuilds, skin=p.skin, skin_min=p.skin_min, check_every=p.check_every,
                  convergence_test=CONVERGENCE_TEST, max_steps=self.max_steps)
         a.update(contact_law=p.contact_law)
+        a.update(CM.rolling_attrs(CM.rolling_model(p.rolling, p.rolling_stiffness, p.rolling_damping,
+                                                   p.rolling_friction)))
         if p.contact_law != "hertz":
             a.update(harmonic_stiffness=p.harmonic_stiffness)
         if p.compaction == "mean-flow":

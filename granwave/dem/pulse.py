@@ -202,6 +202,9 @@ def packing_law(packing: Packing) -> tuple[str, float]:
         model = CM.model_of_attrs(packing.attrs)
     except ValueError as e:
         raise InputError(str(e)) from None
+    if packing.attrs.get("rolling", "none") != "none":
+        raise InputError(f"the DEM pulse does not run rolling resistance yet (the packing was made with "
+                         f"--rolling {packing.attrs['rolling']})")
     return CM.name_of(model), float(packing.attrs.get("harmonic_stiffness", 1.0))
 
 

@@ -21,13 +21,16 @@ from ..geometry import periodic_distance2
 from . import neighbours
 from .mean_flow import M_GAMMA_M, add_mean_flow_damping
 from .pair_tile import law_tile
-from .kernels import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX,
-                      F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS,
-                      I_STEPS, I_WIDTH, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP,
-                      O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_V, W_INVI, W_INVM, W_MFLOW, W_PAIRC,
-                      W_SLABS, W_TILE, W_TILEP, W_WALLS, _add_torque3, drift_grain, measure, needs_rebuild,
-                      next_skin, pair_constants, piston_acceleration, piston_half_kick, piston_kick_drift,
-                      law_of, refresh_wall_list, stable_dt_at, wall_contact)
+from .contact_law import (_add_torque3, add_torque_with_couple, law_of, pair_constants, rolling_of, wall_contact,
+                          wall_rolling)
+from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX, F_ZETA,
+                     I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS, I_WIDTH,
+                     O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A,
+                     P_FCON, P_H, P_V)
+from .passes import drift_grain, measure
+from .piston import piston_acceleration, piston_half_kick, piston_kick_drift
+from .time_step import needs_rebuild, next_skin, stable_dt_at
+from .workspace import W_INVI, W_INVM, W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -62,6 +65,7 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     g_pair = C.effective_shear(poisson, False)
     g_wall = C.effective_shear(poisson, True)
     law = law_of(fpar)
+    roll = rolling_of(fpar)
     h = piston[P_H]
     vp = piston[P_V]
     force[:, :] = 0.0
@@ -75,7 +79,7 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     p = 0
     while p < npairs:
         p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
-                                     npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, t, tp,
+                                     npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, roll, t, tp,
                                      force, torque, dmax, ncontact)
     # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
     fpiston = 0.0
@@ -93,7 +97,11 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
             if d == 3:
                 force[i, 2] += fz
             if r > 0:
-                _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
+                if roll.kind != 0:
+                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
+                    add_torque_with_couple(torque, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
+                else:
+                    _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
             if k == 1:
                 fpiston -= fz if d == 3 else fy
                 ntop += 1

@@ -29,6 +29,10 @@ Out: :func:`export_lammps` writes ``DIR/packing.data`` (``atom_style sphere``) a
   ``contacts`` output, summed) plus the constant load -p A act on that atom, which
   ``fix nve`` integrates along the vertical only. So M h'' = F_grains - p A, as in
   granwave's engine;
+- rolling resistance (attribute ``rolling`` 'sds', granwave.contact_models.rolling): ``rolling sds
+  k_r gamma_r mu_r`` for pairs and walls, LAMMPS' own model (granwave's F_rcrit is mu_r times the
+  elastic normal force, LAMMPS' the total one: the same at rest; the stored rolling displacements,
+  like F_t, are not carried);
 - background damping gamma (preparation only; 0 for lattices and chains):
   ``fix langevin`` at temperature 0, whose drag is -(m / damp) v and -(I / damp) w,
   i.e. damp = 1 / gamma.
@@ -104,21 +108,29 @@ def lammps_coefficients(friction: float, poisson: float, damping: float, law: st
 
 
 def granular_model(friction: float, poisson: float, damping: float, *, wall: bool, law: str = "hertz",
-                   harmonic_stiffness: float = 1.0) -> str:
+                   harmonic_stiffness: float = 1.0, rolling: CM.RollingModel = CM.NO_ROLLING) -> str:
     """The granular model words of ``pair_coeff * *`` (grain pairs) or of ``fix wall/gran
-    granular`` (``wall``): granwave's contact law in LAMMPS (module docstring)."""
+    granular`` (``wall``): granwave's contact law in LAMMPS (module docstring), with
+    ``rolling sds k_r gamma_r mu_r`` for a rolling model (granwave.contact_models.rolling: the
+    same definitions, the same coefficients for pairs and walls)."""
     k = lammps_coefficients(friction, poisson, damping, law, harmonic_stiffness)
     side = "wall" if wall else "pair"
     tangential = (f"tangential {k['tangential']} {k['kt_' + side]:.17g} {k['xgammat']:.17g} {friction:.17g}"
                   if friction > 0 else "tangential linear_nohistory 0 0")
-    return (f"{k['normal']} {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
-            "damping coeff_restitution limit_damping")
+    words = (f"{k['normal']} {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
+             "damping coeff_restitution limit_damping")
+    if rolling.kind != CM.rolling.NONE:
+        words += (f" rolling {CM.rolling.LAMMPS_ROLLING} {rolling.stiffness:.17g} {rolling.damping:.17g} "
+                  f"{rolling.friction:.17g}")
+    return words
 
 
 def _law(packing: Packing) -> dict:
-    """The packing's normal law as keyword arguments of :func:`granular_model` (none recorded: Hertz)."""
+    """The packing's contact law (normal law, rolling model) as keyword arguments of
+    :func:`granular_model` (none recorded: Hertz, no rolling)."""
     return dict(law=str(packing.attrs.get("contact_law", "hertz")),
-                harmonic_stiffness=float(packing.attrs.get("harmonic_stiffness", 1.0)))
+                harmonic_stiffness=float(packing.attrs.get("harmonic_stiffness", 1.0)),
+                rolling=CM.rolling_of_attrs(packing.attrs))
 
 
 # ---------------------------------------------------------------- export
@@ -265,6 +277,7 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
         float(packing.mass.mean()) * float(np.prod(packing.box[:-1]))
     margin = 2.0 * float(packing.radius.max())
     law = _law(packing)
+    rolling = CM.rolling_attrs(law["rolling"])
     coefficients = lammps_coefficients(packing.friction, float(attrs.get("poisson", 0.0)), zeta, law["law"],
                                        law["harmonic_stiffness"])
     data = data_text(packing, piston_mass=piston_mass, margin=margin)
@@ -274,7 +287,7 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     atomic_text(folder / DATA_NAME, data)
     atomic_text(folder / DECK_NAME, deck)
     return dict(data=folder / DATA_NAME, deck=folder / DECK_NAME, piston_mass=piston_mass,
-                grains=packing.n_grains, **coefficients)
+                grains=packing.n_grains, **coefficients, **rolling)
 
 
 # ---------------------------------------------------------------- import

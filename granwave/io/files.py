@@ -652,7 +652,7 @@ def write_packing(path, packing: Packing) -> None:
     c = packing.contacts
     size = _nbytes(packing.position, packing.radius, packing.mass, packing.inertia, c.i, c.j,
                    c.normal, c.overlap, c.force_normal, c.force_tangential, c.stiffness_normal,
-                   c.stiffness_tangential)
+                   c.stiffness_tangential, c.rolling_displacement)
     attrs = {**packing.attrs, "dim": packing.dim, "packing_digest": packing_digest(packing)}
     with atomic_h5(path, S.PACKING, attrs, nbytes=size) as f:
         put(f, S.PACKING, "grains/position", packing.position)
@@ -668,6 +668,8 @@ def write_packing(path, packing: Packing) -> None:
         put(f, S.PACKING, "contacts/force_tangential", c.force_tangential)
         put(f, S.PACKING, "contacts/stiffness_normal", c.stiffness_normal)
         put(f, S.PACKING, "contacts/stiffness_tangential", c.stiffness_tangential)
+        if c.rolling_displacement is not None:
+            put(f, S.PACKING, "contacts/rolling_displacement", c.rolling_displacement)
 
 
 def packing_digest(packing: Packing) -> str:
@@ -699,6 +701,7 @@ def read_packing(path) -> Packing:
         force_normal=g("contacts/force_normal"), force_tangential=g("contacts/force_tangential"),
         stiffness_normal=g("contacts/stiffness_normal"),
         stiffness_tangential=g("contacts/stiffness_tangential"),
+        rolling_displacement=a.get("contacts/rolling_displacement"),
     )
     packing = Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
                       inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)

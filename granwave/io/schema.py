@@ -19,7 +19,8 @@ Trees (dataset: shape, units)::
         ├── force_normal         (M,)       E* d^2  magnitude; force on i is -force_normal*normal
         ├── force_tangential     (M, dim)   E* d^2  tangential force on i from j
         ├── stiffness_normal     (M,)       E* d
-        └── stiffness_tangential (M,)       E* d
+        ├── stiffness_tangential (M,)       E* d
+        └── rolling_displacement (M, dim)   d  optional (attribute rolling): the rolling spring's xi
 
     granwave.linear                        (linearize)
     ├── matrix/data, matrix/indices, matrix/indptr    CSR of D (n, n)   E* d (per dof units)
@@ -108,6 +109,8 @@ DATASETS: dict[str, dict[str, tuple[str, str]]] = {
         "contacts/force_tangential": (U.FORCE, "tangential force on i from j (M, dim)"),
         "contacts/stiffness_normal": (U.STIFFNESS, "k_n = dF_n/dn (M,)"),
         "contacts/stiffness_tangential": (U.STIFFNESS, "k_t (Mindlin) (M,)"),
+        "contacts/rolling_displacement": (U.LENGTH, "rolling displacement xi of the rolling spring (root "
+                                          "attribute rolling), optional (M, dim)"),
     },
     LINEAR: {
         "matrix/data": (U.STIFFNESS, "CSR data of the stiffness matrix D"),
@@ -187,7 +190,7 @@ DIMS: dict[str, dict[str, tuple[str, ...]]] = {
         "contacts/i": _C, "contacts/j": _C, "contacts/normal": ("contact", "axis"),
         "contacts/overlap": _C, "contacts/force_normal": _C,
         "contacts/force_tangential": ("contact", "axis"), "contacts/stiffness_normal": _C,
-        "contacts/stiffness_tangential": _C,
+        "contacts/stiffness_tangential": _C, "contacts/rolling_displacement": ("contact", "axis"),
     },
     LINEAR: {
         "matrix/data": ("nonzero",), "matrix/indices": ("nonzero",), "matrix/indptr": ("row_pointer",),
@@ -281,6 +284,7 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
         "contacts/force_tangential": ("f", ("M", "dim")),
         "contacts/stiffness_normal": ("f", ("M",)),
         "contacts/stiffness_tangential": ("f", ("M",)),
+        "contacts/rolling_displacement": ("f", ("M", "dim")),
     },
     LINEAR: {
         "mass": ("f", ("n",)),
@@ -333,7 +337,7 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
 
 #: Datasets a file may lack.
 OPTIONAL: dict[str, frozenset[str]] = {
-    PACKING: frozenset(), ENSEMBLE: frozenset(), SWEEP: frozenset(),
+    PACKING: frozenset({"contacts/rolling_displacement"}), ENSEMBLE: frozenset(), SWEEP: frozenset(),
     LINEAR: frozenset({"shear/source_velocity", "shear/detector"}),
     MODES: frozenset({"vectors", "shear/amplitude_A", "shear/coupling"}),
     SIGNAL: frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",

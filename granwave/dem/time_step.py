@@ -1,0 +1,135 @@
+"""The DEM engine's time step (stability estimate) and its pair-list rebuild and skin rules."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from .. import contact as C
+from .. import contact_models as CM
+from .contact_law import law_of
+from .layout import (F_DFLOOR, F_GROLL, F_KROLL, F_MMIN, F_MU, F_POISSON, F_RMAX, F_ROLL, F_SAFETY, F_SKIN,
+                     F_SKIN_MAX, F_SKIN_MIN, F_ZETA, I_BUILT, I_STEPS)
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+
+
+#: ``safety`` at which :func:`stable_dt` would step exactly at the estimated stability limit:
+#: dt = (safety / SAFETY_AT_LIMIT) x dt_limit (default safety 0.05: half the limit).
+SAFETY_AT_LIMIT = 0.1
+#: 1 + m a^2 / I for a sphere turning about its contact point (arm a <= R, I = m (2R)^2 / 10):
+#: the tangential spring acts on a mode of mass m / 3.5 (translation plus rotation).
+ROTATION_FACTOR = 3.5
+
+
+@numba.njit(cache=True, inline="always")
+def verlet_limit(omega, zeta):
+    """Largest stable dt of the engine's velocity Verlet for one damped oscillator
+    x'' = -omega^2 x - 2 zeta omega v with the damping on the half-step velocity:
+    omega dt < 2 (sqrt(1 + zeta^2) - zeta) (2 at zeta = 0, 0.83 at zeta = 1; the
+    amplification matrix of the scheme, tests/test_dem.py)."""
+    return 2.0 * (math.sqrt(1.0 + zeta * zeta) - zeta) / omega
+
+
+@numba.njit(cache=True)
+def stable_dt(fpar):
+    """dt = (safety / SAFETY_AT_LIMIT) x the estimated stability limit of the explicit step.
+
+    The stiffest spring is a wall contact of the largest grain (R12 = R_max, E*12 = 1)
+    at the larger of the largest current overlap and the overlap floor (that of a
+    contact carrying p d^2), acting on the lightest grain: k_n, omega_n^2 = k_n / m_min.
+    Two modes of that contact bound the step (:func:`verlet_limit`):
+    - normal: omega_n, damping ratio zeta;
+    - tangential (mu > 0): the grain turning about its contact, mode mass m / 3.5
+      (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n) and, since
+      c_t = 2 zeta sqrt(m k_t) uses the translational mass (docs/method.md §2), damping ratio
+      zeta sqrt(3.5).
+    A grain has several contacts, so the true limit is 0.7-1.0 of this estimate for zeta in
+    [0, 1], with and without friction; hence ``safety`` <= 0.06 (params;
+    docs/decisions/0009-time-step-rule.md). k_n is the engine's normal law's
+    (contact_models.law_step_stiffness: a harmonic k_n, the same for every contact, counts twice,
+    for a grain's contacts acting together; eta is the same for both laws).
+    """
+    k = CM.law_step_stiffness(law_of(fpar), fpar[F_DFLOOR], math.sqrt(fpar[F_RMAX]), C.effective_young(True))
+    omega = math.sqrt(k / fpar[F_MMIN])
+    zeta = fpar[F_ZETA]
+    limit = verlet_limit(omega, zeta)
+    if fpar[F_MU] > 0.0:
+        omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar[F_POISSON]))
+        limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
+    if fpar[F_ROLL] != 0.0:
+        limit = min(limit, rolling_limit(fpar))
+    return fpar[F_SAFETY] / SAFETY_AT_LIMIT * limit
+
+
+#: I / (m R^2) of a solid sphere (I = m d^2 / 10, in 2D too)
+SPHERE_INERTIA = 0.4
+
+
+@numba.njit(cache=True, inline="always")
+def rolling_limit(fpar):
+    """The rolling spring's mode in :func:`stable_dt` (granwave.contact_models.rolling): the lightest
+    grain turning on a wall's rolling spring, I theta'' = -R^2 (k_r theta + gamma_r theta'), so
+    omega_r^2 = k_r / (0.4 m_min) and damping ratio gamma_r / (2 sqrt(0.4 m_min k_r)); twice k_r
+    (a grain's contacts acting together, as for the harmonic law)."""
+    k = 2.0 * fpar[F_KROLL]
+    m = SPHERE_INERTIA * fpar[F_MMIN]
+    return verlet_limit(math.sqrt(k / m), fpar[F_GROLL] / (2.0 * math.sqrt(m * k)))
+
+
+#: Adaptive skin: steps a pair list is meant to last (:func:`next_skin`). A rebuild of a
+#: dense column costs about five steps, so at this length rebuilds take ~2 % of a run.
+SKIN_STEPS = 200
+
+
+@numba.njit(cache=True)
+def needs_rebuild(fpar, ipar, reach, ahead):
+    """Whether the pair list is made again before the step ``ahead`` steps from now.
+
+    Must when a grain may have come within ``reach`` of half the skin (the list's
+    guarantee). With an adaptive skin also when the list has lasted twice
+    :data:`SKIN_STEPS` and the grains' speed since it was made asks for a skin below half
+    the current one: they have slowed down, and a list with a smaller skin makes each
+    step cheaper (:func:`next_skin`).
+    """
+    return rebuild_due(fpar, ipar[I_STEPS] + ahead - ipar[I_BUILT], reach)
+
+
+@numba.njit(cache=True, inline="always")
+def rebuild_due(fpar, lasted, reach):
+    """:func:`needs_rebuild` for a list that will have lasted ``lasted`` steps."""
+    skin = fpar[F_SKIN]
+    if reach > 0.5 * skin:
+        return True
+    return (fpar[F_SKIN_MIN] < skin and lasted >= 2 * SKIN_STEPS
+            and 2.0 * SKIN_STEPS * reach < 0.5 * skin * lasted)
+
+
+@numba.njit(cache=True)
+def next_skin(fpar, ipar, reach):
+    """Skin of the pair list about to be made (d).
+
+    Fixed unless ``fpar[F_SKIN_MIN] < fpar[F_SKIN_MAX]``; then the skin that the grains'
+    speed of the list now ending (``reach`` over the steps it lasted) would take
+    :data:`SKIN_STEPS` steps to use up, within [F_SKIN_MIN, F_SKIN_MAX] and within a
+    factor of two of the current skin. A skin changes no bit of a run: positions are folded
+    into the box at every drift, never at a rebuild, and pairs not in contact add nothing.
+    """
+    skin = fpar[F_SKIN]
+    lo = fpar[F_SKIN_MIN]
+    hi = fpar[F_SKIN_MAX]
+    if not lo < hi:
+        return skin
+    lasted = max(ipar[I_STEPS] - ipar[I_BUILT], 1)
+    want = 2.0 * SKIN_STEPS * reach / lasted
+    return min(max(want, lo, 0.5 * skin), hi, 2.0 * skin)
+
+
+@numba.njit(cache=True)
+def stable_dt_at(fpar, dmax):
+    """:func:`stable_dt` with the overlap floor raised to the current largest overlap."""
+    floor = fpar[F_DFLOOR]
+    fpar[F_DFLOOR] = max(floor, dmax)
+    dt = stable_dt(fpar)
+    fpar[F_DFLOOR] = floor
+    return dt
