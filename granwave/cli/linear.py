@@ -48,7 +48,11 @@ def linearize(packing, output, threads, as_json, quiet, **options):
     system = api.linearize(pk, params, threads=threads, progress=progress_printer(not quiet))
     files.write_linear(output, system)
     if system.attrs.get("n_negative_modes", 0):
-        click.echo(f"warning: D has {system.attrs['n_negative_modes']} negative eigenvalue(s)", err=True)
+        kept = int(system.attrs.get("n_free_spins", 0)) - int(system.attrs.get("n_spins_removed", 0))
+        why = (f" (with prestress each of the {kept} free spins kept is a zero or slightly negative "
+               "mode, docs/linear.md; --remove-spins constrains them)"
+               if kept and system.attrs.get("prestress") else "")
+        click.echo(f"warning: D has {system.attrs['n_negative_modes']} negative eigenvalue(s){why}", err=True)
     _echo_summary(system.attrs, LINEARIZE_ROWS, output, as_json)
 
 
