@@ -233,6 +233,50 @@ def test_free_spins_of_two_contact_grains(dem_packing_3d, tmp_path):
     np.testing.assert_allclose(assemble.rotation_axes(back), assemble.rotation_axes(s), rtol=0, atol=0)
 
 
+def test_kept_spins_through_eigensolve_propagate_and_moduli(dem_packing_3d):
+    """The kept free spins downstream: eigensolve finds them as zero modes (omega = 0, no
+    amplitude, no drift: the walls do not see them) and the modal signal equals the time
+    domain's; with prestress they are negative modes: eigensolve warns, the modal sum refuses
+    them naming the way out, the time domain runs. The moduli are those of the constrained
+    system (a spin costs no energy), with or without the kept-spin linear file."""
+    import warnings
+
+    from granwave import api
+    from granwave.linear.eigen import NegativeModesWarning, eigensolve
+    from granwave.linear.propagate import modal_signal, time_domain_signal
+
+    p = dem_packing_3d
+    kept = linearize(p)
+    spins = kept.attrs["n_free_spins"]
+    modes = eigensolve(kept)
+    assert modes.attrs["n_zero_modes"] == spins and modes.attrs["n_negative_modes"] == 0
+    zero = modes.omega2 == 0
+    assert zero.sum() == spins and not np.any(modes.amplitude_A[zero])
+    assert abs(modes.attrs["zero_mode_drift_A"]) < 1e-12 and abs(modes.attrs["shear_zero_mode_drift_A"]) < 1e-12
+    for kind in ("normal", "shear"):
+        td = time_domain_signal(kept.for_source(kind), ic="A", t_max=60.0, samples=121, safety=0.02)
+        modal = modal_signal(modes.for_source(kind), ic="A", times=td.time)
+        assert np.abs(modal - td.force).max() < 5e-3 * np.abs(modal).max()  # the step: measured 1.4e-3
+    pre = linearize(p, prestress=True)
+    with pytest.warns(NegativeModesWarning):
+        pre_modes = eigensolve(pre)
+    with pytest.raises(InputError, match="remove-spins"):
+        modal_signal(pre_modes, ic="A", times=td.time)
+    assert np.all(np.isfinite(time_domain_signal(pre, ic="A", t_max=60.0, samples=121).force))
+    ref = api.moduli(p)
+    for system in (kept, linearize(p, remove_spins=True)):
+        got = api.moduli(p, system=system)
+        for key in ("C33", "C44", "C55", "c_t", "c_l"):
+            assert got[key] == pytest.approx(ref[key], rel=1e-12)
+    foreign = linearize(p)
+    foreign.stiffness = foreign.stiffness * 1.01
+    with pytest.raises(InputError, match="does not match"):
+        api.moduli(p, system=foreign)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning without prestress
+        eigensolve(kept)
+
+
 def test_no_spins_removed_in_2d(dem_packing_2d, tmp_path):
     s = linearize(dem_packing_2d)
     assert s.attrs["n_spins_removed"] == 0 and len(s.attrs["spin_removed_grains"]) == 0
