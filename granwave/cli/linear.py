@@ -10,7 +10,7 @@ from ..params import EigenParams, LinearizeParams
 from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
                      progress_printer, stage, threads_option)
 
-LINEARIZE_ROWS = ("n_dof", "n_rattlers", "n_spins_removed", "n_contacts", "prestress", "asymmetry",
+LINEARIZE_ROWS = ("n_dof", "n_rattlers", "n_free_spins", "n_spins_removed", "n_contacts", "prestress", "asymmetry",
                   "n_zero_modes", "expected_zero_modes", "n_negative_modes", "omega2_max", "psd_check")
 EIGENSOLVE_ROWS = ("n_dof", "n_modes", "n_zero_modes", "n_negative_modes", "omega2_max",
                    "stiffness_asymmetry", "solver")
