@@ -277,6 +277,22 @@ def test_kept_spins_through_eigensolve_propagate_and_moduli(dem_packing_3d):
         eigensolve(kept)
 
 
+def test_sparse_check_counts_every_kept_spin(dem_packing_3d, monkeypatch):
+    """Above the dense limit, when LOBPCG does not converge, the shift-invert fallback computes
+    past every expected zero mode (a 3D column keeps tens of free spins), so the count is exact
+    and the lowest positive mode found: here forced with one LOBPCG step and a fallback of one
+    mode, which without that rule would report a single zero mode."""
+    dense = linearize(dem_packing_3d).attrs
+    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", 10)
+    monkeypatch.setattr(assemble, "SPARSE_CHECK_MODES", 1)
+    monkeypatch.setattr(assemble, "CHECK_MAXITER", 1)
+    sparse = linearize(dem_packing_3d).attrs
+    assert sparse["psd_check"].startswith("eigsh shift-invert")
+    assert sparse["n_zero_modes"] == dense["n_zero_modes"] == sparse["expected_zero_modes"] > 1
+    assert sparse["n_zero_modes_exact"]
+    assert sparse["lowest_nonzero_omega2"] == pytest.approx(dense["lowest_nonzero_omega2"], rel=1e-6)
+
+
 def test_no_spins_removed_in_2d(dem_packing_2d, tmp_path):
     s = linearize(dem_packing_2d)
     assert s.attrs["n_spins_removed"] == 0 and len(s.attrs["spin_removed_grains"]) == 0

@@ -608,7 +608,8 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
     with a smoothed-aggregation AMG preconditioner (:func:`lowest_modes`), at
     a cost of the order of the assembly's; should LOBPCG not converge, systems
     up to ``SHIFT_INVERT_MAX_DOF`` dofs fall back to shift-invert Lanczos
-    (``SPARSE_CHECK_MODES`` lowest), larger ones report the unconverged Ritz
+    (``SPARSE_CHECK_MODES`` lowest, or the expected zero modes + ``CHECK_EXTRA_MODES`` when more),
+    larger ones report the unconverged Ritz
     values (upper bounds of the eigenvalues, so a negative one is a proven
     negative mode) with ``psd_check_converged`` False; so do systems where the
     unconverged LOBPCG already shows a negative mode (shift-invert near zero
@@ -649,7 +650,9 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
         if not converged and not proven_negative and n <= SHIFT_INVERT_MAX_DOF:
             say(f"check D: LOBPCG did not converge ({res['iterations']} iterations); "
                 "falling back to shift-invert Lanczos")
-            k = min(SPARSE_CHECK_MODES, n - 2)
+            # past every expected zero mode (kept free spins: tens of them in a 3D column)
+            k = min(max(SPARSE_CHECK_MODES, int(system.attrs.get("expected_zero_modes", 0))
+                        + CHECK_EXTRA_MODES), n - 2)
             w = np.sort(spla.eigsh(A.tocsc(), k=k, sigma=-1e-6 * wmax, which="LM",
                                    return_eigenvectors=False, tol=1e-12))
             method = f"eigsh shift-invert, {len(w)} lowest (lobpcg did not converge)"
