@@ -387,10 +387,11 @@ class LinearizeParams(Params):
     check: bool = param(True, help="Check symmetry and positive semi-definiteness and count zero "
                         "modes (dense eigenvalues up to 3000 dofs, else the few lowest by LOBPCG "
                         "with an algebraic-multigrid preconditioner).", negatable=True)
-    keep_spins: bool = param(False, help="3D frictional packings: keep the free spins of grains "
-                             "with two contacts instead of constraining them (theta.e = 0). "
-                             "Kept, they add zero modes but give the dynamics the DEM integrates; "
-                             "the constraint also stops such grains rolling (docs/shear.md).")
+    keep_spins: bool = param(True, help="3D frictional packings: keep the free spins of grains "
+                             "with two contacts (zero modes, seen by neither wall: the dynamics "
+                             "the DEM integrates), or remove them by the constraint theta.e = 0, "
+                             "which also stops those grains rolling (docs/linear.md).",
+                             cli="--keep-spins/--remove-spins", negatable=True)
 
 
 @dataclass(frozen=True, kw_only=True)

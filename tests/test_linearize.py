@@ -172,11 +172,13 @@ def _contact_points(p, g):
     return pts
 
 
-def test_free_spins_of_two_contact_grains_removed(dem_packing_3d, monkeypatch, tmp_path):
+def test_free_spins_of_two_contact_grains(dem_packing_3d, tmp_path):
     """3D, friction: a grain with two contacts turns at no cost about the line through its
-    contact points (theta = e, u = -e x r1). That motion is a null vector of the full D;
-    linearize removes it (two rotations kept), leaving no zero mode and, with prestress,
-    no negative mode, where the full dofs have one per such grain."""
+    contact points (theta = e, u = -e x r1). That motion is a null vector of the full D.
+    linearize keeps it by default (the DEM's dofs): one expected zero mode per spin, none
+    negative, none seen by either wall; with prestress they turn zero or slightly negative.
+    remove_spins=True removes it (two rotations kept): no zero mode, and with prestress no
+    negative mode."""
     p = dem_packing_3d
     spins, axes = assemble.free_spins(p, 3)
     assert len(spins) >= 2
@@ -185,6 +187,7 @@ def test_free_spins_of_two_contact_grains_removed(dem_packing_3d, monkeypatch, t
     keep, blocks = assemble.contact_blocks(p, n_rot=3)
     D = assemble.scatter_blocks(blocks, assemble.contact_dofs(full.full_first, p.contacts.i[keep],
                                                               p.contacts.j[keep], 6), full.n_full)
+    nulls = []
     for g, e in zip(spins, axes):
         pts = _contact_points(p, g)
         assert len(pts) == 2
@@ -194,12 +197,28 @@ def test_free_spins_of_two_contact_grains_removed(dem_packing_3d, monkeypatch, t
         z[full.full_first[g]:full.full_first[g] + 3] = -np.cross(e, pts[0])
         z[full.full_first[g] + 3:full.full_first[g] + 6] = e
         assert np.linalg.norm(D @ z) < 1e-12 * abs(D).max()
+        nulls.append(z)
     n_active = len(np.unique(full.dof_grain))
+    # the default keeps them: expected zero modes, invisible to both walls (source and detector)
+    kept = linearize(p)
+    assert kept.n_dof == 6 * n_active and kept.attrs["n_spins_removed"] == 0
+    assert kept.attrs["n_free_spins"] == len(spins)
+    assert kept.attrs["n_zero_modes"] == kept.attrs["expected_zero_modes"] == len(spins)
+    assert kept.attrs["n_negative_modes"] == 0
+    for vec in (kept.source_velocity * kept.mass, kept.detector, kept.shear_source_velocity * kept.mass,
+                kept.shear_detector):
+        assert np.abs(np.array(nulls) @ vec).max() < 1e-12 * np.abs(vec).max()
+    with_prestress = linearize(p, prestress=True).attrs
+    assert with_prestress["n_negative_modes"] + with_prestress["n_zero_modes"] == len(spins)
+    assert with_prestress["n_negative_modes"] > 0
+    # slightly: far below the lowest positive mode
+    assert -with_prestress["min_omega2"] < 1e-2 * with_prestress["lowest_nonzero_omega2"]
     for prestress in (False, True):
-        s = linearize(p, prestress=prestress)
+        s = linearize(p, prestress=prestress, remove_spins=True)
         assert s.n_dof == 6 * n_active - len(spins)
-        assert s.attrs["n_spins_removed"] == len(spins)
+        assert s.attrs["n_spins_removed"] == s.attrs["n_free_spins"] == len(spins)
         assert s.attrs["n_zero_modes"] == 0 and s.attrs["n_negative_modes"] == 0
+        assert s.attrs["expected_zero_modes"] == 0
         red = np.isin(s.dof_axis, assemble.SPIN_REDUCED_AXES)
         assert red.sum() == 2 * len(spins)
         np.testing.assert_allclose(s.mass[red], p.inertia[s.dof_grain[red]], rtol=1e-15)
@@ -212,11 +231,66 @@ def test_free_spins_of_two_contact_grains_removed(dem_packing_3d, monkeypatch, t
     back = files.read_linear(path)
     np.testing.assert_array_equal(back.attrs["spin_removed_grains"], spins)
     np.testing.assert_allclose(assemble.rotation_axes(back), assemble.rotation_axes(s), rtol=0, atol=0)
-    # the same packing with the spins kept: one zero mode per spin; prestress makes them negative
-    monkeypatch.setattr(assemble, "free_spins", lambda pk, n_rot: (np.zeros(0, np.int64), np.zeros((0, 3))))
-    assert linearize(p).attrs["n_zero_modes"] == len(spins)
-    kept = linearize(p, prestress=True).attrs
-    assert kept["n_negative_modes"] + kept["n_zero_modes"] == len(spins) and kept["n_negative_modes"] > 0
+
+
+def test_kept_spins_through_eigensolve_propagate_and_moduli(dem_packing_3d):
+    """The kept free spins downstream: eigensolve finds them as zero modes (omega = 0, no
+    amplitude, no drift: the walls do not see them) and the modal signal equals the time
+    domain's; with prestress they are negative modes: eigensolve warns, the modal sum refuses
+    them naming the way out, the time domain runs. The moduli are those of the constrained
+    system (a spin costs no energy), with or without the kept-spin linear file."""
+    import warnings
+
+    from granwave import api
+    from granwave.linear.eigen import NegativeModesWarning, eigensolve
+    from granwave.linear.propagate import modal_signal, time_domain_signal
+
+    p = dem_packing_3d
+    kept = linearize(p)
+    spins = kept.attrs["n_free_spins"]
+    modes = eigensolve(kept)
+    assert modes.attrs["n_zero_modes"] == spins and modes.attrs["n_negative_modes"] == 0
+    zero = modes.omega2 == 0
+    assert zero.sum() == spins and not np.any(modes.amplitude_A[zero])
+    assert abs(modes.attrs["zero_mode_drift_A"]) < 1e-12 and abs(modes.attrs["shear_zero_mode_drift_A"]) < 1e-12
+    for kind in ("normal", "shear"):
+        td = time_domain_signal(kept.for_source(kind), ic="A", t_max=60.0, samples=121, safety=0.02)
+        modal = modal_signal(modes.for_source(kind), ic="A", times=td.time)
+        assert np.abs(modal - td.force).max() < 5e-3 * np.abs(modal).max()  # the step: measured 1.4e-3
+    pre = linearize(p, prestress=True)
+    with pytest.warns(NegativeModesWarning):
+        pre_modes = eigensolve(pre)
+    with pytest.raises(InputError, match="remove-spins"):
+        modal_signal(pre_modes, ic="A", times=td.time)
+    assert np.all(np.isfinite(time_domain_signal(pre, ic="A", t_max=60.0, samples=121).force))
+    ref = api.moduli(p)
+    for system in (kept, linearize(p, remove_spins=True)):
+        got = api.moduli(p, system=system)
+        for key in ("C33", "C44", "C55", "c_t", "c_l"):
+            assert got[key] == pytest.approx(ref[key], rel=1e-12)
+    foreign = linearize(p)
+    foreign.stiffness = foreign.stiffness * 1.01
+    with pytest.raises(InputError, match="does not match"):
+        api.moduli(p, system=foreign)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning without prestress
+        eigensolve(kept)
+
+
+def test_sparse_check_counts_every_kept_spin(dem_packing_3d, monkeypatch):
+    """Above the dense limit, when LOBPCG does not converge, the shift-invert fallback computes
+    past every expected zero mode (a 3D column keeps tens of free spins), so the count is exact
+    and the lowest positive mode found: here forced with one LOBPCG step and a fallback of one
+    mode, which without that rule would report a single zero mode."""
+    dense = linearize(dem_packing_3d).attrs
+    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", 10)
+    monkeypatch.setattr(assemble, "SPARSE_CHECK_MODES", 1)
+    monkeypatch.setattr(assemble, "CHECK_MAXITER", 1)
+    sparse = linearize(dem_packing_3d).attrs
+    assert sparse["psd_check"].startswith("eigsh shift-invert")
+    assert sparse["n_zero_modes"] == dense["n_zero_modes"] == sparse["expected_zero_modes"] > 1
+    assert sparse["n_zero_modes_exact"]
+    assert sparse["lowest_nonzero_omega2"] == pytest.approx(dense["lowest_nonzero_omega2"], rel=1e-6)
 
 
 def test_no_spins_removed_in_2d(dem_packing_2d, tmp_path):

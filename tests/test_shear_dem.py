@@ -1,11 +1,11 @@
 """The DEM pulse at vanishing amplitude and damping = the linear model, in 3D (issue 49 item 2;
-docs/shear.md, docs/decisions/0016-free-spins-in-the-dem-comparison.md).
+docs/shear.md, docs/decisions/0016-free-spins-in-the-dem-comparison.md and
+0019-free-spins-default.md).
 
-The 2D check is tests/test_shear.py::test_dem_shear_equals_linear. In 3D the linear model by
-default constrains every free spin (a grain with two contacts turning about the line through
-them, theta . e = 0): that constraint also stops the grain rolling, so it changes the inertia
-of the motion and the signal, while the DEM integrates every rotation. The comparison is made
-with the spins kept (``linearize(remove_spins=False)``); the default is shown to differ.
+The 2D check is tests/test_shear.py::test_dem_shear_equals_linear. The 3D linear model keeps
+every free spin by default (a grain with two contacts turning about the line through them),
+as the DEM does; constraining them (``remove_spins=True``, theta . e = 0) also stops the grain
+rolling, so it changes the inertia of the motion and the signal: that model is shown to differ.
 
 Measured on this packing (150 spheres, seed 3, p = 1e-4, mu = 0.5; 7 free spins; EPS = 1e-4
 and 1e-5 give the same numbers): shear kick 0.14 % of the peak with the spins kept, 4.0 % with
@@ -39,8 +39,8 @@ def _error(sig, system, kind):
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", ["shear", "normal"])
 def test_dem_equals_linear_3d(frictional3d, kind):
-    """EPS = 1e-4, zeta = 0: the DEM signal = the time domain of linearize(prestress=True,
-    remove_spins=False) within 1 % of the peak (measured 0.14 % shear, 0.002 % normal); no
+    """EPS = 1e-4, zeta = 0: the DEM signal = the time domain of linearize(prestress=True)
+    (the spins kept, the default) within 1 % of the peak (measured 0.14 % shear, 0.002 % normal); no
     contact opens, forms or slides, none starts on the cone."""
     pk = frictional3d
     c = pk.contacts
@@ -50,11 +50,11 @@ def test_dem_equals_linear_3d(frictional3d, kind):
                           source_kind=kind)
     a = sig.attrs
     assert a["n_opened"] == a["n_formed"] == a["n_sliding"] == a["n_at_cone_initial"] == 0
-    kept = linearize(pk, prestress=True, check=False, remove_spins=False)
-    assert kept.attrs["n_spins_removed"] == 0
+    kept = linearize(pk, prestress=True, check=False)
+    assert kept.attrs["n_spins_removed"] == 0 and kept.attrs["n_free_spins"] > 0
     assert _error(sig, kept, kind) < TOL
-    # the default linear model constrains the free spins: it is another mechanical system
-    constrained = linearize(pk, prestress=True, check=False)
+    # the free spins constrained: another mechanical system
+    constrained = linearize(pk, prestress=True, check=False, remove_spins=True)
     assert constrained.attrs["n_spins_removed"] > 0
     err = _error(sig, constrained, kind)
     if kind == "shear":
@@ -64,8 +64,8 @@ def test_dem_equals_linear_3d(frictional3d, kind):
 
 
 def test_cli_keep_spins(frictional3d, tmp_path):
-    """`granwave linearize --keep-spins` keeps the free spins (the dofs the DEM integrates);
-    without it they are constrained, one dof fewer each."""
+    """`granwave linearize` keeps the free spins by default (the dofs the DEM integrates, one
+    expected zero mode each); `--remove-spins` constrains them, one dof fewer each."""
     import json
 
     from click.testing import CliRunner
@@ -76,17 +76,19 @@ def test_cli_keep_spins(frictional3d, tmp_path):
     src = tmp_path / "p.h5"
     files.write_packing(src, frictional3d)
     out = {}
-    for flag in ([], ["--keep-spins"]):
-        dst = tmp_path / f"lin{len(flag)}.h5"
-        r = CliRunner().invoke(main, ["linearize", str(src), "-o", str(dst), "--no-check", "--json", "-q", *flag])
+    for flag in ([], ["--remove-spins"], ["--keep-spins"]):
+        dst = tmp_path / f"lin{''.join(flag)}.h5"
+        r = CliRunner().invoke(main, ["linearize", str(src), "-o", str(dst), "--json", "-q", *flag])
         assert r.exit_code == 0, r.output
-        out[bool(flag)] = json.loads(r.stdout)
-    assert out[True]["n_spins_removed"] == 0
-    removed = out[False]["n_spins_removed"]
-    assert removed > 0
-    assert out[True]["n_dof"] == out[False]["n_dof"] + removed
-    assert json.loads(files.read_linear(tmp_path / "lin1.h5").attrs["linearize_params"])["keep_spins"] is True
-
+        out[tuple(flag)] = json.loads(r.stdout)
+        out[tuple(flag)]["keep_spins"] = json.loads(files.read_linear(dst).attrs["linearize_params"])["keep_spins"]
+    kept, removed = out[()], out[("--remove-spins",)]
+    assert kept == out[("--keep-spins",)]
+    assert kept["keep_spins"] is True and removed["keep_spins"] is False
+    assert kept["n_spins_removed"] == 0 and kept["n_zero_modes"] == kept["expected_zero_modes"] > 0
+    assert removed["n_spins_removed"] == kept["expected_zero_modes"]
+    assert removed["n_zero_modes"] == removed["expected_zero_modes"] == 0
+    assert kept["n_dof"] == removed["n_dof"] + removed["n_spins_removed"]
 
 # ---------------------------------------------------------------- the compressional precursor
 @pytest.fixture(scope="module")

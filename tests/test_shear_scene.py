@@ -188,8 +188,8 @@ def test_quick_config_dry_run_includes_the_shear_scene(tmp_path):
 
 
 def test_docs_scene_pick_table_is_the_generated_one():
-    """docs/shear.md's scene table is what benchmarks/results/summarize.py writes from the newest
-    shear_scene.jsonl record (rerun it after recording a run)."""
+    """docs/shear.md's scene tables are what benchmarks/results/summarize.py writes from the newest
+    shear_scene.jsonl record of each scene (rerun it after recording a run)."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("summarize", ROOT / "benchmarks" / "results" / "summarize.py")

@@ -172,22 +172,30 @@ SHEAR_TABLE = ("<!-- shear-scene-table: begin (generated; do not edit) -->", "<!
 
 
 def shear_scene_table(folder: Path = HERE) -> str:
-    """The pick table of the newest record of shear_scene.jsonl (a workflow shear scene's
-    analysis, written by benchmarks/shear_scene_record.py), as the report prints it
-    (granwave.report.shear.pick_table), with the run it came from."""
+    """For each shear scene recorded in shear_scene.jsonl (a workflow shear scene's analysis,
+    written by benchmarks/shear_scene_record.py), its newest record as the report prints it
+    (granwave.report.shear.shear_section: V_s(p), V_p(p), G_max, Poisson ratio, pick table),
+    with the run it came from; 2D scenes first."""
     import sys
 
     if str(ROOT) not in sys.path:
         sys.path.insert(0, str(ROOT))
-    from granwave.report.shear import pick_table
+    from granwave.report.shear import shear_section
 
-    rec = sorted(_records(folder / "shear_scene.jsonl"), key=lambda r: r.get("date", ""))[-1]
-    a = rec["result"]
-    lines = [f"Scene `{a.get('scene')}` ({a['dim']}D, packings of `{a.get('source_scene')}`), "
-             f"{a.get('pulse')} pulse, {a['n_records']} packings; {rec['date']}, revision "
-             f"{rec['git_revision']}, `{rec['command']}`. V/c_t of every pick, mean ± standard "
-             "error over the packings of a row (no error: one packing).", ""]
-    return "\n".join(lines + pick_table(a))
+    newest = {}
+    for rec in sorted(_records(folder / "shear_scene.jsonl"), key=lambda r: r.get("date", "")):
+        newest[rec["result"].get("scene")] = rec  # later lines of one date win
+    lines = []
+    for scene, rec in sorted(newest.items(), key=lambda kv: (kv[1]["result"]["dim"], str(kv[0]))):
+        a = rec["result"]
+        body = shear_section({scene: a})
+        body = body[body.index(next(x for x in body if x.startswith("### "))):]  # this scene only
+        lines += [body[0], "",
+                  f"Scene `{a.get('scene')}` ({a['dim']}D, packings of `{a.get('source_scene')}`), "
+                  f"{a.get('pulse')} pulse, {a['n_records']} packings; {rec['date']}, revision "
+                  f"{rec['git_revision']}, `{rec['command']}`. Errors: one standard error over the "
+                  "packings of a row (no error: one packing) or of a fit.", ""] + body[2:]
+    return "\n".join(lines).rstrip()
 
 
 def write_block(doc: Path, markers: tuple[str, str], text: str) -> None:

@@ -135,8 +135,9 @@ def _option_for(f: dataclasses.Field):
         kw["metavar"] = meta["metavar"]
     if f.type in ("bool", "bool | None"):
         if meta.get("negatable"):
-            flag = name.lstrip("-")
-            return click.option(f"--{flag}/--no-{flag}", f.name, default=default,
+            # ``cli`` may name both switches ("--on/--off"); else --x/--no-x
+            pair = name if "/" in name else f"--{name.lstrip('-')}/--no-{name.lstrip('-')}"
+            return click.option(pair, f.name, default=default,
                                 show_default=default is not None, **kw)
         return click.option(name, f.name, is_flag=True, default=bool(default), **kw)
     if meta.get("choices") is not None:

@@ -10,7 +10,7 @@ from ..params import EigenParams, LinearizeParams
 from .common import (echo_result, echo_warnings, json_option, options_from, output_option, params_from,
                      progress_printer, stage, threads_option)
 
-LINEARIZE_ROWS = ("n_dof", "n_rattlers", "n_spins_removed", "n_contacts", "prestress", "asymmetry",
+LINEARIZE_ROWS = ("n_dof", "n_rattlers", "n_free_spins", "n_spins_removed", "n_contacts", "prestress", "asymmetry",
                   "n_zero_modes", "expected_zero_modes", "n_negative_modes", "omega2_max", "psd_check")
 EIGENSOLVE_ROWS = ("n_dof", "n_modes", "n_zero_modes", "n_negative_modes", "omega2_max",
                    "stiffness_asymmetry", "solver")
@@ -48,7 +48,11 @@ def linearize(packing, output, threads, as_json, quiet, **options):
     system = api.linearize(pk, params, threads=threads, progress=progress_printer(not quiet))
     files.write_linear(output, system)
     if system.attrs.get("n_negative_modes", 0):
-        click.echo(f"warning: D has {system.attrs['n_negative_modes']} negative eigenvalue(s)", err=True)
+        kept = int(system.attrs.get("n_free_spins", 0)) - int(system.attrs.get("n_spins_removed", 0))
+        why = (f" (with prestress each of the {kept} free spins kept is a zero or slightly negative "
+               "mode, docs/linear.md; --remove-spins constrains them)"
+               if kept and system.attrs.get("prestress") else "")
+        click.echo(f"warning: D has {system.attrs['n_negative_modes']} negative eigenvalue(s){why}", err=True)
     _echo_summary(system.attrs, LINEARIZE_ROWS, output, as_json)
 
 

@@ -383,7 +383,7 @@ ATTR_TYPES: dict[str, str] = {
     **dict.fromkeys((
         "dim", "seed", "n_zero_modes", "n_negative_modes", "expected_zero_modes", "n_rotations",
         "n_dof", "n_modes", "n_signals", "samples", "n_grains", "steps", "n_steps", "rebuilds",
-        "n_rattlers", "n_spins_removed", "n_contacts", "rows", "width", "balls", "grains",
+        "n_rattlers", "n_spins_removed", "n_free_spins", "n_contacts", "rows", "width", "balls", "grains",
         "packing_seed"), "int"),
     **dict.fromkeys((
         "converged", "prestress", "aliased", "partial", "has_vectors", "forced_unconverged",

@@ -18,15 +18,19 @@ Free spins (3D with friction). A grain with exactly two force-carrying
 contacts can rotate about the line through its two contact points at no
 energy cost: with ``r1``, ``r2`` the contact points seen from the centre and
 ``e = (r2 - r1)/|r2 - r1|``, the motion ``theta = e``, ``u = -e x r1`` moves
-neither contact point. Such a spin is removed from the dofs as a rattler is:
-the grain keeps its 3 translations and only the two rotations about axes
-normal to ``e`` (an orthonormal pair from :func:`spin_basis`, dof_axis codes
-6 and 7 instead of 3, 4, 5), i.e. the constraint ``theta . e = 0``. Every
-displacement differs from a constrained one by a multiple of the spin, so the
-constrained D has the same energies, without that zero mode (with prestress:
-without the negative mode it becomes). The inertia of a sphere is isotropic,
-so M stays diagonal. ``attrs``: ``n_spins_removed``, ``spin_removed_grains``,
-``spin_removed_axes`` (docs/moduli.md, "Free spins in 3D").
+neither contact point. By default every rotation is kept, as the DEM
+integrates it: each such spin is then a zero mode of D (an expected one,
+counted in ``expected_zero_modes``; with prestress it becomes a slightly
+negative or zero mode), seen by neither wall. ``remove_spins=True`` removes
+it from the dofs as a rattler is: the grain keeps its 3 translations and only
+the two rotations about axes normal to ``e`` (an orthonormal pair from
+:func:`spin_basis`, dof_axis codes 6 and 7 instead of 3, 4, 5), i.e. the
+constraint ``theta . e = 0``. The constrained D has the same energies, but
+the constraint also stops the grain rolling along ``u`` (the spin is not
+M-orthogonal to the kept motions), so its dynamics differ from the DEM's
+(docs/decisions/0019-free-spins-default.md). ``attrs``: ``n_free_spins``,
+``n_spins_removed``, ``spin_removed_grains``, ``spin_removed_axes``
+(docs/moduli.md, "Free spins in 3D").
 
 Material terms
 --------------
@@ -114,18 +118,20 @@ _COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains",
                  "packing_digest")  # the identity of the packing (granwave.io.files.packing_digest)
 
 
-def expected_zero_modes(dim: int, friction: float) -> int:
-    """Zero modes of an ideal (well-connected) packing between flat walls.
+def expected_zero_modes(dim: int, friction: float, spins: int = 0) -> int:
+    """Zero modes of an ideal (well-connected) packing between flat walls, plus ``spins``.
 
     Without friction nothing resists a rigid translation parallel to the
     walls (the lateral directions are periodic and wall contacts have no
     tangential spring): ``dim - 1`` zero modes. With friction the tangential
-    wall springs pin everything: none. A 1D chain has none. Floppy grains of
-    a disordered packing add to this count (reported, not expected).
+    wall springs pin everything: none. A 1D chain has none. ``spins``: the
+    free spins kept in the dofs (3D with friction, module docstring), one
+    zero mode each. Floppy grains of a disordered packing add to this count
+    (reported, not expected).
     """
     if dim == 1 or friction > 0.0:
-        return 0
-    return dim - 1
+        return int(spins)
+    return dim - 1 + int(spins)
 
 
 def _torque_arm_matrix(n: np.ndarray, arm: np.ndarray, n_rot: int) -> np.ndarray:
@@ -510,7 +516,7 @@ def wall_coupling(packing: Packing, layout: "DofLayout", contacts: np.ndarray, d
 
 
 def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
-              check: bool = True, progress=None, remove_spins: bool = True) -> LinearSystem:
+              check: bool = True, progress=None, remove_spins: bool = False) -> LinearSystem:
     """Build ``M u'' = -D u`` for a packing in equilibrium (docs/method.md §5).
 
     Parameters
@@ -524,10 +530,10 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
         zero modes (:func:`check_stiffness`); results go into ``attrs``.
     progress : a callable taking one line of text; above ``DENSE_CHECK_MAX_DOF``
         dofs it hears the assembly time and the check's method, iterations and time.
-    remove_spins : constrain the free spins (3D, module docstring; default). False keeps every
-        rotation: the dynamics the DEM integrates (the constraint theta . e = 0 also stops the
-        grain rolling, and so adds inertia; docs/decisions/0016-free-spins-in-the-dem-comparison.md),
-        with a zero mode per spin (negative with prestress).
+    remove_spins : constrain the free spins (3D, module docstring) by theta . e = 0, one dof
+        fewer each. Off by default: every rotation is kept, the dynamics the DEM integrates,
+        with a zero mode per spin (zero or slightly negative with prestress); the constraint
+        also stops the grain rolling (docs/decisions/0019-free-spins-default.md).
 
     Returns
     -------
@@ -547,6 +553,7 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     n_rot = n_rotations(dim, friction)
     p = dim + n_rot
     layout = dof_layout(packing, n_rot, remove_spins=remove_spins)
+    n_free = len(layout.spin_grains) if remove_spins else len(free_spins(packing, n_rot)[0])
     first, dof_grain, dof_axis = layout.first, layout.dof_grain, layout.dof_axis
     n_dof = len(dof_grain)
     if n_dof == 0:
@@ -585,12 +592,14 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
         spin_removed_grains=layout.spin_grains.astype(np.int64),
         spin_removed_axes=layout.spin_axes.reshape(-1),
         n_bottom_contacts=int(len(bottom)), n_top_contacts=int(len(top)),
-        expected_zero_modes=expected_zero_modes(dim, friction),
+        expected_zero_modes=expected_zero_modes(dim, friction, n_free - len(layout.spin_grains)),
         packing_seed=attrs.get("seed", "none"),
         packing_git_revision=attrs.get("git_revision", "unknown"),
         packing_source=attrs.get("source_file", "none"),
         forced_unconverged=bool("converged" in attrs and not bool(attrs["converged"])),
     )
+    if dim == 3 and n_rot == 3:  # only where spins exist: other files keep their bytes
+        out_attrs["n_free_spins"] = int(n_free)
     system = LinearSystem(stiffness=D, mass=mass, dof_grain=dof_grain, dof_axis=dof_axis,
                           source_velocity=source_velocity, source_displacement=source_displacement,
                           detector=detector, shear_source_velocity=shear_velocity,
@@ -624,7 +633,8 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
     with a smoothed-aggregation AMG preconditioner (:func:`lowest_modes`), at
     a cost of the order of the assembly's; should LOBPCG not converge, systems
     up to ``SHIFT_INVERT_MAX_DOF`` dofs fall back to shift-invert Lanczos
-    (``SPARSE_CHECK_MODES`` lowest), larger ones report the unconverged Ritz
+    (``SPARSE_CHECK_MODES`` lowest, or the expected zero modes + ``CHECK_EXTRA_MODES`` when more),
+    larger ones report the unconverged Ritz
     values (upper bounds of the eigenvalues, so a negative one is a proven
     negative mode) with ``psd_check_converged`` False; so do systems where the
     unconverged LOBPCG already shows a negative mode (shift-invert near zero
@@ -665,7 +675,9 @@ def check_stiffness(system: LinearSystem, *, threshold: float = ZERO_MODE_THRESH
         if not converged and not proven_negative and n <= SHIFT_INVERT_MAX_DOF:
             say(f"check D: LOBPCG did not converge ({res['iterations']} iterations); "
                 "falling back to shift-invert Lanczos")
-            k = min(SPARSE_CHECK_MODES, n - 2)
+            # past every expected zero mode (kept free spins: tens of them in a 3D column)
+            k = min(max(SPARSE_CHECK_MODES, int(system.attrs.get("expected_zero_modes", 0))
+                        + CHECK_EXTRA_MODES), n - 2)
             w = np.sort(spla.eigsh(A.tocsc(), k=k, sigma=-1e-6 * wmax, which="LM",
                                    return_eigenvectors=False, tol=1e-12))
             method = f"eigsh shift-invert, {len(w)} lowest (lobpcg did not converge)"

@@ -75,8 +75,11 @@ floppy mode).
 The fraction of the load left
 unbalanced, ``||D u - f|| / ||f||``, is reported per kind of loading
 (``global_unbalanced``, ``body_force_unbalanced``, ``lines_unbalanced``). The
-dofs are those of ``linearize``: rattlers and, in 3D, the free spins of
-two-contact grains removed (:func:`granwave.linear.assemble.dof_layout`). The
+dofs are those of ``linearize`` with rattlers and, in 3D, the free spins of
+two-contact grains removed (:func:`granwave.linear.assemble.dof_layout`): a free
+spin costs no energy and no load acts on it, so removing it changes no modulus
+and keeps D regular (a linear system that keeps the spins is checked after the
+same reduction). The
 solver used is reported in ``attrs``-like keys of the result.
 
 Scale-dependent moduli (``local=True``)
@@ -733,12 +736,21 @@ def line_modulus(cell: _Cell, *, axis: int, n: int, amplitude: float = DEFAULT_A
 
 # ----------------------------------------------------------------------------- entry point
 def check_matches(cell: _Cell, system: LinearSystem) -> None:
-    """Refuse a linear system that was not built from this packing (same dofs and D)."""
-    if (system.n_dof != cell.n_dof or not np.array_equal(system.dof_grain, cell.dof_grain)
+    """Refuse a linear system that was not built from this packing (same dofs and D).
+
+    A system that keeps the free spins (``linearize``'s default) is compared after the same
+    reduction as the cell's (its D restricted by theta . e = 0): static loads see no spin."""
+    D = sp.csr_matrix(system.stiffness)
+    lay = cell.layout
+    full = np.asarray(lay.full_first)[np.asarray(system.dof_grain)] + np.asarray(system.dof_axis)
+    if (lay.reduced and system.n_dof == lay.n_full and int(system.attrs.get("n_spins_removed", 0)) == 0
+            and np.array_equal(full, np.arange(lay.n_full))):
+        D = lay.to_reduced(D)
+    elif (system.n_dof != cell.n_dof or not np.array_equal(system.dof_grain, cell.dof_grain)
             or not np.array_equal(system.dof_axis, cell.dof_axis)):
         raise InputError("the linear file does not belong to this packing (different dofs)")
     ref = sp.linalg.norm(cell.stiffness)
-    diff = sp.linalg.norm(sp.csr_matrix(system.stiffness) - cell.stiffness)
+    diff = sp.linalg.norm(D - cell.stiffness)
     if not diff <= 1e-9 * ref:
         raise InputError("the linear file's stiffness matrix does not match this packing "
                          f"(relative difference {diff / ref:.2g})")

@@ -76,9 +76,12 @@ def _modal_coefficients(modes: Modes, ic: str) -> tuple[np.ndarray, np.ndarray]:
     ic = _check_ic(ic)
     n_neg = int(modes.attrs.get("n_negative_modes", 0))
     if n_neg or np.any(modes.omega2 < 0):
+        spins = int(modes.attrs.get("n_free_spins", 0)) - int(modes.attrs.get("n_spins_removed", 0))
+        hint = (f"; with prestress the {spins} free spins kept are such modes: use the time domain "
+                "or linearize --remove-spins" if spins > 0 and modes.attrs.get("prestress") else
+                " (use the time domain to see the instability, or fix the packing)")
         raise InputError(f"the modes include {max(n_neg, int(np.sum(modes.omega2 < 0)))} negative "
-                         "eigenvalue(s): no oscillatory modal solution (use the time domain "
-                         "to see the instability, or fix the packing)")
+                         "eigenvalue(s): no oscillatory modal solution" + hint)
     omega = np.sqrt(modes.omega2)
     amp = modes.amplitude_A if ic == "A" else modes.amplitude_B
     return omega, amp
