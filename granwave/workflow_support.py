@@ -370,8 +370,9 @@ def samples_error(batches, config: dict | None = None) -> str | None:
 
     makers = {"disordered": PrepareParams, "continuum": PrepareParams, "lattices": LatticeParams,
               "chains": ChainParams}
-    for _name, scene, items in batches:
+    for _name, batch_scene, items in batches:
         for sample in items:
+            scene = sample.get("scene", batch_scene)  # a batch may hold several scenes (lattices, chains)
             tail = f"{scene}/p{sample['pressure']}/{sample['size']}/s{sample['seed']}"
             make = dict(sample["make"])
             if sample["kind"] == "chains":
