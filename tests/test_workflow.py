@@ -387,3 +387,23 @@ def test_scene_analyses_in_one_process_write_what_each_command_writes_alone(tmp_
     assert "missing.h5" in str(refused.value) and "\n" not in str(refused.value)
     assert not (tmp_path / "bad.json").exists() and not (tmp_path / "bad.h5").exists()
     assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_stage_timings_count_the_forked_eigensolve():
+    """A batch's stage timings (workflow_support._timed) include the CPU of the child process in
+    which a dense eigensolve of >= 400 dofs runs (granwave.linear.lapack.dense_eigh); the parent
+    itself only waits."""
+    import time
+
+    import numpy as np
+
+    from granwave.linear.lapack import INTERRUPTIBLE_MIN_DOF, dense_eigh
+    from granwave.workflow_support import _timed
+
+    n = 2 * INTERRUPTIBLE_MIN_DOF
+    a = np.random.default_rng(0).random((n, n))
+    timings, parent = [], time.process_time()
+    _timed(timings, "eigensolve", lambda: dense_eigh(a + a.T))
+    parent = time.process_time() - parent
+    assert timings[0]["stage"] == "eigensolve"
+    assert timings[0]["cpu_s"] > parent + 0.05  # the child's n^3 work, seen only through its rusage
