@@ -66,11 +66,13 @@ ruleorder: figures_study > figure_compare
 ruleorder: figures_study > figure_arrivals
 ruleorder: figures_study > figure_exponents
 ruleorder: figures_study > figure_speeds
-ruleorder: sample_extras > figure_spectrum
-ruleorder: sample_extras > figure_modes
-ruleorder: sample_extras > figure_snapshot
-ruleorder: sample_extras > figure_damping
-ruleorder: sample_extras > damping_table
+if main_sample_extras():  # a config without a disordered scene or damping has no such job
+
+    ruleorder: sample_extras > figure_spectrum
+    ruleorder: sample_extras > figure_modes
+    ruleorder: sample_extras > figure_snapshot
+    ruleorder: sample_extras > figure_damping
+    ruleorder: sample_extras > damping_table
 
 
 rule figure_network:
