@@ -52,6 +52,10 @@ for _name, _commands in main_sample_extras() + continuum_jobs():
         params:
             commands=_commands,
         threads: 1
+        # after the batches with the most DEM work (28 in the quick config), before the others:
+        # only the report waits for these jobs (~15-20 CPU-s each in the quick run), and with
+        # priority 0 they ran after every batch and made the run's tail (measured 2026-11-28)
+        priority: 26
         resources:
             mem_mb=4000,
             runtime=60,
