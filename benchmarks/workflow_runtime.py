@@ -11,11 +11,11 @@ Measured inputs (CPU seconds, not wall time: the machines these runs share drift
   (workflow/scripts/sample_batch.py), with grains, dofs and DEM steps;
 - results/benchmarks/batch/*.tsv (Snakemake `benchmark:`, cpu_time): a batch's total, whose
   excess over its samples' stages is the start-up of one batch process;
-- results/benchmarks/damping/*.tsv: the nonlinear damping pulses;
 - the signal and linear files: which method each signal used, its steps, nnz(D), omega_max;
 - results/timings/analyses/*.tsv: the CPU seconds of each command of the jobs that run several
-  light commands in one process (a scene's height series, ensembles and sweep; the main
-  study's figures), per command kind (heights, ensemble, sweep, figure);
+  commands in one process (a scene's height series, ensembles and sweep; the main study's
+  figures; the main sample's spectrum, mode shapes, snapshot and nonlinear damping pulses; a
+  continuum scene's analyses), per command kind (heights, ensemble, sweep, figure, damping, ...);
 - here and now: the CPU time of one light `granwave` command (the start-up of every job that
   is not a batch; the gather, analysis and figure jobs that stay one process each).
 
@@ -215,10 +215,8 @@ def fit_models(results: Path) -> dict:
     over = [bench_cpu(t) - stages[t.stem] for t in (results / "benchmarks" / "batch").glob("*.tsv")
             if t.stem in stages]
     m["batch_overhead"] = max(0.0, statistics.median(over)) if over else 0.0
-    damping = list((results / "benchmarks" / "damping").glob("*.tsv"))
-    if damping:
-        m["damping_signal"] = statistics.median(bench_cpu(t) for t in damping)
-    # commands run together in one job (analyses_<scene>, figures_study): median CPU per kind
+    # commands run together in one job (analyses_<scene>, figures_study, sample_extras,
+    # continuum_<scene>): median CPU per kind
     commands = defaultdict(list)
     for tsv in sorted((results / "timings" / "analyses").glob("*.tsv")):
         for r in read_tsv(tsv):
@@ -236,6 +234,18 @@ def command_kinds(outputs: list[str]) -> list[str]:
             continue
         if path.endswith(".png"):
             kinds.append("figure")
+        elif "/damping/zeta" in path:
+            kinds.append("damping")
+        elif path.endswith("/damping/table.json"):
+            kinds.append("damping_table")
+        elif "/modes/" in path or "/modes_vectors/" in path:
+            kinds.append("eigensolve")
+        elif "/spectrum/" in path:
+            kinds.append("spectrum")
+        elif "/snapshots/" in path:
+            kinds.append("snapshot")
+        elif "/continuum/" in path:
+            kinds.append("attenuation" if path.endswith("attenuation.json") else "continuum")
         elif "/heights/" in path:
             kinds.append("heights")
         elif path.endswith(".h5") and "/ensemble/" in path:
@@ -371,7 +381,7 @@ def estimate(config: Path, m: dict, light: float) -> tuple[Counter, Counter]:
                     longest_sample = max(longest_sample, sum(cost.values()))
             longest = max(longest, batch)
             continue
-        if rule.startswith("analyses_") or rule == "figures_study":
+        if any("/timings/analyses/" in path for path in job["output"]):
             # one start-up, then each command's measured CPU (not grown with its number of
             # signals: an underestimate where a scene has thousands)
             counts["analyses and figures (several commands each)"] += 1
@@ -379,10 +389,7 @@ def estimate(config: Path, m: dict, light: float) -> tuple[Counter, Counter]:
                                                            for k in command_kinds(job["output"]))
             continue
         counts[rule] += 1
-        if rule == "damping_signal" and "damping_signal" in m:
-            seconds[rule] += m["damping_signal"]
-        else:
-            seconds[rule] += light
+        seconds[rule] += light
     return seconds, counts, {"longest_batch": longest, "longest_sample": longest_sample,
                              "max_dem_steps": max_steps}
 
@@ -402,7 +409,7 @@ def main(argv=None):
     print(f"  DEM steps = a H^{m['steps_g']:.2f} p^{m['steps_e']:.3f} S(tol); cpu = k N steps")
     for c, d in sorted(m["classes"].items()):
         print(f"    {c}: " + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
-    for k in ("linear", "kt", "km", "km2", "statics", "moduli", "front", "batch_overhead", "damping_signal"):
+    for k in ("linear", "kt", "km", "km2", "statics", "moduli", "front", "batch_overhead"):
         if k in m:
             v = m[k]
             print(f"  {k}: " + (", ".join(f"{x:.3g}" for x in v) if isinstance(v, tuple) else f"{v:.3g}"))

@@ -137,14 +137,33 @@ def test_slurm_profile_dry_run_resolves_resources(tmp_path, config):
     assert run.returncode == 0, out[-3000:]
     total = re.search(r"^total\s+(\d+)", out, re.M)
     # the per-sample pipelines run as batches of config batch_size samples (rules/batches.smk),
-    # a scene's analyses and the study's figures as one job each: the whole study in ~46 jobs
-    # (the exact count: tests/test_generated_docs.py)
-    assert total and int(total.group(1)) > 40
+    # a scene's analyses, the study's figures and the main sample's extras as one job each: the
+    # whole study in ~20 jobs (the exact count: tests/test_generated_docs.py)
+    assert total and int(total.group(1)) > 15
     assert re.search(r"^batch_frictional2d_0\s+1$", out, re.M), out[-3000:]
     # a scene's height series, ensembles and sweep run in one job (rules/analysis.smk)
     assert re.search(r"^analyses_frictional2d\s+1$", out, re.M), out[-3000:]
     assert not re.search(r"^(heights|ensemble|pressure_sweep)\s+\d+$", out, re.M), out[-3000:]
     assert "This was a dry-run" in out
+
+
+def test_light_commands_and_reference_samples_share_jobs(tmp_path):
+    """The quick config plans the main sample's extras, the continuum analyses and the lattice
+    and chain samples as a few jobs (docs/decisions/0020-quick-workflow-budget.md), not one
+    process per file: no per-file rule among its jobs."""
+    run = snakemake("-n", "--quiet", "rules", "--configfile", str(ROOT / "config" / "config.yaml"), cwd=tmp_path)
+    out = run.stdout + run.stderr
+    assert run.returncode == 0, out[-3000:]
+    jobs = dict(re.findall(r"^(\w+)\s+(\d+)$", out, re.M))
+    for name in ("sample_extras", "continuum_continuum2d", "batch_reference_0", "analyses_reference",
+                 "figures_study", "analyses_frictional2d"):
+        assert jobs.get(name) == "1", (name, out[-3000:])
+    per_file = {"damping_signal", "damping_table", "eigensolve", "eigensolve_vectors", "spectrum",
+                "snapshot_signal", "continuum_front", "continuum_attenuation", "heights", "ensemble",
+                "pressure_sweep", "linearize", "propagate", "prepare_packing"}
+    assert not per_file & set(jobs), out[-3000:]
+    assert not [name for name in jobs if name.startswith(("batch_lattice", "batch_chain", "figure_"))
+                and name != "figure_shear"], out[-3000:]
 
 
 @pytest.mark.slow
@@ -368,3 +387,23 @@ def test_scene_analyses_in_one_process_write_what_each_command_writes_alone(tmp_
     assert "missing.h5" in str(refused.value) and "\n" not in str(refused.value)
     assert not (tmp_path / "bad.json").exists() and not (tmp_path / "bad.h5").exists()
     assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_stage_timings_count_the_forked_eigensolve():
+    """A batch's stage timings (workflow_support._timed) include the CPU of the child process in
+    which a dense eigensolve of >= 400 dofs runs (granwave.linear.lapack.dense_eigh); the parent
+    itself only waits."""
+    import time
+
+    import numpy as np
+
+    from granwave.linear.lapack import INTERRUPTIBLE_MIN_DOF, dense_eigh
+    from granwave.workflow_support import _timed
+
+    n = 2 * INTERRUPTIBLE_MIN_DOF
+    a = np.random.default_rng(0).random((n, n))
+    timings, parent = [], time.process_time()
+    _timed(timings, "eigensolve", lambda: dense_eigh(a + a.T))
+    parent = time.process_time() - parent
+    assert timings[0]["stage"] == "eigensolve"
+    assert timings[0]["cpu_s"] > parent + 0.05  # the child's n^3 work, seen only through its rusage

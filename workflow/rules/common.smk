@@ -285,14 +285,25 @@ def batch_sample(scene, p, size, seed):
     return sample
 
 
+REFERENCE_KINDS = ("lattices", "chains")
+
+
 def batches():
-    """[(name, scene, samples)]: every scene's samples in order, cut into batch_size pieces."""
+    """[(name, scene, samples)]: every disordered scene's samples in order, cut into batch_size
+    pieces; the samples of all lattice and chain scenes together (no DEM preparation, each costs
+    less than a process start-up), in reference_batch_size pieces named batch_reference_<k>
+    (scene "reference"); the continuum scenes' in batches of equal predicted cost."""
     out = []
-    for scene in scenes():
+    for scene in scenes("disordered"):
         items = samples(scene)
         for k in range(0, len(items), config["batch_size"]):
             out.append((f"batch_{scene}_{k // config['batch_size']}", scene,
                         [batch_sample(scene, *s) for s in items[k:k + config["batch_size"]]]))
+    reference = [batch_sample(scene, *s) for kind in REFERENCE_KINDS for scene in scenes(kind)
+                 for s in samples(scene)]
+    size = config["reference_batch_size"]
+    for k in range(0, len(reference), size):
+        out.append((f"batch_reference_{k // size}", "reference", reference[k:k + size]))
     for scene in scenes("continuum"):
         for k, part in enumerate(continuum_batches(samples(scene))):
             out.append((f"batch_{scene}_{k}", scene, [batch_sample(scene, *s) for s in part]))
@@ -364,7 +375,8 @@ def height_signals(wildcards):
 
 
 def scene_analyses():
-    """[(name, scene, commands)]: the light analyses of each scene, run in one job by
+    """[(name, scene, commands)]: the light analyses of each scene (of all lattice and chain
+    scenes together: analyses_reference, scene "reference"), run in one job by
     workflow/scripts/analysis_batch.py (granwave.workflow_support.run_command): a height series
     per pressure with two sizes or more (`granwave analyze heights`, as rule heights runs it)
     and, for disordered scenes, an ensemble per pressure and size (`granwave analyze ensemble`,
@@ -372,7 +384,7 @@ def scene_analyses():
     command: its arguments, the input files made by other jobs, its output files (``tables``
     a folder) and the file that gets what it prints."""
     edges = ",".join(f"{h:g}" for h in config["edge_heights"])
-    out = []
+    out, reference = [], []
     for scene in scenes():
         commands = []
         for p in pressures(scene):
@@ -398,8 +410,12 @@ def scene_analyses():
                                       "-o", h5, "--tables", f"{R}/sweep/{scene}_tables", "--json"],
                              "in": summaries, "printed": path,
                              "out": {"result": path, "h5": h5, "tables": f"{R}/sweep/{scene}_tables"}})
-        if commands:
+        if commands and scene_kind(scene) in REFERENCE_KINDS:
+            reference += commands  # the lattices' and chains' height series: one job for all
+        elif commands:
             out.append((f"analyses_{scene}", scene, commands))
+    if reference:
+        out.append(("analyses_reference", "reference", reference))
     return out
 
 
@@ -502,6 +518,84 @@ def study_figures():
         paths = [path for _, path in series]
         plot("exponents", ["exponents", *paths, *flags("--label", [scene for scene, _ in series]).split()], paths)
     return [("figures_study", commands)]
+
+
+def main_sample_extras():
+    """[(name, commands)]: what the report takes from single samples beyond their batches, in one
+    job (one process: each `granwave` command alone costs ~1.5-3 CPU-s of start-up, more than
+    most of these): the spectrum of each scene that asks for one (eigensolve, analyze spectrum)
+    and, for the main sample, its mode shapes (eigensolve --vectors), the snapshot signal, the
+    DEM damping pulses and their table, and the figures spectrum, modes, snapshot and damping.
+    Each command has the options of the per-file rule that makes its file alone (rules eigensolve,
+    spectrum, eigensolve_vectors, snapshot_signal, damping_signal, damping_table, figure_*)."""
+    commands = []
+
+    def command(stage, args, inputs, result, printed=False):
+        commands.append({"scene": "extras", "pressure": "all", "size": os.path.basename(result),
+                         "stage": stage, "args": args, "in": inputs, "out": {"result": result},
+                         **({"printed": result} if printed else {})})
+
+    for scene in scenes("disordered"):
+        if scene_spec(scene).get("spectrum"):
+            linear, modes = first_sample_path("linear", scene), first_sample_path("modes", scene)
+            spectrum = first_sample_path("spectrum", scene, ext="json")
+            command("eigensolve", ["eigensolve", "--threads", "1", linear, "-o", modes], [linear], modes)
+            command("spectrum", ["analyze", "spectrum", modes, "--json"], [], spectrum, printed=True)
+    if main_sample():
+        scene, p, size = main_sample()
+        packing, linear = first_sample_path("packing", scene), first_sample_path("linear", scene)
+        vectors, snapshots = first_sample_path("modes_vectors", scene), first_sample_path("snapshots", scene)
+        if scene_spec(scene).get("spectrum"):
+            modes = first_sample_path("modes", scene)
+            command("figure", ["plot", "spectrum", modes, "-o", f"{F}/spectrum.png"], [], f"{F}/spectrum.png")
+        command("eigensolve", ["eigensolve", linear, "--vectors", "-o", vectors], [linear], vectors)
+        command("figure", ["plot", "modes", vectors, linear, packing, "-o", f"{F}/modes.png"], [packing],
+                f"{F}/modes.png")
+        wc = SimpleNamespace(scene=scene, pressure=p, size=size, seed=0)
+        command("snapshot", ["propagate", linear, "--method", "time", "--ic", config["ic"],
+                             "--t-max", f"{t_max(wc):.6g}", "--snapshots",
+                             ",".join(f"{t:.6g}" for t in snapshot_times(wc)), "-o", snapshots], [], snapshots)
+        command("figure", ["plot", "snapshot", snapshots, "--packing", packing, "--modes", vectors,
+                           "--linear", linear, "-o", f"{F}/snapshot.png"], [], f"{F}/snapshot.png")
+    if config["damping"]["enabled"]:
+        d, packing = config["damping"], damping_packing()
+        signals = [f"{R}/damping/zeta{z:g}.h5" for z in d["zetas"]]
+        for z, path in zip(d["zetas"], signals):
+            command("damping", ["propagate", packing, "--method", "dem", "--ic", config["ic"],
+                                "--damping", f"{z:g}", "--amplitude", str(d["amplitude"]),
+                                "--t-max", f"{damping_t_max():.6g}", "--samples", str(config["samples"]),
+                                "-o", path], [packing, kernels_marker("dem")], path)
+        command("damping_table", ["analyze", "damping", *signals, "--json"], [], f"{R}/damping/table.json",
+                printed=True)
+        reference = damping_linear_reference()
+        command("figure", ["plot", "damping", *signals, "--reference", reference, "-o", f"{F}/damping.png"],
+                [reference], f"{F}/damping.png")
+    return [("sample_extras", commands)] if commands else []
+
+
+def continuum_jobs():
+    """[(name, commands)]: per continuum scene, its front against distance, its attenuation and
+    its figure in one job (one process), with the options of rules continuum_front,
+    continuum_attenuation and figure_continuum."""
+    out = []
+    for scene in scenes("continuum"):
+        signals = sample_paths("signal", scene)
+        moduli = sample_paths("moduli", scene, ext="json")
+        front, attenuation = f"{R}/continuum/{scene}/front.json", f"{R}/continuum/{scene}/attenuation.json"
+        figure = f"{F}/continuum_{scene}.png"
+
+        def command(stage, args, inputs, result, printed):
+            return {"scene": scene, "pressure": "all", "size": "all", "stage": stage, "args": args,
+                    "in": inputs, "out": {"result": result}, **({"printed": result} if printed else {})}
+
+        out.append((f"continuum_{scene}", [
+            command("continuum", ["analyze", "continuum", *signals, *flags("--moduli", moduli).split(),
+                                  "--json"], [*signals, *moduli], front, True),
+            command("attenuation", ["analyze", "attenuation", *signals, "--bootstrap",
+                                    str(scene_spec(scene)["bootstrap"]), "--json"], signals, attenuation, True),
+            command("figure", ["plot", "continuum", front, "--attenuation", attenuation, "-o", figure],
+                    [], figure, False)]))
+    return out
 
 
 def report_inputs():
@@ -651,8 +745,9 @@ def warm_up_samples():
     """One sample per scene, its cheapest to make (fewest grains, then highest pressure):
     the warm-ups run these, the lattices and chains shrunk further."""
     best = {}
-    for _name, scene, samples in batches():
+    for _name, _scene, samples in batches():
         for s in samples:
+            scene = s["scene"]  # the reference batches hold several scenes
             key = (s["make"].get("grains", s["make"].get("n_balls", s["make"].get("rows", 0))),
                    -float(s["pressure"]))
             if scene not in best or key < best[scene][0]:
@@ -666,7 +761,7 @@ def kernels_marker(family):
 
 def kernels_of(scene):
     """The warm-up markers a scene's batches wait for (a shear scene: the time domain's)."""
-    if scene in shear_scenes():
+    if scene in shear_scenes() or scene == "reference":  # reference: the lattice and chain batches
         return [kernels_marker("linear")]
     if scene_kind(scene) in ("disordered", "continuum"):
         return [kernels_marker("dem"), kernels_marker("linear")]

@@ -29,6 +29,40 @@ for _name, _commands in study_figures():
             "../scripts/analysis_batch.py"
 
 
+# The main sample's spectrum, mode shapes, snapshot signal and damping pulses with their figures
+# in one job, and each continuum scene's two analyses and figure in one job (one process each:
+# common.smk main_sample_extras and continuum_jobs). As above, these rules win over the per-file
+# rules below (no wildcards, or ruleorder), which remain for any single file asked for alone.
+for _name, _commands in main_sample_extras() + continuum_jobs():
+
+    rule:
+        name:
+            _name
+        conda:
+            "../envs/granwave.yaml"
+        input:
+            sorted({path for c in _commands for path in c["in"]}),
+        output:
+            [c["out"]["result"] for c in _commands],
+            timings=f"{R}/timings/analyses/{_name}.tsv",
+        log:
+            f"{R}/logs/analyses/{_name}.log",
+        benchmark:
+            f"{R}/benchmarks/analyses/{_name}.tsv"
+        params:
+            commands=_commands,
+        threads: 1
+        # after the batches with the most DEM work (28 in the quick config), before the others:
+        # only the report waits for these jobs (~15-20 CPU-s each in the quick run), and with
+        # priority 0 they ran after every batch and made the run's tail (measured 2026-11-28)
+        priority: 26
+        resources:
+            mem_mb=4000,
+            runtime=60,
+        script:
+            "../scripts/analysis_batch.py"
+
+
 ruleorder: figures_study > figure_airy
 ruleorder: figures_study > figure_signals
 ruleorder: figures_study > figure_coherent
@@ -36,6 +70,13 @@ ruleorder: figures_study > figure_compare
 ruleorder: figures_study > figure_arrivals
 ruleorder: figures_study > figure_exponents
 ruleorder: figures_study > figure_speeds
+if main_sample_extras():  # a config without a disordered scene or damping has no such job
+
+    ruleorder: sample_extras > figure_spectrum
+    ruleorder: sample_extras > figure_modes
+    ruleorder: sample_extras > figure_snapshot
+    ruleorder: sample_extras > figure_damping
+    ruleorder: sample_extras > damping_table
 
 
 rule figure_network:
