@@ -71,7 +71,7 @@ def find_neighbours(pos, rad, lateral, h, skin, nbr, ncnt, nlo):
         rmax = max(rmax, rad[i])
     cs = 2.0 * rmax + skin
     nc = np.empty(d, np.int64)
-    brute = False
+    brute = np.bool_(False)  # not a literal: one compiled _search (dem/serial.py's note)
     for a in range(d - 1):
         nc[a] = int(lateral[a] // cs)
         if nc[a] < 3:

@@ -87,7 +87,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     law = law_of(fpar)
     roll = rolling_of(fpar)
     dmax = 0.0
-    ncontact = 0
+    ncontact = np.int64(0)  # not a literal 0: one compiled law_tile_incoming (serial.py)
     # the block's slots are in the order of its grains g and then of k (incoming_lists): one
     # sequential walk, not the neighbour rows (two cache lines per grain, read for a pair or two).
     # Staged, not pair at a time (_pair_law): the tile's roots and divisions run as vector loops

@@ -178,7 +178,7 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
     classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state, wall_state,
-             False, law)
+             np.bool_(False), law)  # not a literal: one compiled classify
     u = max_displacement(pos, pos_ref, lateral)
     if u > stats[0]:
         stats[0] = u

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 
 from .. import contact as C
 from ..geometry import periodic_distance2
@@ -71,12 +72,14 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     force[:, :] = 0.0
     torque[:, :] = 0.0
     dmax = 0.0
-    ncontact = 0
+    # np.int64 / np.bool_ constants below: a bare 0 or False is typed as a literal and numba would
+    # compile the callee a second time for it (measured: 4 s of cold compile for law_tile alone)
+    ncontact = np.int64(0)
     # the pairs, a tile at a time (pair_tile: the same bits as one at a time, with the square
     # roots and divisions in vector loops), each tile's forces added in list order
     t = tile[0]
     tp = tile_p[0]
-    p = 0
+    p = np.int64(0)
     while p < npairs:
         p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
                                      npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, roll, t, tp,

@@ -564,7 +564,7 @@ def main_sample_extras():
             command("damping", ["propagate", packing, "--method", "dem", "--ic", config["ic"],
                                 "--damping", f"{z:g}", "--amplitude", str(d["amplitude"]),
                                 "--t-max", f"{damping_t_max():.6g}", "--samples", str(config["samples"]),
-                                "-o", path], [packing, kernels_marker("dem")], path)
+                                "-o", path], [packing, kernels_marker("pulse")], path)
         command("damping_table", ["analyze", "damping", *signals, "--json"], [], f"{R}/damping/table.json",
                 printed=True)
         reference = damping_linear_reference()

@@ -8,6 +8,8 @@
 rule compile_kernels:
     conda:
         "../envs/granwave.yaml"
+    input:
+        lambda w: [kernels_marker("dem")] if w.family == "pulse" else [],  # the pulse calls dem's force loop
     output:
         f"{R}/kernels/{{family}}.json",
     log:
@@ -15,7 +17,7 @@ rule compile_kernels:
     benchmark:
         f"{R}/benchmarks/kernels/{{family}}.tsv"
     wildcard_constraints:
-        family="dem|linear",
+        family="dem|pulse|linear",
     params:
         samples=lambda w: warm_up_samples(),
         pulse=lambda w: {"scene": config["damping"]["scene"], "ic": config["ic"],
