@@ -317,6 +317,10 @@ def batch_priority(samples):
     the steps per decade of pressure below 1e-4), on a log scale from 0 to 50."""
     work = sum(s["make"].get("grains", 0) * float(s["size"][1:]) * (1e-4 / float(s["pressure"])) ** 0.3
                for s in samples if s["kind"] in ("disordered", "continuum"))
+    main = main_sample()
+    if main and any((s["scene"], float(s["pressure"]), s["size"], int(s.get("seed", 0))) ==
+                    (main[0], float(main[1]), main[2], 0) for s in samples):
+        return 50  # the main sample's batch: its extras (spectrum, modes, damping pulses) wait for it
     return int(min(50, max(0, 5 * math.log10(work)))) if work > 0 else 0
 
 
