@@ -27,6 +27,7 @@ from granwave.dem.integrator import Engine
 from granwave.io import files
 from granwave.linear.assemble import linearize
 from granwave.linear.check import finite_difference_stiffness
+from engine_same_bytes import assert_same_bytes_loop_passes_threads
 from granwave.params import CONTACT_LAWS, PrepareParams
 from lammps_three_grains import three_grain_forces
 
@@ -336,37 +337,9 @@ def test_lammps_hooke_equals_granwave_harmonic_law():
 def test_harmonic_packing_same_bytes_serial_passes_and_threads(dim, monkeypatch):
     """tests/test_parallel.py's checks with the harmonic law: the one-thread pair loop, the
     parallel passes on one thread and on two threads (threshold lowered) give the same bytes."""
-    import numba
-
-    from granwave import threads
-    from granwave.dem import kernels as K
-    from granwave.dem import serial
-    from granwave.dem.protocol import prepare_packing
-
     params = PrepareParams(dim=dim, grains=90 if dim == 2 else 60, seed=11, tol=1e-9, friction=0.5,
                            contact_law="harmonic", harmonic_stiffness=0.02)
-
-    def state(p):
-        c = p.contacts
-        return b"".join(np.ascontiguousarray(x).tobytes() for x in (
-            p.position, p.box, c.i, c.j, c.overlap, c.force_normal, c.force_tangential))
-
-    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
-    keep = numba.get_num_threads()
-    try:
-        threads.set_threads(1)
-        one = prepare_packing(params)
-        with monkeypatch.context() as m:
-            m.setattr(serial, "run_chunk", K.run_chunk)
-            passes = prepare_packing(params)
-        assert one.attrs["steps"] == passes.attrs["steps"] > 1000
-        assert state(one) == state(passes)
-        if numba.config.NUMBA_NUM_THREADS >= 2:
-            threads.set_threads(2)
-            two = prepare_packing(params)
-            assert two.attrs["steps"] == one.attrs["steps"] and state(two) == state(one)
-    finally:
-        numba.set_num_threads(keep)
+    assert_same_bytes_loop_passes_threads(monkeypatch, params)
 
 
 # ================================================================ the nonlinear DEM pulse (granwave.dem.pulse)

@@ -28,6 +28,7 @@ from granwave.dem.integrator import Engine
 from granwave.io import files
 from granwave.linear.assemble import linearize
 from granwave.linear.check import finite_difference_stiffness
+from engine_same_bytes import assert_same_bytes_loop_passes_threads
 from granwave.params import PrepareParams
 
 R = 0.5
@@ -153,36 +154,9 @@ def test_stored_history_is_an_equilibrium(rolling_packing):
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_one_thread_passes_and_two_threads_same_bytes(dim, monkeypatch):
-    import numba
-
-    from granwave import threads
-    from granwave.dem import serial
-    from granwave.dem.protocol import prepare_packing
-
     params = PrepareParams(dim=dim, grains=90 if dim == 2 else 60, seed=11, tol=1e-9, rolling="sds",
                            rolling_stiffness=0.02, rolling_damping=0.005, rolling_friction=0.2)
-
-    def state(p):
-        c = p.contacts
-        return b"".join(np.ascontiguousarray(x).tobytes() for x in (
-            p.position, p.box, c.i, c.j, c.overlap, c.force_normal, c.force_tangential, c.rolling_displacement))
-
-    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
-    keep = numba.get_num_threads()
-    try:
-        threads.set_threads(1)
-        one = prepare_packing(params)
-        with monkeypatch.context() as m:
-            m.setattr(serial, "run_chunk", K.run_chunk)
-            passes = prepare_packing(params)
-        assert one.attrs["steps"] == passes.attrs["steps"] > 1000
-        assert state(one) == state(passes)
-        if numba.config.NUMBA_NUM_THREADS >= 2:
-            threads.set_threads(2)
-            two = prepare_packing(params)
-            assert two.attrs["steps"] == one.attrs["steps"] and state(two) == state(one)
-    finally:
-        numba.set_num_threads(keep)
+    assert_same_bytes_loop_passes_threads(monkeypatch, params, "rolling_displacement")
 
 
 # ---------------------------------------------------------------- option, refusals, LAMMPS
