@@ -492,6 +492,15 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         # fits (the phase is unwrapped from ω = 0 up, so the prefix is kept whole)
         top = int(max(i_ref, np.flatnonzero(n_used >= 2)[-1] if np.any(n_used >= 2) else 0)) + 2
         top = min(top, omega.size)
+        draws = top  # the single-packing heights' draws keep this length: the same random stream
+        # ... and only up to twice the last frequency where `need` used heights clear the band's
+        # amplitude threshold (reliable_band): the band lies below it and the arrays written
+        # reach twice the band's top (+ 2 for the group velocity's differences). The spectra
+        # run to the finest record's Nyquist frequency, ~100x further: the bootstrap's cost.
+        amp = np.abs(S)
+        strong = ((amp >= threshold * amp.max(axis=1, keepdims=True)) & use).sum(axis=0) >= need
+        if strong.any():
+            top = min(top, 2 * int(np.flatnonzero(strong)[-1]) + 4)
         om, Sb0, Pb = omega[:top], S[:, :top], [p[:, :top] for p in P]
         pad = np.full(omega.size - top, np.nan)
         for _ in range(n_boot):
@@ -508,8 +517,8 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                     vb.append(cb["var_lnA"])
                     vp.append(cb["var_phi"])
                 else:
-                    lb.append(lnA[h, :top] + np.sqrt(var_lnA[h, :top]) * rng.standard_normal(top))
-                    pb.append(Sb0[h] * np.exp(1j * np.sqrt(var_phi[h, :top]) * rng.standard_normal(top)))
+                    lb.append(lnA[h, :top] + np.sqrt(var_lnA[h, :top]) * rng.standard_normal(draws)[:top])
+                    pb.append(Sb0[h] * np.exp(1j * np.sqrt(var_phi[h, :top]) * rng.standard_normal(draws)[:top]))
                     vb.append(var_lnA[h, :top])
                     vp.append(var_phi[h, :top])
             phib = _unwrapped_phase(om, np.array(pb), t_ref, i_ref)
