@@ -14,7 +14,6 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import stats
 
 from ..errors import InputError
 
@@ -63,6 +62,8 @@ def _clean(x, y, what: str, *, positive: bool = False) -> tuple[np.ndarray, np.n
 
 def linear_fit(x, y, *, what: str = "linear fit") -> LinearFit:
     """Least-squares straight line through (x, y); needs two distinct x."""
+    from scipy import stats  # here: importing scipy.stats costs ~0.8 CPU-s, and the sample batches
+    # (which import this module through analysis.sweep) never fit
     x, y = _clean(x, y, what)
     r = stats.linregress(x, y)
     undetermined = x.size <= 2
