@@ -64,3 +64,15 @@ rule figure_shear:
         f"{R}/logs/figures/shear_{{scene}}.log",
     shell:
         "granwave plot shear {input} -o {output} > {log} 2>&1"
+
+
+# The analysis and its figure in one process, at the end of the run where every second of
+# start-up is on the critical path (rules shear_analysis and figure_shear make them alone).
+use rule shear_analysis as shear_scene_outputs with:
+    output:
+        analysis=f"{R}/shear/{{scene}}/analysis.json",
+        figure=f"{F}/shear_{{scene}}.png",
+
+
+ruleorder: shear_scene_outputs > shear_analysis
+ruleorder: shear_scene_outputs > figure_shear

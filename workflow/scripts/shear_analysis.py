@@ -1,5 +1,6 @@
 """The shear scene's analysis (granwave.analysis.shear_scene): V_s(p), V_p(p), G_max(p),
-V_p/V_s and the Poisson ratio from waves and from the moduli, the pick table."""
+V_p/V_s and the Poisson ratio from waves and from the moduli, the pick table; with an output
+named ``figure`` (rule shear_scene_outputs) also the scene's figure, as `granwave plot shear`."""
 
 import json
 import sys
@@ -21,4 +22,14 @@ with open(snakemake.log[0], "w") as log:
         sys.exit(1)
     result.update(scene=snakemake.wildcards.scene, source_scene=snakemake.params.source,
                   n_skipped=len(skipped))
-    atomic_text(snakemake.output[0], json.dumps(jsonable(result), indent=1) + "\n")
+    text = json.dumps(jsonable(result), indent=1) + "\n"
+    atomic_text(snakemake.output[0], text)
+    figure = getattr(snakemake.output, "figure", None)  # rule shear_scene_outputs: the figure too
+    if figure:  # in this process: a `granwave plot shear` job of its own costs ~1.5 CPU-s of start-up
+        import matplotlib
+
+        matplotlib.use("Agg")
+        from granwave.figures.shear import shear_panels
+
+        shear_panels(json.loads(text), figure)
+
