@@ -789,10 +789,8 @@ def analyses_error(config: dict, *, damping_t_max=None, snapshot=None) -> str | 
 #: Kernel families compiled by separate warm-up jobs. "dem" and "linear" share few kernels, so
 #: they run side by side without compiling the same function twice; "pulse" (the DEM pulse's
 #: own kernels) runs after "dem", whose force loop it calls, and only the damping pulses wait
-#: for it, so the preparations start ~10 CPU-s earlier on a cold cache; "continuum" (the
-#: mean-flow rule's run loop, ~5 CPU-s of compilation) likewise leaves the "dem" warm-up that
-#: every preparation waits for, and runs on the other core when the DEM-free jobs are done.
-KERNEL_FAMILIES = ("dem", "continuum", "pulse", "linear")
+#: for it, so the preparations start ~10 CPU-s earlier on a cold cache.
+KERNEL_FAMILIES = ("dem", "pulse", "linear")
 
 
 def _tiny_make(kind: str, make: dict) -> dict:
@@ -814,8 +812,7 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
     On a cold cache every job of a parallel workflow would compile the kernels it uses, and
     two jobs starting together compile the same ones at once; one warm-up job per family,
     run before the others, compiles each kernel once. ``family``: "dem" (the preparation of
-    every disordered sample's kind), "continuum" (the continuum samples' preparation: what it
-    adds to "dem", the mean-flow rule, when it runs after "dem" has cached the rest), "pulse" (the DEM pulse with ``pulse``'s
+    every disordered and continuum sample's kind), "pulse" (the DEM pulse with ``pulse``'s
     options, on a tiny packing of ``pulse``'s scene) or "linear" (linearize, both signal methods, statics and moduli, on the lattices and
     chains). ``samples``: one sample per scene (:func:`run_sample`'s dicts); their files are
     written under ``folder``. Returns what ran and its CPU seconds.
@@ -831,8 +828,8 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
         c0 = _cpu_seconds()
         tiny = {**sample, "make": _tiny_make(sample["kind"], sample["make"])}
         tag = f"{sample['scene']}"
-        if family in ("dem", "continuum", "pulse"):
-            if sample["kind"] != ("continuum" if family == "continuum" else "disordered"):
+        if family in ("dem", "pulse"):
+            if sample["kind"] not in ("disordered", "continuum"):
                 continue
             if family == "pulse" and not (pulse and sample["scene"] == pulse.get("scene")):
                 continue

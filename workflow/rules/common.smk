@@ -317,8 +317,6 @@ def batch_priority(samples):
     the steps per decade of pressure below 1e-4), on a log scale from 0 to 50."""
     work = sum(s["make"].get("grains", 0) * float(s["size"][1:]) * (1e-4 / float(s["pressure"])) ** 0.3
                for s in samples if s["kind"] in ("disordered", "continuum"))
-    if work == 0:
-        return 60  # no DEM (lattices, chains): runs while the DEM kernels compile, before the continuum warm-up
     main = main_sample()
     if main and any((s["scene"], float(s["pressure"]), s["size"], int(s.get("seed", 0))) ==
                     (main[0], float(main[1]), main[2], 0) for s in samples):
@@ -772,8 +770,6 @@ def kernels_of(scene):
     """The warm-up markers a scene's batches wait for (a shear scene: the time domain's)."""
     if scene in shear_scenes() or scene == "reference":  # reference: the lattice and chain batches
         return [kernels_marker("linear")]
-    if scene_kind(scene) == "continuum":
-        return [kernels_marker("dem"), kernels_marker("continuum"), kernels_marker("linear")]
-    if scene_kind(scene) == "disordered":
+    if scene_kind(scene) in ("disordered", "continuum"):
         return [kernels_marker("dem"), kernels_marker("linear")]
     return [kernels_marker("linear")]

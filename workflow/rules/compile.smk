@@ -17,7 +17,7 @@ rule compile_kernels:
     benchmark:
         f"{R}/benchmarks/kernels/{{family}}.tsv"
     wildcard_constraints:
-        family="dem|pulse|linear",  # continuum: the rule below
+        family="dem|pulse|linear",
     params:
         samples=lambda w: warm_up_samples(),
         pulse=lambda w: {"scene": config["damping"]["scene"], "ic": config["ic"],
@@ -30,15 +30,3 @@ rule compile_kernels:
         runtime=30,
     script:
         "../scripts/compile_kernels.py"
-
-
-# The continuum samples' preparation adds one run loop (the mean-flow rule's) to what "dem"
-# compiles. Its warm-up starts when a core is free of the first jobs (priority below the
-# DEM-free reference batches, common.smk batch_priority), by which time "dem" has cached the
-# kernels the two share; "dem", which every preparation waits for, ends that much earlier.
-use rule compile_kernels as compile_continuum_kernels with:
-    input:
-        [],
-    wildcard_constraints:
-        family="continuum",
-    priority: 30
