@@ -805,6 +805,28 @@ def _tiny_make(kind: str, make: dict) -> dict:
     return make
 
 
+def pulse_on_lattice(make: dict) -> bool:
+    """Whether the DEM pulse's kernels can be compiled on a perfect lattice (:func:`pulse_lattice`)
+    instead of a DEM packing of the scene ``make`` (PrepareParams' fields): a 2D scene without
+    rolling resistance. Then the pulse warm-up needs no DEM preparation, so no "dem" warm-up first."""
+    from .params import PrepareParams
+
+    p = PrepareParams(**make)
+    return p.dim == 2 and p.rolling == "none"
+
+
+def pulse_lattice(make: dict):
+    """A 4 x 4 triangular lattice with the pressure, friction, Poisson ratio and contact law of a
+    2D scene's ``make``: the DEM pulse runs the same kernels on it as on the scene's packings (the
+    same array types and contact model)."""
+    from .params import PrepareParams
+    from .systems import triangular_lattice
+
+    p = PrepareParams(**make)
+    return triangular_lattice(rows=4, width=4, pressure=p.pressure, friction=p.friction, poisson=p.poisson,
+                              contact_law=p.contact_law, harmonic_stiffness=p.harmonic_stiffness)
+
+
 def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None = None,
                  log=print) -> dict:
     """Compile one family of kernels into numba's cache by running tiny copies of the samples.
@@ -813,7 +835,7 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
     two jobs starting together compile the same ones at once; one warm-up job per family,
     run before the others, compiles each kernel once. ``family``: "dem" (the preparation of
     every disordered and continuum sample's kind), "pulse" (the DEM pulse with ``pulse``'s
-    options, on a tiny packing of ``pulse``'s scene) or "linear" (linearize, both signal methods, statics and moduli, on the lattices and
+    options, on a tiny packing of ``pulse``'s scene, a lattice where :func:`pulse_on_lattice`) or "linear" (linearize, both signal methods, statics and moduli, on the lattices and
     chains). ``samples``: one sample per scene (:func:`run_sample`'s dicts); their files are
     written under ``folder``. Returns what ran and its CPU seconds.
     """
@@ -833,7 +855,10 @@ def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None
                 continue
             if family == "pulse" and not (pulse and sample["scene"] == pulse.get("scene")):
                 continue
-            packing = make_sample(tiny["kind"], tiny["make"])
+            if family == "pulse" and pulse_on_lattice(tiny["make"]):
+                packing = pulse_lattice(tiny["make"])
+            else:
+                packing = make_sample(tiny["kind"], tiny["make"])
             if family == "pulse":
                 api.propagate(packing, PropagateParams(method="dem", t_max=1.0, samples=10,
                                                        ic=pulse.get("ic", "A"),

@@ -317,6 +317,8 @@ def batch_priority(samples):
     the steps per decade of pressure below 1e-4), on a log scale from 0 to 50."""
     work = sum(s["make"].get("grains", 0) * float(s["size"][1:]) * (1e-4 / float(s["pressure"])) ** 0.3
                for s in samples if s["kind"] in ("disordered", "continuum"))
+    if work == 0:
+        return 60  # no DEM (lattices, chains): while the DEM kernels compile, before the pulse warm-up
     main = main_sample()
     if main and any((s["scene"], float(s["pressure"]), s["size"], int(s.get("seed", 0))) ==
                     (main[0], float(main[1]), main[2], 0) for s in samples):
@@ -760,6 +762,16 @@ def warm_up_samples():
             if scene not in best or key < best[scene][0]:
                 best[scene] = (key, s)
     return [s for _key, s in best.values()]
+
+
+def pulse_warm_up_on_lattice():
+    """Whether the DEM pulse's warm-up runs on a lattice, without the "dem" warm-up before it."""
+    if not config["damping"]["enabled"]:
+        return True  # nothing to warm up
+    from granwave.workflow_support import pulse_on_lattice
+
+    made = [s["make"] for s in warm_up_samples() if s["scene"] == config["damping"]["scene"]]
+    return not made or pulse_on_lattice(made[0])
 
 
 def kernels_marker(family):

@@ -9,7 +9,7 @@ rule compile_kernels:
     conda:
         "../envs/granwave.yaml"
     input:
-        lambda w: [kernels_marker("dem")] if w.family == "pulse" else [],  # the pulse calls dem's force loop
+        [],
     output:
         f"{R}/kernels/{{family}}.json",
     log:
@@ -17,7 +17,7 @@ rule compile_kernels:
     benchmark:
         f"{R}/benchmarks/kernels/{{family}}.tsv"
     wildcard_constraints:
-        family="dem|pulse|linear",
+        family="dem|linear",  # pulse: the rule below
     params:
         samples=lambda w: warm_up_samples(),
         pulse=lambda w: {"scene": config["damping"]["scene"], "ic": config["ic"],
@@ -30,3 +30,16 @@ rule compile_kernels:
         runtime=30,
     script:
         "../scripts/compile_kernels.py"
+
+
+# The DEM pulse's kernels. On a 2D scene they are compiled on a small perfect lattice (no DEM
+# preparation: granwave.workflow_support.pulse_on_lattice), on the core that the DEM-free
+# reference batches free while "dem" still compiles (priority below theirs, common.smk
+# batch_priority); by then "dem" has cached the force loop the pulse calls. A 3D scene needs
+# a DEM packing, so its pulse warm-up waits for "dem".
+use rule compile_kernels as compile_pulse_kernels with:
+    input:
+        [] if pulse_warm_up_on_lattice() else [kernels_marker("dem")],
+    wildcard_constraints:
+        family="pulse",
+    priority: 30
