@@ -199,7 +199,7 @@ def moduli_args(wildcards):
 #: A preparation of at least this many grains is tall: it writes a checkpoint under the results
 #: folder (prepare-packing --checkpoint; every 600 s, so that a killed workflow goes on from it
 #: with the same bits) and gets a thread per GRAINS_PER_THREAD grains. The quick default's
-#: tallest column (25 x 100 d) has 2500 grains.
+#: tallest column (25 x 80 d) has 2000 grains.
 TALL_GRAINS = 4000
 #: Grains per thread of a tall preparation (two threads run a 10 200-grain column twice as fast
 #: as one: docs/dem.md "Performance").
