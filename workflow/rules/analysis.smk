@@ -94,6 +94,9 @@ for _name, _scene, _commands in scene_analyses():
         params:
             commands=_commands,
         threads: 1
+        # the lattices' and chains' analyses right after their batch, while the DEM kernels
+        # compile (the figures wait for them: run last, they delayed the run's end)
+        priority: 60 if _scene == "reference" else 0
         resources:
             mem_mb=2000,
             runtime=30,  # the paper config: a scene's thousands of signals, read twice
