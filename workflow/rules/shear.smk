@@ -26,6 +26,7 @@ for _name, _scene, _samples in shear_batches():
         params:
             samples=_samples,
         threads: 1
+        priority: 26  # as the sample extras: its analysis and figure, then the report, wait for it
         resources:
             mem_mb=2000,
             runtime=60,
