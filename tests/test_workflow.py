@@ -407,3 +407,20 @@ def test_stage_timings_count_the_forked_eigensolve():
     parent = time.process_time() - parent
     assert timings[0]["stage"] == "eigensolve"
     assert timings[0]["cpu_s"] > parent + 0.05  # the child's n^3 work, seen only through its rusage
+
+
+def test_pulse_warm_up_runs_on_a_lattice_of_the_scene_only_where_the_kernels_are_the_same():
+    """The DEM pulse's warm-up compiles on a small lattice (no DEM preparation, no wait for the
+    "dem" warm-up) for a 2D scene without rolling resistance, with the scene's pressure, friction
+    and contact law; a 3D scene or one with rolling resistance keeps a DEM packing."""
+    from granwave.workflow_support import pulse_lattice, pulse_on_lattice
+
+    make = {"dim": 2, "grains": 192, "pressure": 1e-5, "friction": 0.3, "contact_law": "harmonic",
+            "harmonic_stiffness": 0.5}
+    assert pulse_on_lattice(make)
+    assert not pulse_on_lattice({**make, "dim": 3})
+    assert not pulse_on_lattice({**make, "rolling": "sds"})
+    lattice = pulse_lattice(make)
+    assert lattice.position.shape == (16, 2)
+    assert lattice.attrs["friction"] == 0.3 and lattice.attrs["pressure"] == 1e-5
+    assert lattice.attrs["contact_law"] == "harmonic"
