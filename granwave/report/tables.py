@@ -239,9 +239,10 @@ def count_notes(scene: str, groups: Groups, sections: Sequence[str], *,
 def close_packing_note(groups: Groups) -> list[str]:
     """One line when a row's mean Φ2 exceeds the close packing of equal discs π/(2√3)."""
     close = math.pi / (2 * math.sqrt(3))
-    over = [np.nanmean([num(s["statics"].get("phi2")) for s in _with(items, "statics")])
-            for items in groups.cells.values() if _with(items, "statics")]
-    over = [v for v in over if math.isfinite(v) and round(v, 4) > round(close, 4)]  # as shown
+    rows = [[v for v in (num(s["statics"].get("phi2")) for s in _with(items, "statics")) if math.isfinite(v)]
+            for items in groups.cells.values()]
+    over = [float(np.mean(r)) for r in rows if r]  # rows without a Φ2 (3D scenes) have none to compare
+    over = [v for v in over if round(v, 4) > round(close, 4)]  # as shown
     if not over:
         return []
     return [f"Φ2 above the close packing of equal discs, π/(2√3) = {close:.4f} (up to "
