@@ -275,6 +275,8 @@ def batch_sample(scene, p, size, seed):
               "out": out}
     if checkpoint_path(kind, make, tail):  # tall: resumes from its checkpoint (docs/dem.md)
         sample["checkpoint"] = checkpoint_path(kind, make, tail)
+    if kind == "disordered" and not spec.get("local_moduli", True):
+        sample["local_moduli"] = False
     if kind == "continuum":  # the scene's compaction rule (mean-flow unless it says otherwise)
         make["compaction"] = spec["compaction"]
     if kind == "continuum":  # time domain, the scene's own step and record, global moduli only
