@@ -200,3 +200,16 @@ def test_docs_scene_pick_table_is_the_generated_one():
     begin, end = summarize.SHEAR_TABLE
     block = doc[doc.index(begin) + len(begin):doc.index(end)]
     assert block.strip() == summarize.shear_scene_table().strip()
+
+
+def test_report_flags_a_compressional_pick_faster_than_c_l():
+    """A V_p above 1.1 c_l (a cross-correlation that skipped a cycle) is named in the report, the
+    rows within it are not."""
+    from granwave.report.shear import shear_section
+
+    a = {**shear_scene(_records(), pick="cross_correlation"), "scene": "shear2d", "source_scene": "frictional2d"}
+    assert "V_p above" not in "\n".join(shear_section({"shear2d": a}))
+    rows = [dict(r) for r in a["pressures"]]
+    rows[0] = {**rows[0], "V_p_over_c_l": {"mean": 1.43, "sem": 0.01}}
+    md = "\n".join(shear_section({"shear2d": {**a, "pressures": rows}}))
+    assert f"V_p above 1.1 c_ℓ at p = {rows[0]['pressure']:g}**" in md

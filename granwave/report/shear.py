@@ -32,6 +32,11 @@ def shear_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, 
     return out
 
 
+#: A compressional pick this many times c_ℓ (the packing's long-wave speed, which dispersion
+#: only lowers) cannot be the wave: the pick has skipped a cycle of the pulse.
+FASTEST_P = 1.1
+
+
 def _s(stat: Mapping | None, digits: int = 4) -> str:
     stat = stat or {}
     return fmt(stat.get("mean"), stat.get("sem"), digits)
@@ -107,6 +112,13 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
             md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {_s(r['V_s'])} | {_s(r['c_t'])} | "
                       f"{_s(r['V_s_over_c_t'], 3)} | {_s(r['V_p'])} | {_s(r['c_l'])} | "
                       f"{_s(r['V_p_over_c_l'], 3)} | {_s(r['G_max'])} | {_s(r['G_moduli'])} |")
+        fast = [r for r in a["pressures"] if num((r.get("V_p_over_c_l") or {}).get("mean")) > FASTEST_P]
+        if fast:
+            md += ["", f"**V_p above {FASTEST_P:g} c_ℓ at p = "
+                   + ", ".join(f"{num(r['pressure']):g}" for r in fast)
+                   + "**: faster than the packing's compressional waves, so the pick locked onto an "
+                   "earlier cycle of the pulse (V = c/(1 − λ/L) for one period; docs/shear.md); V_p, "
+                   "V_p/V_s and ν (waves) of those rows are not measurements."]
         f = a.get("fits", {})
         md += ["", "Pressure exponents (c ∝ p^ν; G ∝ p^n):", "",
                "| quantity | from waves | from the moduli |", "|---|---|---|",
