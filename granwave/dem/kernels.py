@@ -2,6 +2,7 @@
 
 The kernels live in modules with one job each: :mod:`granwave.dem.layout` (indices of the
 parameter arrays), :mod:`granwave.dem.contact_law` (pair and wall contacts),
+:mod:`granwave.dem.grain_step` (a grain's walls, damping and measures),
 :mod:`granwave.dem.blocks` (grain blocks and their claims), :mod:`granwave.dem.workspace`
 (work arrays, incoming and wall lists), :mod:`granwave.dem.passes` (the parallel force
 passes), :mod:`granwave.dem.team_steps` (a team of threads), :mod:`granwave.dem.piston`,
@@ -33,6 +34,7 @@ from .workspace import (_lists, boundary_fraction, boundary_room, first_wall_ent
                         W_NCNT, W_NEED, W_NLO, W_OSLOT, W_OUT, W_PAIRC, W_ROW, W_SLABS, W_SLOT, W_SPAIR,
                         W_TEAMTIME, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, wall_list, with_blocks,
                         workspace)  # noqa: F401
+from .grain_step import grain_measures, grain_terms  # noqa: F401
 from .piston import (piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift)  # noqa: F401
 from .time_step import (needs_rebuild, next_skin, rebuild_due, rolling_limit, ROTATION_FACTOR,
                         SAFETY_AT_LIMIT, SKIN_STEPS, SPHERE_INERTIA, stable_dt, stable_dt_at, verlet_limit)  # noqa: F401

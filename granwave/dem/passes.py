@@ -29,10 +29,11 @@ from ..geometry import fold_into_box, nearest_image, periodic_distance2
 from . import pair_tile as PT
 from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX, G_WMAX,
                      block_bounds, claim_block, grains, open_claims, visit_order)
-from .contact_law import _add_torque3, add_torque_with_couple, law_of, rolling_of, wall_contact, wall_rolling
+from .contact_law import law_of, rolling_of
+from .grain_step import grain_measures, grain_terms
 from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_ZETA, O_ALPHAMAX, O_AMAX, O_APISTON,
                      O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V)
-from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
+from .mean_flow import M_GAMMA_M, slab_means
 from .piston import piston_acceleration, piston_contact_force
 from .workspace import (W_BF, W_BLK, W_CLAIM, W_INVI, W_INVM, W_MFLOW, W_OSLOT, W_OUT, W_PAIRC, W_ROW,
                         W_SLABS, W_SLOT, W_SPAIR, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, _lists,
@@ -151,21 +152,12 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
     amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
     if stats:
         for i in grains(lo, hi):
-            a2 = 0.0
-            v2 = 0.0
-            for a in range(d):
-                a2 += acc[i, a] * acc[i, a]
-                v2 += vel[i, a] * vel[i, a]
-            al2 = 0.0
-            w2 = 0.0
-            for a in range(r):
-                al2 += alpha[i, a] * alpha[i, a]
-                w2 += omega[i, a] * omega[i, a]
+            a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
             amax = max(amax, a2)
             almax = max(almax, al2)
             vmax = max(vmax, v2)
-            wmax = max(wmax, w2 * rad[i] * rad[i])
-            kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+            wmax = max(wmax, w2r2)
+            kin += k
     if drift:
         for i in grains(lo, hi):
             v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
@@ -300,46 +292,24 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             acc[k, 2] += bnd_f[s, 2]
         for a in range(r):
             alpha[k, a] += bnd_f[s, d + a]
-    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp), for
-    # the block's grains in the wall list (no other can touch one)
+    # then each grain's walls (the block's grains in the wall list: no other can touch one),
+    # damping and slab term (grain_step.grain_terms, the per-grain part every engine runs)
+    if gamma > 0.0 and mflow.shape[0] > 0:  # the slab means read every grain's velocity
+        _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
     h = piston[P_H]
     vp = piston[P_V]
     ntop = 0
     q = first_wall_entry(walls, b0)
-    while q <= walls[0] and walls[q] < b1:
-        i = walls[q]
-        q += 1
-        for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
-                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
-                                                             rescale, law)
-            if delta <= 0.0:
-                continue
-            acc[i, 0] += fx
-            acc[i, 1] += fy
-            if d == 3:
-                acc[i, 2] += fz
-            if r > 0:
-                if roll.kind != 0:
-                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
-                    add_torque_with_couple(alpha, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
-                else:
-                    _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-            if k == 1:
-                top_f[b0 + ntop] = fz if d == 3 else fy
-                ntop += 1
-            if delta > dmax:
-                dmax = delta
-            ncontact += 1
-    if gamma > 0.0:
-        for i in grains(b0, b1):
-            for a in range(d):
-                acc[i, a] -= gamma * mass[i] * vel[i, a]
-            for a in range(r):
-                alpha[i, a] -= gamma * inertia[i] * omega[i, a]
-        if mflow.shape[0] > 0:  # after every grain's damping, as the one-thread loop
-            _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
-            add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
+    for i in range(b0, b1):
+        near = q <= walls[0] and walls[q] == i
+        if near:
+            q += 1
+        top, nt, dmax, ncontact = grain_terms(i, near, pos, vel, omega, rad, mass, inertia, wall_ft, wall_ov, h,
+                                              vp, e_wall, g_wall, dt, zeta, mu, gamma, rescale, law, roll, mflow,
+                                              slabs, acc, alpha, dmax, ncontact)
+        if nt:
+            top_f[b0 + ntop] = top
+            ntop += 1
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
         m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, lateral, pos0, dt,
@@ -488,29 +458,19 @@ def to_accelerations(force, torque, mass, inertia):
 @numba.njit(cache=True)
 def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
     """Largest accelerations and speeds, kinetic energy (grains + piston) into ``out``."""
-    n, d = vel.shape
-    r = omega.shape[1]
+    n = vel.shape[0]
     amax = 0.0
     almax = 0.0
     vmax = 0.0
     wmax = 0.0
     kin = 0.0
     for i in range(n):
-        a2 = 0.0
-        v2 = 0.0
-        for a in range(d):
-            a2 += acc[i, a] * acc[i, a]
-            v2 += vel[i, a] * vel[i, a]
-        al2 = 0.0
-        w2 = 0.0
-        for a in range(r):
-            al2 += alpha[i, a] * alpha[i, a]
-            w2 += omega[i, a] * omega[i, a]
+        a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
         amax = max(amax, a2)
         almax = max(almax, al2)
         vmax = max(vmax, v2)
-        wmax = max(wmax, w2 * rad[i] * rad[i])
-        kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+        wmax = max(wmax, w2r2)
+        kin += k
     out[O_AMAX] = math.sqrt(amax)
     out[O_ALPHAMAX] = math.sqrt(almax)
     out[O_VMAX] = math.sqrt(vmax)

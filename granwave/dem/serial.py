@@ -6,8 +6,8 @@ is extra work (the incoming pairs, the blocks' bookkeeping; docs/dem.md "Paralle
 :class:`granwave.dem.integrator.Engine` runs this loop when it has one thread. Both add a
 grain's contributions in the same order (pairs in list order, then its walls), so they
 give the same bits; tests/test_parallel.py checks it. The pair list and its rebuild are
-the parallel engine's (:func:`granwave.dem.neighbours.rebuild`). The damping here and in
-``kernels._row_block`` must stay the same operations.
+the parallel engine's (:func:`granwave.dem.neighbours.rebuild`). A grain's walls, damping and
+measures are :mod:`granwave.dem.grain_step`'s, shared with the parallel passes and the GPU.
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ import numpy as np
 from .. import contact as C
 from ..geometry import periodic_distance2
 from . import neighbours
-from .mean_flow import M_GAMMA_M, add_mean_flow_damping
+from .grain_step import grain_terms
+from .mean_flow import M_GAMMA_M, slab_means
 from .pair_tile import law_tile
-from .contact_law import (_add_torque3, add_torque_with_couple, law_of, pair_constants, rolling_of, wall_contact,
-                          wall_rolling)
+from .contact_law import law_of, pair_constants, rolling_of
 from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX, F_ZETA,
                      I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS, I_WIDTH,
                      O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A,
@@ -50,7 +50,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
 
     The pairs go through :func:`granwave.dem.pair_tile.law_tile` a tile at a time (the law's
     square roots and divisions in vector loops; the same bits as the pair-at-a-time
-    ``kernels._pair_law``), the walls through ``kernels.wall_contact`` one grain at a time.
+    ``kernels._pair_law``), then every grain's walls, damping and slab term through
+    :func:`granwave.dem.grain_step.grain_terms`.
     ``tile``, ``tile_p``: the workspace's tile scratch (its first tile is used).
     """
     n_grains, d = pos.shape
@@ -84,41 +85,23 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
         p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
                                      npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, roll, t, tp,
                                      force, torque, dmax, ncontact)
-    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+    # then each grain's walls (the grains of the wall list, kernels.wall_list), damping and slab
+    # term (grain_step.grain_terms, the per-grain part every engine runs)
+    if gamma > 0.0 and mflow.shape[0] > 0:
+        slab_means(pos, vel, mass, gamma, mflow, slabs)  # from the velocities, not the forces
     fpiston = 0.0
     ntop = 0
-    for q in range(1, walls[0] + 1):  # the grains that may touch a wall, increasing (kernels.wall_list)
-        i = walls[q]
-        for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
-                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
-                                                             rescale, law)
-            if delta <= 0.0:
-                continue
-            force[i, 0] += fx
-            force[i, 1] += fy
-            if d == 3:
-                force[i, 2] += fz
-            if r > 0:
-                if roll.kind != 0:
-                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
-                    add_torque_with_couple(torque, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
-                else:
-                    _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
-            if k == 1:
-                fpiston -= fz if d == 3 else fy
-                ntop += 1
-            if delta > dmax:
-                dmax = delta
-            ncontact += 1
-    if gamma > 0.0:
-        for i in range(n_grains):
-            for a in range(d):
-                force[i, a] -= gamma * mass[i] * vel[i, a]
-            for a in range(r):
-                torque[i, a] -= gamma * inertia[i] * omega[i, a]
-        if mflow.shape[0] > 0:
-            add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force)
+    q = 1
+    for i in range(n_grains):
+        near = q <= walls[0] and walls[q] == i
+        if near:
+            q += 1
+        top, nt, dmax, ncontact = grain_terms(i, near, pos, vel, omega, rad, mass, inertia, wall_ft, wall_ov, h,
+                                              vp, e_wall, g_wall, dt, zeta, mu, gamma, rescale, law, roll, mflow,
+                                              slabs, force, torque, dmax, ncontact)
+        if nt:
+            fpiston -= top
+            ntop += 1
     piston[P_FCON] = fpiston
     out[O_DMAX] = dmax
     out[O_NTOP] = ntop

@@ -46,6 +46,7 @@ import numpy as np
 
 from ..dem import kernels as K
 from ..dem.integrator import Engine
+from ..errors import InputError
 from . import load_cuda, simulated
 from .compile import device_functions
 from . import mean_flow as MF
@@ -65,6 +66,9 @@ pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
 law_of = DF.law_of
+rolling_of = DF.rolling_of
+grain_terms = DF.grain_terms
+grain_measures = DF.grain_measures
 
 #: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
 #: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
@@ -212,36 +216,13 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
                 acc[i, a] -= pf[p, a]
             for a in range(r):
                 alpha[i, a] += tq_j[p, a]
+    # the walls, damping and slab term: the CPU engines' own per-grain routine (grain_step)
+    top, ntop, dmax, count = grain_terms(i, True, pos, vel, omega, rad, mass, inertia, wall_ft, wall_ov, h, vp,
+                                         effective_young(True), effective_shear(poisson, True), dt, zeta, mu,
+                                         gamma, rescale, law, rolling_of(fpar), mflow, slabs, acc, alpha, 0.0, 0)
     fpiston = 0.0
-    ntop = 0
-    dmax = 0.0
-    count = 0
-    for k in range(2):
-        delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i,
-                                                         k, h, vp, effective_young(True),
-                                                         effective_shear(poisson, True), dt, zeta, mu,
-                                                         rescale, law)
-        if delta <= 0.0:
-            continue
-        acc[i, 0] += fx
-        acc[i, 1] += fy
-        if d == 3:
-            acc[i, 2] += fz
-        if r > 0:
-            add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-        if k == 1:
-            fpiston -= fz if d == 3 else fy
-            ntop += 1
-        if delta > dmax:
-            dmax = delta
-        count += 1
-    if gamma > 0.0:
-        for a in range(d):
-            acc[i, a] -= gamma * mass[i] * vel[i, a]
-        for a in range(r):
-            alpha[i, a] -= gamma * inertia[i] * omega[i, a]
-        if mflow.shape[0] > 0:  # after the grain's damping, as the CPU force loop
-            MF.add_slab_damping(i, i + 1, pos, mass, gamma, mflow, slabs, acc)
+    if ntop:
+        fpiston -= top
     inv = 1.0 / mass[i]
     for a in range(d):
         acc[i, a] *= inv
@@ -388,8 +369,7 @@ def finish(part, piston, fpar, mflow, red, ctl):
 def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
     """One block: largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the grains' kinetic energy."""
     t = cuda.threadIdx.x
-    n, d = vel.shape
-    r = omega.shape[1]
+    n = vel.shape[0]
     s_a = cuda.shared.array(RBLOCK, np.float64)
     s_al = cuda.shared.array(RBLOCK, np.float64)
     s_v = cuda.shared.array(RBLOCK, np.float64)
@@ -401,25 +381,16 @@ def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
     wmax = 0.0
     kin = 0.0
     for i in range(t, n, RBLOCK):
-        a2 = 0.0
-        v2 = 0.0
-        for a in range(d):
-            a2 += acc[i, a] * acc[i, a]
-            v2 += vel[i, a] * vel[i, a]
-        al2 = 0.0
-        w2 = 0.0
-        for a in range(r):
-            al2 += alpha[i, a] * alpha[i, a]
-            w2 += omega[i, a] * omega[i, a]
+        a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
         if a2 > amax:
             amax = a2
         if al2 > almax:
             almax = al2
         if v2 > vmax:
             vmax = v2
-        if w2 * rad[i] * rad[i] > wmax:
-            wmax = w2 * rad[i] * rad[i]
-        kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+        if w2r2 > wmax:
+            wmax = w2r2
+        kin += k
     s_a[t] = amax
     s_al[t] = almax
     s_v[t] = vmax
@@ -549,6 +520,12 @@ class GpuEngine(Engine):
             g["slab_of"] = cuda.device_array(n, np.int64)
             g["slab_lo"] = to(np.full(ns, n, np.int64))
             g["slab_hi"] = to(np.full(ns, -1, np.int64))
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # the device's pair kernel has no rolling couple (its wall routine, the CPU's own, would)
+        if self.rolling.kind != 0:
+            raise InputError("rolling resistance runs on the CPU only for now (use --device cpu)")
 
     def _cpu_only(self) -> None:
         """Nothing to refuse: the device runs every rule of the CPU engine (the CPU engine's

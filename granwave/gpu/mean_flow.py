@@ -22,26 +22,25 @@ with the same result.
 
 The term itself, (gamma - gamma_m) m_i v_s on the vertical force (and the lateral one where
 gamma_l differs from gamma), is the CPU's :func:`granwave.dem.mean_flow.add_slab_damping`
-compiled for the device (:data:`add_slab_damping`), called for one grain by the force kernel
-of :mod:`granwave.gpu.dem` after the grain's background damping, as the CPU adds it.
+compiled for the device, called for one grain by the force kernel of :mod:`granwave.gpu.dem`
+through the engines' per-grain routine (:func:`granwave.dem.grain_step.grain_terms`), after the
+grain's background damping, as the CPU adds it.
 """
 
 from __future__ import annotations
 
 from ..dem import kernels as K
-from ..dem import mean_flow as MF
 from ..dem.mean_flow import M_SLAB, S_LATERAL, S_MASS, S_VZ
 from . import load_cuda
-from .compile import _rebound
+from .compile import device_functions
 from .neighbours import C_STATUS
 
 cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
-#: The CPU rule's helpers compiled for the device from their source (the same expressions).
-slab_index = cuda.jit(device=True)(MF._slab.py_func)
-lateral_on = cuda.jit(device=True)(MF.lateral_on.py_func)
-add_slab_damping = cuda.jit(device=True)(
-    _rebound(MF.add_slab_damping.py_func, {"_slab": slab_index, "lateral_on": lateral_on}))
+#: The CPU rule's helpers compiled for the device from their source (the same expressions;
+#: :func:`granwave.gpu.compile.device_functions`).
+slab_index = device_functions()._slab
+lateral_on = device_functions().lateral_on
 
 
 @cuda.jit
