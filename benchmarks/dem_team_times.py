@@ -104,7 +104,7 @@ def run(packing, tiles: int, steps: int, threads: int, blocks_for: int = 0):
         integrator.numba = numba
         integrator.PLAIN_STEPS_IN_TEAM = keep_team
     e = engines[-1]
-    return n / wall_rate, int(e.ipar[K.I_TEAMSTEPS]), e.ws[K.W_TEAMTIME][:threads].copy()
+    return n / wall_rate, int(e.ipar.team_steps), e.ws[K.W_TEAMTIME][:threads].copy()
 
 
 def main() -> None:

@@ -127,3 +127,26 @@ def test_modules_import_without_cycles():
     code = "import importlib, sys\nfor m in sys.argv[1:]:\n    importlib.import_module(m)\n"
     r = subprocess.run([sys.executable, "-c", code, *names], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+#: The engine's named state (granwave.dem.layout): read by field, never by a numbered slot.
+_SLOT = r"\b(fpar|ipar|piston|out|fpar1|piston1)\[\s*(K\.|layout\.)?[FIPO]_[A-Z_]+\s*\]|\b(fpar|ipar)\["
+
+
+def test_kernels_index_no_parameter_array_by_number():
+    """The engine's parameters, counters, piston and statistics are numpy records
+    (granwave.dem.layout) read by field name; no module of the package indexes them by a slot
+    constant (F_*, I_*, P_*, O_*), and layout defines none."""
+    import re
+
+    from granwave.dem import layout
+
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            if re.search(_SLOT, line):
+                found.append(f"{path.relative_to(PACKAGE.parent)}:{n}: {line.strip()}")
+    assert found == []
+    assert not [name for name in vars(layout) if re.fullmatch(r"[FIPON]_[A-Z_]+", name)]
+    for dtype in (layout.PARAMS, layout.COUNTERS, layout.PISTON, layout.OUT):
+        assert dtype.names and len(set(dtype.names)) == len(dtype.names)

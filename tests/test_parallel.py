@@ -88,7 +88,7 @@ def test_plain_steps_in_a_team_same_bytes_as_a_region_per_pass(dim, mean_flow, m
         _at(n_threads, lambda: engine.run(600))
         state = b"".join(np.ascontiguousarray(x).tobytes() for x in (
             engine.position, engine.velocity, engine.angular_velocity, engine.pair_ft, engine.piston))
-        return state, int(engine.ipar[K.I_TEAMSTEPS]), engine.rebuilds
+        return state, int(engine.ipar.team_steps), engine.rebuilds
 
     teamed, team_steps, rebuilds = run(2, True)
     regions, no_team_steps, _ = run(2, False)
@@ -115,14 +115,14 @@ def _shaken_engine(packing=None, **flow):
 def _engine_bytes(engine) -> bytes:
     return b"".join(np.ascontiguousarray(x).tobytes() for x in (
         engine.position, engine.velocity, engine.acceleration, engine.pair_ft, engine.piston, engine.fpar,
-        engine.ipar[[K.I_NPAIRS, K.I_STEPS, K.I_REBUILDS, K.I_BUILT]]))
+        np.array([engine.ipar.npairs, engine.ipar.steps, engine.ipar.rebuilds, engine.ipar.built])))
 
 
 @two_threads
 def test_dem_team_that_cannot_start_does_nothing(monkeypatch):
     """A team of 3 asked for on 2 threads: its threads give it up at the entry (after their
     patience) and it runs no step: no grain, piston or counter changes, and the kernel says so
-    (ipar[I_TEAM] = -1) for the engine to run the passes in regions. The same without trying
+    (ipar.team = -1) for the engine to run the passes in regions. The same without trying
     when the workspace has fewer per-thread scratches than the team has threads (one per thread
     numba can start, so such a team could not start either)."""
     monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
@@ -135,21 +135,21 @@ def test_dem_team_that_cannot_start_does_nothing(monkeypatch):
                   K.W_VISIT: np.zeros((3, engine.ws[K.W_VISIT].shape[1]), np.int64)}
     room_for_3 = tuple(per_thread.get(w, x) for w, x in enumerate(engine.ws))
     for ws, tries in ((room_for_3, True), (engine.ws, False)):
-        engine.ipar[K.I_TEAM] = 1
+        engine.ipar.team = 1
         sync = np.zeros(team.SYNC_LENGTH, np.int64)
         done, _ = _at(2, lambda: K._team_steps(
             engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
             engine.angular_acceleration, engine.radius, engine.mass, engine.inertia, engine.lateral, engine.pos0,
             engine.pair_i, engine.pair_j, engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov,
             engine.piston, engine.fpar, engine.ipar, ws, ws[K.W_BLK].shape[0], 0, 100, 0.0, sync))
-        assert done == 0 and engine.ipar[K.I_TEAM] == -1 and not team.entered(sync)
+        assert done == 0 and engine.ipar.team == -1 and not team.entered(sync)
         assert sync[team.S_ENTRY] == (-1 if tries else 0)  # given up at the entry, or never tried
         assert _engine_bytes(engine) == before
 
 
 @two_threads
 def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
-    """When a run's team did not start (ipar[I_TEAM] = -1 from the kernel), Engine.run warns once
+    """When a run's team did not start (ipar.team = -1 from the kernel), Engine.run warns once
     and no later run tries a team (granwave.team.usable); the steps are those of the regions."""
     monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
     monkeypatch.setattr(team, "_given_up", False)  # restored after the test
@@ -157,9 +157,9 @@ def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
 
     def team_never_starts(*args):
         ipar = args[18]
-        ipar[K.I_TEAM] = 0  # no team: the regions' passes, as after a failed entry
+        ipar.team = 0  # no team: the regions' passes, as after a failed entry
         status = real(*args)
-        ipar[K.I_TEAM] = -1
+        ipar.team = -1
         return status
 
     reference = _shaken_engine()
@@ -173,7 +173,7 @@ def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
     monkeypatch.setattr(K, "run_chunk", real)
     assert not team.usable()
     _at(2, lambda: engine.run(100))
-    assert engine.ipar[K.I_TEAM] == 0 and engine.ipar[K.I_TEAMSTEPS] == 0
+    assert engine.ipar.team == 0 and engine.ipar.team_steps == 0
     assert _engine_bytes(engine) == _engine_bytes(reference)
 
 

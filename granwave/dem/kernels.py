@@ -14,12 +14,7 @@ those modules imports it.
 
 from __future__ import annotations
 
-from .layout import (F_DFLOOR, F_DT, F_GAMMA, F_GROLL, F_KLAW, F_KROLL, F_LAW, F_MMIN, F_MU, F_MUROLL,
-                     F_POISSON, F_RESCALE, F_RMAX, F_ROLL, F_SAFETY, F_SKIN, F_SKIN_MAX, F_SKIN_MIN, F_TOLA,
-                     F_TOLV, F_VMAX, F_WALLH, F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS,
-                     I_NSTEPS, I_REBUILDS, I_STEPS, I_TEAM, I_TEAMSTEPS, I_WIDTH, N_FPAR, N_IPAR, N_OUT,
-                     N_PISTON, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
-                     O_WMAX, P_A, P_FCON, P_FEXT, P_H, P_MASS, P_V)  # noqa: F401
+from .layout import as_array, copy_record, COUNTERS, OUT, PARAMS, PISTON, record  # noqa: F401
 from .contact_law import (_add_torque3, _contact_velocity, _pair_geometry, _pair_law, _spin, add_torque,
                           add_torque_with_couple, contact_force, contact_force3, law_of, N_PCOL,
                           pair_constants, pair_constants3, pair_rolling, PC_MEFF, PC_R12, PC_ROOT,

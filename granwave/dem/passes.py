@@ -31,8 +31,7 @@ from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NT
                      block_bounds, claim_block, grains, open_claims, visit_order)
 from .contact_law import law_of, rolling_of
 from .grain_step import grain_measures, grain_terms
-from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_ZETA, O_ALPHAMAX, O_AMAX, O_APISTON,
-                     O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V)
+from .layout import PARAMS, PISTON
 from .mean_flow import M_GAMMA_M, slab_means
 from .piston import piston_acceleration, piston_contact_force
 from .workspace import (W_BF, W_BLK, W_CLAIM, W_INVI, W_INVM, W_MFLOW, W_OSLOT, W_OUT, W_PAIRC, W_ROW,
@@ -42,7 +41,7 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 
 @numba.njit(cache=True, parallel=True)
-def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
+def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar1,
                    nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p, claims, visit):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
@@ -51,7 +50,8 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
-    these pairs into ``blk_g``."""
+    these pairs into ``blk_g``. ``fpar1``: a copy of the parameters as a one-element array
+    (:func:`_frozen`)."""
     threads = open_claims(claims, nblk, tile.shape[0])
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
         visit_order(t, threads, nblk, visit[t])
@@ -59,7 +59,7 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
             b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
+                                pair_ft, pair_ov, fpar1[0], nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
                                 tile_p[t])
 
 
@@ -79,12 +79,12 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     flat = alpha.reshape(n * r)
     for q in grains(b0 * r, b1 * r):
         flat[q] = 0.0
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    rescale = fpar[F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
-    g_pair = C.effective_shear(fpar[F_POISSON], False)
+    g_pair = C.effective_shear(fpar.poisson, False)
     law = law_of(fpar)
     roll = rolling_of(fpar)
     dmax = 0.0
@@ -168,7 +168,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
-              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
+              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston1, fpar1, row, nblk, out_start, out_slot,
               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims, visit):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
@@ -183,7 +183,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     bit that loop's. Only the block's own grains are read or written, apart from the slots.
 
     ``kick`` 0: forces and torques stay in ``acc``, ``alpha``; 1: accelerations, the second
-    half kick and (``stats``, ``drift``) what :func:`_finish` does. Per block into ``blk_g``:
+    half kick and (``stats``, ``drift``) what :func:`_finish` does. ``piston1``, ``fpar1``: copies of
+    the piston and the parameters as one-element arrays (:func:`_frozen`). Per block into ``blk_g``:
     largest overlap and contacts (with phase 1's), top-wall contacts (their forces on the
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
@@ -194,18 +195,18 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     # its dense top, and the first thread waited at the barrier for half of the compaction
     # (docs/decisions/0004-parallel-passes.md). Which thread computes a block never changes a bit.
     threads = open_claims(claims, nblk, tile.shape[0])
-    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
+    slab_job = mflow.shape[0] > 0 and fpar1[0].gamma > 0.0
     claims[nblk + 1] = SLABS_TODO if slab_job else SLABS_READY
     for t in numba.prange(threads):
         if t == 0 and slab_job:
-            _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, 0)
+            _slab_job(pos, vel, mass, fpar1[0], mflow, slabs, claims, nblk, 0)
         visit_order(t, threads, nblk, visit[t])
         for j in range(nblk):
             b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
-                           pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
-                           out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs,
+                           pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston1[0], fpar1[0], row,
+                           nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs,
                            tile[t], tile_p[t], claims, 0)
 
 
@@ -229,7 +230,7 @@ def _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd):
     so no schedule of the pass's iterations onto threads can deadlock on it."""
     todo = SLABS_TODO + 2 * rnd
     if team.atomic_cas(claims, nblk + 1, todo, todo + 1) == todo:
-        slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, slabs)
+        slab_means(pos, vel, mass, fpar.gamma, mflow, slabs)
         team.atomic_store(claims, nblk + 1, todo + 2)
 
 
@@ -257,15 +258,15 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    gamma = fpar[F_GAMMA]
-    rescale = fpar[F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    gamma = fpar.gamma
+    rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
-    g_pair = C.effective_shear(fpar[F_POISSON], False)
+    g_pair = C.effective_shear(fpar.poisson, False)
     e_wall = C.effective_young(True)
-    g_wall = C.effective_shear(fpar[F_POISSON], True)
+    g_wall = C.effective_shear(fpar.poisson, True)
     law = law_of(fpar)
     roll = rolling_of(fpar)
     dmax = blk_g[b, G_DMAX]
@@ -296,8 +297,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     # damping and slab term (grain_step.grain_terms, the per-grain part every engine runs)
     if gamma > 0.0 and mflow.shape[0] > 0:  # the slab means read every grain's velocity
         _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
-    h = piston[P_H]
-    vp = piston[P_V]
+    h = piston.h
+    vp = piston.v
     ntop = 0
     q = first_wall_entry(walls, b0)
     for i in range(b0, b1):
@@ -359,6 +360,18 @@ def _displacement_pass(pos, lateral, pos0, blk_g):
         blk_g[b, G_DISP] = disp
 
 
+@numba.njit(cache=True, inline="always")
+def _frozen(piston, fpar):
+    """Copies of the records ``piston`` and ``fpar`` as one-element arrays, for the parallel
+    passes, which only read them: numba's parallel loops take no record argument (numba 0.68
+    lowers a record parameter of their outlined body by value where a pointer is expected)."""
+    p = np.empty(1, PISTON)
+    p[0] = piston
+    f = np.empty(1, PARAMS)
+    f[0] = fpar
+    return p, f
+
+
 @numba.njit(cache=True)
 def _block_max(blk, col):
     m = 0.0
@@ -379,14 +392,16 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     top_f = ws[W_TOP]
     pair_c = ws[W_PAIRC]
     mflow = ws[W_MFLOW]
+    # the passes read the parameters and the piston (none of what refresh_wall_list writes)
+    piston1, fpar1 = _frozen(piston, fpar)
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM],
+                   fpar1, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM],
                    ws[W_VISIT])
     # the wall list must cover this piston height (made again if the piston moved)
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
-              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
+              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston1, fpar1, ws[W_ROW], nblk,
               ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS],
               ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], ws[W_VISIT])
     n = pos.shape[0]
@@ -404,32 +419,32 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
         almax = max(almax, blk_g[b, G_ALMAX])
         vmax = max(vmax, blk_g[b, G_VMAX])
         wmax = max(wmax, blk_g[b, G_WMAX])
-    piston[P_FCON] = piston_contact_force(blk_g, top_f, n, nblk)
-    piston[P_A] = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA])
-    out[O_DMAX] = dmax
-    out[O_NTOP] = ntop
-    out[O_NCONTACT] = ncontact
+    piston.f_con = piston_contact_force(blk_g, top_f, n, nblk)
+    piston.a = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma)
+    out.d_max = dmax
+    out.ntop = ntop
+    out.ncontact = ncontact
     if stats:
-        out[O_AMAX] = math.sqrt(amax)
-        out[O_ALPHAMAX] = math.sqrt(almax)
-        out[O_VMAX] = math.sqrt(vmax)
-        out[O_WMAX] = math.sqrt(wmax)
-        if piston[P_MASS] < np.inf:
-            out[O_APISTON] = abs(piston[P_A])
-            kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
+        out.a_max = math.sqrt(amax)
+        out.alpha_max = math.sqrt(almax)
+        out.v_max = math.sqrt(vmax)
+        out.w_max = math.sqrt(wmax)
+        if piston.mass < np.inf:
+            out.a_piston = abs(piston.a)
+            kin += 0.5 * piston.mass * piston.v * piston.v
         else:
-            out[O_APISTON] = 0.0
-        out[O_KIN] = kin
+            out.a_piston = 0.0
+        out.kin = kin
 
 
 @numba.njit(cache=True)
 def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft,
                    wall_ov, piston, fpar, ipar, force, torque, out, ws):
     """Total force and torque on every grain (into ``force``, ``torque``), the contact force on
-    the piston (``piston[P_FCON]``), largest overlap, top-wall and total contact counts (``out``).
+    the piston (``piston.f_con``), largest overlap, top-wall and total contact counts (``out``).
 
     Also adds the background damping -gamma m v, -gamma I w. Contacts update their
-    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced). When the
+    tangential history with slip = v_rel * fpar.dt (0: evaluated, not advanced). When the
     workspace has no room for the incoming pairs, one block (the same bits).
     """
     nblk = ws[W_BLK].shape[0]
@@ -471,13 +486,13 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
         vmax = max(vmax, v2)
         wmax = max(wmax, w2r2)
         kin += k
-    out[O_AMAX] = math.sqrt(amax)
-    out[O_ALPHAMAX] = math.sqrt(almax)
-    out[O_VMAX] = math.sqrt(vmax)
-    out[O_WMAX] = math.sqrt(wmax)
-    if piston[P_MASS] < np.inf:
-        out[O_APISTON] = abs(piston[P_A])
-        kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
+    out.a_max = math.sqrt(amax)
+    out.alpha_max = math.sqrt(almax)
+    out.v_max = math.sqrt(vmax)
+    out.w_max = math.sqrt(wmax)
+    if piston.mass < np.inf:
+        out.a_piston = abs(piston.a)
+        kin += 0.5 * piston.mass * piston.v * piston.v
     else:
-        out[O_APISTON] = 0.0
-    out[O_KIN] = kin
+        out.a_piston = 0.0
+    out.kin = kin

@@ -10,7 +10,6 @@ import numpy as np
 from . import pair_tile as PT
 from .blocks import N_GCOL, block_bounds, block_count
 from .contact_law import N_PCOL
-from .layout import F_SKIN, F_WALLH, P_H
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -38,11 +37,11 @@ def wall_list(pos, rad, h, skin, wall_ov, walls):
 def refresh_wall_list(pos_ref, rad, piston, fpar, wall_ov, walls, force):
     """Make the wall list (:func:`wall_list`, from the positions ``pos_ref``) again when
     ``force`` or when the piston has moved more than skin / 2 since it was made (its height
-    then is kept in ``fpar[F_WALLH]``)."""
-    h = piston[P_H]
-    if force or abs(h - fpar[F_WALLH]) > 0.5 * fpar[F_SKIN]:
-        wall_list(pos_ref, rad, h, fpar[F_SKIN], wall_ov, walls)
-        fpar[F_WALLH] = h
+    then is kept in ``fpar.wall_h``)."""
+    h = piston.h
+    if force or abs(h - fpar.wall_h) > 0.5 * fpar.skin:
+        wall_list(pos_ref, rad, h, fpar.skin, wall_ov, walls)
+        fpar.wall_h = h
 
 
 @numba.njit(cache=True, inline="always")

@@ -60,16 +60,17 @@ def slab_bin(pos, mflow, slab_of, lo, hi, ctl):
 
 
 @cuda.jit
-def slab_sums(vel, mass, fpar, mflow, slab_of, lo, hi, slabs, ctl):
+def slab_sums(vel, mass, fpar1, mflow, slab_of, lo, hi, slabs, ctl):
     """Per slab (a thread each): mean vertical velocity, mass and, where the lateral mean flow
     has a rate of its own, mean lateral velocities into ``slabs`` (the rows of
     :func:`granwave.dem.mean_flow.slab_means`), summed over its grains in increasing index;
     then ``lo``, ``hi`` reset for the next step."""
+    fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_STATUS] != 0:
         return
     n, d = vel.shape
     z = d - 1
-    n_lat = z if lateral_on(fpar[K.F_GAMMA], mflow) else 0
+    n_lat = z if lateral_on(fpar.gamma, mflow) else 0
     for k in range(cuda.grid(1), lo.shape[0], cuda.gridsize(1)):
         vz = 0.0
         m = 0.0
