@@ -142,7 +142,7 @@ def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: in
                     res["rates"][t], res["cpu"][t] = wall, cpu
                 e = engines[t]
                 res["states"].setdefault(t, set()).add(e.position.tobytes() + e.pair_ft.tobytes())
-                nblk = e.ws[K.W_BLK].shape[0]
+                nblk = e.ws.blk.shape[0]
                 K.prepare_blocks(e.radius, e.mass, e.inertia, e.ws, nblk)
                 res["count"][t], res["fraction"][t] = nblk, K.boundary_fraction(e.ws, e.n_pairs)
                 res["grains"] = n

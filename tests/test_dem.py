@@ -190,7 +190,7 @@ def test_pair_constants_follow_the_pair_list(threads, use_threads, monkeypatch):
     i, j = eng.pair_i[:m], eng.pair_j[:m]
     r12 = 1.0 / (1.0 / radius[i] + 1.0 / radius[j])
     want = np.column_stack([r12, np.sqrt(r12), eng.mass[i] * eng.mass[j] / (eng.mass[i] + eng.mass[j])])
-    assert np.array_equal(eng.ws[K.W_PAIRC][:m], want)
+    assert np.array_equal(eng.ws.pair_c[:m], want)
 
 
 @pytest.mark.parametrize("threads", [1, 2])

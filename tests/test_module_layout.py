@@ -130,13 +130,15 @@ def test_modules_import_without_cycles():
 
 
 #: The engine's named state (granwave.dem.layout): read by field, never by a numbered slot.
-_SLOT = r"\b(fpar|ipar|piston|out|fpar1|piston1)\[\s*(K\.|layout\.)?[FIPO]_[A-Z_]+\s*\]|\b(fpar|ipar)\["
+_SLOT = (r"\b(fpar|ipar|piston|out|fpar1|piston1)\[\s*(K\.|layout\.)?[FIPO]_[A-Z_]+\s*\]|\b(fpar|ipar)\["
+         r"|\bws\[\s*(K\.)?W_[A-Z]+\s*\]|\bws\[[0-9]+\]")
 
 
 def test_kernels_index_no_parameter_array_by_number():
     """The engine's parameters, counters, piston and statistics are numpy records
-    (granwave.dem.layout) read by field name; no module of the package indexes them by a slot
-    constant (F_*, I_*, P_*, O_*), and layout defines none."""
+    (granwave.dem.layout) and its workspace a named tuple (granwave.dem.workspace.Workspace),
+    read by field name; no module of the package indexes them by a slot constant (F_*, I_*,
+    P_*, O_*, W_*) or a number, and layout defines no such constant."""
     import re
 
     from granwave.dem import layout
@@ -148,5 +150,7 @@ def test_kernels_index_no_parameter_array_by_number():
                 found.append(f"{path.relative_to(PACKAGE.parent)}:{n}: {line.strip()}")
     assert found == []
     assert not [name for name in vars(layout) if re.fullmatch(r"[FIPON]_[A-Z_]+", name)]
+    from granwave.dem import workspace
+    assert not [name for name in vars(workspace) if re.fullmatch(r"W_[A-Z]+", name)]
     for dtype in (layout.PARAMS, layout.COUNTERS, layout.PISTON, layout.OUT):
         assert dtype.names and len(set(dtype.names)) == len(dtype.names)

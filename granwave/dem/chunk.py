@@ -16,7 +16,7 @@ from .passes import _block_max, _displacement_pass, _drift_pass, _forces
 from .piston import piston_half_kick, piston_kick_drift
 from .team_steps import _team_steps
 from .time_step import needs_rebuild, next_skin, stable_dt_at
-from .workspace import W_BLK, W_CLAIM, W_PAIRC, W_SPAIR, W_WALLS, _lists, prepare_blocks, refresh_wall_list
+from .workspace import _lists, prepare_blocks, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -37,7 +37,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     steps: piston touching grains, every |a|, |alpha| and |a_piston| below
     ``fpar.tol_a``, every |v|, |w| R and |v_piston| below ``fpar.tol_v``), 2 when the pair list
     needs more room (``ipar.needed`` pairs, ``ipar.width`` neighbours per grain,
-    ``ws[W_NEED][2]`` incoming pairs; the state is one that a new call goes on from with
+    ``ws.need[2]`` incoming pairs; the state is one that a new call goes on from with
     the same bits), 3 when the
     state blew up (an overlap larger than the largest radius or non-finite motion at a
     check, or non-finite positions before a rebuild): the time step is unstable.
@@ -51,14 +51,14 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     (:func:`_team_steps`: one parallel region for the run, the same bits).
     """
     n, d = pos.shape
-    blk_g = ws[W_BLK]
+    blk_g = ws.blk
     nblk = blk_g.shape[0]
-    room = ws[W_SPAIR].shape[0]
+    room = ws.slot_pair.shape[0]
     if prepare_blocks(rad, mass, inertia, ws, nblk) > room:  # lists built elsewhere, more than room
         ipar.needed = ipar.npairs
         ipar.width = 0
         return 2
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # from the last rebuild's positions
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, True)  # from the last rebuild's positions
     check = ipar.check
     n_steps = ipar.nsteps
     # largest squared displacement since the last build (then kept by the drift)
@@ -66,7 +66,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     disp2 = _block_max(blk_g, G_DISP)
     drifted = False
     # plain steps in a team of threads (_team_steps) when asked for and on more than one thread
-    use_team = ipar.team > 0 and ws[W_CLAIM][0] > 1
+    use_team = ipar.team > 0 and ws.claims[0] > 1
     sync = np.zeros(team.SYNC_LENGTH, np.int64)
     step = 0
     while step < n_steps:
@@ -86,21 +86,21 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             if needs_rebuild(fpar, ipar, reach, 0):
                 skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
                 np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
-                                            pair_ft, pair_ov, ipar.npairs, ws[0], ws[2], ws[3],
-                                            ws[4], ws[1], ws[5])
+                                            pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo,
+                                            ws.row, ws.gather, ws.need)
                 if np_new < 0:
-                    ipar.needed = ws[5][0]
-                    ipar.width = ws[5][1]
+                    ipar.needed = ws.need[0]
+                    ipar.width = ws.need[1]
                     return 2
                 fpar.skin = skin
                 ipar.npairs = np_new
                 ipar.rebuilds += 1
                 ipar.built = ipar.steps
-                pair_constants(pair_i, pair_j, np_new, rad, mass, ws[W_PAIRC])
+                pair_constants(pair_i, pair_j, np_new, rad, mass, ws.pair_c)
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]
-                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # new positions
+                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, True)  # new positions
                 disp2 = 0.0
                 if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
                     ipar.needed = np_new

@@ -347,7 +347,7 @@ def pair_constants3(inv_rad_i, inv_rad_j, mass_i, mass_j):
     return r12, math.sqrt(r12), C.reduced_mass(mass_i, mass_j, False)
 
 
-#: columns of the per-pair constants (``ws[W_PAIRC]``)
+#: columns of the per-pair constants (``ws.pair_c``)
 PC_R12, PC_ROOT, PC_MEFF = range(3)
 N_PCOL = 3
 

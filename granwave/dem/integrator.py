@@ -208,7 +208,7 @@ class Engine:
     # ------------------------------------------------------------------ internals
     def grow(self, needed: int, width: int = 0) -> None:
         """Room for ``needed`` pairs, ``width`` neighbours per grain and the incoming pairs the
-        workspace asked for (``ws[W_NEED][2]``); contents kept. With a new width the neighbour
+        workspace asked for (``ws.need[2]``); contents kept. With a new width the neighbour
         and gather lists are rebuilt by the next rebuild; otherwise they are carried over."""
         cap = max(int(needed * 1.5) + 64, len(self.pair_i))
         d = self.dim
@@ -222,10 +222,10 @@ class Engine:
                 new[: len(old)] = old
                 setattr(self, name, new)
         ws = self.ws
-        old_width = ws[K.W_NBR].shape[1]
+        old_width = ws.nbr.shape[1]
         width = old_width if width <= old_width else int(width * 1.5) + 2
-        boundary = int(ws[K.W_NEED][2])
-        room = len(ws[K.W_SPAIR])
+        boundary = int(ws.need[2])
+        room = len(ws.slot_pair)
         # the lists are carried over when only the incoming pairs asked for room (a rebuild that
         # ran out of room follows again otherwise)
         self.ws = K.grown_workspace(ws, cap, width, int(boundary * 1.5) + 64 if boundary > room else room,
@@ -236,13 +236,13 @@ class Engine:
             w = self.ws
             m = rebuild(self.position, self.radius, self.lateral, self.piston.h, self.fpar.skin,
                         self.pair_i, self.pair_j, self.pair_ft, self.pair_ov, self.ipar.npairs,
-                        w[0], w[2], w[3], w[4], w[1], w[5])
+                        w.nbr, w.ncount, w.nlo, w.row, w.gather, w.need)
             if m >= 0:
                 break
-            self.grow(int(w[5][0]), int(w[5][1]))
+            self.grow(int(w.need[0]), int(w.need[1]))
         self.ipar.npairs = m
         self.ipar.built = self.ipar.steps
-        K.pair_constants(self.pair_i, self.pair_j, m, self.radius, self.mass, self.ws[K.W_PAIRC])
+        K.pair_constants(self.pair_i, self.pair_j, m, self.radius, self.mass, self.ws.pair_c)
         self.pos0[:] = self.position
 
     def _cpu_only(self) -> None:
@@ -277,7 +277,7 @@ class Engine:
             self.ipar.team = int(threads > 1 and PLAIN_STEPS_IN_TEAM and team.usable())
             while self.steps < target:
                 self.ipar.nsteps = target - self.steps
-                self.ws[K.W_CLAIM][0] = threads  # the force passes' share per thread (kernels.visit_block)
+                self.ws.claims[0] = threads  # the force passes' share per thread (kernels.visit_block)
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
                                      self.angular_acceleration, self.radius, self.mass, self.inertia,
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
@@ -301,16 +301,16 @@ class Engine:
     #: workspace entries a call of :meth:`run` goes on from (the lists of the last rebuild, the
     #: pair constants, the wall list, the incoming pairs' room); the others are rebuilt from them
     #: at every call, are sized by the thread count (blocks, per-thread scratch) or are timings
-    STATE_WORKSPACE = (K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW, K.W_NEED, K.W_TOP, K.W_PAIRC,
-                       K.W_WALLS, K.W_SPAIR, K.W_OSLOT, K.W_BF, K.W_INVM, K.W_INVI)
+    STATE_WORKSPACE = ("nbr", "gather", "ncount", "nlo", "row", "need", "top", "pair_c", "walls", "slot_pair",
+                       "out_slot", "bnd_f", "inv_m", "inv_i")
 
     def state(self) -> dict:
         """Copies of every array a later :meth:`run` goes on from ({name: array}; workspace
-        entries as ``ws<index>``): with :meth:`restore` on an engine built with the same
+        fields as ``ws_<name>``): with :meth:`restore` on an engine built with the same
         arguments, the run continues with the same bits (granwave.dem.checkpoint)."""
         out = {name: getattr(self, name).copy() for name in self.STATE_ARRAYS}
         out.update({name: K.as_array(getattr(self, name)) for name in self.STATE_RECORDS})
-        out.update({f"ws{w}": self.ws[w].copy() for w in self.STATE_WORKSPACE})
+        out.update({f"ws_{w}": getattr(self.ws, w).copy() for w in self.STATE_WORKSPACE})
         return out
 
     def restore(self, state: dict) -> None:
@@ -334,10 +334,8 @@ class Engine:
                 raise InputError(f"engine state {name!r}: {new.dtype}{new.shape} is not a record of "
                                  f"{old.dtype.names}")
             K.copy_record(old, new)
-        ws = list(self.ws)
-        for w in self.STATE_WORKSPACE:
-            ws[w] = np.array(state[f"ws{w}"], dtype=ws[w].dtype, order="C")
-        self.ws = tuple(ws)
+        self.ws = self.ws._replace(**{w: np.array(state[f"ws_{w}"], dtype=getattr(self.ws, w).dtype, order="C")
+                                      for w in self.STATE_WORKSPACE})
 
     def damping_rates(self) -> tuple:
         """The background damping rates now (1 / time unit): (gamma, a copy of ``mflow``), the

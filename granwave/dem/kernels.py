@@ -1,7 +1,7 @@
 """The DEM engine's numba kernels, by name: a facade over the modules that hold them.
 
-The kernels live in modules with one job each: :mod:`granwave.dem.layout` (indices of the
-parameter arrays), :mod:`granwave.dem.contact_law` (pair and wall contacts),
+The kernels live in modules with one job each: :mod:`granwave.dem.layout` (the records of
+the engine's state), :mod:`granwave.dem.contact_law` (pair and wall contacts),
 :mod:`granwave.dem.grain_step` (a grain's walls, damping and measures),
 :mod:`granwave.dem.blocks` (grain blocks and their claims), :mod:`granwave.dem.workspace`
 (work arrays, incoming and wall lists), :mod:`granwave.dem.passes` (the parallel force
@@ -23,12 +23,9 @@ from .contact_law import (_add_torque3, _contact_velocity, _pair_geometry, _pair
 from .blocks import (block_bounds, block_count, BLOCK_GRAINS, BLOCK_MULTIPLE, block_taken, BLOCKS_PER_THREAD,
                      claim_block, G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX,
                      G_WMAX, grains, MIN_BLOCK_GRAINS, N_GCOL, open_claims, take_block, visit_order)  # noqa: F401
-from .workspace import (_lists, boundary_fraction, boundary_room, first_wall_entry, grown_workspace,
-                        incoming_lists, N_TEAM_TIMES, prepare_blocks, refresh_wall_list, T_END, T_PASS1,
-                        T_PASS2, T_WAIT1, T_WAIT2, W_BF, W_BLK, W_CLAIM, W_GL, W_INVI, W_INVM, W_MFLOW, W_NBR,
-                        W_NCNT, W_NEED, W_NLO, W_OSLOT, W_OUT, W_PAIRC, W_ROW, W_SLABS, W_SLOT, W_SPAIR,
-                        W_TEAMTIME, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, wall_list, with_blocks,
-                        workspace)  # noqa: F401
+from .workspace import (boundary_fraction, boundary_room, first_wall_entry, grown_workspace, incoming_lists,
+                        _lists, N_TEAM_TIMES, prepare_blocks, refresh_wall_list, T_END, T_PASS1, T_PASS2,
+                        T_WAIT1, T_WAIT2, wall_list, with_blocks, workspace, Workspace)  # noqa: F401
 from .grain_step import grain_measures, grain_terms  # noqa: F401
 from .piston import (piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift)  # noqa: F401
 from .time_step import (needs_rebuild, next_skin, rebuild_due, rolling_limit, ROTATION_FACTOR,

@@ -34,9 +34,7 @@ from .grain_step import grain_measures, grain_terms
 from .layout import PARAMS, PISTON
 from .mean_flow import M_GAMMA_M, slab_means
 from .piston import piston_acceleration, piston_contact_force
-from .workspace import (W_BF, W_BLK, W_CLAIM, W_INVI, W_INVM, W_MFLOW, W_OSLOT, W_OUT, W_PAIRC, W_ROW,
-                        W_SLABS, W_SLOT, W_SPAIR, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, _lists,
-                        first_wall_entry, prepare_blocks, refresh_wall_list)
+from .workspace import _lists, first_wall_entry, prepare_blocks, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -69,7 +67,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
     keeps its compilation short); its incoming pairs go through the staged law a tile at a time
     (:func:`granwave.dem.pair_tile.law_tile_incoming`, the bits of :func:`_pair_law`), in the
-    calling thread's tile scratch ``t``, ``tp`` (one row of the workspace's W_TILE, W_TILEP)."""
+    calling thread's tile scratch ``t``, ``tp`` (one row of the workspace's ``tile``, ``tile_p``)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -388,22 +386,22 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     acceleration; with ``stats`` the convergence measures as :func:`measure` (the kinetic
     energy summed by blocks: only its finiteness is used). The incoming lists
     (:func:`prepare_blocks`) must be those of the current pair list and ``nblk``."""
-    blk_g = ws[W_BLK]
-    top_f = ws[W_TOP]
-    pair_c = ws[W_PAIRC]
-    mflow = ws[W_MFLOW]
+    blk_g = ws.blk
+    top_f = ws.top
+    pair_c = ws.pair_c
+    mflow = ws.mflow
     # the passes read the parameters and the piston (none of what refresh_wall_list writes)
     piston1, fpar1 = _frozen(piston, fpar)
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar1, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM],
-                   ws[W_VISIT])
+                   fpar1, nblk, ws.slot_start, ws.slot_pair, ws.bnd_f, blk_g, ws.tile, ws.tile_p, ws.claims,
+                   ws.visit)
     # the wall list must cover this piston height (made again if the piston moved)
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, False)
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
-    _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
-              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston1, fpar1, ws[W_ROW], nblk,
-              ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS],
-              ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], ws[W_VISIT])
+    _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws.inv_m, ws.inv_i, lateral, pos0,
+              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws.walls, piston1, fpar1, ws.row, nblk,
+              ws.out_start, ws.out_slot, ws.slot_pair, ws.bnd_f, blk_g, top_f, kick, stats, drift, mflow, ws.slabs,
+              ws.tile, ws.tile_p, ws.claims, ws.visit)
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -447,11 +445,11 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     tangential history with slip = v_rel * fpar.dt (0: evaluated, not advanced). When the
     workspace has no room for the incoming pairs, one block (the same bits).
     """
-    nblk = ws[W_BLK].shape[0]
-    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws[W_SPAIR].shape[0]:
+    nblk = ws.blk.shape[0]
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws.slot_pair.shape[0]:
         nblk = 1
         _lists(ws, nblk)
-    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # for these positions
+    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws.walls, True)  # for these positions
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, False, False, False)
 

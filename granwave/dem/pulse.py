@@ -490,7 +490,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
         k_stop = k + 1 if shear else min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
-            engine.ws[K.W_CLAIM][0] = numba.get_num_threads()  # the force passes' share per thread
+            engine.ws.claims[0] = numba.get_num_threads()  # the force passes' share per thread
             # one thread: the one-loop engine (same bits; its kernels compile several times faster)
             kernel = PK.pulse_samples_serial if device == "cpu" and numba.get_num_threads() == 1 else samples_kernel
             r = kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,

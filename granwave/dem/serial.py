@@ -27,7 +27,7 @@ from .contact_law import law_of, pair_constants, rolling_of
 from .passes import drift_grain, measure
 from .piston import piston_acceleration, piston_half_kick, piston_kick_drift
 from .time_step import needs_rebuild, next_skin, stable_dt_at
-from .workspace import W_INVI, W_INVM, W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, refresh_wall_list
+from .workspace import refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -110,12 +110,12 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     """:func:`granwave.dem.kernels.compute_forces` in one loop over pairs (same arguments and
     bits), for one thread: it compiles in a fraction of the parallel passes' time, which a
     one-thread process (a workflow job) would otherwise spend on a cold cache."""
-    walls = ws[W_WALLS]
-    mflow = ws[W_MFLOW]
+    walls = ws.walls
+    mflow = ws.mflow
     refresh_wall_list(pos, rad, piston, fpar, wall_ov, walls, True)  # for these positions
-    _force_loop(pos, vel, omega, rad, ws[W_PAIRC], mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
+    _force_loop(pos, vel, omega, rad, ws.pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
                 pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow,
-                ws[W_SLABS], ws[W_TILE], ws[W_TILEP])
+                ws.slabs, ws.tile, ws.tile_p)
     piston.a = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma)
 
 
@@ -127,7 +127,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     (off when its parameters are empty)."""
     return run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
                                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
-                               ws[W_MFLOW], ws[W_SLABS])
+                               ws.mflow, ws.slabs)
 
 
 @numba.njit(cache=True)
@@ -153,11 +153,11 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
     n, d = pos.shape
     r = omega.shape[1]
     # 1/m and 1/I once per chunk, not per step: the same quotients, the same bits
-    pair_c = ws[W_PAIRC]
-    walls = ws[W_WALLS]
+    pair_c = ws.pair_c
+    walls = ws.walls
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the last rebuild's positions
-    inv_m = ws[W_INVM]
-    inv_i = ws[W_INVI]
+    inv_m = ws.inv_m
+    inv_i = ws.inv_i
     for i in range(n):
         inv_m[i] = 1.0 / mass[i]
         inv_i[i] = 1.0 / inertia[i]
@@ -177,11 +177,11 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         if needs_rebuild(fpar, ipar, reach, 0):
             skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
             np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
-                                        pair_ft, pair_ov, ipar.npairs, ws[0], ws[2], ws[3], ws[4],
-                                        ws[1], ws[5])
+                                        pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo, ws.row,
+                                        ws.gather, ws.need)
             if np_new < 0:
-                ipar.needed = ws[5][0]
-                ipar.width = ws[5][1]
+                ipar.needed = ws.need[0]
+                ipar.width = ws.need[1]
                 return 2
             fpar.skin = skin
             ipar.npairs = np_new
@@ -206,7 +206,7 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
         _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
                     pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
-                    ws[W_TILE], ws[W_TILEP])
+                    ws.tile, ws.tile_p)
         piston.a = piston_acceleration(piston, gamma_piston)
         # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):

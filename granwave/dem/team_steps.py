@@ -15,9 +15,7 @@ from .passes import _block_max, _incoming_block, _row_block, _slab_job
 from .layout import PARAMS, PISTON
 from .piston import copy_piston, piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift
 from .time_step import rebuild_due
-from .workspace import (N_TEAM_TIMES, T_END, T_PASS1, T_PASS2, T_WAIT1, T_WAIT2, W_BF, W_BLK, W_CLAIM,
-                        W_INVI, W_INVM, W_MFLOW, W_OSLOT, W_OUT, W_PAIRC, W_ROW, W_SLABS, W_SLOT, W_SPAIR,
-                        W_TEAMTIME, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS)
+from .workspace import N_TEAM_TIMES, T_END, T_PASS1, T_PASS2, T_WAIT1, T_WAIT2
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -126,9 +124,9 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
     and the step counts. Returns (0, disp2) with ``ipar.team`` = -1 when the team did not
     start (:func:`granwave.team.enter`; then nothing was done), or when it has more threads than
     the workspace has tile scratches (more than numba can start: it would not start either)."""
-    threads = max(1, ws[W_CLAIM][0])
+    threads = max(1, ws.claims[0])
     team.reset_team(sync, threads)
-    if threads > ws[W_TILE].shape[0]:
+    if threads > ws.tile.shape[0]:
         ipar.team = -1
         return 0, disp2
     pistons = np.empty(threads, PISTON)
@@ -140,16 +138,16 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
     fpar1[0] = fpar
     claims = np.zeros(nblk + 2, np.int64)
     state = np.zeros((threads, 3))
-    times = ws[W_TEAMTIME]
+    times = ws.team_times
     if times.shape[0] < threads:  # a team larger than numba's threads (it will not start): no row to miss
         times = np.zeros((threads, N_TEAM_TIMES), np.int64)
-    mflow = ws[W_MFLOW]
+    mflow = ws.mflow
     gamma_p = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
-    _team_region(pos, vel, acc, omega, alpha, rad, ws[W_PAIRC], mass, inertia, ws[W_INVM], ws[W_INVI], lateral,
-                 pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], pistons, fpar1, ws[W_ROW],
-                 nblk, ws[W_OUT], ws[W_OSLOT], ws[W_SLOT], ws[W_SPAIR], ws[W_BF], ws[W_BLK], ws[W_TOP], mflow,
-                 ws[W_SLABS], ws[W_TILE], ws[W_TILEP], gamma_p, ipar.check, ipar.built,
-                 ipar.steps, step, n_steps, disp2, fpar.v_max, sync, claims, state, times, ws[W_VISIT])
+    _team_region(pos, vel, acc, omega, alpha, rad, ws.pair_c, mass, inertia, ws.inv_m, ws.inv_i, lateral,
+                 pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws.walls, pistons, fpar1, ws.row,
+                 nblk, ws.out_start, ws.out_slot, ws.slot_start, ws.slot_pair, ws.bnd_f, ws.blk, ws.top, mflow,
+                 ws.slabs, ws.tile, ws.tile_p, gamma_p, ipar.check, ipar.built,
+                 ipar.steps, step, n_steps, disp2, fpar.v_max, sync, claims, state, times, ws.visit)
     if sync[team.S_ENTRY] < threads:
         ipar.team = -1
         return 0, disp2

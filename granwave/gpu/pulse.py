@@ -129,7 +129,7 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
             setattr(eng, name, value)
     n, d = pos.shape
     eng.dim = d
-    eng.mflow, eng.slabs = ws[K.W_MFLOW], ws[K.W_SLABS]  # the compaction rule's (off in a pulse)
+    eng.mflow, eng.slabs = ws.mflow, ws.slabs  # the compaction rule's (off in a pulse)
     mu = fpar.mu
     eng.upload()
     dev = {"state": cuda.to_device(pair_state), "wall": cuda.to_device(wall_state),
