@@ -1,8 +1,9 @@
 """The per-grain part of a DEM step, written once for the three engines.
 
-After its pair forces, a grain gets, in this order, its bottom and top wall contacts, the
-background damping -gamma m v, -gamma I w and (compaction rule 'mean-flow') its slab's
-mean-flow term: :func:`grain_terms`. The convergence measures of a grain (|a|^2, |alpha|^2,
+After its pair forces, a grain gets, in this order, its bottom and top wall contacts
+(:func:`grain_walls`), then the background damping -gamma m v, -gamma I w (:func:`grain_damping`)
+and (compaction rule 'mean-flow') its slab's mean-flow term
+(:func:`granwave.dem.mean_flow.add_slab_damping`). The convergence measures of a grain (|a|^2, |alpha|^2,
 |v|^2, |w|^2 R^2, kinetic energy) are :func:`grain_measures`. The one-thread loop
 (:func:`granwave.dem.serial._force_loop`), the parallel row pass
 (:func:`granwave.dem.passes._row_block`, :func:`granwave.dem.passes.measure`,
@@ -17,20 +18,17 @@ from __future__ import annotations
 import numba
 
 from .contact_law import _add_torque3, add_torque_with_couple, wall_contact, wall_rolling
-from .mean_flow import add_slab_damping
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True, inline="always")
-def grain_terms(i, near_wall, pos, vel, omega, rad, mass, inertia, wall_ft, wall_ov, h, vp, e_wall, g_wall, dt,
-                zeta, mu, gamma, rescale, law, roll, mflow, slabs, force, torque, dmax, count):
-    """Add to ``force[i]``, ``torque[i]`` (after grain i's pair terms): its wall contacts
-    (``near_wall``: whether it may touch one, :func:`granwave.dem.workspace.wall_list`; k = 0
-    bottom, normal -e_z at 0; k = 1 top, normal +e_z at height ``h``, moving at ``vp``;
-    :func:`granwave.dem.contact_law.wall_contact`, with the rolling sub-model ``roll``'s couple),
-    then with ``gamma`` > 0 the background damping and, with a non-empty ``mflow``, the slab
-    term of the rule 'mean-flow' (the slab means in ``slabs`` must be this step's,
-    :func:`granwave.dem.mean_flow.slab_means`).
+def grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall, g_wall, dt, zeta, mu, rescale, law,
+                roll, force, torque, dmax, count):
+    """Add grain i's wall contacts to ``force[i]``, ``torque[i]`` (after its pair terms): k = 0
+    bottom, normal -e_z at 0; k = 1 top, normal +e_z at height ``h``, moving at ``vp``
+    (:func:`granwave.dem.contact_law.wall_contact`, with the rolling sub-model ``roll``'s couple).
+    The CPU engines call it for the grains of the wall list only
+    (:func:`granwave.dem.workspace.wall_list`: no other can touch a wall), the GPU for every grain.
 
     ``dmax``, ``count``: the caller's largest overlap and contact count so far. Returns (top,
     ntop, dmax, count): the upward force of the top contact on the grain (0 without one; the
@@ -40,36 +38,39 @@ def grain_terms(i, near_wall, pos, vel, omega, rad, mass, inertia, wall_ft, wall
     r = omega.shape[1]
     top = 0.0
     ntop = 0
-    if near_wall:
-        for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h,
-                                                             vp, e_wall, g_wall, dt, zeta, mu, rescale, law)
-            if delta <= 0.0:
-                continue
-            force[i, 0] += fx
-            force[i, 1] += fy
-            if d == 3:
-                force[i, 2] += fz
-            if r > 0:
-                if roll.kind != 0:
-                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
-                    add_torque_with_couple(torque, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
-                else:
-                    _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
-            if k == 1:
-                top = fz if d == 3 else fy
-                ntop = 1
-            if delta > dmax:
-                dmax = delta
-            count += 1
-    if gamma > 0.0:
-        for a in range(d):
-            force[i, a] -= gamma * mass[i] * vel[i, a]
-        for a in range(r):
-            torque[i, a] -= gamma * inertia[i] * omega[i, a]
-        if mflow.shape[0] > 0:
-            add_slab_damping(i, i + 1, pos, mass, gamma, mflow, slabs, force)
+    for k in range(2):
+        delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp,
+                                                         e_wall, g_wall, dt, zeta, mu, rescale, law)
+        if delta <= 0.0:
+            continue
+        force[i, 0] += fx
+        force[i, 1] += fy
+        if d == 3:
+            force[i, 2] += fz
+        if r > 0:
+            if roll.kind != 0:
+                cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
+                add_torque_with_couple(torque, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
+            else:
+                _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
+        if k == 1:
+            top = fz if d == 3 else fy
+            ntop = 1
+        if delta > dmax:
+            dmax = delta
+        count += 1
     return top, ntop, dmax, count
+
+
+@numba.njit(cache=True, inline="always")
+def grain_damping(i, vel, omega, mass, inertia, gamma, force, torque):
+    """Add grain i's background damping -gamma m v, -gamma I w (``gamma`` > 0: the callers skip
+    it otherwise), after its wall contacts. The rule 'mean-flow''s slab term follows it:
+    :func:`granwave.dem.mean_flow.add_slab_damping`, shared by the engines too."""
+    for a in range(vel.shape[1]):
+        force[i, a] -= gamma * mass[i] * vel[i, a]
+    for a in range(omega.shape[1]):
+        torque[i, a] -= gamma * inertia[i] * omega[i, a]
 
 
 @numba.njit(cache=True, inline="always")

@@ -26,7 +26,7 @@ from .blocks import (block_bounds, block_count, BLOCK_GRAINS, BLOCK_MULTIPLE, bl
 from .workspace import (boundary_fraction, boundary_room, first_wall_entry, grown_workspace, incoming_lists,
                         _lists, N_TEAM_TIMES, prepare_blocks, refresh_wall_list, T_END, T_PASS1, T_PASS2,
                         T_WAIT1, T_WAIT2, wall_list, with_blocks, workspace, Workspace)  # noqa: F401
-from .grain_step import grain_measures, grain_terms  # noqa: F401
+from .grain_step import grain_damping, grain_measures, grain_walls  # noqa: F401
 from .piston import (piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift)  # noqa: F401
 from .time_step import (needs_rebuild, next_skin, rebuild_due, rolling_limit, ROTATION_FACTOR,
                         SAFETY_AT_LIMIT, SKIN_STEPS, SPHERE_INERTIA, stable_dt, stable_dt_at, verlet_limit)  # noqa: F401

@@ -20,7 +20,7 @@ velocities as the damping itself, in grain order (deterministic), by the one-thr
 (:func:`granwave.dem.serial._force_loop`) and by one thread at the start of the parallel
 engine's second pass (:func:`granwave.dem.kernels._slab_job`; each block adds it to its
 grains once they are ready): the same bits. Each grain's term is added after its background
-damping (:func:`add_slab_damping`, called by :func:`granwave.dem.grain_step.grain_terms`).
+damping (:func:`add_slab_damping`, the same function in every engine).
 """
 
 from __future__ import annotations
@@ -100,8 +100,8 @@ def _store_run(slabs, k, n_lat, vz, m, u0, u1):
 def add_slab_damping(lo, hi, pos, mass, gamma, mflow, slabs, force):
     """Grains lo..hi-1: force[i, z] += (gamma - gamma_m) m_i v_s and, where gamma_l differs from
     gamma, force[i, a] += (gamma - gamma_l) m_i u_s,a for each lateral a (slab means from
-    :func:`slab_means`); the engines call it for one grain at a time
-    (:func:`granwave.dem.grain_step.grain_terms`)."""
+    :func:`slab_means`); the one-thread loop applies it to all grains, the parallel engine per
+    block, the GPU per grain."""
     d = pos.shape[1]
     z = d - 1
     inv_slab = 1.0 / mflow[M_SLAB]

@@ -30,9 +30,9 @@ from . import pair_tile as PT
 from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX, G_WMAX,
                      block_bounds, claim_block, grains, open_claims, visit_order)
 from .contact_law import law_of, rolling_of
-from .grain_step import grain_measures, grain_terms
+from .grain_step import grain_damping, grain_measures, grain_walls
 from .layout import PARAMS, PISTON
-from .mean_flow import M_GAMMA_M, slab_means
+from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 from .piston import piston_acceleration, piston_contact_force
 from .workspace import _lists, first_wall_entry, prepare_blocks, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
@@ -291,24 +291,26 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             acc[k, 2] += bnd_f[s, 2]
         for a in range(r):
             alpha[k, a] += bnd_f[s, d + a]
-    # then each grain's walls (the block's grains in the wall list: no other can touch one),
-    # damping and slab term (grain_step.grain_terms, the per-grain part every engine runs)
-    if gamma > 0.0 and mflow.shape[0] > 0:  # the slab means read every grain's velocity
-        _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
+    # then the walls of the block's grains in the wall list (no other can touch one), then every
+    # grain's damping and slab term: the per-grain routines every engine runs (grain_step, mean_flow)
     h = piston.h
     vp = piston.v
     ntop = 0
     q = first_wall_entry(walls, b0)
-    for i in range(b0, b1):
-        near = q <= walls[0] and walls[q] == i
-        if near:
-            q += 1
-        top, nt, dmax, ncontact = grain_terms(i, near, pos, vel, omega, rad, mass, inertia, wall_ft, wall_ov, h,
-                                              vp, e_wall, g_wall, dt, zeta, mu, gamma, rescale, law, roll, mflow,
-                                              slabs, acc, alpha, dmax, ncontact)
+    while q <= walls[0] and walls[q] < b1:
+        i = walls[q]
+        q += 1
+        top, nt, dmax, ncontact = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall,
+                                              g_wall, dt, zeta, mu, rescale, law, roll, acc, alpha, dmax, ncontact)
         if nt:
             top_f[b0 + ntop] = top
             ntop += 1
+    if gamma > 0.0:
+        for i in grains(b0, b1):
+            grain_damping(i, vel, omega, mass, inertia, gamma, acc, alpha)
+        if mflow.shape[0] > 0:  # after every grain's damping, as the one-thread loop
+            _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
+            add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
     m = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     if kick:
         m = _finish(b0, b1, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_i, lateral, pos0, dt,

@@ -45,7 +45,8 @@ MEAN_FLOW_FUNCTIONS = ("_slab", "lateral_on", "add_slab_damping")
 ENGINE_FUNCTIONS = ("law_of", "rolling_of", "contact_force3", "_pair_geometry", "_spin", "_contact_velocity",
                     "_add_torque3", "wall_contact", "relative_spin", "rolling_history", "store_rolling_history",
                     "wall_rolling", "torque_with_couple", "add_torque_with_couple", "piston_acceleration",
-                    "pair_constants3", "drift_grain", "_pair_law", "grain_terms", "grain_measures")
+                    "pair_constants3", "drift_grain", "_pair_law", "grain_walls", "grain_damping",
+                    "grain_measures")
 
 
 def _rebound(py_func, namespace: dict):

@@ -67,7 +67,8 @@ effective_young = DF.effective_young
 effective_shear = DF.effective_shear
 law_of = DF.law_of
 rolling_of = DF.rolling_of
-grain_terms = DF.grain_terms
+grain_walls = DF.grain_walls
+grain_damping = DF.grain_damping
 grain_measures = DF.grain_measures
 
 #: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
@@ -220,13 +221,17 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
                 acc[i, a] -= pf[p, a]
             for a in range(r):
                 alpha[i, a] += tq_j[p, a]
-    # the walls, damping and slab term: the CPU engines' own per-grain routine (grain_step)
-    top, ntop, dmax, count = grain_terms(i, True, pos, vel, omega, rad, mass, inertia, wall_ft, wall_ov, h, vp,
+    # the walls, damping and slab term: the CPU engines' own per-grain routines (grain_step, mean_flow)
+    top, ntop, dmax, count = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp,
                                          effective_young(True), effective_shear(poisson, True), dt, zeta, mu,
-                                         gamma, rescale, law, rolling_of(fpar), mflow, slabs, acc, alpha, 0.0, 0)
+                                         rescale, law, rolling_of(fpar), acc, alpha, 0.0, 0)
     fpiston = 0.0
     if ntop:
         fpiston -= top
+    if gamma > 0.0:
+        grain_damping(i, vel, omega, mass, inertia, gamma, acc, alpha)
+        if mflow.shape[0] > 0:  # after the grain's damping, as the CPU force loop
+            MF.add_slab_damping(i, i + 1, pos, mass, gamma, mflow, slabs, acc)
     inv = 1.0 / mass[i]
     for a in range(d):
         acc[i, a] *= inv

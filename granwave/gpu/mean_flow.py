@@ -22,9 +22,8 @@ with the same result.
 
 The term itself, (gamma - gamma_m) m_i v_s on the vertical force (and the lateral one where
 gamma_l differs from gamma), is the CPU's :func:`granwave.dem.mean_flow.add_slab_damping`
-compiled for the device, called for one grain by the force kernel of :mod:`granwave.gpu.dem`
-through the engines' per-grain routine (:func:`granwave.dem.grain_step.grain_terms`), after the
-grain's background damping, as the CPU adds it.
+compiled for the device (:data:`add_slab_damping`), called for one grain by the force kernel
+of :mod:`granwave.gpu.dem` after the grain's background damping, as the CPU adds it.
 """
 
 from __future__ import annotations
@@ -41,6 +40,7 @@ cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load
 #: :func:`granwave.gpu.compile.device_functions`).
 slab_index = device_functions()._slab
 lateral_on = device_functions().lateral_on
+add_slab_damping = device_functions().add_slab_damping
 
 
 @cuda.jit
