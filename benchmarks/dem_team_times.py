@@ -8,7 +8,7 @@ On the lent 16-vCPU machines (docs/decisions/0004-parallel-passes.md) the engine
 step: either each thread's work slows down when all run (shared units, a host's limits), or
 threads wait for each other (imbalance, late vCPUs). The team's per-thread timers tell which:
 each thread of a team adds the cycles (RDTSC) it spends in its blocks of each pass and at the
-barrier after it (granwave.dem.kernels, ws[W_TEAMTIME]). Per thread count, the best of
+barrier after it (granwave.dem.kernels, ws.team_times). Per thread count, the best of
 ``--repeat`` runs of the benchmark state of scale.py (the 600-grain packing at p = 1e-4 tiled
 ``--tiles`` times, shaken, the same engine settings) is printed as:
 
@@ -104,7 +104,7 @@ def run(packing, tiles: int, steps: int, threads: int, blocks_for: int = 0):
         integrator.numba = numba
         integrator.PLAIN_STEPS_IN_TEAM = keep_team
     e = engines[-1]
-    return n / wall_rate, int(e.ipar[K.I_TEAMSTEPS]), e.ws[K.W_TEAMTIME][:threads].copy()
+    return n / wall_rate, int(e.ipar.team_steps), e.ws.team_times[:threads].copy()
 
 
 def main() -> None:

@@ -149,14 +149,14 @@ def run_released(eng, n_steps: int) -> int:
     while it steps: the same kernel and the same statuses."""
     target = eng.steps + int(n_steps)
     while eng.steps < target:
-        eng.ipar[K.I_NSTEPS] = target - eng.steps
+        eng.ipar.nsteps = target - eng.steps
         status = _serial_chunk_released(eng.position, eng.velocity, eng.acceleration, eng.angular_velocity,
                                         eng.angular_acceleration, eng.radius, eng.mass, eng.inertia,
                                         eng.lateral, eng.pos0, eng.pair_i, eng.pair_j, eng.pair_ft,
                                         eng.pair_ov, eng.wall_ft, eng.wall_ov, eng.piston, eng.fpar,
                                         eng.ipar, eng.out, eng.ws)
         if status == 2:
-            eng.grow(int(eng.ipar[K.I_NEEDED]), int(eng.ipar[K.I_WIDTH]))
+            eng.grow(int(eng.ipar.needed), int(eng.ipar.width))
             continue
         if status in (1, 3):
             return status

@@ -142,11 +142,11 @@ def dem_threads(packing, steps: int, threads=(1, 2), tiles: int = 17, repeat: in
                     res["rates"][t], res["cpu"][t] = wall, cpu
                 e = engines[t]
                 res["states"].setdefault(t, set()).add(e.position.tobytes() + e.pair_ft.tobytes())
-                nblk = e.ws[K.W_BLK].shape[0]
+                nblk = e.ws.blk.shape[0]
                 K.prepare_blocks(e.radius, e.mass, e.inertia, e.ws, nblk)
                 res["count"][t], res["fraction"][t] = nblk, K.boundary_fraction(e.ws, e.n_pairs)
                 res["grains"] = n
-                res["team_steps"][t] = int(e.ipar[K.I_TEAMSTEPS])
+                res["team_steps"][t] = int(e.ipar.team_steps)
                 print(f"  DEM {t} thread(s){'' if res['team'] else ', a region per pass'}, run {rep + 1}: "
                       f"{wall:.3g} grain-steps/s wall ({res['team_steps'][t]} steps in teams); {load()}", flush=True)
     numba.set_num_threads(max(threads))

@@ -48,7 +48,7 @@ def collide(dim, wall, zeta=0.0, v=0.01, per_contact=1000, friction=0.5):
     started = False
     for _ in range(10 * per_contact):
         eng.run(1)
-        touching = eng.out[K.O_NCONTACT] > 0
+        touching = eng.out.ncontact > 0
         in_contact += touching
         started |= touching
         if started and not touching:
@@ -93,7 +93,7 @@ def energy_drift(dt, t_end=150.0):
     for _ in range(30):
         eng.run(int(round(t_end / 30 / dt)))
         worst = max(worst, abs(eng.total_energy() - e0) / e0)
-        collisions += eng.out[K.O_NCONTACT] > 0
+        collisions += eng.out.ncontact > 0
     return worst, collisions
 
 
@@ -120,7 +120,7 @@ def test_newton_third_law_forces_and_torques():
     eng = Engine(pos, radius, [40.0], 40.0, friction=0.3, damping=0.2, dt=0.02, velocity=vel,
                  angular_velocity=rng.normal(0, 0.05, size=(n, 1)))
     eng.run(200)
-    assert eng.out[K.O_NCONTACT] > 10
+    assert eng.out.ncontact > 10
     f = eng.acceleration * eng.mass[:, None]
     tau = eng.angular_acceleration[:, 0] * eng.inertia
     scale = np.abs(f).sum()
@@ -182,7 +182,7 @@ def test_pair_constants_follow_the_pair_list(threads, use_threads, monkeypatch):
     grow = integrator.Engine.grow
     monkeypatch.setattr(integrator.Engine, "grow", lambda self, *a: grown.append(a) or grow(self, *a))
     eng = run()
-    assert grown and eng.rebuilds > 3 and ref.out[K.O_NCONTACT] > n
+    assert grown and eng.rebuilds > 3 and ref.out.ncontact > n
     if threads > 1:  # the room for incoming pairs grew (a request with no new width)
         assert any(a[1] == 0 for a in grown)
     assert eng.position.tobytes() == ref.position.tobytes()
@@ -190,7 +190,7 @@ def test_pair_constants_follow_the_pair_list(threads, use_threads, monkeypatch):
     i, j = eng.pair_i[:m], eng.pair_j[:m]
     r12 = 1.0 / (1.0 / radius[i] + 1.0 / radius[j])
     want = np.column_stack([r12, np.sqrt(r12), eng.mass[i] * eng.mass[j] / (eng.mass[i] + eng.mass[j])])
-    assert np.array_equal(eng.ws[K.W_PAIRC][:m], want)
+    assert np.array_equal(eng.ws.pair_c[:m], want)
 
 
 @pytest.mark.parametrize("threads", [1, 2])
@@ -216,8 +216,8 @@ def test_wall_list_misses_no_wall_contact(threads, use_threads):
     top = 0
     for _ in range(1500):
         steps.run(1)
-        top = max(top, int(steps.out[K.O_NTOP]))
-    assert top > 0 and 20.0 - steps.piston[K.P_H] > 20 * 0.2
+        top = max(top, int(steps.out.ntop))
+    assert top > 0 and 20.0 - steps.piston.h > 20 * 0.2
     assert long_run.position.tobytes() == steps.position.tobytes()
     assert long_run.piston.tobytes() == steps.piston.tobytes()
 
@@ -271,7 +271,7 @@ def test_bits_do_not_depend_on_skin(dim, threads, use_threads):
         runs[key] = eng
     fixed = runs[(0.4, None)]
     assert np.median(np.abs(travelled)) > 8.0  # most grains crossed the boundary
-    assert fixed.out[K.O_NCONTACT] > 0 and fixed.steps == 2000
+    assert fixed.out.ncontact > 0 and fixed.steps == 2000
     assert np.all((fixed.position[:, 0] >= 0.0) & (fixed.position[:, 0] < 8.0))
     assert not np.array_equal(fixed.position, start)
     assert runs[(0.1, None)].rebuilds > 2 * fixed.rebuilds
@@ -293,13 +293,13 @@ def test_adaptive_skin_follows_the_grains_speed():
     for e in engines:
         e.velocity[:] = 0.0
         e.angular_velocity[:] = 0.0
-        e.piston[K.P_V] = e.piston[K.P_FEXT] = 0.0
-        e.fpar[K.F_GAMMA] = 1.0  # strong background damping: the grains come to rest
+        e.piston.v = e.piston.f_ext = 0.0
+        e.fpar.gamma = 1.0  # strong background damping: the grains come to rest
         e.run(20 * K.SKIN_STEPS)
     assert eng.skin == 0.02 and fixed.skin == 0.4
     skins = []
     for e in engines:
-        e.fpar[K.F_GAMMA] = 0.0
+        e.fpar.gamma = 0.0
         e.velocity[:, 0] = 0.05  # a fast drift: the lists last a step or two
     for _ in range(30):  # step by step: at most one rebuild in between
         for e in engines:
@@ -406,14 +406,14 @@ def test_time_step_includes_damping_and_rotation():
     """stable_dt: frictionless undamped 2/w_n x safety/0.1; friction adds the rotational mode
     (w_t^2 = 3.5 k_t/m) and damping shrinks both."""
     eng = gas_engine(None, friction=0.0)
-    f = eng.fpar.copy()
-    k = C.normal_stiffness(f[K.F_DFLOOR], f[K.F_RMAX], 1.0)
-    w = math.sqrt(k / f[K.F_MMIN])
-    scale = f[K.F_SAFETY] / K.SAFETY_AT_LIMIT
+    f = K.record(K.PARAMS, eng.fpar)
+    k = C.normal_stiffness(f.overlap_floor, f.r_max, 1.0)
+    w = math.sqrt(k / f.m_min)
+    scale = f.safety / K.SAFETY_AT_LIMIT
     assert K.stable_dt(f) == pytest.approx(scale * 2.0 / w, rel=1e-14)
-    f[K.F_MU] = 0.5
+    f.mu = 0.5
     assert K.stable_dt(f) == pytest.approx(scale * 2.0 / (w * math.sqrt(3.5)), rel=1e-14)
-    f[K.F_ZETA] = 1.0
+    f.zeta = 1.0
     z = math.sqrt(3.5)
     assert K.stable_dt(f) == pytest.approx(scale * 2.0 * (math.sqrt(1 + z * z) - z) / (w * z), rel=1e-14)
 

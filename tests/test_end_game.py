@@ -179,9 +179,9 @@ def test_engine_caps_every_background_rate_and_restores_from_base():
                mean_flow=(0.002, 4.0, 0.006))
     base = e.damping_rates()
     e.cap_background_damping(0.004, base)
-    assert (e.fpar[K.F_GAMMA], e.mflow[M_GAMMA_M], e.mflow[M_GAMMA_L]) == (0.004, 0.002, 0.004)
+    assert (e.fpar.gamma, e.mflow[M_GAMMA_M], e.mflow[M_GAMMA_L]) == (0.004, 0.002, 0.004)
     e.cap_background_damping(1.0, base)
-    assert (e.fpar[K.F_GAMMA], e.mflow[M_GAMMA_M], e.mflow[M_GAMMA_L]) == (0.01, 0.002, 0.006)
+    assert (e.fpar.gamma, e.mflow[M_GAMMA_M], e.mflow[M_GAMMA_L]) == (0.01, 0.002, 0.006)
 
 
 def test_sampling_alone_changes_no_bit_and_the_rule_is_recorded():

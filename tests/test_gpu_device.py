@@ -100,3 +100,17 @@ def test_gpu_engine_takes_the_mean_flow_rule():
 
     with pytest.raises(InputError, match="mean-flow compaction runs on the CPU only"):
         Stepper(pos, np.full(3, 0.5), [6.0], 3.0, **kw)
+
+
+def test_gpu_engine_refuses_rolling_resistance():
+    """The device's pair kernel has no rolling couple: a GPU engine with the rolling sub-model is
+    refused in one line rather than run without it."""
+    import numpy as np
+
+    pytest.importorskip("numba.cuda")
+    from granwave.gpu.dem import GpuEngine
+
+    pos = np.array([[1.0, 0.6], [3.0, 0.6], [2.0, 1.5]])
+    with pytest.raises(InputError, match="rolling resistance runs on the CPU only"):
+        GpuEngine(pos, np.full(3, 0.5), [6.0], 3.0, friction=0.5, rolling="sds", rolling_stiffness=1.0,
+                  rolling_friction=0.1)

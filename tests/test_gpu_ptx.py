@@ -58,19 +58,23 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     p2 = lambda c: np.zeros((m, c))  # noqa: E731
     v = np.zeros(n)
     i64 = np.zeros(m, np.int64)
+    from granwave.dem import layout
+
+    fp = np.zeros(1, layout.PARAMS)  # the records, as the engine uploads them (one-element arrays)
+    ps = np.zeros(1, layout.PISTON)
     ctl = np.zeros(10, np.int64)
     sigs = {
         G.kick_drift: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), np.zeros(dim - 1), f2(dim),
-                             np.zeros(6), 1.0, v, v, ctl),
+                             ps, 1.0, v, v, ctl),
         G.pair_forces: _types(f2(dim), f2(dim), f2(rot), v, v, v, np.zeros(dim - 1), i64, i64, ctl,
-                              p2(dim), np.zeros(m), np.zeros(14), p2(3), p2(max(rot, 1)),
+                              p2(dim), np.zeros(m), fp, p2(3), p2(max(rot, 1)),
                               p2(max(rot, 1)), np.zeros(m)),
         G.grain_forces: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
                                np.zeros(n + 1, np.int64), i64, p2(3), p2(max(rot, 1)), p2(max(rot, 1)),
-                               np.zeros((2 * n, dim)), np.zeros(2 * n), np.zeros(6), np.zeros(14), v, v, v,
+                               np.zeros((2 * n, dim)), np.zeros(2 * n), ps, fp, v, v, v,
                                v, ctl, np.zeros(3), np.zeros((dim + 1, 5))),
         G.step_partials: _types(v, v, v, v, v, v, np.zeros(m), ctl, np.zeros((3, 7))),
-        G.finish: _types(np.zeros((3, 7)), np.zeros(6), np.zeros(14), np.zeros(3), np.zeros(7), ctl),
+        G.finish: _types(np.zeros((3, 7)), ps, fp, np.zeros(3), np.zeros(7), ctl),
         G.measure_kernel: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros(5)),
     }
     assert set(sigs) == set(G.KERNELS)
@@ -92,18 +96,18 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     ip = np.zeros(n + 1, np.int64)
     lat = np.zeros(dim - 1)
     sigs.update({
-        NB.rb_trigger: _types(np.zeros(7), np.zeros(14), np.zeros(6), lat, ctl, 1),
-        NB.rb_cell_count: _types(f2(dim), lat, np.zeros(6), ctl, iv, i2),
+        NB.rb_trigger: _types(np.zeros(7), fp, ps, lat, ctl, 1),
+        NB.rb_cell_count: _types(f2(dim), lat, ps, ctl, iv, i2),
         NB.rb_cell_fill: _types(ctl, iv, i2, i2p, iv),
-        NB.rb_count: _types(f2(dim), v, lat, np.zeros(14), ctl, iv, i2p, iv, i64, i2),
-        NB.rb_fill: _types(f2(dim), v, lat, np.zeros(14), ctl, iv, i2p, iv, i2p, i64, 1),
+        NB.rb_count: _types(f2(dim), v, lat, fp, ctl, iv, i2p, iv, i64, i2),
+        NB.rb_fill: _types(f2(dim), v, lat, fp, ctl, iv, i2p, iv, i2p, i64, 1),
         NB.rb_merge: _types(ctl, i2p, i64, ip, i64, p2(dim), np.zeros(m), i64, i64, p2(dim), np.zeros(m), i64),
         NB.rb_commit: _types(ctl, i2p, f2(dim), f2(dim), i64, i64, p2(dim), np.zeros(m), i64, i64, i64, p2(dim),
                              np.zeros(m), ip, ip, i64, i2),
         NB.scan_partials: _types(ctl, i2, i2),
         NB.scan_offsets: _types(ctl, i2),
         NB.scan_apply: _types(ctl, i2, i2, i2p),
-        NB.rb_small: _types(np.zeros(7), np.zeros(14), np.zeros(6), lat, f2(dim), v, f2(dim), ctl, iv, i2, i2p, iv,
+        NB.rb_small: _types(np.zeros(7), fp, ps, lat, f2(dim), v, f2(dim), ctl, iv, i2, i2p, iv,
                             i2, i2p, i64, ip, i64, i64, p2(dim), np.zeros(m), i64, i64, p2(dim), np.zeros(m), i64,
                             ip, i64),
     })
@@ -113,7 +117,7 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     ns = 5
     sigs.update({
         MF.slab_bin: _types(f2(dim), np.zeros(3), iv, np.zeros(ns, np.int64), np.zeros(ns, np.int64), ctl),
-        MF.slab_sums: _types(f2(dim), v, np.zeros(14), np.zeros(3), iv, np.zeros(ns, np.int64),
+        MF.slab_sums: _types(f2(dim), v, fp, np.zeros(3), iv, np.zeros(ns, np.int64),
                              np.zeros(ns, np.int64), np.zeros((dim + 1, ns)), ctl),
     })
     assert set(MF.KERNELS) <= set(sigs)

@@ -127,3 +127,30 @@ def test_modules_import_without_cycles():
     code = "import importlib, sys\nfor m in sys.argv[1:]:\n    importlib.import_module(m)\n"
     r = subprocess.run([sys.executable, "-c", code, *names], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+#: The engine's named state (granwave.dem.layout): read by field, never by a numbered slot.
+_SLOT = (r"\b(fpar|ipar|piston|out|fpar1|piston1)\[\s*(K\.|layout\.)?[FIPO]_[A-Z_]+\s*\]|\b(fpar|ipar)\["
+         r"|\bws\[\s*(K\.)?W_[A-Z]+\s*\]|\bws\[[0-9]+\]")
+
+
+def test_kernels_index_no_parameter_array_by_number():
+    """The engine's parameters, counters, piston and statistics are numpy records
+    (granwave.dem.layout) and its workspace a named tuple (granwave.dem.workspace.Workspace),
+    read by field name; no module of the package indexes them by a slot constant (F_*, I_*,
+    P_*, O_*, W_*) or a number, and layout defines no such constant."""
+    import re
+
+    from granwave.dem import layout
+
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            if re.search(_SLOT, line):
+                found.append(f"{path.relative_to(PACKAGE.parent)}:{n}: {line.strip()}")
+    assert found == []
+    assert not [name for name in vars(layout) if re.fullmatch(r"[FIPON]_[A-Z_]+", name)]
+    from granwave.dem import workspace
+    assert not [name for name in vars(workspace) if re.fullmatch(r"W_[A-Z]+", name)]
+    for dtype in (layout.PARAMS, layout.COUNTERS, layout.PISTON, layout.OUT):
+        assert dtype.names and len(set(dtype.names)) == len(dtype.names)

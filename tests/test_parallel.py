@@ -88,7 +88,7 @@ def test_plain_steps_in_a_team_same_bytes_as_a_region_per_pass(dim, mean_flow, m
         _at(n_threads, lambda: engine.run(600))
         state = b"".join(np.ascontiguousarray(x).tobytes() for x in (
             engine.position, engine.velocity, engine.angular_velocity, engine.pair_ft, engine.piston))
-        return state, int(engine.ipar[K.I_TEAMSTEPS]), engine.rebuilds
+        return state, int(engine.ipar.team_steps), engine.rebuilds
 
     teamed, team_steps, rebuilds = run(2, True)
     regions, no_team_steps, _ = run(2, False)
@@ -115,41 +115,40 @@ def _shaken_engine(packing=None, **flow):
 def _engine_bytes(engine) -> bytes:
     return b"".join(np.ascontiguousarray(x).tobytes() for x in (
         engine.position, engine.velocity, engine.acceleration, engine.pair_ft, engine.piston, engine.fpar,
-        engine.ipar[[K.I_NPAIRS, K.I_STEPS, K.I_REBUILDS, K.I_BUILT]]))
+        np.array([engine.ipar.npairs, engine.ipar.steps, engine.ipar.rebuilds, engine.ipar.built])))
 
 
 @two_threads
 def test_dem_team_that_cannot_start_does_nothing(monkeypatch):
     """A team of 3 asked for on 2 threads: its threads give it up at the entry (after their
     patience) and it runs no step: no grain, piston or counter changes, and the kernel says so
-    (ipar[I_TEAM] = -1) for the engine to run the passes in regions. The same without trying
+    (ipar.team = -1) for the engine to run the passes in regions. The same without trying
     when the workspace has fewer per-thread scratches than the team has threads (one per thread
     numba can start, so such a team could not start either)."""
     monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
     engine = _shaken_engine()
     _at(2, lambda: engine.run(40))  # the blocks and incoming lists for 2 threads
     before = _engine_bytes(engine)
-    engine.ws[K.W_CLAIM][0] = 3
-    per_thread = {K.W_TILE: np.zeros((3, engine.ws[K.W_TILE].shape[1])),
-                  K.W_TILEP: np.zeros((3, engine.ws[K.W_TILEP].shape[1]), np.int64),
-                  K.W_VISIT: np.zeros((3, engine.ws[K.W_VISIT].shape[1]), np.int64)}
-    room_for_3 = tuple(per_thread.get(w, x) for w, x in enumerate(engine.ws))
+    engine.ws.claims[0] = 3
+    room_for_3 = engine.ws._replace(tile=np.zeros((3, engine.ws.tile.shape[1])),
+                                    tile_p=np.zeros((3, engine.ws.tile_p.shape[1]), np.int64),
+                                    visit=np.zeros((3, engine.ws.visit.shape[1]), np.int64))
     for ws, tries in ((room_for_3, True), (engine.ws, False)):
-        engine.ipar[K.I_TEAM] = 1
+        engine.ipar.team = 1
         sync = np.zeros(team.SYNC_LENGTH, np.int64)
         done, _ = _at(2, lambda: K._team_steps(
             engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
             engine.angular_acceleration, engine.radius, engine.mass, engine.inertia, engine.lateral, engine.pos0,
             engine.pair_i, engine.pair_j, engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov,
-            engine.piston, engine.fpar, engine.ipar, ws, ws[K.W_BLK].shape[0], 0, 100, 0.0, sync))
-        assert done == 0 and engine.ipar[K.I_TEAM] == -1 and not team.entered(sync)
+            engine.piston, engine.fpar, engine.ipar, ws, ws.blk.shape[0], 0, 100, 0.0, sync))
+        assert done == 0 and engine.ipar.team == -1 and not team.entered(sync)
         assert sync[team.S_ENTRY] == (-1 if tries else 0)  # given up at the entry, or never tried
         assert _engine_bytes(engine) == before
 
 
 @two_threads
 def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
-    """When a run's team did not start (ipar[I_TEAM] = -1 from the kernel), Engine.run warns once
+    """When a run's team did not start (ipar.team = -1 from the kernel), Engine.run warns once
     and no later run tries a team (granwave.team.usable); the steps are those of the regions."""
     monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
     monkeypatch.setattr(team, "_given_up", False)  # restored after the test
@@ -157,9 +156,9 @@ def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
 
     def team_never_starts(*args):
         ipar = args[18]
-        ipar[K.I_TEAM] = 0  # no team: the regions' passes, as after a failed entry
+        ipar.team = 0  # no team: the regions' passes, as after a failed entry
         status = real(*args)
-        ipar[K.I_TEAM] = -1
+        ipar.team = -1
         return status
 
     reference = _shaken_engine()
@@ -173,7 +172,7 @@ def test_dem_engine_gives_the_team_up_once_and_goes_on(monkeypatch):
     monkeypatch.setattr(K, "run_chunk", real)
     assert not team.usable()
     _at(2, lambda: engine.run(100))
-    assert engine.ipar[K.I_TEAM] == 0 and engine.ipar[K.I_TEAMSTEPS] == 0
+    assert engine.ipar.team == 0 and engine.ipar.team_steps == 0
     assert _engine_bytes(engine) == _engine_bytes(reference)
 
 
@@ -220,22 +219,22 @@ def test_growth_makes_new_only_the_arrays_whose_size_changes():
     resident memory); lists not kept are cleared."""
     n, d, r = 100, 3, 3
     ws = K.workspace(n, d, r, 64, 4, 64, blocks=8)
-    ws[K.W_PAIRC][:] = np.arange(64 * K.N_PCOL).reshape(64, K.N_PCOL)
-    ws[K.W_NCNT][:] = 7
+    ws.pair_c[:] = np.arange(64 * K.N_PCOL).reshape(64, K.N_PCOL)
+    ws.ncount[:] = 7
     more_pairs = K.grown_workspace(ws, 200, 4, 64, keep_lists=True)
     fresh = K.workspace(n, d, r, 200, 4, 64, blocks=8)
     assert [a.shape for a in more_pairs] == [a.shape for a in fresh]
-    assert np.array_equal(more_pairs[K.W_PAIRC][:64], ws[K.W_PAIRC])
-    assert not more_pairs[K.W_PAIRC][64:].any()
-    changed = [w for w in range(len(ws)) if more_pairs[w] is not ws[w]]
-    assert changed == [K.W_PAIRC]
-    assert (more_pairs[K.W_NCNT] == 7).all()
+    assert np.array_equal(more_pairs.pair_c[:64], ws.pair_c)
+    assert not more_pairs.pair_c[64:].any()
+    changed = [w for w in ws._fields if getattr(more_pairs, w) is not getattr(ws, w)]
+    assert changed == ["pair_c"]
+    assert (more_pairs.ncount == 7).all()
     wider = K.grown_workspace(more_pairs, 200, 10, 300, keep_lists=False)
     fresh = K.workspace(n, d, r, 200, 10, 300, blocks=8)
     assert [a.shape for a in wider] == [a.shape for a in fresh]
-    changed = [w for w in range(len(ws)) if wider[w] is not more_pairs[w]]
-    assert changed == sorted([K.W_NBR, K.W_GL, K.W_SPAIR, K.W_OSLOT, K.W_BF])
-    assert not wider[K.W_NCNT].any()
+    changed = [w for w in ws._fields if getattr(wider, w) is not getattr(more_pairs, w)]
+    assert changed == ["nbr", "gather", "slot_pair", "out_slot", "bnd_f"]
+    assert not wider.ncount.any()
 
 
 @two_threads
@@ -367,7 +366,7 @@ def test_blocks_grow_room_for_incoming_pairs_to_the_same_result(monkeypatch):
 
     def spy(self, needed, width=0):
         keep(self, needed, width)
-        rooms.append(len(self.ws[K.W_SPAIR]))
+        rooms.append(len(self.ws.slot_pair))
 
     monkeypatch.setattr(integrator.Engine, "grow", spy)
     again = prepare_packing(params)

@@ -64,7 +64,7 @@ def test_engine_takes_the_stored_history(frictional):
     acc = np.linalg.norm(engine.acceleration, axis=1).max()
     assert acc < 1e-9
     c = frictional.contacts
-    assert engine.piston[P.K.P_FCON] == pytest.approx(c.force_normal[c.j == -2].sum(), rel=1e-14)
+    assert engine.piston.f_con == pytest.approx(c.force_normal[c.j == -2].sum(), rel=1e-14)
     assert np.abs(engine.pair_ft).max() > 0
     bare = frictional.contacts.force_tangential
     frictional.contacts.force_tangential = np.zeros_like(bare)

@@ -186,9 +186,9 @@ def test_mean_flow_damping_splits_mean_and_fluctuation(v_mean, sign):
         np.testing.assert_array_equal(e.acceleration[:, 1], (0.0 - gamma * m * vel[:, 1]) * (1.0 / m))
     else:
         np.testing.assert_allclose(e.acceleration[:, 1], expected, rtol=1e-13, atol=1e-18)
-    e.piston[K.P_V] = -1e-3
+    e.piston.v = -1e-3
     e._forces()
-    assert e.piston[K.P_A] == pytest.approx(gamma_m * 1e-3, rel=1e-15)
+    assert e.piston.a == pytest.approx(gamma_m * 1e-3, rel=1e-15)
     off = Engine(pos, rad, [24.0], 20.0, friction=0.0, damping=0.0, background_damping=gamma, piston_mass=3.0,
                  velocity=vel)  # rule off: everything at gamma
     np.testing.assert_allclose(off.acceleration[:, 1], -gamma * vel[:, 1], rtol=1e-14)

@@ -28,7 +28,7 @@ class ScriptedEngine:
     def __init__(self, velocity, dt=lambda s: 0.5, stop=None, kinetic=lambda s: 1.0):
         self.velocity, self.dt_of, self.stop, self.kinetic = velocity, dt, stop, kinetic
         self.steps = 0
-        self.piston = np.zeros(K.N_PISTON)
+        self.piston = K.record(K.PISTON)
         self.mflow = np.array([1e-4, 4.0, 3e-3])  # gamma_m, slab, gamma_l
         self.calls = []
 
@@ -43,7 +43,7 @@ class ScriptedEngine:
         self.calls.append((self.steps, n))
         end = self.steps + n if self.stop is None or self.steps >= self.stop else min(self.steps + n, self.stop)
         self.steps = end
-        self.piston[K.P_V] = self.velocity(self.steps)
+        self.piston.v = self.velocity(self.steps)
         return 1 if end == self.stop else 0
 
 

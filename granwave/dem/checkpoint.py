@@ -33,7 +33,7 @@ from ..errors import InputError, OutputError
 #: what the file says it is (not a schema of granwave.io: nothing but this module reads it)
 KIND = "granwave.checkpoint"
 #: the layout's version; a checkpoint of another version is refused
-VERSION = 1
+VERSION = 2
 #: default seconds between two checkpoints (``--checkpoint-every``)
 EVERY = 600.0
 

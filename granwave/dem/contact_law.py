@@ -22,7 +22,6 @@ import numba
 from .. import contact as C
 from .. import contact_models as CM
 from ..geometry import nearest_image
-from .layout import F_GROLL, F_KLAW, F_KROLL, F_LAW, F_MUROLL, F_ROLL
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -257,15 +256,15 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 @numba.njit(cache=True, inline="always")
 def law_of(fpar):
     """The contact model (:class:`granwave.contact_models.ContactModel`) of the engine's
-    parameters: the normal law's code ``fpar[F_LAW]`` and its stiffness ``fpar[F_KLAW]``."""
-    return CM.ContactModel(int(fpar[F_LAW]), fpar[F_KLAW])
+    parameters: the normal law's code ``fpar.law`` and its stiffness ``fpar.k_law``."""
+    return CM.ContactModel(int(fpar.law), fpar.k_law)
 
 
 @numba.njit(cache=True, inline="always")
 def rolling_of(fpar):
     """The rolling sub-model (:class:`granwave.contact_models.RollingModel`) of the engine's
-    parameters ``fpar[F_ROLL]`` (code), k_r, gamma_r, mu_r."""
-    return CM.RollingModel(int(fpar[F_ROLL]), fpar[F_KROLL], fpar[F_GROLL], fpar[F_MUROLL])
+    parameters ``fpar.roll`` (code), k_r, gamma_r, mu_r."""
+    return CM.RollingModel(int(fpar.roll), fpar.k_roll, fpar.gamma_roll, fpar.mu_roll)
 
 
 @numba.njit(cache=True, inline="always")
@@ -348,7 +347,7 @@ def pair_constants3(inv_rad_i, inv_rad_j, mass_i, mass_j):
     return r12, math.sqrt(r12), C.reduced_mass(mass_i, mass_j, False)
 
 
-#: columns of the per-pair constants (``ws[W_PAIRC]``)
+#: columns of the per-pair constants (``ws.pair_c``)
 PC_R12, PC_ROOT, PC_MEFF = range(3)
 N_PCOL = 3
 

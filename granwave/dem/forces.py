@@ -226,7 +226,7 @@ def contacts_of_engine(engine) -> Contacts:
     m = engine.n_pairs
     return contact_table(engine.position, engine.radius, engine.lateral, engine.height,
                          engine.pair_i[:m], engine.pair_j[:m], engine.pair_ft[:m], engine.wall_ft,
-                         friction=engine.friction, poisson=float(engine.fpar[K.F_POISSON]),
+                         friction=engine.friction, poisson=float(engine.fpar.poisson),
                          law=K.law_of(engine.fpar))
 
 

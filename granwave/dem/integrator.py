@@ -160,55 +160,55 @@ class Engine:
         self.ws = K.workspace(n, d, n_rot, cap, NEIGHBOUR_WIDTH[d], mflow=self.mflow, slabs=self.slabs)
         self.wall_ft = np.zeros((2 * n, hist))
         self.wall_ov = np.zeros(2 * n)
-        self.piston = np.zeros(K.N_PISTON)
-        self.piston[K.P_H] = height
-        self.piston[K.P_MASS] = piston_mass if piston_mass is not None else math.inf
-        self.piston[K.P_FEXT] = piston_force
-        self.fpar = np.zeros(K.N_FPAR)
-        self.fpar[K.F_ZETA] = damping
-        self.fpar[K.F_MU] = self.friction
-        self.fpar[K.F_POISSON] = poisson
-        self.fpar[K.F_GAMMA] = background_damping
+        self.piston = K.record(K.PISTON)  # records: named fields (granwave.dem.layout)
+        self.piston.h = height
+        self.piston.mass = piston_mass if piston_mass is not None else math.inf
+        self.piston.f_ext = piston_force
+        self.fpar = K.record(K.PARAMS)
+        self.fpar.zeta = damping
+        self.fpar.mu = self.friction
+        self.fpar.poisson = poisson
+        self.fpar.gamma = background_damping
         if skin_min is not None and not 0.0 < skin_min <= skin:
             raise InputError(f"skin_min must be in (0, skin = {skin:g}], got {skin_min:g}")
-        self.fpar[K.F_SKIN] = skin
-        self.fpar[K.F_SKIN_MAX] = skin
-        self.fpar[K.F_SKIN_MIN] = skin if skin_min is None else skin_min
-        self.fpar[K.F_SAFETY] = safety
-        self.fpar[K.F_DFLOOR] = overlap_floor
-        self.fpar[K.F_TOLA] = tol_acceleration
-        self.fpar[K.F_TOLV] = tol_velocity
-        self.fpar[K.F_RMAX] = self.radius.max()
-        self.fpar[K.F_MMIN] = self.mass.min()
-        self.fpar[K.F_DT] = 0.0
+        self.fpar.skin = skin
+        self.fpar.skin_max = skin
+        self.fpar.skin_min = skin if skin_min is None else skin_min
+        self.fpar.safety = safety
+        self.fpar.overlap_floor = overlap_floor
+        self.fpar.tol_a = tol_acceleration
+        self.fpar.tol_v = tol_velocity
+        self.fpar.r_max = self.radius.max()
+        self.fpar.m_min = self.mass.min()
+        self.fpar.dt = 0.0
         if unloading not in UNLOADING_RULES:
             raise InputError(f"unloading must be one of {UNLOADING_RULES}, got {unloading!r}")
         self.unloading = unloading
-        self.fpar[K.F_RESCALE] = 1.0 if unloading == "rescale" else 0.0
+        self.fpar.rescale = 1 if unloading == "rescale" else 0
         try:
             law = CM.contact_model(contact_law, harmonic_stiffness)
         except ValueError as e:
             raise InputError(str(e)) from None
         self.contact_law = contact_law
-        self.fpar[K.F_LAW] = law.normal
-        self.fpar[K.F_KLAW] = law.stiffness
-        self.fpar[K.F_ROLL] = self.rolling.kind
-        self.fpar[K.F_KROLL] = self.rolling.stiffness
-        self.fpar[K.F_GROLL] = self.rolling.damping
-        self.fpar[K.F_MUROLL] = self.rolling.friction
-        self.ipar = np.zeros(K.N_IPAR, np.int64)
-        self.ipar[K.I_ADAPTIVE] = dt is None
-        self.ipar[K.I_CHECK] = check_every
-        self.out = np.zeros(K.N_OUT)
+        self.fpar.law = law.normal
+        self.fpar.k_law = law.stiffness
+        self.fpar.roll = self.rolling.kind
+        self.fpar.k_roll = self.rolling.stiffness
+        self.fpar.gamma_roll = self.rolling.damping
+        self.fpar.mu_roll = self.rolling.friction
+        self.ipar = K.record(K.COUNTERS)
+        self.ipar.adaptive = dt is None
+        self.ipar.check = check_every
+        self.out = K.record(K.OUT)
         self._rebuild()
         # initial forces: dt = 0 so that no history is created by the evaluation itself
         self._forces()
-        self.fpar[K.F_DT] = dt if dt is not None else K.stable_dt_at(self.fpar, self.out[K.O_DMAX])
+        self.fpar.dt = dt if dt is not None else K.stable_dt_at(self.fpar, self.out.d_max)
 
     # ------------------------------------------------------------------ internals
     def grow(self, needed: int, width: int = 0) -> None:
         """Room for ``needed`` pairs, ``width`` neighbours per grain and the incoming pairs the
-        workspace asked for (``ws[W_NEED][2]``); contents kept. With a new width the neighbour
+        workspace asked for (``ws.need[2]``); contents kept. With a new width the neighbour
         and gather lists are rebuilt by the next rebuild; otherwise they are carried over."""
         cap = max(int(needed * 1.5) + 64, len(self.pair_i))
         d = self.dim
@@ -222,10 +222,10 @@ class Engine:
                 new[: len(old)] = old
                 setattr(self, name, new)
         ws = self.ws
-        old_width = ws[K.W_NBR].shape[1]
+        old_width = ws.nbr.shape[1]
         width = old_width if width <= old_width else int(width * 1.5) + 2
-        boundary = int(ws[K.W_NEED][2])
-        room = len(ws[K.W_SPAIR])
+        boundary = int(ws.need[2])
+        room = len(ws.slot_pair)
         # the lists are carried over when only the incoming pairs asked for room (a rebuild that
         # ran out of room follows again otherwise)
         self.ws = K.grown_workspace(ws, cap, width, int(boundary * 1.5) + 64 if boundary > room else room,
@@ -234,15 +234,15 @@ class Engine:
     def _rebuild(self) -> None:
         while True:
             w = self.ws
-            m = rebuild(self.position, self.radius, self.lateral, self.piston[K.P_H], self.fpar[K.F_SKIN],
-                        self.pair_i, self.pair_j, self.pair_ft, self.pair_ov, self.ipar[K.I_NPAIRS],
-                        w[0], w[2], w[3], w[4], w[1], w[5])
+            m = rebuild(self.position, self.radius, self.lateral, self.piston.h, self.fpar.skin,
+                        self.pair_i, self.pair_j, self.pair_ft, self.pair_ov, self.ipar.npairs,
+                        w.nbr, w.ncount, w.nlo, w.row, w.gather, w.need)
             if m >= 0:
                 break
-            self.grow(int(w[5][0]), int(w[5][1]))
-        self.ipar[K.I_NPAIRS] = m
-        self.ipar[K.I_BUILT] = self.ipar[K.I_STEPS]
-        K.pair_constants(self.pair_i, self.pair_j, m, self.radius, self.mass, self.ws[K.W_PAIRC])
+            self.grow(int(w.need[0]), int(w.need[1]))
+        self.ipar.npairs = m
+        self.ipar.built = self.ipar.steps
+        K.pair_constants(self.pair_i, self.pair_j, m, self.radius, self.mass, self.ws.pair_c)
         self.pos0[:] = self.position
 
     def _cpu_only(self) -> None:
@@ -258,8 +258,8 @@ class Engine:
                        self.wall_ft, self.wall_ov, self.piston, self.fpar, self.ipar, self.acceleration,
                        self.angular_acceleration, self.out, self.ws)
         K.to_accelerations(self.acceleration, self.angular_acceleration, self.mass, self.inertia)
-        self.piston[K.P_A] = K.piston_acceleration(
-            self.piston, self.mflow[0] if self.mflow.shape[0] > 0 else self.fpar[K.F_GAMMA])
+        self.piston.a = K.piston_acceleration(
+            self.piston, self.mflow[0] if self.mflow.shape[0] > 0 else self.fpar.gamma)
 
     # ------------------------------------------------------------------ public
     def run(self, n_steps: int) -> int:
@@ -274,19 +274,19 @@ class Engine:
             run_chunk = serial.run_chunk if threads == 1 else K.run_chunk
             if threads > 1:
                 self.ws = K.with_blocks(self.ws, K.block_count(len(self.radius), threads))
-            self.ipar[K.I_TEAM] = int(threads > 1 and PLAIN_STEPS_IN_TEAM and team.usable())
+            self.ipar.team = int(threads > 1 and PLAIN_STEPS_IN_TEAM and team.usable())
             while self.steps < target:
-                self.ipar[K.I_NSTEPS] = target - self.steps
-                self.ws[K.W_CLAIM][0] = threads  # the force passes' share per thread (kernels.visit_block)
+                self.ipar.nsteps = target - self.steps
+                self.ws.claims[0] = threads  # the force passes' share per thread (kernels.visit_block)
                 status = run_chunk(self.position, self.velocity, self.acceleration, self.angular_velocity,
                                      self.angular_acceleration, self.radius, self.mass, self.inertia,
                                      self.lateral, self.pos0, self.pair_i, self.pair_j, self.pair_ft,
                                      self.pair_ov, self.wall_ft, self.wall_ov, self.piston, self.fpar,
                                      self.ipar, self.out, self.ws)
-                if self.ipar[K.I_TEAM] < 0:  # its threads did not all start: regions from now on
+                if self.ipar.team < 0:  # its threads did not all start: regions from now on
                     team.give_up("DEM engine")
                 if status == 2:
-                    self.grow(int(self.ipar[K.I_NEEDED]), int(self.ipar[K.I_WIDTH]))
+                    self.grow(int(self.ipar.needed), int(self.ipar.width))
                     continue
                 if status in (1, 3):
                     return status
@@ -295,20 +295,22 @@ class Engine:
     #: the arrays that hold a run's state between two calls of :meth:`run` (the rest are fixed
     #: by the constructor's arguments); ``mflow`` and ``slabs`` are shared with the workspace
     STATE_ARRAYS = ("position", "velocity", "angular_velocity", "acceleration", "angular_acceleration",
-                    "pos0", "pair_i", "pair_j", "pair_ft", "pair_ov", "wall_ft", "wall_ov", "piston",
-                    "fpar", "ipar", "out", "mflow", "slabs")
+                    "pos0", "pair_i", "pair_j", "pair_ft", "pair_ov", "wall_ft", "wall_ov", "mflow", "slabs")
+    #: the records of the state (granwave.dem.layout), kept as one-element structured arrays
+    STATE_RECORDS = ("piston", "fpar", "ipar", "out")
     #: workspace entries a call of :meth:`run` goes on from (the lists of the last rebuild, the
     #: pair constants, the wall list, the incoming pairs' room); the others are rebuilt from them
     #: at every call, are sized by the thread count (blocks, per-thread scratch) or are timings
-    STATE_WORKSPACE = (K.W_NBR, K.W_GL, K.W_NCNT, K.W_NLO, K.W_ROW, K.W_NEED, K.W_TOP, K.W_PAIRC,
-                       K.W_WALLS, K.W_SPAIR, K.W_OSLOT, K.W_BF, K.W_INVM, K.W_INVI)
+    STATE_WORKSPACE = ("nbr", "gather", "ncount", "nlo", "row", "need", "top", "pair_c", "walls", "slot_pair",
+                       "out_slot", "bnd_f", "inv_m", "inv_i")
 
     def state(self) -> dict:
         """Copies of every array a later :meth:`run` goes on from ({name: array}; workspace
-        entries as ``ws<index>``): with :meth:`restore` on an engine built with the same
+        fields as ``ws_<name>``): with :meth:`restore` on an engine built with the same
         arguments, the run continues with the same bits (granwave.dem.checkpoint)."""
         out = {name: getattr(self, name).copy() for name in self.STATE_ARRAYS}
-        out.update({f"ws{w}": self.ws[w].copy() for w in self.STATE_WORKSPACE})
+        out.update({name: K.as_array(getattr(self, name)) for name in self.STATE_RECORDS})
+        out.update({f"ws_{w}": getattr(self.ws, w).copy() for w in self.STATE_WORKSPACE})
         return out
 
     def restore(self, state: dict) -> None:
@@ -326,15 +328,19 @@ class Engine:
                 old[...] = new
             else:
                 setattr(self, name, np.array(new, order="C"))
-        ws = list(self.ws)
-        for w in self.STATE_WORKSPACE:
-            ws[w] = np.array(state[f"ws{w}"], dtype=ws[w].dtype, order="C")
-        self.ws = tuple(ws)
+        for name in self.STATE_RECORDS:
+            old, new = getattr(self, name), np.asarray(state[name])
+            if new.dtype.names != old.dtype.names or new.shape != (1,):
+                raise InputError(f"engine state {name!r}: {new.dtype}{new.shape} is not a record of "
+                                 f"{old.dtype.names}")
+            K.copy_record(old, new)
+        self.ws = self.ws._replace(**{w: np.array(state[f"ws_{w}"], dtype=getattr(self.ws, w).dtype, order="C")
+                                      for w in self.STATE_WORKSPACE})
 
     def damping_rates(self) -> tuple:
         """The background damping rates now (1 / time unit): (gamma, a copy of ``mflow``), the
         argument ``base`` of :meth:`cap_background_damping`."""
-        return float(self.fpar[K.F_GAMMA]), self.mflow.copy()
+        return float(self.fpar.gamma), self.mflow.copy()
 
     def cap_background_damping(self, rate: float, base: tuple) -> None:
         """Set every background damping rate (grains; with 'mean-flow', the mean flows and the
@@ -342,7 +348,7 @@ class Engine:
         (:meth:`damping_rates`), from the next step on (the end game of
         :mod:`granwave.dem.end_game`; the GPU engine uploads the parameters at every run)."""
         gamma, mflow = base
-        self.fpar[K.F_GAMMA] = min(gamma, rate)
+        self.fpar.gamma = min(gamma, rate)
         if self.mflow.shape[0] > 0:
             self.mflow[M_GAMMA_M] = min(mflow[M_GAMMA_M], rate)
             self.mflow[M_GAMMA_L] = min(mflow[M_GAMMA_L], rate)
@@ -350,13 +356,13 @@ class Engine:
     def measure(self) -> dict:
         """Largest accelerations and speeds, kinetic energy (piston included)."""
         K.measure(self.velocity, self.acceleration, self.angular_velocity, self.angular_acceleration,
-                  self.mass, self.inertia, self.radius, self.piston, self.fpar[K.F_GAMMA], self.out)
+                  self.mass, self.inertia, self.radius, self.piston, self.fpar.gamma, self.out)
         o = self.out
-        return dict(max_acceleration=o[K.O_AMAX], max_angular_acceleration=o[K.O_ALPHAMAX],
-                    piston_acceleration=o[K.O_APISTON], max_speed=o[K.O_VMAX],
-                    max_rotation_speed=o[K.O_WMAX], piston_speed=abs(float(self.piston[K.P_V])),
-                    kinetic_energy=o[K.O_KIN],
-                    top_contacts=int(o[K.O_NTOP]), max_overlap=o[K.O_DMAX], contacts=int(o[K.O_NCONTACT]))
+        return dict(max_acceleration=o.a_max, max_angular_acceleration=o.alpha_max,
+                    piston_acceleration=o.a_piston, max_speed=o.v_max,
+                    max_rotation_speed=o.w_max, piston_speed=abs(float(self.piston.v)),
+                    kinetic_energy=o.kin,
+                    top_contacts=int(o.ntop), max_overlap=o.d_max, contacts=int(o.ncontact))
 
     def elastic_energy(self) -> float:
         """Hertz energy of all contacts plus |F_t|^2 / (2 k_t) of the tangential springs."""
@@ -365,33 +371,33 @@ class Engine:
     def total_energy(self) -> float:
         """Kinetic + elastic + piston potential (p A h) energy."""
         kin = self.measure()["kinetic_energy"]
-        pot = self.piston[K.P_FEXT] * self.piston[K.P_H] if self.piston[K.P_MASS] < math.inf else 0.0
+        pot = self.piston.f_ext * self.piston.h if self.piston.mass < math.inf else 0.0
         return kin + self.elastic_energy() + pot
 
     @property
     def dt(self) -> float:
-        return float(self.fpar[K.F_DT])
+        return float(self.fpar.dt)
 
     @property
     def steps(self) -> int:
-        return int(self.ipar[K.I_STEPS])
+        return int(self.ipar.steps)
 
     @property
     def rebuilds(self) -> int:
-        return int(self.ipar[K.I_REBUILDS])
+        return int(self.ipar.rebuilds)
 
     @property
     def skin(self) -> float:
         """The skin of the current pair list (d)."""
-        return float(self.fpar[K.F_SKIN])
+        return float(self.fpar.skin)
 
     @property
     def height(self) -> float:
-        return float(self.piston[K.P_H])
+        return float(self.piston.h)
 
     @property
     def n_pairs(self) -> int:
-        return int(self.ipar[K.I_NPAIRS])
+        return int(self.ipar.npairs)
 
 
 def elastic_energy_kernel(engine: Engine) -> float:
@@ -399,7 +405,7 @@ def elastic_energy_kernel(engine: Engine) -> float:
     from .forces import contacts_of_engine  # local: forces imports this module
 
     c = contacts_of_engine(engine)
-    poisson = engine.fpar[K.F_POISSON]
+    poisson = engine.fpar.poisson
     wall = c.j < 0
     ri = engine.radius[c.i]
     rj = np.where(wall, np.inf, engine.radius[np.maximum(c.j, 0)])

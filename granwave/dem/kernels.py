@@ -1,7 +1,8 @@
 """The DEM engine's numba kernels, by name: a facade over the modules that hold them.
 
-The kernels live in modules with one job each: :mod:`granwave.dem.layout` (indices of the
-parameter arrays), :mod:`granwave.dem.contact_law` (pair and wall contacts),
+The kernels live in modules with one job each: :mod:`granwave.dem.layout` (the records of
+the engine's state), :mod:`granwave.dem.contact_law` (pair and wall contacts),
+:mod:`granwave.dem.grain_step` (a grain's walls, damping and measures),
 :mod:`granwave.dem.blocks` (grain blocks and their claims), :mod:`granwave.dem.workspace`
 (work arrays, incoming and wall lists), :mod:`granwave.dem.passes` (the parallel force
 passes), :mod:`granwave.dem.team_steps` (a team of threads), :mod:`granwave.dem.piston`,
@@ -13,12 +14,7 @@ those modules imports it.
 
 from __future__ import annotations
 
-from .layout import (F_DFLOOR, F_DT, F_GAMMA, F_GROLL, F_KLAW, F_KROLL, F_LAW, F_MMIN, F_MU, F_MUROLL,
-                     F_POISSON, F_RESCALE, F_RMAX, F_ROLL, F_SAFETY, F_SKIN, F_SKIN_MAX, F_SKIN_MIN, F_TOLA,
-                     F_TOLV, F_VMAX, F_WALLH, F_ZETA, I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS,
-                     I_NSTEPS, I_REBUILDS, I_STEPS, I_TEAM, I_TEAMSTEPS, I_WIDTH, N_FPAR, N_IPAR, N_OUT,
-                     N_PISTON, O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX,
-                     O_WMAX, P_A, P_FCON, P_FEXT, P_H, P_MASS, P_V)  # noqa: F401
+from .layout import as_array, copy_record, COUNTERS, OUT, PARAMS, PISTON, record  # noqa: F401
 from .contact_law import (_add_torque3, _contact_velocity, _pair_geometry, _pair_law, _spin, add_torque,
                           add_torque_with_couple, contact_force, contact_force3, law_of, N_PCOL,
                           pair_constants, pair_constants3, pair_rolling, PC_MEFF, PC_R12, PC_ROOT,
@@ -27,12 +23,10 @@ from .contact_law import (_add_torque3, _contact_velocity, _pair_geometry, _pair
 from .blocks import (block_bounds, block_count, BLOCK_GRAINS, BLOCK_MULTIPLE, block_taken, BLOCKS_PER_THREAD,
                      claim_block, G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX,
                      G_WMAX, grains, MIN_BLOCK_GRAINS, N_GCOL, open_claims, take_block, visit_order)  # noqa: F401
-from .workspace import (_lists, boundary_fraction, boundary_room, first_wall_entry, grown_workspace,
-                        incoming_lists, N_TEAM_TIMES, prepare_blocks, refresh_wall_list, T_END, T_PASS1,
-                        T_PASS2, T_WAIT1, T_WAIT2, W_BF, W_BLK, W_CLAIM, W_GL, W_INVI, W_INVM, W_MFLOW, W_NBR,
-                        W_NCNT, W_NEED, W_NLO, W_OSLOT, W_OUT, W_PAIRC, W_ROW, W_SLABS, W_SLOT, W_SPAIR,
-                        W_TEAMTIME, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, wall_list, with_blocks,
-                        workspace)  # noqa: F401
+from .workspace import (boundary_fraction, boundary_room, first_wall_entry, grown_workspace, incoming_lists,
+                        _lists, N_TEAM_TIMES, prepare_blocks, refresh_wall_list, T_END, T_PASS1, T_PASS2,
+                        T_WAIT1, T_WAIT2, wall_list, with_blocks, workspace, Workspace)  # noqa: F401
+from .grain_step import grain_damping, grain_measures, grain_walls  # noqa: F401
 from .piston import (piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift)  # noqa: F401
 from .time_step import (needs_rebuild, next_skin, rebuild_due, rolling_limit, ROTATION_FACTOR,
                         SAFETY_AT_LIMIT, SKIN_STEPS, SPHERE_INERTIA, stable_dt, stable_dt_at, verlet_limit)  # noqa: F401

@@ -1,35 +1,78 @@
-"""Layout of the DEM engine's small parameter arrays: the indices of ``fpar``, ``ipar``,
-``piston`` and ``out`` that every kernel of :mod:`granwave.dem` reads.
+"""The DEM engine's small named structures: numpy structured dtypes of one record each, which
+every kernel of :mod:`granwave.dem` (and :mod:`granwave.gpu.dem`) reads by field name.
 
-``fpar``: dt, zeta, mu, poisson, background damping rate, skin, dt safety,
-overlap floor for the time step, acceleration tol, velocity tol, largest
-radius, smallest mass, last max speed, unloading rule (1: rescale F_t on
-unloading, 0: plain incremental; contact.update_tangential), piston height when the wall
-list was made (:func:`granwave.dem.workspace.wall_list`), smallest and largest skin (an adaptive
-skin when they differ: :func:`granwave.dem.time_step.next_skin`), the normal law's code and
-stiffness k (granwave.contact_models, :func:`granwave.dem.contact_law.law_of`), the rolling
-sub-model's code, k_r, gamma_r and mu_r (:func:`granwave.dem.contact_law.rolling_of`); ``ipar``: pairs
-listed, steps asked, steps done, steps between checks, adaptive dt, rebuilds, sizes a rebuild
-needs (pairs, width), step of the last rebuild, whether plain steps run in a team of threads
-(1: yes, 0: no, -1: a team did not start; :func:`granwave.dem.team_steps._team_steps`), steps
-run so far in teams; ``piston``: height, velocity, acceleration, mass (inf = fixed wall),
-downward force p*A, contact force; ``out``: the statistics of a step or check.
+A record (:func:`record`) is passed to the numba kernels by reference: ``fpar.dt = x`` in a
+kernel writes into the engine's record. On the GPU the records travel as one-element device
+arrays (``a[0]`` in a kernel is the record, by reference too).
+
+``fpar`` (:data:`PARAMS`), the step's parameters: dt (time step), zeta (contact damping
+ratio), mu (friction), poisson, gamma (background damping rate, 1 / time), skin (of the pair
+list, d), safety (dt safety factor), overlap_floor (the overlap the time step assumes at
+least), tol_a and tol_v (convergence tolerances), r_max (largest radius), m_min (smallest
+mass), v_max (the last step's largest speed), rescale (unloading rule, 1: rescale F_t on
+unloading, 0: plain incremental; contact.update_tangential), wall_h (piston height when the
+wall list was made, :func:`granwave.dem.workspace.wall_list`), skin_min and skin_max (an
+adaptive skin when they differ, :func:`granwave.dem.time_step.next_skin`), law and k_law (the
+normal law's code and stiffness: granwave.contact_models, :func:`granwave.dem.contact_law.law_of`),
+roll, k_roll, gamma_roll, mu_roll (the rolling sub-model's code, k_r, gamma_r, mu_r:
+:func:`granwave.dem.contact_law.rolling_of`). A new contact sub-model adds its fields here.
+
+``ipar`` (:data:`COUNTERS`): pairs listed (npairs), steps asked (nsteps), steps done (steps),
+steps between checks (check), adaptive dt (adaptive), rebuilds, the sizes a rebuild needs
+(needed pairs, width), the step of the last rebuild (built), whether plain steps run in a team
+of threads (team; 1: yes, 0: no, -1: a team did not start;
+:func:`granwave.dem.team_steps._team_steps`), steps run so far in teams (team_steps).
+
+``piston`` (:data:`PISTON`): height h, velocity v, acceleration a, mass (inf = fixed wall),
+downward force f_ext = p A, contact force f_con (up, from the grains).
+
+``out`` (:data:`OUT`), the statistics of a step or check: largest |a| (a_max), |alpha|
+(alpha_max), the piston's |a| (a_piston), largest |v| (v_max), |w| R (w_max), kinetic energy
+(kin), top-wall contacts (ntop), largest overlap (d_max), contacts (ncontact).
 """
 
 from __future__ import annotations
 
-# fpar indices
-F_DT, F_ZETA, F_MU, F_POISSON, F_GAMMA, F_SKIN, F_SAFETY, F_DFLOOR, F_TOLA, F_TOLV, F_RMAX, F_MMIN, \
-    F_VMAX, F_RESCALE, F_WALLH, F_SKIN_MIN, F_SKIN_MAX, F_LAW, F_KLAW, F_ROLL, F_KROLL, F_GROLL, \
-    F_MUROLL = range(23)
-N_FPAR = 23
-# piston indices
-P_H, P_V, P_A, P_MASS, P_FEXT, P_FCON = range(6)
-N_PISTON = 6
-# ipar indices
-I_NPAIRS, I_NSTEPS, I_STEPS, I_CHECK, I_ADAPTIVE, I_REBUILDS, I_NEEDED, I_WIDTH, I_BUILT, I_TEAM, \
-    I_TEAMSTEPS = range(11)
-N_IPAR = 11
-# out (statistics) indices
-O_AMAX, O_ALPHAMAX, O_APISTON, O_VMAX, O_WMAX, O_KIN, O_NTOP, O_DMAX, O_NCONTACT = range(9)
-N_OUT = 9
+import numpy as np
+
+#: the step's parameters (``fpar``); law, roll and rescale are codes
+PARAMS = np.dtype([("dt", np.float64), ("zeta", np.float64), ("mu", np.float64), ("poisson", np.float64),
+                   ("gamma", np.float64), ("skin", np.float64), ("safety", np.float64),
+                   ("overlap_floor", np.float64), ("tol_a", np.float64), ("tol_v", np.float64),
+                   ("r_max", np.float64), ("m_min", np.float64), ("v_max", np.float64), ("rescale", np.int64),
+                   ("wall_h", np.float64), ("skin_min", np.float64), ("skin_max", np.float64),
+                   ("law", np.int64), ("k_law", np.float64), ("roll", np.int64), ("k_roll", np.float64),
+                   ("gamma_roll", np.float64), ("mu_roll", np.float64)], align=True)
+#: the engine's counters (``ipar``)
+COUNTERS = np.dtype([(name, np.int64) for name in ("npairs", "nsteps", "steps", "check", "adaptive", "rebuilds",
+                                                    "needed", "width", "built", "team", "team_steps")],
+                    align=True)
+#: the piston (top wall)
+PISTON = np.dtype([(name, np.float64) for name in ("h", "v", "a", "mass", "f_ext", "f_con")], align=True)
+#: the statistics of a step or a check (``out``)
+OUT = np.dtype([(name, np.float64) for name in ("a_max", "alpha_max", "a_piston", "v_max", "w_max", "kin", "ntop",
+                                                "d_max", "ncontact")], align=True)
+
+
+def record(dtype: np.dtype, values=None) -> np.record:
+    """A new record of ``dtype`` (zeros, or the fields of ``values``: a record or a one-element
+    array of the same fields), with attribute access (``r.dt``); numba kernels take it by
+    reference."""
+    r = np.zeros(1, dtype).view(np.recarray)[0]
+    if values is not None:
+        copy_record(r, values)
+    return r
+
+
+def copy_record(dst, src) -> None:
+    """Every field of ``src`` (a record or a one-element structured array) into the record ``dst``."""
+    src = np.asarray(src).reshape(-1)[0] if not isinstance(src, np.void) else src
+    for name in dst.dtype.names:
+        dst[name] = src[name]
+
+
+def as_array(r) -> np.ndarray:
+    """A one-element structured array holding a copy of the record ``r`` (files, device uploads)."""
+    a = np.zeros(1, r.dtype)
+    a[0] = r
+    return a

@@ -19,7 +19,8 @@ lowers it with gamma_m once the plug has arrived. Computed every step from the s
 velocities as the damping itself, in grain order (deterministic), by the one-thread loop
 (:func:`granwave.dem.serial._force_loop`) and by one thread at the start of the parallel
 engine's second pass (:func:`granwave.dem.kernels._slab_job`; each block adds it to its
-grains once they are ready): the same bits.
+grains once they are ready): the same bits. Each grain's term is added after its background
+damping (:func:`add_slab_damping`, the same function in every engine).
 """
 
 from __future__ import annotations
@@ -35,17 +36,6 @@ M_GAMMA_M, M_SLAB, M_GAMMA_L = 0, 1, 2
 N_MFLOW = 3
 #: Rows of the slabs' work array: mean vertical velocity, mass, then the mean lateral velocities
 S_VZ, S_MASS, S_LATERAL = 0, 1, 2
-
-
-@numba.njit(cache=True, _nrt=False)
-def add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force):
-    """Add (gamma - gamma_m) m_i v_s to the vertical force of every grain (see module).
-
-    ``mflow``: [gamma_m, slab thickness (d), gamma_l]; ``slabs``: work array (dim + 1,
-    n_slabs), overwritten by :func:`slab_means`.
-    """
-    slab_means(pos, vel, mass, gamma, mflow, slabs)
-    add_slab_damping(0, pos.shape[0], pos, mass, gamma, mflow, slabs, force)
 
 
 @numba.njit(cache=True, _nrt=False)
@@ -111,7 +101,7 @@ def add_slab_damping(lo, hi, pos, mass, gamma, mflow, slabs, force):
     """Grains lo..hi-1: force[i, z] += (gamma - gamma_m) m_i v_s and, where gamma_l differs from
     gamma, force[i, a] += (gamma - gamma_l) m_i u_s,a for each lateral a (slab means from
     :func:`slab_means`); the one-thread loop applies it to all grains, the parallel engine per
-    block."""
+    block, the GPU per grain."""
     d = pos.shape[1]
     z = d - 1
     inv_slab = 1.0 / mflow[M_SLAB]

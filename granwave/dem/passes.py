@@ -29,19 +29,17 @@ from ..geometry import fold_into_box, nearest_image, periodic_distance2
 from . import pair_tile as PT
 from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX, G_WMAX,
                      block_bounds, claim_block, grains, open_claims, visit_order)
-from .contact_law import _add_torque3, add_torque_with_couple, law_of, rolling_of, wall_contact, wall_rolling
-from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_ZETA, O_ALPHAMAX, O_AMAX, O_APISTON,
-                     O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A, P_FCON, P_H, P_MASS, P_V)
+from .contact_law import law_of, rolling_of
+from .grain_step import grain_damping, grain_measures, grain_walls
+from .layout import PARAMS, PISTON
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 from .piston import piston_acceleration, piston_contact_force
-from .workspace import (W_BF, W_BLK, W_CLAIM, W_INVI, W_INVM, W_MFLOW, W_OSLOT, W_OUT, W_PAIRC, W_ROW,
-                        W_SLABS, W_SLOT, W_SPAIR, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS, _lists,
-                        first_wall_entry, prepare_blocks, refresh_wall_list)
+from .workspace import _lists, first_wall_entry, prepare_blocks, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True, parallel=True)
-def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar,
+def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov, fpar1,
                    nblk, slot_start, slot_pair, bnd_f, blk_g, tile, tile_p, claims, visit):
     """Phase 1 of a step, in parallel over blocks: each block sets its grains' force and torque
     (``acc``, ``alpha``) to zero, then computes each of its incoming pairs (k, g) once (with
@@ -50,7 +48,8 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     (increasing k), and leaves the force on k and a_k (n x f) in the pair's slot of
     ``bnd_f`` (zeros when the grains do not touch: adding them later changes no bit of a sum
     that starts from +0) for the owner row k in phase 2. Largest overlap and contacts of
-    these pairs into ``blk_g``."""
+    these pairs into ``blk_g``. ``fpar1``: a copy of the parameters as a one-element array
+    (:func:`_frozen`)."""
     threads = open_claims(claims, nblk, tile.shape[0])
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
         visit_order(t, threads, nblk, visit[t])
@@ -58,7 +57,7 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
             b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j,
-                                pair_ft, pair_ov, fpar, nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
+                                pair_ft, pair_ov, fpar1[0], nblk, slot_start, slot_pair, bnd_f, blk_g, tile[t],
                                 tile_p[t])
 
 
@@ -68,7 +67,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     """Block b of :func:`_incoming_pass` (a plain function: the parallel one stays small, which
     keeps its compilation short); its incoming pairs go through the staged law a tile at a time
     (:func:`granwave.dem.pair_tile.law_tile_incoming`, the bits of :func:`_pair_law`), in the
-    calling thread's tile scratch ``t``, ``tp`` (one row of the workspace's W_TILE, W_TILEP)."""
+    calling thread's tile scratch ``t``, ``tp`` (one row of the workspace's ``tile``, ``tile_p``)."""
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
@@ -78,12 +77,12 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     flat = alpha.reshape(n * r)
     for q in grains(b0 * r, b1 * r):
         flat[q] = 0.0
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    rescale = fpar[F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
-    g_pair = C.effective_shear(fpar[F_POISSON], False)
+    g_pair = C.effective_shear(fpar.poisson, False)
     law = law_of(fpar)
     roll = rolling_of(fpar)
     dmax = 0.0
@@ -151,21 +150,12 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
     amax = almax = vmax = wmax = kin = dvmax = disp = 0.0
     if stats:
         for i in grains(lo, hi):
-            a2 = 0.0
-            v2 = 0.0
-            for a in range(d):
-                a2 += acc[i, a] * acc[i, a]
-                v2 += vel[i, a] * vel[i, a]
-            al2 = 0.0
-            w2 = 0.0
-            for a in range(r):
-                al2 += alpha[i, a] * alpha[i, a]
-                w2 += omega[i, a] * omega[i, a]
+            a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
             amax = max(amax, a2)
             almax = max(almax, al2)
             vmax = max(vmax, v2)
-            wmax = max(wmax, w2 * rad[i] * rad[i])
-            kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+            wmax = max(wmax, w2r2)
+            kin += k
     if drift:
         for i in grains(lo, hi):
             v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
@@ -176,7 +166,7 @@ def _finish(lo, hi, pos, vel, acc, omega, alpha, rad, mass, inertia, inv_m, inv_
 
 @numba.njit(cache=True, parallel=True)
 def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
-              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk, out_start, out_slot,
+              pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston1, fpar1, row, nblk, out_start, out_slot,
               slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs, tile, tile_p, claims, visit):
     """Phase 2 of a step, in parallel over blocks, after phase 1: each block runs the
     one-thread pair loop over its own rows (pairs (i, j), i in the block), updating their
@@ -191,7 +181,8 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     bit that loop's. Only the block's own grains are read or written, apart from the slots.
 
     ``kick`` 0: forces and torques stay in ``acc``, ``alpha``; 1: accelerations, the second
-    half kick and (``stats``, ``drift``) what :func:`_finish` does. Per block into ``blk_g``:
+    half kick and (``stats``, ``drift``) what :func:`_finish` does. ``piston1``, ``fpar1``: copies of
+    the piston and the parameters as one-element arrays (:func:`_frozen`). Per block into ``blk_g``:
     largest overlap and contacts (with phase 1's), top-wall contacts (their forces on the
     piston, grain order, into ``top_f`` from the block's first grain), the block's measures.
     """
@@ -202,18 +193,18 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     # its dense top, and the first thread waited at the barrier for half of the compaction
     # (docs/decisions/0004-parallel-passes.md). Which thread computes a block never changes a bit.
     threads = open_claims(claims, nblk, tile.shape[0])
-    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
+    slab_job = mflow.shape[0] > 0 and fpar1[0].gamma > 0.0
     claims[nblk + 1] = SLABS_TODO if slab_job else SLABS_READY
     for t in numba.prange(threads):
         if t == 0 and slab_job:
-            _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, 0)
+            _slab_job(pos, vel, mass, fpar1[0], mflow, slabs, claims, nblk, 0)
         visit_order(t, threads, nblk, visit[t])
         for j in range(nblk):
             b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
-                           pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row, nblk,
-                           out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs,
+                           pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston1[0], fpar1[0], row,
+                           nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs,
                            tile[t], tile_p[t], claims, 0)
 
 
@@ -237,7 +228,7 @@ def _slab_job(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd):
     so no schedule of the pass's iterations onto threads can deadlock on it."""
     todo = SLABS_TODO + 2 * rnd
     if team.atomic_cas(claims, nblk + 1, todo, todo + 1) == todo:
-        slab_means(pos, vel, mass, fpar[F_GAMMA], mflow, slabs)
+        slab_means(pos, vel, mass, fpar.gamma, mflow, slabs)
         team.atomic_store(claims, nblk + 1, todo + 2)
 
 
@@ -265,15 +256,15 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     n, d = pos.shape
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    gamma = fpar[F_GAMMA]
-    rescale = fpar[F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    gamma = fpar.gamma
+    rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
-    g_pair = C.effective_shear(fpar[F_POISSON], False)
+    g_pair = C.effective_shear(fpar.poisson, False)
     e_wall = C.effective_young(True)
-    g_wall = C.effective_shear(fpar[F_POISSON], True)
+    g_wall = C.effective_shear(fpar.poisson, True)
     law = law_of(fpar)
     roll = rolling_of(fpar)
     dmax = blk_g[b, G_DMAX]
@@ -300,43 +291,23 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
             acc[k, 2] += bnd_f[s, 2]
         for a in range(r):
             alpha[k, a] += bnd_f[s, d + a]
-    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp), for
-    # the block's grains in the wall list (no other can touch one)
-    h = piston[P_H]
-    vp = piston[P_V]
+    # then the walls of the block's grains in the wall list (no other can touch one), then every
+    # grain's damping and slab term: the per-grain routines every engine runs (grain_step, mean_flow)
+    h = piston.h
+    vp = piston.v
     ntop = 0
     q = first_wall_entry(walls, b0)
     while q <= walls[0] and walls[q] < b1:
         i = walls[q]
         q += 1
-        for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
-                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
-                                                             rescale, law)
-            if delta <= 0.0:
-                continue
-            acc[i, 0] += fx
-            acc[i, 1] += fy
-            if d == 3:
-                acc[i, 2] += fz
-            if r > 0:
-                if roll.kind != 0:
-                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
-                    add_torque_with_couple(alpha, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
-                else:
-                    _add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-            if k == 1:
-                top_f[b0 + ntop] = fz if d == 3 else fy
-                ntop += 1
-            if delta > dmax:
-                dmax = delta
-            ncontact += 1
+        top, nt, dmax, ncontact = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall,
+                                              g_wall, dt, zeta, mu, rescale, law, roll, acc, alpha, dmax, ncontact)
+        if nt:
+            top_f[b0 + ntop] = top
+            ntop += 1
     if gamma > 0.0:
         for i in grains(b0, b1):
-            for a in range(d):
-                acc[i, a] -= gamma * mass[i] * vel[i, a]
-            for a in range(r):
-                alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+            grain_damping(i, vel, omega, mass, inertia, gamma, acc, alpha)
         if mflow.shape[0] > 0:  # after every grain's damping, as the one-thread loop
             _await_slab_means(pos, vel, mass, fpar, mflow, slabs, claims, nblk, rnd)
             add_slab_damping(b0, b1, pos, mass, gamma, mflow, slabs, acc)
@@ -389,6 +360,18 @@ def _displacement_pass(pos, lateral, pos0, blk_g):
         blk_g[b, G_DISP] = disp
 
 
+@numba.njit(cache=True, inline="always")
+def _frozen(piston, fpar):
+    """Copies of the records ``piston`` and ``fpar`` as one-element arrays, for the parallel
+    passes, which only read them: numba's parallel loops take no record argument (numba 0.68
+    lowers a record parameter of their outlined body by value where a pointer is expected)."""
+    p = np.empty(1, PISTON)
+    p[0] = piston
+    f = np.empty(1, PARAMS)
+    f[0] = fpar
+    return p, f
+
+
 @numba.njit(cache=True)
 def _block_max(blk, col):
     m = 0.0
@@ -405,20 +388,22 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     acceleration; with ``stats`` the convergence measures as :func:`measure` (the kinetic
     energy summed by blocks: only its finiteness is used). The incoming lists
     (:func:`prepare_blocks`) must be those of the current pair list and ``nblk``."""
-    blk_g = ws[W_BLK]
-    top_f = ws[W_TOP]
-    pair_c = ws[W_PAIRC]
-    mflow = ws[W_MFLOW]
+    blk_g = ws.blk
+    top_f = ws.top
+    pair_c = ws.pair_c
+    mflow = ws.mflow
+    # the passes read the parameters and the piston (none of what refresh_wall_list writes)
+    piston1, fpar1 = _frozen(piston, fpar)
     _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                   fpar, nblk, ws[W_SLOT], ws[W_SPAIR], ws[W_BF], blk_g, ws[W_TILE], ws[W_TILEP], ws[W_CLAIM],
-                   ws[W_VISIT])
+                   fpar1, nblk, ws.slot_start, ws.slot_pair, ws.bnd_f, blk_g, ws.tile, ws.tile_p, ws.claims,
+                   ws.visit)
     # the wall list must cover this piston height (made again if the piston moved)
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws[W_WALLS], False)
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, False)
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
-    _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws[W_INVM], ws[W_INVI], lateral, pos0,
-              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], piston, fpar, ws[W_ROW], nblk,
-              ws[W_OUT], ws[W_OSLOT], ws[W_SPAIR], ws[W_BF], blk_g, top_f, kick, stats, drift, mflow, ws[W_SLABS],
-              ws[W_TILE], ws[W_TILEP], ws[W_CLAIM], ws[W_VISIT])
+    _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws.inv_m, ws.inv_i, lateral, pos0,
+              pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws.walls, piston1, fpar1, ws.row, nblk,
+              ws.out_start, ws.out_slot, ws.slot_pair, ws.bnd_f, blk_g, top_f, kick, stats, drift, mflow, ws.slabs,
+              ws.tile, ws.tile_p, ws.claims, ws.visit)
     n = pos.shape[0]
     dmax = 0.0
     ncontact = 0
@@ -434,39 +419,39 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
         almax = max(almax, blk_g[b, G_ALMAX])
         vmax = max(vmax, blk_g[b, G_VMAX])
         wmax = max(wmax, blk_g[b, G_WMAX])
-    piston[P_FCON] = piston_contact_force(blk_g, top_f, n, nblk)
-    piston[P_A] = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA])
-    out[O_DMAX] = dmax
-    out[O_NTOP] = ntop
-    out[O_NCONTACT] = ncontact
+    piston.f_con = piston_contact_force(blk_g, top_f, n, nblk)
+    piston.a = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma)
+    out.d_max = dmax
+    out.ntop = ntop
+    out.ncontact = ncontact
     if stats:
-        out[O_AMAX] = math.sqrt(amax)
-        out[O_ALPHAMAX] = math.sqrt(almax)
-        out[O_VMAX] = math.sqrt(vmax)
-        out[O_WMAX] = math.sqrt(wmax)
-        if piston[P_MASS] < np.inf:
-            out[O_APISTON] = abs(piston[P_A])
-            kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
+        out.a_max = math.sqrt(amax)
+        out.alpha_max = math.sqrt(almax)
+        out.v_max = math.sqrt(vmax)
+        out.w_max = math.sqrt(wmax)
+        if piston.mass < np.inf:
+            out.a_piston = abs(piston.a)
+            kin += 0.5 * piston.mass * piston.v * piston.v
         else:
-            out[O_APISTON] = 0.0
-        out[O_KIN] = kin
+            out.a_piston = 0.0
+        out.kin = kin
 
 
 @numba.njit(cache=True)
 def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft,
                    wall_ov, piston, fpar, ipar, force, torque, out, ws):
     """Total force and torque on every grain (into ``force``, ``torque``), the contact force on
-    the piston (``piston[P_FCON]``), largest overlap, top-wall and total contact counts (``out``).
+    the piston (``piston.f_con``), largest overlap, top-wall and total contact counts (``out``).
 
     Also adds the background damping -gamma m v, -gamma I w. Contacts update their
-    tangential history with slip = v_rel * fpar[F_DT] (0: evaluated, not advanced). When the
+    tangential history with slip = v_rel * fpar.dt (0: evaluated, not advanced). When the
     workspace has no room for the incoming pairs, one block (the same bits).
     """
-    nblk = ws[W_BLK].shape[0]
-    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws[W_SPAIR].shape[0]:
+    nblk = ws.blk.shape[0]
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws.slot_pair.shape[0]:
         nblk = 1
         _lists(ws, nblk)
-    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws[W_WALLS], True)  # for these positions
+    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws.walls, True)  # for these positions
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, False, False, False)
 
@@ -488,36 +473,26 @@ def to_accelerations(force, torque, mass, inertia):
 @numba.njit(cache=True)
 def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
     """Largest accelerations and speeds, kinetic energy (grains + piston) into ``out``."""
-    n, d = vel.shape
-    r = omega.shape[1]
+    n = vel.shape[0]
     amax = 0.0
     almax = 0.0
     vmax = 0.0
     wmax = 0.0
     kin = 0.0
     for i in range(n):
-        a2 = 0.0
-        v2 = 0.0
-        for a in range(d):
-            a2 += acc[i, a] * acc[i, a]
-            v2 += vel[i, a] * vel[i, a]
-        al2 = 0.0
-        w2 = 0.0
-        for a in range(r):
-            al2 += alpha[i, a] * alpha[i, a]
-            w2 += omega[i, a] * omega[i, a]
+        a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
         amax = max(amax, a2)
         almax = max(almax, al2)
         vmax = max(vmax, v2)
-        wmax = max(wmax, w2 * rad[i] * rad[i])
-        kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
-    out[O_AMAX] = math.sqrt(amax)
-    out[O_ALPHAMAX] = math.sqrt(almax)
-    out[O_VMAX] = math.sqrt(vmax)
-    out[O_WMAX] = math.sqrt(wmax)
-    if piston[P_MASS] < np.inf:
-        out[O_APISTON] = abs(piston[P_A])
-        kin += 0.5 * piston[P_MASS] * piston[P_V] * piston[P_V]
+        wmax = max(wmax, w2r2)
+        kin += k
+    out.a_max = math.sqrt(amax)
+    out.alpha_max = math.sqrt(almax)
+    out.v_max = math.sqrt(vmax)
+    out.w_max = math.sqrt(wmax)
+    if piston.mass < np.inf:
+        out.a_piston = abs(piston.a)
+        kin += 0.5 * piston.mass * piston.v * piston.v
     else:
-        out[O_APISTON] = 0.0
-    out[O_KIN] = kin
+        out.a_piston = 0.0
+    out.kin = kin

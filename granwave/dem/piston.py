@@ -6,32 +6,31 @@ import numba
 import numpy as np
 
 from .blocks import G_NTOP, block_bounds
-from .layout import P_A, P_FCON, P_FEXT, P_H, P_MASS, P_V
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True)
 def piston_acceleration(piston, gamma):
     """(contact force up - p A down - gamma M v) / M; zero for a fixed wall (mass inf)."""
-    m = piston[P_MASS]
+    m = piston.mass
     if not (m < np.inf):
         return 0.0
-    return (piston[P_FCON] - piston[P_FEXT]) / m - gamma * piston[P_V]
+    return (piston.f_con - piston.f_ext) / m - gamma * piston.v
 
 
 @numba.njit(cache=True, inline="always")
 def piston_half_kick(piston, dt):
     """Velocity Verlet's half kick of a moving piston (none for a fixed wall, mass inf)."""
-    if piston[P_MASS] < np.inf:
-        piston[P_V] += 0.5 * dt * piston[P_A]
+    if piston.mass < np.inf:
+        piston.v += 0.5 * dt * piston.a
 
 
 @numba.njit(cache=True, inline="always")
 def piston_kick_drift(piston, dt):
     """The first half kick and the drift of a moving piston (none for a fixed wall)."""
-    if piston[P_MASS] < np.inf:
-        piston[P_V] += 0.5 * dt * piston[P_A]
-        piston[P_H] += dt * piston[P_V]
+    if piston.mass < np.inf:
+        piston.v += 0.5 * dt * piston.a
+        piston.h += dt * piston.v
 
 
 @numba.njit(cache=True, inline="always")
@@ -45,3 +44,14 @@ def piston_contact_force(blk_g, top_f, n, nblk):
         for c in range(int(blk_g[b, G_NTOP])):
             f -= top_f[b0 + c]
     return f
+
+
+@numba.njit(cache=True, inline="always")
+def copy_piston(dst, src):
+    """Every field of the piston record ``src`` into the record ``dst`` (layout.PISTON)."""
+    dst.h = src.h
+    dst.v = src.v
+    dst.a = src.a
+    dst.mass = src.mass
+    dst.f_ext = src.f_ext
+    dst.f_con = src.f_con

@@ -182,8 +182,8 @@ def default_time_step(packing: Packing, dt_safety: float = DEFAULT_DT_SAFETY) ->
 def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     """Forces and accelerations of the current state with step ``dt`` for the slip
     (0: the history is evaluated, not advanced), as the engine does at construction."""
-    keep = engine.fpar[K.F_DT]
-    engine.fpar[K.F_DT] = dt
+    keep = engine.fpar.dt
+    engine.fpar.dt = dt
     compute_forces = serial.compute_forces if one_thread(len(engine.radius)) else K.compute_forces
     compute_forces(engine.position, engine.velocity, engine.angular_velocity, engine.radius,
                    engine.mass, engine.inertia, engine.lateral, engine.pair_i, engine.pair_j,
@@ -191,7 +191,7 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
                    engine.fpar, engine.ipar, engine.acceleration, engine.angular_acceleration,
                    engine.out, engine.ws)
     K.to_accelerations(engine.acceleration, engine.angular_acceleration, engine.mass, engine.inertia)
-    engine.fpar[K.F_DT] = keep
+    engine.fpar.dt = keep
 
 
 def packing_law(packing: Packing) -> tuple[str, float]:
@@ -431,7 +431,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin, unloading=unloading)
     d = packing.dim
     residual = float(np.max(np.linalg.norm(engine.acceleration, axis=1), initial=0.0))
-    f_static_engine = float(engine.piston[K.P_FCON])
+    f_static_engine = float(engine.piston.f_con)
     pos_ref = engine.position.copy()
     pair_state = np.zeros(engine.pair_i.shape[0], np.int8)
     wall_state = np.zeros(engine.wall_ov.shape[0], np.int8)
@@ -456,18 +456,18 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             e0 = engine.elastic_energy()
             u0 = np.zeros_like(engine.position)
             u0[grains, d - 1] = values
-            zeta = engine.fpar[K.F_ZETA]
-            engine.fpar[K.F_ZETA] = 0.0
+            zeta = engine.fpar.zeta
+            engine.fpar.zeta = 0.0
             engine.position += u0
             engine.velocity[:] = u0  # one kinematic increment: slip = tangential u_rel (dt = 1)
             _forces_now(engine, dt=1.0)
             engine.velocity[:] = 0.0
-            engine.fpar[K.F_ZETA] = zeta
+            engine.fpar.zeta = zeta
             _forces_now(engine)
             energy_input = float(engine.elastic_energy() - e0)
 
     top = np.empty(samples)
-    top[0] = engine.piston[K.P_FCON]
+    top[0] = engine.piston.f_con
     if shear:
         shear_force = np.empty(samples)
 
@@ -490,7 +490,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
         k_stop = k + 1 if shear else min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
-            engine.ws[K.W_CLAIM][0] = numba.get_num_threads()  # the force passes' share per thread
+            engine.ws.claims[0] = numba.get_num_threads()  # the force passes' share per thread
             # one thread: the one-loop engine (same bits; its kernels compile several times faster)
             kernel = PK.pulse_samples_serial if device == "cpu" and numba.get_num_threads() == 1 else samples_kernel
             r = kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
@@ -501,7 +501,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                                  k_stop, sub, top, stats)
         if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
             k = -r
-            engine.grow(int(engine.ipar[K.I_NEEDED]), int(engine.ipar[K.I_WIDTH]))
+            engine.grow(int(engine.ipar.needed), int(engine.ipar.width))
             grown = np.zeros(engine.pair_i.shape[0], np.int8)
             grown[: len(pair_state)] = pair_state
             pair_state = grown
@@ -538,7 +538,7 @@ def _check_sound(engine: Engine, top: np.ndarray, k0: int, k1: int, stats: np.nd
     an overlap beyond the largest grain radius after the samples ``k0 .. k1 - 1``."""
     bad = not (np.all(np.isfinite(top[k0:k1])) and math.isfinite(float(stats[0])))
     if not bad and device == "cpu":
-        bad = not float(engine.out[K.O_DMAX]) < float(engine.fpar[K.F_RMAX])
+        bad = not float(engine.out.d_max) < float(engine.fpar.r_max)
     if bad:
         raise ConvergenceError(
             f"the DEM pulse blew up by t = {times[k1 - 1]:.4g} (non-finite motion or an overlap beyond "

@@ -6,7 +6,7 @@ the contact law stays in :mod:`granwave.contact` and the step in
 :mod:`granwave.dem.kernels`). After every step this loop only *reads* the
 state to
 
-- record the top-wall contact force (``piston[P_FCON]``) at the output times,
+- record the top-wall contact force (``piston.f_con``) at the output times,
 - flag every contact (pair slot or wall slot) that opens, forms, or slides,
 - track the largest displacement of any grain from its starting position.
 
@@ -171,10 +171,10 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
     a rebuild (``rebuilds``: the count before the step), the contacts classified, the largest
     displacement into ``stats[0]`` and the step counted in ``stats[1]``. Returns the pair
     keys and count of the current list (new arrays after a rebuild)."""
-    if ipar[K.I_REBUILDS] != rebuilds:
+    if ipar.rebuilds != rebuilds:
         old_state = pair_state[:npairs].copy()
-        carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar[K.I_NPAIRS], pair_state)
-        npairs = ipar[K.I_NPAIRS]
+        carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar.npairs, pair_state)
+        npairs = ipar.npairs
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
     classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state, wall_state,
@@ -196,21 +196,21 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     normal forces of the top-wall contacts) at sample k. ``stats[0]`` holds
     the largest grain displacement so far. Returns the next sample to run
     (``k_stop`` when done), or minus it when the pair list needs more room
-    (``ipar[I_NEEDED]`` pairs, ``ipar[I_WIDTH]`` neighbours; the state is then between steps of that
+    (``ipar.needed`` pairs, ``ipar.width`` neighbours; the state is then between steps of that
     sample, which the caller resumes after growing the arrays: the steps
     already done inside the sample are kept in ``stats[1]``).
     """
     n = pos.shape[0]
-    mu = fpar[K.F_MU]
+    mu = fpar.mu
     law = K.law_of(fpar)
-    ipar[K.I_NSTEPS] = 1
+    ipar.nsteps = 1
     # the pair keys of the current list, refreshed only after a rebuild
-    npairs = ipar[K.I_NPAIRS]
+    npairs = ipar.npairs
     old_i = pair_i[:npairs].copy()
     old_j = pair_j[:npairs].copy()
     for k in range(k_start, k_stop):
         for _ in range(int(stats[1]), sub):
-            rebuilds = ipar[K.I_REBUILDS]
+            rebuilds = ipar.rebuilds
             if K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
                            pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
                 return -k
@@ -218,7 +218,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                                                wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
                                                wall_state, npairs, stats, law)
         stats[1] = 0.0
-        force_out[k] = piston[K.P_FCON]
+        force_out[k] = piston.f_con
     return k_stop
 
 
@@ -230,15 +230,15 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
     (same arguments, returns and bits): the parallel engine's kernels take several times longer
     to compile, which a one-thread process would spend for nothing on a cold cache."""
     n = pos.shape[0]
-    mu = fpar[K.F_MU]
+    mu = fpar.mu
     law = K.law_of(fpar)
-    ipar[K.I_NSTEPS] = 1
-    npairs = ipar[K.I_NPAIRS]
+    ipar.nsteps = 1
+    npairs = ipar.npairs
     old_i = pair_i[:npairs].copy()
     old_j = pair_j[:npairs].copy()
     for k in range(k_start, k_stop):
         for _ in range(int(stats[1]), sub):
-            rebuilds = ipar[K.I_REBUILDS]
+            rebuilds = ipar.rebuilds
             if serial.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
                                 pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
                 return -k
@@ -246,7 +246,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
                                                wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
                                                wall_state, npairs, stats, law)
         stats[1] = 0.0
-        force_out[k] = piston[K.P_FCON]
+        force_out[k] = piston.f_con
     return k_stop
 
 
@@ -260,12 +260,12 @@ def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
     are put back: the state is only read. Summed in grain order."""
     n, d = pos.shape
     e_wall = C.effective_young(True)
-    g_wall = C.effective_shear(fpar[K.F_POISSON], True)
-    zeta = fpar[K.F_ZETA]
-    mu = fpar[K.F_MU]
-    rescale = fpar[K.F_RESCALE] != 0.0
-    h = piston[K.P_H]
-    vp = piston[K.P_V]
+    g_wall = C.effective_shear(fpar.poisson, True)
+    zeta = fpar.zeta
+    mu = fpar.mu
+    rescale = fpar.rescale != 0.0
+    h = piston.h
+    vp = piston.v
     saved = np.zeros(d)
     total = 0.0
     for i in range(n):

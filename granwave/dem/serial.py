@@ -6,8 +6,8 @@ is extra work (the incoming pairs, the blocks' bookkeeping; docs/dem.md "Paralle
 :class:`granwave.dem.integrator.Engine` runs this loop when it has one thread. Both add a
 grain's contributions in the same order (pairs in list order, then its walls), so they
 give the same bits; tests/test_parallel.py checks it. The pair list and its rebuild are
-the parallel engine's (:func:`granwave.dem.neighbours.rebuild`). The damping here and in
-``kernels._row_block`` must stay the same operations.
+the parallel engine's (:func:`granwave.dem.neighbours.rebuild`). A grain's walls, damping and
+measures are :mod:`granwave.dem.grain_step`'s, shared with the parallel passes and the GPU.
 """
 
 from __future__ import annotations
@@ -20,18 +20,14 @@ import numpy as np
 from .. import contact as C
 from ..geometry import periodic_distance2
 from . import neighbours
-from .mean_flow import M_GAMMA_M, add_mean_flow_damping
+from .grain_step import grain_damping, grain_walls
+from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 from .pair_tile import law_tile
-from .contact_law import (_add_torque3, add_torque_with_couple, law_of, pair_constants, rolling_of, wall_contact,
-                          wall_rolling)
-from .layout import (F_DT, F_GAMMA, F_MU, F_POISSON, F_RESCALE, F_RMAX, F_SKIN, F_TOLA, F_TOLV, F_VMAX, F_ZETA,
-                     I_ADAPTIVE, I_BUILT, I_CHECK, I_NEEDED, I_NPAIRS, I_NSTEPS, I_REBUILDS, I_STEPS, I_WIDTH,
-                     O_ALPHAMAX, O_AMAX, O_APISTON, O_DMAX, O_KIN, O_NCONTACT, O_NTOP, O_VMAX, O_WMAX, P_A,
-                     P_FCON, P_H, P_V)
+from .contact_law import law_of, pair_constants, rolling_of
 from .passes import drift_grain, measure
 from .piston import piston_acceleration, piston_half_kick, piston_kick_drift
 from .time_step import needs_rebuild, next_skin, stable_dt_at
-from .workspace import W_INVI, W_INVM, W_MFLOW, W_PAIRC, W_SLABS, W_TILE, W_TILEP, W_WALLS, refresh_wall_list
+from .workspace import refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -40,7 +36,7 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
                 pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow, slabs, tile, tile_p):
     """Total force and torque on every grain and the contact force on the piston.
 
-    Contacts update their tangential history with slip = v_rel * fpar[F_DT]
+    Contacts update their tangential history with slip = v_rel * fpar.dt
     (velocities at the half step of velocity Verlet, i.e. exactly the
     displacement of the step). Also adds the background damping -gamma m v,
     -gamma I w, and with a non-empty ``mflow`` (compaction 'mean-flow') gives the mean
@@ -50,25 +46,26 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
 
     The pairs go through :func:`granwave.dem.pair_tile.law_tile` a tile at a time (the law's
     square roots and divisions in vector loops; the same bits as the pair-at-a-time
-    ``kernels._pair_law``), the walls through ``kernels.wall_contact`` one grain at a time.
+    ``kernels._pair_law``), then every grain's walls, damping and slab term through
+    :mod:`granwave.dem.grain_step`.
     ``tile``, ``tile_p``: the workspace's tile scratch (its first tile is used).
     """
     n_grains, d = pos.shape
     r = omega.shape[1]
-    dt = fpar[F_DT]
-    zeta = fpar[F_ZETA]
-    mu = fpar[F_MU]
-    poisson = fpar[F_POISSON]
-    gamma = fpar[F_GAMMA]
-    rescale = fpar[F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    poisson = fpar.poisson
+    gamma = fpar.gamma
+    rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
     e_wall = C.effective_young(True)
     g_pair = C.effective_shear(poisson, False)
     g_wall = C.effective_shear(poisson, True)
     law = law_of(fpar)
     roll = rolling_of(fpar)
-    h = piston[P_H]
-    vp = piston[P_V]
+    h = piston.h
+    vp = piston.v
     force[:, :] = 0.0
     torque[:, :] = 0.0
     dmax = 0.0
@@ -84,45 +81,29 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
         p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
                                      npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, roll, t, tp,
                                      force, torque, dmax, ncontact)
-    # walls: k = 0 bottom (normal -e_z, at 0), k = 1 top (normal +e_z, at h, velocity vp)
+    # then the walls of the grains of the wall list (kernels.wall_list: no other can touch one),
+    # then every grain's damping and slab term: the per-grain routines every engine runs
+    # (grain_step, mean_flow; two loops, not one over every grain: that cost 5 % of the rate)
     fpiston = 0.0
     ntop = 0
-    for q in range(1, walls[0] + 1):  # the grains that may touch a wall, increasing (kernels.wall_list)
+    for q in range(1, walls[0] + 1):
         i = walls[q]
-        for k in range(2):
-            delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov,
-                                                             i, k, h, vp, e_wall, g_wall, dt, zeta, mu,
-                                                             rescale, law)
-            if delta <= 0.0:
-                continue
-            force[i, 0] += fx
-            force[i, 1] += fy
-            if d == 3:
-                force[i, 2] += fz
-            if r > 0:
-                if roll.kind != 0:
-                    cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
-                    add_torque_with_couple(torque, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
-                else:
-                    _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)
-            if k == 1:
-                fpiston -= fz if d == 3 else fy
-                ntop += 1
-            if delta > dmax:
-                dmax = delta
-            ncontact += 1
+        top, nt, dmax, ncontact = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall,
+                                              g_wall, dt, zeta, mu, rescale, law, roll, force, torque, dmax,
+                                              ncontact)
+        if nt:
+            fpiston -= top
+            ntop += 1
     if gamma > 0.0:
         for i in range(n_grains):
-            for a in range(d):
-                force[i, a] -= gamma * mass[i] * vel[i, a]
-            for a in range(r):
-                torque[i, a] -= gamma * inertia[i] * omega[i, a]
+            grain_damping(i, vel, omega, mass, inertia, gamma, force, torque)
         if mflow.shape[0] > 0:
-            add_mean_flow_damping(pos, vel, mass, gamma, mflow, slabs, force)
-    piston[P_FCON] = fpiston
-    out[O_DMAX] = dmax
-    out[O_NTOP] = ntop
-    out[O_NCONTACT] = ncontact
+            slab_means(pos, vel, mass, gamma, mflow, slabs)
+            add_slab_damping(0, n_grains, pos, mass, gamma, mflow, slabs, force)
+    piston.f_con = fpiston
+    out.d_max = dmax
+    out.ntop = ntop
+    out.ncontact = ncontact
 
 
 @numba.njit(cache=True)
@@ -131,13 +112,13 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     """:func:`granwave.dem.kernels.compute_forces` in one loop over pairs (same arguments and
     bits), for one thread: it compiles in a fraction of the parallel passes' time, which a
     one-thread process (a workflow job) would otherwise spend on a cold cache."""
-    walls = ws[W_WALLS]
-    mflow = ws[W_MFLOW]
+    walls = ws.walls
+    mflow = ws.mflow
     refresh_wall_list(pos, rad, piston, fpar, wall_ov, walls, True)  # for these positions
-    _force_loop(pos, vel, omega, rad, ws[W_PAIRC], mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
+    _force_loop(pos, vel, omega, rad, ws.pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
                 pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow,
-                ws[W_SLABS], ws[W_TILE], ws[W_TILEP])
-    piston[P_A] = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA])
+                ws.slabs, ws.tile, ws.tile_p)
+    piston.a = piston_acceleration(piston, mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma)
 
 
 @numba.njit(cache=True)
@@ -148,7 +129,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     (off when its parameters are empty)."""
     return run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
                                pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
-                               ws[W_MFLOW], ws[W_SLABS])
+                               ws.mflow, ws.slabs)
 
 
 @numba.njit(cache=True)
@@ -162,52 +143,52 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
 
     State on entry and exit: positions, velocities and accelerations at the same
     time (``acc``/``alpha`` valid). Returns 0 when all steps ran, 1 when the
-    convergence candidate test passed at a check (every ``ipar[I_CHECK]``
+    convergence candidate test passed at a check (every ``ipar.check``
     steps: piston touching grains, every |a|, |alpha| and |a_piston| below
-    F_TOLA, every |v|, |w| R and |v_piston| below F_TOLV), 2 when the pair list
-    needs more room (``ipar[I_NEEDED]`` pairs; the state is between steps), 3 when the
+    ``fpar.tol_a``, every |v|, |w| R and |v_piston| below ``fpar.tol_v``), 2 when the pair list
+    needs more room (``ipar.needed`` pairs; the state is between steps), 3 when the
     state blew up (an overlap larger than the largest radius or non-finite motion at a
     check, or non-finite positions before a rebuild): the time step is unstable.
-    With ``ipar[I_ADAPTIVE]`` the time step is reset at every check from
+    With ``ipar.adaptive`` the time step is reset at every check from
     :func:`stable_dt`.
     """
     n, d = pos.shape
     r = omega.shape[1]
     # 1/m and 1/I once per chunk, not per step: the same quotients, the same bits
-    pair_c = ws[W_PAIRC]
-    walls = ws[W_WALLS]
+    pair_c = ws.pair_c
+    walls = ws.walls
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the last rebuild's positions
-    inv_m = ws[W_INVM]
-    inv_i = ws[W_INVI]
+    inv_m = ws.inv_m
+    inv_i = ws.inv_i
     for i in range(n):
         inv_m[i] = 1.0 / mass[i]
         inv_i[i] = 1.0 / inertia[i]
-    gamma = fpar[F_GAMMA]
+    gamma = fpar.gamma
     gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else gamma
-    check = ipar[I_CHECK]
+    check = ipar.check
     disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
     for i in range(n):
         disp2 = max(disp2, periodic_distance2(pos, i, pos0, i, lateral))
-    for step in range(ipar[I_NSTEPS]):
-        dt = fpar[F_DT]
+    for step in range(ipar.nsteps):
+        dt = fpar.dt
         # rebuild when a grain may come within reach of a pair not in the list
         # before the next rebuild check (factor 2: the speed may grow in a step)
-        reach = math.sqrt(disp2) + 2.0 * fpar[F_VMAX] * dt
+        reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
         if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
             return 3
         if needs_rebuild(fpar, ipar, reach, 0):
             skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
-            np_new = neighbours.rebuild(pos, rad, lateral, piston[P_H], skin, pair_i, pair_j,
-                                        pair_ft, pair_ov, ipar[I_NPAIRS], ws[0], ws[2], ws[3], ws[4],
-                                        ws[1], ws[5])
+            np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
+                                        pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo, ws.row,
+                                        ws.gather, ws.need)
             if np_new < 0:
-                ipar[I_NEEDED] = ws[5][0]
-                ipar[I_WIDTH] = ws[5][1]
+                ipar.needed = ws.need[0]
+                ipar.width = ws.need[1]
                 return 2
-            fpar[F_SKIN] = skin
-            ipar[I_NPAIRS] = np_new
-            ipar[I_REBUILDS] += 1
-            ipar[I_BUILT] = ipar[I_STEPS]
+            fpar.skin = skin
+            ipar.npairs = np_new
+            ipar.rebuilds += 1
+            ipar.built = ipar.steps
             pair_constants(pair_i, pair_j, np_new, rad, mass, pair_c)
             for i in range(n):
                 for a in range(d):
@@ -222,13 +203,13 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
             v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
             vmax2 = max(vmax2, v2)
             disp2 = max(disp2, s)
-        fpar[F_VMAX] = math.sqrt(vmax2)
+        fpar.v_max = math.sqrt(vmax2)
         piston_kick_drift(piston, dt)
         refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
-        _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar[I_NPAIRS],
+        _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
                     pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
-                    ws[W_TILE], ws[W_TILEP])
-        piston[P_A] = piston_acceleration(piston, gamma_piston)
+                    ws.tile, ws.tile_p)
+        piston.a = piston_acceleration(piston, gamma_piston)
         # accelerations (as to_accelerations) and the second half kick, in one pass
         for i in range(n):
             inv = inv_m[i]
@@ -240,18 +221,18 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
                 alpha[i, a] *= inv
                 omega[i, a] += 0.5 * dt * alpha[i, a]
         piston_half_kick(piston, dt)
-        ipar[I_STEPS] += 1
-        if check > 0 and ipar[I_STEPS] % check == 0:
+        ipar.steps += 1
+        if check > 0 and ipar.steps % check == 0:
             measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
-            if not (out[O_DMAX] < fpar[F_RMAX] and math.isfinite(out[O_KIN])):
+            if not (out.d_max < fpar.r_max and math.isfinite(out.kin)):
                 return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable
-            if ipar[I_ADAPTIVE]:
-                fpar[F_DT] = stable_dt_at(fpar, out[O_DMAX])
-            tol_a = fpar[F_TOLA]
-            tol_v = fpar[F_TOLV]
-            if (out[O_NTOP] > 0 and out[O_AMAX] < tol_a and out[O_ALPHAMAX] < tol_a
-                    and out[O_APISTON] < tol_a and out[O_VMAX] < tol_v and out[O_WMAX] < tol_v
-                    and abs(piston[P_V]) < tol_v):
+            if ipar.adaptive:
+                fpar.dt = stable_dt_at(fpar, out.d_max)
+            tol_a = fpar.tol_a
+            tol_v = fpar.tol_v
+            if (out.ntop > 0 and out.a_max < tol_a and out.alpha_max < tol_a
+                    and out.a_piston < tol_a and out.v_max < tol_v and out.w_max < tol_v
+                    and abs(piston.v) < tol_v):
                 return 1
     return 0
 

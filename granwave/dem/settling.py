@@ -120,7 +120,7 @@ class CriticalSettling:
             if e.measure()["kinetic_energy"] < self.late * self._kinetic_at_swing_end:
                 self._switch()
             return
-        up = e.piston[K.P_V] > 0.0
+        up = e.piston.v > 0.0
         if self.rise_step is None:
             if up:
                 self.rise_step = self._last_sample = e.steps

@@ -10,15 +10,12 @@ import numpy as np
 from .. import team
 from .. import threads as _threads  # noqa: F401  (selects the threading layer first)
 from .blocks import G_DISP, G_DVMAX, claim_block, visit_order
-from .layout import (F_DT, F_GAMMA, F_SKIN, F_VMAX, F_WALLH, I_BUILT, I_CHECK, I_STEPS, I_TEAM, I_TEAMSTEPS, P_A,
-                     P_FCON, P_H)
 from .mean_flow import M_GAMMA_M
 from .passes import _block_max, _incoming_block, _row_block, _slab_job
-from .piston import piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift
+from .layout import PARAMS, PISTON
+from .piston import copy_piston, piston_acceleration, piston_contact_force, piston_half_kick, piston_kick_drift
 from .time_step import rebuild_due
-from .workspace import (N_TEAM_TIMES, T_END, T_PASS1, T_PASS2, T_WAIT1, T_WAIT2, W_BF, W_BLK, W_CLAIM,
-                        W_INVI, W_INVM, W_MFLOW, W_OSLOT, W_OUT, W_PAIRC, W_ROW, W_SLABS, W_SLOT, W_SPAIR,
-                        W_TEAMTIME, W_TILE, W_TILEP, W_TOP, W_VISIT, W_WALLS)
+from .workspace import N_TEAM_TIMES, T_END, T_PASS1, T_PASS2, T_WAIT1, T_WAIT2
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -44,9 +41,9 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
     and at the barriers added to row t of ``times`` (T_* columns; a few counter reads per step).
     ``scr``, ``scr_p``: its tile scratch; ``order``: its row for :func:`visit_order`."""
     n = pos.shape[0]
-    dt = fpar[F_DT]
-    half_skin = 0.5 * fpar[F_SKIN]
-    slab_job = mflow.shape[0] > 0 and fpar[F_GAMMA] > 0.0
+    dt = fpar.dt
+    half_skin = 0.5 * fpar.skin
+    slab_job = mflow.shape[0] > 0 and fpar.gamma > 0.0
     gen = 0
     done = 0
     visit_order(t, threads, nblk, order)
@@ -57,7 +54,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
         reach = math.sqrt(disp2) + 2.0 * vmax * dt
         if (is_check or step + 1 >= n_steps or not math.isfinite(reach)
                 or rebuild_due(fpar, steps + 1 - built, reach)
-                or abs(piston[P_H] - fpar[F_WALLH]) > half_skin):
+                or abs(piston.h - fpar.wall_h) > half_skin):
             break
         phase = 2 * done + 1
         for j in range(nblk):
@@ -86,8 +83,8 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
         times[t, T_WAIT2] += c4 - c3
         # what _forces and run_chunk do after the passes, read before this thread arrives at the
         # next barrier: the next phase 1 writes no column read here, the next phase 2 all of them
-        piston[P_FCON] = piston_contact_force(blk_g, top_f, n, nblk)
-        piston[P_A] = piston_acceleration(piston, gamma_p)
+        piston.f_con = piston_contact_force(blk_g, top_f, n, nblk)
+        piston.a = piston_acceleration(piston, gamma_p)
         piston_half_kick(piston, dt)
         steps += 1
         step += 1
@@ -104,7 +101,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
 
 @numba.njit(cache=True, parallel=True)
 def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral, pos0, pair_i,
-                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, pistons, fpar, row, nblk, out_start, out_slot,
+                 pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, pistons, fpar1, row, nblk, out_start, out_slot,
                  slot_start, slot_pair, bnd_f, blk_g, top_f, mflow, slabs, tile, tile_p, gamma_p, check,
                  built, steps, step, n_steps, disp2, vmax, sync, claims, state, times, visit):
     threads = team.team_size(sync)
@@ -112,7 +109,7 @@ def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
         if team.enter(sync, threads):
             _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia,
                          inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
-                         pistons[t], fpar, row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
+                         pistons[t], fpar1[0], row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
                          top_f, mflow, slabs, tile[t], tile_p[t], gamma_p, check, built, steps, step,
                          n_steps, disp2, vmax, state, times, visit[t])
 
@@ -123,39 +120,41 @@ def _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, 
     """Run the plain steps from step ``step`` of :func:`run_chunk` (whose drift is done) in a team
     of threads: each step the passes of :func:`_forces` with the drift of the next, and the
     piston and the rebuild test as run_chunk, until a step is a check, needs a new pair list or
-    wall list, or is the last. Returns (steps run, disp2); updates the piston, ``fpar[F_VMAX]``
-    and the step counts. Returns (0, disp2) with ``ipar[I_TEAM]`` = -1 when the team did not
+    wall list, or is the last. Returns (steps run, disp2); updates the piston, ``fpar.v_max``
+    and the step counts. Returns (0, disp2) with ``ipar.team`` = -1 when the team did not
     start (:func:`granwave.team.enter`; then nothing was done), or when it has more threads than
     the workspace has tile scratches (more than numba can start: it would not start either)."""
-    threads = max(1, ws[W_CLAIM][0])
+    threads = max(1, ws.claims[0])
     team.reset_team(sync, threads)
-    if threads > ws[W_TILE].shape[0]:
-        ipar[I_TEAM] = -1
+    if threads > ws.tile.shape[0]:
+        ipar.team = -1
         return 0, disp2
-    pistons = np.empty((threads, piston.shape[0]))
+    pistons = np.empty(threads, PISTON)
     for t in range(threads):
-        for k in range(piston.shape[0]):
-            pistons[t, k] = piston[k]
+        pistons[t] = piston
+    # the parameters as a one-element array (numba's parallel loops take no record, passes._frozen);
+    # the team's threads only read them
+    fpar1 = np.empty(1, PARAMS)
+    fpar1[0] = fpar
     claims = np.zeros(nblk + 2, np.int64)
     state = np.zeros((threads, 3))
-    times = ws[W_TEAMTIME]
+    times = ws.team_times
     if times.shape[0] < threads:  # a team larger than numba's threads (it will not start): no row to miss
         times = np.zeros((threads, N_TEAM_TIMES), np.int64)
-    mflow = ws[W_MFLOW]
-    gamma_p = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[F_GAMMA]
-    _team_region(pos, vel, acc, omega, alpha, rad, ws[W_PAIRC], mass, inertia, ws[W_INVM], ws[W_INVI], lateral,
-                 pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws[W_WALLS], pistons, fpar, ws[W_ROW],
-                 nblk, ws[W_OUT], ws[W_OSLOT], ws[W_SLOT], ws[W_SPAIR], ws[W_BF], ws[W_BLK], ws[W_TOP], mflow,
-                 ws[W_SLABS], ws[W_TILE], ws[W_TILEP], gamma_p, ipar[I_CHECK], ipar[I_BUILT],
-                 ipar[I_STEPS], step, n_steps, disp2, fpar[F_VMAX], sync, claims, state, times, ws[W_VISIT])
+    mflow = ws.mflow
+    gamma_p = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
+    _team_region(pos, vel, acc, omega, alpha, rad, ws.pair_c, mass, inertia, ws.inv_m, ws.inv_i, lateral,
+                 pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws.walls, pistons, fpar1, ws.row,
+                 nblk, ws.out_start, ws.out_slot, ws.slot_start, ws.slot_pair, ws.bnd_f, ws.blk, ws.top, mflow,
+                 ws.slabs, ws.tile, ws.tile_p, gamma_p, ipar.check, ipar.built,
+                 ipar.steps, step, n_steps, disp2, fpar.v_max, sync, claims, state, times, ws.visit)
     if sync[team.S_ENTRY] < threads:
-        ipar[I_TEAM] = -1
+        ipar.team = -1
         return 0, disp2
     done = int(state[0, 0])
     if done > 0:
-        for k in range(piston.shape[0]):
-            piston[k] = pistons[0, k]
-        fpar[F_VMAX] = state[0, 2]
-        ipar[I_STEPS] += done
-        ipar[I_TEAMSTEPS] += done
+        copy_piston(piston, pistons[0])
+        fpar.v_max = state[0, 2]
+        ipar.steps += done
+        ipar.team_steps += done
     return done, state[0, 1]

@@ -9,8 +9,6 @@ import numba
 from .. import contact as C
 from .. import contact_models as CM
 from .contact_law import law_of
-from .layout import (F_DFLOOR, F_GROLL, F_KROLL, F_MMIN, F_MU, F_POISSON, F_RMAX, F_ROLL, F_SAFETY, F_SKIN,
-                     F_SKIN_MAX, F_SKIN_MIN, F_ZETA, I_BUILT, I_STEPS)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -50,16 +48,16 @@ def stable_dt(fpar):
     (contact_models.law_step_stiffness: a harmonic k_n, the same for every contact, counts twice,
     for a grain's contacts acting together; eta is the same for both laws).
     """
-    k = CM.law_step_stiffness(law_of(fpar), fpar[F_DFLOOR], math.sqrt(fpar[F_RMAX]), C.effective_young(True))
-    omega = math.sqrt(k / fpar[F_MMIN])
-    zeta = fpar[F_ZETA]
+    k = CM.law_step_stiffness(law_of(fpar), fpar.overlap_floor, math.sqrt(fpar.r_max), C.effective_young(True))
+    omega = math.sqrt(k / fpar.m_min)
+    zeta = fpar.zeta
     limit = verlet_limit(omega, zeta)
-    if fpar[F_MU] > 0.0:
-        omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar[F_POISSON]))
+    if fpar.mu > 0.0:
+        omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar.poisson))
         limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
-    if fpar[F_ROLL] != 0.0:
+    if fpar.roll != 0.0:
         limit = min(limit, rolling_limit(fpar))
-    return fpar[F_SAFETY] / SAFETY_AT_LIMIT * limit
+    return fpar.safety / SAFETY_AT_LIMIT * limit
 
 
 #: I / (m R^2) of a solid sphere (I = m d^2 / 10, in 2D too)
@@ -72,9 +70,9 @@ def rolling_limit(fpar):
     grain turning on a wall's rolling spring, I theta'' = -R^2 (k_r theta + gamma_r theta'), so
     omega_r^2 = k_r / (0.4 m_min) and damping ratio gamma_r / (2 sqrt(0.4 m_min k_r)); twice k_r
     (a grain's contacts acting together, as for the harmonic law)."""
-    k = 2.0 * fpar[F_KROLL]
-    m = SPHERE_INERTIA * fpar[F_MMIN]
-    return verlet_limit(math.sqrt(k / m), fpar[F_GROLL] / (2.0 * math.sqrt(m * k)))
+    k = 2.0 * fpar.k_roll
+    m = SPHERE_INERTIA * fpar.m_min
+    return verlet_limit(math.sqrt(k / m), fpar.gamma_roll / (2.0 * math.sqrt(m * k)))
 
 
 #: Adaptive skin: steps a pair list is meant to last (:func:`next_skin`). A rebuild of a
@@ -92,16 +90,16 @@ def needs_rebuild(fpar, ipar, reach, ahead):
     the current one: they have slowed down, and a list with a smaller skin makes each
     step cheaper (:func:`next_skin`).
     """
-    return rebuild_due(fpar, ipar[I_STEPS] + ahead - ipar[I_BUILT], reach)
+    return rebuild_due(fpar, ipar.steps + ahead - ipar.built, reach)
 
 
 @numba.njit(cache=True, inline="always")
 def rebuild_due(fpar, lasted, reach):
     """:func:`needs_rebuild` for a list that will have lasted ``lasted`` steps."""
-    skin = fpar[F_SKIN]
+    skin = fpar.skin
     if reach > 0.5 * skin:
         return True
-    return (fpar[F_SKIN_MIN] < skin and lasted >= 2 * SKIN_STEPS
+    return (fpar.skin_min < skin and lasted >= 2 * SKIN_STEPS
             and 2.0 * SKIN_STEPS * reach < 0.5 * skin * lasted)
 
 
@@ -109,18 +107,18 @@ def rebuild_due(fpar, lasted, reach):
 def next_skin(fpar, ipar, reach):
     """Skin of the pair list about to be made (d).
 
-    Fixed unless ``fpar[F_SKIN_MIN] < fpar[F_SKIN_MAX]``; then the skin that the grains'
+    Fixed unless ``fpar.skin_min < fpar.skin_max``; then the skin that the grains'
     speed of the list now ending (``reach`` over the steps it lasted) would take
     :data:`SKIN_STEPS` steps to use up, within [F_SKIN_MIN, F_SKIN_MAX] and within a
     factor of two of the current skin. A skin changes no bit of a run: positions are folded
     into the box at every drift, never at a rebuild, and pairs not in contact add nothing.
     """
-    skin = fpar[F_SKIN]
-    lo = fpar[F_SKIN_MIN]
-    hi = fpar[F_SKIN_MAX]
+    skin = fpar.skin
+    lo = fpar.skin_min
+    hi = fpar.skin_max
     if not lo < hi:
         return skin
-    lasted = max(ipar[I_STEPS] - ipar[I_BUILT], 1)
+    lasted = max(ipar.steps - ipar.built, 1)
     want = 2.0 * SKIN_STEPS * reach / lasted
     return min(max(want, lo, 0.5 * skin), hi, 2.0 * skin)
 
@@ -128,8 +126,8 @@ def next_skin(fpar, ipar, reach):
 @numba.njit(cache=True)
 def stable_dt_at(fpar, dmax):
     """:func:`stable_dt` with the overlap floor raised to the current largest overlap."""
-    floor = fpar[F_DFLOOR]
-    fpar[F_DFLOOR] = max(floor, dmax)
+    floor = fpar.overlap_floor
+    fpar.overlap_floor = max(floor, dmax)
     dt = stable_dt(fpar)
-    fpar[F_DFLOOR] = floor
+    fpar.overlap_floor = floor
     return dt

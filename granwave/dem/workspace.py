@@ -1,8 +1,10 @@
-"""The parallel engine's workspace: its arrays (:func:`workspace`, indexed by the W_*
-constants), the incoming lists of the grain blocks and the wall list, remade at rebuilds.
+"""The parallel engine's workspace: its arrays (:func:`workspace`, a :class:`Workspace` named
+tuple), the incoming lists of the grain blocks and the wall list, remade at rebuilds.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -10,7 +12,6 @@ import numpy as np
 from . import pair_tile as PT
 from .blocks import N_GCOL, block_bounds, block_count
 from .contact_law import N_PCOL
-from .layout import F_SKIN, F_WALLH, P_H
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -38,11 +39,11 @@ def wall_list(pos, rad, h, skin, wall_ov, walls):
 def refresh_wall_list(pos_ref, rad, piston, fpar, wall_ov, walls, force):
     """Make the wall list (:func:`wall_list`, from the positions ``pos_ref``) again when
     ``force`` or when the piston has moved more than skin / 2 since it was made (its height
-    then is kept in ``fpar[F_WALLH]``)."""
-    h = piston[P_H]
-    if force or abs(h - fpar[F_WALLH]) > 0.5 * fpar[F_SKIN]:
-        wall_list(pos_ref, rad, h, fpar[F_SKIN], wall_ov, walls)
-        fpar[F_WALLH] = h
+    then is kept in ``fpar.wall_h``)."""
+    h = piston.h
+    if force or abs(h - fpar.wall_h) > 0.5 * fpar.skin:
+        wall_list(pos_ref, rad, h, fpar.skin, wall_ov, walls)
+        fpar.wall_h = h
 
 
 @numba.njit(cache=True, inline="always")
@@ -59,6 +60,35 @@ def first_wall_entry(walls, b0):
     return lo
 
 
+class Workspace(NamedTuple):
+    """The parallel kernels' arrays (:func:`workspace` says what each holds); numba takes the
+    named tuple as it is and reads its fields by name."""
+    nbr: np.ndarray
+    gather: np.ndarray
+    ncount: np.ndarray
+    nlo: np.ndarray
+    row: np.ndarray
+    need: np.ndarray
+    blk: np.ndarray
+    top: np.ndarray
+    pair_c: np.ndarray
+    walls: np.ndarray
+    slot_start: np.ndarray
+    out_start: np.ndarray
+    slot_pair: np.ndarray
+    out_slot: np.ndarray
+    bnd_f: np.ndarray
+    inv_m: np.ndarray
+    inv_i: np.ndarray
+    mflow: np.ndarray
+    slabs: np.ndarray
+    tile: np.ndarray
+    tile_p: np.ndarray
+    claims: np.ndarray
+    team_times: np.ndarray
+    visit: np.ndarray
+
+
 def boundary_room(n_grains: int) -> int:
     """Incoming pairs a new workspace has room for (it grows when a rebuild needs more)."""
     return max(64, n_grains // 2)
@@ -67,8 +97,8 @@ def boundary_room(n_grains: int) -> int:
 def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundary: int = 0, mflow=None,
               slabs=None, blocks: int | None = None) -> tuple:
     """Arrays of the parallel kernels for ``n_grains`` grains, ``width`` neighbours per grain and
-    room for ``boundary`` incoming pairs (at least :func:`boundary_room`); indexed by the W_* constants:
-    the neighbour and gather lists, counts and pair-list offsets of
+    room for ``boundary`` incoming pairs (at least :func:`boundary_room`), the fields of
+    :class:`Workspace` in order: the neighbour and gather lists, counts and pair-list offsets of
     :func:`granwave.dem.neighbours.rebuild` and its size request (pairs, width, incoming pairs),
     each block's incoming pairs (their slots) and the place of each in its owner's row order
     (:func:`incoming_lists`), the per-block statistics, the top-wall forces,
@@ -87,7 +117,7 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
     nblk = block_count(n) if blocks is None else int(blocks)
     cap_b = max(boundary_room(n), int(boundary))
     rows = max(1, numba.config.NUMBA_NUM_THREADS)  # one per thread numba can start
-    return (np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
+    return Workspace(np.zeros((n, width), np.int64), np.zeros((n, width), np.int64),
             np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n + 1, np.int64),
             np.zeros(3, np.int64), np.zeros((nblk, N_GCOL)), np.zeros(max(1, n)), np.zeros((cap, N_PCOL)),
             np.zeros(n + 1, np.int64),
@@ -98,34 +128,28 @@ def workspace(n_grains: int, dim: int, n_rot: int, cap: int, width: int, boundar
             np.zeros((rows, 2 * nblk), np.int64))
 
 
-# workspace entries
-W_NBR, W_GL, W_NCNT, W_NLO, W_ROW, W_NEED, W_BLK, W_TOP, W_PAIRC, W_WALLS, W_SLOT, W_OUT, W_SPAIR, W_OSLOT, \
-    W_BF, W_INVM, W_INVI, W_MFLOW, W_SLABS, W_TILE, W_TILEP, W_CLAIM, W_TEAMTIME, W_VISIT = range(24)
 #: per thread of a team, cycles (team.cycle_counter) spent in its blocks of the first pass (with
 #: the step's own tests), waiting at the barrier after it, in its blocks of the second pass,
 #: waiting at the barrier after that, and after it in the step's end (the piston, the blocks'
-#: maxima); summed over the engine's team steps (``ws[W_TEAMTIME]``; read by
+#: maxima); summed over the engine's team steps (``ws.team_times``; read by
 #: benchmarks/dem_team_times.py)
 T_PASS1, T_WAIT1, T_PASS2, T_WAIT2, T_END = range(5)
 N_TEAM_TIMES = 5
 
 
-def with_blocks(ws: tuple, nblk: int) -> tuple:
+def with_blocks(ws: Workspace, nblk: int) -> Workspace:
     """The workspace ``ws`` with its per-block arrays sized for ``nblk`` blocks (the rest
     shared); the incoming lists are rebuilt at the next :func:`run_chunk`."""
-    if ws[W_BLK].shape[0] == nblk:
+    if ws.blk.shape[0] == nblk:
         return ws
-    new = list(ws)
-    for w in (W_SLOT, W_OUT):
-        new[w] = np.zeros(nblk + 1, np.int64)
-    new[W_BLK] = np.zeros((nblk, N_GCOL))
-    new[W_CLAIM] = np.zeros(nblk + 2, np.int64)
-    new[W_CLAIM][0] = ws[W_CLAIM][0]
-    new[W_VISIT] = np.zeros((ws[W_VISIT].shape[0], 2 * nblk), np.int64)
-    return tuple(new)
+    claims = np.zeros(nblk + 2, np.int64)
+    claims[0] = ws.claims[0]
+    return ws._replace(slot_start=np.zeros(nblk + 1, np.int64), out_start=np.zeros(nblk + 1, np.int64),
+                       blk=np.zeros((nblk, N_GCOL)), claims=claims,
+                       visit=np.zeros((ws.visit.shape[0], 2 * nblk), np.int64))
 
 
-def grown_workspace(ws: tuple, cap: int, width: int, boundary: int, keep_lists: bool) -> tuple:
+def grown_workspace(ws: Workspace, cap: int, width: int, boundary: int, keep_lists: bool) -> Workspace:
     """The workspace ``ws`` with room for ``cap`` pairs, ``width`` neighbours per grain and
     ``boundary`` incoming pairs: only the arrays whose size changes are new (the pair constants
     carried over); the others are the same arrays. The neighbour and gather lists, counts and
@@ -134,24 +158,21 @@ def grown_workspace(ws: tuple, cap: int, width: int, boundary: int, keep_lists: 
     :func:`run_chunk`. Making the whole workspace again at every growth (its arrays take about
     1 KB per grain in 3D) would leave the freed arrays in the allocator's heap: a step in the
     resident memory of a large preparation."""
-    new = list(ws)
-    n = ws[W_NCNT].shape[0]
-    if width != ws[W_NBR].shape[1]:
-        new[W_NBR] = np.zeros((n, width), np.int64)
-        new[W_GL] = np.zeros((n, width), np.int64)
-    if cap != ws[W_PAIRC].shape[0]:
-        old_c = ws[W_PAIRC]
-        new[W_PAIRC] = np.zeros((cap, N_PCOL))
-        new[W_PAIRC][: old_c.shape[0]] = old_c
-    if boundary != ws[W_SPAIR].shape[0]:
-        cols = ws[W_BF].shape[1]
-        new[W_SPAIR] = np.zeros(boundary, np.int64)
-        new[W_OSLOT] = np.zeros(boundary, np.int64)
-        new[W_BF] = np.zeros((boundary, cols))
+    new = {}
+    n = ws.ncount.shape[0]
+    if width != ws.nbr.shape[1]:
+        new.update(nbr=np.zeros((n, width), np.int64), gather=np.zeros((n, width), np.int64))
+    if cap != ws.pair_c.shape[0]:
+        new["pair_c"] = np.zeros((cap, N_PCOL))
+        new["pair_c"][: ws.pair_c.shape[0]] = ws.pair_c
+    if boundary != ws.slot_pair.shape[0]:
+        new.update(slot_pair=np.zeros(boundary, np.int64), out_slot=np.zeros(boundary, np.int64),
+                   bnd_f=np.zeros((boundary, ws.bnd_f.shape[1])))
+    ws = ws._replace(**new)
     if not keep_lists:
-        for w in (W_NBR, W_GL, W_NCNT, W_NLO):
-            new[w][:] = 0
-    return tuple(new)
+        for a in (ws.nbr, ws.gather, ws.ncount, ws.nlo):
+            a[:] = 0
+    return ws
 
 
 @numba.njit(cache=True)
@@ -197,10 +218,10 @@ def incoming_lists(nbr, nlo, gl, row, nblk, slot_start, out_start, slot_pair, ou
 def prepare_blocks(rad, mass, inertia, ws, nblk):
     """1/m and 1/I per grain (the one-thread loop's divisions, once per chunk) and the
     incoming lists (:func:`incoming_lists`) of ``nblk`` blocks into the workspace; returns
-    the number of incoming pairs (also into ``ws[W_NEED][2]``): above the room of the
+    the number of incoming pairs (also into ``ws.need[2]``): above the room of the
     workspace, the lists are not usable."""
-    inv_m = ws[W_INVM]
-    inv_i = ws[W_INVI]
+    inv_m = ws.inv_m
+    inv_i = ws.inv_i
     for i in range(rad.shape[0]):
         inv_m[i] = 1.0 / mass[i]
         inv_i[i] = 1.0 / inertia[i]
@@ -209,13 +230,13 @@ def prepare_blocks(rad, mass, inertia, ws, nblk):
 
 @numba.njit(cache=True)
 def _lists(ws, nblk):
-    s = incoming_lists(ws[W_NBR], ws[W_NLO], ws[W_GL], ws[W_ROW], nblk, ws[W_SLOT], ws[W_OUT], ws[W_SPAIR],
-                       ws[W_OSLOT])
-    ws[W_NEED][2] = s
+    s = incoming_lists(ws.nbr, ws.nlo, ws.gather, ws.row, nblk, ws.slot_start, ws.out_start, ws.slot_pair,
+                       ws.out_slot)
+    ws.need[2] = s
     return s
 
 
 def boundary_fraction(ws, n_pairs: int) -> float:
     """Incoming pairs (those computed in phase 1, by the block of their grain j) over all pairs
     of the list, for the lists last built in ``ws``."""
-    return float(ws[W_SLOT][-1]) / max(1, n_pairs)
+    return float(ws.slot_start[-1]) / max(1, n_pairs)

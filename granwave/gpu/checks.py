@@ -255,10 +255,11 @@ def rules(steps: int = 6) -> dict:
     out = {}
     for dim, friction, rule in ((2, 0.5, (0.2, 1.0)), (3, 0.0, None)):
         cpu, gpu = run(Engine, dim, friction, rule), run(GpuEngine, dim, friction, rule)
-        out[f"state_abs_{dim}d"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(gpu, s)), initial=0.0))
-                                       for s in (*STATE, "piston"))
+        piston = np.abs(np.array(cpu.piston.tolist()) - np.array(gpu.piston.tolist()))  # a record's fields
+        out[f"state_abs_{dim}d"] = max(float(np.max(piston)), *(
+            float(np.max(np.abs(getattr(cpu, s) - getattr(gpu, s)), initial=0.0)) for s in STATE))
         out[f"piston_moved_{dim}d"] = abs(cpu.height - TOP[dim])
-        out[f"piston_force_{dim}d"] = float(cpu.piston[K.P_FCON])
+        out[f"piston_force_{dim}d"] = float(cpu.piston.f_con)
         out[f"steps_{dim}d"] = gpu.steps
     return out
 

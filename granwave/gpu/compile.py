@@ -4,7 +4,9 @@
 :mod:`granwave.contact` (the scalar Hertz-Mindlin law), of :mod:`granwave.contact_models` (the
 selectable normal laws and their dispatchers) and the per-contact routine
 :func:`granwave.dem.kernels.contact_force3` (``.py_func``: the very code the CPU compiles)
-and compiles them with ``cuda.jit(device=True)``. Only their global names are rebound: inside
+and compiles them with ``cuda.jit(device=True)``; so also the rolling sub-model, the rule
+'mean-flow''s slab term and the per-grain part of a step (:mod:`granwave.dem.grain_step`: walls,
+damping, convergence measures). Only their global names are rebound: inside
 the device copies, a call to another contact function (``C.normal_force`` in
 ``contact_force3``, ``shear_modulus_star`` in ``effective_shear``) resolves to its device
 copy instead of the CPU dispatcher, which CUDA kernels cannot call. No arithmetic is
@@ -18,7 +20,7 @@ import functools
 import types
 
 from .. import contact, contact_models, geometry
-from ..dem import kernels as K
+from ..dem import kernels as K, mean_flow
 from . import load_cuda
 
 cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
@@ -32,10 +34,19 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
                      "total_normal_force", "tangential_part3", "project_tangential3", "unloads",
                      "unloading_scale", "increment_and_cap3", "update_tangential3")
 
-#: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions.
-ENGINE_FUNCTIONS = ("law_of", "contact_force3", "_pair_geometry", "_spin", "_contact_velocity", "_add_torque3",
-                    "wall_contact", "piston_acceleration", "pair_constants3", "drift_grain",
-                    "_pair_law")  # _pair_law last: it calls the others
+#: The rolling sub-model's formulas (granwave.contact_models.rolling), called by the wall routine.
+ROLLING_FUNCTIONS = ("rolling_velocity", "carried_into_plane", "sds_couple")
+
+#: The compaction rule 'mean-flow''s per-grain term and its helpers (granwave.dem.mean_flow).
+MEAN_FLOW_FUNCTIONS = ("_slab", "lateral_on", "add_slab_damping")
+
+#: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions, each after
+#: those it calls; the per-grain routines of granwave.dem.grain_step last.
+ENGINE_FUNCTIONS = ("law_of", "rolling_of", "contact_force3", "_pair_geometry", "_spin", "_contact_velocity",
+                    "_add_torque3", "wall_contact", "relative_spin", "rolling_history", "store_rolling_history",
+                    "wall_rolling", "torque_with_couple", "add_torque_with_couple", "piston_acceleration",
+                    "pair_constants3", "drift_grain", "_pair_law", "grain_walls", "grain_damping",
+                    "grain_measures")
 
 
 def _rebound(py_func, namespace: dict):
@@ -75,7 +86,22 @@ def device_functions() -> types.ModuleType:
         names[name] = fn
         setattr(ns, name, fn)
     ns.ContactModel = contact_models.ContactModel
+    # the rolling sub-model: its formulas (called as ``rolling.NAME``), then its dispatcher
+    roll = types.ModuleType("granwave_rolling_device")
+    for name in ("NONE", "SDS", "FRAME_EPSILON"):
+        setattr(roll, name, getattr(contact_models.rolling, name))
+    for name in ROLLING_FUNCTIONS:
+        fn = cuda.jit(device=True)(_rebound(getattr(contact_models.rolling, name).py_func, names))
+        names[name] = fn
+        setattr(roll, name, fn)
+    names["rolling"] = roll
+    ns.rolling_couple = cuda.jit(device=True)(_rebound(contact_models.rolling_couple.py_func, names))
+    ns.RollingModel = contact_models.RollingModel
     names["CM"] = ns
+    for name in MEAN_FLOW_FUNCTIONS:
+        fn = cuda.jit(device=True)(_rebound(getattr(mean_flow, name).py_func, names))
+        names[name] = fn
+        setattr(ns, name, fn)
     for name in ("nearest_image", "fold_into_box"):
         fn = cuda.jit(device=True)(_rebound(getattr(geometry, name).py_func, names))
         names[name] = fn

@@ -46,6 +46,7 @@ import numpy as np
 
 from ..dem import kernels as K
 from ..dem.integrator import Engine
+from ..errors import InputError
 from . import load_cuda, simulated
 from .compile import device_functions
 from . import mean_flow as MF
@@ -65,6 +66,10 @@ pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
 law_of = DF.law_of
+rolling_of = DF.rolling_of
+grain_walls = DF.grain_walls
+grain_damping = DF.grain_damping
+grain_measures = DF.grain_measures
 
 #: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
 #: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
@@ -89,17 +94,18 @@ N_STAT = 5
 
 
 @cuda.jit
-def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston, dt, gv2, gdisp2, ctl):
+def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston1, dt, gv2, gdisp2, ctl):
     """Half kick and drift of every grain (the CPU's ``drift_grain``; thread 0 also moves the
     piston); per-grain |v|^2 and squared displacement since the last rebuild into ``gv2``,
     ``gdisp2``. Like every step kernel, nothing once ``ctl[C_STATUS]`` is set (the run stopped
     on the device: a rebuild without room, or a blown-up state)."""
+    piston = piston1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     n = pos.shape[0]
     if ctl[C_STATUS] != 0:
         return
-    if cuda.grid(1) == 0 and piston[K.P_MASS] < math.inf:
-        piston[K.P_V] += 0.5 * dt * piston[K.P_A]
-        piston[K.P_H] += dt * piston[K.P_V]
+    if cuda.grid(1) == 0 and piston.mass < math.inf:
+        piston.v += 0.5 * dt * piston.a
+        piston.h += dt * piston.v
     for i in range(cuda.grid(1), n, cuda.gridsize(1)):
         v2, s = DF.drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, 0.5 * dt, dt)
         gv2[i] = v2
@@ -108,10 +114,11 @@ def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston, dt, gv2, gdis
 
 @cuda.jit
 def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, ctl, pair_ft, pair_ov,
-                fpar, pf, tq_i, tq_j, pdelta):
+                fpar1, pf, tq_i, tq_j, pdelta):
     """Force on i of every listed pair (the CPU force loop's pair body; ``ctl[C_NPAIRS]`` pairs,
     a grid-stride loop), its torques on i and j, and its overlap (-1: not touching); tangential
     history updated in place."""
+    fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_STATUS] != 0:
         return
     for p in range(cuda.grid(1), ctl[C_NPAIRS], cuda.gridsize(1)):
@@ -124,11 +131,11 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
                 tq_i, tq_j, pdelta):
     d = pos.shape[1]
     r = omega.shape[1]
-    dt = fpar[K.F_DT]
-    zeta = fpar[K.F_ZETA]
-    mu = fpar[K.F_MU]
-    poisson = fpar[K.F_POISSON]
-    rescale = fpar[K.F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    poisson = fpar.poisson
+    rescale = fpar.rescale != 0.0
     for a in range(3):
         pf[p, a] = 0.0
     for a in range(r):
@@ -164,9 +171,11 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
 
 @cuda.jit
 def grain_forces(pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, inc_pair, pf, tq_i, tq_j,
-                 wall_ft, wall_ov, piston, fpar, gfp, gtop, gdmax, gcount, ctl, mflow, slabs):
+                 wall_ft, wall_ov, piston1, fpar1, gfp, gtop, gdmax, gcount, ctl, mflow, slabs):
     """:func:`_grain_force` of every grain (a grid-stride loop); ``mflow``, ``slabs``: the
     compaction rule 'mean-flow' (empty ``mflow``: off; :mod:`granwave.gpu.mean_flow`)."""
+    piston = piston1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
+    fpar = fpar1[0]
     if ctl[C_STATUS] != 0:
         return
     for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
@@ -185,15 +194,15 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
     ``inc_pair`` holds p + 1 where the grain is the pair's i, -(p + 1) where it is its j."""
     d = pos.shape[1]
     r = omega.shape[1]
-    dt = fpar[K.F_DT]
-    zeta = fpar[K.F_ZETA]
-    mu = fpar[K.F_MU]
-    poisson = fpar[K.F_POISSON]
-    gamma = fpar[K.F_GAMMA]
-    rescale = fpar[K.F_RESCALE] != 0.0
+    dt = fpar.dt
+    zeta = fpar.zeta
+    mu = fpar.mu
+    poisson = fpar.poisson
+    gamma = fpar.gamma
+    rescale = fpar.rescale != 0.0
     law = law_of(fpar)
-    h = piston[K.P_H]
-    vp = piston[K.P_V]
+    h = piston.h
+    vp = piston.v
     for a in range(d):
         acc[i, a] = 0.0
     for a in range(r):
@@ -212,34 +221,15 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
                 acc[i, a] -= pf[p, a]
             for a in range(r):
                 alpha[i, a] += tq_j[p, a]
+    # the walls, damping and slab term: the CPU engines' own per-grain routines (grain_step, mean_flow)
+    top, ntop, dmax, count = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp,
+                                         effective_young(True), effective_shear(poisson, True), dt, zeta, mu,
+                                         rescale, law, rolling_of(fpar), acc, alpha, 0.0, 0)
     fpiston = 0.0
-    ntop = 0
-    dmax = 0.0
-    count = 0
-    for k in range(2):
-        delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i,
-                                                         k, h, vp, effective_young(True),
-                                                         effective_shear(poisson, True), dt, zeta, mu,
-                                                         rescale, law)
-        if delta <= 0.0:
-            continue
-        acc[i, 0] += fx
-        acc[i, 1] += fy
-        if d == 3:
-            acc[i, 2] += fz
-        if r > 0:
-            add_torque3(alpha, i, ai, nx, ny, nz, fx, fy, fz)
-        if k == 1:
-            fpiston -= fz if d == 3 else fy
-            ntop += 1
-        if delta > dmax:
-            dmax = delta
-        count += 1
+    if ntop:
+        fpiston -= top
     if gamma > 0.0:
-        for a in range(d):
-            acc[i, a] -= gamma * mass[i] * vel[i, a]
-        for a in range(r):
-            alpha[i, a] -= gamma * inertia[i] * omega[i, a]
+        grain_damping(i, vel, omega, mass, inertia, gamma, acc, alpha)
         if mflow.shape[0] > 0:  # after the grain's damping, as the CPU force loop
             MF.add_slab_damping(i, i + 1, pos, mass, gamma, mflow, slabs, acc)
     inv = 1.0 / mass[i]
@@ -332,10 +322,12 @@ def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl, part):
 
 
 @cuda.jit
-def finish(part, piston, fpar, mflow, red, ctl):
+def finish(part, piston1, fpar1, mflow, red, ctl):
     """One block: the NPART partial results combined in a fixed order into ``red``, then the
     piston's acceleration (damped at gamma_m under the rule 'mean-flow', non-empty ``mflow``)
     and second half kick; the step counted in ``ctl[C_STEPS]``."""
+    piston = piston1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
+    fpar = fpar1[0]
     if ctl[C_STATUS] != 0:
         return
     t = cuda.threadIdx.x
@@ -377,19 +369,18 @@ def finish(part, piston, fpar, mflow, red, ctl):
         red[R_DISP2] = s_disp[0]
         red[R_VMAX] = math.sqrt(s_v2[0])
         ctl[C_STEPS] += 1
-        piston[K.P_FCON] = s_fp[0]
-        gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar[K.F_GAMMA]
-        piston[K.P_A] = piston_acceleration(piston, gamma_piston)
-        if piston[K.P_MASS] < math.inf:
-            piston[K.P_V] += 0.5 * fpar[K.F_DT] * piston[K.P_A]
+        piston.f_con = s_fp[0]
+        gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
+        piston.a = piston_acceleration(piston, gamma_piston)
+        if piston.mass < math.inf:
+            piston.v += 0.5 * fpar.dt * piston.a
 
 
 @cuda.jit
 def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
     """One block: largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the grains' kinetic energy."""
     t = cuda.threadIdx.x
-    n, d = vel.shape
-    r = omega.shape[1]
+    n = vel.shape[0]
     s_a = cuda.shared.array(RBLOCK, np.float64)
     s_al = cuda.shared.array(RBLOCK, np.float64)
     s_v = cuda.shared.array(RBLOCK, np.float64)
@@ -401,25 +392,16 @@ def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
     wmax = 0.0
     kin = 0.0
     for i in range(t, n, RBLOCK):
-        a2 = 0.0
-        v2 = 0.0
-        for a in range(d):
-            a2 += acc[i, a] * acc[i, a]
-            v2 += vel[i, a] * vel[i, a]
-        al2 = 0.0
-        w2 = 0.0
-        for a in range(r):
-            al2 += alpha[i, a] * alpha[i, a]
-            w2 += omega[i, a] * omega[i, a]
+        a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
         if a2 > amax:
             amax = a2
         if al2 > almax:
             almax = al2
         if v2 > vmax:
             vmax = v2
-        if w2 * rad[i] * rad[i] > wmax:
-            wmax = w2 * rad[i] * rad[i]
-        kin += 0.5 * (mass[i] * v2 + inertia[i] * w2)
+        if w2r2 > wmax:
+            wmax = w2r2
+        kin += k
     s_a[t] = amax
     s_al[t] = almax
     s_v[t] = vmax
@@ -509,8 +491,9 @@ class GpuEngine(Engine):
         to = cuda.to_device
         self.g = {name: to(getattr(self, name)) for name in
                   ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
-                   "radius", "mass", "inertia", "lateral", "pos0", "wall_ft", "wall_ov", "piston",
-                   "fpar")}
+                   "radius", "mass", "inertia", "lateral", "pos0", "wall_ft", "wall_ov")}
+        # the records (granwave.dem.layout) as one-element arrays: a kernel's ``fpar1[0]`` is the record
+        self.g.update(piston=to(K.as_array(self.piston)), fpar=to(K.as_array(self.fpar)))
         self.g["inv_rad"] = to(1.0 / self.radius)
         for name in ("v2", "disp2", "fp", "top", "dmax", "count"):
             self.g[name] = cuda.device_array(n)
@@ -518,19 +501,19 @@ class GpuEngine(Engine):
         x[:, :-1] -= self.lateral * np.round(x[:, :-1] / self.lateral)  # nearest image (folded drifts)
         self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
         red = np.zeros(N_RED)
-        red[R_FPISTON] = self.piston[K.P_FCON]
-        red[R_NTOP] = self.out[K.O_NTOP]
-        red[R_NCONTACT] = self.out[K.O_NCONTACT]
-        red[R_DMAX] = self.out[K.O_DMAX]
-        red[R_VMAX2] = self.fpar[K.F_VMAX] ** 2
+        red[R_FPISTON] = self.piston.f_con
+        red[R_NTOP] = self.out.ntop
+        red[R_NCONTACT] = self.out.ncontact
+        red[R_DMAX] = self.out.d_max
+        red[R_VMAX2] = self.fpar.v_max ** 2
         red[R_DISP2] = self._disp2
-        red[R_VMAX] = self.fpar[K.F_VMAX]
+        red[R_VMAX] = self.fpar.v_max
         self.g["red"] = to(red)
         self.g["part"] = cuda.device_array((NPART, N_RED))
         self.g["stat"] = cuda.device_array(N_STAT)
         ctl = np.zeros(N_CTL, np.int64)
-        ctl[C_STEPS] = self.ipar[K.I_STEPS]
-        ctl[C_REBUILDS] = self.ipar[K.I_REBUILDS]
+        ctl[C_STEPS] = self.ipar.steps
+        ctl[C_REBUILDS] = self.ipar.rebuilds
         ctl[NB.C_AHEAD] = max(1, int(self.rebuild_every))
         self.g["ctl"] = to(ctl)
         self._upload_mean_flow()
@@ -550,6 +533,12 @@ class GpuEngine(Engine):
             g["slab_lo"] = to(np.full(ns, n, np.int64))
             g["slab_hi"] = to(np.full(ns, -1, np.int64))
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # the device's pair kernel has no rolling couple (its wall routine, the CPU's own, would)
+        if self.rolling.kind != 0:
+            raise InputError("rolling resistance runs on the CPU only for now (use --device cpu)")
+
     def _cpu_only(self) -> None:
         """Nothing to refuse: the device runs every rule of the CPU engine (the CPU engine's
         constructor calls this where a rule might be missing on another engine)."""
@@ -558,7 +547,7 @@ class GpuEngine(Engine):
         """The pair list, its history and incidence list, and the rebuild's work arrays, at the
         host arrays' capacity; the pair count into ``ctl``."""
         n = self.position.shape[0]
-        m = int(self.ipar[K.I_NPAIRS])
+        m = int(self.ipar.npairs)
         d = self.dim
         r = max(self.angular_velocity.shape[1], 1)
         cap = max(len(self.pair_i), 1)
@@ -572,8 +561,8 @@ class GpuEngine(Engine):
                   code=to(code2), pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
                   tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), row=to(row))
         if self.device_rebuild:
-            ncell = NB.cell_capacity(self.lateral, self.piston[K.P_H], self.fpar[K.F_RMAX],
-                                     self.fpar[K.F_SKIN_MAX])
+            ncell = NB.cell_capacity(self.lateral, self.piston.h, self.fpar.r_max,
+                                     self.fpar.skin_max)
             z = cuda.device_array
             gp.update(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
                       ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
@@ -584,7 +573,7 @@ class GpuEngine(Engine):
         self.g["ctl"][C_NPAIRS:C_NPAIRS + 1].copy_to_device(np.array([m], np.int64))
 
     def _download_pairs(self) -> None:
-        m = int(self.ipar[K.I_NPAIRS])
+        m = int(self.ipar.npairs)
         if self.device_rebuild:  # the list itself may have been made on the device
             if m > len(self.pair_i):
                 self._grow_pairs(m)
@@ -610,15 +599,15 @@ class GpuEngine(Engine):
         ctl = self.g["ctl"].copy_to_host()
         red = self.g["red"].copy_to_host()
         ipar, out = self.ipar, self.out
-        ipar[K.I_STEPS] = ctl[C_STEPS]
-        ipar[K.I_REBUILDS] = ctl[C_REBUILDS]
-        ipar[K.I_NPAIRS] = ctl[C_NPAIRS]
-        self.fpar[K.F_VMAX] = red[R_VMAX]
+        ipar.steps = ctl[C_STEPS]
+        ipar.rebuilds = ctl[C_REBUILDS]
+        ipar.npairs = ctl[C_NPAIRS]
+        self.fpar.v_max = red[R_VMAX]
         self._disp2 = red[R_DISP2]
-        self.piston[K.P_FCON] = red[R_FPISTON]
-        out[K.O_DMAX] = red[R_DMAX]
-        out[K.O_NTOP] = red[R_NTOP]
-        out[K.O_NCONTACT] = red[R_NCONTACT]
+        self.piston.f_con = red[R_FPISTON]
+        out.d_max = red[R_DMAX]
+        out.ntop = red[R_NTOP]
+        out.ncontact = red[R_NCONTACT]
         return int(ctl[C_STATUS]), int(ctl[C_NEED])
 
     def download(self) -> None:
@@ -626,29 +615,30 @@ class GpuEngine(Engine):
         if self.device_rebuild:
             self.sync()
         for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
-                     "pos0", "wall_ft", "wall_ov", "piston", "slabs"):
+                     "pos0", "wall_ft", "wall_ov", "slabs"):
             getattr(self, name)[...] = self.g[name].copy_to_host()
+        K.copy_record(self.piston, self.g["piston"].copy_to_host())
         self._download_pairs()
 
     def set_dt(self, dt: float) -> None:
         """Change the time step (host and device copies of the parameters)."""
-        self.fpar[K.F_DT] = dt
-        self.g["fpar"].copy_to_device(self.fpar)
+        self.fpar.dt = dt
+        self.g["fpar"].copy_to_device(K.as_array(self.fpar))
 
     def _host_rebuild(self) -> int:
         """The first version's rebuild test and host rebuild before a step (``device_rebuild``
         off): 0, or 3 when the state blew up (non-finite reach)."""
         fpar, ipar, g = self.fpar, self.ipar, self.g
-        reach = math.sqrt(self._disp2) + 2.0 * fpar[K.F_VMAX] * fpar[K.F_DT]
+        reach = math.sqrt(self._disp2) + 2.0 * fpar.v_max * fpar.dt
         if not math.isfinite(reach):
             return 3
-        if reach > 0.5 * fpar[K.F_SKIN]:
+        if reach > 0.5 * fpar.skin:
             self.position[...] = g["position"].copy_to_host()
             self._download_pairs()
-            m_old = int(ipar[K.I_NPAIRS])
+            m_old = int(ipar.npairs)
             old = (self.pair_i[:m_old].copy(), self.pair_j[:m_old].copy())
             self._rebuild()  # grows the arrays if needed, pos0 = position
-            ipar[K.I_REBUILDS] += 1
+            ipar.rebuilds += 1
             if self.on_rebuild is not None:
                 self.on_rebuild(old[0], old[1], m_old)
             g["position"].copy_to_device(self.position)
@@ -672,7 +662,7 @@ class GpuEngine(Engine):
         n = self.position.shape[0]
         cap = gp["i"].shape[0]
         ctl = g["ctl"]
-        dt = fpar[K.F_DT]
+        dt = fpar.dt
         nb = _blocks(n)
         kick_drift[nb, BLOCK](g["position"], g["velocity"], g["acceleration"], g["angular_velocity"],
                               g["angular_acceleration"], g["lateral"], g["pos0"], g["piston"], dt, g["v2"],
@@ -681,7 +671,7 @@ class GpuEngine(Engine):
                                          g["inv_rad"], g["mass"], g["lateral"], gp["i"], gp["j"], ctl,
                                          gp["ft"], gp["ov"], g["fpar"], gp["pf"], gp["tqi"], gp["tqj"],
                                          gp["delta"])
-        if self.mflow.shape[0] > 0 and fpar[K.F_GAMMA] > 0.0:  # the slab means the force kernel adds
+        if self.mflow.shape[0] > 0 and fpar.gamma > 0.0:  # the slab means the force kernel adds
             MF.slab_bin[nb, BLOCK](g["position"], g["mflow"], g["slab_of"], g["slab_lo"], g["slab_hi"], ctl)
             MF.slab_sums[_blocks(self.slabs.shape[1]), BLOCK](g["velocity"], g["mass"], g["fpar"], g["mflow"],
                                                               g["slab_of"], g["slab_lo"], g["slab_hi"],
@@ -697,13 +687,13 @@ class GpuEngine(Engine):
         if self.device_rebuild:
             return 0
         red = g["red"].copy_to_host()
-        fpar[K.F_VMAX] = red[R_VMAX]
+        fpar.v_max = red[R_VMAX]
         self._disp2 = red[R_DISP2]
-        self.piston[K.P_FCON] = red[R_FPISTON]
-        out[K.O_DMAX] = red[R_DMAX]
-        out[K.O_NTOP] = red[R_NTOP]
-        out[K.O_NCONTACT] = red[R_NCONTACT]
-        ipar[K.I_STEPS] += 1
+        self.piston.f_con = red[R_FPISTON]
+        out.d_max = red[R_DMAX]
+        out.ntop = red[R_NTOP]
+        out.ncontact = red[R_NCONTACT]
+        ipar.steps += 1
         return 0
 
     def _check(self) -> int:
@@ -713,26 +703,26 @@ class GpuEngine(Engine):
         measure_kernel[1, RBLOCK](g["velocity"], g["acceleration"], g["angular_velocity"],
                                   g["angular_acceleration"], g["mass"], g["inertia"], g["radius"], g["stat"])
         stat = g["stat"].copy_to_host()
-        piston[...] = g["piston"].copy_to_host()
-        out[K.O_AMAX] = math.sqrt(stat[S_AMAX2])
-        out[K.O_ALPHAMAX] = math.sqrt(stat[S_ALMAX2])
-        out[K.O_VMAX] = math.sqrt(stat[S_VMAX2])
-        out[K.O_WMAX] = math.sqrt(stat[S_WMAX2])
+        K.copy_record(piston, g["piston"].copy_to_host())
+        out.a_max = math.sqrt(stat[S_AMAX2])
+        out.alpha_max = math.sqrt(stat[S_ALMAX2])
+        out.v_max = math.sqrt(stat[S_VMAX2])
+        out.w_max = math.sqrt(stat[S_WMAX2])
         kin = stat[S_KIN]
-        if piston[K.P_MASS] < np.inf:
-            out[K.O_APISTON] = abs(piston[K.P_A])
-            kin += 0.5 * piston[K.P_MASS] * piston[K.P_V] * piston[K.P_V]
+        if piston.mass < np.inf:
+            out.a_piston = abs(piston.a)
+            kin += 0.5 * piston.mass * piston.v * piston.v
         else:
-            out[K.O_APISTON] = 0.0
-        out[K.O_KIN] = kin
-        if not (out[K.O_DMAX] < fpar[K.F_RMAX] and math.isfinite(out[K.O_KIN])):
+            out.a_piston = 0.0
+        out.kin = kin
+        if not (out.d_max < fpar.r_max and math.isfinite(out.kin)):
             return 3
-        if ipar[K.I_ADAPTIVE]:
-            self.set_dt(K.stable_dt_at(fpar, out[K.O_DMAX]))
-        tol_a, tol_v = fpar[K.F_TOLA], fpar[K.F_TOLV]
-        if (out[K.O_NTOP] > 0 and out[K.O_AMAX] < tol_a and out[K.O_ALPHAMAX] < tol_a
-                and out[K.O_APISTON] < tol_a and out[K.O_VMAX] < tol_v and out[K.O_WMAX] < tol_v
-                and abs(piston[K.P_V]) < tol_v):
+        if ipar.adaptive:
+            self.set_dt(K.stable_dt_at(fpar, out.d_max))
+        tol_a, tol_v = fpar.tol_a, fpar.tol_v
+        if (out.ntop > 0 and out.a_max < tol_a and out.alpha_max < tol_a
+                and out.a_piston < tol_a and out.v_max < tol_v and out.w_max < tol_v
+                and abs(piston.v) < tol_v):
             return 1
         return 0
 
@@ -749,7 +739,7 @@ class GpuEngine(Engine):
     def run(self, n_steps: int) -> int:
         """Advance up to ``n_steps`` steps; same statuses as :meth:`Engine.run` (0, 1 converged
         candidate, 3 blown up)."""
-        check = int(self.ipar[K.I_CHECK])
+        check = int(self.ipar.check)
         target = self.steps + int(n_steps)
         self.upload()
         try:
@@ -757,7 +747,7 @@ class GpuEngine(Engine):
                 for _ in range(int(n_steps)):
                     if self.step() == 3:
                         return 3
-                    if check > 0 and self.ipar[K.I_STEPS] % check == 0:
+                    if check > 0 and self.ipar.steps % check == 0:
                         status = self._check()
                         if status:
                             return status
@@ -771,7 +761,7 @@ class GpuEngine(Engine):
         on) until ``target`` steps in all: runs of steps queued up to the next check (or
         :data:`SYNC_EVERY` steps), then one read of the device; room made when a rebuild asked
         for it. Returns as :meth:`run`."""
-        check = int(self.ipar[K.I_CHECK])
+        check = int(self.ipar.check)
         while self.steps < target:
             now = self.steps
             stop = min(target, now + self.SYNC_EVERY if check <= 0 else (now // check + 1) * check)

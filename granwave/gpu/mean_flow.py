@@ -29,19 +29,18 @@ of :mod:`granwave.gpu.dem` after the grain's background damping, as the CPU adds
 from __future__ import annotations
 
 from ..dem import kernels as K
-from ..dem import mean_flow as MF
 from ..dem.mean_flow import M_SLAB, S_LATERAL, S_MASS, S_VZ
 from . import load_cuda
-from .compile import _rebound
+from .compile import device_functions
 from .neighbours import C_STATUS
 
 cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
-#: The CPU rule's helpers compiled for the device from their source (the same expressions).
-slab_index = cuda.jit(device=True)(MF._slab.py_func)
-lateral_on = cuda.jit(device=True)(MF.lateral_on.py_func)
-add_slab_damping = cuda.jit(device=True)(
-    _rebound(MF.add_slab_damping.py_func, {"_slab": slab_index, "lateral_on": lateral_on}))
+#: The CPU rule's helpers compiled for the device from their source (the same expressions;
+#: :func:`granwave.gpu.compile.device_functions`).
+slab_index = device_functions()._slab
+lateral_on = device_functions().lateral_on
+add_slab_damping = device_functions().add_slab_damping
 
 
 @cuda.jit
@@ -61,16 +60,17 @@ def slab_bin(pos, mflow, slab_of, lo, hi, ctl):
 
 
 @cuda.jit
-def slab_sums(vel, mass, fpar, mflow, slab_of, lo, hi, slabs, ctl):
+def slab_sums(vel, mass, fpar1, mflow, slab_of, lo, hi, slabs, ctl):
     """Per slab (a thread each): mean vertical velocity, mass and, where the lateral mean flow
     has a rate of its own, mean lateral velocities into ``slabs`` (the rows of
     :func:`granwave.dem.mean_flow.slab_means`), summed over its grains in increasing index;
     then ``lo``, ``hi`` reset for the next step."""
+    fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_STATUS] != 0:
         return
     n, d = vel.shape
     z = d - 1
-    n_lat = z if lateral_on(fpar[K.F_GAMMA], mflow) else 0
+    n_lat = z if lateral_on(fpar.gamma, mflow) else 0
     for k in range(cuda.grid(1), lo.shape[0], cuda.gridsize(1)):
         vz = 0.0
         m = 0.0

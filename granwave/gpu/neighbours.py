@@ -66,8 +66,10 @@ R_VMAX = 6
 
 
 @cuda.jit
-def rb_trigger(red, fpar, piston, lateral, ctl, ncell_cap):
+def rb_trigger(red, fpar1, piston1, lateral, ctl, ncell_cap):
     """One thread: is a rebuild due before this step (and the cells per axis)?"""
+    fpar = fpar1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
+    piston = piston1[0]
     if cuda.grid(1) == 0:
         _trigger(red, fpar, piston, lateral, ctl, ncell_cap)
 
@@ -80,17 +82,17 @@ def _trigger(red, fpar, piston, lateral, ctl, ncell_cap):
     # the CPU engine's reach, for the C_AHEAD steps until the test runs again (1: the CPU's own)
     ahead = ctl[C_AHEAD]
     if ahead == 1:
-        reach = math.sqrt(red[R_DISP2]) + 2.0 * red[R_VMAX] * fpar[K.F_DT]
+        reach = math.sqrt(red[R_DISP2]) + 2.0 * red[R_VMAX] * fpar.dt
     else:
-        reach = math.sqrt(red[R_DISP2]) + 2.0 * ahead * red[R_VMAX] * fpar[K.F_DT]
+        reach = math.sqrt(red[R_DISP2]) + 2.0 * ahead * red[R_VMAX] * fpar.dt
     if not reach < math.inf:  # the state blew up (unstable step): stop before the rebuild
         ctl[C_STATUS] = 3
         return
-    skin = fpar[K.F_SKIN]
+    skin = fpar.skin
     if not reach > 0.5 * skin:
         return
     d = lateral.shape[0] + 1
-    cs = 2.0 * fpar[K.F_RMAX] + skin
+    cs = 2.0 * fpar.r_max + skin
     brute = False
     nlat = 1
     for a in range(d - 1):
@@ -99,7 +101,7 @@ def _trigger(red, fpar, piston, lateral, ctl, ncell_cap):
             brute = True
         ctl[C_NC0 + a] = c
         nlat *= c
-    nv = int(math.floor(piston[K.P_H] / cs))
+    nv = int(math.floor(piston.h / cs))
     if nv < 1:
         nv = 1
     if brute:
@@ -119,7 +121,7 @@ def _cell_of(pos, i, lateral, piston, ctl):
     idx = 0
     for a in range(d):
         nc = ctl[C_NC0 + a]
-        length = lateral[a] if a < d - 1 else piston[K.P_H]
+        length = lateral[a] if a < d - 1 else piston.h
         c = int(math.floor(pos[i, a] / length * nc))
         if c < 0:
             c = 0
@@ -130,8 +132,9 @@ def _cell_of(pos, i, lateral, piston, ctl):
 
 
 @cuda.jit
-def rb_cell_count(pos, lateral, piston, ctl, cell, ccount):
+def rb_cell_count(pos, lateral, piston1, ctl, cell, ccount):
     """Each grain's cell, and the grains per cell (ccount[:, 0], zero on entry)."""
+    piston = piston1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_DUE] == 0:
         return
     for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
@@ -219,19 +222,21 @@ def _neighbours(i, pos, rad, lateral, skin, ctl, cell, cstart, members, out, bas
 
 
 @cuda.jit
-def rb_count(pos, rad, lateral, fpar, ctl, cell, cstart, members, nbr, gcnt):
+def rb_count(pos, rad, lateral, fpar1, ctl, cell, cstart, members, nbr, gcnt):
     """gcnt[i] = (neighbours above i, all neighbours) (``nbr`` is not written)."""
+    fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_DUE] == 0:
         return
     for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
-        cnt, lo = _neighbours(i, pos, rad, lateral, fpar[K.F_SKIN], ctl, cell, cstart, members, nbr, 0, False)
+        cnt, lo = _neighbours(i, pos, rad, lateral, fpar.skin, ctl, cell, cstart, members, nbr, 0, False)
         gcnt[i, 0] = cnt - lo
         gcnt[i, 1] = cnt
 
 
 @cuda.jit
-def rb_fill(pos, rad, lateral, fpar, ctl, cell, cstart, members, gptr, nbr, cap):
+def rb_fill(pos, rad, lateral, fpar1, ctl, cell, cstart, members, gptr, nbr, cap):
     """Capacity test, then each grain's sorted neighbours into nbr[gptr[i, 1]:gptr[i + 1, 1]]."""
+    fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     n = pos.shape[0]
     if ctl[C_DUE] == 0 or ctl[C_STATUS] != 0:
         return
@@ -242,7 +247,7 @@ def rb_fill(pos, rad, lateral, fpar, ctl, cell, cstart, members, gptr, nbr, cap)
             ctl[C_STATUS] = 2
         return
     for i in range(cuda.grid(1), n, cuda.gridsize(1)):
-        _neighbours(i, pos, rad, lateral, fpar[K.F_SKIN], ctl, cell, cstart, members, nbr, gptr[i, 1], True)
+        _neighbours(i, pos, rad, lateral, fpar.skin, ctl, cell, cstart, members, nbr, gptr[i, 1], True)
 
 
 @cuda.jit
@@ -345,11 +350,13 @@ def _serial_scan(x, out):
 
 
 @cuda.jit
-def rb_small(red, fpar, piston, lateral, pos, rad, pos0, ctl, cell, ccount, cstart, members, gcnt, gptr, nbr, row,
+def rb_small(red, fpar1, piston1, lateral, pos, rad, pos0, ctl, cell, ccount, cstart, members, gcnt, gptr, nbr, row,
              pair_i, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code, inc_ptr, inc_code):
     """The whole rebuild, trigger included, in one block (small systems: one launch per step
     instead of twelve): the steps of the multi-kernel rebuild, the same device functions,
     separated by barriers, the prefix sums by one thread."""
+    fpar = fpar1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
+    piston = piston1[0]
     t = cuda.threadIdx.x
     s = cuda.blockDim.x
     if t == 0:
@@ -358,7 +365,7 @@ def rb_small(red, fpar, piston, lateral, pos, rad, pos0, ctl, cell, ccount, csta
     if ctl[C_DUE] == 0:
         return
     n = pos.shape[0]
-    skin = fpar[K.F_SKIN]
+    skin = fpar.skin
     for i in range(t, n, s):
         c = _cell_of(pos, i, lateral, piston, ctl)
         cell[i] = c

@@ -129,15 +129,15 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
             setattr(eng, name, value)
     n, d = pos.shape
     eng.dim = d
-    eng.mflow, eng.slabs = ws[K.W_MFLOW], ws[K.W_SLABS]  # the compaction rule's (off in a pulse)
-    mu = fpar[K.F_MU]
+    eng.mflow, eng.slabs = ws.mflow, ws.slabs  # the compaction rule's (off in a pulse)
+    mu = fpar.mu
     eng.upload()
     dev = {"state": cuda.to_device(pair_state), "wall": cuda.to_device(wall_state),
            "ref": cuda.to_device(pos_ref), "best": cuda.to_device(np.zeros(n))}
 
     def carry(old_i, old_j, n_old):
         old_state = dev["state"].copy_to_host()[:n_old].copy()
-        PK.carry_flags(n, old_i, old_j, old_state, n_old, eng.pair_i, eng.pair_j, int(ipar[K.I_NPAIRS]),
+        PK.carry_flags(n, old_i, old_j, old_state, n_old, eng.pair_i, eng.pair_j, int(ipar.npairs),
                        pair_state)
         dev["state"] = cuda.to_device(pair_state)
 
@@ -148,7 +148,7 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
         while k < k_stop:
             for _ in range(int(stats[1]), sub):
                 eng.step()
-                m = int(ipar[K.I_NPAIRS])
+                m = int(ipar.npairs)
                 if m:
                     classify_pairs[_blocks(m), BLOCK](g["radius"], eng.gp["i"], eng.gp["j"], m, eng.gp["ft"],
                                                       eng.gp["ov"], mu, dev["state"], False)
@@ -157,12 +157,12 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
                 track_displacement[_blocks(n), BLOCK](g["position"], dev["ref"], g["lateral"], dev["best"])
                 stats[1] += 1.0
             stats[1] = 0.0
-            force_out[k] = piston[K.P_FCON]
+            force_out[k] = piston.f_con
             k += 1
         return k_stop
     except _NeedRoom as exc:
-        ipar[K.I_NEEDED] = exc.needed
-        ipar[K.I_WIDTH] = exc.width
+        ipar.needed = exc.needed
+        ipar.width = exc.width
         return -k
     finally:
         eng.download()
