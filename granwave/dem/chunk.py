@@ -15,7 +15,7 @@ from .contact_law import pair_constants
 from .passes import _block_max, _displacement_pass, _drift_pass, _forces
 from .piston import piston_half_kick, piston_kick_drift
 from .team_steps import _team_steps
-from .time_step import needs_rebuild, next_skin, stable_dt_at
+from .time_step import check_outcome, needs_rebuild, next_skin
 from .workspace import _lists, prepare_blocks, refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
@@ -124,15 +124,8 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             disp2 = _block_max(blk_g, G_DISP)
             piston_kick_drift(piston, dt)
         if is_check:
-            if not (out.d_max < fpar.r_max and math.isfinite(out.kin)):
-                return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable
-            if ipar.adaptive:
-                fpar.dt = stable_dt_at(fpar, out.d_max)
-            tol_a = fpar.tol_a
-            tol_v = fpar.tol_v
-            if (out.ntop > 0 and out.a_max < tol_a and out.alpha_max < tol_a
-                    and out.a_piston < tol_a and out.v_max < tol_v and out.w_max < tol_v
-                    and abs(piston.v) < tol_v):
-                return 1
+            outcome = check_outcome(out, fpar, ipar, piston)
+            if outcome != 0:
+                return outcome
         step += 1
     return 0

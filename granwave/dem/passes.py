@@ -425,16 +425,7 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
     out.ntop = ntop
     out.ncontact = ncontact
     if stats:
-        out.a_max = math.sqrt(amax)
-        out.alpha_max = math.sqrt(almax)
-        out.v_max = math.sqrt(vmax)
-        out.w_max = math.sqrt(wmax)
-        if piston.mass < np.inf:
-            out.a_piston = abs(piston.a)
-            kin += 0.5 * piston.mass * piston.v * piston.v
-        else:
-            out.a_piston = 0.0
-        out.kin = kin
+        store_measures(out, piston, amax, almax, vmax, wmax, kin)
 
 
 @numba.njit(cache=True)
@@ -486,6 +477,14 @@ def measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out):
         vmax = max(vmax, v2)
         wmax = max(wmax, w2r2)
         kin += k
+    store_measures(out, piston, amax, almax, vmax, wmax, kin)
+
+
+@numba.njit(cache=True, inline="always")
+def store_measures(out, piston, amax, almax, vmax, wmax, kin):
+    """The convergence measures into ``out`` from the grains' largest squared |a|, |alpha|, |v|,
+    |w| R and their kinetic energy ``kin``; the piston's |a| and kinetic energy added (a fixed
+    wall, infinite mass, has none). :func:`measure` and the parallel finish share it."""
     out.a_max = math.sqrt(amax)
     out.alpha_max = math.sqrt(almax)
     out.v_max = math.sqrt(vmax)

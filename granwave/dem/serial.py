@@ -26,7 +26,7 @@ from .pair_tile import law_tile
 from .contact_law import law_of, pair_constants, rolling_of
 from .passes import drift_grain, measure
 from .piston import piston_acceleration, piston_half_kick, piston_kick_drift
-from .time_step import needs_rebuild, next_skin, stable_dt_at
+from .time_step import check_outcome, needs_rebuild, next_skin
 from .workspace import refresh_wall_list
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
@@ -224,16 +224,9 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
         ipar.steps += 1
         if check > 0 and ipar.steps % check == 0:
             measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
-            if not (out.d_max < fpar.r_max and math.isfinite(out.kin)):
-                return 3  # an overlap beyond a radius, or non-finite motion: the step is unstable
-            if ipar.adaptive:
-                fpar.dt = stable_dt_at(fpar, out.d_max)
-            tol_a = fpar.tol_a
-            tol_v = fpar.tol_v
-            if (out.ntop > 0 and out.a_max < tol_a and out.alpha_max < tol_a
-                    and out.a_piston < tol_a and out.v_max < tol_v and out.w_max < tol_v
-                    and abs(piston.v) < tol_v):
-                return 1
+            outcome = check_outcome(out, fpar, ipar, piston)
+            if outcome != 0:
+                return outcome
     return 0
 
 

@@ -131,3 +131,23 @@ def stable_dt_at(fpar, dmax):
     dt = stable_dt(fpar)
     fpar.overlap_floor = floor
     return dt
+
+
+@numba.njit(cache=True)
+def check_outcome(out, fpar, ipar, piston):
+    """What a convergence check decides from the step's statistics ``out`` (the engines'
+    run loops share it): 3 when the state blew up (an overlap beyond the largest radius or
+    non-finite motion: the step is unstable), 1 when the convergence candidate test passes
+    (piston touching grains, every |a|, |alpha|, |a_piston| below tol_a, every |v|, |w| R,
+    |v_piston| below tol_v), else 0. With an adaptive step it first resets ``fpar.dt``."""
+    if not (out.d_max < fpar.r_max and math.isfinite(out.kin)):
+        return 3
+    if ipar.adaptive:
+        fpar.dt = stable_dt_at(fpar, out.d_max)
+    tol_a = fpar.tol_a
+    tol_v = fpar.tol_v
+    if (out.ntop > 0 and out.a_max < tol_a and out.alpha_max < tol_a
+            and out.a_piston < tol_a and out.v_max < tol_v and out.w_max < tol_v
+            and abs(piston.v) < tol_v):
+        return 1
+    return 0
