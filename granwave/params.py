@@ -665,6 +665,10 @@ class AttenuationParams(Params):
                                        "2 pi c_t / W (W the lateral period): marked on the output and "
                                        "the figure; above it alpha and c are the waveguide's, not the "
                                        "medium's.", units="sqrt(E*/rho)/d", lo=0.0, lo_open=True)
+    lateral_period: float | None = param(None, help="The columns' lateral period W: with --moduli "
+                                         "the cutoff is 2 pi c_t / W from the packings' mean c_t "
+                                         "(unless --omega-cutoff is given).", units="d", lo=0.0,
+                                         lo_open=True)
     continuum_c_tolerance: float = param(0.02, help="Continuum length lambda*: the wavelength beyond "
                                          "which |c(omega)/c0 - 1| stays at most this ...",
                                          lo=0.0, lo_open=True, hi=1.0)

@@ -10,9 +10,13 @@ from .common import echo_json, echo_table, options_from, params_from, stage
 
 @click.command()
 @click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
+@click.option("--moduli", "moduli_paths", multiple=True, type=click.Path(dir_okay=False),
+              help="`granwave analyze moduli --json` output of the packings (any number): their "
+                   "mean bulk-slab c_l is compared with c0 (unless --c-l is given) and, with "
+                   "--lateral-period, their mean c_t gives the lateral cutoff.")
 @options_from(AttenuationParams, json=True)
 @stage
-def attenuation(signals, as_json, **options):
+def attenuation(signals, moduli_paths, as_json, **options):
     """Attenuation and phase velocity against frequency from signals at several heights.
 
     SIGNALS are signal files (from `granwave propagate`, or any granwave.signal file) of
@@ -28,7 +32,8 @@ def attenuation(signals, as_json, **options):
     larger of the fit's standard error and the bootstrap over packings (--bootstrap). Fewer
     than 10 packings at a height: a warning, the result is not quotable; a height with one
     packing takes the variance pooled over the others. --omega-cutoff marks the column's
-    first lateral shear cutoff 2 pi c_t/W (the waveguide's, not the medium's, above it). At each omega
+    first lateral shear cutoff 2 pi c_t/W (the waveguide's, not the medium's, above it); with
+    --moduli and --lateral-period W it is computed from the packings' mean c_t. At each omega
     a height is used only where the window after its front's arrival holds --min-periods
     periods and its coherent amplitude is --min-snr times its noise floor (the standard
     error of the mean spectrum over its packings). Reliable band: around the tallest
@@ -45,12 +50,13 @@ def attenuation(signals, as_json, **options):
     params = params_from(AttenuationParams, options)
     if not signals:
         raise InputError("no signal files given")
+    c_l, omega_cutoff = reference_speeds(params, moduli_paths)
     res = run([read_signal(p) for p in signals], labels=list(signals),
               group_rtol=params.group_tolerance, window_widths=params.window_widths,
               threshold=params.threshold, max_error=params.max_error,
               min_periods=params.min_periods, min_snr=params.min_snr, min_heights=params.min_heights,
               min_fit_p=params.min_fit_p, bootstrap=params.bootstrap, seed=params.seed,
-              c_l=params.c_l, omega_cutoff=params.omega_cutoff, c_tol=params.continuum_c_tolerance,
+              c_l=c_l, omega_cutoff=omega_cutoff, c_tol=params.continuum_c_tolerance,
               q_tol=params.continuum_q_inverse, **params.front_kw())
     res["params"] = params.as_dict()
     if as_json:  # the JSON carries the rule's verdict (packings.warning) for the report
@@ -77,3 +83,32 @@ def attenuation(signals, as_json, **options):
         click.echo(f"  {res['omega'][i]:10.4g} {res['alpha'][i]:12.4g} {res['alpha_err'][i]:10.2g} "
                    f"{res['c'][i]:10.4g} {res['c_err'][i]:10.2g} {res['c_group'][i]:10.4g} "
                    f"{res['Q'][i]:10.4g}{mark}")
+
+
+def reference_speeds(params: AttenuationParams, moduli_paths) -> tuple[float | None, float | None]:
+    """(c_l, omega_cutoff) of the analysis: the options' values, else from the moduli files (mean
+    bulk-slab c_l; 2 pi mean c_t / --lateral-period). InputError for --lateral-period without
+    --moduli, or moduli files without a finite speed."""
+    import math
+
+    import numpy as np
+
+    from ..analysis.attenuation import lateral_cutoff
+    from ..errors import InputError
+    from .moduli_files import moduli_speeds
+
+    if params.lateral_period is not None and not moduli_paths and params.omega_cutoff is None:
+        raise InputError("--lateral-period needs --moduli (the packings' c_t), or give --omega-cutoff")
+    c_l, cutoff = params.c_l, params.omega_cutoff
+    if not moduli_paths:
+        return c_l, cutoff
+    speeds = moduli_speeds(moduli_paths, "slab")["slab"]
+    mean_l, mean_t = (float(np.nanmean(v)) if np.isfinite(v).any() else math.nan
+                      for v in (np.asarray(s, float) for s in speeds))
+    if not (math.isfinite(mean_l) and math.isfinite(mean_t)):
+        raise InputError("the --moduli files give no finite c_l_slab / c_t_slab")
+    if c_l is None:
+        c_l = mean_l
+    if cutoff is None and params.lateral_period is not None:
+        cutoff = lateral_cutoff(mean_t, params.lateral_period)
+    return c_l, cutoff

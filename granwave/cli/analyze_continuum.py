@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import json
-
 import click
 
 from ..params import ContinuumParams
 from .common import echo_json, echo_table, options_from, params_from, stage
+from .moduli_files import moduli_speeds
 
 
 @click.command()
@@ -42,23 +41,7 @@ def continuum(signals, moduli_paths, as_json, **options):
     if len(moduli_paths) != len(signals):
         raise InputError(f"one --moduli file per signal is needed ({len(signals)} signals, "
                          f"{len(moduli_paths)} moduli files)")
-    keys = {"slab": ("c_l_slab", "c_t_slab"), "cell": ("c_l", "c_t")}
-    speeds = {kind: ([], []) for kind in keys}  # both kinds, the other one is reported beside
-    for path in moduli_paths:
-        try:
-            with open(path) as f:
-                m = json.load(f)
-        except (OSError, ValueError) as exc:
-            raise InputError(f"{path}: not a moduli JSON file ({exc})") from None
-        if not isinstance(m, dict) or "c_l" not in m:
-            raise InputError(f"{path}: no c_l (expected `granwave analyze moduli --json` output)")
-        failed = m["c_l"] is None  # a batch's failed moduli solve: no speed of either kind
-        if params.c_l_kind == "slab" and "c_l_slab" not in m and not failed:
-            raise InputError(f"{path}: no c_l_slab (written before the bulk-slab moduli): run "
-                             "`granwave analyze moduli --json` again, or pass --c-l cell")
-        for kind, (kl, kt) in keys.items():
-            speeds[kind][0].append(_speed(m.get(kl)))
-            speeds[kind][1].append(_speed(m.get(kt)))
+    speeds = moduli_speeds(moduli_paths, params.c_l_kind)
     c_l, c_t = speeds[params.c_l_kind]
     res = run([read_signal(p) for p in signals], c_l, c_t, labels=list(signals),
               c_l_kind=params.c_l_kind, c_l_by_kind={k: v[0] for k, v in speeds.items()},
@@ -97,7 +80,3 @@ def continuum(signals, moduli_paths, as_json, **options):
                 click.echo(f"  {rule:>10} tol {tol:<5g} " + " ".join(cells)
                            + f"   ratio {sp['ratio'][-1]:.4g} ± {sp['ratio_err'][-1]:.2g}")
 
-
-def _speed(value) -> float:
-    """A speed from a moduli file: NaN for null or absent."""
-    return float("nan") if value is None else float(value)

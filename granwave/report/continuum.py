@@ -155,6 +155,49 @@ C_L_KINDS = {"slab": "c_ℓ and c_t of the bulk slab (its moduli over its own de
              "cell": "c_ℓ and c_t of the whole cell (its moduli over the bulk density)"}
 
 
+#: the report's names of the candidate arrival rules (`candidates` of `analyze continuum`)
+RULE_NAMES = {"peak": "peak", "energy": "energy centroid"}
+
+
+def _rule_name(rule: str) -> str:
+    if rule.startswith("edge_"):
+        return f"{float(rule[5:]):.0%} edge"
+    return RULE_NAMES.get(rule, rule)
+
+
+def _candidate_cell(row: Mapping) -> str:
+    """One candidate L*: the fit's value and 95 % interval, marked by what the data say."""
+    value, ci = row.get("L_star"), row.get("L_star_ci")
+    if value is None or not math.isfinite(num(value)):
+        return "—"
+    text = f"{fmt_bound(value, 3)} {_ci(ci)}" if resolved(value, None, ci) else f"{fmt_bound(value, 3)}"
+    mark = {"reached": "", "undecided": " (undecided)", "beyond": " (beyond: extrapolated)"}
+    return text + mark.get(row.get("status"), "")
+
+
+def candidates_table(front: Mapping) -> list[str]:
+    """Markdown lines: how the time-of-flight "L*" moves with the arrival rule, the tolerance and
+    the c_ℓ reference (``candidates`` of `analyze continuum`), with each rule's last local ratio."""
+    cand = front.get("candidates")
+    if not cand:
+        return []
+    scales = cand["c_l_scales"]
+    rows = {(r["rule"], r["tolerance"], r["c_l_scale"]): r for r in cand["table"]}
+    md = ["Candidate L* (d̄, where the rule's local speed comes within the tolerance of c_ℓ × the "
+          "reference factor; the approach fit's value and its 95 % interval; *beyond*: the tallest "
+          "distance is still outside, so L* is the fit's extrapolation; *undecided*: the last "
+          "ratio's error bar straddles the tolerance):", "",
+          "| rule | tolerance | " + " | ".join(f"c_ℓ × {x:g}" for x in scales)
+          + " | speed/c_ℓ at the tallest distance |",
+          "|---|---|" + "---|" * len(scales) + "---|"]
+    for rule, sp in cand["speeds"].items():
+        last = f"{fmt(sp['ratio'][-1], sp['ratio_err'][-1])} (L = {fmt(sp['height'][-1], digits=3)})"
+        for tol in cand["tolerances"]:
+            cells = [_candidate_cell(rows.get((rule, tol, x), {})) for x in scales]
+            md.append(f"| {_rule_name(rule)} | {tol:.0%} | " + " | ".join(cells) + f" | {last} |")
+    return md + [""]
+
+
 def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
     """Markdown lines of the continuum section (one subsection per scene)."""
     if not scenes:
@@ -224,6 +267,7 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                            f"resamplings): L* 95 % interval {_ci(bci)} d.")
             md += [f"**{w}**" for w in _warnings(front, ("packings_per_height", "packings"))]
             md.append("")
+            md += candidates_table(front)
             appb = front.get("approach_bulk") or {}
             if appb.get("beta") is not None and math.isfinite(float(appb.get("beta") or math.nan)):
                 md += [f"Against the bulk c_ℓ∞ instead (local c_tof/c_ℓ∞ = "

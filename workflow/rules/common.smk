@@ -603,7 +603,9 @@ def continuum_jobs():
             command("continuum", ["analyze", "continuum", *signals, *flags("--moduli", moduli).split(),
                                   "--json"], [*signals, *moduli], front, True),
             command("attenuation", ["analyze", "attenuation", *signals, "--bootstrap",
-                                    str(scene_spec(scene)["bootstrap"]), "--json"], signals, attenuation, True),
+                                    str(scene_spec(scene)["bootstrap"]), *flags("--moduli", moduli).split(),
+                                    "--lateral-period", str(scene_spec(scene)["width"]), "--json"],
+                    [*signals, *moduli], attenuation, True),
             command("figure", ["plot", "continuum", front, "--attenuation", attenuation, "-o", figure],
                     [], figure, False)]))
     return out

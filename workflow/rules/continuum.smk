@@ -27,17 +27,21 @@ rule continuum_attenuation:
     conda:
         "../envs/granwave.yaml"
     input:
-        lambda w: sample_paths("signal", w.scene),
+        signals=lambda w: sample_paths("signal", w.scene),
+        moduli=lambda w: sample_paths("moduli", w.scene, ext="json"),
     output:
         f"{R}/continuum/{{scene}}/attenuation.json",
     log:
         f"{R}/logs/continuum/{{scene}}/attenuation.log",
     params:
         bootstrap=lambda w: scene_spec(w.scene)["bootstrap"],
+        moduli=lambda w, input: flags("--moduli", input.moduli),
+        width=lambda w: scene_spec(w.scene)["width"],  # nominal lateral period (d) of the cutoff
     resources:
         runtime=10,
     shell:
-        "granwave analyze attenuation {input} --bootstrap {params.bootstrap} --json > {output} 2> {log}"
+        "granwave analyze attenuation {input.signals} --bootstrap {params.bootstrap} {params.moduli} "
+        "--lateral-period {params.width} --json > {output} 2> {log}"
 
 
 rule figure_continuum:
