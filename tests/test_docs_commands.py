@@ -54,11 +54,6 @@ SETUP = [
 
 #: Docs lines (as extracted, see :func:`docs_commands`) not run, and why.
 SKIP = {
-    "granwave analyze continuum <the quick run's 13 signals> <these 6 signals> --moduli <19 files> --json":
-        "a record of one study run: its inputs are that run's 19 signals and moduli files "
-        "(placeholders in angle brackets); tests/test_continuum.py runs the command on small signals",
-    "granwave analyze attenuation <the same 19 signals> --bootstrap 100 --json":
-        "the same study run's signals; tests/test_continuum.py runs the command on small signals",
     "granwave report --config config/config.yaml --summaries results/summary --heights results/heights "
     "--sweep results/sweep/frictional2d.json --figures results/figures -o results/report/index.md":
         "reads a whole workflow run's results/ (summaries, heights, sweep, figures); "

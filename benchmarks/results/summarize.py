@@ -11,10 +11,11 @@ prose of an earlier document carries ``"transcribed": true`` and says where from
 
 The per-packing records of ``ensembles/`` (one packing a line, written and read by the ensemble
 benchmarks: relaxation.py, settling.py, end_game.py, protocol_sensitivity.py) are listed, not
-shown: their tables are in TABLES.md. Three tables go into the docs between marker comments:
+shown: their tables are in TABLES.md. Four tables go into the docs between marker comments:
 docs/gpu.md's (the newest GPU record), docs/dem.md's (the newest value of every DEM
-measure, see :func:`dem_table`) and docs/shear.md's (the pick table of the newest shear-scene
-run, see :func:`shear_scene_table`).
+measure, see :func:`dem_table`), docs/shear.md's (the pick table of the newest shear-scene
+run, see :func:`shear_scene_table`) and docs/continuum.md's (the newest run of each continuum
+scene, see :func:`continuum_scene_tables`).
 
 It also regenerates the workflow's job counts and measured run times quoted in README.md
 and config/README.md (the spans between ``<!-- gen:NAME -->`` and ``<!-- /gen -->``: job counts
@@ -198,6 +199,38 @@ def shear_scene_table(folder: Path = HERE) -> str:
     return "\n".join(lines).rstrip()
 
 
+#: docs/continuum.md's results of the workflow's continuum scenes sit between these two lines.
+CONTINUUM_TABLE = ("<!-- continuum-scene-tables: begin (generated; do not edit) -->",
+                   "<!-- continuum-scene-tables: end -->")
+
+
+def continuum_scene_tables(folder: Path = HERE) -> str:
+    """For each continuum scene recorded in continuum_scene.jsonl (a workflow continuum scene's
+    analyses, written by benchmarks/continuum_scene_record.py), its newest record as the report
+    prints it (granwave.report.continuum.continuum_section: per-height table, local speeds, the
+    approach and the candidate L* table, attenuation and the continuum length in frequency), with
+    the run it came from."""
+    import sys
+
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from granwave.report.continuum import continuum_section
+
+    newest = {}
+    for rec in sorted(_records(folder / "continuum_scene.jsonl"), key=lambda r: r.get("date", "")):
+        newest[rec["scene"]] = rec  # later lines of one date win
+    lines = []
+    for scene, rec in sorted(newest.items()):
+        body = continuum_section({scene: rec["result"]})
+        body = body[body.index(f"### {scene}"):]
+        cpu = rec["summary"].get("sample jobs CPU (s)")
+        lines += [body[0], "",
+                  f"Run: {rec['date']}, revision {rec['git_revision']}, `{rec['command']}`"
+                  + (f"; the samples took {cpu:.0f} CPU-s" if cpu else "") + "."
+                  + (f" {rec['notes']}" if rec.get("notes") else ""), ""] + body[2:]
+    return "\n".join(lines).rstrip()
+
+
 def write_block(doc: Path, markers: tuple[str, str], text: str) -> None:
     body = doc.read_text()
     begin, end = body.index(markers[0]), body.index(markers[1])
@@ -289,6 +322,7 @@ def main() -> None:
     write_gpu_table(HERE.parent.parent / "docs" / "gpu.md")
     write_block(HERE.parent.parent / "docs" / "dem.md", DEM_TABLE, dem_table())
     write_block(HERE.parent.parent / "docs" / "shear.md", SHEAR_TABLE, shear_scene_table())
+    write_block(HERE.parent.parent / "docs" / "continuum.md", CONTINUUM_TABLE, continuum_scene_tables())
     write_generated_docs()
 
 
