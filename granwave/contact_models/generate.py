@@ -18,6 +18,7 @@ from pathlib import Path
 
 from . import registry
 from .kinds import KINDS
+from .. import kernel_cache  # noqa: F401  (it writes cached kernels' source; the rule of tests/test_kernel_cache.py)
 
 HERE = Path(__file__).resolve().parent
 TABLE = HERE / "_table.py"

@@ -71,7 +71,7 @@ def fill_params(fpar, values: dict) -> None:
     (granwave.dem.layout.PARAMS, the fields of ``_table.PARAMS_FIELDS``)."""
     for kind, m in models_of(values).items():
         for field, value in zip(m._fields, m):
-            fpar[f"{kind}_{field}"] = value
+            setattr(fpar, f"{kind}_{field}", value)
 
 
 def history_columns(dim: int, values: dict) -> int:
@@ -94,6 +94,8 @@ def lammps_parts(values: dict, e12_pair: float, e12_wall: float, g12_pair: float
     without a LAMMPS equivalent."""
     chosen = O.check(values)
     normal = module(chosen["normal"])
+    if not hasattr(normal, "lammps_words"):
+        raise ValueError(f"no LAMMPS equivalent of the contact law {chosen['normal']!r}")
     fragments = []
     for kind, name in chosen.items():
         if kind == "normal" or name is None:

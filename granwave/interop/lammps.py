@@ -98,7 +98,7 @@ def lammps_coefficients(friction: float, poisson: float, damping: float, law: st
     law or one without a LAMMPS equivalent."""
     if law is not None:
         contact["contact_law"] = law
-    values = CO.values_of(contact)
+    values = CO.resolve(contact, "lammps_coefficients")
     e12_pair, e12_wall = C.effective_young(False), C.effective_young(True)
     g12_pair, g12_wall = C.effective_shear(poisson, False), C.effective_shear(poisson, True)
     try:
