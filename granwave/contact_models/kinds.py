@@ -9,7 +9,9 @@ stiffness the time step takes; ``k``: its one kernel constant), and in Python
 ``lammps_words(values, e12_pair, e12_wall, g12_pair, g12_wall) -> dict`` and the constants
 ``IMPACT_WORK``, ``STEP_CONTACTS``, ``LAMMPS_RESTITUTION_SCALE``, ``SUMMARY``, ``DESCRIPTION``.
 
-rolling: a couple from the contact's relative rotation with a history (three components).
+rolling: a couple from the contact's relative rotation with a history (three components, of
+which the engines store ``dim``: ``history_width(dim) == dim``, the columns after the tangential
+history's in ``pair_ft`` / ``wall_ft``).
 A module of this kind defines ``couple(c0, c1, c2, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz,
 dt) -> (cx, cy, cz, hx, hy, hz)``, ``spring_couple(c0, c1, c2, nx, ny, nz, rx, ry, rz, r12, hx,
 hy, hz) -> (cx, cy, cz)`` (frozen history: the linearization's contract),
