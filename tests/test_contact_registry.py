@@ -195,3 +195,12 @@ def test_a_new_sub_model_is_one_more_branch_of_the_generated_dispatchers(monkeyp
     assert len(after.splitlines()) > len(before.splitlines())
     table = G.table_source()
     assert "'stiffer_stiffness': {'submodel': 'stiffer'" in table
+
+
+def test_the_normal_kind_s_default_must_come_first(monkeypatch):
+    """Code 0 of the normal kind is its default (the dispatchers' fall-through and the tile law's
+    vector loop of contact.py's formulas rely on it): registering another law first is refused."""
+    real = G.modules()
+    monkeypatch.setattr(G, "modules", lambda: [real[1], real[0], *real[2:]])
+    with pytest.raises(ValueError, match="default 'hertz' first"):
+        G.dispatch_source()

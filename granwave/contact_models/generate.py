@@ -42,6 +42,11 @@ def _by_kind() -> dict:
             raise ValueError(f"{m.__name__}: unknown kind {m.KIND.name!r}")
         rows = out[m.KIND.name]
         rows.append((len(rows) + (1 if m.KIND.off is not None else 0), m))
+    for kind in KINDS:
+        # a kind without "off" has its default as code 0: the dispatchers' fall-through branch and
+        # the tile law's vector loop (dem/pair_tile.py, contact.py's formulas) assume it
+        if kind.off is None and (not out[kind.name] or out[kind.name][0][1].NAME != kind.default):
+            raise ValueError(f"register the {kind.name} kind's default {kind.default!r} first (its code is 0)")
     return out
 
 
