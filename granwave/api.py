@@ -28,6 +28,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .contact_models import options as CO
 from .errors import InputError
 from .model import LinearSystem, Modes, Packing, Signal
 from .params import (ChainParams, DampingParams, EigenParams, EnsembleParams, FrontParams,
@@ -136,8 +137,9 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     from .gpu import backend
 
     p = _params(PrepareParams, params, fields)
-    if p.rolling != "none" and device not in (None, "cpu"):
-        raise InputError(f"rolling resistance ({p.rolling}) runs on the CPU only for now (use --device cpu)")
+    refused = CO.cpu_only(CO.values_of(p)) if device not in (None, "cpu") else None
+    if refused:
+        raise InputError(refused)
     _progress(progress)
     kernels = backend(device)
     _threads(threads)

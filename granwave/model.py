@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
+from .contact_models import options as CO
 from .errors import InputError
 from .io.schema import BOTTOM_WALL, TOP_WALL
 
@@ -35,6 +36,7 @@ def no_shear_message(attrs: dict) -> str:
 
 
 @dataclass
+@CO.with_fields([(name, "np.ndarray | None", None) for name in CO.history_datasets()])
 class Contacts:
     """Force-carrying contacts (M rows). ``j`` = -1 bottom wall, -2 top wall."""
 
@@ -46,9 +48,8 @@ class Contacts:
     force_tangential: np.ndarray  # (M, dim), force on i from j
     stiffness_normal: np.ndarray  # (M,)
     stiffness_tangential: np.ndarray  # (M,)
-    #: (M, dim) rolling displacement xi of each contact (rolling resistance, granwave.contact_models.rolling);
-    #: None without the sub-model
-    rolling_displacement: np.ndarray | None = None
+    # then, per contact sub-model kind with a history (granwave.contact_models.options.history_datasets),
+    # its (M, dim) history, e.g. ``rolling_displacement``; None without the sub-model
 
     def __len__(self) -> int:
         return len(self.i)

@@ -23,13 +23,11 @@ import json
 import math
 from dataclasses import MISSING, dataclass
 
+from .contact_models import options as CO
 from .errors import InputError
 
-#: Names of the normal contact laws (granwave.contact_models registers one module per name; kept
-#: here, in plain Python, for the options and the file readers that do not load the kernels).
-CONTACT_LAWS = ("hertz", "harmonic")
-#: rolling resistance sub-models (granwave.contact_models.rolling; "sds": LAMMPS' spring-dashpot-slider)
-ROLLING_MODELS = ("none", "sds")
+#: Names of the normal contact laws, in code order (granwave.contact_models' registry).
+CONTACT_LAWS = CO.names("normal")
 
 #: Thickness l (d) of the layers next to the bottom wall and the piston left out of bulk
 #: measurements (docs/method.md §4); statics and moduli use the same slab.
@@ -196,16 +194,21 @@ def _peak_fraction(default):
 
 
 # ----------------------------------------------------------------- packings
+def _contact_fields() -> list:
+    """The contact sub-models' fields (granwave.contact_models.options.prepare_fields)."""
+    return [(name, kind, param(default, **meta)) for name, kind, default, meta in CO.prepare_fields()]
+
+
 @dataclass(frozen=True, kw_only=True)
+@CO.with_fields(_contact_fields(), after="poisson")
 class PrepareParams(Params):
     """Preparation of a disordered packing by piston compression of a granular gas (docs/method.md §3).
 
     dim 2 or 3; grains N; pressure p (piston force / (L1 x 1 d) in 2D, / (L1 L2)
-    in 3D, in E*); friction mu; poisson nu; contact_law ('hertz' or 'harmonic',
-    granwave.contact_models) and harmonic_stiffness (k_n of a grain pair, E* d, harmonic only);
-    rolling ('none' or 'sds') with rolling_stiffness k_r (E* d), rolling_damping gamma_r and
-    rolling_friction mu_r (granwave.contact_models.rolling; sds needs friction > 0);
-    polydispersity W; aspect (final
+    in 3D, in E*); friction mu; poisson nu; the contact sub-models, one option per kind
+    (contact_law: the normal law; rolling: rolling resistance) and each sub-model's parameters
+    (fields generated from granwave.contact_models' registry, after poisson; their help says
+    what they mean); polydispersity W; aspect (final
     height / width); damping zeta (fraction of critical); background_damping b,
     the viscous rate gamma = b / t_i with t_i = sqrt(m_mean / (p d)) (force
     -gamma m v on grains and piston; it sets the compaction speed, hence density
@@ -240,21 +243,6 @@ class PrepareParams(Params):
     pressure: float = _pressure(1e-4, "Piston pressure p (2D: force / (L1 x 1 d); 3D: force / (L1 L2))")
     friction: float = _friction(0.5)
     poisson: float = _poisson()
-    contact_law: str = param("hertz", help="Normal contact law: 'hertz' (F_n ~ n^(3/2), Mindlin k_t) or "
-                             "'harmonic' (linear spring F_n = k_n n, constant k_t = eta k_n; "
-                             "docs/method.md).", choices=CONTACT_LAWS)
-    harmonic_stiffness: float = param(1.0, help="k_n of two grains under --contact-law harmonic "
-                                      "(a wall contact: twice it).", units="E* d", lo=0.0, lo_open=True)
-    rolling: str = param("none", help="Rolling resistance: 'none' or 'sds' (LAMMPS' spring-dashpot-slider: a "
-                         "couple from the relative rotation, spring k_r, dashpot gamma_r, capped at "
-                         "mu_r F_n R12; docs/method.md 'Rolling resistance'). Needs friction > 0; CPU only.",
-                         choices=ROLLING_MODELS)
-    rolling_stiffness: float = param(0.01, help="k_r of --rolling sds (a wall contact: the same).", units="E* d",
-                                     lo=0.0, lo_open=True)
-    rolling_damping: float = param(0.0, help="gamma_r of --rolling sds (force per rolling velocity).",
-                                   units="d^2 sqrt(rho E*)", lo=0.0)
-    rolling_friction: float = param(0.1, help="mu_r of --rolling sds: the rolling force is capped at mu_r F_n.",
-                                    lo=0.0)
     polydispersity: float = _polydispersity(0.2)
     aspect: float = param(1.0, help="Expected final height / periodic width.", lo=0.0, lo_open=True)
     damping: float = param(0.5, help="Contact damping zeta, fraction of critical (normal and "
@@ -322,9 +310,10 @@ class PrepareParams(Params):
 
     def __post_init__(self):
         super().__post_init__()
-        if self.rolling != "none" and not self.friction > 0.0:
-            raise InputError(f"rolling {self.rolling!r} needs friction > 0 (a frictionless packing has no "
-                             "rotations)")
+        try:
+            CO.check(CO.values_of(self), friction=self.friction)
+        except ValueError as e:
+            raise InputError(str(e)) from None
 
 
 @dataclass(frozen=True, kw_only=True)

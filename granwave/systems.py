@@ -86,22 +86,26 @@ def _check_common(pressure, friction, poisson):
 
 
 def triangular_lattice(*, rows: int, width: int, pressure: float, friction: float = 0.0,
-                       poisson: float = 0.0, contact_law: str = "hertz",
-                       harmonic_stiffness: float = 1.0) -> Packing:
+                       poisson: float = 0.0, **submodels) -> Packing:
     """Perfect triangular lattice of unit balls under vertical stress ``pressure`` (module docstring).
 
     rows >= 2 rows of width >= 3 balls; pressure in E* (force per wall length
     × one diameter); friction μ and Poisson ratio ν recorded and used for k_t;
-    ``contact_law`` the normal law (granwave.contact_models; 'harmonic' with k_n =
-    ``harmonic_stiffness`` between two balls, E* d, and recorded in the attributes).
+    ``submodels``: the normal law and its parameters by the names of ``PrepareParams``' fields
+    (``contact_law``, ...; granwave.contact_models.options; recorded in the attributes when not
+    the default); sub-models of the other kinds are refused (a lattice has no history).
     """
     from . import contact_models as CM
+    from .contact_models import options as CO
 
+    values = CO.resolve(submodels, "triangular_lattice")
     try:
-        law = CM.contact_model(contact_law, harmonic_stiffness)
+        module, law = CM.normal_law(values)
     except ValueError as e:
         raise InputError(str(e)) from None
-    module = CM.law_module(contact_law)
+    for option, name in CO.off_kinds_on(values):
+        raise InputError(f"a lattice has no {CO.SUBMODELS[name]['description']} (--{option.replace('_', '-')} "
+                         f"{name})")
     if int(rows) != rows or rows < 2:
         raise InputError(f"rows must be an integer >= 2, got {rows}")
     if int(width) != width or width < 3:
@@ -121,7 +125,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     a = 1.0 - delta_g
     f_g = pressure * a / SQRT3
     f_w = pressure * a  # wall force per ball: p times the wall length per ball (a) times 1 d
-    delta_w = module.overlap_at_force(f_w, r12_w, e12_w, law.stiffness)
+    delta_w = module.overlap_at_force(f_w, r12_w, e12_w, law.c0)
     h = a * SQRT3 / 2.0
     y0 = radius - delta_w
     if not (y0 > 0.0 and a > 0.0):
@@ -175,8 +179,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
                  poisson=float(poisson), seed=0, converged=True, max_acceleration=residual,
                  rows=rows, width=width, spacing=a, row_spacing=h, contact_force=f_g,
                  wall_force=f_w)
-    if contact_law != CM.DEFAULT_LAW:  # files without it are Hertz (granwave.contact_models)
-        attrs.update(contact_law=contact_law, harmonic_stiffness=float(harmonic_stiffness))
+    attrs.update(CO.attrs_of(values, recorded=False))  # files without it: the default law
     return Packing(position=position, radius=np.full(n, radius), mass=mass,
                    inertia=grain_inertia(np.full(n, radius)), box=box, contacts=contacts, attrs=attrs)
 

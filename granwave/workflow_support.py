@@ -808,23 +808,27 @@ def _tiny_make(kind: str, make: dict) -> dict:
 def pulse_on_lattice(make: dict) -> bool:
     """Whether the DEM pulse's kernels can be compiled on a perfect lattice (:func:`pulse_lattice`)
     instead of a DEM packing of the scene ``make`` (PrepareParams' fields): a 2D scene without
-    rolling resistance. Then the pulse warm-up needs no DEM preparation, so no "dem" warm-up first."""
+    sub-model beyond the normal law (granwave.contact_models: a lattice has none). Then the pulse
+    warm-up needs no DEM preparation, so no "dem" warm-up first."""
+    from .contact_models import options as CO
     from .params import PrepareParams
 
     p = PrepareParams(**make)
-    return p.dim == 2 and p.rolling == "none"
+    return p.dim == 2 and not CO.off_kinds_on(CO.values_of(p))
 
 
 def pulse_lattice(make: dict):
     """A 4 x 4 triangular lattice with the pressure, friction, Poisson ratio and contact law of a
     2D scene's ``make``: the DEM pulse runs the same kernels on it as on the scene's packings (the
     same array types and contact model)."""
+    from .contact_models import options as CO
     from .params import PrepareParams
     from .systems import triangular_lattice
 
     p = PrepareParams(**make)
+    contact = {k: v for k, v in CO.values_of(p).items() if k in CO.normal_options()}
     return triangular_lattice(rows=4, width=4, pressure=p.pressure, friction=p.friction, poisson=p.poisson,
-                              contact_law=p.contact_law, harmonic_stiffness=p.harmonic_stiffness)
+                              **contact)
 
 
 def warm_kernels(family: str, samples: list[dict], folder, *, pulse: dict | None = None,

@@ -15,19 +15,39 @@ import numba
 
 from .. import contact as C
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+from .kinds import NORMAL
 
+KIND = NORMAL
 NAME = "hertz"
-#: the law's integer code in :class:`granwave.contact_models.ContactModel` (registry order)
-CODE = 0
+#: one line for the option's help (``--contact-law``)
+SUMMARY = "F_n ~ n^(3/2), Mindlin k_t"
+#: what a pulse's signal file records of the law it ran (attribute ``contact_law``)
+DESCRIPTION = "Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history from the packing"
 #: parameters of the law beyond the grain material (none: E* = 1 and nu set it)
 PARAMETERS = ()
 #: LAMMPS ``pair_style granular`` normal sub-model (granwave.interop.lammps)
 LAMMPS_NORMAL = "hertz"
+#: LAMMPS' coeff_restitution damping: x(e) = zeta times this (F_n / n = (2/3) k_n for Hertz)
+LAMMPS_RESTITUTION_SCALE = math.sqrt(6.0 / 5.0)
 #: (1/2) m v^2 = IMPACT_WORK x F delta: the work of the force up to delta, over F delta
 IMPACT_WORK = 0.4
 #: contacts of a grain at the estimated stiffness that the time-step estimate assumes act together
 #: (kernels.stable_dt): one, the stiffness being that at the largest overlap of the packing
 STEP_CONTACTS = 1
+#: its numba functions in the order the GPU compiles them (each after those it calls)
+DEVICE_FUNCTIONS = ("force", "stiffness", "energy", "tangential_stiffness", "unloading_scale", "step_stiffness")
+
+
+def kernel_constants(values: dict) -> tuple:
+    """The kernels' constant k (unused)."""
+    return (0.0,)
+
+
+def lammps_words(values: dict, e12_pair: float, e12_wall: float, g12_pair: float, g12_wall: float) -> dict:
+    """``pair_style granular``'s normal and tangential sub-models and stiffnesses (granwave units):
+    ``hertz`` k_n = (4/3) E*12, ``mindlin_rescale`` k_t = 8 G*12."""
+    return dict(kn_pair=4.0 / 3.0 * e12_pair, kn_wall=4.0 / 3.0 * e12_wall, kt_pair=8.0 * g12_pair,
+                kt_wall=8.0 * g12_wall, normal=LAMMPS_NORMAL, tangential="mindlin_rescale")
 
 
 @numba.njit(cache=True, inline="always")
@@ -58,6 +78,13 @@ def tangential_stiffness(overlap, r12, g12, k):
 def unloading_scale(overlap_old, overlap_new):
     """k_t(n_new) / k_t(n_old) = sqrt(n_new / n_old): the rescale of F_t on unloading."""
     return C.unloading_scale(overlap_old, overlap_new)
+
+
+@numba.njit(cache=True, inline="always")
+def step_stiffness(overlap, root_r12, e12, k):
+    """The stiffness the time-step estimate takes (granwave.dem.time_step.stable_dt): k_n itself
+    (STEP_CONTACTS = 1)."""
+    return stiffness(overlap, root_r12, e12, k)
 
 
 def overlap_at_force(f: float, r12: float, e12: float, k: float) -> float:

@@ -20,7 +20,8 @@ import math
 import numba
 
 from .. import contact as C
-from .. import contact_models as CM
+from ..contact_models import _dispatch as CD
+from ..contact_models._dispatch import couple_of, law_of  # noqa: F401  (the engines' readers)
 from ..geometry import nearest_image
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
@@ -84,14 +85,14 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
     with slip = tangential velocity * dt and its unloading rescale when ``rescale``
     (contact.py docstring: preparation True, pulses False); a viscous part c_t v_t is added to the force
     (not to the history) while the contact sticks. ``law``: the contact model
-    (:class:`granwave.contact_models.ContactModel`) whose normal law gives F_n, k_n, k_t and
+    (its normal model tuple, granwave.contact_models) whose normal law gives F_n, k_n, k_t and
     the unloading factor.
     """
-    fel = CM.law_force(law, delta, root_r12, e12)
+    fel = CD.law_force(law, delta, root_r12, e12)
     vn = vx * nx + vy * ny + vz * nz
     fn = fel
     if zeta > 0.0:
-        kn = CM.law_stiffness(law, delta, root_r12, e12)
+        kn = CD.law_stiffness(law, delta, root_r12, e12)
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
     if mu > 0.0:
@@ -100,10 +101,10 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
         tz = vz - vn * nz
         # Scalar forms of the law (contact.py): the history stays in registers.
         gx, gy, gz = C.project_tangential3(hx, hy, hz, nx, ny, nz)
-        kt = CM.law_tangential_stiffness(law, delta, r12, g12)
+        kt = CD.law_tangential_stiffness(law, delta, r12, g12)
         # contact.update_tangential3's steps, with the law's unloading factor
         if C.unloads(overlap_old, delta, rescale):
-            scale = CM.law_unloading_scale(law, overlap_old, delta)
+            scale = CD.law_unloading_scale(law, overlap_old, delta)
             gx *= scale
             gy *= scale
             gz *= scale
@@ -118,7 +119,7 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
 
 @numba.njit(cache=True)
 def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, fvec,
-                  rescale=True, law=CM.ContactModel(CM.HERTZ, 0.0)):
+                  rescale=True, law=CD.NormalModel(0, 0.0)):
     """Array form of :func:`contact_force3` (tests, frozen-history forces).
 
     ``n``, ``vrel``, ``ft``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
@@ -254,27 +255,14 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
 
 
 @numba.njit(cache=True, inline="always")
-def law_of(fpar):
-    """The contact model (:class:`granwave.contact_models.ContactModel`) of the engine's
-    parameters: the normal law's code ``fpar.law`` and its stiffness ``fpar.k_law``."""
-    return CM.ContactModel(int(fpar.law), fpar.k_law)
-
-
-@numba.njit(cache=True, inline="always")
-def rolling_of(fpar):
-    """The rolling sub-model (:class:`granwave.contact_models.RollingModel`) of the engine's
-    parameters ``fpar.roll`` (code), k_r, gamma_r, mu_r."""
-    return CM.RollingModel(int(fpar.roll), fpar.k_roll, fpar.gamma_roll, fpar.mu_roll)
-
-
-@numba.njit(cache=True, inline="always")
-def rolling_history(hist, w, d):
-    """The rolling displacement of contact slot ``w`` (columns d.. of the history; zeros in 2D's z)."""
+def couple_history(hist, w, d):
+    """The couple sub-model's history of contact slot ``w`` (columns d.. of the history; zeros in
+    2D's z)."""
     return hist[w, d], hist[w, d + 1], hist[w, d + 2] if d == 3 else 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def store_rolling_history(hist, w, d, hx, hy, hz):
+def store_couple_history(hist, w, d, hx, hy, hz):
     hist[w, d] = hx
     hist[w, d + 1] = hy
     if d == 3:
@@ -292,29 +280,30 @@ def relative_spin(omega, i, j):
 
 
 @numba.njit(cache=True, inline="always")
-def pair_rolling(omega, pair_ft, q, i, j, nx, ny, nz, r12, fel, dt, roll):
-    """The rolling couple (cx, cy, cz) on i of listed pair q = (i, j) (the opposite one on j); its
-    rolling displacement in ``pair_ft[q, d:]`` updated (granwave.contact_models.rolling)."""
+def pair_couple(omega, pair_ft, q, i, j, nx, ny, nz, r12, fel, dt, couple):
+    """The couple (cx, cy, cz) on i of listed pair q = (i, j) (the opposite one on j) of the couple
+    sub-model ``couple`` (granwave.contact_models, kind rolling); its history in ``pair_ft[q, d:]``
+    updated."""
     d = pair_ft.shape[1] // 2
     rx, ry, rz = relative_spin(omega, i, j)
-    hx, hy, hz = rolling_history(pair_ft, q, d)
-    cx, cy, cz, hx, hy, hz = CM.rolling_couple(roll, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt)
-    store_rolling_history(pair_ft, q, d, hx, hy, hz)
+    hx, hy, hz = couple_history(pair_ft, q, d)
+    cx, cy, cz, hx, hy, hz = CD.contact_couple(couple, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt)
+    store_couple_history(pair_ft, q, d, hx, hy, hz)
     return cx, cy, cz
 
 
 @numba.njit(cache=True, inline="always")
-def wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll):
-    """The rolling couple on grain i from its touching wall k (R12 = R_i, the wall at rest, F_n the
-    law's elastic force at ``delta``); its rolling displacement in ``wall_ft[2 i + k, d:]`` updated."""
+def wall_couple(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, couple):
+    """The couple on grain i from its touching wall k (R12 = R_i, the wall at rest, F_n the law's
+    elastic force at ``delta``); its history in ``wall_ft[2 i + k, d:]`` updated."""
     d = wall_ft.shape[1] // 2
     w = 2 * i + k
     R = rad[i]
-    fel = CM.law_force(law, delta, math.sqrt(R), e_wall)
+    fel = CD.law_force(law, delta, math.sqrt(R), e_wall)
     rx, ry, rz = relative_spin(omega, i, -1)
-    hx, hy, hz = rolling_history(wall_ft, w, d)
-    cx, cy, cz, hx, hy, hz = CM.rolling_couple(roll, nx, ny, nz, rx, ry, rz, R, fel, hx, hy, hz, dt)
-    store_rolling_history(wall_ft, w, d, hx, hy, hz)
+    hx, hy, hz = couple_history(wall_ft, w, d)
+    cx, cy, cz, hx, hy, hz = CD.contact_couple(couple, nx, ny, nz, rx, ry, rz, R, fel, hx, hy, hz, dt)
+    store_couple_history(wall_ft, w, d, hx, hy, hz)
     return cx, cy, cz
 
 

@@ -17,17 +17,18 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
+from ..contact_models import _dispatch as CD
+from ..contact_models import options as CO
 from ..geometry import BOTTOM_WALL, TOP_WALL, n_rotations, nearest_image
 from ..model import Contacts, Packing
-from ..contact_models import rolling as RL
 from . import kernels as K
 from .contact_law import relative_spin
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True)
-def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque, roll,
-                   rd_stored):
+def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque, couple,
+                   hist_stored):
     n_grains, d = pos.shape
     r = rot.shape[1]
     e_pair = C.effective_young(False)
@@ -91,10 +92,10 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
                 force[j, a] -= fvec[a]
             if r > 0:
                 K.add_torque(torque, j, aj, nv, fvec)
-        if r > 0 and roll.kind != 0:  # the rolling spring: couple c on i, -c on j
+        if r > 0 and couple.code != 0:  # the couple sub-model's spring: couple c on i, -c on j
             rx, ry, rz = relative_spin(rot, i, j)
-            cx, cy, cz = RL.spring_couple(roll.stiffness, nv[0], nv[1], nv[2] if d == 3 else 0.0, rx, ry, rz, r12,
-                                          rd_stored[c, 0], rd_stored[c, 1], rd_stored[c, 2] if d == 3 else 0.0)
+            cx, cy, cz = CD.spring_couple(couple, nv[0], nv[1], nv[2] if d == 3 else 0.0, rx, ry, rz, r12,
+                                          hist_stored[c, 0], hist_stored[c, 1], hist_stored[c, 2] if d == 3 else 0.0)
             if r == 1:
                 torque[i, 0] += cz
                 if j >= 0:
@@ -119,9 +120,8 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
     stored F_t carried into the new tangent plane (contact.project_tangential)
     plus k_t(new overlap) times the tangential relative displacement of the
     contact point (rotation x arm included); no unloading rescale, no Coulomb
-    cap. Rolling resistance (attribute ``rolling``): the stored rolling displacement carried into
-    the new tangent plane plus R12 n x (theta_i - theta_j), times -k_r, as a couple
-    (granwave.contact_models.rolling.spring_couple; no dashpot, no cap). Walls fixed; only the
+    cap. A couple sub-model (kind rolling, granwave.contact_models; e.g. ``rolling sds``): its
+    ``spring_couple`` of the stored history and the rotations (no dashpot, no cap). Walls fixed; only the
     stored contacts act (a contact whose overlap becomes <= 0 gives nothing). Units: E* d^2 and
     E* d^3.
     """
@@ -136,28 +136,24 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
     c = packing.contacts
     force = np.zeros((n, d))
     torque = np.zeros((n, r))
+    values = CO.values_of_attrs(packing.attrs)
     _frozen_kernel(np.ascontiguousarray(packing.position, dtype=float),
                    np.ascontiguousarray(packing.radius, dtype=float),
                    np.ascontiguousarray(packing.box[:-1], dtype=float), float(packing.box[-1]),
                    np.ascontiguousarray(c.i, dtype=np.int64), np.ascontiguousarray(c.j, dtype=np.int64),
                    np.ascontiguousarray(c.force_tangential, dtype=float).reshape(len(c), d), disp, rot,
                    float(packing.attrs.get("poisson", 0.0)), math.inf if friction > 0.0 else 0.0,
-                   CM.model_of_attrs(packing.attrs), force, torque, CM.rolling_of_attrs(packing.attrs),
-                   _rolling_displacement(c, d))
+                   CM.model_of("normal", values), force, torque, CM.couple_model(values),
+                   CM.stored_couple_history(c, d))
     return force, torque
 
 
-def _rolling_displacement(contacts: Contacts, d: int) -> np.ndarray:
-    """The contacts' stored rolling displacements (M, d); zeros when none are stored."""
-    if contacts.rolling_displacement is None:
-        return np.zeros((len(contacts), d))
-    return np.ascontiguousarray(contacts.rolling_displacement, dtype=float).reshape(len(contacts), d)
-
-
 def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wall_ft, *, friction,
-                  poisson, law=None) -> Contacts:
+                  poisson, law=None, couple=None) -> Contacts:
     """Force-carrying contacts (overlap > 0) of a state, elastic forces only, of the normal law
-    ``law`` (a :class:`granwave.contact_models.ContactModel`; None: Hertz).
+    ``law`` (a normal model tuple, granwave.contact_models; None: the default law); ``couple``: the
+    couple sub-model's model tuple, whose history (the columns of ``pair_ft`` and ``wall_ft`` after
+    the first ``dim``) is stored carried into the tangent plane.
 
     Pairs (sorted by i, j) first, then bottom-wall (j = -1) and top-wall (j = -2)
     contacts by grain. F_t is the history carried into the current tangent
@@ -175,7 +171,7 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
     normal = [dx[keep] / dist[keep, None]]
     overlap = [delta[keep]]
     ft = [pair_ft[keep, :d]]
-    rolls = pair_ft.shape[1] > d  # a rolling displacement after the tangential history
+    keeps = pair_ft.shape[1] > d  # a couple sub-model's history after the tangential one
     rd = [pair_ft[keep, d:]]
     y = position[:, d - 1]
     for k, (j_wall, dlt) in enumerate(((BOTTOM_WALL, radius - y), (TOP_WALL, radius - (height - y)))):
@@ -193,9 +189,9 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
     normal = np.concatenate(normal)
     overlap = np.concatenate(overlap)
     ft = np.array(np.concatenate(ft), dtype=float)
-    rd = np.array(np.concatenate(rd), dtype=float) if rolls else None
+    rd = np.array(np.concatenate(rd), dtype=float) if keeps else None
     m = len(ci)
-    law = CM.contact_model() if law is None else law
+    law = CM.model_of("normal", CO.defaults()) if law is None else law
     fn = np.zeros(m)
     kn = np.zeros(m)
     kt = np.zeros(m)
@@ -216,9 +212,10 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
             n3[:d] = normal[k]
             h3 = np.zeros(3)
             h3[:d] = rd[k]
-            rd[k] = np.array(RL.carried_into_plane(*h3, *n3))[:d]
+            rd[k] = np.array(CD.couple_in_plane(couple, *h3, *n3))[:d]
+    history = {CO.KINDS[CM.COUPLE_KIND]["history"]: rd}
     return Contacts(i=ci, j=cj, normal=normal, overlap=overlap, force_normal=fn, force_tangential=ft,
-                    stiffness_normal=kn, stiffness_tangential=kt, rolling_displacement=rd)
+                    stiffness_normal=kn, stiffness_tangential=kt, **history)
 
 
 def contacts_of_engine(engine) -> Contacts:
@@ -227,7 +224,7 @@ def contacts_of_engine(engine) -> Contacts:
     return contact_table(engine.position, engine.radius, engine.lateral, engine.height,
                          engine.pair_i[:m], engine.pair_j[:m], engine.pair_ft[:m], engine.wall_ft,
                          friction=engine.friction, poisson=float(engine.fpar.poisson),
-                         law=K.law_of(engine.fpar))
+                         law=K.law_of(engine.fpar), couple=K.couple_of(engine.fpar))
 
 
 def static_residual(packing: Packing, piston_mass: float | None = None, piston_force: float | None = None):

@@ -17,16 +17,16 @@ from __future__ import annotations
 
 import numba
 
-from .contact_law import _add_torque3, add_torque_with_couple, wall_contact, wall_rolling
+from .contact_law import _add_torque3, add_torque_with_couple, wall_contact, wall_couple
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
 @numba.njit(cache=True, inline="always")
 def grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall, g_wall, dt, zeta, mu, rescale, law,
-                roll, force, torque, dmax, count):
+                couple, force, torque, dmax, count):
     """Add grain i's wall contacts to ``force[i]``, ``torque[i]`` (after its pair terms): k = 0
     bottom, normal -e_z at 0; k = 1 top, normal +e_z at height ``h``, moving at ``vp``
-    (:func:`granwave.dem.contact_law.wall_contact`, with the rolling sub-model ``roll``'s couple).
+    (:func:`granwave.dem.contact_law.wall_contact`, with the rolling sub-model ``couple``'s couple).
     The CPU engines call it for the grains of the wall list only
     (:func:`granwave.dem.workspace.wall_list`: no other can touch a wall), the GPU for every grain.
 
@@ -48,8 +48,8 @@ def grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall, 
         if d == 3:
             force[i, 2] += fz
         if r > 0:
-            if roll.kind != 0:
-                cx, cy, cz = wall_rolling(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, roll)
+            if couple.code != 0:
+                cx, cy, cz = wall_couple(omega, rad, wall_ft, i, k, delta, nx, ny, nz, e_wall, dt, law, couple)
                 add_torque_with_couple(torque, i, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
             else:
                 _add_torque3(torque, i, ai, nx, ny, nz, fx, fy, fz)

@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
+from ..contact_models import options as CO
 from .. import team
 from ..errors import InputError
 from ..geometry import grain_inertia, grain_mass, n_rotations
@@ -79,15 +80,14 @@ class Engine:
     the piston damped at gamma_m, the slabs' mean lateral flow at gamma_l (default
     ``background_damping``), the rest at ``background_damping``; ``mflow[M_GAMMA_M]`` and
     ``mflow[M_GAMMA_L]`` may be changed between runs); the GPU engine has it too
-    (:mod:`granwave.gpu.mean_flow`). ``contact_law``: the normal law (granwave.contact_models: ``"hertz"`` or
-    ``"harmonic"``, the latter with k_n = ``harmonic_stiffness`` between two grains, E* d).
-    ``rolling``: the rolling resistance sub-model, ``"none"`` or ``"sds"`` with k_r =
-    ``rolling_stiffness`` (E* d), gamma_r = ``rolling_damping`` and mu_r = ``rolling_friction``
-    (granwave.contact_models.rolling; needs friction > 0; its history in ``pair_ft`` and
-    ``wall_ft`` after the tangential columns).
+    (:mod:`granwave.gpu.mean_flow`). ``**contact``: the contact sub-models, by the names of their
+    ``PrepareParams`` fields (each kind's option, e.g. ``contact_law``, and the sub-models'
+    parameters; granwave.contact_models.options): the selected ones run, a history sub-model's
+    columns in ``pair_ft`` and ``wall_ft`` after the tangential ones; an unknown name is a
+    TypeError.
 
-    Defaults: friction, poisson, damping, safety, skin, check_every, contact_law,
-    harmonic_stiffness and the rolling sub-model are the preparation's, read from
+    Defaults: friction, poisson, damping, safety, skin, check_every and the contact sub-models
+    are the preparation's, read from
     :class:`granwave.params.PrepareParams` (their one home; the pulses pass theirs,
     :func:`granwave.dem.pulse.engine_from_packing`). The others switch a feature off (no
     background damping, a fixed top wall, no convergence test, a fixed skin, no mean-flow rule),
@@ -100,10 +100,7 @@ class Engine:
                  piston_mass=math.inf, piston_force=0.0, dt=None, safety=PrepareParams.safety,
                  overlap_floor=1e-3, skin=PrepareParams.skin, skin_min=None, velocity=None,
                  angular_velocity=None, tol_acceleration=0.0, tol_velocity=0.0,
-                 check_every=PrepareParams.check_every, unloading="rescale", mean_flow=None,
-                 contact_law=PrepareParams.contact_law, harmonic_stiffness=PrepareParams.harmonic_stiffness,
-                 rolling=PrepareParams.rolling, rolling_stiffness=PrepareParams.rolling_stiffness,
-                 rolling_damping=PrepareParams.rolling_damping, rolling_friction=PrepareParams.rolling_friction):
+                 check_every=PrepareParams.check_every, unloading="rescale", mean_flow=None, **contact):
         self.position = np.array(position, dtype=np.float64, order="C")
         n, d = self.position.shape
         if d not in (2, 3):
@@ -132,14 +129,14 @@ class Engine:
         cap = max(64, (4 if d == 2 else 8) * n)
         self.pair_i = np.zeros(cap, np.int64)
         self.pair_j = np.zeros(cap, np.int64)
+        #: the contact sub-models' selection (granwave.contact_models.options: options and parameters)
+        self.contact = CO.resolve(contact, "Engine")
         try:
-            self.rolling = CM.rolling_model(rolling, rolling_stiffness, rolling_damping, rolling_friction)
+            CO.check(self.contact, friction=1.0 if n_rot > 0 else 0.0)
         except ValueError as e:
             raise InputError(str(e)) from None
-        if self.rolling.kind != 0 and n_rot == 0:
-            raise InputError(f"rolling {rolling!r} needs friction > 0 (rotational degrees of freedom)")
-        #: history columns per contact: the tangential force's, then the rolling displacement's
-        hist = CM.history_columns(d, self.rolling)
+        #: history columns per contact: the tangential force's, then those of the sub-models
+        hist = CM.history_columns(d, self.contact)
         self.pair_ft = np.zeros((cap, hist))
         self.pair_ov = np.zeros(cap)
         #: compaction 'mean-flow': [gamma_m, slab, gamma_l] (empty: off) and the slabs' work array
@@ -185,17 +182,7 @@ class Engine:
             raise InputError(f"unloading must be one of {UNLOADING_RULES}, got {unloading!r}")
         self.unloading = unloading
         self.fpar.rescale = 1 if unloading == "rescale" else 0
-        try:
-            law = CM.contact_model(contact_law, harmonic_stiffness)
-        except ValueError as e:
-            raise InputError(str(e)) from None
-        self.contact_law = contact_law
-        self.fpar.law = law.normal
-        self.fpar.k_law = law.stiffness
-        self.fpar.roll = self.rolling.kind
-        self.fpar.k_roll = self.rolling.stiffness
-        self.fpar.gamma_roll = self.rolling.damping
-        self.fpar.mu_roll = self.rolling.friction
+        CM.fill_params(self.fpar, self.contact)
         self.ipar = K.record(K.COUNTERS)
         self.ipar.adaptive = dt is None
         self.ipar.check = check_every

@@ -12,10 +12,9 @@ least), tol_a and tol_v (convergence tolerances), r_max (largest radius), m_min 
 mass), v_max (the last step's largest speed), rescale (unloading rule, 1: rescale F_t on
 unloading, 0: plain incremental; contact.update_tangential), wall_h (piston height when the
 wall list was made, :func:`granwave.dem.workspace.wall_list`), skin_min and skin_max (an
-adaptive skin when they differ, :func:`granwave.dem.time_step.next_skin`), law and k_law (the
-normal law's code and stiffness: granwave.contact_models, :func:`granwave.dem.contact_law.law_of`),
-roll, k_roll, gamma_roll, mu_roll (the rolling sub-model's code, k_r, gamma_r, mu_r:
-:func:`granwave.dem.contact_law.rolling_of`). A new contact sub-model adds its fields here.
+adaptive skin when they differ, :func:`granwave.dem.time_step.next_skin`), then per kind of
+contact sub-model its code and constants (``<kind>_code``, ``<kind>_c0``, ...: generated from the
+registry, granwave.contact_models; read by its generated reader, ``law_of``, ``couple_of``).
 
 ``ipar`` (:data:`COUNTERS`): pairs listed (npairs), steps asked (nsteps), steps done (steps),
 steps between checks (check), adaptive dt (adaptive), rebuilds, the sizes a rebuild needs
@@ -35,14 +34,15 @@ from __future__ import annotations
 
 import numpy as np
 
-#: the step's parameters (``fpar``); law, roll and rescale are codes
+from ..contact_models._table import PARAMS_FIELDS
+
+#: the step's parameters (``fpar``); rescale and the sub-models' ``*_code`` are codes
 PARAMS = np.dtype([("dt", np.float64), ("zeta", np.float64), ("mu", np.float64), ("poisson", np.float64),
                    ("gamma", np.float64), ("skin", np.float64), ("safety", np.float64),
                    ("overlap_floor", np.float64), ("tol_a", np.float64), ("tol_v", np.float64),
                    ("r_max", np.float64), ("m_min", np.float64), ("v_max", np.float64), ("rescale", np.int64),
                    ("wall_h", np.float64), ("skin_min", np.float64), ("skin_max", np.float64),
-                   ("law", np.int64), ("k_law", np.float64), ("roll", np.int64), ("k_roll", np.float64),
-                   ("gamma_roll", np.float64), ("mu_roll", np.float64)], align=True)
+                   *((name, np.dtype(kind)) for name, kind in PARAMS_FIELDS)], align=True)
 #: the engine's counters (``ipar``)
 COUNTERS = np.dtype([(name, np.int64) for name in ("npairs", "nsteps", "steps", "check", "adaptive", "rebuilds",
                                                     "needed", "width", "built", "team", "team_steps")],

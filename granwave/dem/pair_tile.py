@@ -27,9 +27,9 @@ import numba
 import numpy as np
 
 from .. import contact as C
-from .. import contact_models as CM
+from ..contact_models import _dispatch as CD
 from .contact_law import (PC_MEFF, PC_R12, PC_ROOT, _add_torque3, _contact_velocity, _pair_geometry,
-                          add_torque_with_couple, pair_rolling, torque_with_couple)
+                          add_torque_with_couple, pair_couple, torque_with_couple)
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 #: touching pairs per tile: the scratch (N_TROW x ROW doubles, 53 kB) stays in L2
@@ -79,14 +79,14 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
-             zeta, mu, rescale, e12, g12, law, roll, t, tp, force, torque, dmax, ncontact):
+             zeta, mu, rescale, e12, g12, law, couple, t, tp, force, torque, dmax, ncontact):
     """The pair law (:func:`granwave.dem.contact_law.contact_force3`, the same bits) for the listed
     pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
     history untouched), until TILE of them touch; each contact's force and torque are added
     to both grains in list order, as the pair-at-a-time loop does.
 
     Pairs that no longer touch lose their history (``pair_ov``, ``pair_ft`` zeroed); touching
-    ones get the new one. ``roll``: the rolling sub-model (granwave.contact_models.RollingModel;
+    ones get the new one. ``couple``: the couple sub-model (its model tuple, granwave.contact_models, kind rolling;
     none: the torques as before it). ``t``, ``tp``: one tile's scratch (:func:`scratch`). Returns (the
     first pair not looked at, the largest overlap and the contact count, ``dmax`` and
     ``ncontact`` updated)."""
@@ -121,9 +121,9 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             force[i, 2] += fz
             force[j, 2] -= fz
         if r > 0:
-            if roll.kind != 0:  # a rolling couple c on i, -c on j, added with the force's torque
-                cx, cy, cz = pair_rolling(omega, pair_ft, q, i, j, nx, ny, nz, pair_c[q, PC_R12],
-                                          t[T_FEL * ROW + c], dt, roll)
+            if couple.code != 0:  # a rolling couple c on i, -c on j, added with the force's torque
+                cx, cy, cz = pair_couple(omega, pair_ft, q, i, j, nx, ny, nz, pair_c[q, PC_R12],
+                                          t[T_FEL * ROW + c], dt, couple)
                 add_torque_with_couple(torque, i, t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz, cx, cy, cz)
                 add_torque_with_couple(torque, j, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
             else:
@@ -137,7 +137,7 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, slot_pair, s0, s1,
-                      dt, zeta, mu, rescale, e12, g12, law, roll, t, tp, force, torque, bnd_f, dmax, ncontact):
+                      dt, zeta, mu, rescale, e12, g12, law, couple, t, tp, force, torque, bnd_f, dmax, ncontact):
     """The pair law of :func:`law_tile` (the same bits) for a block's incoming pairs: the pairs
     ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
     contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
@@ -171,9 +171,9 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
         if d == 3:
             force[g, 2] -= fz
             bnd_f[slot, 2] = fz
-        if r > 0 and roll.kind != 0:  # law_tile's torques with the rolling couple, k's into the slot
-            cx, cy, cz = pair_rolling(omega, pair_ft, q, np.uint64(pair_i[q]), g, nx, ny, nz, pair_c[q, PC_R12],
-                                      t[T_FEL * ROW + c], dt, roll)
+        if r > 0 and couple.code != 0:  # law_tile's torques with the rolling couple, k's into the slot
+            cx, cy, cz = pair_couple(omega, pair_ft, q, np.uint64(pair_i[q]), g, nx, ny, nz, pair_c[q, PC_R12],
+                                      t[T_FEL * ROW + c], dt, couple)
             add_torque_with_couple(torque, g, t[T_AJ * ROW + c], nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
             tx, ty, tz = torque_with_couple(t[T_AI * ROW + c], nx, ny, nz, fx, fy, fz, cx, cy, cz)
             if r == 1:
@@ -263,7 +263,7 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
     # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the
     # projection's rescale (its quotient may be inf or NaN where stage 3 does not use it) and
     # the unloading's (contact.unloading_scale)
-    if law.normal == CM.HERTZ:
+    if law.code == 0:  # the default law (code 0): contact.py's formulas (contact_models.hertz binds them)
         for c in range(nc):
             delta = t[T_DELTA * ROW + c]
             root = t[T_ROOT * ROW + c]
@@ -282,17 +282,17 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
         for c in range(nc):
             delta = t[T_DELTA * ROW + c]
             root = t[T_ROOT * ROW + c]
-            t[T_FEL * ROW + c] = CM.law_force(law, delta, root, e12)
+            t[T_FEL * ROW + c] = CD.law_force(law, delta, root, e12)
             t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
-                                                      CM.law_stiffness(law, delta, root, e12))
+                                                      CD.law_stiffness(law, delta, root, e12))
         if mu > 0.0:
             for c in range(nc):
                 delta = t[T_DELTA * ROW + c]
-                kt = CM.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12)
+                kt = CD.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12)
                 t[T_KT * ROW + c] = kt
                 t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
-                t[T_SRES * ROW + c] = CM.law_unloading_scale(law, t[T_OVOLD * ROW + c], delta)
+                t[T_SRES * ROW + c] = CD.law_unloading_scale(law, t[T_OVOLD * ROW + c], delta)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)

@@ -29,7 +29,7 @@ from ..geometry import fold_into_box, nearest_image, periodic_distance2
 from . import pair_tile as PT
 from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX, G_WMAX,
                      block_bounds, claim_block, grains, open_claims, visit_order)
-from .contact_law import law_of, rolling_of
+from .contact_law import law_of, couple_of
 from .grain_step import grain_damping, grain_measures, grain_walls
 from .layout import PARAMS, PISTON
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
@@ -84,7 +84,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar.poisson, False)
     law = law_of(fpar)
-    roll = rolling_of(fpar)
+    couple = couple_of(fpar)
     dmax = 0.0
     ncontact = np.int64(0)  # not a literal 0: one compiled law_tile_incoming (serial.py)
     # the block's slots are in the order of its grains g and then of k (incoming_lists): one
@@ -95,7 +95,7 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     while s < slot_start[b + 1]:
         s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
                                                  pair_ov, slot_pair, s, slot_start[b + 1], dt, zeta, mu, rescale,
-                                                 e_pair, g_pair, law, roll, t, tp, acc, alpha, bnd_f, dmax, ncontact)
+                                                 e_pair, g_pair, law, couple, t, tp, acc, alpha, bnd_f, dmax, ncontact)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
 
@@ -266,7 +266,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     e_wall = C.effective_young(True)
     g_wall = C.effective_shear(fpar.poisson, True)
     law = law_of(fpar)
-    roll = rolling_of(fpar)
+    couple = couple_of(fpar)
     dmax = blk_g[b, G_DMAX]
     ncontact = int(blk_g[b, G_NC])
     # the block's rows a tile at a time (pair_tile: the pair law with its roots and quotients in
@@ -275,7 +275,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     p = row[b0]
     while p < row[b1]:
         p, dmax, ncontact = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov,
-                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, law, roll, t, tp,
+                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, law, couple, t, tp,
                                         acc, alpha, dmax, ncontact)
     # then those pairs' forces on their rows' grains, from the slots, in increasing pair index
     # (a row's are its last pairs, sorted by j). Nothing but row k adds to grain k once row k
@@ -301,7 +301,7 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
         i = walls[q]
         q += 1
         top, nt, dmax, ncontact = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall,
-                                              g_wall, dt, zeta, mu, rescale, law, roll, acc, alpha, dmax, ncontact)
+                                              g_wall, dt, zeta, mu, rescale, law, couple, acc, alpha, dmax, ncontact)
         if nt:
             top_f[b0 + ntop] = top
             ntop += 1

@@ -45,6 +45,7 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
+from ..contact_models import options as CO
 from ..errors import ConvergenceError, InputError, StepBudgetExceeded
 from ..geometry import (EXPECTED_SOLID_FRACTION_2D, EXPECTED_SOLID_FRACTION_3D, grain_inertia, grain_mass,
                         grain_measure, lateral_size, wall_area, wrap)
@@ -128,26 +129,27 @@ def mean_flow_scale(params: PrepareParams, height: float) -> float:
     return params.reference_height / height
 
 
-def pressure_scales(pressure: float, mean_mass: float, law: str = "hertz",
-                    harmonic_stiffness: float = 1.0) -> tuple[float, float, float]:
+def pressure_scales(pressure: float, mean_mass: float, contact: dict | None = None) -> tuple[float, float, float]:
     """(delta_p, k_p, t_p): overlap and k_n of a grain pair (R12 = 1/4, E*12 = 1/2)
-    carrying the force p d^2 under the normal law ``law`` (granwave.contact_models), and the
-    contact time scale t_p = sqrt(m_mean / k_p)."""
+    carrying the force p d^2 under the normal law of the sub-models ``contact`` (a selection,
+    granwave.contact_models.options; None: the defaults), and the contact time scale
+    t_p = sqrt(m_mean / k_p)."""
     r12, e12 = 0.25, C.effective_young(False)
-    model = CM.contact_model(law, harmonic_stiffness)
-    delta = CM.law_module(law).overlap_at_force(pressure, r12, e12, model.stiffness)
+    module, model = CM.normal_law(CO.values_of(contact or {}))
+    delta = module.overlap_at_force(pressure, r12, e12, model.c0)
     k = CM.law_stiffness(model, delta, math.sqrt(r12), e12)
     return delta, k, math.sqrt(mean_mass / k)
 
 
-def impact_velocity(tol: float, mass: float, law: str = "hertz", harmonic_stiffness: float = 1.0) -> float:
+def impact_velocity(tol: float, mass: float, contact: dict | None = None) -> float:
     """Speed at which a head-on impact of two grains of mass ``mass`` (R12 = 1/4,
     E*12 = 1/2) peaks at an acceleration ``tol``: (1/2) m_eff v^2 = W F delta with
-    F = mass * tol, W F delta the work of the force up to delta (Hertz W = 2/5, harmonic 1/2)."""
+    F = mass * tol, W F delta the work of the force up to delta (the normal law's IMPACT_WORK:
+    Hertz 2/5, a linear spring 1/2)."""
     r12, e12 = 0.25, C.effective_young(False)
     force = mass * tol
-    module = CM.law_module(law)
-    delta = module.overlap_at_force(force, r12, e12, CM.contact_model(law, harmonic_stiffness).stiffness)
+    module, model = CM.normal_law(CO.values_of(contact or {}))
+    delta = module.overlap_at_force(force, r12, e12, model.c0)
     m_eff = C.reduced_mass(mass, mass, False)
     return math.sqrt(2.0 * module.IMPACT_WORK * force * delta / m_eff)
 
@@ -197,15 +199,6 @@ CALL_SECONDS = 0.3
 
 
 
-def rolling_options(p: PrepareParams) -> dict:
-    """The engine's rolling keywords of ``p`` (none: no keyword, so that an engine without the
-    sub-model, the GPU's, is built as before)."""
-    if p.rolling == "none":
-        return {}
-    return dict(rolling=p.rolling, rolling_stiffness=p.rolling_stiffness, rolling_damping=p.rolling_damping,
-                rolling_friction=p.rolling_friction)
-
-
 class Compression:
     """The engine of the piston protocol for given grains, and what it records.
 
@@ -221,8 +214,9 @@ class Compression:
         self.radius, self.lateral = radius, lateral
         self.mass = grain_mass(radius)
         mean_mass = float(self.mass.mean())
-        law = dict(law=p.contact_law, harmonic_stiffness=p.harmonic_stiffness)
-        delta_p, _, self.time_scale = pressure_scales(p.pressure, mean_mass, **law)
+        #: the contact sub-models' selection (granwave.contact_models.options)
+        self.contact = CO.values_of(p)
+        delta_p, _, self.time_scale = pressure_scales(p.pressure, mean_mass, self.contact)
         self.piston_mass = p.piston_mass if p.piston_mass is not None else mean_mass * float(np.prod(lateral))
         self.piston_force = p.pressure * wall_area(lateral)
         self.inertial_time = math.sqrt(mean_mass / p.pressure)  # sqrt(m / (p d))
@@ -235,7 +229,7 @@ class Compression:
         self.mean_flow_scale = mean_flow_scale(p, self.expected_height)
         self.gamma_mean = self.gamma * self.mean_flow_scale if self.mean_flow_scale < 1.0 else None
         extra = {} if self.gamma_mean is None else dict(mean_flow=(self.gamma_mean, p.mean_flow_slab))
-        self.tol_v = impact_velocity(p.tol, mean_mass, **law)
+        self.tol_v = impact_velocity(p.tol, mean_mass, self.contact)
         self.engine = engine(position, radius, lateral, height, friction=p.friction, poisson=p.poisson,
                              damping=p.damping, background_damping=self.gamma,
                              piston_mass=self.piston_mass, piston_force=self.piston_force,
@@ -243,8 +237,7 @@ class Compression:
                              skin_min=min(p.skin_min, p.skin),
                              tol_acceleration=p.tol, tol_velocity=self.tol_v,
                              check_every=p.check_every, velocity=velocity,
-                             angular_velocity=angular_velocity, contact_law=p.contact_law,
-                             harmonic_stiffness=p.harmonic_stiffness, **extra, **rolling_options(p))
+                             angular_velocity=angular_velocity, **extra, **self.contact)
         #: compaction 'mean-flow', settling 'critical' or 'late': watches the piston and switches
         #: the mean flow to critical damping once the plug has arrived (and, 'late', the kinetic
         #: energy has fallen; None: off)
@@ -274,11 +267,7 @@ class Compression:
                  time_scale=self.time_scale, inertial_time=self.inertial_time, steps=engine.steps,
                  rebuilds=engine.rebuilds, skin=p.skin, skin_min=p.skin_min, check_every=p.check_every,
                  convergence_test=CONVERGENCE_TEST, max_steps=self.max_steps)
-        a.update(contact_law=p.contact_law)
-        a.update(CM.rolling_attrs(CM.rolling_model(p.rolling, p.rolling_stiffness, p.rolling_damping,
-                                                   p.rolling_friction)))
-        if p.contact_law != "hertz":
-            a.update(harmonic_stiffness=p.harmonic_stiffness)
+        a.update(CO.attrs_of(self.contact))
         if p.compaction == "mean-flow":
             a.update(mean_flow_slab=p.mean_flow_slab, mean_flow_damping_scale=self.mean_flow_scale,
                      mean_flow_damping_rate=self.gamma * self.mean_flow_scale,

@@ -70,7 +70,7 @@ from ..params import PropagateParams
 from ..resources import check_propagate, check_run_time, predicted_seconds
 from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
-from .. import contact_models as CM
+from ..contact_models import options as CO
 from . import kernels as K
 from . import pulse_kernels as PK
 from .integrator import Engine, one_thread
@@ -99,14 +99,6 @@ AMPLITUDE_DEFINITION = {
          "displacement is EPS mean overlaps",
 }
 
-#: The signal's ``contact_law`` attribute: a description of the law the pulse ran, by law name.
-LAW_DESCRIPTION = {
-    "hertz": "Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history from the packing",
-    "harmonic": "harmonic: F_n = k_n n, k_n = harmonic_stiffness between two grains (twice that at a "
-                "wall), constant k_t = eta k_n, with Coulomb friction (granwave.contact_models.harmonic), "
-                "tangential history from the packing",
-}
-assert tuple(LAW_DESCRIPTION) == tuple(CM.NORMAL_LAWS), "describe every contact law"
 
 #: Attributes carried from the packing into the signal.
 CARRIED_ATTRS = (*SAMPLE_ATTRS, "grains", "polydispersity")
@@ -194,18 +186,19 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
     engine.fpar.dt = keep
 
 
-def packing_law(packing: Packing) -> tuple[str, float]:
-    """(law name, harmonic_stiffness) of the packing's normal contact law (attribute
-    ``contact_law``, Hertz when absent; granwave.contact_models); InputError for an unknown
-    law or a harmonic stiffness that is not > 0."""
+def packing_law(packing: Packing) -> tuple[str, dict]:
+    """(normal law's name, the contact sub-models' selection) of a packing (its attributes: the
+    defaults where absent; granwave.contact_models.options); InputError for an unknown law, a
+    parameter out of range or a sub-model the pulse does not run (only the normal law)."""
+    values = CO.values_of_attrs(packing.attrs)
     try:
-        model = CM.model_of_attrs(packing.attrs)
+        chosen = CO.check(values)
     except ValueError as e:
         raise InputError(str(e)) from None
-    if packing.attrs.get("rolling", "none") != "none":
-        raise InputError(f"the DEM pulse does not run rolling resistance yet (the packing was made with "
-                         f"--rolling {packing.attrs['rolling']})")
-    return CM.name_of(model), float(packing.attrs.get("harmonic_stiffness", 1.0))
+    for option, name in CO.off_kinds_on(values):
+        raise InputError(f"the DEM pulse does not run {CO.SUBMODELS[name]['description']} yet (the packing was "
+                         f"made with --{option.replace('_', '-')} {name})")
+    return chosen["normal"], values
 
 
 def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, dt: float,
@@ -222,13 +215,13 @@ def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, d
     """
     if packing.dim not in (2, 3):
         raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
-    law_name, harmonic_stiffness = packing_law(packing)
+    _, contact = packing_law(packing)
     radius = np.asarray(packing.radius, float)
     engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
                     friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),
                     damping=float(damping), background_damping=0.0, piston_mass=math.inf,
                     piston_force=0.0, dt=dt, skin=skin, check_every=0,  # fixed dt, no convergence test
-                    unloading=unloading, contact_law=law_name, harmonic_stiffness=harmonic_stiffness)
+                    unloading=unloading, **contact)
     if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
         raise InputError("the packing's grain masses are not rho pi d^3 / 6 (docs/method.md §1): "
                          "the DEM engine cannot represent them")
@@ -308,7 +301,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     damping, scale s, mean_overlap, amplitude_definition, dt, n_steps, the
     counts n_opened, n_formed, n_sliding (n_sliding_new, n_at_cone_initial),
     max_displacement_over_overlap, contact_law (a description of the packing's law that
-    the run used; with harmonic_stiffness for a harmonic packing) and the packing's attributes.
+    the run used; with the law's parameters when it is not the default) and the packing's attributes.
     The engine runs the packing's normal law (``contact_law`` attribute, Hertz when absent);
     ``device="gpu"`` takes Hertz packings only.
     """
@@ -324,8 +317,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
             raise InputError("the shear kick has initial condition A only")
         if device != "cpu":
             raise InputError("the DEM shear pulse runs on the CPU only (--device cpu)")
-    law_name, harmonic_stiffness = packing_law(packing)
-    if device != "cpu" and law_name != CM.DEFAULT_LAW:  # granwave.gpu.pulse's contact flags are Hertz's
+    law_name, contact = packing_law(packing)
+    if device != "cpu" and law_name != CO.KINDS["normal"]["default"]:  # granwave.gpu.pulse's contact flags are Hertz's
         raise InputError(f"the DEM pulse of a {law_name} packing runs on the CPU only (--device cpu)")
     if unloading not in ("incremental", "rescale"):
         raise InputError(f"unloading must be 'incremental' or 'rescale' (got {unloading!r})")
@@ -391,7 +384,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         t_max=float(t_max), samples=samples, dt=float(step),
         dt_safety=float(dt_safety) if dt is None else float("nan"), n_steps=int(sub * (samples - 1)),
         integrator="velocity Verlet (DEM engine)",
-        contact_law=LAW_DESCRIPTION[law_name],
+        contact_law=CO.SUBMODELS[law_name]["description"],
         unloading=unloading,
         top_wall="fixed", bottom_wall="fixed", background_damping=0.0,
         baseline_subtracted=bool(baseline),
@@ -412,8 +405,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         energy_input=kicked["energy_input"], neighbour_rebuilds=kicked["rebuilds"],
         wall_time=float(wall_time),
     )
-    if law_name != CM.DEFAULT_LAW:  # Hertz signals keep their attributes (and bytes)
-        attrs.update(harmonic_stiffness=harmonic_stiffness)
+    # the law's parameters where it is not the default (signals of the default as before)
+    attrs.update({k: v for k, v in CO.attrs_of(contact).items() if k in CO.PARAMETERS})
     return Signal(time=times, force=force, attrs=attrs)
 
 

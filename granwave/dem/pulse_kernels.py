@@ -78,7 +78,7 @@ def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu
     """Update the contact flags from the current history arrays (after a force evaluation).
 
     ``initial``: set INITIAL / CONE0 from the current state instead of the run flags.
-    ``law``: the engine's :class:`granwave.contact_models.ContactModel` (``kernels.law_of(fpar)``),
+    ``law``: the engine's normal model tuple (granwave.contact_models; ``kernels.law_of(fpar)``),
     whose normal force sets the Coulomb cone. Parallel over contacts (each writes only its own flag).
     """
     for p in numba.prange(npairs):

@@ -7,8 +7,8 @@ import math
 import numba
 
 from .. import contact as C
-from .. import contact_models as CM
-from .contact_law import law_of
+from ..contact_models import _dispatch as CD
+from .contact_law import couple_of, law_of
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -48,31 +48,18 @@ def stable_dt(fpar):
     (contact_models.law_step_stiffness: a harmonic k_n, the same for every contact, counts twice,
     for a grain's contacts acting together; eta is the same for both laws).
     """
-    k = CM.law_step_stiffness(law_of(fpar), fpar.overlap_floor, math.sqrt(fpar.r_max), C.effective_young(True))
+    k = CD.law_step_stiffness(law_of(fpar), fpar.overlap_floor, math.sqrt(fpar.r_max), C.effective_young(True))
     omega = math.sqrt(k / fpar.m_min)
     zeta = fpar.zeta
     limit = verlet_limit(omega, zeta)
     if fpar.mu > 0.0:
         omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar.poisson))
         limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
-    if fpar.roll != 0.0:
-        limit = min(limit, rolling_limit(fpar))
+    couple = couple_of(fpar)
+    if couple.code != 0:  # the couple sub-model's own mode (granwave.contact_models, kind rolling)
+        omega_c, zeta_c = CD.couple_step_mode(couple, fpar.m_min)
+        limit = min(limit, verlet_limit(omega_c, zeta_c))
     return fpar.safety / SAFETY_AT_LIMIT * limit
-
-
-#: I / (m R^2) of a solid sphere (I = m d^2 / 10, in 2D too)
-SPHERE_INERTIA = 0.4
-
-
-@numba.njit(cache=True, inline="always")
-def rolling_limit(fpar):
-    """The rolling spring's mode in :func:`stable_dt` (granwave.contact_models.rolling): the lightest
-    grain turning on a wall's rolling spring, I theta'' = -R^2 (k_r theta + gamma_r theta'), so
-    omega_r^2 = k_r / (0.4 m_min) and damping ratio gamma_r / (2 sqrt(0.4 m_min k_r)); twice k_r
-    (a grain's contacts acting together, as for the harmonic law)."""
-    k = 2.0 * fpar.k_roll
-    m = SPHERE_INERTIA * fpar.m_min
-    return verlet_limit(math.sqrt(k / m), fpar.gamma_roll / (2.0 * math.sqrt(m * k)))
 
 
 #: Adaptive skin: steps a pair list is meant to last (:func:`next_skin`). A rebuild of a

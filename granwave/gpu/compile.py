@@ -1,10 +1,10 @@
 """CUDA device functions made from the CPU kernels' own source: the contact law is written once.
 
 :func:`device_functions` takes the Python functions behind the ``numba.njit`` kernels of
-:mod:`granwave.contact` (the scalar Hertz-Mindlin law), of :mod:`granwave.contact_models` (the
-selectable normal laws and their dispatchers) and the per-contact routine
+:mod:`granwave.contact` (the scalar Hertz-Mindlin law), of the contact sub-models (their
+formulas and the generated dispatchers, :mod:`granwave.contact_models`) and the per-contact routine
 :func:`granwave.dem.kernels.contact_force3` (``.py_func``: the very code the CPU compiles)
-and compiles them with ``cuda.jit(device=True)``; so also the rolling sub-model, the rule
+and compiles them with ``cuda.jit(device=True)``; so also the rule
 'mean-flow''s slab term and the per-grain part of a step (:mod:`granwave.dem.grain_step`: walls,
 damping, convergence measures). Only their global names are rebound: inside
 the device copies, a call to another contact function (``C.normal_force`` in
@@ -19,7 +19,8 @@ from __future__ import annotations
 import functools
 import types
 
-from .. import contact, contact_models, geometry
+from .. import contact, geometry
+from ..contact_models import _dispatch as CD
 from ..dem import kernels as K, mean_flow
 from . import load_cuda
 
@@ -34,17 +35,14 @@ CONTACT_FUNCTIONS = ("shear_modulus_star", "stiffness_ratio", "effective_radius"
                      "total_normal_force", "tangential_part3", "project_tangential3", "unloads",
                      "unloading_scale", "increment_and_cap3", "update_tangential3")
 
-#: The rolling sub-model's formulas (granwave.contact_models.rolling), called by the wall routine.
-ROLLING_FUNCTIONS = ("rolling_velocity", "carried_into_plane", "sds_couple")
-
 #: The compaction rule 'mean-flow''s per-grain term and its helpers (granwave.dem.mean_flow).
 MEAN_FLOW_FUNCTIONS = ("_slab", "lateral_on", "add_slab_damping")
 
 #: Helpers of the CPU force loop (granwave.dem.kernels) reused as device functions, each after
 #: those it calls; the per-grain routines of granwave.dem.grain_step last.
-ENGINE_FUNCTIONS = ("law_of", "rolling_of", "contact_force3", "_pair_geometry", "_spin", "_contact_velocity",
-                    "_add_torque3", "wall_contact", "relative_spin", "rolling_history", "store_rolling_history",
-                    "wall_rolling", "torque_with_couple", "add_torque_with_couple", "piston_acceleration",
+ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_contact_velocity",
+                    "_add_torque3", "wall_contact", "relative_spin", "couple_history", "store_couple_history",
+                    "wall_couple", "torque_with_couple", "add_torque_with_couple", "piston_acceleration",
                     "pair_constants3", "drift_grain", "_pair_law", "grain_walls", "grain_damping",
                     "grain_measures")
 
@@ -73,31 +71,27 @@ def device_functions() -> types.ModuleType:
         setattr(ns, name, fn)
     # contact_force3 calls the law through the module alias ``C``: give it the device namespace
     names["C"] = ns
-    # the normal laws (granwave.contact_models): each law module's formulas, then the dispatchers
-    # that call them as ``hertz.force`` etc. and that the engine calls as ``CM.law_force``
-    laws = {}
-    for module, name in contact_models.DEVICE_FUNCTIONS:
-        if module is not None:
-            laws.setdefault(module.NAME, types.ModuleType(f"granwave_{module.NAME}_device"))
-            setattr(laws[module.NAME], name, cuda.jit(device=True)(_rebound(getattr(module, name).py_func, names)))
+    # the contact sub-models (granwave.contact_models): each module's formulas (in a device module of
+    # its own, under the name the generated dispatchers call it), then the readers and dispatchers,
+    # which the engine calls as ``CD.law_force`` etc.
+    subs = {}
+    for alias, name in CD.DEVICE_FUNCTIONS:
+        if alias is not None:
+            module = CD.MODULES[alias]
+            if alias not in subs:
+                subs[alias] = (types.ModuleType(f"granwave{alias}_device"), dict(names))
+            dev, local = subs[alias]
+            fn = cuda.jit(device=True)(_rebound(getattr(module, name).py_func, local))
+            local[name] = fn  # the module's own formulas call each other by their plain names
+            setattr(dev, name, fn)
             continue
-        names.update(laws)
-        fn = cuda.jit(device=True)(_rebound(getattr(contact_models, name).py_func, names))
+        names.update({a: dev for a, (dev, _) in subs.items()})
+        fn = cuda.jit(device=True)(_rebound(getattr(CD, name).py_func, names))
         names[name] = fn
         setattr(ns, name, fn)
-    ns.ContactModel = contact_models.ContactModel
-    # the rolling sub-model: its formulas (called as ``rolling.NAME``), then its dispatcher
-    roll = types.ModuleType("granwave_rolling_device")
-    for name in ("NONE", "SDS", "FRAME_EPSILON"):
-        setattr(roll, name, getattr(contact_models.rolling, name))
-    for name in ROLLING_FUNCTIONS:
-        fn = cuda.jit(device=True)(_rebound(getattr(contact_models.rolling, name).py_func, names))
-        names[name] = fn
-        setattr(roll, name, fn)
-    names["rolling"] = roll
-    ns.rolling_couple = cuda.jit(device=True)(_rebound(contact_models.rolling_couple.py_func, names))
-    ns.RollingModel = contact_models.RollingModel
-    names["CM"] = ns
+    for kind, tup in CD.MODELS.items():
+        setattr(ns, tup.__name__, tup)
+    names["CD"] = ns
     for name in MEAN_FLOW_FUNCTIONS:
         fn = cuda.jit(device=True)(_rebound(getattr(mean_flow, name).py_func, names))
         names[name] = fn

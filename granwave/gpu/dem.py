@@ -44,6 +44,7 @@ import math
 
 import numpy as np
 
+from ..contact_models import options as CO
 from ..dem import kernels as K
 from ..dem.integrator import Engine
 from ..errors import InputError
@@ -66,7 +67,7 @@ pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
 law_of = DF.law_of
-rolling_of = DF.rolling_of
+couple_of = DF.couple_of
 grain_walls = DF.grain_walls
 grain_damping = DF.grain_damping
 grain_measures = DF.grain_measures
@@ -224,7 +225,7 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
     # the walls, damping and slab term: the CPU engines' own per-grain routines (grain_step, mean_flow)
     top, ntop, dmax, count = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp,
                                          effective_young(True), effective_shear(poisson, True), dt, zeta, mu,
-                                         rescale, law, rolling_of(fpar), acc, alpha, 0.0, 0)
+                                         rescale, law, couple_of(fpar), acc, alpha, 0.0, 0)
     fpiston = 0.0
     if ntop:
         fpiston -= top
@@ -535,9 +536,10 @@ class GpuEngine(Engine):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        # the device's pair kernel has no rolling couple (its wall routine, the CPU's own, would)
-        if self.rolling.kind != 0:
-            raise InputError("rolling resistance runs on the CPU only for now (use --device cpu)")
+        # the device's pair kernel has no couple sub-model (its wall routine, the CPU's own, would)
+        refused = CO.cpu_only(self.contact)
+        if refused:
+            raise InputError(refused)
 
     def _cpu_only(self) -> None:
         """Nothing to refuse: the device runs every rule of the CPU engine (the CPU engine's

@@ -59,6 +59,7 @@ import numpy as np
 
 from .. import contact as C
 from .. import contact_models as CM
+from ..contact_models import options as CO
 from ..errors import InputError
 from ..geometry import grain_mass, wall_area
 from ..io.files import atomic_text
@@ -68,69 +69,65 @@ DATA_NAME = "packing.data"
 DECK_NAME = "in.granwave"
 #: LAMMPS type of the piston's carrier atom (grains are type 1).
 PISTON_TYPE = 2
-#: Largest contact damping ratio LAMMPS' coeff_restitution model can express.
-MAX_DAMPING = math.sqrt(5.0 / 6.0)
 
 
 # ---------------------------------------------------------------- contact law
-def restitution_for_damping(zeta: float, law: str = "hertz") -> float:
+def restitution_for_damping(zeta: float, scale: float | None = None, law: str = "") -> float:
     """The coefficient of restitution e whose LAMMPS coeff_restitution damping equals
-    granwave's c_n = 2 zeta sqrt(m_eff k_n) for a contact of the normal law ``law``
-    (module docstring: x(e) = zeta sqrt(6/5) for Hertz, zeta for harmonic)."""
-    harmonic = law == "harmonic"
-    top = 1.0 if harmonic else MAX_DAMPING
-    if not 0.0 <= zeta < top:
+    granwave's c_n = 2 zeta sqrt(m_eff k_n) for a contact whose normal law has the restitution
+    scale ``scale`` (module docstring: x(e) = zeta x scale, e.g. sqrt(6/5) for Hertz, 1 for a
+    linear spring; the law's ``LAMMPS_RESTITUTION_SCALE``; None: the default law's); ``law`` names
+    it in the message."""
+    if scale is None:
+        module, _ = CM.normal_law(CO.defaults())
+        scale, law = module.LAMMPS_RESTITUTION_SCALE, law or module.LAMMPS_NORMAL
+    x = zeta * scale
+    if not (0.0 <= zeta and x < 1.0):
         raise InputError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution "
-                         f"damping of a {law} contact (needs 0 <= zeta < {top:.4f})")
-    x = zeta if harmonic else zeta * math.sqrt(6.0 / 5.0)
+                         f"damping of a {law} contact (needs 0 <= zeta < {1.0 / scale:.4f})")
     return math.exp(-math.pi * x / math.sqrt(1.0 - x * x))
 
 
-def lammps_coefficients(friction: float, poisson: float, damping: float, law: str = "hertz",
-                        harmonic_stiffness: float = 1.0) -> dict:
-    """Coefficients of ``pair_coeff ... hertz kn e tangential mindlin_rescale kt xt mu``
-    (``law`` 'harmonic': ``hooke kn e tangential linear_history kt xt mu``) for grain pairs
-    and for walls, in granwave units."""
+def lammps_coefficients(friction: float, poisson: float, damping: float, law: str | None = None,
+                        **contact) -> dict:
+    """Coefficients of ``pair_coeff ... NORMAL kn e tangential TANGENTIAL kt xt mu`` (the normal
+    law's words, e.g. ``hertz ... mindlin_rescale`` or ``hooke ... linear_history``) for grain pairs
+    and for walls, in granwave units, and ``fragments``: the words of the other selected
+    sub-models (e.g. ``rolling sds k_r gamma_r mu_r``). ``law`` (or ``contact_law``) and the
+    sub-models' parameters by name (granwave.contact_models.options); InputError for an unknown
+    law or one without a LAMMPS equivalent."""
+    if law is not None:
+        contact["contact_law"] = law
+    values = CO.resolve(contact, "lammps_coefficients")
     e12_pair, e12_wall = C.effective_young(False), C.effective_young(True)
     g12_pair, g12_wall = C.effective_shear(poisson, False), C.effective_shear(poisson, True)
-    if law == "harmonic":  # granwave.contact_models.harmonic: k_n = k E*12, k_t = 4 G*12 k
-        k = CM.law_stiffness_k(law, harmonic_stiffness)
-        stiff = dict(kn_pair=k * e12_pair, kn_wall=k * e12_wall, kt_pair=4.0 * g12_pair * k,
-                     kt_wall=4.0 * g12_wall * k)
-    elif law == "hertz":
-        stiff = dict(kn_pair=4.0 / 3.0 * e12_pair, kn_wall=4.0 / 3.0 * e12_wall,
-                     kt_pair=8.0 * g12_pair, kt_wall=8.0 * g12_wall)
-    else:
-        raise InputError(f"no LAMMPS equivalent of the contact law {law!r}")
-    return dict(stiff, restitution=restitution_for_damping(damping, law),
-                xgammat=math.sqrt(C.stiffness_ratio(poisson)), mu=friction, normal=CM.law_module(law).LAMMPS_NORMAL,
-                tangential="linear_history" if law == "harmonic" else "mindlin_rescale")
+    try:
+        words, scale, fragments = CM.lammps_parts(values, e12_pair, e12_wall, g12_pair, g12_wall)
+    except ValueError as e:
+        raise InputError(f"no LAMMPS equivalent: {e}") from None
+    return dict(words, restitution=restitution_for_damping(damping, scale, words["normal"]),
+                xgammat=math.sqrt(C.stiffness_ratio(poisson)), mu=friction, fragments=fragments)
 
 
-def granular_model(friction: float, poisson: float, damping: float, *, wall: bool, law: str = "hertz",
-                   harmonic_stiffness: float = 1.0, rolling: CM.RollingModel = CM.NO_ROLLING) -> str:
+def granular_model(friction: float, poisson: float, damping: float, *, wall: bool, law: str | None = None,
+                   **contact) -> str:
     """The granular model words of ``pair_coeff * *`` (grain pairs) or of ``fix wall/gran
-    granular`` (``wall``): granwave's contact law in LAMMPS (module docstring), with
-    ``rolling sds k_r gamma_r mu_r`` for a rolling model (granwave.contact_models.rolling: the
-    same definitions, the same coefficients for pairs and walls)."""
-    k = lammps_coefficients(friction, poisson, damping, law, harmonic_stiffness)
+    granular`` (``wall``): granwave's contact law in LAMMPS (module docstring), the other selected
+    sub-models' words after it (the same coefficients for pairs and walls). ``law`` and
+    ``contact``: as :func:`lammps_coefficients`."""
+    k = lammps_coefficients(friction, poisson, damping, law, **contact)
     side = "wall" if wall else "pair"
     tangential = (f"tangential {k['tangential']} {k['kt_' + side]:.17g} {k['xgammat']:.17g} {friction:.17g}"
                   if friction > 0 else "tangential linear_nohistory 0 0")
     words = (f"{k['normal']} {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
              "damping coeff_restitution limit_damping")
-    if rolling.kind != CM.rolling.NONE:
-        words += (f" rolling {CM.rolling.LAMMPS_ROLLING} {rolling.stiffness:.17g} {rolling.damping:.17g} "
-                  f"{rolling.friction:.17g}")
-    return words
+    return " ".join([words, *k["fragments"]])
 
 
 def _law(packing: Packing) -> dict:
-    """The packing's contact law (normal law, rolling model) as keyword arguments of
-    :func:`granular_model` (none recorded: Hertz, no rolling)."""
-    return dict(law=str(packing.attrs.get("contact_law", "hertz")),
-                harmonic_stiffness=float(packing.attrs.get("harmonic_stiffness", 1.0)),
-                rolling=CM.rolling_of_attrs(packing.attrs))
+    """The packing's contact sub-models (its attributes; the defaults where absent) as keyword
+    arguments of :func:`granular_model`."""
+    return CO.values_of_attrs(packing.attrs)
 
 
 # ---------------------------------------------------------------- export
@@ -276,10 +273,9 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     piston_mass = float(pm) if isinstance(pm, (int, float)) and math.isfinite(pm) and pm > 0 else \
         float(packing.mass.mean()) * float(np.prod(packing.box[:-1]))
     margin = 2.0 * float(packing.radius.max())
-    law = _law(packing)
-    rolling = CM.rolling_attrs(law["rolling"])
-    coefficients = lammps_coefficients(packing.friction, float(attrs.get("poisson", 0.0)), zeta, law["law"],
-                                       law["harmonic_stiffness"])
+    contact = _law(packing)
+    coefficients = lammps_coefficients(packing.friction, float(attrs.get("poisson", 0.0)), zeta, **contact)
+    coefficients.pop("fragments")
     data = data_text(packing, piston_mass=piston_mass, margin=margin)
     deck = deck_text(packing, piston_mass=piston_mass, steps=int(steps), damping=zeta,
                      background_damping_rate=gamma, dt=_dt(packing), margin=margin)
@@ -287,7 +283,7 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     atomic_text(folder / DATA_NAME, data)
     atomic_text(folder / DECK_NAME, deck)
     return dict(data=folder / DATA_NAME, deck=folder / DECK_NAME, piston_mass=piston_mass,
-                grains=packing.n_grains, **coefficients, **rolling)
+                grains=packing.n_grains, **coefficients, **CO.attrs_of(contact, recorded=False))
 
 
 # ---------------------------------------------------------------- import

@@ -35,6 +35,7 @@ import h5py
 import numpy as np
 import scipy.sparse as sp
 
+from ..contact_models import options as CO
 from ..errors import ConvergenceError, InputError, OutputError
 from ..model import Contacts, LinearSystem, Modes, Packing, Signal
 from ..provenance import FILE_ATTRS, provenance_attrs
@@ -652,7 +653,7 @@ def write_packing(path, packing: Packing) -> None:
     c = packing.contacts
     size = _nbytes(packing.position, packing.radius, packing.mass, packing.inertia, c.i, c.j,
                    c.normal, c.overlap, c.force_normal, c.force_tangential, c.stiffness_normal,
-                   c.stiffness_tangential, c.rolling_displacement)
+                   c.stiffness_tangential, *(getattr(c, h) for h in CO.history_datasets()))
     attrs = {**packing.attrs, "dim": packing.dim, "packing_digest": packing_digest(packing)}
     with atomic_h5(path, S.PACKING, attrs, nbytes=size) as f:
         put(f, S.PACKING, "grains/position", packing.position)
@@ -668,8 +669,9 @@ def write_packing(path, packing: Packing) -> None:
         put(f, S.PACKING, "contacts/force_tangential", c.force_tangential)
         put(f, S.PACKING, "contacts/stiffness_normal", c.stiffness_normal)
         put(f, S.PACKING, "contacts/stiffness_tangential", c.stiffness_tangential)
-        if c.rolling_displacement is not None:
-            put(f, S.PACKING, "contacts/rolling_displacement", c.rolling_displacement)
+        for h in CO.history_datasets():  # a contact sub-model's history, where it keeps one
+            if getattr(c, h) is not None:
+                put(f, S.PACKING, f"contacts/{h}", getattr(c, h))
 
 
 def packing_digest(packing: Packing) -> str:
@@ -701,7 +703,7 @@ def read_packing(path) -> Packing:
         force_normal=g("contacts/force_normal"), force_tangential=g("contacts/force_tangential"),
         stiffness_normal=g("contacts/stiffness_normal"),
         stiffness_tangential=g("contacts/stiffness_tangential"),
-        rolling_displacement=a.get("contacts/rolling_displacement"),
+        **{h: a.get(f"contacts/{h}") for h in CO.history_datasets()},
     )
     packing = Packing(position=g("grains/position"), radius=g("grains/radius"), mass=g("grains/mass"),
                       inertia=g("grains/inertia"), box=g("box/size"), contacts=contacts, attrs=attrs)

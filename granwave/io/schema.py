@@ -20,7 +20,8 @@ Trees (dataset: shape, units)::
         ├── force_tangential     (M, dim)   E* d^2  tangential force on i from j
         ├── stiffness_normal     (M,)       E* d
         ├── stiffness_tangential (M,)       E* d
-        └── rolling_displacement (M, dim)   d  optional (attribute rolling): the rolling spring's xi
+        └── <history>            (M, dim)   optional: a contact sub-model's history, e.g.
+                                            rolling_displacement (d; attribute rolling: the rolling spring's xi)
 
     granwave.linear                        (linearize)
     ├── matrix/data, matrix/indices, matrix/indptr    CSR of D (n, n)   E* d (per dof units)
@@ -64,6 +65,7 @@ tell rotations from translations; ``docs/formats.md`` is generated from them by
 from __future__ import annotations
 
 from .. import units as U
+from ..contact_models import options as CO
 
 # a_n of u = sum_n a_n phi_n with M-orthonormal phi_n in (rho d^3)^-1/2: a_n b_n is a force
 AMPLITUDE = "d_bar * (rho * d_bar**3)**0.5"
@@ -109,8 +111,9 @@ DATASETS: dict[str, dict[str, tuple[str, str]]] = {
         "contacts/force_tangential": (U.FORCE, "tangential force on i from j (M, dim)"),
         "contacts/stiffness_normal": (U.STIFFNESS, "k_n = dF_n/dn (M,)"),
         "contacts/stiffness_tangential": (U.STIFFNESS, "k_t (Mindlin) (M,)"),
-        "contacts/rolling_displacement": (U.LENGTH, "rolling displacement xi of the rolling spring (root "
-                                          "attribute rolling), optional (M, dim)"),
+        # the contact sub-models' histories (granwave.contact_models.kinds), optional
+        **{f"contacts/{k['history']}": (U.LENGTH, f"{k['history_help']}, optional (M, dim)")
+           for k in CO.KINDS.values() if k["history"]},
     },
     LINEAR: {
         "matrix/data": (U.STIFFNESS, "CSR data of the stiffness matrix D"),
@@ -190,7 +193,8 @@ DIMS: dict[str, dict[str, tuple[str, ...]]] = {
         "contacts/i": _C, "contacts/j": _C, "contacts/normal": ("contact", "axis"),
         "contacts/overlap": _C, "contacts/force_normal": _C,
         "contacts/force_tangential": ("contact", "axis"), "contacts/stiffness_normal": _C,
-        "contacts/stiffness_tangential": _C, "contacts/rolling_displacement": ("contact", "axis"),
+        "contacts/stiffness_tangential": _C,
+        **{f"contacts/{h}": ("contact", "axis") for h in CO.history_datasets()},
     },
     LINEAR: {
         "matrix/data": ("nonzero",), "matrix/indices": ("nonzero",), "matrix/indptr": ("row_pointer",),
@@ -284,7 +288,7 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
         "contacts/force_tangential": ("f", ("M", "dim")),
         "contacts/stiffness_normal": ("f", ("M",)),
         "contacts/stiffness_tangential": ("f", ("M",)),
-        "contacts/rolling_displacement": ("f", ("M", "dim")),
+        **{f"contacts/{h}": ("f", ("M", "dim")) for h in CO.history_datasets()},
     },
     LINEAR: {
         "mass": ("f", ("n",)),
@@ -337,7 +341,7 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
 
 #: Datasets a file may lack.
 OPTIONAL: dict[str, frozenset[str]] = {
-    PACKING: frozenset({"contacts/rolling_displacement"}), ENSEMBLE: frozenset(), SWEEP: frozenset(),
+    PACKING: frozenset(f"contacts/{h}" for h in CO.history_datasets()), ENSEMBLE: frozenset(), SWEEP: frozenset(),
     LINEAR: frozenset({"shear/source_velocity", "shear/detector"}),
     MODES: frozenset({"vectors", "shear/amplitude_A", "shear/coupling"}),
     SIGNAL: frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
@@ -378,7 +382,7 @@ ATTR_TYPES: dict[str, str] = {
         "zero_mode_threshold", "max_displacement", "height_mean", "height_std", "piston_mass",
         "background_damping_rate", "modified_energy_max_rel_deviation", "asymmetry",
         "contact_force", "wall_force", "spacing", "row_spacing", "polydispersity", "stiffness",
-        "harmonic_stiffness"),
+        *CO.PARAMETERS),  # the contact sub-models' parameters (granwave.contact_models)
         "number"),
     **dict.fromkeys((
         "dim", "seed", "n_zero_modes", "n_negative_modes", "expected_zero_modes", "n_rotations",
@@ -391,7 +395,7 @@ ATTR_TYPES: dict[str, str] = {
     **dict.fromkeys((
         "schema", "schema_version", "kind", "ic", "method", "linear_source", "modes_source",
         "source_file", "packing_source", "device", "linear_digest", "packing_digest",
-        "contact_law"), "str"),
+        *(k["option"] for k in CO.KINDS.values())), "str"),  # the contact sub-models' selection
     "spin_removed_grains": "int[]",
 }
 

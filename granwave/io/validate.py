@@ -237,15 +237,18 @@ def material_attrs(path, attrs: dict) -> None:
 
 
 def contact_law_attrs(path, attrs: dict) -> None:
-    """A packing's normal contact law is a known one (absent: Hertz), harmonic_stiffness > 0
-    where present (granwave.contact_models). Signal files use ``contact_law`` for a description
-    of the DEM pulse's law, so only packings are checked."""
-    from ..params import CONTACT_LAWS
+    """A packing's contact sub-models are known ones (absent: the defaults) and their recorded
+    parameters numbers in range (granwave.contact_models). Signal files use ``contact_law`` for a
+    description of the DEM pulse's law, so only packings are checked."""
+    from ..contact_models import options as CO
 
-    law = attrs.get("contact_law", CONTACT_LAWS[0])
-    if law not in CONTACT_LAWS:
-        _fail(path, "", f"root attribute contact_law must be one of {', '.join(CONTACT_LAWS)}, found {law!r}")
-    _attr_number(path, attrs, "harmonic_stiffness", lo=0.0, lo_open=True)
+    for kind, k in CO.KINDS.items():
+        name = attrs.get(k["option"], k["default"])
+        if name not in CO.names(kind):
+            _fail(path, "", f"root attribute {k['option']} must be one of {', '.join(CO.names(kind))}, "
+                            f"found {name!r}")
+    for name, p in CO.PARAMETERS.items():
+        _attr_number(path, attrs, name, lo=p["lo"], lo_open=p["lo_open"], hi=p["hi"], hi_open=p["hi_open"])
 
 
 def _nearest_image(x: np.ndarray, box: np.ndarray, dim: int) -> np.ndarray:

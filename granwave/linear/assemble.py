@@ -70,6 +70,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import contact_models as CM
+from ..contact_models import options as CO
 from ..errors import InputError
 from ..io import schema as S
 from ..geometry import n_rotations  # noqa: F401  (re-exported)
@@ -113,8 +114,7 @@ SHIFT_INVERT_MAX_DOF = 200_000
 PROGRESS_SECONDS = 5.0
 
 _COPIED_ATTRS = (*SAMPLE_ATTRS, "converged", "max_acceleration", "n_grains",
-                 "contact_law", "harmonic_stiffness",  # the normal law (granwave.contact_models)
-                 "rolling", "rolling_stiffness", "rolling_damping", "rolling_friction",  # rolling sub-model
+                 *CO.options(),  # the contact sub-models' selection (granwave.contact_models)
                  "packing_digest")  # the identity of the packing (granwave.io.files.packing_digest)
 
 
@@ -241,30 +241,10 @@ def contact_blocks(packing: Packing, *, prestress: bool = False, n_rot: int | No
     if prestress and dim > 1:
         blocks += _geometric_blocks(c, keep, n, proj, wall, delta, arm_i, arm_j,
                                     packing.radius, n_rot)
-    rolling = CM.rolling_of_attrs(packing.attrs)
-    if rolling.kind != 0 and n_rot > 0:
-        _add_rolling_blocks(blocks, rolling.stiffness, n, wall, packing.radius[ii], packing.radius[jj], dim, p)
+    # the blocks of the selected contact sub-models that have their own (granwave.contact_models)
+    CM.linear_blocks(blocks, CO.values_of_attrs(packing.attrs), n, wall, packing.radius[ii], packing.radius[jj],
+                     dim, p)
     return keep, blocks
-
-
-def _add_rolling_blocks(blocks, k_roll, n, wall, r_i, r_j, dim, p):
-    """The rolling spring (granwave.contact_models.rolling): couple R12^2 k_r P (theta_j - theta_i) on
-    i and its opposite on j, P = I - n n on the rotations (2D: P_zz = 1), R12 = R_i R_j / (R_i + R_j)
-    (a wall: R_i). Its stored displacement's turning with the contact (a prestress term) is not
-    included."""
-    m = len(n)
-    n3 = np.zeros((m, 3))
-    n3[:, :dim] = n
-    proj3 = np.eye(3)[None] - n3[:, :, None] * n3[:, None, :]
-    rot = proj3[:, 2:, 2:] if dim == 2 else proj3
-    r12 = np.where(wall, r_i, r_i * r_j / (r_i + r_j))
-    kr = (r12 * r12 * k_roll)[:, None, None] * rot
-    ti, tj = slice(dim, p), slice(p + dim, 2 * p)
-    blocks[:, ti, ti] += kr
-    inner = ~wall
-    blocks[inner, ti, tj] -= kr[inner]
-    blocks[inner, tj, ti] -= kr[inner]
-    blocks[inner, tj, tj] += kr[inner]
 
 
 def _geometric_blocks(c, keep, n, proj, wall, delta, arm_i, arm_j, radius, n_rot):
