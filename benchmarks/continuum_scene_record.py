@@ -19,11 +19,11 @@ import argparse
 import csv
 import json
 import math
-import platform
-import time
+import sys
 from pathlib import Path
 
-from granwave.provenance import git_revision
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scene_record import append_record  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results" / "continuum_scene.jsonl"
 #: left out of the record: per-packing rows and per-height spectra (large; the tables use neither)
@@ -84,15 +84,8 @@ def main() -> None:
     summary = headline(result["front"], result["attenuation"])
     if args.benchmarks:
         summary["sample jobs CPU (s)"] = scene_cpu(Path(args.benchmarks), args.scene)
-    rec = {"date": time.strftime("%Y-%m-%d"), "benchmark": "continuum_scene", "scene": args.scene,
-           "command": args.command, "git_revision": args.revision or git_revision(),
-           "machine": {"cpu": platform.processor() or platform.machine()}, "summary": summary,
-           "result": result}
-    if args.notes:
-        rec["notes"] = args.notes
-    with OUT.open("a") as fh:
-        fh.write(json.dumps(rec) + "\n")
-    print(f"appended to {OUT}")
+    append_record(OUT, "continuum_scene", args.command, summary, result, notes=args.notes,
+                  revision=args.revision, scene=args.scene)
 
 
 if __name__ == "__main__":

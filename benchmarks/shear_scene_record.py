@@ -14,11 +14,11 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import platform
-import time
+import sys
 from pathlib import Path
 
-from granwave.provenance import git_revision
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scene_record import append_record  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results" / "shear_scene.jsonl"
 
@@ -51,14 +51,7 @@ def main() -> None:
                "n (G_max)": exp("G_max"), "(n - 1/3) / error": g.get("deviation_from_hertz")}
     if args.benchmarks:
         summary["batch CPU (s)"] = _cpu(Path(args.benchmarks), a.get("scene", ""))
-    rec = {"date": time.strftime("%Y-%m-%d"), "benchmark": "shear_scene", "command": args.command,
-           "git_revision": git_revision(), "machine": {"cpu": platform.processor() or platform.machine()},
-           "summary": summary, "result": a}
-    if args.notes:
-        rec["notes"] = args.notes
-    with OUT.open("a") as fh:
-        fh.write(json.dumps(rec) + "\n")
-    print(f"appended to {OUT}")
+    append_record(OUT, "shear_scene", args.command, summary, a, notes=args.notes)
 
 
 if __name__ == "__main__":

@@ -59,19 +59,11 @@ def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, mat
         out = api.front(sig, params)
         echo_result(out, as_json, title=f"front of {signal}")
         return
-    import json
-
-    from ..errors import InputError
+    from .moduli_files import read_moduli
 
     moduli = None
     if moduli_path is not None:
-        try:
-            with open(moduli_path) as f:
-                moduli = json.load(f)
-        except (OSError, ValueError) as exc:
-            raise InputError(f"{moduli_path}: not a moduli JSON file ({exc})") from None
-        if not isinstance(moduli, dict) or "c_t" not in moduli:
-            raise InputError(f"{moduli_path}: no c_t (expected `granwave analyze moduli --json` output)")
+        moduli = read_moduli(moduli_path, required="c_t")
     out = api.shear_front(sig, moduli=moduli, frequency=frequency, wavelength=wavelength, pulse=pulse,
                           units=units, material=material, diameter=diameter * 1e-3)
     if as_json:
