@@ -1,17 +1,11 @@
 """docs/continuum.md's results are what benchmarks/results/summarize.py writes from the newest
 continuum_scene.jsonl record of each scene (rerun it after recording a run)."""
 
-import importlib.util
 from pathlib import Path
 
+from test_generated_docs import _summarize
+
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _summarize():
-    spec = importlib.util.spec_from_file_location("summarize", ROOT / "benchmarks" / "results" / "summarize.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_docs_continuum_results_are_the_generated_ones():
