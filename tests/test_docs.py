@@ -324,3 +324,12 @@ def test_units_page_conversions_follow_from_the_stated_constants():
             c = float(lattice_speed(p, friction=friction, poisson=nu))
             assert _printed_matches(float(row[col]), c)
             assert _printed_matches(si_value(row[col + 1]), c * speed)
+
+
+def test_formats_page_is_what_the_schema_writes_now():
+    """docs/formats.md is generated from granwave/io/schema.py's tables (so a new dataset, such
+    as a contact sub-model's history, appears there): ``python -m granwave.io.schema >
+    docs/formats.md`` after changing the schema."""
+    from granwave.io.schema import formats_markdown
+
+    assert (ROOT / "docs" / "formats.md").read_text() == formats_markdown() + "\n"
