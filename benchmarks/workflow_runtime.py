@@ -115,7 +115,7 @@ def sample_rows(results: Path) -> list[dict]:
             s = samples.setdefault(key, {"scene": r["scene"], "pressure": float(r["pressure"]),
                                          "size": r["size"], "seed": int(r["seed"]),
                                          "N": int(r["n_grains"]), "n": int(r["n_dof"]),
-                                         "steps": int(r["steps"]), "batch": tsv.stem,
+                                         "steps": int(r["steps"]), "batch": (str(results), tsv.stem),
                                          "p_label": r["pressure"]})
             s[r["stage"]] = float(r["cpu_s"])
     kinds = {}
@@ -142,10 +142,11 @@ def cls(kind: str, dim: int, frictional: bool) -> str:
     return f"{kind}/{dim}D/{'frictional' if frictional else 'frictionless'}"
 
 
-def fit_models(results: Path) -> dict:
-    rows = sample_rows(results)
+def fit_models(folders: list[Path]) -> dict:
+    """The cost models, fitted to the samples of one or more finished runs' results folders."""
+    rows = [s for results in folders for s in sample_rows(results)]
     if not rows:
-        sys.exit(f"{results}/timings: no batch timings (run the workflow first)")
+        sys.exit(f"{', '.join(map(str, folders))}: no batch timings (run the workflow first)")
     m = {"classes": {}}
     for s in rows:
         s["class"] = cls(s["kind"], s["dim"], s["frictional"])
@@ -163,15 +164,21 @@ def fit_models(results: Path) -> dict:
                                                       for s in dem if s["class"] == c)
     # Tall columns: the steps grow faster with H at the tall end than the all-height law says
     # (measured: x3 from 32 to 64 d, x2.1 from 64 to 100 d at p = 1e-4). Per class with at
-    # least three packings at H >= TALL_FROM over two heights, steps = a_tall H^g_tall p^e (e
-    # from above); continuum scenes use it (sample_cost).
+    # least three packings at H >= TALL_FROM over two heights, steps = a_tall H^g_tall p^e_tall
+    # (e_tall fitted where the tall packings span two pressures, else e from above: the short
+    # samples' e underpredicted tall columns at p = 1e-6 sevenfold); continuum scenes use it.
     for c in names:
         tall = [s for s in dem if s["class"] == c and s["H"] >= TALL_FROM]
         if len(tall) >= 3 and len({s["H"] for s in tall}) >= 2:
-            y = [math.log(s["steps"] / steps_factor(s["tol"])) - m["steps_e"] * math.log(s["pressure"])
-                 for s in tall]
-            g, a = np.polyfit(np.log([s["H"] for s in tall]), y, 1)
-            m["classes"][c].update(steps_g_tall=float(g), steps_a_tall=math.exp(a))
+            y = np.log([s["steps"] / steps_factor(s["tol"]) for s in tall])
+            log_h, log_p = np.log([s["H"] for s in tall]), np.log([s["pressure"] for s in tall])
+            if len({s["pressure"] for s in tall}) >= 2:
+                a, g, e = np.linalg.lstsq(np.column_stack([np.ones_like(log_h), log_h, log_p]), y,
+                                          rcond=None)[0]
+            else:
+                e = m["steps_e"]
+                g, a = np.polyfit(log_h, y - e * log_p, 1)
+            m["classes"][c].update(steps_g_tall=float(g), steps_a_tall=math.exp(a), steps_e_tall=float(e))
     for kind in ("lattices", "chains"):
         made = [s["packing"] / s["N"] for s in rows if s["kind"] == kind]
         if made:
@@ -212,13 +219,13 @@ def fit_models(results: Path) -> dict:
     for s in rows:
         stages[s["batch"]] += sum(s.get(k, 0.0) for k in ("packing", "linear", "signal", "statics",
                                                           "moduli", "front"))
-    over = [bench_cpu(t) - stages[t.stem] for t in (results / "benchmarks" / "batch").glob("*.tsv")
-            if t.stem in stages]
+    over = [bench_cpu(t) - stages[str(results), t.stem] for results in folders
+            for t in (results / "benchmarks" / "batch").glob("*.tsv") if (str(results), t.stem) in stages]
     m["batch_overhead"] = max(0.0, statistics.median(over)) if over else 0.0
     # commands run together in one job (analyses_<scene>, figures_study, sample_extras,
     # continuum_<scene>): median CPU per kind
     commands = defaultdict(list)
-    for tsv in sorted((results / "timings" / "analyses").glob("*.tsv")):
+    for tsv in sorted(t for results in folders for t in (results / "timings" / "analyses").glob("*.tsv")):
         for r in read_tsv(tsv):
             commands[r["stage"]].append(float(r["cpu_s"]))
     m["command"] = {stage: statistics.median(v) for stage, v in commands.items()}
@@ -323,7 +330,7 @@ def sample_cost(m: dict, cfg: dict, scene: str, p: float, size: str) -> dict:
         c = next(v for k, v in m["classes"].items() if k.startswith(kind))
     out = {}
     if kind == "disordered" and spec.get("tall") and "steps_g_tall" in c and H >= TALL_FROM:
-        steps = c["steps_a_tall"] * H ** c["steps_g_tall"] * p ** m["steps_e"] * steps_factor(spec["tol"])
+        steps = c["steps_a_tall"] * H ** c["steps_g_tall"] * p ** c["steps_e_tall"] * steps_factor(spec["tol"])
         out["packing"] = c["k_step"] * N * steps
         out["dem_steps"] = steps  # not a cost: reported against max_steps
     elif kind == "disordered":
@@ -396,7 +403,8 @@ def estimate(config: Path, m: dict, light: float) -> tuple[Counter, Counter]:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--measured", type=Path, default=ROOT / "results")
+    ap.add_argument("--measured", type=Path, nargs="+", default=[ROOT / "results"],
+                    help="results folders of finished runs (several: their samples fitted together)")
     ap.add_argument("--config", type=Path, default=ROOT / "config" / "paper.yaml")
     ap.add_argument("--cores", type=int, default=2)
     ap.add_argument("--check", type=Path, default=None,
@@ -405,7 +413,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     m = fit_models(args.measured)
     light = light_job_cpu()
-    print(f"models fitted to {m['n_measured']} samples of {args.measured} (CPU seconds):")
+    print(f"models fitted to {m['n_measured']} samples of {', '.join(map(str, args.measured))} (CPU seconds):")
     print(f"  DEM steps = a H^{m['steps_g']:.2f} p^{m['steps_e']:.3f} S(tol); cpu = k N steps")
     for c, d in sorted(m["classes"].items()):
         print(f"    {c}: " + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
