@@ -209,12 +209,12 @@ def continuum_scene_tables(folder: Path = HERE) -> str:
     analyses, written by benchmarks/continuum_scene_record.py), its newest record as the report
     prints it (granwave.report.continuum.continuum_section: per-height table, local speeds, the
     approach and the candidate L* table, attenuation and the continuum length in frequency), with
-    the run it came from."""
+    the run it came from; then scenes of one pressure and several widths compared."""
     import sys
 
     if str(ROOT) not in sys.path:
         sys.path.insert(0, str(ROOT))
-    from granwave.report.continuum import continuum_section
+    from granwave.report.continuum import continuum_section, width_comparison
 
     newest = {}
     for rec in sorted(_records(folder / "continuum_scene.jsonl"), key=lambda r: r.get("date", "")):
@@ -228,6 +228,7 @@ def continuum_scene_tables(folder: Path = HERE) -> str:
                   f"Run: {rec['date']}, revision {rec['git_revision']}, `{rec['command']}`"
                   + (f"; the samples took {cpu:.0f} CPU-s" if cpu else "") + "."
                   + (f" {rec['notes']}" if rec.get("notes") else ""), ""] + body[2:]
+    lines += width_comparison({scene: rec["result"] for scene, rec in newest.items()})
     return "\n".join(lines).rstrip()
 
 

@@ -344,4 +344,71 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                     row += f" {fmt(att['c_group'][i], att['c_group_err'][i])} |"
                 md.append(row)
             md.append("")
+    md += width_comparison(scenes)
+    return md
+
+
+def _at(att: Mapping, key: str, omega: float) -> tuple[float, float]:
+    """``key`` and its error interpolated linearly at ``omega`` between the reliable frequencies
+    of an attenuation result (nan outside them)."""
+    idx = [i for i, ok in enumerate(att["reliable"]) if ok and att[key][i] is not None]
+    w = [num(att["omega"][i]) for i in idx]
+    if not idx or not w[0] <= omega <= w[-1]:
+        return math.nan, math.nan
+    value = [num(att[key][i]) for i in idx]
+    error = [num(att[f"{key}_err"][i]) for i in idx]
+    j = next((k for k in range(1, len(w)) if w[k] >= omega), 0)
+    t = 0.0 if j == 0 or w[j] == w[j - 1] else (omega - w[j - 1]) / (w[j] - w[j - 1])
+    lo = max(j - 1, 0)
+    return value[lo] + t * (value[j] - value[lo]), error[lo] + t * (error[j] - error[lo])
+
+
+def width_comparison(scenes: Mapping[str, Mapping], points: int = 5) -> list[str]:
+    """Markdown lines comparing c(ω) and α(ω) of scenes at one pressure whose columns differ in
+    width (so in their first lateral cutoff 2π c_t/W), at ``points`` frequencies spread over the
+    overlap of their reliable bands: each scene's value against the widest column's, in units of
+    their combined standard error. Nothing unless two such scenes have both analyses."""
+    groups: dict[float, list[tuple[str, Mapping]]] = {}
+    for scene, d in sorted(scenes.items()):
+        front, att = d.get("front"), d.get("attenuation")
+        if front and att and att.get("omega_cutoff") and front.get("pressure") is not None:
+            groups.setdefault(float(front["pressure"]), []).append((scene, att))
+    md: list[str] = []
+    for pressure, members in sorted(groups.items()):
+        if len({num(a["omega_cutoff"]) for _, a in members}) < 2:
+            continue
+        members.sort(key=lambda m: num(m[1]["omega_cutoff"]))  # the widest column first
+        (ref, ref_att), others = members[0], members[1:]
+        lo = max(num(a["band"][0]) for _, a in members)
+        hi = min(num(a["band"][1]) for _, a in members)
+        names = ", ".join(f"`{n}` (cutoff {fmt(a['omega_cutoff'], digits=3)})" for n, a in members)
+        md += [f"### The medium or the waveguide: p = {pressure:g}", "",
+               f"c(ω) and α(ω) of {names}, interpolated between reliable frequencies, against the "
+               f"widest column `{ref}`; Δ/σ: the difference over the two standard errors combined "
+               "(frequencies above a column's cutoff are marked †)."]
+        if not lo < hi:
+            md += ["", f"Their reliable bands do not overlap (common range {fmt(lo, digits=3)} … "
+                   f"{fmt(hi, digits=3)}): no comparison.", ""]
+            continue
+        head = ["ω"] + [f"c `{n}`" for n, _ in members] + [f"Δc/σ `{n}`" for n, _ in others] \
+            + [f"α `{n}` (1/d̄)" for n, _ in members] + [f"Δα/σ `{n}`" for n, _ in others]
+        md += ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for k in range(points):
+            omega = lo + (hi - lo) * k / (points - 1)
+            c = {n: _at(a, "c", omega) for n, a in members}
+            al = {n: _at(a, "alpha", omega) for n, a in members}
+
+            def sigmas(v, n):
+                d, e = v[n][0] - v[ref][0], math.hypot(v[n][1], v[ref][1])
+                return f"{d / e:+.1f}" if e > 0 and math.isfinite(d / e) else "—"
+
+            def mark(n, a):
+                return "†" if omega > num(a["omega_cutoff"]) else ""
+
+            md.append(f"| {fmt(omega, digits=3)} | "
+                      + " | ".join(fmt(*c[n]) + mark(n, a) for n, a in members) + " | "
+                      + " | ".join(sigmas(c, n) for n, _ in others) + " | "
+                      + " | ".join(fmt_positive(*al[n]) for n, _ in members) + " | "
+                      + " | ".join(sigmas(al, n) for n, _ in others) + " |")
+        md.append("")
     return md
