@@ -273,9 +273,13 @@ def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl, part):
     ``part[b]`` (piston force, top contacts, contacts, largest overlap, |v|^2, displacement^2)."""
     if ctl[C_STATUS] != 0:
         return
-    npairs = ctl[C_NPAIRS]
+    _partials(cuda.blockIdx.x, gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl[C_NPAIRS], part)
+
+
+@cuda.jit(device=True)
+def _partials(b, gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
+    """Block b's share of :func:`step_partials` (the batched engine calls it per packing)."""
     t = cuda.threadIdx.x
-    b = cuda.blockIdx.x
     n = gfp.shape[0]
     stride = RBLOCK * NPART
     s_fp = cuda.shared.array(RBLOCK, np.float64)
@@ -327,10 +331,14 @@ def finish(part, piston1, fpar1, mflow, red, ctl):
     """One block: the NPART partial results combined in a fixed order into ``red``, then the
     piston's acceleration (damped at gamma_m under the rule 'mean-flow', non-empty ``mflow``)
     and second half kick; the step counted in ``ctl[C_STEPS]``."""
-    piston = piston1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
-    fpar = fpar1[0]
     if ctl[C_STATUS] != 0:
         return
+    _finish(part, piston1[0], fpar1[0], mflow, red, ctl)  # the records, uploaded as one-element arrays
+
+
+@cuda.jit(device=True)
+def _finish(part, piston, fpar, mflow, red, ctl):
+    """The block's work in :func:`finish` (the batched engine calls it per packing)."""
     t = cuda.threadIdx.x
     s_fp = cuda.shared.array(RBLOCK, np.float64)
     s_top = cuda.shared.array(RBLOCK, np.float64)
@@ -498,6 +506,16 @@ class GpuEngine(Engine):
         self.g["inv_rad"] = to(1.0 / self.radius)
         for name in ("v2", "disp2", "fp", "top", "dmax", "count"):
             self.g[name] = cuda.device_array(n)
+        self.g["red"] = to(self._host_red())
+        self.g["part"] = cuda.device_array((NPART, N_RED))
+        self.g["stat"] = cuda.device_array(N_STAT)
+        self.g["ctl"] = to(self._host_ctl())
+        self._upload_mean_flow()
+        self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
+        self._upload_pairs()
+
+    def _host_red(self) -> np.ndarray:
+        """The reduction a run starts from (the host's counters; ``_disp2`` from the positions)."""
         x = self.position - self.pos0
         x[:, :-1] -= self.lateral * np.round(x[:, :-1] / self.lateral)  # nearest image (folded drifts)
         self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
@@ -509,17 +527,15 @@ class GpuEngine(Engine):
         red[R_VMAX2] = self.fpar.v_max ** 2
         red[R_DISP2] = self._disp2
         red[R_VMAX] = self.fpar.v_max
-        self.g["red"] = to(red)
-        self.g["part"] = cuda.device_array((NPART, N_RED))
-        self.g["stat"] = cuda.device_array(N_STAT)
-        ctl = np.zeros(N_CTL, np.int64)
+        return red
+
+    def _host_ctl(self, width: int = N_CTL) -> np.ndarray:
+        """The control words a run starts from (``width`` words, the first N_CTL used here)."""
+        ctl = np.zeros(width, np.int64)
         ctl[C_STEPS] = self.ipar.steps
         ctl[C_REBUILDS] = self.ipar.rebuilds
         ctl[NB.C_AHEAD] = max(1, int(self.rebuild_every))
-        self.g["ctl"] = to(ctl)
-        self._upload_mean_flow()
-        self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
-        self._upload_pairs()
+        return ctl
 
     def _upload_mean_flow(self) -> None:
         """The rule 'mean-flow''s rates (as the host has them now: the settling and end-game rules
@@ -548,31 +564,43 @@ class GpuEngine(Engine):
     def _upload_pairs(self) -> None:
         """The pair list, its history and incidence list, and the rebuild's work arrays, at the
         host arrays' capacity; the pair count into ``ctl``."""
+        m = int(self.ipar.npairs)
+        cap = max(len(self.pair_i), 1)
+        r = max(self.angular_velocity.shape[1], 1)
+        to = cuda.to_device
+        ptr, code2, row = self._host_incidence()
+        gp = dict(i=to(self.pair_i), j=to(self.pair_j), ft=to(self.pair_ft), ov=to(self.pair_ov), ptr=to(ptr),
+                  code=to(code2), pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
+                  tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), row=to(row))
+        if self.device_rebuild:
+            gp.update(self._rebuild_work(cap))
+        self.gp = gp
+        self.g["ctl"][C_NPAIRS:C_NPAIRS + 1].copy_to_device(np.array([m], np.int64))
+
+    def _host_incidence(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(inc_ptr, inc_pair at twice the capacity, row): the incidence list of :func:`incidence`
+        and each grain's first pair (``row``, the rebuild's), from the host pair list."""
         n = self.position.shape[0]
         m = int(self.ipar.npairs)
-        d = self.dim
-        r = max(self.angular_velocity.shape[1], 1)
         cap = max(len(self.pair_i), 1)
         ptr, code = incidence(self.pair_i, self.pair_j, m, n)
         code2 = np.zeros(2 * cap, np.int64)
         code2[:len(code)] = code
         row = np.zeros(n + 1, np.int64)
         np.cumsum(np.bincount(self.pair_i[:m], minlength=n), out=row[1:])
-        to = cuda.to_device
-        gp = dict(i=to(self.pair_i), j=to(self.pair_j), ft=to(self.pair_ft), ov=to(self.pair_ov), ptr=to(ptr),
-                  code=to(code2), pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
-                  tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), row=to(row))
-        if self.device_rebuild:
-            ncell = NB.cell_capacity(self.lateral, self.piston.h, self.fpar.r_max,
-                                     self.fpar.skin_max)
-            z = cuda.device_array
-            gp.update(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
-                      ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
-                      members=z(n, np.int64), ccount=to(np.zeros((ncell, 2), np.int64)),
-                      cstart=z((ncell + 1, 2), np.int64), gcnt=z((n, 2), np.int64),
-                      gptr=z((n + 1, 2), np.int64), part=z((NB.NPART, 2), np.int64))
-        self.gp = gp
-        self.g["ctl"][C_NPAIRS:C_NPAIRS + 1].copy_to_device(np.array([m], np.int64))
+        return ptr, code2, row
+
+    def _rebuild_work(self, cap: int) -> dict:
+        """The device rebuild's work arrays for ``cap`` pairs (the cell list's capacity from the
+        piston's height now, as at every upload)."""
+        n, d = self.position.shape
+        ncell = NB.cell_capacity(self.lateral, self.piston.h, self.fpar.r_max, self.fpar.skin_max)
+        z = cuda.device_array
+        return dict(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
+                    ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
+                    members=z(n, np.int64), ccount=cuda.to_device(np.zeros((ncell, 2), np.int64)),
+                    cstart=z((ncell + 1, 2), np.int64), gcnt=z((n, 2), np.int64),
+                    gptr=z((n + 1, 2), np.int64), part=z((NB.NPART, 2), np.int64))
 
     def _download_pairs(self) -> None:
         m = int(self.ipar.npairs)
@@ -598,8 +626,10 @@ class GpuEngine(Engine):
         """Read the device's control words and the last step's reduction into the host's
         counters (steps, rebuilds, pairs, largest speed, piston force, overlaps, contacts):
         (status, pairs needed); status 0 running, 2 a rebuild needs more room, 3 blown up."""
-        ctl = self.g["ctl"].copy_to_host()
-        red = self.g["red"].copy_to_host()
+        return self._read_counters(self.g["ctl"].copy_to_host(), self.g["red"].copy_to_host())
+
+    def _read_counters(self, ctl: np.ndarray, red: np.ndarray) -> tuple[int, int]:
+        """:meth:`sync` from the control words and reduction read from the device."""
         ipar, out = self.ipar, self.out
         ipar.steps = ctl[C_STEPS]
         ipar.rebuilds = ctl[C_REBUILDS]
@@ -617,8 +647,10 @@ class GpuEngine(Engine):
         if self.device_rebuild:
             self.sync()
         for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
-                     "pos0", "wall_ft", "wall_ov", "slabs"):
+                     "pos0", "wall_ft", "wall_ov"):
             getattr(self, name)[...] = self.g[name].copy_to_host()
+        rows, ns = self.slabs.shape
+        self.slabs[...] = self.g["slabs"].copy_to_host()[:rows, :ns]  # a batch's rows are padded
         K.copy_record(self.piston, self.g["piston"].copy_to_host())
         self._download_pairs()
 
