@@ -285,6 +285,30 @@ def batch(steps: int = 10) -> dict:
     return out
 
 
+def batch_prepare(grains: int = 10, seeds=(0, 1)) -> dict:
+    """Whole preparations through :func:`granwave.api.prepare_packings` on the GPU (the seeds
+    advanced together; the tiny packing of :func:`prepare`) against each seed prepared alone on
+    the GPU: positions, contacts and attributes compared bitwise (``same``), and the steps."""
+    from .. import api
+
+    kw = dict(grains=grains, tol=1e-2, pressure=1e-2)
+    t0 = time.perf_counter()
+    together = api.prepare_packings(seeds=list(seeds), device="gpu", **kw)
+    t1 = time.perf_counter()
+    out = {"seconds_batch": t1 - t0}
+    for seed, b in zip(seeds, together):
+        alone = api.prepare_packing(seed=seed, device="gpu", **kw)
+        same = (b.position.tobytes() == alone.position.tobytes() and b.box.tobytes() == alone.box.tobytes()
+                and all(getattr(b.contacts, f).tobytes() == getattr(alone.contacts, f).tobytes()
+                        for f in ("i", "j", "force_normal", "force_tangential", "overlap"))
+                and {k: str(v) for k, v in b.attrs.items()} == {k: str(v) for k, v in alone.attrs.items()})
+        out[f"same_seed{seed}"] = bool(same)
+        out[f"steps_seed{seed}"] = int(b.attrs["steps"])
+        out[f"rebuilds_seed{seed}"] = int(b.attrs["rebuilds"])
+    out["seconds_alone"] = time.perf_counter() - t1
+    return out
+
+
 def rules(steps: int = 6) -> dict:
     """What the preparation's host-side rules do to a GPU engine between two runs, against the
     CPU engine: a gas under a moving piston (the piston damped at the mean-flow rate) run for
@@ -377,12 +401,13 @@ def protocols(names=None) -> dict:
 
 
 CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse,
-          "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols, "batch": batch}
+          "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols, "batch": batch,
+          "batch_prepare": batch_prepare}
 
 
 #: Checks run only when named: whole preparations take minutes in the CUDA simulator (about
 #: 0.3-0.6 s a step on a 2-core machine), seconds on a GPU (benchmarks/gpu.py --tiny runs them).
-HEAVY = ("protocols",)
+HEAVY = ("protocols", "batch_prepare")
 #: Checks left out of the default set because a test file of their own runs them
 #: (tests/test_gpu_batch.py), so that tests/test_gpu_sim.py's subprocess does not run them twice.
 OWN_TEST = ("batch",)
