@@ -28,9 +28,9 @@ checkpoint_every_option = click.option(
     metavar="SECONDS", help="Seconds between two checkpoints (0: after every chunk of steps).")
 
 
-#: ``--seeds SPEC``: one packing per seed, one file per seed (the output a pattern with ``{seed}``).
+#: ``--seeds SEEDS``: one packing per seed, one file per seed (the output a pattern with ``{seed}``).
 seeds_option = click.option(
-    "--seeds", default=None, metavar="SPEC",
+    "--seeds", default=None, metavar="SEEDS",
     help="Prepare one packing per seed (e.g. 0-9 or 0,2,5-7; instead of --seed), each written to "
          "the output pattern with {seed} replaced (e.g. -o 'out_{seed}.h5'). Each file is the one "
          "--seed N would write. With --device gpu the seeds are advanced together by the same kernel "

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 
 import numpy as np
 
@@ -252,6 +253,7 @@ class Ensemble:
         self.d: dict = {}
         self.rounds = 0  # rounds of requests advanced together (for the record)
         self.steps_queued = 0  # batched steps queued (each advances every running packing by one)
+        self.seconds = 0.0  # wall time in the driver's rounds (uploads, steps, checks, downloads)
 
     def member_class(self) -> type:
         """The engine class for the protocol (``engine=``): its engines join this ensemble."""
@@ -285,10 +287,12 @@ class Ensemble:
                 if alive[0] == 0:
                     break
                 requests, self.pending = self.pending, {}
+                t0 = time.perf_counter()
                 try:
                     self.results = self.advance(requests)
                 except BaseException as exc:  # noqa: BLE001 - each waiting protocol raises it
                     self.results = {m: exc for m in requests}
+                self.seconds += time.perf_counter() - t0
                 self.cv.notify_all()
         for t in threads:
             t.join()
@@ -471,16 +475,17 @@ class Ensemble:
 
 
 
-def prepare_packings(params, seeds, progress=None) -> list:
+def prepare_packings(params, seeds, progress=None, ensemble: Ensemble | None = None) -> list:
     """One packing per seed of ``seeds`` (``params`` with each seed), prepared together on the GPU
     (:class:`Ensemble`); each the packing :func:`granwave.dem.protocol.prepare_packing` makes for
     that seed with :class:`granwave.gpu.dem.GpuEngine`. ``progress``: one line of text, prefixed
-    by the seed. The first failure (in the order of ``seeds``) is raised once all have ended."""
+    by the seed. The first failure (in the order of ``seeds``) is raised once all have ended.
+    ``ensemble``: the :class:`Ensemble` to use (a new one by default; its counters are the run's)."""
     import dataclasses
 
     from ..dem.protocol import prepare_packing
 
-    ensemble = Ensemble()
+    ensemble = Ensemble() if ensemble is None else ensemble
     engine = ensemble.member_class()
 
     def job(seed):
