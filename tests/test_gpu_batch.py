@@ -125,3 +125,57 @@ def test_prepare_seeds_gpu_without_a_gpu_is_one_line_exit_2_no_files(tmp_path):
     assert r.exit_code == 2
     assert len([x for x in r.output.splitlines() if x.strip()]) == 1, r.output
     assert list(Path(tmp_path).iterdir()) == []
+
+
+# ---------------------------------------------------------------- the workflow with device: gpu
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _snakemake(tmp_path, *args):
+    return subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
+                           "--configfile", str(ROOT / "config" / "config.yaml"), *args],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
+
+
+def test_workflow_device_gpu_sends_each_heights_seeds_to_one_gpu_job(tmp_path):
+    """device: gpu plans one job per DEM height (all its seeds, prepare-packing --seeds --device
+    gpu), whose packings the batch jobs read; device: cpu (the default) plans none."""
+    import re
+
+    gpu = _snakemake(tmp_path, "--config", "device=gpu", "-n", "-p")
+    out = gpu.stdout + gpu.stderr
+    assert gpu.returncode == 0, out[-3000:]
+    commands = re.findall(r"granwave prepare-packing .*", out)
+    assert commands and all("--device gpu" in c and "--seeds " in c and "s{seed}.h5" in c for c in commands)
+    assert any("--seeds 0,1" in c for c in commands)  # the seeds of one height in one command
+    assert any("--compaction mean-flow" in c for c in commands)  # continuum columns too
+    jobs = dict(re.findall(r"^(\w+)\s+(\d+)$", out, re.M))
+    assert len([j for j in jobs if j.startswith("gpu_packings_")]) == len(commands)
+    assert "prepare_packing" not in jobs and "batch_frictional2d_0" in jobs
+    cpu = _snakemake(tmp_path, "-n", "--quiet", "rules")
+    assert cpu.returncode == 0
+    assert "gpu_packings_" not in cpu.stdout + cpu.stderr
+
+
+def test_batch_pipeline_reads_a_given_packing(tmp_path):
+    """A sample whose packing is given (made by its height's GPU job) reads it and leaves the
+    file as it was; the stages after it run as usual."""
+    from granwave.io.files import write_packing
+    from granwave.workflow_support import crossing_time, run_sample
+
+    tail = "lat/p0.0001/r9/s0"
+    out = {stage: str(tmp_path / stage / f"{tail}.h5") for stage in ("packing", "linear", "signal")}
+    out.update({stage: str(tmp_path / stage / f"{tail}.json") for stage in ("front", "summary")})
+    make = dict(rows=9, width=6, pressure=1e-4, friction=0.0, poisson=0.0)
+    Path(out["packing"]).parent.mkdir(parents=True)
+    write_packing(out["packing"], api.lattice(**make))
+    before = Path(out["packing"]).read_bytes()
+    sample = {"kind": "lattices", "scene": "lat", "pressure": "0.0001", "size": "r9", "seed": 0,
+              "make": {**make, "rows": 3},  # would make another packing: it must not be made
+              "signal": {"method": "modal", "ic": "A", "samples": 200, "safety": 0.1,
+                         "t_max": 2.0 * crossing_time("lattices", {"friction": 0.0, "poisson": 0.0}, 1e-4, "r9")},
+              "out": out, "packing_given": True}
+    stages = [t["stage"] for t in run_sample(sample, log=lambda line: None)]
+    assert stages[:3] == ["packing", "linear", "signal"]
+    assert Path(out["packing"]).read_bytes() == before
+    assert all(Path(p).is_file() for p in out.values())
