@@ -235,7 +235,8 @@ def batch(steps: int = 10) -> dict:
     different seeds and sizes (24, 20 and 22 grains) under a loaded piston with the mean-flow
     rule and convergence checks every 8 steps, advanced together through runs of different
     lengths with a settling switch in between, one of them with its pair arrays cut so that a
-    device rebuild runs out of room mid-batch; each against the same runs of a
+    device rebuild runs out of room mid-batch, another rebuilt by the multi-kernel rebuild of
+    large packings; each against the same runs of a
     :class:`GpuEngine` alone (bitwise: state, pair list and histories, piston, slabs, steps,
     rebuilds) and of the CPU engine (``cpu_abs``: the piston force is reduced in another order)."""
     from ..dem.integrator import Engine
@@ -243,13 +244,13 @@ def batch(steps: int = 10) -> dict:
     from .batch import Ensemble
     from .dem import GpuEngine
 
-    setups = ((0, 24, None), (1, 20, 0), (2, 22, None))  # (seed, grains, room)
+    setups = ((0, 24, None, None), (1, 20, 0, None), (2, 22, None, 0))  # (seed, grains, room, small)
     kw = dict(friction=0.5, background_damping=2.0, piston_mass=1.0, piston_force=20.0, top=5.8,
               mean_flow=(0.2, 1.0), check_every=8)
 
-    def job(cls, seed, grains, room):
+    def job(cls, seed, grains, room, small):
         def run():
-            e = _gas_engine(cls, 2, seed=seed, grains=grains, room=room, **kw)
+            e = _gas_engine(cls, 2, seed=seed, grains=grains, room=room, small=small, **kw)
             e.run(steps + 5 * seed)  # runs of other lengths: the packings stop at other steps
             e.mflow[M_GAMMA_M] = e.mflow[M_GAMMA_L] = 0.7  # the settling switch between runs
             e.run(steps // 2)
@@ -261,10 +262,11 @@ def batch(steps: int = 10) -> dict:
     together = ensemble.run([job(ensemble.member_class(), *s) for s in setups])
     t1 = time.perf_counter()
     out = {"rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued, "seconds_batch": t1 - t0}
-    for (seed, grains, room), (ok, b) in zip(setups, together):
+    for (seed, grains, room, small), (ok, b) in zip(setups, together):
         if not ok:
             raise b
-        alone, cpu = job(GpuEngine, seed, grains, room)(), job(Engine, seed, grains, None)()  # (the CPU grows its own)
+        alone = job(GpuEngine, seed, grains, room, small)()
+        cpu = job(Engine, seed, grains, None, None)()  # (the CPU engine makes its own room)
         m = alone.n_pairs
         key = f"seed{seed}"
         out[f"grains_{key}"] = len(b.radius)
