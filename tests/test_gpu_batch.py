@@ -39,8 +39,9 @@ def batch():
 @pytest.mark.slow
 def test_gpu_batch_each_packing_equals_its_run_alone(batch):
     """Three packings (24, 20, 22 grains) advanced together through runs of different lengths,
-    with the mean-flow rule, a loaded piston, checks, device rebuilds, a settling switch between
-    runs and one packing running out of pair slots mid-batch: each one's state, pair list,
+    with the mean-flow rule, a loaded piston, checks, device rebuilds (two packings by the batched
+    one-block rebuild, one by the multi-kernel rebuild of large packings), a settling switch
+    between runs and one packing running out of pair slots mid-batch: each one's state, pair list,
     histories, piston, slabs and counters are the bytes of the same runs of the GPU engine alone,
     and its state equals the CPU engine's."""
     seeds = (0, 1, 2)
@@ -52,6 +53,7 @@ def test_gpu_batch_each_packing_equals_its_run_alone(batch):
         assert batch[f"steps_seed{s}"] == batch[f"cpu_steps_seed{s}"]
         assert batch[f"cpu_abs_seed{s}"] < 1e-12, s
     assert batch["room_made_seed1"] >= 1  # the cut pair arrays were enlarged mid-batch
+    assert batch["small_rebuild_launches"] > 0  # seeds 0, 1: one rebuild launch for both; seed 2 its own
     assert batch["rounds"] >= 2  # the rules between runs were applied between rounds
 
 

@@ -181,6 +181,12 @@ def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
                                      slabs, kv, off, off, gi),
         B.step_partials_batch: _types(v, v, v, v, v, v, np.zeros(m), ctl, np.zeros((k, 3, G.N_RED)), off, off),
         B.finish_batch: _types(np.zeros((k, 3, G.N_RED)), pss, fps, mf, kv, np.zeros((k, G.N_RED)), ctl),
+        B.rb_small_batch: _types(np.zeros((k, G.N_RED)), fps, pss, lat, f2(dim), v, f2(dim), ctl, gi,
+                                 np.zeros((4, 2), np.int64), np.zeros((4 + k, 2), np.int64), gi,
+                                 np.zeros((n, 2), np.int64), np.zeros((n + k, 2), np.int64), np.zeros(2 * m, np.int64),
+                                 np.zeros(n + k, np.int64), i64, i64, p2(dim), np.zeros(m), i64, i64, p2(dim),
+                                 np.zeros(m), np.zeros(2 * m, np.int64), np.zeros(n + k, np.int64),
+                                 np.zeros(2 * m, np.int64), off, off, off, kv),
     }
     assert set(sigs) == set(B.KERNELS)
     for kernel, sig in sigs.items():

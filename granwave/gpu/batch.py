@@ -15,10 +15,11 @@ per-packing reductions (piston force, contacts, maxima) have the single run's sh
 blocks per packing, then one block per packing). Hence each packing's bytes are those of running
 it alone on the GPU; no floating-point atomics.
 
-One step is six kernels for all packings together (kick and drift, pair forces, the two of the
-mean-flow rule, grain forces, the partial reductions on a grid of NPART x packings, the final
-reductions on one block per packing), after each packing's device rebuild (its own launch: the
-rebuild's work arrays are per packing; with no rebuild due it returns at once).
+One step is seven kernels for all packings together: the device rebuild of the packings of at
+most ``small_rebuild`` grains (one block per packing, :func:`rb_small_batch`; with no rebuild
+due a block returns at once), kick and drift, pair forces, the two of the mean-flow rule, grain
+forces, the partial reductions on a grid of NPART x packings, the final reductions on one block
+per packing. A larger packing's rebuild (twelve kernels) is launched for it alone.
 
 The protocols run in threads, one per packing, that take turns (one lock): a packing's
 ``engine.run(n)`` hands its request to the driver (the calling thread of :meth:`Ensemble.run`)
@@ -169,9 +170,27 @@ def finish_batch(part, pistons, fpars, mflow, mlen, red, ctl):
         ctl[k, C_STATUS] = PAUSED
 
 
+@cuda.jit
+def rb_small_batch(red, fpars, pistons, lateral, pos, rad, pos0, ctl, cell, ccount, cstart, members, gcnt, gptr, nbr,
+                   row, pair_i, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code, inc_ptr, inc_code,
+                   goff, poff, coff, small):
+    """:func:`granwave.gpu.neighbours.rb_small`, block k for packing k where ``small[k]`` (the
+    packings of at most ``small_rebuild`` grains), on the packing's slices of the concatenated
+    rebuild work arrays (its cells from ``coff[k]``, its n + 1 and ncell + 1 offsets shifted by k)."""
+    k = cuda.blockIdx.x
+    if small[k] == 0:
+        return
+    o, e, a, b, c, f = goff[k], goff[k + 1], poff[k], poff[k + 1], coff[k], coff[k + 1]
+    NB._small(cuda.threadIdx.x, cuda.blockDim.x, red[k], fpars[k], pistons[k], lateral[k], pos[o:e], rad[o:e],
+              pos0[o:e], ctl[k], cell[o:e], ccount[c:f], cstart[c + k:f + k + 1], members[o:e], gcnt[o:e],
+              gptr[o + k:e + k + 1], nbr[2 * a:2 * b], row[o + k:e + k + 1], pair_i[a:b], pair_j[a:b], pair_ft[a:b],
+              pair_ov[a:b], new_i[a:b], new_j[a:b], new_ft[a:b], new_ov[a:b], new_code[2 * a:2 * b],
+              inc_ptr[o + k:e + k + 1], inc_code[2 * a:2 * b])
+
+
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
 KERNELS = (kick_drift_batch, pair_forces_batch, slab_bin_batch, slab_sums_batch, grain_forces_batch,
-           step_partials_batch, finish_batch)
+           step_partials_batch, finish_batch, rb_small_batch)
 
 
 def _blocks(n: int) -> int:
@@ -253,6 +272,7 @@ class Ensemble:
         self.d: dict = {}
         self.rounds = 0  # rounds of requests advanced together (for the record)
         self.steps_queued = 0  # batched steps queued (each advances every running packing by one)
+        self.small_rebuild_launches = 0  # launches of rb_small_batch (one for all small packings)
         self.seconds = 0.0  # wall time in the driver's rounds (uploads, steps, checks, downloads)
 
     def member_class(self) -> type:
@@ -318,8 +338,10 @@ class Ensemble:
         live = list(requests)
         self.layout(live)
         results = {}
-        for m in list(live):
+        for m in live:
             m.upload()
+        self.cells(live)
+        for m in list(live):
             m.target = m.steps + requests[m]
             m.room_needed = 0
             if m.steps >= m.target:  # nothing to do (GpuEngine.run: upload, download)
@@ -337,6 +359,7 @@ class Ensemble:
                 self.layout(live)
                 for m in live:
                     m.upload()
+                self.cells(live)
                 continue
             self.chunk(running)
             ctl = self.d["ctl"].copy_to_host()
@@ -383,11 +406,23 @@ class Ensemble:
         """Queue one step of every packing (those paused return at once): the rebuilds of the
         ``active`` ones (each its own launch, on every k-th step as GpuEngine.step), then the
         batched kernels."""
+        due = [m for m in active if m._queued % max(1, int(m.rebuild_every)) == 0]
         for m in active:
-            if m._queued % max(1, int(m.rebuild_every)) == 0:
-                NB.launch_rebuild(m.g, m.gp, m.small_rebuild)
             m._queued += 1
         d = self.d
+        small = [m for m in due if m.k in self.small]
+        # one launch for the small packings when each of them that steps is due (always with the
+        # default rebuild_every = 1); the others, or all when their turns differ, launch their own
+        if small and len(small) == len([m for m in active if m.k in self.small]):
+            rb_small_batch[len(self.key[0]), G.RBLOCK](
+                d["red"], d["fpars"], d["pistons"], d["lateral"], d["position"], d["radius"], d["pos0"], d["ctl"],
+                d["cell"], d["ccount"], d["cstart"], d["members"], d["gcnt"], d["gptr"], d["nbr"], d["row"], d["i"],
+                d["j"], d["ft"], d["ov"], d["ni"], d["nj"], d["nft"], d["nov"], d["ncode"], d["ptr"], d["code"],
+                d["goff"], d["poff"], d["coff"], d["small"])
+            self.small_rebuild_launches += 1
+            due = [m for m in due if m not in small]
+        for m in due:
+            NB.launch_rebuild(m.g, m.gp, m.small_rebuild)
         n = d["position"].shape[0]
         nb = _blocks(n)
         kick_drift_batch[nb, G.BLOCK](d["position"], d["velocity"], d["acceleration"], d["angular_velocity"],
@@ -454,6 +489,11 @@ class Ensemble:
             i=z(p, np.int64), j=z(p, np.int64), ft=z((p, hist)), ov=z(p), pf=z((p, 3)), tqi=z((p, max(r, 1))),
             tqj=z((p, max(r, 1))), delta=z(p), code=z(2 * p, np.int64), ptr=z(n + npack, np.int64),
             row=z(n + npack, np.int64), goff=to(goff), poff=to(poff),
+            # the batched one-block rebuild's work arrays (rb_small_batch; cells: Ensemble.cells)
+            cell=z(n, np.int64), members=z(n, np.int64), gcnt=z((n, 2), np.int64), gptr=z((n + npack, 2), np.int64),
+            nbr=z(2 * p, np.int64), ni=z(p, np.int64), nj=z(p, np.int64), nft=z((p, d_)), nov=z(p),
+            ncode=z(2 * p, np.int64),
+            small=to(np.array([m.position.shape[0] <= m.small_rebuild for m in members], np.int64)),
             gk=to(np.repeat(np.arange(npack, dtype=np.int64), sizes)),
             pk=to(np.repeat(np.arange(npack, dtype=np.int64), caps)))
         grain = ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration", "pos0",
@@ -472,6 +512,20 @@ class Ensemble:
         self.d = d
         self.key = key
         self.mean_flow = any(m.mflow.shape[0] > 0 for m in members)
+        self.small = {k for k, m in enumerate(members) if m.position.shape[0] <= m.small_rebuild}
+
+    def cells(self, members: list) -> None:
+        """The batched rebuild's cell arrays after the members' uploads: each packing's cells as
+        its own upload sized them (GpuEngine._rebuild_work), counts zero."""
+        ncell = np.zeros(len(self.key[0]), np.int64)
+        for m in members:
+            ncell[m.k] = m.gp["ccount"].shape[0]
+        for m in self.key[0]:
+            if m not in members:  # not in this round: paused, but its rows must exist
+                ncell[m.k] = 1
+        coff = np.concatenate([[0], np.cumsum(ncell)]).astype(np.int64)
+        self.d.update(ccount=cuda.to_device(np.zeros((int(coff[-1]), 2), np.int64)),
+                      cstart=cuda.device_array((int(coff[-1]) + len(ncell), 2), np.int64), coff=cuda.to_device(coff))
 
 
 

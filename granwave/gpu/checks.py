@@ -261,7 +261,8 @@ def batch(steps: int = 10) -> dict:
     t0 = time.perf_counter()
     together = ensemble.run([job(ensemble.member_class(), *s) for s in setups])
     t1 = time.perf_counter()
-    out = {"rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued, "seconds_batch": t1 - t0}
+    out = {"rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued, "seconds_batch": t1 - t0,
+           "small_rebuild_launches": ensemble.small_rebuild_launches}
     for (seed, grains, room, small), (ok, b) in zip(setups, together):
         if not ok:
             raise b
