@@ -5,7 +5,8 @@
 
 ``--all`` is the one prepared measurement (it replaces the list below): device, date and
 versions; the agreement checks of granwave.gpu.checks (time-domain signal, two-body collision,
-the mean-flow rule, the preparation rules' changes between runs, tiny preparations under every
+the mean-flow rule, the preparation rules' changes between runs, ensembles per launch against
+each packing alone, tiny preparations under every
 protocol, DEM pulse, device neighbour rebuild) as pass/fail with their largest differences; the memory
 bandwidth; the time-domain step at 10^6 grains against one core and the roofline; DEM
 grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
@@ -280,6 +281,10 @@ def _verdicts(name: str, r: dict) -> tuple[bool, dict]:
                                                             "neighbour_rebuilds", "n_contacts_initial"))
         worst = max(r["signal_rel"], r["max_displacement_rel"])
         return same and worst < 1e-10, {"max_rel": worst, "same_counts": same}
+    if name == "batch":  # ensembles per launch: each packing the bytes of its run alone on the device
+        same = all(v for k, v in r.items() if k.startswith("same_seed"))
+        worst = max(v for k, v in r.items() if k.startswith("cpu_abs_"))
+        return same, {"same_bytes_as_alone": same, "max_abs_vs_cpu": worst}
     if name == "rebuild":
         keys = [k[len("same_pairs_"):] for k in r if k.startswith("same_pairs_")]
         same = all(r[f"same_pairs_{k}"] for k in keys)
@@ -309,7 +314,7 @@ def agreement(deadline: float) -> dict:
     from granwave.gpu import checks
 
     out = {}
-    for name in ("two_body", "mean_flow", "rules", "protocols", "time_domain", "pulse", "rebuild"):
+    for name in ("two_body", "mean_flow", "rules", "batch", "protocols", "time_domain", "pulse", "rebuild"):
         if time.perf_counter() > deadline:
             out[name] = {"skipped": "time budget of the checks spent"}
             continue
