@@ -7,8 +7,8 @@
 versions; the agreement checks of granwave.gpu.checks (time-domain signal, two-body collision,
 the mean-flow rule, the preparation rules' changes between runs, ensembles per launch against
 each packing alone, tiny preparations under every protocol, DEM pulse, device neighbour
-rebuild) as pass/fail with their largest differences; the memory bandwidth; the time-domain step at 10^6 grains against one core and the roofline; DEM
-grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
+rebuild) as pass/fail with their largest differences; the memory bandwidth; the time-domain
+step at 10^6 grains against one core and the roofline; DEM grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
 rebuilt on the device (the tiled packing drifts along the periodic axis: a rebuild about every
 25 steps; the rebuild count is reported) and over 200 steps without rebuilds; the statics of
 twelve 600-grain 2D packings (p = 1e-4, seeds 0..11) prepared on the GPU against the same seeds
