@@ -6,20 +6,20 @@
 ``--all`` is the one prepared measurement (it replaces the list below): device, date and
 versions; the agreement checks of granwave.gpu.checks (time-domain signal, two-body collision,
 the mean-flow rule, the preparation rules' changes between runs, ensembles per launch against
-each packing alone, tiny preparations under every protocol, DEM pulse, device neighbour
-rebuild) as pass/fail with their largest differences; the memory bandwidth; the time-domain
-step at 10^6 grains against one core and the roofline; DEM grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
-rebuilt on the device (the tiled packing drifts along the periodic axis: a rebuild about every
-25 steps; the rebuild count is reported) and over 200 steps without rebuilds; the statics of
-twelve 600-grain 2D packings (p = 1e-4, seeds 0..11) prepared on the GPU against the same seeds
-prepared on the CPU; the continuum study's 2048 d mean-flow column (51 200 grains) prepared on
-the GPU, ten of them (seeds 0-9) in one batch (ensembles per launch) for 2000 steps: seconds
-per batched step and the whole batch predicted from one column's CPU step count. Parts run
-in the order bandwidth, checks, DEM, packings, columns, time domain;
-each has its own time budget and is skipped, with a note, when the whole budget
-(``--budget``, default 450 s wall, compilation included) is spent; the JSON is
-written (to ``--out``, else stdout) after every part, so a run stopped from outside still
-leaves the parts done.
+each packing alone, tiny preparations under every protocol, DEM pulse, device neighbour rebuild)
+as pass/fail with their largest differences; the memory bandwidth; the time-domain step at 10^6
+grains against one core and the roofline; DEM grain-steps/s at 10^6 grains against one core,
+over 2000 steps in which the pair list is rebuilt on the device (the tiled packing drifts along
+the periodic axis: a rebuild about every 25 steps; the rebuild count is reported) and over 200
+steps without rebuilds; the statics of twelve 600-grain 2D packings (p = 1e-4, seeds 0..11)
+prepared on the GPU against the same seeds prepared on the CPU; the continuum study's 2048 d
+mean-flow column (51 200 grains) prepared on the GPU, ten of them (seeds 0-9) in one batch
+(ensembles per launch) for 2000 steps: seconds per batched step and the whole batch predicted
+from one column's CPU step count. Parts run in the order bandwidth, checks, DEM, packings,
+columns, time domain; each has its own time budget and is skipped, with a note, when the whole
+budget (``--budget``, default 450 s wall, compilation included) is spent; the JSON is written
+(to ``--out``, else stdout) after every part, so a run stopped from outside still leaves the
+parts done.
 
 On one NVIDIA GPU (``pip install -e '.[gpu]'``) it measures, in one run:
 
