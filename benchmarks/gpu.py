@@ -5,21 +5,21 @@
 
 ``--all`` is the one prepared measurement (it replaces the list below): device, date and
 versions; the agreement checks of granwave.gpu.checks (time-domain signal, two-body collision,
-the mean-flow rule, the preparation rules' changes between runs, tiny preparations under every
-protocol, DEM pulse, device neighbour rebuild) as pass/fail with their largest differences; the memory
-bandwidth; the time-domain step at 10^6 grains against one core and the roofline; DEM
-grain-steps/s at 10^6 grains against one core, over 2000 steps in which the pair list is
-rebuilt on the device (the tiled packing drifts along the periodic axis: a rebuild about every
-25 steps; the rebuild count is reported) and over 200 steps without rebuilds; the statics of
-twelve 600-grain 2D packings (p = 1e-4, seeds 0..11) prepared on the GPU against the same seeds
-prepared on the CPU; the continuum study's 2048 d mean-flow column (51 200 grains) prepared on
-the GPU for 10 000 steps: seconds per step and the whole preparation predicted from its CPU step
-count (ten such columns in one batch need ensembles per launch, not implemented: predicted one
-after another). Parts run in the order bandwidth, checks, DEM, packings, columns, time domain;
-each has its own time budget and is skipped, with a note, when the whole budget
-(``--budget``, default 450 s wall, compilation included) is spent; the JSON is
-written (to ``--out``, else stdout) after every part, so a run stopped from outside still
-leaves the parts done.
+the mean-flow rule, the preparation rules' changes between runs, ensembles per launch against
+each packing alone, tiny preparations under every protocol, DEM pulse, device neighbour rebuild)
+as pass/fail with their largest differences; the memory bandwidth; the time-domain step at 10^6
+grains against one core and the roofline; DEM grain-steps/s at 10^6 grains against one core,
+over 2000 steps in which the pair list is rebuilt on the device (the tiled packing drifts along
+the periodic axis: a rebuild about every 25 steps; the rebuild count is reported) and over 200
+steps without rebuilds; the statics of twelve 600-grain 2D packings (p = 1e-4, seeds 0..11)
+prepared on the GPU against the same seeds prepared on the CPU; the continuum study's 2048 d
+mean-flow column (51 200 grains) prepared on the GPU, ten of them (seeds 0-9) in one batch
+(ensembles per launch) for 2000 steps: seconds per batched step and the whole batch predicted
+from one column's CPU step count. Parts run in the order bandwidth, checks, DEM, packings,
+columns, time domain; each has its own time budget and is skipped, with a note, when the whole
+budget (``--budget``, default 450 s wall, compilation included) is spent; the JSON is written
+(to ``--out``, else stdout) after every part, so a run stopped from outside still leaves the
+parts done.
 
 On one NVIDIA GPU (``pip install -e '.[gpu]'``) it measures, in one run:
 
@@ -280,6 +280,10 @@ def _verdicts(name: str, r: dict) -> tuple[bool, dict]:
                                                             "neighbour_rebuilds", "n_contacts_initial"))
         worst = max(r["signal_rel"], r["max_displacement_rel"])
         return same and worst < 1e-10, {"max_rel": worst, "same_counts": same}
+    if name == "batch":  # ensembles per launch: each packing the bytes of its run alone on the device
+        same = all(v for k, v in r.items() if k.startswith("same_seed"))
+        worst = max(v for k, v in r.items() if k.startswith("cpu_abs_"))
+        return same, {"same_bytes_as_alone": same, "max_abs_vs_cpu": worst}
     if name == "rebuild":
         keys = [k[len("same_pairs_"):] for k in r if k.startswith("same_pairs_")]
         same = all(r[f"same_pairs_{k}"] for k in keys)
@@ -309,7 +313,7 @@ def agreement(deadline: float) -> dict:
     from granwave.gpu import checks
 
     out = {}
-    for name in ("two_body", "mean_flow", "rules", "protocols", "time_domain", "pulse", "rebuild"):
+    for name in ("two_body", "mean_flow", "rules", "batch", "protocols", "time_domain", "pulse", "rebuild"):
         if time.perf_counter() > deadline:
             out[name] = {"skipped": "time budget of the checks spent"}
             continue
@@ -492,44 +496,67 @@ COLUMN_TINY = dict(dim=2, width=4, height=16.0, pressure=1e-2, friction=0.5, pol
                    compaction="mean-flow", reference_height=4.0)
 
 
-def column_rate(spec: dict, steps: int, seed: int = 0) -> dict:
-    """One mean-flow column (``spec``: :data:`COLUMN`) prepared on the GPU for ``steps`` steps by
-    the preparation protocol itself (gas, compaction with the mean-flow rule and its settling
-    rule, checks; stopped by its step budget): seconds per step (the gas and the engine's set-up
-    on the host included, so an upper bound) and the whole preparation predicted from the CPU's
-    step count. Ten columns in one batch need ensembles per launch (issue 46 item 3): not here,
-    so ten columns are predicted one after another."""
-    from granwave import api
-    from granwave.errors import StepBudgetExceeded
+def column_rate(spec: dict, steps: int, columns: int = 10, rebuild_every: int = 8) -> dict:
+    """``columns`` mean-flow columns (``spec``: :data:`COLUMN`; seeds 0, 1, ...) prepared in one
+    batch on the GPU (ensembles per launch, granwave.gpu.batch: every column advanced by the same
+    kernel launches) for ``steps`` steps each by the preparation protocol itself (gas, compaction
+    with the mean-flow rule and its settling rule, checks; stopped by its step budget), with the
+    device rebuild's kernels queued every ``rebuild_every`` steps (the same bits), after a warm-up
+    batch of two tiny columns (the kernels' compilation): seconds per batched step (``seconds``:
+    everything, the gases and engines' set-up on the host included; ``stepping_seconds``: the
+    driver's rounds: uploads, steps, checks, downloads) and the whole batch predicted from the
+    CPU's step count of one column."""
 
-    kw = {k: v for k, v in spec.items() if k not in ("width", "height")}
-    kw.update(grains=int(round(spec["width"] * spec["height"])), aspect=spec["height"] / spec["width"],
-              max_steps=int(steps), seed=seed)
-    t0 = time.perf_counter()
-    note = None
+    from granwave.errors import StepBudgetExceeded
+    from granwave.gpu import batch as B
+    from granwave.gpu import dem as G
+    from granwave.params import PrepareParams
+
+    def params(spec, steps):
+        kw = {k: v for k, v in spec.items() if k not in ("width", "height")}
+        kw.update(grains=int(round(spec["width"] * spec["height"])), aspect=spec["height"] / spec["width"],
+                  max_steps=int(steps))
+        return PrepareParams(**kw)
+
+    saved = G.GpuEngine.rebuild_every
+    G.GpuEngine.rebuild_every = int(rebuild_every)  # the batch's engines are GpuEngines
     try:
-        api.prepare_packing(**kw, device="gpu")
-        note = "converged within the steps asked"
-    except StepBudgetExceeded:
-        pass
-    secs = time.perf_counter() - t0
-    per_step = secs / steps
-    return {"grains": kw["grains"], "steps": steps, "seconds": secs, "s_per_step": per_step,
-            "grain_steps_per_s": kw["grains"] / per_step, "cpu_steps_of_one_column": COLUMN_CPU_STEPS,
-            "predicted_one_column_s": per_step * COLUMN_CPU_STEPS,
-            "predicted_ten_columns_one_after_another_s": 10 * per_step * COLUMN_CPU_STEPS,
-            "ten_in_one_batch": "not implemented (issue 46 item 3: ensembles per launch)",
+        t0 = time.perf_counter()
+        try:
+            B.prepare_packings(params(COLUMN_TINY, 20), [0, 1])
+        except StepBudgetExceeded:
+            pass
+        warm = time.perf_counter() - t0
+        p = params(spec, steps)
+        ensemble = B.Ensemble()
+        note = None
+        t0 = time.perf_counter()
+        try:
+            B.prepare_packings(p, list(range(columns)), ensemble=ensemble)
+            note = "converged within the steps asked"
+        except StepBudgetExceeded:
+            pass
+        secs = time.perf_counter() - t0
+    finally:
+        G.GpuEngine.rebuild_every = saved
+    per_step = ensemble.seconds / steps
+    return {"grains_per_column": p.grains, "columns": columns, "steps": steps, "seconds": secs,
+            "stepping_seconds": ensemble.seconds, "warm_up_seconds": warm, "batched_steps": ensemble.steps_queued,
+            "rounds": ensemble.rounds, "s_per_batched_step": per_step,
+            "grain_steps_per_s": columns * p.grains / per_step, "rebuild_every": int(rebuild_every),
+            "cpu_steps_of_one_column": COLUMN_CPU_STEPS, "predicted_batch_s": per_step * COLUMN_CPU_STEPS,
+            "how": "ensembles per launch (granwave.gpu.batch): the columns in one batch",
             **({"note": note} if note else {})}
 
 
 ALL_FULL = dict(total_s=450.0, checks_s=200.0, td_s=90.0, dem_s=80.0, statics_s=130.0, td=(1000, 1000),
                 dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=30, td_steps=200,
                 cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, seeds=12, columns_s=60.0,
-                column=COLUMN, column_steps=10000)
+                column=COLUMN, column_steps=2000, columns=10)
 ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, statics_s=3000.0, td=(6, 4),
                 dem_grains=40, dem_steps=30, dem_plain_steps=3, cpu_dem_steps=3, td_steps=3, cpu_td_steps=3,
                 copy_bytes=1 << 12, packing_grains=10, seeds=2, columns_s=600.0, column=COLUMN_TINY,
-                column_steps=20)
+                column_steps=20, columns=3)
 
 
 def run_all(args) -> int:
@@ -611,7 +638,8 @@ def run_all(args) -> int:
     part("dem", size["dem_s"], do_dem)
     part("packings", size["statics_s"],
          lambda deadline: packing_statics(size["packing_grains"], size["seeds"], args.tiny, deadline))
-    part("columns", size["columns_s"], lambda deadline: column_rate(size["column"], size["column_steps"]))
+    part("columns", size["columns_s"],
+         lambda deadline: column_rate(size["column"], size["column_steps"], size["columns"]))
     part("time_domain", size["td_s"], do_td)
     if args.tiny:
         res["note"] = "CUDA simulator at toy sizes: these numbers say nothing about a GPU"

@@ -35,7 +35,7 @@ from .params import (ChainParams, DampingParams, EigenParams, EnsembleParams, Fr
                      HeightsParams, LatticeParams, LinearizeParams, ModuliParams, PrepareParams,
                      PropagateParams, SpectrumParams, StaticsParams, SweepParams)
 
-__all__ = ["prepare_packing", "lattice", "chain", "linearize", "eigensolve", "propagate",
+__all__ = ["prepare_packing", "prepare_packings", "lattice", "chain", "linearize", "eigensolve", "propagate",
            "choose_method", "statics", "moduli", "front", "heights", "ensemble", "spectrum",
            "damping", "pressure_sweep", "AliasingWarning"]
 
@@ -158,6 +158,46 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     if kernels.device != "cpu":
         packing.attrs["device"] = kernels.device
     return packing
+
+
+def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress: Callable[[str], None] | None = None,
+                     threads: int | None = None, device: str | None = None, **fields) -> list[Packing]:
+    """One packing per seed of ``seeds`` (the parameters otherwise the same; ``params.seed`` is
+    not used), in the order of ``seeds``: each the packing :func:`prepare_packing` makes for that
+    seed on that device, with the same attributes, bit for bit.
+
+    ``device="gpu"`` prepares them together, advanced by the same kernel launches (docs/gpu.md
+    "Ensembles per launch"); ``"cpu"`` (default) one after another. ``progress`` lines start
+    with ``seed N:``. When a seed does not converge, the first such error (in the order of
+    ``seeds``, its message starting with ``seed N:``) is raised once every seed has ended.
+    """
+    p = _params(PrepareParams, params, fields)
+    seeds = [int(s) for s in seeds]
+    if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
+        raise InputError(f"seeds must be distinct non-negative integers, at least one (got {seeds!r})")
+    for s in seeds:
+        dataclasses.replace(p, seed=s)  # validated (the largest seed) before any work
+    _progress(progress)
+    if device in (None, "cpu"):
+        def one(s):
+            tell = None if progress is None else (lambda line: progress(f"seed {s}: {line}"))
+            return prepare_packing(dataclasses.replace(p, seed=s), progress=tell, threads=threads, device=device)
+
+        return [one(s) for s in seeds]
+    from .gpu import backend
+
+    refused = CO.cpu_only(CO.values_of(p))
+    if refused:
+        raise InputError(refused)
+    kernels = backend(device)  # a missing GPU fails here, before any work
+    _threads(threads)
+    from .gpu.batch import prepare_packings as together
+
+    packings = together(p, seeds, progress=progress)
+    for s, packing in zip(seeds, packings):
+        dataclasses.replace(p, seed=s).record(packing.attrs)
+        packing.attrs["device"] = kernels.device
+    return packings
 
 
 def lattice(params: LatticeParams | None = None, /, **fields) -> Packing:

@@ -141,3 +141,54 @@ def test_gpu_linear_kernels_compile_to_ptx():
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx
+
+
+@pytest.mark.parametrize("dim,rot", [(2, 1), (2, 0), (3, 3)])
+def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
+    """The kernels of ensembles per launch (granwave.gpu.batch): concatenated grains and pairs,
+    one row per packing of pistons, parameters, rates, slabs, reductions and control words."""
+    _nvvm_or_skip()
+    from granwave.dem import layout
+    from granwave.gpu import batch as B
+    from granwave.gpu import dem as G
+
+    n, m, k, ns = 6, 8, 2, 5
+    f2 = lambda c: np.zeros((n, c))  # noqa: E731
+    p2 = lambda c: np.zeros((m, c))  # noqa: E731
+    v = np.zeros(n)
+    i64 = np.zeros(m, np.int64)
+    gi = np.zeros(n, np.int64)
+    off = np.zeros(k + 1, np.int64)
+    kv = np.zeros(k, np.int64)
+    fps = np.zeros(k, layout.PARAMS)
+    pss = np.zeros(k, layout.PISTON)
+    ctl = np.zeros((k, B.N_CTL_BATCH), np.int64)
+    lat = np.zeros((k, dim - 1))
+    mf = np.zeros((k, 3))
+    lo = np.zeros((k, ns), np.int64)
+    slabs = np.zeros((k, dim + 1, ns))
+    r1 = max(rot, 1)
+    sigs = {
+        B.kick_drift_batch: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), lat, f2(dim), pss, fps, v, v, ctl,
+                                   gi),
+        B.pair_forces_batch: _types(f2(dim), f2(dim), f2(rot), v, v, v, lat, i64, i64, ctl, p2(dim), np.zeros(m),
+                                    fps, p2(3), p2(r1), p2(r1), np.zeros(m), off, off, i64),
+        B.slab_bin_batch: _types(f2(dim), mf, kv, fps, gi, lo, lo, kv, ctl, off, gi),
+        B.slab_sums_batch: _types(f2(dim), v, fps, mf, kv, gi, lo, lo, slabs, kv, ctl, off),
+        B.grain_forces_batch: _types(f2(dim), f2(dim), f2(dim), f2(rot), f2(rot), v, v, v,
+                                     np.zeros(n + k, np.int64), np.zeros(2 * m, np.int64), p2(3), p2(r1), p2(r1),
+                                     np.zeros((2 * n, dim)), np.zeros(2 * n), pss, fps, v, v, v, v, ctl, mf, kv,
+                                     slabs, kv, off, off, gi),
+        B.step_partials_batch: _types(v, v, v, v, v, v, np.zeros(m), ctl, np.zeros((k, 3, G.N_RED)), off, off),
+        B.finish_batch: _types(np.zeros((k, 3, G.N_RED)), pss, fps, mf, kv, np.zeros((k, G.N_RED)), ctl),
+        B.rb_small_batch: _types(np.zeros((k, G.N_RED)), fps, pss, lat, f2(dim), v, f2(dim), ctl, gi,
+                                 np.zeros((4, 2), np.int64), np.zeros((4 + k, 2), np.int64), gi,
+                                 np.zeros((n, 2), np.int64), np.zeros((n + k, 2), np.int64), np.zeros(2 * m, np.int64),
+                                 np.zeros(n + k, np.int64), i64, i64, p2(dim), np.zeros(m), i64, i64, p2(dim),
+                                 np.zeros(m), np.zeros(2 * m, np.int64), np.zeros(n + k, np.int64),
+                                 np.zeros(2 * m, np.int64), off, off, off, kv),
+    }
+    assert set(sigs) == set(B.KERNELS)
+    for kernel, sig in sigs.items():
+        ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
+        assert ".target sm_90" in ptx

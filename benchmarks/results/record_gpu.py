@@ -54,7 +54,13 @@ def headline(run: dict) -> dict:
         out["packing seconds, GPU / CPU (means)"] = round(
             sum(pk["seconds"]["gpu"]) / max(sum(pk["seconds"]["cpu"]), 1e-300), 1)
     col = run.get("columns", "")
-    if isinstance(col, dict) and "s_per_step" in col:  # one column measured, the preparation predicted
+    if isinstance(col, dict) and "s_per_batched_step" in col:  # columns in one batch (ensembles per launch)
+        out[f"{col['columns']} mean-flow columns of {col['grains_per_column']} grains in one batch: s/step; "
+            "whole batch predicted"] = (
+            f"{col['s_per_batched_step']:.3g} s/step over {col['steps']} steps (rebuild test every "
+            f"{col['rebuild_every']}); {col['predicted_batch_s'] / 60:.3g} min for the batch "
+            f"({col['cpu_steps_of_one_column']} steps, one column's CPU run)")
+    elif isinstance(col, dict) and "s_per_step" in col:  # one column measured, the preparation predicted
         out[f"mean-flow column {col['grains']} grains: s/step on the GPU; whole preparation predicted"] = (
             f"{col['s_per_step']:.3g} s/step over {col['steps']} steps; {col['predicted_one_column_s'] / 3600:.3g} h "
             f"for one column ({col['cpu_steps_of_one_column']} steps, its CPU run); ten in one batch: "

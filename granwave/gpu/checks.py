@@ -118,8 +118,16 @@ def pulse() -> dict:
             **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
 
 
-def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, small: int | None = None,
-         every: int = 1, friction: float = 0.5, top: float | None = None, **rule):
+def _gas(cls, dim: int, steps: int, **kw):
+    """:func:`_gas_engine` run for ``steps`` steps."""
+    e = _gas_engine(cls, dim, **kw)
+    e.run(steps)
+    return e
+
+
+def _gas_engine(cls, dim: int, seed: int = 0, room: int | None = None, small: int | None = None,
+                every: int = 1, friction: float = 0.5, top: float | None = None, grains: int | None = None,
+                **rule):
     """A dense frictional gas in a 6 x 6 (x 6) box (radii 0.3-0.4 on a jittered grid, random
     velocities and a vertical squeeze, so that pairs form and the list is rebuilt every ~10
     steps); ``room``: the pair arrays cut to that many slots before the run (the GPU engine
@@ -131,7 +139,7 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
     side = 6 if dim == 2 else 5
     axes = np.meshgrid(*[np.arange(side) + 0.5] * dim, indexing="ij")
     pos = np.stack([a.ravel() for a in axes], axis=1)
-    pos = pos[rng.permutation(len(pos))[: len(pos) * 2 // 3]]  # room to move
+    pos = pos[rng.permutation(len(pos))[: grains or len(pos) * 2 // 3]]  # room to move
     pos += rng.uniform(-0.1, 0.1, pos.shape)
     n = len(pos)
     rad = rng.uniform(0.3, 0.4, n)
@@ -140,7 +148,7 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
     rot = 1 if dim == 2 else 3
     e = cls(pos, rad, [float(side)] * (dim - 1), float(side if top is None else top), friction=friction,
             damping=0.3, dt=4e-3, skin=0.2, velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (n, rot)),
-            check_every=0, **rule)
+            check_every=rule.pop("check_every", 0), **rule)
     if small is not None:
         e.small_rebuild = small
     if every != 1:
@@ -149,7 +157,6 @@ def _gas(cls, dim: int, steps: int, seed: int = 0, room: int | None = None, smal
         m = e.n_pairs
         for name in ("pair_i", "pair_j", "pair_ft", "pair_ov"):
             setattr(e, name, getattr(e, name)[: max(m, room)].copy())
-    e.run(steps)
     return e
 
 
@@ -220,6 +227,88 @@ def mean_flow(steps: int = 30, steps_3d: int = 12) -> dict:
         out[f"slabs_{dim}d"] = int(cpu.slabs.shape[1])
         out[f"occupied_slabs_{dim}d"] = int(np.count_nonzero(cpu.slabs[1]))
         out[f"rebuilds_{dim}d"] = gpu.rebuilds
+    return out
+
+
+def batch(steps: int = 10) -> dict:
+    """Ensembles per launch (:mod:`granwave.gpu.batch`): three small 2D frictional gases of
+    different seeds and sizes (24, 20 and 22 grains) under a loaded piston with the mean-flow
+    rule and convergence checks every 8 steps, advanced together through runs of different
+    lengths with a settling switch in between, one of them with its pair arrays cut so that a
+    device rebuild runs out of room mid-batch, another rebuilt by the multi-kernel rebuild of
+    large packings; each against the same runs of a
+    :class:`GpuEngine` alone (bitwise: state, pair list and histories, piston, slabs, steps,
+    rebuilds) and of the CPU engine (``cpu_abs``: the piston force is reduced in another order)."""
+    from ..dem.integrator import Engine
+    from ..dem.mean_flow import M_GAMMA_L, M_GAMMA_M
+    from .batch import Ensemble
+    from .dem import GpuEngine
+
+    setups = ((0, 24, None, None), (1, 20, 0, None), (2, 22, None, 0))  # (seed, grains, room, small)
+    kw = dict(friction=0.5, background_damping=2.0, piston_mass=1.0, piston_force=20.0, top=5.8,
+              mean_flow=(0.2, 1.0), check_every=8)
+
+    def job(cls, seed, grains, room, small):
+        def run():
+            e = _gas_engine(cls, 2, seed=seed, grains=grains, room=room, small=small, **kw)
+            e.run(steps + 5 * seed)  # runs of other lengths: the packings stop at other steps
+            e.mflow[M_GAMMA_M] = e.mflow[M_GAMMA_L] = 0.7  # the settling switch between runs
+            e.run(steps // 2)
+            return e
+        return run
+
+    ensemble = Ensemble()
+    t0 = time.perf_counter()
+    together = ensemble.run([job(ensemble.member_class(), *s) for s in setups])
+    t1 = time.perf_counter()
+    out = {"rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued, "seconds_batch": t1 - t0,
+           "small_rebuild_launches": ensemble.small_rebuild_launches}
+    for (seed, grains, room, small), (ok, b) in zip(setups, together):
+        if not ok:
+            raise b
+        alone = job(GpuEngine, seed, grains, room, small)()
+        cpu = job(Engine, seed, grains, None, None)()  # (the CPU engine makes its own room)
+        m = alone.n_pairs
+        key = f"seed{seed}"
+        out[f"grains_{key}"] = len(b.radius)
+        out[f"steps_{key}"] = b.steps
+        out[f"rebuilds_{key}"] = b.rebuilds
+        out[f"room_made_{key}"] = b.room_made
+        out[f"same_{key}"] = bool(
+            b.steps == alone.steps and b.rebuilds == alone.rebuilds and b.n_pairs == m
+            and all(getattr(b, s).tobytes() == getattr(alone, s).tobytes() for s in STATE)
+            and all(getattr(b, s)[:m].tobytes() == getattr(alone, s)[:m].tobytes()
+                    for s in ("pair_i", "pair_j", "pair_ft", "pair_ov"))
+            and b.piston.tobytes() == alone.piston.tobytes() and b.slabs.tobytes() == alone.slabs.tobytes()
+            and b.fpar.tobytes() == alone.fpar.tobytes())
+        out[f"cpu_abs_{key}"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(b, s)), initial=0.0))
+                                    for s in STATE)
+        out[f"cpu_steps_{key}"] = cpu.steps
+    out["seconds_alone_and_cpu"] = time.perf_counter() - t1
+    return out
+
+
+def batch_prepare(grains: int = 10, seeds=(0, 1)) -> dict:
+    """Whole preparations through :func:`granwave.api.prepare_packings` on the GPU (the seeds
+    advanced together; the tiny packing of :func:`prepare`) against each seed prepared alone on
+    the GPU: positions, contacts and attributes compared bitwise (``same``), and the steps."""
+    from .. import api
+
+    kw = dict(grains=grains, tol=1e-2, pressure=1e-2)
+    t0 = time.perf_counter()
+    together = api.prepare_packings(seeds=list(seeds), device="gpu", **kw)
+    t1 = time.perf_counter()
+    out = {"seconds_batch": t1 - t0}
+    for seed, b in zip(seeds, together):
+        alone = api.prepare_packing(seed=seed, device="gpu", **kw)
+        same = (b.position.tobytes() == alone.position.tobytes() and b.box.tobytes() == alone.box.tobytes()
+                and all(getattr(b.contacts, f).tobytes() == getattr(alone.contacts, f).tobytes()
+                        for f in ("i", "j", "force_normal", "force_tangential", "overlap"))
+                and {k: str(v) for k, v in b.attrs.items()} == {k: str(v) for k, v in alone.attrs.items()})
+        out[f"same_seed{seed}"] = bool(same)
+        out[f"steps_seed{seed}"] = int(b.attrs["steps"])
+        out[f"rebuilds_seed{seed}"] = int(b.attrs["rebuilds"])
+    out["seconds_alone"] = time.perf_counter() - t1
     return out
 
 
@@ -315,17 +404,21 @@ def protocols(names=None) -> dict:
 
 
 CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse,
-          "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols}
+          "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols, "batch": batch,
+          "batch_prepare": batch_prepare}
 
 
 #: Checks run only when named: whole preparations take minutes in the CUDA simulator (about
 #: 0.3-0.6 s a step on a 2-core machine), seconds on a GPU (benchmarks/gpu.py --tiny runs them).
-HEAVY = ("protocols",)
+HEAVY = ("protocols", "batch_prepare")
+#: Checks left out of the default set because a test file of their own runs them
+#: (tests/test_gpu_batch.py), so that tests/test_gpu_sim.py's subprocess does not run them twice.
+OWN_TEST = ("batch",)
 
 
 def main(argv=None) -> None:
     """Print the named checks' results (all but :data:`HEAVY` by default) as one JSON object."""
-    names = list(argv if argv is not None else sys.argv[1:]) or [c for c in CHECKS if c not in HEAVY]
+    names = list(argv if argv is not None else sys.argv[1:]) or [c for c in CHECKS if c not in HEAVY + OWN_TEST]
     print(json.dumps({name: CHECKS[name]() for name in names}))
 
 

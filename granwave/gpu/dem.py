@@ -21,7 +21,7 @@ One step on the device (four kernels, six with the mean-flow rule; no floating-p
    each grain's slab term after its background damping;
 4. ``step_partials`` (NPART blocks) and ``finish`` (one block): the piston force, largest
    overlap, contact counts, largest speed and displacement by a two-stage reduction of fixed
-   shape (grid stride, then trees), then the piston's half kick.
+   shape (grid stride, then trees), then the piston's half kick (:mod:`granwave.gpu.reductions`).
 
 Hence repeated runs give identical bytes, and each grain's force is summed in the CPU's order;
 only the piston force, kinetic energy and the maxima are reduced in a different (fixed) order.
@@ -51,17 +51,18 @@ from ..errors import InputError
 from . import load_cuda, simulated
 from .compile import device_functions
 from . import mean_flow as MF
-from ..dem.mean_flow import M_GAMMA_M
 from . import neighbours as NB
 from .roofline import bytes_per_step  # noqa: F401  (benchmarks/gpu.py reads it here)
 from .neighbours import C_NPAIRS, C_REBUILDS, C_STATUS, C_STEPS, C_NEED, N_CTL
+from .reductions import (N_RED, N_STAT, NPART, R_DISP2, R_DMAX, R_FPISTON, R_NCONTACT, R_NTOP,  # noqa: F401
+                         R_VMAX, R_VMAX2, RBLOCK, S_ALMAX2, S_AMAX2, S_KIN, S_VMAX2, S_WMAX2, _finish, _partials,
+                         finish, measure_kernel, step_partials)
 
 cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
 DF = device_functions()
 add_torque3 = DF._add_torque3
 wall_contact = DF.wall_contact
-piston_acceleration = DF.piston_acceleration
 pair_law = DF._pair_law
 pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
@@ -70,28 +71,12 @@ law_of = DF.law_of
 couple_of = DF.couple_of
 grain_walls = DF.grain_walls
 grain_damping = DF.grain_damping
-grain_measures = DF.grain_measures
 
-#: Threads per block of the per-grain and per-pair kernels, and of the one-block reductions
-#: (smaller in the CUDA simulator, which runs every thread as a Python thread; the reduction
-#: order depends on RBLOCK, fixed within a process).
+#: Threads per block of the per-grain and per-pair kernels (smaller in the CUDA simulator, which
+#: runs every thread as a Python thread); the reductions' shapes: granwave.gpu.reductions.
 BLOCK = 8 if simulated() else 128
-RBLOCK = 4 if simulated() else 256
-#: Blocks of the first reduction stage (a fixed number: the order of the sums is fixed).
-NPART = 2 if simulated() else 264
 #: Most blocks a per-item kernel gets in the simulator (:func:`_blocks`).
 SIM_BLOCKS = 2
-
-# The kernels write maxima as ``if x > m: m = x`` (Python's max(m, x) exactly): numba 0.68's CUDA
-# target failed to type the builtin max() of two floats in these kernels (tests/test_gpu_ptx.py).
-
-# indices of the per-step reduction (``red``)
-R_FPISTON, R_NTOP, R_NCONTACT, R_DMAX, R_VMAX2, R_DISP2, R_VMAX = range(7)
-N_RED = 7  # the per-step partials use the first six; finish adds R_VMAX = sqrt(R_VMAX2)
-assert (R_DISP2, R_VMAX) == (NB.R_DISP2, NB.R_VMAX)
-# indices of the check statistics (``stat``)
-S_AMAX2, S_ALMAX2, S_VMAX2, S_WMAX2, S_KIN = range(5)
-N_STAT = 5
 
 
 @cuda.jit
@@ -247,190 +232,6 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
     gcount[i] = count
 
 
-@cuda.jit(device=True)
-def _tree(t, s_sum0, s_sum1, s_sum2, s_max0, s_max1, s_max2):
-    """Tree reduction over a block's shared arrays: three sums and three maxima into slot 0."""
-    cuda.syncthreads()
-    half = RBLOCK // 2
-    while half > 0:
-        if t < half:
-            s_sum0[t] += s_sum0[t + half]
-            s_sum1[t] += s_sum1[t + half]
-            s_sum2[t] += s_sum2[t + half]
-            if s_max0[t + half] > s_max0[t]:
-                s_max0[t] = s_max0[t + half]
-            if s_max1[t + half] > s_max1[t]:
-                s_max1[t] = s_max1[t + half]
-            if s_max2[t + half] > s_max2[t]:
-                s_max2[t] = s_max2[t + half]
-        cuda.syncthreads()
-        half //= 2
-
-
-@cuda.jit
-def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl, part):
-    """NPART blocks: block b's share (a fixed grid stride) of the step's sums and maxima into
-    ``part[b]`` (piston force, top contacts, contacts, largest overlap, |v|^2, displacement^2)."""
-    if ctl[C_STATUS] != 0:
-        return
-    npairs = ctl[C_NPAIRS]
-    t = cuda.threadIdx.x
-    b = cuda.blockIdx.x
-    n = gfp.shape[0]
-    stride = RBLOCK * NPART
-    s_fp = cuda.shared.array(RBLOCK, np.float64)
-    s_top = cuda.shared.array(RBLOCK, np.float64)
-    s_cnt = cuda.shared.array(RBLOCK, np.float64)
-    s_dmax = cuda.shared.array(RBLOCK, np.float64)
-    s_v2 = cuda.shared.array(RBLOCK, np.float64)
-    s_disp = cuda.shared.array(RBLOCK, np.float64)
-    fp = 0.0
-    top = 0.0
-    cnt = 0.0
-    dmax = 0.0
-    v2 = 0.0
-    disp = 0.0
-    for i in range(b * RBLOCK + t, n, stride):
-        fp += gfp[i]
-        top += gtop[i]
-        cnt += gcount[i]
-        if gdmax[i] > dmax:
-            dmax = gdmax[i]
-        if gv2[i] > v2:
-            v2 = gv2[i]
-        if gdisp2[i] > disp:
-            disp = gdisp2[i]
-    for p in range(b * RBLOCK + t, npairs, stride):
-        x = pdelta[p]
-        if x >= 0.0:
-            cnt += 1.0
-            if x > dmax:
-                dmax = x
-    s_fp[t] = fp
-    s_top[t] = top
-    s_cnt[t] = cnt
-    s_dmax[t] = dmax
-    s_v2[t] = v2
-    s_disp[t] = disp
-    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
-    if t == 0:
-        part[b, R_FPISTON] = s_fp[0]
-        part[b, R_NTOP] = s_top[0]
-        part[b, R_NCONTACT] = s_cnt[0]
-        part[b, R_DMAX] = s_dmax[0]
-        part[b, R_VMAX2] = s_v2[0]
-        part[b, R_DISP2] = s_disp[0]
-
-
-@cuda.jit
-def finish(part, piston1, fpar1, mflow, red, ctl):
-    """One block: the NPART partial results combined in a fixed order into ``red``, then the
-    piston's acceleration (damped at gamma_m under the rule 'mean-flow', non-empty ``mflow``)
-    and second half kick; the step counted in ``ctl[C_STEPS]``."""
-    piston = piston1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
-    fpar = fpar1[0]
-    if ctl[C_STATUS] != 0:
-        return
-    t = cuda.threadIdx.x
-    s_fp = cuda.shared.array(RBLOCK, np.float64)
-    s_top = cuda.shared.array(RBLOCK, np.float64)
-    s_cnt = cuda.shared.array(RBLOCK, np.float64)
-    s_dmax = cuda.shared.array(RBLOCK, np.float64)
-    s_v2 = cuda.shared.array(RBLOCK, np.float64)
-    s_disp = cuda.shared.array(RBLOCK, np.float64)
-    fp = 0.0
-    top = 0.0
-    cnt = 0.0
-    dmax = 0.0
-    v2 = 0.0
-    disp = 0.0
-    for b in range(t, NPART, RBLOCK):
-        fp += part[b, R_FPISTON]
-        top += part[b, R_NTOP]
-        cnt += part[b, R_NCONTACT]
-        if part[b, R_DMAX] > dmax:
-            dmax = part[b, R_DMAX]
-        if part[b, R_VMAX2] > v2:
-            v2 = part[b, R_VMAX2]
-        if part[b, R_DISP2] > disp:
-            disp = part[b, R_DISP2]
-    s_fp[t] = fp
-    s_top[t] = top
-    s_cnt[t] = cnt
-    s_dmax[t] = dmax
-    s_v2[t] = v2
-    s_disp[t] = disp
-    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
-    if t == 0:
-        red[R_FPISTON] = s_fp[0]
-        red[R_NTOP] = s_top[0]
-        red[R_NCONTACT] = s_cnt[0]
-        red[R_DMAX] = s_dmax[0]
-        red[R_VMAX2] = s_v2[0]
-        red[R_DISP2] = s_disp[0]
-        red[R_VMAX] = math.sqrt(s_v2[0])
-        ctl[C_STEPS] += 1
-        piston.f_con = s_fp[0]
-        gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
-        piston.a = piston_acceleration(piston, gamma_piston)
-        if piston.mass < math.inf:
-            piston.v += 0.5 * fpar.dt * piston.a
-
-
-@cuda.jit
-def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
-    """One block: largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the grains' kinetic energy."""
-    t = cuda.threadIdx.x
-    n = vel.shape[0]
-    s_a = cuda.shared.array(RBLOCK, np.float64)
-    s_al = cuda.shared.array(RBLOCK, np.float64)
-    s_v = cuda.shared.array(RBLOCK, np.float64)
-    s_w = cuda.shared.array(RBLOCK, np.float64)
-    s_k = cuda.shared.array(RBLOCK, np.float64)
-    amax = 0.0
-    almax = 0.0
-    vmax = 0.0
-    wmax = 0.0
-    kin = 0.0
-    for i in range(t, n, RBLOCK):
-        a2, al2, v2, w2r2, k = grain_measures(i, vel, acc, omega, alpha, rad, mass, inertia)
-        if a2 > amax:
-            amax = a2
-        if al2 > almax:
-            almax = al2
-        if v2 > vmax:
-            vmax = v2
-        if w2r2 > wmax:
-            wmax = w2r2
-        kin += k
-    s_a[t] = amax
-    s_al[t] = almax
-    s_v[t] = vmax
-    s_w[t] = wmax
-    s_k[t] = kin
-    cuda.syncthreads()
-    half = RBLOCK // 2
-    while half > 0:
-        if t < half:
-            if s_a[t + half] > s_a[t]:
-                s_a[t] = s_a[t + half]
-            if s_al[t + half] > s_al[t]:
-                s_al[t] = s_al[t + half]
-            if s_v[t + half] > s_v[t]:
-                s_v[t] = s_v[t + half]
-            if s_w[t + half] > s_w[t]:
-                s_w[t] = s_w[t + half]
-            s_k[t] += s_k[t + half]
-        cuda.syncthreads()
-        half //= 2
-    if t == 0:
-        stat[S_AMAX2] = s_a[0]
-        stat[S_ALMAX2] = s_al[0]
-        stat[S_VMAX2] = s_v[0]
-        stat[S_WMAX2] = s_w[0]
-        stat[S_KIN] = s_k[0]
-
-
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
 KERNELS = (kick_drift, pair_forces, grain_forces, step_partials, finish, measure_kernel)
 
@@ -498,6 +299,16 @@ class GpuEngine(Engine):
         self.g["inv_rad"] = to(1.0 / self.radius)
         for name in ("v2", "disp2", "fp", "top", "dmax", "count"):
             self.g[name] = cuda.device_array(n)
+        self.g["red"] = to(self._host_red())
+        self.g["part"] = cuda.device_array((NPART, N_RED))
+        self.g["stat"] = cuda.device_array(N_STAT)
+        self.g["ctl"] = to(self._host_ctl())
+        self._upload_mean_flow()
+        self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
+        self._upload_pairs()
+
+    def _host_red(self) -> np.ndarray:
+        """The reduction a run starts from (the host's counters; ``_disp2`` from the positions)."""
         x = self.position - self.pos0
         x[:, :-1] -= self.lateral * np.round(x[:, :-1] / self.lateral)  # nearest image (folded drifts)
         self._disp2 = float(np.max(np.sum(x * x, axis=1), initial=0.0))
@@ -509,17 +320,15 @@ class GpuEngine(Engine):
         red[R_VMAX2] = self.fpar.v_max ** 2
         red[R_DISP2] = self._disp2
         red[R_VMAX] = self.fpar.v_max
-        self.g["red"] = to(red)
-        self.g["part"] = cuda.device_array((NPART, N_RED))
-        self.g["stat"] = cuda.device_array(N_STAT)
-        ctl = np.zeros(N_CTL, np.int64)
+        return red
+
+    def _host_ctl(self, width: int = N_CTL) -> np.ndarray:
+        """The control words a run starts from (``width`` words, the first N_CTL used here)."""
+        ctl = np.zeros(width, np.int64)
         ctl[C_STEPS] = self.ipar.steps
         ctl[C_REBUILDS] = self.ipar.rebuilds
         ctl[NB.C_AHEAD] = max(1, int(self.rebuild_every))
-        self.g["ctl"] = to(ctl)
-        self._upload_mean_flow()
-        self._queued = 0  # steps queued since the upload (the rebuild's kernels go with every k-th)
-        self._upload_pairs()
+        return ctl
 
     def _upload_mean_flow(self) -> None:
         """The rule 'mean-flow''s rates (as the host has them now: the settling and end-game rules
@@ -548,31 +357,43 @@ class GpuEngine(Engine):
     def _upload_pairs(self) -> None:
         """The pair list, its history and incidence list, and the rebuild's work arrays, at the
         host arrays' capacity; the pair count into ``ctl``."""
+        m = int(self.ipar.npairs)
+        cap = max(len(self.pair_i), 1)
+        r = max(self.angular_velocity.shape[1], 1)
+        to = cuda.to_device
+        ptr, code2, row = self._host_incidence()
+        gp = dict(i=to(self.pair_i), j=to(self.pair_j), ft=to(self.pair_ft), ov=to(self.pair_ov), ptr=to(ptr),
+                  code=to(code2), pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
+                  tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), row=to(row))
+        if self.device_rebuild:
+            gp.update(self._rebuild_work(cap))
+        self.gp = gp
+        self.g["ctl"][C_NPAIRS:C_NPAIRS + 1].copy_to_device(np.array([m], np.int64))
+
+    def _host_incidence(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(inc_ptr, inc_pair at twice the capacity, row): the incidence list of :func:`incidence`
+        and each grain's first pair (``row``, the rebuild's), from the host pair list."""
         n = self.position.shape[0]
         m = int(self.ipar.npairs)
-        d = self.dim
-        r = max(self.angular_velocity.shape[1], 1)
         cap = max(len(self.pair_i), 1)
         ptr, code = incidence(self.pair_i, self.pair_j, m, n)
         code2 = np.zeros(2 * cap, np.int64)
         code2[:len(code)] = code
         row = np.zeros(n + 1, np.int64)
         np.cumsum(np.bincount(self.pair_i[:m], minlength=n), out=row[1:])
-        to = cuda.to_device
-        gp = dict(i=to(self.pair_i), j=to(self.pair_j), ft=to(self.pair_ft), ov=to(self.pair_ov), ptr=to(ptr),
-                  code=to(code2), pf=cuda.device_array((cap, 3)), tqi=cuda.device_array((cap, r)),
-                  tqj=cuda.device_array((cap, r)), delta=cuda.device_array(cap), row=to(row))
-        if self.device_rebuild:
-            ncell = NB.cell_capacity(self.lateral, self.piston.h, self.fpar.r_max,
-                                     self.fpar.skin_max)
-            z = cuda.device_array
-            gp.update(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
-                      ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
-                      members=z(n, np.int64), ccount=to(np.zeros((ncell, 2), np.int64)),
-                      cstart=z((ncell + 1, 2), np.int64), gcnt=z((n, 2), np.int64),
-                      gptr=z((n + 1, 2), np.int64), part=z((NB.NPART, 2), np.int64))
-        self.gp = gp
-        self.g["ctl"][C_NPAIRS:C_NPAIRS + 1].copy_to_device(np.array([m], np.int64))
+        return ptr, code2, row
+
+    def _rebuild_work(self, cap: int) -> dict:
+        """The device rebuild's work arrays for ``cap`` pairs (the cell list's capacity from the
+        piston's height now, as at every upload)."""
+        n, d = self.position.shape
+        ncell = NB.cell_capacity(self.lateral, self.piston.h, self.fpar.r_max, self.fpar.skin_max)
+        z = cuda.device_array
+        return dict(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
+                    ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
+                    members=z(n, np.int64), ccount=cuda.to_device(np.zeros((ncell, 2), np.int64)),
+                    cstart=z((ncell + 1, 2), np.int64), gcnt=z((n, 2), np.int64),
+                    gptr=z((n + 1, 2), np.int64), part=z((NB.NPART, 2), np.int64))
 
     def _download_pairs(self) -> None:
         m = int(self.ipar.npairs)
@@ -598,8 +419,10 @@ class GpuEngine(Engine):
         """Read the device's control words and the last step's reduction into the host's
         counters (steps, rebuilds, pairs, largest speed, piston force, overlaps, contacts):
         (status, pairs needed); status 0 running, 2 a rebuild needs more room, 3 blown up."""
-        ctl = self.g["ctl"].copy_to_host()
-        red = self.g["red"].copy_to_host()
+        return self._read_counters(self.g["ctl"].copy_to_host(), self.g["red"].copy_to_host())
+
+    def _read_counters(self, ctl: np.ndarray, red: np.ndarray) -> tuple[int, int]:
+        """:meth:`sync` from the control words and reduction read from the device."""
         ipar, out = self.ipar, self.out
         ipar.steps = ctl[C_STEPS]
         ipar.rebuilds = ctl[C_REBUILDS]
@@ -617,8 +440,10 @@ class GpuEngine(Engine):
         if self.device_rebuild:
             self.sync()
         for name in ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration",
-                     "pos0", "wall_ft", "wall_ov", "slabs"):
+                     "pos0", "wall_ft", "wall_ov"):
             getattr(self, name)[...] = self.g[name].copy_to_host()
+        rows, ns = self.slabs.shape
+        self.slabs[...] = self.g["slabs"].copy_to_host()[:rows, :ns]  # a batch's rows are padded
         K.copy_record(self.piston, self.g["piston"].copy_to_host())
         self._download_pairs()
 

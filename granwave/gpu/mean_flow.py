@@ -49,14 +49,17 @@ def slab_bin(pos, mflow, slab_of, lo, hi, ctl):
     index of its grains (integer atomics; ``lo`` = N and ``hi`` = -1 on entry)."""
     if ctl[C_STATUS] != 0:
         return
-    z = pos.shape[1] - 1
-    ns = lo.shape[0]
-    inv_slab = 1.0 / mflow[M_SLAB]
     for i in range(cuda.grid(1), pos.shape[0], cuda.gridsize(1)):
-        k = slab_index(pos[i, z], inv_slab, ns)
-        slab_of[i] = k
-        cuda.atomic.min(lo, k, i)
-        cuda.atomic.max(hi, k, i)
+        bin_grain(i, pos, mflow, slab_of, lo, hi)
+
+
+@cuda.jit(device=True)
+def bin_grain(i, pos, mflow, slab_of, lo, hi):
+    """Grain i's slab into ``slab_of[i]``, and i into its slab's index range (:func:`slab_bin`)."""
+    k = slab_index(pos[i, pos.shape[1] - 1], 1.0 / mflow[M_SLAB], lo.shape[0])
+    slab_of[i] = k
+    cuda.atomic.min(lo, k, i)
+    cuda.atomic.max(hi, k, i)
 
 
 @cuda.jit
@@ -68,37 +71,43 @@ def slab_sums(vel, mass, fpar1, mflow, slab_of, lo, hi, slabs, ctl):
     fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_STATUS] != 0:
         return
+    for k in range(cuda.grid(1), lo.shape[0], cuda.gridsize(1)):
+        sum_slab(k, vel, mass, fpar, mflow, slab_of, lo, hi, slabs)
+
+
+@cuda.jit(device=True)
+def sum_slab(k, vel, mass, fpar, mflow, slab_of, lo, hi, slabs):
+    """Slab k's means into ``slabs`` and its index range reset (:func:`slab_sums`)."""
     n, d = vel.shape
     z = d - 1
     n_lat = z if lateral_on(fpar.gamma, mflow) else 0
-    for k in range(cuda.grid(1), lo.shape[0], cuda.gridsize(1)):
-        vz = 0.0
-        m = 0.0
-        u0 = 0.0
-        u1 = 0.0
-        for i in range(lo[k], hi[k] + 1):
-            if slab_of[i] != k:
-                continue
-            vz += mass[i] * vel[i, z]
-            m += mass[i]
-            if n_lat > 0:
-                u0 += mass[i] * vel[i, 0]
-            if n_lat > 1:
-                u1 += mass[i] * vel[i, 1]
-        if m > 0.0:
-            vz /= m
-            u0 /= m
-            u1 /= m
-        slabs[S_VZ, k] = vz
-        slabs[S_MASS, k] = m
-        for a in range(slabs.shape[0] - S_LATERAL):  # rows the CPU zeroes and leaves when unused
-            slabs[S_LATERAL + a, k] = 0.0
+    vz = 0.0
+    m = 0.0
+    u0 = 0.0
+    u1 = 0.0
+    for i in range(lo[k], hi[k] + 1):
+        if slab_of[i] != k:
+            continue
+        vz += mass[i] * vel[i, z]
+        m += mass[i]
         if n_lat > 0:
-            slabs[S_LATERAL, k] = u0
+            u0 += mass[i] * vel[i, 0]
         if n_lat > 1:
-            slabs[S_LATERAL + 1, k] = u1
-        lo[k] = n
-        hi[k] = -1
+            u1 += mass[i] * vel[i, 1]
+    if m > 0.0:
+        vz /= m
+        u0 /= m
+        u1 /= m
+    slabs[S_VZ, k] = vz
+    slabs[S_MASS, k] = m
+    for a in range(slabs.shape[0] - S_LATERAL):  # rows the CPU zeroes and leaves when unused
+        slabs[S_LATERAL + a, k] = 0.0
+    if n_lat > 0:
+        slabs[S_LATERAL, k] = u0
+    if n_lat > 1:
+        slabs[S_LATERAL + 1, k] = u1
+    lo[k] = n
+    hi[k] = -1
 
 
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).

@@ -355,10 +355,17 @@ def rb_small(red, fpar1, piston1, lateral, pos, rad, pos0, ctl, cell, ccount, cs
     """The whole rebuild, trigger included, in one block (small systems: one launch per step
     instead of twelve): the steps of the multi-kernel rebuild, the same device functions,
     separated by barriers, the prefix sums by one thread."""
-    fpar = fpar1[0]  # the records (granwave.dem.layout), uploaded as one-element arrays
-    piston = piston1[0]
-    t = cuda.threadIdx.x
-    s = cuda.blockDim.x
+    # the records (granwave.dem.layout), uploaded as one-element arrays
+    _small(cuda.threadIdx.x, cuda.blockDim.x, red, fpar1[0], piston1[0], lateral, pos, rad, pos0, ctl, cell, ccount,
+           cstart, members, gcnt, gptr, nbr, row, pair_i, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov,
+           new_code, inc_ptr, inc_code)
+
+
+@cuda.jit(device=True)
+def _small(t, s, red, fpar, piston, lateral, pos, rad, pos0, ctl, cell, ccount, cstart, members, gcnt, gptr, nbr,
+           row, pair_i, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code, inc_ptr, inc_code):
+    """The block's work in :func:`rb_small` (thread t of s; the batched engine's
+    :func:`granwave.gpu.batch.rb_small_batch` calls it per packing)."""
     if t == 0:
         _trigger(red, fpar, piston, lateral, ctl, ccount.shape[0])
     cuda.syncthreads()

@@ -18,8 +18,10 @@ for _name, _scene, _samples in batches():
             "../envs/granwave.yaml"
         input:
             kernels_of(_scene),
+            [s["out"]["packing"] for s in _samples if s.get("packing_given")],  # device gpu
         output:
-            [path for s in _samples for path in s["out"].values()],
+            [path for s in _samples for stage, path in s["out"].items()
+             if not (stage == "packing" and s.get("packing_given"))],
             timings=f"{R}/timings/{_name}.tsv",
         log:
             f"{R}/logs/batch/{_name}.log",

@@ -273,7 +273,9 @@ def batch_sample(scene, p, size, seed):
                          "t_max": float(f"{t_max(wc):.6g}"), "samples": config["samples"],
                          "safety": config["time_safety"]},
               "out": out}
-    if checkpoint_path(kind, make, tail):  # tall: resumes from its checkpoint (docs/dem.md)
+    if kind in ("disordered", "continuum") and config["device"] == "gpu":
+        sample["packing_given"] = True  # made with its height's seeds by gpu_packings (one GPU job)
+    elif checkpoint_path(kind, make, tail):  # tall: resumes from its checkpoint (docs/dem.md)
         sample["checkpoint"] = checkpoint_path(kind, make, tail)
     if kind == "disordered" and not spec.get("local_moduli", True):
         sample["local_moduli"] = False
@@ -285,6 +287,31 @@ def batch_sample(scene, p, size, seed):
         sample["local_moduli"] = False
         sample["moduli_may_fail"] = True  # a floppy tall column loses its c_l, not its batch
     return sample
+
+
+def gpu_packings():
+    """device gpu: [(name, samples)], one per height of every disordered and continuum scene: the
+    height's seeds, prepared together on one GPU by rules/gpu_packings.smk; [] on the CPU."""
+    if config["device"] != "gpu":
+        return []
+    groups = {}
+    for kind in ("disordered", "continuum"):
+        for scene in scenes(kind):
+            for p, size, seed in samples(scene):
+                groups.setdefault((scene, p, size), []).append(batch_sample(scene, p, size, seed))
+    return [(f"gpu_packings_{scene}_{k}", group)
+            for k, ((scene, p, size), group) in enumerate(sorted(groups.items(), key=lambda g: g[0]))]
+
+
+def gpu_packings_command(group):
+    """The prepare-packing command of one height's seeds on the GPU (gpu_packings): the options of
+    its samples (batch_sample's, without the seed), one file per seed at the samples' paths."""
+    make = {k: v for k, v in group[0]["make"].items() if k != "seed"}
+    options = " ".join(f"--{key.replace('_', '-')} {value}" for key, value in make.items())
+    seeds = ",".join(str(s["seed"]) for s in group)
+    folder = os.path.dirname(group[0]["out"]["packing"])  # the samples' paths, s<seed>.h5
+    pattern = os.path.join(folder, "s{seed}.h5")
+    return f"granwave prepare-packing {options} --seeds {seeds} --device gpu --quiet -o '{pattern}'"
 
 
 REFERENCE_KINDS = ("lattices", "chains")
