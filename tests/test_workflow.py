@@ -166,28 +166,6 @@ def test_light_commands_and_reference_samples_share_jobs(tmp_path):
                 and name != "figure_shear"], out[-3000:]
 
 
-def test_finished_warm_ups_leave_the_dag(tmp_path):
-    """The kernel warm-ups run on a fresh results folder, and once their markers are on disk
-    they are no longer jobs: their params follow the config's scenes, and a warm-up rerun by
-    its params trigger made snakemake schedule it alone, none of the samples a config had added
-    (reproduced with a continuum scene given a third height in an existing folder)."""
-    def jobs():
-        run = snakemake("-n", "--quiet", "rules", "--configfile", str(ROOT / "config" / "config.yaml"),
-                        cwd=tmp_path)
-        out = run.stdout + run.stderr
-        assert run.returncode == 0, out[-3000:]
-        return dict(re.findall(r"^(\w+)\s+(\d+)$", out, re.M))
-
-    fresh = jobs()
-    assert fresh.get("compile_kernels") == "2" and fresh.get("compile_pulse_kernels") == "1", fresh
-    (tmp_path / "results" / "kernels").mkdir(parents=True)
-    for family in ("dem", "linear", "pulse"):
-        (tmp_path / "results" / "kernels" / f"{family}.json").write_text("{}")
-    warmed = jobs()
-    assert "compile_kernels" not in warmed and "compile_pulse_kernels" not in warmed, warmed
-    assert int(warmed.pop("total")) == int(fresh.pop("total")) - 3
-    assert {k: v for k, v in fresh.items() if not k.startswith("compile")} == warmed
-
 @pytest.mark.slow
 def test_tiny_workflow_end_to_end(tmp_path):
     run = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)

@@ -602,7 +602,7 @@ def main_sample_extras():
             command("damping", ["propagate", packing, "--method", "dem", "--ic", config["ic"],
                                 "--damping", f"{z:g}", "--amplitude", str(d["amplitude"]),
                                 "--t-max", f"{damping_t_max():.6g}", "--samples", str(config["samples"]),
-                                "-o", path], [packing, *kernels_markers("pulse")], path)
+                                "-o", path], [packing, kernels_marker("pulse")], path)
         command("damping_table", ["analyze", "damping", *signals, "--json"], [], f"{R}/damping/table.json",
                 printed=True)
         reference = damping_linear_reference()
@@ -805,22 +805,14 @@ def pulse_warm_up_on_lattice():
     return not made or pulse_on_lattice(made[0])
 
 
-def kernels_markers(*families):
-    """The warm-up markers of these kernel families that jobs wait for: those not yet on disk.
-
-    A warm-up that has run leaves the DAG: its kernels are in numba's cache, and its params
-    follow the config's scenes, so in a results folder where a config adds a scene or a height
-    the params trigger would rerun the warm-up, and snakemake 9 then schedules the warm-up alone
-    and none of the new samples (a second invocation was needed; tests/test_workflow.py).
-    """
-    paths = (f"{R}/kernels/{family}.json" for family in families)
-    return [ancient(path) for path in paths if not os.path.exists(path)]
+def kernels_marker(family):
+    return ancient(f"{R}/kernels/{family}.json")
 
 
 def kernels_of(scene):
     """The warm-up markers a scene's batches wait for (a shear scene: the time domain's)."""
     if scene in shear_scenes() or scene == "reference":  # reference: the lattice and chain batches
-        return kernels_markers("linear")
+        return [kernels_marker("linear")]
     if scene_kind(scene) in ("disordered", "continuum"):
-        return kernels_markers("dem", "linear")
-    return kernels_markers("linear")
+        return [kernels_marker("dem"), kernels_marker("linear")]
+    return [kernels_marker("linear")]

@@ -1,9 +1,8 @@
 # Compiling the kernels once. On a cold numba cache (a fresh clone, a new machine, any change
 # to granwave) every job would compile the kernels it uses, and jobs that start together
 # compile the same ones at once. One warm-up job per kernel family runs tiny copies of the
-# samples first; the jobs that use a family wait for it. The marker is ancient(), and once on
-# disk it leaves the DAG: a finished warm-up never makes the jobs after it out of date, nor
-# stalls a run whose config adds samples. Helpers: common.smk (kernels_markers).
+# samples first; the jobs that use a family wait for it. The marker is ancient(): a finished
+# warm-up never makes the jobs after it out of date. Helpers: common.smk.
 
 
 rule compile_kernels:
@@ -40,7 +39,7 @@ rule compile_kernels:
 # a DEM packing, so its pulse warm-up waits for "dem".
 use rule compile_kernels as compile_pulse_kernels with:
     input:
-        [] if pulse_warm_up_on_lattice() else kernels_markers("dem"),
+        [] if pulse_warm_up_on_lattice() else [kernels_marker("dem")],
     wildcard_constraints:
         family="pulse",
     priority: 30

@@ -313,7 +313,7 @@ rule damping_signal:
         "../envs/granwave.yaml"
     input:
         packing=lambda w: damping_packing(),
-        kernels=kernels_markers("pulse"),
+        kernels=kernels_marker("pulse"),
     output:
         f"{R}/damping/zeta{{zeta}}.h5",
     log:
