@@ -188,6 +188,14 @@ def test_tiny_workflow_end_to_end(tmp_path):
     again = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)
     assert again.returncode == 0
     assert "Nothing to be done" in again.stdout + again.stderr
+    # A config that adds a height plans its samples at once, not a kernel warm-up alone (the
+    # warm-ups' params follow the scenes and are unrecorded: common.smk unrecorded).
+    taller = tmp_path / "taller.yaml"
+    taller.write_text(TINY.read_text().replace("heights: [6, 10, 14]", "heights: [6, 10, 14, 18]"))
+    plan = snakemake("-n", "--quiet", "rules", "--cores", "2", "--configfile", str(taller), cwd=tmp_path)
+    jobs = dict(re.findall(r"^(\w+)\s+(\d+)$", plan.stdout + plan.stderr, re.M))
+    assert plan.returncode == 0 and "compile_kernels" not in jobs, (plan.stdout + plan.stderr)[-3000:]
+    assert any(name.startswith("batch_continuum_tiny") for name in jobs), jobs
 
 
 @pytest.mark.slow

@@ -18,11 +18,11 @@ rule compile_kernels:
         f"{R}/benchmarks/kernels/{{family}}.tsv"
     wildcard_constraints:
         family="dem|linear",  # pulse: the rule below
-    params:
-        samples=lambda w: warm_up_samples(),
-        pulse=lambda w: {"scene": config["damping"]["scene"], "ic": config["ic"],
-                         "damping": max(config["damping"]["zetas"])}
-        if config["damping"]["enabled"] else None,
+    params:  # unrecorded: they follow the config's scenes (common.smk unrecorded)
+        samples=lambda w: unrecorded(warm_up_samples()),
+        pulse=lambda w: unrecorded({"scene": config["damping"]["scene"], "ic": config["ic"],
+                                    "damping": max(config["damping"]["zetas"])}
+                                   if config["damping"]["enabled"] else None),
     threads: 1
     priority: 100  # before everything that waits for it
     resources:
