@@ -281,3 +281,23 @@ def test_the_kinds_parameters_are_fields_and_engine_constants():
     assert CM.damping_model(0.2) == (0, 0.2) and CM.tangential_model(0.3) == (0, 0.3)
     with pytest.raises(InputError, match=r"damping must be in \[0, 1\], got 1.5"):
         PrepareParams(damping=1.5)
+
+
+def test_the_default_damping_and_tangential_laws_are_contact_py_s_formulas():
+    """Through their dispatchers, the defaults evaluate contact.py's own formulas (the tile law's
+    vector loops call those directly for code 0): the same bits."""
+    from granwave import contact as C
+    from granwave.contact_models import _dispatch as CD
+
+    damping, tangential = CD.DampingModel(0, 0.3), CD.TangentialModel(0, 0.4)
+    for m, k, n in [(0.5, 2e-3, 1e-3), (0.3, 0.7, 0.02)]:
+        assert CD.dashpot_coefficient(damping, m, k, n) == C.damping_coefficient(0.3, m, k)
+        assert CD.dashpot_acts(damping) and not CD.dashpot_acts(CD.DampingModel(0, 0.0))
+        assert CD.dashpot_step_ratio(damping) == 0.3
+        assert CD.tangential_spring(tangential, k, n) == k
+    assert CD.friction_acts(tangential) and not CD.friction_acts(CD.TangentialModel(0, 0.0))
+    for old, new, rescale in [(2e-3, 1e-3, True), (1e-3, 2e-3, True), (2e-3, 1e-3, False)]:
+        assert CD.tangential_unloads(tangential, old, new, rescale) == C.unloads(old, new, rescale)
+    for f, s in [((1e-4, -2e-4, 0.0), (1e-3, 0.0, 2e-3)), ((1e-2, 0.0, 0.0), (1.0, 1.0, 0.0))]:  # sticks, slides
+        assert CD.tangential_increment(tangential, *f, *s, 0.05, 0.01) == C.increment_and_cap3(*f, *s, 0.05, 0.01, 0.4)
+    assert CD.tangential_increment(tangential, 1e-2, 0.0, 0.0, 1.0, 1.0, 0.0, 0.05, 0.01)[3]
