@@ -167,14 +167,20 @@ def _pressure(default=MISSING, what="Pressure p"):
                  why="outside it the overlaps leave the Hertz regime or the forces underflow")
 
 
+def _contact_parameter(name, default=None):
+    """A field of the contact parameter ``name``, declared once by its sub-model or kind
+    (granwave.contact_models), with its default there unless ``default`` is given."""
+    p = CO.ALL_PARAMETERS[name]
+    return param(p["default"] if default is None else default,
+                 **{k: p[k] for k in ("help", "units", "lo", "lo_open", "hi", "hi_open")})
+
+
 def _friction(default):
-    return param(default, help="Coulomb friction coefficient mu (0: frictionless, no rotational "
-                 "degrees of freedom).", lo=0.0)
+    return _contact_parameter("friction", default)
 
 
-def _poisson(default=0.0):
-    return param(default, help="Poisson ratio nu of the grains: k_t/k_n = 2(1-nu)/(2-nu).",
-                 lo=0.0, hi=0.5, hi_open=True)
+def _poisson(default=None):
+    return _contact_parameter("poisson", default)
 
 
 def _polydispersity(default):
@@ -200,16 +206,17 @@ def _contact_fields() -> list:
 
 
 @dataclass(frozen=True, kw_only=True)
-@CO.with_fields(_contact_fields(), after="poisson")
+@CO.with_fields(_contact_fields(), after="pressure")
 class PrepareParams(Params):
     """Preparation of a disordered packing by piston compression of a granular gas (docs/method.md §3).
 
     dim 2 or 3; grains N; pressure p (piston force / (L1 x 1 d) in 2D, / (L1 L2)
-    in 3D, in E*); friction mu; poisson nu; the contact sub-models, one option per kind
-    (contact_law: the normal law; rolling: rolling resistance) and each sub-model's parameters
-    (fields generated from granwave.contact_models' registry, after poisson; their help says
-    what they mean); polydispersity W; aspect (final
-    height / width); damping zeta (fraction of critical); background_damping b,
+    in 3D, in E*); the contact sub-models, one option per kind (contact_law: the normal law;
+    damping_law: the contact damping, its damping zeta a fraction of critical; tangential: the
+    tangential law, with the kind's friction mu and poisson nu; rolling: rolling resistance)
+    and each sub-model's parameters (fields generated from granwave.contact_models' registry,
+    after pressure; their help says what they mean); polydispersity W; aspect (final
+    height / width); background_damping b,
     the viscous rate gamma = b / t_i with t_i = sqrt(m_mean / (p d)) (force
     -gamma m v on grains and piston; it sets the compaction speed, hence density
     and coordination: keep it fixed within a study); compaction ('fixed': b at
@@ -241,12 +248,8 @@ class PrepareParams(Params):
                      "periodic, z vertical.", choices=(2, 3))
     grains: int = param(600, help="Number of grains N.", lo=1)
     pressure: float = _pressure(1e-4, "Piston pressure p (2D: force / (L1 x 1 d); 3D: force / (L1 L2))")
-    friction: float = _friction(0.5)
-    poisson: float = _poisson()
     polydispersity: float = _polydispersity(0.2)
     aspect: float = param(1.0, help="Expected final height / periodic width.", lo=0.0, lo_open=True)
-    damping: float = param(0.5, help="Contact damping zeta, fraction of critical (normal and "
-                           "tangential).", lo=0.0, hi=1.0)
     background_damping: float = param(
         0.3, help="Background viscous damping rate in units of 1/t_i, t_i = sqrt(m/(p d)) (sets the "
         "compaction speed; keep it fixed within a study).", lo=0.0)

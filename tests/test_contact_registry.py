@@ -34,6 +34,7 @@ import pytest
 
 from granwave.contact_models import generate as G
 from granwave.contact_models import options as CO
+from granwave.errors import InputError
 
 ROOT = Path(__file__).resolve().parent.parent / "granwave"
 
@@ -146,7 +147,9 @@ def test_engine_parameters_hold_each_kind_s_code_and_constants():
 
     for kind, k in CO.KINDS.items():
         assert PARAMS.fields[f"{kind}_code"][0].kind == "i"
-        assert [f"{kind}_c{i}" in PARAMS.names for i in range(k["slots"])] == [True] * k["slots"]
+        # generated names, or the engine's older ones the kind declares (damping: zeta, tangential: mu)
+        assert len(k["fields"]) == k["slots"] and all(f in PARAMS.names for f in k["fields"])
+        assert k["fields"] == tuple(f"{kind}_c{i}" for i in range(k["slots"])) or kind in ("damping", "tangential")
 
 
 def test_a_selection_goes_through_the_file_attributes_and_back():
@@ -170,7 +173,11 @@ def test_checks_come_from_the_declarations():
     with pytest.raises(ValueError, match="needs friction > 0"):
         CO.check(CO.values_of(dict(rolling="sds")), friction=0.0)
     # a parameter of a sub-model that is not selected is not checked (as before the registry)
-    assert CO.check(CO.values_of(dict(rolling_stiffness=0.0))) == {"normal": "hertz", "rolling": None}
+    assert CO.check(CO.values_of(dict(rolling_stiffness=0.0))) == {"normal": "hertz", "damping": "critical_fraction",
+                                                                     "tangential": "mindlin", "rolling": None}
+    # the kinds' own parameters, where a selection holds them
+    with pytest.raises(ValueError, match="poisson must be >= 0 and < 0.5"):
+        CO.check(CO.resolve(dict(poisson=0.5)))
     with pytest.raises(TypeError, match="'rolling_stifness'"):
         CO.resolve(dict(rolling_stifness=1.0))
 
@@ -204,3 +211,93 @@ def test_the_normal_kind_s_default_must_come_first(monkeypatch):
     monkeypatch.setattr(G, "modules", lambda: [real[1], real[0], *real[2:]])
     with pytest.raises(ValueError, match="default 'hertz' first"):
         G.dispatch_source()
+
+
+def _stand_in(real, name: str, parameters: tuple, **formulas):
+    """A stand-in sub-model: ``real``'s declarations under another name, with its own parameters
+    and formulas."""
+    fake = types.SimpleNamespace(**{k: getattr(real, k) for k in dir(real) if not k.startswith("__")})
+    fake.NAME, fake.__name__, fake.PARAMETERS = name, f"granwave.contact_models.{name}", parameters
+    for k, v in formulas.items():
+        setattr(fake, k, v)
+    return fake
+
+
+@pytest.mark.parametrize("kind_name, real_name, name, parameter", [
+    # LAMMPS's ``damping velocity``: a constant coefficient
+    ("damping", "damping_critical", "velocity", "velocity_coefficient"),
+    # LAMMPS's ``tangential linear_history``: a constant k_t
+    ("tangential", "mindlin", "linear_history", "linear_history_stiffness"),
+])
+def test_a_second_damping_or_tangential_law_is_one_more_branch_of_every_dispatcher(monkeypatch, kind_name,
+                                                                                    real_name, name, parameter):
+    """A second damping (or tangential) law registered (a stand-in module) gets code 1, its branch in
+    every dispatcher of its kind (the engines' contact routine, the tile law's general path, the
+    GPU's device copies and the time step all call these), its parameter in the table and so a
+    PrepareParams field; the other kinds' dispatchers are unchanged."""
+    import importlib
+
+    from granwave.contact_models.declare import Parameter
+
+    real = importlib.import_module(f"granwave.contact_models.{real_name}")
+    kind = next(k for k in G.KINDS if k.name == kind_name)
+    fake = _stand_in(real, name, (Parameter(parameter, 1.0, "E* d", "the stand-in's constant.", lo=0.0),))
+    before = G.dispatch_source()
+    monkeypatch.setattr(G, "modules", lambda real=G.modules: [*real(), fake])
+    after = G.dispatch_source()
+    alias = f"_{kind_name}_{name}"
+    assert f"from . import {name} as {alias}" in after
+    for fn, dispatcher, _, _, _ in kind.functions:
+        body = after.split(f"def {dispatcher}(", 1)[1].split("\n\n\n", 1)[0]
+        assert f"    if model.code == 1:\n        return {alias}.{fn}(" in body
+        assert f"return _{kind_name}_{real.NAME}.{fn}(" in body  # the default: the fall-through
+    assert after.count(f"return {alias}.") == len(kind.functions)
+    # nothing else changes: the new lines are its import, its branches and its device functions
+    added = set(after.splitlines()) - set(before.splitlines())
+    assert all(alias in line or line == "    if model.code == 1:" for line in added)
+    table = {}
+    exec(G.table_source(), table)
+    assert table["SUBMODELS"][name]["kind"] == kind_name and table["SUBMODELS"][name]["code"] == 1
+    assert table["PARAMETERS"][parameter]["submodel"] == name and table["PARAMETERS"][parameter]["kind"] == kind_name
+
+
+def test_the_kinds_parameters_are_fields_and_engine_constants():
+    """friction, poisson (the tangential kind's) and damping (the damping kind's) are declared once:
+    PrepareParams' fields (options of prepare-packing, file attributes) with their meanings and
+    defaults as before the kinds, and the engine record's constants of the kinds."""
+    from granwave.contact_models import models as CM
+    from granwave.dem.layout import PARAMS, record
+    from granwave.params import LatticeParams, PrepareParams
+
+    fields = {f.name: f for f in dataclasses.fields(PrepareParams)}
+    assert (fields["friction"].default, fields["poisson"].default, fields["damping"].default) == (0.5, 0.0, 0.5)
+    assert fields["damping"].metadata["hi"] == 1.0 and fields["poisson"].metadata["hi_open"]
+    assert {f.name: f.default for f in dataclasses.fields(LatticeParams)}["friction"] == 0.0
+    assert CO.KINDS["tangential"]["parameters"] == ("friction", "poisson")
+    assert CO.KINDS["damping"]["parameters"] == ("damping",)
+    fpar = record(PARAMS)
+    CM.fill_params(fpar, CO.resolve(dict(friction=0.3, damping=0.2, poisson=0.1)))
+    assert (fpar.mu, fpar.zeta, fpar.damping_code, fpar.tangential_code) == (0.3, 0.2, 0, 0)
+    assert CM.damping_model(0.2) == (0, 0.2) and CM.tangential_model(0.3) == (0, 0.3)
+    with pytest.raises(InputError, match=r"damping must be in \[0, 1\], got 1.5"):
+        PrepareParams(damping=1.5)
+
+
+def test_the_default_damping_and_tangential_laws_are_contact_py_s_formulas():
+    """Through their dispatchers, the defaults evaluate contact.py's own formulas (the tile law's
+    vector loops call those directly for code 0): the same bits."""
+    from granwave import contact as C
+    from granwave.contact_models import _dispatch as CD
+
+    damping, tangential = CD.DampingModel(0, 0.3), CD.TangentialModel(0, 0.4)
+    for m, k, n in [(0.5, 2e-3, 1e-3), (0.3, 0.7, 0.02)]:
+        assert CD.dashpot_coefficient(damping, m, k, n) == C.damping_coefficient(0.3, m, k)
+        assert CD.dashpot_acts(damping) and not CD.dashpot_acts(CD.DampingModel(0, 0.0))
+        assert CD.dashpot_step_ratio(damping) == 0.3
+        assert CD.tangential_spring(tangential, k, n) == k
+    assert CD.friction_acts(tangential) and not CD.friction_acts(CD.TangentialModel(0, 0.0))
+    for old, new, rescale in [(2e-3, 1e-3, True), (1e-3, 2e-3, True), (2e-3, 1e-3, False)]:
+        assert CD.tangential_unloads(tangential, old, new, rescale) == C.unloads(old, new, rescale)
+    for f, s in [((1e-4, -2e-4, 0.0), (1e-3, 0.0, 2e-3)), ((1e-2, 0.0, 0.0), (1.0, 1.0, 0.0))]:  # sticks, slides
+        assert CD.tangential_increment(tangential, *f, *s, 0.05, 0.01) == C.increment_and_cap3(*f, *s, 0.05, 0.01, 0.4)
+    assert CD.tangential_increment(tangential, 1e-2, 0.0, 0.0, 1.0, 1.0, 0.0, 0.05, 0.01)[3]

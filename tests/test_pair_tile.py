@@ -47,7 +47,8 @@ def law_and_history(state, p, i, j, dt, zeta, mu, rescale, e12, g12):
     (touching, delta, a_i, a_j, n, force on i)."""
     pos, vel, omega, rad, lateral, _, _, pair_c, pair_ft, pair_ov, _ = state
     touch, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = K._pair_law(
-        pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e12, g12,
+        pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, CM.damping_model(zeta), CM.tangential_model(mu),
+        rescale, e12, g12,
         pair_c[p, K.PC_R12], pair_c[p, K.PC_ROOT], pair_c[p, K.PC_MEFF], LAW)
     if not touch:
         if pair_ov[p] != 0.0:
@@ -95,8 +96,8 @@ def tiled(state, jmax, dt, zeta, mu, rescale):
     p, dmax, count, tiles = 0, 0.0, 0, 0
     while p < len(pair_i):
         p, dmax, count = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
-                                     len(pair_i), jmax, dt, zeta, mu, rescale, e12, g12, LAW, CM.NO_ROLLING, t[0], tp[0],
-                                     force, torque, dmax, count)
+                                     len(pair_i), jmax, dt, CM.damping_model(zeta), CM.tangential_model(mu), rescale,
+                                     e12, g12, LAW, CM.NO_ROLLING, t[0], tp[0], force, torque, dmax, count)
         tiles += 1
     return (force, torque, pair_ft, pair_ov, dmax, count), tiles
 
@@ -179,8 +180,9 @@ def test_tiled_incoming_pairs_give_the_bits_of_the_pair_at_a_time_law(dim, zeta,
     s, dmax, count, tiles = 0, 0.0, 0, 0
     while s < len(slots):
         s, dmax, count = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
-                                              pair_ov, slots, s, len(slots), 0.01, zeta, mu, rescale, e12, g12,
-                                              LAW, CM.NO_ROLLING, t[0], tp[0], force, torque, bnd_f, dmax, count)
+                                              pair_ov, slots, s, len(slots), 0.01, CM.damping_model(zeta),
+                                              CM.tangential_model(mu), rescale, e12, g12, LAW, CM.NO_ROLLING, t[0],
+                                              tp[0], force, torque, bnd_f, dmax, count)
         tiles += 1
     assert tiles >= 2 and ref[6] > PT.TILE  # more than one tile of contacts
     assert ref[6] == count and ref[5] == dmax

@@ -1,8 +1,9 @@
 """Contact sub-models as parts: each a small module registered by one line
 (:mod:`.registry`; docs/dem.md, "How to add a contact model").
 
-A sub-model module (:mod:`.hertz`, :mod:`.harmonic`: normal laws; :mod:`.rolling`: rolling
-resistance) declares its kind (:mod:`.kinds`), name, parameters (:class:`.declare.Parameter`)
+A sub-model module (:mod:`.hertz`, :mod:`.harmonic`: normal laws; :mod:`.damping_critical`: the
+damping law; :mod:`.mindlin`: the tangential law; :mod:`.rolling`: rolling resistance) declares
+its kind (:mod:`.kinds`), name, parameters (:class:`.declare.Parameter`)
 and the numba formulas of its kind. ``python -m granwave.contact_models.generate`` writes from
 the registry the plain facts (``_table.py``, read through :mod:`.options` without numba: the
 options, file attributes and checks) and the dispatchers the engines compile (``_dispatch.py``:

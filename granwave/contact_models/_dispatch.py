@@ -16,6 +16,8 @@ import numba
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 from . import hertz as _normal_hertz
 from . import harmonic as _normal_harmonic
+from . import damping_critical as _damping_critical_fraction
+from . import mindlin as _tangential_mindlin
 from . import rolling as _rolling_sds
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants
@@ -76,6 +78,66 @@ def law_step_stiffness(model, overlap, root_r12, e12):
     return _normal_hertz.step_stiffness(overlap, root_r12, e12, model.c0)
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants
+DampingModel = namedtuple('DampingModel', ('code', 'c0'))
+
+
+@numba.njit(cache=True, inline="always")
+def dashpot_of(fpar):
+    """The DampingModel of the engine's parameters."""
+    return DampingModel(int(fpar.damping_code), fpar.zeta)
+
+
+@numba.njit(cache=True, inline="always")
+def dashpot_acts(model):
+    """Contact damping law: ``acts`` of the sub-model of ``model``'s code."""
+    return _damping_critical_fraction.acts(model.c0)
+
+
+@numba.njit(cache=True, inline="always")
+def dashpot_coefficient(model, meff, k, overlap):
+    """Contact damping law: ``coefficient`` of the sub-model of ``model``'s code."""
+    return _damping_critical_fraction.coefficient(meff, k, overlap, model.c0)
+
+
+@numba.njit(cache=True, inline="always")
+def dashpot_step_ratio(model):
+    """Contact damping law: ``step_ratio`` of the sub-model of ``model``'s code."""
+    return _damping_critical_fraction.step_ratio(model.c0)
+
+#: what the kernels receive of the selected sub-model of this kind: its code and constants
+TangentialModel = namedtuple('TangentialModel', ('code', 'c0'))
+
+
+@numba.njit(cache=True, inline="always")
+def friction_of(fpar):
+    """The TangentialModel of the engine's parameters."""
+    return TangentialModel(int(fpar.tangential_code), fpar.mu)
+
+
+@numba.njit(cache=True, inline="always")
+def friction_acts(model):
+    """Tangential contact law: ``acts`` of the sub-model of ``model``'s code."""
+    return _tangential_mindlin.acts(model.c0)
+
+
+@numba.njit(cache=True, inline="always")
+def tangential_spring(model, kt_law, overlap):
+    """Tangential contact law: ``stiffness`` of the sub-model of ``model``'s code."""
+    return _tangential_mindlin.stiffness(kt_law, overlap, model.c0)
+
+
+@numba.njit(cache=True, inline="always")
+def tangential_unloads(model, overlap_old, overlap_new, rescale):
+    """Tangential contact law: ``unloads`` of the sub-model of ``model``'s code."""
+    return _tangential_mindlin.unloads(overlap_old, overlap_new, rescale, model.c0)
+
+
+@numba.njit(cache=True, inline="always")
+def tangential_increment(model, fx, fy, fz, sx, sy, sz, kt, fel):
+    """Tangential contact law: ``increment`` of the sub-model of ``model``'s code."""
+    return _tangential_mindlin.increment(fx, fy, fz, sx, sy, sz, kt, fel, model.c0)
+
+#: what the kernels receive of the selected sub-model of this kind: its code and constants
 RollingModel = namedtuple('RollingModel', ('code', 'c0', 'c1', 'c2'))
 
 
@@ -118,9 +180,9 @@ def couple_step_mode(model, m_min):
 
 
 #: model tuple classes by kind
-MODELS = {'normal': NormalModel, 'rolling': RollingModel}
+MODELS = {'normal': NormalModel, 'damping': DampingModel, 'tangential': TangentialModel, 'rolling': RollingModel}
 #: the sub-model modules by the names the dispatchers call them
-MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_rolling_sds': _rolling_sds}
+MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_damping_critical_fraction': _damping_critical_fraction, '_tangential_mindlin': _tangential_mindlin, '_rolling_sds': _rolling_sds}
 #: (module alias, function) of every sub-model formula, then (None, name) of every reader and
 #: dispatcher, each after those it calls: granwave.gpu.compile makes device copies in this order
 DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
@@ -142,6 +204,22 @@ DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
  (None, 'law_tangential_stiffness'),
  (None, 'law_unloading_scale'),
  (None, 'law_step_stiffness'),
+ ('_damping_critical_fraction', 'acts'),
+ ('_damping_critical_fraction', 'coefficient'),
+ ('_damping_critical_fraction', 'step_ratio'),
+ (None, 'dashpot_of'),
+ (None, 'dashpot_acts'),
+ (None, 'dashpot_coefficient'),
+ (None, 'dashpot_step_ratio'),
+ ('_tangential_mindlin', 'acts'),
+ ('_tangential_mindlin', 'stiffness'),
+ ('_tangential_mindlin', 'unloads'),
+ ('_tangential_mindlin', 'increment'),
+ (None, 'friction_of'),
+ (None, 'friction_acts'),
+ (None, 'tangential_spring'),
+ (None, 'tangential_unloads'),
+ (None, 'tangential_increment'),
  ('_rolling_sds', 'rolling_velocity'),
  ('_rolling_sds', 'in_plane'),
  ('_rolling_sds', 'couple'),

@@ -1,6 +1,6 @@
 """The records a contact sub-model declares itself with (plain Python, no numba).
 
-A sub-model module (:mod:`.hertz`, :mod:`.harmonic`, :mod:`.rolling`) sets ``KIND`` (a
+A sub-model module (:mod:`.hertz`, :mod:`.damping_critical`, :mod:`.mindlin`, ...) sets ``KIND`` (a
 :class:`Kind` of :mod:`.kinds`), ``NAME``, ``PARAMETERS`` (a tuple of :class:`Parameter`) and
 the formulas of its kind (docs/dem.md, "How to add a contact model"). Everything else about its
 parameters (the fields of ``PrepareParams`` and so the options of ``prepare-packing``, the
@@ -44,10 +44,13 @@ class Kind:
     selection when it is the default too; ``slots``: float constants its kernels receive (the
     kind's fixed signature); ``history``: name of the per-contact history it keeps in the
     tangential history's arrays after their ``dim`` columns, and the file dataset
-    ``contacts/<history>`` that stores it (None: no history); ``engine``: True where the engines
-    call it (normal, rolling), False for a part declared for the record only; ``reader``: the
+    ``contacts/<history>`` that stores it (None: no history); ``reader``: the
     generated kernel that reads its model from the engine's ``fpar``; ``functions``: its
-    formulas and their dispatchers (granwave.contact_models.kinds).
+    formulas and their dispatchers (granwave.contact_models.kinds); ``parameters``: parameters
+    every sub-model of the kind takes (declared once, here; ``friction`` and ``poisson`` of the
+    tangential kind); ``fields``: the ``fpar`` fields of its constants c0, c1, ... (empty: the
+    generated ``<kind>_c0``, ...; the damping and tangential kinds keep the engine's older names
+    ``zeta`` and ``mu``).
     """
 
     name: str
@@ -59,6 +62,11 @@ class Kind:
     slots: int = 0
     history: str | None = None
     history_help: str = ""
-    engine: bool = True
     reader: str = ""
     functions: tuple = field(default=())
+    parameters: tuple = field(default=())
+    fields: tuple = field(default=())
+
+    def field_names(self) -> tuple:
+        """The ``fpar`` fields of the kind's constants c0, c1, ..."""
+        return self.fields or tuple(f"{self.name}_c{i}" for i in range(self.slots))

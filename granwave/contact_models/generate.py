@@ -56,14 +56,22 @@ def _alias(m) -> str:
 
 def table_source() -> str:
     """The text of ``_table.py``."""
-    kinds, submodels, parameters, fields = {}, {}, {}, []
+    kinds, submodels, parameters, kind_parameters, fields = {}, {}, {}, {}, []
     for kind in KINDS:
         kinds[kind.name] = dict(option=kind.option, help=kind.help, default=kind.default, off=kind.off,
                                 recorded=kind.recorded, slots=kind.slots, history=kind.history,
-                                history_help=kind.history_help)
+                                history_help=kind.history_help, parameters=tuple(p.name for p in kind.parameters),
+                                fields=kind.field_names())
         fields.append((f"{kind.name}_code", "int64"))
-        fields += [(f"{kind.name}_c{i}", "float64") for i in range(kind.slots)]
+        # constants under the engine's own names (kind.fields) are fields of granwave.dem.layout already
+        fields += [(f, "float64") for f in kind.field_names() if not kind.fields]
     seen = {k.option for k in KINDS}
+    for kind in KINDS:
+        for p in kind.parameters:
+            if p.name in seen:
+                raise ValueError(f"kind {kind.name}: the parameter name {p.name!r} is taken")
+            seen.add(p.name)
+            kind_parameters[p.name] = dict(kind=kind.name, default=float(p.default), **p.meta())
     for kind_name, rows in _by_kind().items():
         for code, m in rows:
             if m.NAME in submodels or m.NAME == m.KIND.off:
@@ -79,7 +87,7 @@ def table_source() -> str:
                 if p.name in seen:
                     raise ValueError(f"{m.__name__}: the parameter name {p.name!r} is taken")
                 seen.add(p.name)
-                parameters[p.name] = dict(submodel=m.NAME, default=float(p.default), **p.meta())
+                parameters[p.name] = dict(submodel=m.NAME, kind=kind_name, default=float(p.default), **p.meta())
     body = [HEADER.format(what="The contact sub-models' facts in plain Python (granwave.contact_models.options)."),
             "#: kind name -> its selection option, default, off name, flags (granwave.contact_models.kinds)",
             f"KINDS = {pprint.pformat(kinds, sort_dicts=False, width=110)}",
@@ -87,11 +95,15 @@ def table_source() -> str:
             "#: sub-model name -> kind, code, module, parameters and flags, in registry order",
             f"SUBMODELS = {pprint.pformat(submodels, sort_dicts=False, width=110)}",
             "",
-            "#: parameter name -> its sub-model, default, units, help and range",
+            "#: parameter name -> its kind, sub-model, default, units, help and range",
             f"PARAMETERS = {pprint.pformat(parameters, sort_dicts=False, width=110)}",
             "",
+            "#: parameter name -> its kind, default, units, help and range: the parameters every sub-model of",
+            "#: a kind takes (declared by the kind; recorded by every file, as before the sub-models)",
+            f"KIND_PARAMETERS = {pprint.pformat(kind_parameters, sort_dicts=False, width=110)}",
+            "",
             "#: the engine's fields for the selected sub-models (granwave.dem.layout.PARAMS): per kind its",
-            "#: code and constants",
+            "#: code and constants (those under the engine's own names, a kind's ``fields``, are there already)",
             f"PARAMS_FIELDS = {pprint.pformat(tuple(fields), width=110)}",
             ""]
     return "\n".join(body)
@@ -99,7 +111,8 @@ def table_source() -> str:
 
 def _dispatcher(kind, rows, fn, name, args, call, off) -> list[str]:
     consts = ", ".join(f"model.c{i}" for i in range(kind.slots))
-    lines = ["", "", '@numba.njit(cache=True, inline="always")', f"def {name}(model, {args}):",
+    params = ", ".join(["model"] + ([args] if args else []))
+    lines = ["", "", '@numba.njit(cache=True, inline="always")', f"def {name}({params}):",
              f'    """{kind.help}: ``{fn}`` of the sub-model of ``model``\'s code."""']
     fall = None
     for code, m in rows:
@@ -128,7 +141,7 @@ def dispatch_source() -> str:
     for kind in KINDS:
         tup = f"{kind.name.capitalize()}Model"
         fields = ", ".join(repr(f) for f in ["code"] + [f"c{i}" for i in range(kind.slots)])
-        consts = ", ".join(f"fpar.{kind.name}_c{i}" for i in range(kind.slots))
+        consts = ", ".join(f"fpar.{f}" for f in kind.field_names())
         lines += ["", "#: what the kernels receive of the selected sub-model of this kind: its code and constants",
                   f"{tup} = namedtuple({tup!r}, ({fields}))", "", "",
                   '@numba.njit(cache=True, inline="always")', f"def {kind.reader}(fpar):",

@@ -14,7 +14,7 @@ import importlib
 from . import _dispatch as D
 from . import options as O
 from ._dispatch import *  # noqa: F401,F403  (law_force, ..., contact_couple, law_of, couple_of, models)
-from ._dispatch import MODELS, NormalModel, RollingModel
+from ._dispatch import MODELS, DampingModel, NormalModel, RollingModel, TangentialModel
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -34,7 +34,8 @@ def model_of(kind: str, values: dict, chosen: dict | None = None):
 
 
 def models_of(values: dict) -> dict:
-    """kind -> model tuple of a selection; ValueError for an invalid one."""
+    """kind -> model tuple of a selection holding the kinds' own parameters (:func:`.options.resolve`);
+    ValueError for an invalid one."""
     chosen = O.check(values)
     return {kind: model_of(kind, values, chosen) for kind in O.KINDS}
 
@@ -70,8 +71,9 @@ def fill_params(fpar, values: dict) -> None:
     """The selection's codes and constants into the engine's record ``fpar``
     (granwave.dem.layout.PARAMS, the fields of ``_table.PARAMS_FIELDS``)."""
     for kind, m in models_of(values).items():
-        for field, value in zip(m._fields, m):
-            setattr(fpar, f"{kind}_{field}", value)
+        setattr(fpar, f"{kind}_code", m.code)
+        for field, value in zip(O.KINDS[kind]["fields"], m[1:]):
+            setattr(fpar, field, value)
 
 
 def history_columns(dim: int, values: dict) -> int:
@@ -98,8 +100,8 @@ def lammps_parts(values: dict, e12_pair: float, e12_wall: float, g12_pair: float
         raise ValueError(f"no LAMMPS equivalent of the contact law {chosen['normal']!r}")
     fragments = []
     for kind, name in chosen.items():
-        if kind == "normal" or name is None:
-            continue
+        if O.KINDS[kind]["off"] is None or name is None:
+            continue  # the pair style's fixed words (normal, damping, tangential): lammps_words
         if not hasattr(module(name), "lammps_fragment"):
             raise ValueError(f"no LAMMPS equivalent of the {O.KINDS[kind]['option']} {name!r}")
         fragments.append(module(name).lammps_fragment(values))
@@ -154,3 +156,39 @@ def rolling_model(name: str = "none", stiffness: float = 0.0, damping: float = 0
 def rolling_of_attrs(attrs) -> RollingModel:
     """The rolling model a packing was made with, from its attributes (none recorded: none)."""
     return model_of("rolling", O.values_of_attrs(attrs))
+
+
+def damping_model(zeta: float) -> DampingModel:
+    """The default damping law's model tuple at ``zeta`` (tests, scripts)."""
+    return model_of("damping", O.resolve(dict(damping=zeta)))
+
+
+def tangential_model(friction: float) -> TangentialModel:
+    """The default tangential law's model tuple at ``friction`` mu (tests, scripts)."""
+    return model_of("tangential", O.resolve(dict(friction=friction)))
+
+
+def lammps_words(values: dict, friction: float, poisson: float, damping: float) -> tuple:
+    """(the normal law's words and stiffnesses (pair and wall), the other selected sub-models'
+    fragments, and the function ``side -> words`` of the pair style's fixed part
+    ``NORMAL kn e tangential ... damping ...`` for ``"pair"`` or ``"wall"``) of a selection and the
+    kinds' parameters (granwave.interop.lammps); ValueError where a selected sub-model has no
+    LAMMPS equivalent."""
+    from .. import contact as C
+
+    values = {**values, "friction": float(friction), "poisson": float(poisson), "damping": float(damping)}
+    chosen = O.check(values)
+    e12 = (C.effective_young(False), C.effective_young(True))
+    g12 = (C.effective_shear(poisson, False), C.effective_shear(poisson, True))
+    words, scale, fragments = lammps_parts(values, *e12, *g12)
+    for kind in ("damping", "tangential"):
+        if not hasattr(module(chosen[kind]), "lammps_words" if kind == "damping" else "lammps_tangential"):
+            raise ValueError(f"no LAMMPS equivalent of the {O.KINDS[kind]['option']} {chosen[kind]!r}")
+    damp = module(chosen["damping"]).lammps_words(values, scale, words["normal"], C.stiffness_ratio(poisson))
+    tangential = module(chosen["tangential"])
+
+    def fixed(side: str) -> str:
+        t = tangential.lammps_tangential(values, words["tangential"], words["kt_" + side], damp["xgammat"])
+        return (f"{words['normal']} {words['kn_' + side]:.17g} {damp['restitution']:.17g} {t} "
+                f"damping {damp['damping_words']}")
+    return dict(words, **damp), fragments, fixed

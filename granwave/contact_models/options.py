@@ -1,10 +1,14 @@
 """The contact sub-models' options, file attributes and checks, in plain Python (no numba).
 
 A selection of sub-models is a mapping ``values``: each kind's option (``contact_law``,
-``rolling``) to a sub-model's name, and every sub-model parameter (``harmonic_stiffness``, ...) to
-its value; :func:`values_of` makes it from ``PrepareParams`` (whose fields these are,
+``rolling``, ...) to a sub-model's name, and every sub-model parameter (``harmonic_stiffness``,
+...) to its value; :func:`values_of` makes it from ``PrepareParams`` (whose fields these are,
 :func:`prepare_fields`), from keywords (:func:`resolve`) or from a file's attributes
-(:func:`values_of_attrs`). All of it is read from the generated ``_table.py``.
+(:func:`values_of_attrs`). The kinds' own parameters (``friction``, ``poisson``, ``damping``:
+every sub-model of their kind takes them) are fields of ``PrepareParams`` too, but travel
+beside a selection as before the kinds (``Engine(friction=...)``, ``packing.friction``); the
+engine's selection (:func:`resolve`) holds them. All of it is read from the generated
+``_table.py``.
 """
 
 from __future__ import annotations
@@ -16,6 +20,9 @@ from . import _table as T
 KINDS = T.KINDS
 SUBMODELS = T.SUBMODELS
 PARAMETERS = T.PARAMETERS
+KIND_PARAMETERS = T.KIND_PARAMETERS
+#: every parameter by name: the kinds' and the sub-models'
+ALL_PARAMETERS = {**T.KIND_PARAMETERS, **T.PARAMETERS}
 
 
 def names(kind: str) -> tuple:
@@ -32,8 +39,7 @@ def options() -> tuple:
 
 def normal_options() -> tuple:
     """The normal law's option and its sub-models' parameters."""
-    return (KINDS["normal"]["option"],) + tuple(n for n, p in PARAMETERS.items()
-                                                if SUBMODELS[p["submodel"]]["kind"] == "normal")
+    return (KINDS["normal"]["option"],) + tuple(n for n, p in PARAMETERS.items() if p["kind"] == "normal")
 
 
 def defaults() -> dict:
@@ -44,7 +50,7 @@ def defaults() -> dict:
 
 def prepare_fields() -> list[tuple[str, str, object, dict]]:
     """(name, type, default, metadata) of the ``PrepareParams`` fields: per kind its option (the
-    choices with one-line summaries), then its sub-models' parameters."""
+    choices with one-line summaries), then its own parameters and its sub-models'."""
     out = []
     for kind, k in KINDS.items():
         parts = [f"'{k['off']}'"] if k["off"] is not None else []
@@ -54,8 +60,8 @@ def prepare_fields() -> list[tuple[str, str, object, dict]]:
         tail = (" Needs friction > 0." if needs else "") + (" CPU only." if cpu else "")
         out.append((k["option"], "str", k["default"],
                     dict(help=f"{k['help']}: {' or '.join(parts)}.{tail}", choices=names(kind))))
-        for n, p in PARAMETERS.items():
-            if SUBMODELS[p["submodel"]]["kind"] == kind:
+        for n, p in ALL_PARAMETERS.items():
+            if p["kind"] == kind:
                 meta = {key: p[key] for key in ("help", "units", "lo", "lo_open", "hi", "hi_open")}
                 out.append((n, "float", p["default"], meta))
     return out
@@ -69,12 +75,12 @@ def values_of(source) -> dict:
 
 
 def resolve(keywords: dict, where: str = "the engine") -> dict:
-    """The selection of ``keywords`` (options and parameters by name; the rest default);
-    TypeError for a keyword that is neither."""
-    unknown = sorted(set(keywords) - set(options()))
+    """The selection of ``keywords`` (options and parameters by name; the rest default), with the
+    kinds' own parameters where given; TypeError for a keyword that is none of these."""
+    unknown = sorted(set(keywords) - set(options()) - set(KIND_PARAMETERS))
     if unknown:
         raise TypeError(f"{where} got unexpected keyword argument(s) {', '.join(map(repr, unknown))}")
-    return values_of(dict(keywords))
+    return {**values_of(dict(keywords)), **{n: float(keywords[n]) for n in KIND_PARAMETERS if n in keywords}}
 
 
 def selected(values: dict) -> dict:
@@ -102,11 +108,14 @@ def _in_range(name: str, value, p: dict) -> None:
 
 
 def check(values: dict, friction: float | None = None) -> dict:
-    """:func:`selected` of a valid selection: the selected sub-models' parameters in range and,
-    with ``friction`` given, friction > 0 where a selected sub-model needs rotations; ValueError
-    otherwise."""
+    """:func:`selected` of a valid selection: the selected sub-models' parameters (and the kinds'
+    parameters it holds) in range and, with ``friction`` given, friction > 0 where a selected
+    sub-model needs rotations; ValueError otherwise."""
     chosen = selected(values)
     for kind, name in chosen.items():
+        for p in KINDS[kind]["parameters"]:
+            if p in values:
+                _in_range(p, values[p], KIND_PARAMETERS[p])
         if name is None:
             continue
         for p in SUBMODELS[name]["parameters"]:

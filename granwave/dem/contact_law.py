@@ -21,7 +21,7 @@ import numba
 
 from .. import contact as C
 from ..contact_models import _dispatch as CD
-from ..contact_models._dispatch import couple_of, law_of  # noqa: F401  (the engines' readers)
+from ..contact_models._dispatch import couple_of, dashpot_of, friction_of, law_of  # noqa: F401  (the engines' readers)
 from ..geometry import nearest_image
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
@@ -69,49 +69,52 @@ def add_torque(torque, k, arm, n, f):
 
 @numba.njit(cache=True, inline="always")
 def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz, hx, hy, hz, overlap_old, dt,
-                   zeta, mu, rescale, law):
-    """Force (fx, fy, fz) on i from one contact (the normal law of ``law``, Mindlin-type tangential
-    spring with Coulomb friction, damping; docs/method.md §2); returns it and the elastic normal
-    force. The single per-contact routine (scalar form).
+                   damping, tangential, rescale, law):
+    """Force (fx, fy, fz) on i from one contact (the normal law of ``law``, the tangential law of
+    ``tangential`` (Mindlin's spring with Coulomb friction by default), the damping law of
+    ``damping``; docs/method.md §2); returns it and the elastic normal force. The single
+    per-contact routine (scalar form); the three laws are sub-models of granwave.contact_models,
+    reached through its generated dispatchers.
 
     Three components always (2D: the third is 0, and adding zeros leaves the 2D
     arithmetic unchanged). (nx, ny, nz) unit normal i -> j, ``delta`` > 0 the overlap,
     (vx, vy, vz) the contact-point velocity of j relative to i, (hx, hy, hz) the
     tangential history F_t, ``overlap_old`` the overlap when it was last updated, ``root_r12``
     sqrt(R12) (kept per pair by the engines: a square root less per contact and step).
-    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: the law's F_n plus viscous c_n = 2 zeta sqrt(m_eff k_n) on
-    the normal velocity, total never attractive. Tangential (mu > 0): ``ft`` carried into
-    the new tangent plane (contact.project_tangential), then contact.update_tangential
-    with slip = tangential velocity * dt and its unloading rescale when ``rescale``
-    (contact.py docstring: preparation True, pulses False); a viscous part c_t v_t is added to the force
-    (not to the history) while the contact sticks. ``law``: the contact model
-    (its normal model tuple, granwave.contact_models) whose normal law gives F_n, k_n, k_t and
-    the unloading factor.
+    Returns (fx, fy, fz, elastic normal force, new history hx, hy, hz). Normal: the law's F_n
+    plus the dashpot -c_n v_n (the damping law's coefficient at k_n), total never attractive.
+    Tangential (where the tangential law acts: friction > 0): the history carried into the new
+    tangent plane (contact.project_tangential3), scaled by the normal law's unloading factor
+    where the tangential law says it unloads (its rule ``rescale``: contact.py docstring,
+    preparation True, pulses False), then the tangential law's increment with slip = tangential
+    velocity * dt (spring and slider); the dashpot c_t v_t (at k_t) is added to the force (not to
+    the history) while the contact sticks. ``law``, ``damping``, ``tangential``: the sub-models'
+    model tuples (granwave.contact_models).
     """
     fel = CD.law_force(law, delta, root_r12, e12)
     vn = vx * nx + vy * ny + vz * nz
     fn = fel
-    if zeta > 0.0:
+    if CD.dashpot_acts(damping):
         kn = CD.law_stiffness(law, delta, root_r12, e12)
         # approaching (vn < 0) gives a repulsive viscous force
-        fn = C.total_normal_force(fel, -C.damping_coefficient(zeta, meff, kn) * vn)
-    if mu > 0.0:
+        fn = C.total_normal_force(fel, -CD.dashpot_coefficient(damping, meff, kn, delta) * vn)
+    if CD.friction_acts(tangential):
         tx = vx - vn * nx
         ty = vy - vn * ny
         tz = vz - vn * nz
         # Scalar forms of the law (contact.py): the history stays in registers.
         gx, gy, gz = C.project_tangential3(hx, hy, hz, nx, ny, nz)
-        kt = CD.law_tangential_stiffness(law, delta, r12, g12)
-        # contact.update_tangential3's steps, with the law's unloading factor
-        if C.unloads(overlap_old, delta, rescale):
+        kt = CD.tangential_spring(tangential, CD.law_tangential_stiffness(law, delta, r12, g12), delta)
+        # contact.update_tangential3's steps, with the normal law's unloading factor
+        if CD.tangential_unloads(tangential, overlap_old, delta, rescale):
             scale = CD.law_unloading_scale(law, overlap_old, delta)
             gx *= scale
             gy *= scale
             gz *= scale
-        gx, gy, gz, slid = C.increment_and_cap3(gx, gy, gz, tx * dt, ty * dt, tz * dt, kt, fel, mu)
+        gx, gy, gz, slid = CD.tangential_increment(tangential, gx, gy, gz, tx * dt, ty * dt, tz * dt, kt, fel)
         ct = 0.0
-        if zeta > 0.0 and not slid:
-            ct = C.damping_coefficient(zeta, meff, kt)
+        if CD.dashpot_acts(damping) and not slid:
+            ct = CD.dashpot_coefficient(damping, meff, kt, delta)
         return (-fn * nx + gx + ct * tx, -fn * ny + gy + ct * ty, -fn * nz + gz + ct * tz, fel,
                 gx, gy, gz)
     return -fn * nx, -fn * ny, -fn * nz, fel, hx, hy, hz
@@ -119,18 +122,20 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
 
 @numba.njit(cache=True)
 def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, fvec,
-                  rescale=True, law=CD.NormalModel(0, 0.0)):
+                  rescale=True, law=CD.NormalModel(0, 0.0), damping_code=0, tangential_code=0):
     """Array form of :func:`contact_force3` (tests, frozen-history forces).
 
     ``n``, ``vrel``, ``ft``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
     in place, the force on i is written into ``fvec``, the elastic normal force returned.
+    ``zeta``, ``mu``: the damping and tangential laws' constants (``damping_code``,
+    ``tangential_code``: the laws, the defaults' 0 unless given).
     """
     d = n.shape[0]
     three = d == 3
     fx, fy, fz, fel, hx, hy, hz = contact_force3(
         n[0], n[1], n[2] if three else 0.0, delta, r12, math.sqrt(r12), e12, g12, meff,
         vrel[0], vrel[1], vrel[2] if three else 0.0, ft[0], ft[1], ft[2] if three else 0.0,
-        overlap_old, dt, zeta, mu, rescale, law)
+        overlap_old, dt, CD.DampingModel(damping_code, zeta), CD.TangentialModel(tangential_code, mu), rescale, law)
     ft[0] = hx
     ft[1] = hy
     if three:
@@ -198,8 +203,8 @@ def _add_torque3(torque, k, arm, nx, ny, nz, fx, fy, fz):
         torque[k, 2] += arm * (nx * fy - ny * fx)
 
 @numba.njit(cache=True, inline="always")
-def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wall, g_wall, dt, zeta,
-                 mu, rescale, law):
+def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wall, g_wall, dt, damping,
+                 tangential, rescale, law):
     """Grain i against wall k (0 bottom: normal -e_z at 0; 1 top: +e_z at h, moving at vp):
     the pair law (:func:`contact_force3`) on the wall's own history slots (``wall_ft``,
     ``wall_ov``, updated here) with R12 = R_i, the wall moduli and the grain's mass.
@@ -237,15 +242,15 @@ def wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp, e_wa
         vy -= wz * nx - wx * nz
         vz -= wx * ny - wy * nx
     hx = hy = hz = 0.0
-    if mu > 0.0:
+    if CD.friction_acts(tangential):
         hx = wall_ft[w, 0]
         hy = wall_ft[w, 1]
         if d == 3:
             hz = wall_ft[w, 2]
     fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, R, math.sqrt(R), e_wall, g_wall, mass[i],
-                                                 vx, vy, vz, hx, hy, hz, wall_ov[w], dt, zeta, mu, rescale,
-                                                 law)
-    if mu > 0.0:
+                                                 vx, vy, vz, hx, hy, hz, wall_ov[w], dt, damping, tangential,
+                                                 rescale, law)
+    if CD.friction_acts(tangential):
         wall_ft[w, 0] = hx
         wall_ft[w, 1] = hy
         if d == 3:
@@ -356,8 +361,8 @@ def pair_constants(pair_i, pair_j, npairs, rad, mass, pair_c):
 
 
 @numba.njit(cache=True, inline="always")
-def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale, e_pair, g_pair,
-              r12, root_r12, meff, law):
+def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, damping, tangential, rescale, e_pair,
+              g_pair, r12, root_r12, meff, law):
     """Pair p = (i, j) with constants R12, sqrt(R12), m_eff (:func:`pair_constants3`):
     (touching, delta, a_i, a_j, n, force on i, new tangential history), with the arithmetic
     of the one-thread loop (dem/serial.py) so that the bits are its own. Reads the history,
@@ -379,12 +384,12 @@ def _pair_law(pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta
     aj = rj - 0.5 * delta
     vx, vy, vz = _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
     hx = hy = hz = 0.0
-    if mu > 0.0:
+    if CD.friction_acts(tangential):
         hx = pair_ft[p, 0]
         hy = pair_ft[p, 1]
         if d == 3:
             hz = pair_ft[p, 2]
     fx, fy, fz, fel, hx, hy, hz = contact_force3(nx, ny, nz, delta, r12, root_r12, e_pair, g_pair, meff,
-                                                 vx, vy, vz, hx, hy, hz, pair_ov[p], dt, zeta,
-                                                 mu, rescale, law)
+                                                 vx, vy, vz, hx, hy, hz, pair_ov[p], dt, damping,
+                                                 tangential, rescale, law)
     return True, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz

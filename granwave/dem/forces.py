@@ -28,7 +28,7 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 @numba.njit(cache=True)
 def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque, couple,
-                   hist_stored):
+                   hist_stored, tangential_code):
     n_grains, d = pos.shape
     r = rot.shape[1]
     e_pair = C.effective_young(False)
@@ -81,8 +81,10 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
             K.rotation_velocity(du, nv, rot, i, j, ai, aj)
         for a in range(d):
             ft[a] = ft_stored[c, a]
-        # overlap_old = delta: no unloading rescale; mu = inf (or 0): no Coulomb cap
-        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, fvec, False, law)
+        # overlap_old = delta: no unloading rescale; mu = inf (or 0): no Coulomb cap; zeta = 0: no
+        # dashpot; the packing's tangential law
+        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, fvec, False, law, np.int64(0),
+                        tangential_code)
         for a in range(d):
             force[i, a] += fvec[a]
         if r > 0:
@@ -144,12 +146,12 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
                    np.ascontiguousarray(c.force_tangential, dtype=float).reshape(len(c), d), disp, rot,
                    float(packing.attrs.get("poisson", 0.0)), math.inf if friction > 0.0 else 0.0,
                    CM.model_of("normal", values), force, torque, CM.couple_model(values),
-                   CM.stored_couple_history(c, d))
+                   CM.stored_couple_history(c, d), CO.SUBMODELS[CO.selected(values)["tangential"]]["code"])
     return force, torque
 
 
 def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wall_ft, *, friction,
-                  poisson, law=None, couple=None) -> Contacts:
+                  poisson, law=None, couple=None, tangential=None) -> Contacts:
     """Force-carrying contacts (overlap > 0) of a state, elastic forces only, of the normal law
     ``law`` (a normal model tuple, granwave.contact_models; None: the default law); ``couple``: the
     couple sub-model's model tuple, whose history (the columns of ``pair_ft`` and ``wall_ft`` after
@@ -192,6 +194,7 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
     rd = np.array(np.concatenate(rd), dtype=float) if keeps else None
     m = len(ci)
     law = CM.model_of("normal", CO.defaults()) if law is None else law
+    tangential = CM.tangential_model(friction) if tangential is None else tangential
     fn = np.zeros(m)
     kn = np.zeros(m)
     kt = np.zeros(m)
@@ -202,8 +205,10 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
         root = math.sqrt(r12)
         fn[k] = CM.law_force(law, overlap[k], root, e12)
         kn[k] = CM.law_stiffness(law, overlap[k], root, e12)
-        if friction > 0.0:
-            kt[k] = CM.law_tangential_stiffness(law, overlap[k], r12, C.effective_shear(poisson, wall))
+        if friction > 0.0:  # the tangential law's k_t (Mindlin: the normal law's)
+            kt[k] = CM.tangential_spring(tangential, CM.law_tangential_stiffness(law, overlap[k], r12,
+                                                                                  C.effective_shear(poisson, wall)),
+                                         overlap[k])
             C.project_tangential(ft[k], normal[k])
         else:
             ft[k] = 0.0
@@ -224,7 +229,8 @@ def contacts_of_engine(engine) -> Contacts:
     return contact_table(engine.position, engine.radius, engine.lateral, engine.height,
                          engine.pair_i[:m], engine.pair_j[:m], engine.pair_ft[:m], engine.wall_ft,
                          friction=engine.friction, poisson=float(engine.fpar.poisson),
-                         law=K.law_of(engine.fpar), couple=K.couple_of(engine.fpar))
+                         law=K.law_of(engine.fpar), couple=K.couple_of(engine.fpar),
+                         tangential=K.friction_of(engine.fpar))
 
 
 def static_residual(packing: Packing, piston_mass: float | None = None, piston_force: float | None = None):

@@ -22,8 +22,8 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 
 @numba.njit(cache=True, inline="always")
-def grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall, g_wall, dt, zeta, mu, rescale, law,
-                couple, force, torque, dmax, count):
+def grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall, g_wall, dt, damping, tangential,
+                rescale, law, couple, force, torque, dmax, count):
     """Add grain i's wall contacts to ``force[i]``, ``torque[i]`` (after its pair terms): k = 0
     bottom, normal -e_z at 0; k = 1 top, normal +e_z at height ``h``, moving at ``vp``
     (:func:`granwave.dem.contact_law.wall_contact`, with the rolling sub-model ``couple``'s couple).
@@ -40,7 +40,7 @@ def grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall, 
     ntop = 0
     for k in range(2):
         delta, ai, nx, ny, nz, fx, fy, fz = wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, k, h, vp,
-                                                         e_wall, g_wall, dt, zeta, mu, rescale, law)
+                                                         e_wall, g_wall, dt, damping, tangential, rescale, law)
         if delta <= 0.0:
             continue
         force[i, 0] += fx

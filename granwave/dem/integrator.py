@@ -130,7 +130,8 @@ class Engine:
         self.pair_i = np.zeros(cap, np.int64)
         self.pair_j = np.zeros(cap, np.int64)
         #: the contact sub-models' selection (granwave.contact_models.options: options and parameters)
-        self.contact = CO.resolve(contact, "Engine")
+        self.contact = CO.resolve({**contact, "friction": self.friction, "poisson": float(poisson),
+                                   "damping": float(damping)}, "Engine")
         try:
             CO.check(self.contact, friction=1.0 if n_rot > 0 else 0.0)
         except ValueError as e:
@@ -392,7 +393,6 @@ def elastic_energy_kernel(engine: Engine) -> float:
     from .forces import contacts_of_engine  # local: forces imports this module
 
     c = contacts_of_engine(engine)
-    poisson = engine.fpar.poisson
     wall = c.j < 0
     ri = engine.radius[c.i]
     rj = np.where(wall, np.inf, engine.radius[np.maximum(c.j, 0)])
@@ -401,7 +401,7 @@ def elastic_energy_kernel(engine: Engine) -> float:
     for k in range(len(c)):
         r12 = C.effective_radius(1.0 / ri[k], 1.0 / rj[k])
         e += CM.law_energy(law, c.overlap[k], r12, C.effective_young(bool(wall[k])))
-        kt = CM.law_tangential_stiffness(law, c.overlap[k], r12, C.effective_shear(poisson, bool(wall[k])))
+        kt = c.stiffness_tangential[k]  # the tangential law's (contact_table)
         if engine.friction > 0.0 and kt > 0.0:
             e += float(np.dot(c.force_tangential[k], c.force_tangential[k])) / (2.0 * kt)
     return e

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from .layout import as_array, copy_record, COUNTERS, OUT, PARAMS, PISTON, record  # noqa: F401
 from .contact_law import (_add_torque3, _contact_velocity, _pair_geometry, _pair_law, _spin, add_torque,
-                          add_torque_with_couple, contact_force, contact_force3, law_of, N_PCOL,
+                          add_torque_with_couple, contact_force, contact_force3, dashpot_of, friction_of, law_of,
+                          N_PCOL,
                           pair_constants, pair_constants3, pair_couple, PC_MEFF, PC_R12, PC_ROOT,
                           relative_spin, couple_history, couple_of, rotation_velocity,
                           store_couple_history, torque_with_couple, wall_contact, wall_couple)  # noqa: F401

@@ -79,7 +79,7 @@ def _packed(pos, lateral, rad, pair_ft, pair_ov, q, i, j, t, nc, d):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p0, p1, jmax, dt,
-             zeta, mu, rescale, e12, g12, law, couple, t, tp, force, torque, dmax, ncontact):
+             damping, tangential, rescale, e12, g12, law, couple, t, tp, force, torque, dmax, ncontact):
     """The pair law (:func:`granwave.dem.contact_law.contact_force3`, the same bits) for the listed
     pairs p0, p0 + 1, ... below p1 whose j is below ``jmax`` (the others are skipped, their
     history untouched), until TILE of them touch; each contact's force and torque are added
@@ -106,13 +106,14 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
             tp[nc] = p
             nc += 1
         p += 1
-    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, law, t, tp, nc, d)
+    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, damping, tangential, e12, g12, law, t, tp,
+                nc, d)
     # forces and torques added in list order
     for c in range(nc):
         q = np.uint64(tp[c])
         i = np.uint64(pair_i[q])
         j = np.uint64(pair_j[q])
-        fx, fy, fz, delta, nx, ny, nz = _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale)
+        fx, fy, fz, delta, nx, ny, nz = _contact(pair_ft, pair_ov, t, c, q, d, dt, damping, tangential, rescale)
         force[i, 0] += fx
         force[i, 1] += fy
         force[j, 0] -= fx
@@ -137,7 +138,8 @@ def law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pai
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, slot_pair, s0, s1,
-                      dt, zeta, mu, rescale, e12, g12, law, couple, t, tp, force, torque, bnd_f, dmax, ncontact):
+                      dt, damping, tangential, rescale, e12, g12, law, couple, t, tp, force, torque, bnd_f, dmax,
+                      ncontact):
     """The pair law of :func:`law_tile` (the same bits) for a block's incoming pairs: the pairs
     ``slot_pair[s]`` (k, g) of slots s0, s0 + 1, ... below s1, until TILE of them touch. Each
     contact's force is subtracted from g and its torque a_g (n x f) added to g's, in slot
@@ -158,12 +160,13 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
             for a in range(d + r):
                 bnd_f[s, a] = 0.0
         s += 1
-    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, law, t, tp, nc, d)
+    _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, damping, tangential, e12, g12, law, t, tp,
+                nc, d)
     for c in range(nc):
         q = np.uint64(tp[c])
         slot = np.uint64(tp[TILE + c])
         g = np.uint64(pair_j[q])
-        fx, fy, fz, delta, nx, ny, nz = _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale)
+        fx, fy, fz, delta, nx, ny, nz = _contact(pair_ft, pair_ov, t, c, q, d, dt, damping, tangential, rescale)
         force[g, 0] -= fx
         force[g, 1] -= fy
         bnd_f[slot, 0] = fx
@@ -203,13 +206,17 @@ def law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pai
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta, mu, e12, g12, law, t, tp, nc, d):
+def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, damping, tangential, e12, g12, law, t, tp,
+                nc, d):
     """The law's stages between the packing of ``nc`` touching pairs (their indices in
     ``tp``, geometry in the rows T_DX ... T_RS of ``t``) and the per-contact forces
     (:func:`_contact`): normals and overlaps, contact velocities, the carried history and
-    the pair's constants, then the roots and quotients of the law in vector loops. The normal
-    law (``law``, granwave.contact_models) is chosen once per tile, outside the vector loops,
-    so that each law's loop stays branch-free (Hertz's is the loop before the seam)."""
+    the pair's constants, then the roots and quotients of the law in vector loops. The laws
+    (``law``, ``damping``, ``tangential``: granwave.contact_models) are chosen once per tile,
+    outside the vector loops, so that the loops of the defaults (code 0 of every kind:
+    contact.py's formulas) stay branch-free (Hertz's is the loop before the seam); any other
+    selection takes the dispatchers."""
+    friction = CD.friction_acts(tangential)
     # vector: distance, unit normal i -> j, overlap
     if d == 3:
         for c in range(nc):
@@ -244,7 +251,7 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
         t[T_VN * ROW + c] = vn
         t[T_ROOT * ROW + c] = pair_c[q, PC_ROOT]
         t[T_MEFF * ROW + c] = pair_c[q, PC_MEFF]
-        if mu > 0.0:
+        if friction:
             t[T_TX * ROW + c] = vx - vn * nx
             t[T_TY * ROW + c] = vy - vn * ny
             t[T_TZ * ROW + c] = vz - vn * nz
@@ -263,14 +270,17 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
     # (inlined, their roots vectorize here), and with friction k_t, its damping coefficient, the
     # projection's rescale (its quotient may be inf or NaN where stage 3 does not use it) and
     # the unloading's (contact.unloading_scale)
-    if law.code == 0:  # the default law (code 0): contact.py's formulas (contact_models.hertz binds them)
+    if law.code == 0 and damping.code == 0 and tangential.code == 0:
+        # the defaults (code 0): contact.py's formulas (contact_models.hertz, damping_critical and
+        # mindlin bind them)
+        zeta = damping.c0
         for c in range(nc):
             delta = t[T_DELTA * ROW + c]
             root = t[T_ROOT * ROW + c]
             t[T_FEL * ROW + c] = C.normal_force_root(delta, root, e12)
             t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
                                                       C.normal_stiffness_root(delta, root, e12))
-        if mu > 0.0:
+        if friction:
             for c in range(nc):
                 delta = t[T_DELTA * ROW + c]
                 kt = C.tangential_stiffness(delta, t[T_R12 * ROW + c], g12)
@@ -278,31 +288,31 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, zeta,
                 t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
                 t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
-    else:  # any other law through the dispatchers (granwave.contact_models)
+    else:  # any other selection through the dispatchers (granwave.contact_models)
         for c in range(nc):
             delta = t[T_DELTA * ROW + c]
             root = t[T_ROOT * ROW + c]
             t[T_FEL * ROW + c] = CD.law_force(law, delta, root, e12)
-            t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
-                                                      CD.law_stiffness(law, delta, root, e12))
-        if mu > 0.0:
+            t[T_CN * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c],
+                                                       CD.law_stiffness(law, delta, root, e12), delta)
+        if friction:
             for c in range(nc):
                 delta = t[T_DELTA * ROW + c]
-                kt = CD.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12)
+                kt = CD.tangential_spring(tangential, CD.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12),
+                                          delta)
                 t[T_KT * ROW + c] = kt
-                t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
+                t[T_CT * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c], kt, delta)
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
                 t[T_SRES * ROW + c] = CD.law_unloading_scale(law, t[T_OVOLD * ROW + c], delta)
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always", _nrt=False)
-def _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale):
+def _contact(pair_ft, pair_ov, t, c, q, d, dt, damping, tangential, rescale):
     """Contact c of a staged tile (pair q): its force on i (fx, fy, fz), overlap and normal
     (delta, nx, ny, nz); writes the pair's new history."""
-    # stage 3, per contact: the projection's rescale, then contact.update_tangential3's steps
-    # through its own pieces (unloads, the factor from the vector loop, increment_and_cap3: a
-    # sliding contact's root and quotient stay scalar), the damped normal force (never
-    # attractive), the force on i, the new history
+    # stage 3, per contact: the projection's rescale, then the tangential law's steps (unloads,
+    # the factor from the vector loop, its increment: a sliding contact's root and quotient stay
+    # scalar), the damped normal force (never attractive), the force on i, the new history
     delta = t[T_DELTA * ROW + c]
     fel = t[T_FEL * ROW + c]
     vn = t[T_VN * ROW + c]
@@ -310,10 +320,10 @@ def _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale):
     ny = t[T_NY * ROW + c]
     nz = t[T_NZ * ROW + c] if d == 3 else 0.0
     fn = fel
-    if zeta > 0.0:
+    if CD.dashpot_acts(damping):
         # approaching (vn < 0) gives a repulsive viscous force
         fn = C.total_normal_force(fel, -t[T_CN * ROW + c] * vn)
-    if mu > 0.0:
+    if CD.friction_acts(tangential):
         tx = t[T_TX * ROW + c]
         ty = t[T_TY * ROW + c]
         tz = t[T_TZ * ROW + c]
@@ -325,15 +335,15 @@ def _contact(pair_ft, pair_ov, t, c, q, d, dt, zeta, mu, rescale):
             gx *= scale
             gy *= scale
             gz *= scale
-        if C.unloads(t[T_OVOLD * ROW + c], delta, rescale):
+        if CD.tangential_unloads(tangential, t[T_OVOLD * ROW + c], delta, rescale):
             scale = t[T_SRES * ROW + c]
             gx *= scale
             gy *= scale
             gz *= scale
-        gx, gy, gz, slid = C.increment_and_cap3(gx, gy, gz, tx * dt, ty * dt, tz * dt, t[T_KT * ROW + c], fel,
-                                                mu)
+        gx, gy, gz, slid = CD.tangential_increment(tangential, gx, gy, gz, tx * dt, ty * dt, tz * dt,
+                                                   t[T_KT * ROW + c], fel)
         ct = 0.0
-        if zeta > 0.0 and not slid:
+        if CD.dashpot_acts(damping) and not slid:
             ct = t[T_CT * ROW + c]
         fx = -fn * nx + gx + ct * tx
         fy = -fn * ny + gy + ct * ty

@@ -29,7 +29,7 @@ from ..geometry import fold_into_box, nearest_image, periodic_distance2
 from . import pair_tile as PT
 from .blocks import (G_ALMAX, G_AMAX, G_DISP, G_DMAX, G_DVMAX, G_KIN, G_NC, G_NTOP, G_VMAX, G_WMAX,
                      block_bounds, claim_block, grains, open_claims, visit_order)
-from .contact_law import law_of, couple_of
+from .contact_law import couple_of, dashpot_of, friction_of, law_of
 from .grain_step import grain_damping, grain_measures, grain_walls
 from .layout import PARAMS, PISTON
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
@@ -78,8 +78,8 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     for q in grains(b0 * r, b1 * r):
         flat[q] = 0.0
     dt = fpar.dt
-    zeta = fpar.zeta
-    mu = fpar.mu
+    damping = dashpot_of(fpar)
+    tangential = friction_of(fpar)
     rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
     g_pair = C.effective_shear(fpar.poisson, False)
@@ -94,8 +94,9 @@ def _incoming_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, 
     s = slot_start[b]
     while s < slot_start[b + 1]:
         s, dmax, ncontact = PT.law_tile_incoming(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft,
-                                                 pair_ov, slot_pair, s, slot_start[b + 1], dt, zeta, mu, rescale,
-                                                 e_pair, g_pair, law, couple, t, tp, acc, alpha, bnd_f, dmax, ncontact)
+                                                 pair_ov, slot_pair, s, slot_start[b + 1], dt, damping, tangential,
+                                                 rescale, e_pair, g_pair, law, couple, t, tp, acc, alpha, bnd_f, dmax,
+                                                 ncontact)
     blk_g[b, G_DMAX] = dmax
     blk_g[b, G_NC] = ncontact
 
@@ -257,8 +258,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     r = omega.shape[1]
     b0, b1 = block_bounds(b, n, nblk)
     dt = fpar.dt
-    zeta = fpar.zeta
-    mu = fpar.mu
+    damping = dashpot_of(fpar)
+    tangential = friction_of(fpar)
     gamma = fpar.gamma
     rescale = fpar.rescale != 0.0
     e_pair = C.effective_young(False)
@@ -275,8 +276,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
     p = row[b0]
     while p < row[b1]:
         p, dmax, ncontact = PT.law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov,
-                                        p, row[b1], b1, dt, zeta, mu, rescale, e_pair, g_pair, law, couple, t, tp,
-                                        acc, alpha, dmax, ncontact)
+                                        p, row[b1], b1, dt, damping, tangential, rescale, e_pair, g_pair, law, couple,
+                                        t, tp, acc, alpha, dmax, ncontact)
     # then those pairs' forces on their rows' grains, from the slots, in increasing pair index
     # (a row's are its last pairs, sorted by j). Nothing but row k adds to grain k once row k
     # is done (pairs have k < j) until the walls below, so each grain's order is the one-thread
@@ -301,7 +302,8 @@ def _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m
         i = walls[q]
         q += 1
         top, nt, dmax, ncontact = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall,
-                                              g_wall, dt, zeta, mu, rescale, law, couple, acc, alpha, dmax, ncontact)
+                                              g_wall, dt, damping, tangential, rescale, law, couple, acc, alpha, dmax,
+                                              ncontact)
         if nt:
             top_f[b0 + ntop] = top
             ntop += 1

@@ -261,8 +261,6 @@ def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
     n, d = pos.shape
     e_wall = C.effective_young(True)
     g_wall = C.effective_shear(fpar.poisson, True)
-    zeta = fpar.zeta
-    mu = fpar.mu
     rescale = fpar.rescale != 0.0
     h = piston.h
     vp = piston.v
@@ -276,7 +274,7 @@ def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
         for a in range(d):
             saved[a] = wall_ft[w, a]
         out = K.wall_contact(pos, vel, omega, rad, mass, wall_ft, wall_ov, i, 1, h, vp, e_wall, g_wall,
-                             0.0, zeta, mu, rescale, K.law_of(fpar))
+                             0.0, K.dashpot_of(fpar), K.friction_of(fpar), rescale, K.law_of(fpar))
         total -= out[5]  # the wall feels minus the force on the grain
         wall_ov[w] = ov
         for a in range(d):

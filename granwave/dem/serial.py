@@ -23,7 +23,7 @@ from . import neighbours
 from .grain_step import grain_damping, grain_walls
 from .mean_flow import M_GAMMA_M, add_slab_damping, slab_means
 from .pair_tile import law_tile
-from .contact_law import law_of, pair_constants, couple_of
+from .contact_law import couple_of, dashpot_of, friction_of, law_of, pair_constants
 from .passes import drift_grain, measure
 from .piston import piston_acceleration, piston_half_kick, piston_kick_drift
 from .time_step import check_outcome, needs_rebuild, next_skin
@@ -53,8 +53,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     n_grains, d = pos.shape
     r = omega.shape[1]
     dt = fpar.dt
-    zeta = fpar.zeta
-    mu = fpar.mu
+    damping = dashpot_of(fpar)
+    tangential = friction_of(fpar)
     poisson = fpar.poisson
     gamma = fpar.gamma
     rescale = fpar.rescale != 0.0
@@ -79,8 +79,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     p = np.int64(0)
     while p < npairs:
         p, dmax, ncontact = law_tile(pos, vel, omega, rad, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, p,
-                                     npairs, n_grains, dt, zeta, mu, rescale, e_pair, g_pair, law, couple, t, tp,
-                                     force, torque, dmax, ncontact)
+                                     npairs, n_grains, dt, damping, tangential, rescale, e_pair, g_pair, law, couple,
+                                     t, tp, force, torque, dmax, ncontact)
     # then the walls of the grains of the wall list (kernels.wall_list: no other can touch one),
     # then every grain's damping and slab term: the per-grain routines every engine runs
     # (grain_step, mean_flow; two loops, not one over every grain: that cost 5 % of the rate)
@@ -89,8 +89,8 @@ def _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pa
     for q in range(1, walls[0] + 1):
         i = walls[q]
         top, nt, dmax, ncontact = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp, e_wall,
-                                              g_wall, dt, zeta, mu, rescale, law, couple, force, torque, dmax,
-                                              ncontact)
+                                              g_wall, dt, damping, tangential, rescale, law, couple, force, torque,
+                                              dmax, ncontact)
         if nt:
             fpiston -= top
             ntop += 1

@@ -8,7 +8,7 @@ import numba
 
 from .. import contact as C
 from ..contact_models import _dispatch as CD
-from .contact_law import couple_of, law_of
+from .contact_law import couple_of, dashpot_of, friction_of, law_of
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 
@@ -50,9 +50,9 @@ def stable_dt(fpar):
     """
     k = CD.law_step_stiffness(law_of(fpar), fpar.overlap_floor, math.sqrt(fpar.r_max), C.effective_young(True))
     omega = math.sqrt(k / fpar.m_min)
-    zeta = fpar.zeta
+    zeta = CD.dashpot_step_ratio(dashpot_of(fpar))
     limit = verlet_limit(omega, zeta)
-    if fpar.mu > 0.0:
+    if CD.friction_acts(friction_of(fpar)):
         omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar.poisson))
         limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
     couple = couple_of(fpar)

@@ -132,7 +132,8 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
     j = pair_j[p]
     r12, root_r12, meff = pair_constants3(inv_rad[i], inv_rad[j], mass[i], mass[j])
     touching, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = pair_law(
-        pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, zeta, mu, rescale,
+        pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, DF.dashpot_of(fpar), DF.friction_of(fpar),
+        rescale,
         effective_young(False), effective_shear(poisson, False), r12, root_r12, meff, law_of(fpar))
     if not touching:
         if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
@@ -209,7 +210,8 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
                 alpha[i, a] += tq_j[p, a]
     # the walls, damping and slab term: the CPU engines' own per-grain routines (grain_step, mean_flow)
     top, ntop, dmax, count = grain_walls(i, pos, vel, omega, rad, mass, wall_ft, wall_ov, h, vp,
-                                         effective_young(True), effective_shear(poisson, True), dt, zeta, mu,
+                                         effective_young(True), effective_shear(poisson, True), dt,
+                                         DF.dashpot_of(fpar), DF.friction_of(fpar),
                                          rescale, law, couple_of(fpar), acc, alpha, 0.0, 0)
     fpiston = 0.0
     if ntop:

@@ -81,11 +81,11 @@ def restitution_for_damping(zeta: float, scale: float | None = None, law: str = 
     if scale is None:
         module, _ = CM.normal_law(CO.defaults())
         scale, law = module.LAMMPS_RESTITUTION_SCALE, law or module.LAMMPS_NORMAL
-    x = zeta * scale
-    if not (0.0 <= zeta and x < 1.0):
-        raise InputError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution "
-                         f"damping of a {law} contact (needs 0 <= zeta < {1.0 / scale:.4f})")
-    return math.exp(-math.pi * x / math.sqrt(1.0 - x * x))
+    try:
+        return CM.module(CO.KINDS["damping"]["default"]).lammps_words(dict(damping=zeta), scale, law,
+                                                                      1.0)["restitution"]
+    except ValueError as e:
+        raise InputError(str(e)) from None
 
 
 def lammps_coefficients(friction: float, poisson: float, damping: float, law: str | None = None,
@@ -99,14 +99,11 @@ def lammps_coefficients(friction: float, poisson: float, damping: float, law: st
     if law is not None:
         contact["contact_law"] = law
     values = CO.resolve(contact, "lammps_coefficients")
-    e12_pair, e12_wall = C.effective_young(False), C.effective_young(True)
-    g12_pair, g12_wall = C.effective_shear(poisson, False), C.effective_shear(poisson, True)
     try:
-        words, scale, fragments = CM.lammps_parts(values, e12_pair, e12_wall, g12_pair, g12_wall)
+        words, fragments, fixed = CM.lammps_words(values, friction, poisson, damping)
     except ValueError as e:
-        raise InputError(f"no LAMMPS equivalent: {e}") from None
-    return dict(words, restitution=restitution_for_damping(damping, scale, words["normal"]),
-                xgammat=math.sqrt(C.stiffness_ratio(poisson)), mu=friction, fragments=fragments)
+        raise InputError(f"no LAMMPS equivalent: {e}" if "cannot be expressed" not in str(e) else str(e)) from None
+    return dict(words, mu=friction, fragments=fragments, fixed=fixed)
 
 
 def granular_model(friction: float, poisson: float, damping: float, *, wall: bool, law: str | None = None,
@@ -116,12 +113,7 @@ def granular_model(friction: float, poisson: float, damping: float, *, wall: boo
     sub-models' words after it (the same coefficients for pairs and walls). ``law`` and
     ``contact``: as :func:`lammps_coefficients`."""
     k = lammps_coefficients(friction, poisson, damping, law, **contact)
-    side = "wall" if wall else "pair"
-    tangential = (f"tangential {k['tangential']} {k['kt_' + side]:.17g} {k['xgammat']:.17g} {friction:.17g}"
-                  if friction > 0 else "tangential linear_nohistory 0 0")
-    words = (f"{k['normal']} {k['kn_' + side]:.17g} {k['restitution']:.17g} {tangential} "
-             "damping coeff_restitution limit_damping")
-    return " ".join([words, *k["fragments"]])
+    return " ".join([k["fixed"]("wall" if wall else "pair"), *k["fragments"]])
 
 
 def _law(packing: Packing) -> dict:
@@ -276,6 +268,7 @@ def export_lammps(packing: Packing, folder, *, steps: int = 0, damping: float | 
     contact = _law(packing)
     coefficients = lammps_coefficients(packing.friction, float(attrs.get("poisson", 0.0)), zeta, **contact)
     coefficients.pop("fragments")
+    coefficients.pop("fixed")
     data = data_text(packing, piston_mass=piston_mass, margin=margin)
     deck = deck_text(packing, piston_mass=piston_mass, steps=int(steps), damping=zeta,
                      background_damping_rate=gamma, dt=_dt(packing), margin=margin)

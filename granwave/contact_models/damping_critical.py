@@ -1,0 +1,70 @@
+"""Contact damping as a fraction of critical: the default damping law (docs/method.md §2).
+
+A contact of stiffness k between masses of reduced mass m_eff gets the dashpot
+c = 2 zeta sqrt(m_eff k): on the normal velocity with k = k_n (the total normal force never
+attractive), on the tangential velocity with k = k_t while the contact sticks (not added to
+the tangential history). ``damping`` = zeta in [0, 1]; 0: no dashpot (the engines skip its
+terms). The formula itself is :func:`granwave.contact.damping_coefficient` (its callers predate
+the parts); registered in :mod:`granwave.contact_models.registry`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+from .. import contact as C
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+from .kinds import DAMPING
+
+KIND = DAMPING
+NAME = "critical_fraction"
+SUMMARY = "c = 2 zeta sqrt(m_eff k) on the normal and (sticking) tangential velocity, zeta = --damping"
+DESCRIPTION = "contact damping, a fraction zeta of critical"
+#: its own parameters beyond the kind's (damping: zeta here)
+PARAMETERS = ()
+#: its numba functions in the order the GPU compiles them (each after those it calls)
+DEVICE_FUNCTIONS = ("acts", "coefficient", "step_ratio")
+
+
+def kernel_constants(values: dict) -> tuple:
+    """The kernels' constant zeta."""
+    return (float(values["damping"]),)
+
+
+@numba.njit(cache=True, inline="always")
+def acts(zeta):
+    """Whether there is a dashpot: zeta > 0."""
+    return zeta > 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def coefficient(meff, k, overlap, zeta):
+    """c = 2 zeta sqrt(m_eff k) (force per velocity, d^2 sqrt(rho E*)); ``overlap`` unused."""
+    return C.damping_coefficient(zeta, meff, k)
+
+
+@numba.njit(cache=True, inline="always")
+def step_ratio(zeta):
+    """The damping ratio of a contact's normal mode: zeta itself."""
+    return zeta
+
+
+#: LAMMPS's damping sub-model with granwave's "never attractive" (``pair_style granular``)
+LAMMPS_DAMPING = "coeff_restitution limit_damping"
+
+
+def lammps_words(values: dict, scale: float, normal: str, kt_over_kn: float) -> dict:
+    """LAMMPS's equivalent of c = 2 zeta sqrt(m_eff k): ``damping coeff_restitution`` with the
+    restitution e whose x(e) = zeta ``scale`` (the normal law's ``LAMMPS_RESTITUTION_SCALE``;
+    x(e) = -ln e / sqrt(pi^2 + ln^2 e)) and the tangential ratio xgammat = c_t / c_n =
+    sqrt(k_t / k_n); ValueError where no e < 1 gives it (``normal``: the normal law's LAMMPS
+    name, for the message)."""
+    zeta = float(values["damping"])
+    x = zeta * scale
+    if not (0.0 <= zeta and x < 1.0):
+        raise ValueError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution "
+                         f"damping of a {normal} contact (needs 0 <= zeta < {1.0 / scale:.4f})")
+    return dict(restitution=math.exp(-math.pi * x / math.sqrt(1.0 - x * x)), xgammat=math.sqrt(kt_over_kn),
+                damping_words=LAMMPS_DAMPING)

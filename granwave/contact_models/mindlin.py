@@ -1,0 +1,66 @@
+"""Mindlin's tangential spring with a Coulomb slider: the default tangential law (docs/method.md §2).
+
+The tangential force F_t is contact history, updated incrementally each step (the steps of
+:func:`granwave.contact.update_tangential3`, whose module docstring shows why they create no
+energy): on unloading (the overlap fell, with the engine's unloading rule ``rescale``) F_t is
+first scaled by the normal law's k_t(n_new) / k_t(n_old) (LAMMPS's ``mindlin_rescale``; for
+Hertz sqrt(n_new / n_old), 1 for the harmonic law's constant k_t); then F_t += k_t Δs with the
+normal law's k_t (Hertz: 8 G*12 sqrt(R12 n); harmonic: eta k_n); then F_t is put back on the
+Coulomb cone |F_t| <= mu F_n (F_n elastic). ``friction`` mu = 0: no tangential force at all (and
+no rotations: a frictionless packing). The formulas themselves are :mod:`granwave.contact`'s;
+registered in :mod:`granwave.contact_models.registry`.
+"""
+
+from __future__ import annotations
+
+import numba
+
+from .. import contact as C
+from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
+from .kinds import TANGENTIAL
+
+KIND = TANGENTIAL
+NAME = "mindlin"
+SUMMARY = "the normal law's k_t (Hertz: Mindlin 8 G*12 sqrt(R12 n)), rescaled on unloading, Coulomb cap mu F_n"
+DESCRIPTION = "Mindlin tangential spring with Coulomb friction"
+#: its own parameters beyond the kind's (friction, poisson)
+PARAMETERS = ()
+#: its numba functions in the order the GPU compiles them (each after those it calls)
+DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment")
+
+
+def kernel_constants(values: dict) -> tuple:
+    """The kernels' constant mu."""
+    return (float(values["friction"]),)
+
+
+@numba.njit(cache=True, inline="always")
+def acts(mu):
+    """Whether there is a tangential force: mu > 0."""
+    return mu > 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def stiffness(kt_law, overlap, mu):
+    """k_t: the normal law's own (``kt_law``, E* d)."""
+    return kt_law
+
+
+@numba.njit(cache=True, inline="always")
+def unloads(overlap_old, overlap_new, rescale, mu):
+    """Whether F_t is rescaled first: the rescale rule is on and the overlap fell."""
+    return C.unloads(overlap_old, overlap_new, rescale)
+
+
+@numba.njit(cache=True, inline="always")
+def increment(fx, fy, fz, sx, sy, sz, kt, fel, mu):
+    """F_t + k_t Δs put back on the cone |F_t| <= mu ``fel``: (fx, fy, fz, slid)."""
+    return C.increment_and_cap3(fx, fy, fz, sx, sy, sz, kt, fel, mu)
+
+
+def lammps_tangential(values: dict, word: str, kt: float, xgammat: float) -> str:
+    """``tangential WORD k_t xgammat mu`` of ``pair_style granular`` (``word``, ``kt``: the normal
+    law's LAMMPS tangential model and stiffness, e.g. ``mindlin_rescale`` for Hertz), or
+    ``tangential linear_nohistory 0 0`` without friction."""
+    mu = float(values["friction"])
+    return f"tangential {word} {kt:.17g} {xgammat:.17g} {mu:.17g}" if mu > 0 else "tangential linear_nohistory 0 0"
