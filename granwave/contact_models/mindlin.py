@@ -26,7 +26,7 @@ DESCRIPTION = "Mindlin tangential spring with Coulomb friction"
 #: its own parameters beyond the kind's (friction, poisson)
 PARAMETERS = ()
 #: its numba functions in the order the GPU compiles them (each after those it calls)
-DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment")
+DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment", "step_ratio")
 
 
 def kernel_constants(values: dict) -> tuple:
@@ -56,6 +56,13 @@ def unloads(overlap_old, overlap_new, rescale, mu):
 def increment(fx, fy, fz, sx, sy, sz, kt, fel, mu):
     """F_t + k_t Δs put back on the cone |F_t| <= mu ``fel``: (fx, fy, fz, slid)."""
     return C.increment_and_cap3(fx, fy, fz, sx, sy, sz, kt, fel, mu)
+
+
+@numba.njit(cache=True, inline="always")
+def step_ratio(poisson, mu):
+    """k_t / k_n = eta = 2(1-nu)/(2-nu): the normal laws' own ratio (Hertz: Mindlin's 8 G*12 over
+    2 E*12 at any overlap; harmonic: k_t = eta k_n)."""
+    return C.stiffness_ratio(poisson)
 
 
 def lammps_tangential(values: dict, word: str, kt: float, xgammat: float) -> str:

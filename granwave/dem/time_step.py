@@ -39,7 +39,8 @@ def stable_dt(fpar):
     Two modes of that contact bound the step (:func:`verlet_limit`):
     - normal: omega_n, damping ratio zeta;
     - tangential (mu > 0): the grain turning about its contact, mode mass m / 3.5
-      (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n) and, since
+      (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n, the tangential
+      law's step_ratio) and, since
       c_t = 2 zeta sqrt(m k_t) uses the translational mass (docs/method.md §2), damping ratio
       zeta sqrt(3.5).
     A grain has several contacts, so the true limit is 0.7-1.0 of this estimate for zeta in
@@ -52,8 +53,9 @@ def stable_dt(fpar):
     omega = math.sqrt(k / fpar.m_min)
     zeta = CD.dashpot_step_ratio(dashpot_of(fpar))
     limit = verlet_limit(omega, zeta)
-    if CD.friction_acts(friction_of(fpar)):
-        omega_t = omega * math.sqrt(ROTATION_FACTOR * C.stiffness_ratio(fpar.poisson))
+    tangential = friction_of(fpar)
+    if CD.friction_acts(tangential):
+        omega_t = omega * math.sqrt(ROTATION_FACTOR * CD.tangential_step_ratio(tangential, fpar.poisson))
         limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
     couple = couple_of(fpar)
     if couple.code != 0:  # the couple sub-model's own mode (granwave.contact_models, kind rolling)
