@@ -62,6 +62,9 @@ SKIP = {
         "needs an NVIDIA GPU (tests/test_gpu_device.py runs the GPU path where there is one)",
     "granwave propagate linear.h5 --method time --t-max 2000 --device gpu -o signal.h5":
         "needs an NVIDIA GPU (tests/test_gpu_device.py runs the GPU path where there is one)",
+    "granwave prepare-packing --grains 600 --pressure 1e-4 --seeds 0-9 --device gpu -o 'packing_{seed}.h5'":
+        "needs an NVIDIA GPU (tests/test_gpu_batch.py runs --seeds on the CPU and the batch in the "
+        "CUDA simulator)",
 }
 
 COMMAND = re.compile(r"^\s*(?:\$\s+)?(granwave\s.*)$")
