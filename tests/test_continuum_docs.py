@@ -20,7 +20,8 @@ def test_docs_continuum_results_are_the_generated_ones():
 
 def test_every_recorded_scene_has_its_candidate_table_and_continuum_length():
     text = _summarize().continuum_scene_tables()
-    scenes = text.count("\n### ") + text.startswith("### ")
+    headings = [line for line in text.splitlines() if line.startswith("### ")]
+    scenes = len([h for h in headings if not h.startswith("### The medium or the waveguide")])
     assert scenes >= 1
     assert text.count("| rule | tolerance |") == scenes
     assert text.count("Continuum length in frequency") == scenes
