@@ -30,7 +30,8 @@ def test_interpolation_between_reliable_frequencies_is_exact_for_a_line():
 
 
 def test_differences_in_combined_errors_against_the_widest_column():
-    lines = width_comparison({"narrow": _scene(0.025, 0.002), "wide": _scene(0.0125, 0.0)})
+    lines = width_comparison({"narrow": _scene(0.025, 0.002), "wide": _scene(0.0125, 0.0)},
+                             {"narrow": 2, "wide": 2})
     rows = [r for r in lines if r.startswith("| 0.")]
     assert len(rows) == 5
     expected = f"{0.002 / (0.001 * math.sqrt(2)):+.1f}"  # +1.4
@@ -43,9 +44,12 @@ def test_differences_in_combined_errors_against_the_widest_column():
     assert "against the widest column `wide`" in " ".join(lines)
 
 
-def test_nothing_without_two_widths_at_one_pressure():
-    assert width_comparison({"a": _scene(0.0125, 0.0), "b": _scene(0.0125, 0.001)}) == []
-    assert width_comparison({"a": _scene(0.0125, 0.0), "b": _scene(0.025, 0.0, pressure=1e-6)}) == []
+def test_nothing_without_two_widths_at_one_pressure_and_dimension():
+    two = {"a": 2, "b": 2}
+    assert width_comparison({"a": _scene(0.0125, 0.0), "b": _scene(0.0125, 0.001)}, two) == []
+    assert width_comparison({"a": _scene(0.0125, 0.0), "b": _scene(0.025, 0.0, pressure=1e-6)}, two) == []
+    assert width_comparison({"a": _scene(0.0125, 0.0), "b": _scene(0.025, 0.0)}, {"a": 2, "b": 3}) == []
+    assert width_comparison({"a": _scene(0.0125, 0.0), "b": _scene(0.025, 0.0)}, {"a": 2}) == []
     apart = width_comparison({"a": _scene(0.0125, 0.0, band=(0.005, 0.01)),
-                              "b": _scene(0.025, 0.0, band=(0.012, 0.02))})
+                              "b": _scene(0.025, 0.0, band=(0.012, 0.02))}, two)
     assert any("do not overlap" in line for line in apart)

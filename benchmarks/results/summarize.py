@@ -228,7 +228,11 @@ def continuum_scene_tables(folder: Path = HERE) -> str:
                   f"Run: {rec['date']}, revision {rec['git_revision']}, `{rec['command']}`"
                   + (f"; the samples took {cpu:.0f} CPU-s" if cpu else "") + "."
                   + (f" {rec['notes']}" if rec.get("notes") else ""), ""] + body[2:]
-    lines += width_comparison({scene: rec["result"] for scene, rec in newest.items()})
+    import yaml
+
+    study = yaml.safe_load((ROOT / "config" / "continuum.yaml").read_text())["continuum"]
+    dims = {scene: int(spec.get("dim", 2)) for scene, spec in study.items()}
+    lines += width_comparison({scene: rec["result"] for scene, rec in newest.items()}, dims)
     return "\n".join(lines).rstrip()
 
 

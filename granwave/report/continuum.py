@@ -198,8 +198,9 @@ def candidates_table(front: Mapping) -> list[str]:
     return md + [""]
 
 
-def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
-    """Markdown lines of the continuum section (one subsection per scene)."""
+def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | None = None) -> list[str]:
+    """Markdown lines of the continuum section (one subsection per scene; ``dims``: each
+    scene's dimension, from the config, for the comparison of widths)."""
     if not scenes:
         return []
     md = ["## Continuum: the front against distance and its approach to c_ℓ", "",
@@ -344,7 +345,7 @@ def continuum_section(scenes: Mapping[str, Mapping]) -> list[str]:
                     row += f" {fmt(att['c_group'][i], att['c_group_err'][i])} |"
                 md.append(row)
             md.append("")
-    md += width_comparison(scenes)
+    md += width_comparison(scenes, dims or {})
     return md
 
 
@@ -363,18 +364,20 @@ def _at(att: Mapping, key: str, omega: float) -> tuple[float, float]:
     return value[lo] + t * (value[j] - value[lo]), error[lo] + t * (error[j] - error[lo])
 
 
-def width_comparison(scenes: Mapping[str, Mapping], points: int = 5) -> list[str]:
-    """Markdown lines comparing c(ω) and α(ω) of scenes at one pressure whose columns differ in
-    width (so in their first lateral cutoff 2π c_t/W), at ``points`` frequencies spread over the
-    overlap of their reliable bands: each scene's value against the widest column's, in units of
-    their combined standard error. Nothing unless two such scenes have both analyses."""
-    groups: dict[float, list[tuple[str, Mapping]]] = {}
+def width_comparison(scenes: Mapping[str, Mapping], dims: Mapping[str, int], points: int = 5) -> list[str]:
+    """Markdown lines comparing c(ω) and α(ω) of scenes of one dimension (``dims``: scene →
+    2 or 3; scenes not in it are left out) at one pressure whose columns differ in width (so in
+    their first lateral cutoff 2π c_t/W), at ``points`` frequencies spread over the overlap of
+    their reliable bands: each scene's value against the widest column's, in units of their
+    combined standard error. Nothing unless two such scenes have both analyses."""
+    groups: dict[tuple[int, float], list[tuple[str, Mapping]]] = {}
     for scene, d in sorted(scenes.items()):
         front, att = d.get("front"), d.get("attenuation")
-        if front and att and att.get("omega_cutoff") and front.get("pressure") is not None:
-            groups.setdefault(float(front["pressure"]), []).append((scene, att))
+        if front and att and att.get("omega_cutoff") and front.get("pressure") is not None \
+                and scene in dims:
+            groups.setdefault((int(dims[scene]), float(front["pressure"])), []).append((scene, att))
     md: list[str] = []
-    for pressure, members in sorted(groups.items()):
+    for (dim, pressure), members in sorted(groups.items()):
         if len({num(a["omega_cutoff"]) for _, a in members}) < 2:
             continue
         members.sort(key=lambda m: num(m[1]["omega_cutoff"]))  # the widest column first
@@ -382,7 +385,7 @@ def width_comparison(scenes: Mapping[str, Mapping], points: int = 5) -> list[str
         lo = max(num(a["band"][0]) for _, a in members)
         hi = min(num(a["band"][1]) for _, a in members)
         names = ", ".join(f"`{n}` (cutoff {fmt(a['omega_cutoff'], digits=3)})" for n, a in members)
-        md += [f"### The medium or the waveguide: p = {pressure:g}", "",
+        md += [f"### The medium or the waveguide: {dim}D, p = {pressure:g}", "",
                f"c(ω) and α(ω) of {names}, interpolated between reliable frequencies, against the "
                f"widest column `{ref}`; Δ/σ: the difference over the two standard errors combined "
                "(frequencies above a column's cutoff are marked †)."]

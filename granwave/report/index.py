@@ -119,7 +119,9 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     md += T.lattice_section(h_by_scene, scenes)
     if damping:
         md += T.damping_section(damping)
-    md += continuum_section(continuum_inputs(continuum))
+    dims = {name: int(spec.get("dim", 2)) for name, spec in ((config or {}).get("continuum") or {}).items()
+            if isinstance(spec, Mapping)}
+    md += continuum_section(continuum_inputs(continuum), dims)
     md += shear_section(shear_inputs(shear))
     if sweeps:
         md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
