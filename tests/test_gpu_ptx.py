@@ -82,8 +82,8 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
 
     s8 = np.zeros(m, np.int8)
     sigs.update({
-        P.classify_pairs: _types(v, i64, i64, 1, p2(dim), np.zeros(m), 0.5, s8, False),
-        P.classify_walls: _types(v, np.zeros((2 * n, dim)), np.zeros(2 * n), 0.5, np.zeros(2 * n, np.int8),
+        P.classify_pairs: _types(dim, v, i64, i64, 1, p2(dim), np.zeros(m), fp, s8, False),
+        P.classify_walls: _types(dim, v, np.zeros((2 * n, dim)), np.zeros(2 * n), fp, np.zeros(2 * n, np.int8),
                                  False),
         P.track_displacement: _types(f2(dim), f2(dim), np.zeros(dim - 1), v),
     })

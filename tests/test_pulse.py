@@ -256,3 +256,35 @@ def test_cli_dem(frictional, tmp_path):
         assert "Traceback" not in r.output
     with h5py.File(out) as f:
         assert f.attrs["schema"] == "granwave.signal"
+
+
+@pytest.mark.parametrize("law", ["hertz", "harmonic"])
+def test_sliding_flag_is_the_tangential_laws_limit_on_the_normal_laws_force(law):
+    """One pair and its two wall slots, 2D, friction 0.5, with a rolling history after F_t: SLID
+    exactly when |F_t| reaches the Coulomb limit mu F_n of the packing's own normal law (harmonic:
+    F_n = k n, not Hertz's), whatever the rolling columns hold."""
+    import granwave.contact as C
+    import granwave.contact_models as CM
+    from granwave.contact_models import options as CO
+
+    values = CO.resolve(dict(contact_law=law, friction=0.5))
+    normal = CM.model_of("normal", values)
+    tangential = CM.model_of("tangential", values)
+    rad = np.array([0.5, 0.6])
+    overlap = 0.01
+    r12 = C.effective_radius(1.0 / rad[0], 1.0 / rad[1])
+    fel = CM.law_force(normal, overlap, math.sqrt(r12), C.effective_young(False))
+    if law == "harmonic":
+        assert fel == pytest.approx(normal.c0 * C.effective_young(False) * overlap, rel=1e-14)  # k n, not n^(3/2)
+    limit = 0.5 * fel
+    # columns: F_t (2), then a rolling history (2) far above any limit
+    cases = [(limit, 0.0, False), (0.999 * limit, 0.0, False), (0.6 * limit, 0.8 * limit, True),
+             (0.0, 0.0, False)]
+    for fx, fy, slid in cases:
+        pair_ft = np.array([[fx, fy, 1e3, 1e3]])
+        state = np.zeros(1, np.int8)
+        walls = np.zeros(4, np.int8)
+        PK.classify(2, rad, np.array([0]), np.array([1]), 1, pair_ft, np.array([overlap]), np.zeros((4, 4)),
+                    np.zeros(4), tangential, state, walls, True, normal)
+        assert bool(state[0] & PK.CONE0) == (slid or (fx == limit)), (fx, fy)
+        assert state[0] & PK.INITIAL and not walls.any()

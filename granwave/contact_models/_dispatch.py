@@ -143,6 +143,12 @@ def tangential_step_ratio(model, poisson):
     """Tangential contact law: ``step_ratio`` of the sub-model of ``model``'s code."""
     return _tangential_mindlin.step_ratio(poisson, model.c0)
 
+
+@numba.njit(cache=True, inline="always")
+def tangential_at_limit(model, fx, fy, fz, fel, tol):
+    """Tangential contact law: ``at_limit`` of the sub-model of ``model``'s code."""
+    return _tangential_mindlin.at_limit(fx, fy, fz, fel, tol, model.c0)
+
 #: what the kernels receive of the selected sub-model of this kind: its code and constants
 RollingModel = namedtuple('RollingModel', ('code', 'c0', 'c1', 'c2'))
 
@@ -222,12 +228,14 @@ DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
  ('_tangential_mindlin', 'unloads'),
  ('_tangential_mindlin', 'increment'),
  ('_tangential_mindlin', 'step_ratio'),
+ ('_tangential_mindlin', 'at_limit'),
  (None, 'friction_of'),
  (None, 'friction_acts'),
  (None, 'tangential_spring'),
  (None, 'tangential_unloads'),
  (None, 'tangential_increment'),
  (None, 'tangential_step_ratio'),
+ (None, 'tangential_at_limit'),
  ('_rolling_sds', 'rolling_velocity'),
  ('_rolling_sds', 'in_plane'),
  ('_rolling_sds', 'couple'),

@@ -30,7 +30,9 @@ overlap, mu) -> k_t`` (``kt_law``: the normal law's ``tangential_stiffness``),
 law's ``unloading_scale`` first; ``rescale``: the engine's unloading rule) and
 ``increment(fx, fy, fz, sx, sy, sz, kt, fel, mu) -> (fx, fy, fz, slid)`` (F_t after the slip
 increment s: spring and slider), ``step_ratio(poisson, mu) -> k_t / k_n`` (at the stiffest
-contact, for the time step's tangential mode), and in Python ``kernel_constants(values) -> (mu,)``.
+contact, for the time step's tangential mode), ``at_limit(fx, fy, fz, fel, tol, mu) -> bool``
+(F_t on the slider's limit within the relative tolerance ``tol``: a sliding contact, for the
+nonlinear pulse's contact flags), and in Python ``kernel_constants(values) -> (mu,)``.
 
 rolling: a couple from the contact's relative rotation with a history (three components, of
 which the engines store ``dim``: ``history_width(dim) == dim``, the columns after the tangential
@@ -76,6 +78,7 @@ TANGENTIAL_FUNCTIONS = (
     ("increment", "tangential_increment", "fx, fy, fz, sx, sy, sz, kt, fel", "fx, fy, fz, sx, sy, sz, kt, fel, {c}",
      None),
     ("step_ratio", "tangential_step_ratio", "poisson", "poisson, {c}", None),
+    ("at_limit", "tangential_at_limit", "fx, fy, fz, fel, tol", "fx, fy, fz, fel, tol, {c}", None),
 )
 ROLLING_FUNCTIONS = (
     ("couple", "contact_couple", "nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt",

@@ -26,7 +26,7 @@ DESCRIPTION = "Mindlin tangential spring with Coulomb friction"
 #: its own parameters beyond the kind's (friction, poisson)
 PARAMETERS = ()
 #: its numba functions in the order the GPU compiles them (each after those it calls)
-DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment", "step_ratio")
+DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment", "step_ratio", "at_limit")
 
 
 def kernel_constants(values: dict) -> tuple:
@@ -63,6 +63,15 @@ def step_ratio(poisson, mu):
     """k_t / k_n = eta = 2(1-nu)/(2-nu): the normal laws' own ratio (Hertz: Mindlin's 8 G*12 over
     2 E*12 at any overlap; harmonic: k_t = eta k_n)."""
     return C.stiffness_ratio(poisson)
+
+
+@numba.njit(cache=True, inline="always")
+def at_limit(fx, fy, fz, fel, tol, mu):
+    """Whether F_t sits on the slider's limit, |F_t| >= (1 - ``tol``) mu ``fel`` with ``fel`` > 0
+    (a sliding contact sits exactly on the Coulomb cone, a sticking one inside it; the nonlinear
+    pulse's classification of sliding contacts)."""
+    cap = mu * fel * (1.0 - tol)
+    return fel > 0.0 and fx * fx + fy * fy + fz * fz >= cap * cap
 
 
 def lammps_tangential(values: dict, word: str, kt: float, xgammat: float) -> str:

@@ -428,8 +428,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     pos_ref = engine.position.copy()
     pair_state = np.zeros(engine.pair_i.shape[0], np.int8)
     wall_state = np.zeros(engine.wall_ov.shape[0], np.int8)
-    PK.classify(engine.radius, engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ft,
-                engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.friction, pair_state, wall_state,
+    PK.classify(d, engine.radius, engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ft,
+                engine.pair_ov, engine.wall_ft, engine.wall_ov, K.friction_of(engine.fpar), pair_state, wall_state,
                 True, K.law_of(engine.fpar))
     energy_input = 0.0
     if kick is not None:

@@ -13,11 +13,11 @@ state to
 Contact state flags (``int8`` bit field, one per pair slot and per wall slot):
 ``INITIAL`` in contact at t = 0; ``OPENED`` an initial contact found without
 overlap after some step; ``FORMED`` a contact not present at t = 0 found with
-overlap after some step; ``SLID`` the tangential force found on the Coulomb
-cone, ``|F_t| >= (1 - CONE_TOL) mu F_n`` with F_n the elastic normal force of the
-engine's law (``contact_models.law_force`` of ``kernels.law_of(fpar)``, as the engine's
-``contact_force3`` caps F_t: a sliding contact sits exactly on the cone, a sticking one
-stays inside), after some step; ``CONE0`` on the cone at t = 0 already (fully mobilized in the
+overlap after some step; ``SLID`` the tangential force found on its
+slider's limit after some step: the tangential law's ``at_limit`` (granwave.contact_models; for
+Mindlin's Coulomb slider ``|F_t| >= (1 - CONE_TOL) mu F_n``) with F_n the elastic normal force of
+the engine's law (``contact_models.law_force`` of ``kernels.law_of(fpar)``, as the engine caps
+F_t: a sliding contact sits exactly on the limit, a sticking one stays inside); ``CONE0`` on the limit at t = 0 already (fully mobilized in the
 stored state).
 
 The pair list can be rebuilt by the engine during a step (grains moved more
@@ -43,23 +43,21 @@ from . import serial
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 INITIAL, OPENED, FORMED, SLID, CONE0 = 1, 2, 4, 8, 16
-#: Relative tolerance of the "on the Coulomb cone" test.
+#: Relative tolerance of the "on the slider's limit" test.
 CONE_TOL = 1e-9
 
 
 @numba.njit(cache=True, inline="always")
-def _on_cone(ft, k, d, fel, mu):
-    f2 = 0.0
-    for a in range(d):
-        f2 += ft[k, a] * ft[k, a]
-    cap = mu * fel * (1.0 - CONE_TOL)
-    return fel > 0.0 and f2 >= cap * cap
+def _on_limit(tangential, ft, k, d, fel):
+    """Whether contact ``k``'s tangential force (the first ``d`` columns of its history ``ft``;
+    a rolling history may follow) sits on its tangential law's limit at normal force ``fel``."""
+    return CM.tangential_at_limit(tangential, ft[k, 0], ft[k, 1], ft[k, 2] if d == 3 else 0.0, fel, CONE_TOL)
 
 
 @numba.njit(cache=True, inline="always")
 def _touching_state(s, cone, initial):
     """Flags of a contact that touches now: INITIAL / CONE0 when recording the initial state,
-    else FORMED (it did not touch initially) and SLID (it is on the Coulomb cone)."""
+    else FORMED (it did not touch initially) and SLID (it is on its slider's limit)."""
     if initial:
         s |= INITIAL
         if cone:
@@ -73,49 +71,52 @@ def _touching_state(s, cone, initial):
 
 
 @numba.njit(cache=True, parallel=True)
-def classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state,
+def classify(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, tangential, pair_state,
              wall_state, initial, law):
     """Update the contact flags from the current history arrays (after a force evaluation).
 
-    ``initial``: set INITIAL / CONE0 from the current state instead of the run flags.
-    ``law``: the engine's normal model tuple (granwave.contact_models; ``kernels.law_of(fpar)``),
-    whose normal force sets the Coulomb cone. Parallel over contacts (each writes only its own flag).
+    ``d``: the dimension (the tangential force's columns of the histories). ``initial``: set
+    INITIAL / CONE0 from the current state instead of the run flags. ``tangential`` and ``law``:
+    the engine's tangential and normal model tuples (granwave.contact_models;
+    ``kernels.friction_of(fpar)``, ``kernels.law_of(fpar)``): the slider's limit and the normal
+    force that sets it. Parallel over contacts (each writes only its own flag).
     """
     for p in numba.prange(npairs):
-        _classify_pair(np.int64(p), rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial, law)
+        _classify_pair(np.int64(p), d, rad, pair_i, pair_j, pair_ft, pair_ov, tangential, pair_state, initial,
+                       law)
     for w in numba.prange(wall_ov.shape[0]):
-        _classify_wall(np.int64(w), rad, wall_ft, wall_ov, mu, wall_state, initial, law)
+        _classify_wall(np.int64(w), d, rad, wall_ft, wall_ov, tangential, wall_state, initial, law)
 
 
 @numba.njit(cache=True)
-def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial, law):
-    d = pair_ft.shape[1]
+def _classify_pair(p, d, rad, pair_i, pair_j, pair_ft, pair_ov, tangential, pair_state, initial, law):
     ov = pair_ov[p]
     s = pair_state[p]
     if ov > 0.0:
         fel = 0.0
-        if mu > 0.0:
+        acts = CM.friction_acts(tangential)
+        if acts:
             i = pair_i[p]
             j = pair_j[p]
             r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
             fel = CM.law_force(law, ov, math.sqrt(r12), C.effective_young(False))
-        s = _touching_state(s, mu > 0.0 and _on_cone(pair_ft, p, d, fel, mu), initial)
+        s = _touching_state(s, acts and _on_limit(tangential, pair_ft, p, d, fel), initial)
     elif (s & INITIAL) and not initial:
         s |= OPENED
     pair_state[p] = s
 
 
 @numba.njit(cache=True)
-def _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial, law):
-    d = wall_ft.shape[1]
+def _classify_wall(w, d, rad, wall_ft, wall_ov, tangential, wall_state, initial, law):
     ov = wall_ov[w]
     s = wall_state[w]
     if ov > 0.0:
         fel = 0.0
-        if mu > 0.0:
+        acts = CM.friction_acts(tangential)
+        if acts:
             r = rad[w // 2]  # a wall: R12 = R_i, as kernels.wall_contact
             fel = CM.law_force(law, ov, math.sqrt(r), C.effective_young(True))
-        s = _touching_state(s, mu > 0.0 and _on_cone(wall_ft, w, d, fel, mu), initial)
+        s = _touching_state(s, acts and _on_limit(tangential, wall_ft, w, d, fel), initial)
     elif (s & INITIAL) and not initial:
         s |= OPENED
     wall_state[w] = s
@@ -165,7 +166,7 @@ def _block_displacement2(b, pos, pos_ref, lateral):
 
 
 @numba.njit(cache=True)
-def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, mu,
+def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, tangential,
                 ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats, law):
     """The bookkeeping after one step of :func:`pulse_samples`: the contact flags carried over
     a rebuild (``rebuilds``: the count before the step), the contacts classified, the largest
@@ -177,8 +178,8 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
         npairs = ipar.npairs
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
-    classify(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, mu, pair_state, wall_state,
-             np.bool_(False), law)  # not a literal: one compiled classify
+    classify(pos.shape[1], rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, tangential, pair_state,
+             wall_state, np.bool_(False), law)  # not a literal: one compiled classify
     u = max_displacement(pos, pos_ref, lateral)
     if u > stats[0]:
         stats[0] = u
@@ -201,7 +202,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     already done inside the sample are kept in ``stats[1]``).
     """
     n = pos.shape[0]
-    mu = fpar.mu
+    tangential = K.friction_of(fpar)
     law = K.law_of(fpar)
     ipar.nsteps = 1
     # the pair keys of the current list, refreshed only after a rebuild
@@ -215,7 +216,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                            pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
                 return -k
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
+                                               wall_ft, wall_ov, tangential, ipar, rebuilds, old_i, old_j, pair_state,
                                                wall_state, npairs, stats, law)
         stats[1] = 0.0
         force_out[k] = piston.f_con
@@ -230,7 +231,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
     (same arguments, returns and bits): the parallel engine's kernels take several times longer
     to compile, which a one-thread process would spend for nothing on a cold cache."""
     n = pos.shape[0]
-    mu = fpar.mu
+    tangential = K.friction_of(fpar)
     law = K.law_of(fpar)
     ipar.nsteps = 1
     npairs = ipar.npairs
@@ -243,7 +244,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
                                 pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
                 return -k
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, mu, ipar, rebuilds, old_i, old_j, pair_state,
+                                               wall_ft, wall_ov, tangential, ipar, rebuilds, old_i, old_j, pair_state,
                                                wall_state, npairs, stats, law)
         stats[1] = 0.0
         force_out[k] = piston.f_con

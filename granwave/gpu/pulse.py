@@ -3,8 +3,8 @@
 
 Each step is :meth:`granwave.gpu.dem.GpuEngine.step` (the engine's own step on the device),
 followed by the contact bookkeeping of the CPU loop as two kernels: the contact flags of every
-pair and wall slot (the CPU's ``_on_cone`` and ``_touching_state`` compiled for the device from
-their source, :mod:`granwave.gpu.compile`), and every grain's largest displacement so far
+pair and wall slot (the CPU's per-contact classification, with the sub-models' slider limit and
+normal law, compiled for the device from its source, :mod:`granwave.gpu.compile`), and every grain's largest displacement so far
 (kept per grain on the device, reduced once per call). After a host neighbour rebuild the
 flags are carried to the new list by the CPU's ``carry_flags``. When the pair arrays need more
 room, the call returns minus the sample to resume, as the CPU loop does.
@@ -26,60 +26,36 @@ from .dem import BLOCK, GpuEngine, _blocks
 cuda = load_cuda()  # numba.cuda, with numpy's names it needs (granwave.gpu.load_cuda)
 
 _DF = device_functions()
-_names = {"C": _DF, "nearest_image": _DF.nearest_image}
-on_cone = cuda.jit(device=True)(_rebound(PK._on_cone.py_func, _names))
-touching_state = cuda.jit(device=True)(_rebound(PK._touching_state.py_func, _names))
+# the CPU's per-contact classification, compiled from its source: its calls of the contact
+# sub-models' dispatchers (``CM.``, ``C.``) and of its helpers resolve to their device copies
+_names = {"C": _DF, "CM": _DF, "nearest_image": _DF.nearest_image}
+_names["_on_limit"] = cuda.jit(device=True)(_rebound(PK._on_limit.py_func, _names))
+_names["_touching_state"] = cuda.jit(device=True)(_rebound(PK._touching_state.py_func, _names))
+_classify_pair = cuda.jit(device=True)(_rebound(PK._classify_pair.py_func, _names))
+_classify_wall = cuda.jit(device=True)(_rebound(PK._classify_wall.py_func, _names))
 periodic_distance2 = cuda.jit(device=True)(_rebound(geometry.periodic_distance2.py_func, _names))
-effective_radius = _DF.effective_radius
-effective_young = _DF.effective_young
-normal_force = _DF.normal_force
 
 
 @cuda.jit
-def classify_pairs(rad, pair_i, pair_j, npairs, pair_ft, pair_ov, mu, pair_state, initial):
-    """The pair loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per pair."""
+def classify_pairs(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, fpar1, pair_state, initial):
+    """The pair loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per pair (``fpar1``:
+    the engine's parameter record as a one-element array, whose tangential and normal models set
+    the slider's limit)."""
+    fpar = fpar1[0]
+    tangential = _DF.friction_of(fpar)
+    law = _DF.law_of(fpar)
     for p in range(cuda.grid(1), npairs, cuda.gridsize(1)):
-        _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial)
-
-
-@cuda.jit(device=True)
-def _classify_pair(p, rad, pair_i, pair_j, pair_ft, pair_ov, mu, pair_state, initial):
-    d = pair_ft.shape[1]
-    ov = pair_ov[p]
-    s = pair_state[p]
-    if ov > 0.0:
-        fel = 0.0
-        if mu > 0.0:
-            i = pair_i[p]
-            j = pair_j[p]
-            r12 = effective_radius(1.0 / rad[i], 1.0 / rad[j])
-            fel = normal_force(ov, r12, effective_young(False))
-        s = touching_state(s, mu > 0.0 and on_cone(pair_ft, p, d, fel, mu), initial)
-    elif (s & PK.INITIAL) and not initial:
-        s |= PK.OPENED
-    pair_state[p] = s
+        _classify_pair(p, d, rad, pair_i, pair_j, pair_ft, pair_ov, tangential, pair_state, initial, law)
 
 
 @cuda.jit
-def classify_walls(rad, wall_ft, wall_ov, mu, wall_state, initial):
+def classify_walls(d, rad, wall_ft, wall_ov, fpar1, wall_state, initial):
     """The wall loop of :func:`granwave.dem.pulse_kernels.classify`, a thread per wall slot."""
+    fpar = fpar1[0]
+    tangential = _DF.friction_of(fpar)
+    law = _DF.law_of(fpar)
     for w in range(cuda.grid(1), wall_ov.shape[0], cuda.gridsize(1)):
-        _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial)
-
-
-@cuda.jit(device=True)
-def _classify_wall(w, rad, wall_ft, wall_ov, mu, wall_state, initial):
-    d = wall_ft.shape[1]
-    ov = wall_ov[w]
-    s = wall_state[w]
-    if ov > 0.0:
-        fel = 0.0
-        if mu > 0.0:
-            fel = normal_force(ov, rad[w // 2], effective_young(True))
-        s = touching_state(s, mu > 0.0 and on_cone(wall_ft, w, d, fel, mu), initial)
-    elif (s & PK.INITIAL) and not initial:
-        s |= PK.OPENED
-    wall_state[w] = s
+        _classify_wall(w, d, rad, wall_ft, wall_ov, tangential, wall_state, initial, law)
 
 
 @cuda.jit
@@ -130,7 +106,6 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
     n, d = pos.shape
     eng.dim = d
     eng.mflow, eng.slabs = ws.mflow, ws.slabs  # the compaction rule's (off in a pulse)
-    mu = fpar.mu
     eng.upload()
     dev = {"state": cuda.to_device(pair_state), "wall": cuda.to_device(wall_state),
            "ref": cuda.to_device(pos_ref), "best": cuda.to_device(np.zeros(n))}
@@ -150,9 +125,9 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
                 eng.step()
                 m = int(ipar.npairs)
                 if m:
-                    classify_pairs[_blocks(m), BLOCK](g["radius"], eng.gp["i"], eng.gp["j"], m, eng.gp["ft"],
-                                                      eng.gp["ov"], mu, dev["state"], False)
-                classify_walls[_blocks(2 * n), BLOCK](g["radius"], g["wall_ft"], g["wall_ov"], mu,
+                    classify_pairs[_blocks(m), BLOCK](d, g["radius"], eng.gp["i"], eng.gp["j"], m,
+                                                      eng.gp["ft"], eng.gp["ov"], g["fpar"], dev["state"], False)
+                classify_walls[_blocks(2 * n), BLOCK](d, g["radius"], g["wall_ft"], g["wall_ov"], g["fpar"],
                                                       dev["wall"], False)
                 track_displacement[_blocks(n), BLOCK](g["position"], dev["ref"], g["lateral"], dev["best"])
                 stats[1] += 1.0
