@@ -602,7 +602,7 @@ def _free_chain(n=50, seed=0):
 
 
 def test_solver_checks_residual_against_load_and_reports_unbalanced_part():
-    from granwave.linear.moduli import _Solver
+    from granwave.linear.static_solve import StaticSolver as _Solver
 
     cell, rng = _free_chain()
     n = cell.n_dof
@@ -654,12 +654,12 @@ def test_large_singular_systems_use_iterated_tikhonov(monkeypatch):
     sweeps: a consistent load gets the minimum-norm solution, fully balanced; a load with a
     part on the zero mode (the refused LU answer of the least-squares test) falls through
     the sweeps to LSQR and reports that part as unbalanced."""
-    from granwave.linear import moduli as M
+    from granwave.linear import static_solve as M
 
     monkeypatch.setattr(M, "DENSE_MAX_DOF", 0)
     cell, rng = _free_chain()
     n = cell.n_dof
-    solver = M._Solver(cell, np.zeros(n, bool))
+    solver = M.StaticSolver(cell, np.zeros(n, bool))
     f = rng.normal(size=n)
     g = f - f.mean()  # no net force: consistent (the plain LU is accepted for it; call the sweeps)
     u = solver._tikhonov(g)
@@ -678,7 +678,7 @@ def test_large_singular_systems_use_iterated_tikhonov(monkeypatch):
 
 def test_floppy_grain_moduli_the_same_through_iterated_tikhonov(monkeypatch):
     """The floppy-grain lattice of the least-squares test, solved by the large-system path."""
-    from granwave.linear import moduli as M
+    from granwave.linear import static_solve as M
 
     g = 13
     pk, _ = lattice(8, 4, pressure=1e-4)
