@@ -249,6 +249,8 @@ def test_a_batch_cut_under_snakemake_restores_its_first_sample_on_rerun(tmp_path
         assert os.stat(cut / "results" / stage / f"{first}.h5").st_ino == inode, stage
     assert _digests(cut / "results") == expected
     assert not (cut / "results" / "finished" / "batch_reference_0").exists()
+    again = _snakemake(cut)  # the restored files are up to date for snakemake
+    assert again.returncode == 0 and "Nothing to be done" in again.stdout + again.stderr
 
     spec = importlib.util.spec_from_file_location("workflow_runtime", ROOT / "benchmarks" / "workflow_runtime.py")
     runtime = importlib.util.module_from_spec(spec)
