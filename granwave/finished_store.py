@@ -24,6 +24,8 @@ import os
 import shutil
 from pathlib import Path
 
+from .errors import InputError, OutputError
+
 #: The stamp's kind and version: a stamp of another kind or version is not used.
 STAMP_KIND = "granwave.finished_sample"
 STAMP_VERSION = 1
@@ -103,32 +105,41 @@ def restore(store, sample: dict, keys, label: str, log=print) -> list[dict] | No
             return None
     except (OSError, KeyError, TypeError):
         return None
-    for stage, path in files.items():
-        _place(entry / kept[stage]["name"], path)
+    try:
+        for stage, path in files.items():
+            _place(entry / kept[stage]["name"], path)
+    except (OSError, OutputError, InputError) as exc:  # the run writes every file anew
+        log(f"{label}: not restored from {entry} ({exc}): computed again")
+        return None
     log(f"{label}: restored from {entry} (finished before the batch was cut), not computed again")
     return stamp["timings"]
 
 
 def keep(store, sample: dict, keys, timings: list[dict], log=print) -> None:
     """Keep ``sample``'s files (just written) and ``timings`` in ``store``, replacing any entry
-    it had; the stamp comes last, so an entry cut while being written is not used."""
-    entry = entry_of(store, sample, keys)
-    (entry / STAMP_NAME).unlink(missing_ok=True)  # an old entry is void before any file changes
-    if entry.exists():
-        shutil.rmtree(entry)
-    entry.mkdir(parents=True)
-    kept, how = {}, set()
-    for stage, path in sample_files(sample).items():
-        name = stage + Path(path).suffix
-        how.add(_place(path, entry / name))
-        kept[stage] = {"name": name, "bytes": os.path.getsize(path)}
-    if "copy" in how:
-        log(f"{entry}: kept as copies (no hard links on this file system)")
+    it had; the stamp comes last, so an entry cut while being written is not used. A failure
+    (a full disk for the copies) is a log line, not the batch's end: the sample is done."""
     from .io.files import atomic_text
 
-    stamp = {"kind": STAMP_KIND, "version": STAMP_VERSION, "recipe": recipe_digest(sample),
-             "files": kept, "timings": timings}
-    atomic_text(entry / STAMP_NAME, json.dumps(stamp, indent=1) + "\n")
+    entry = entry_of(store, sample, keys)
+    try:
+        (entry / STAMP_NAME).unlink(missing_ok=True)  # an old entry is void before any file changes
+        if entry.exists():
+            shutil.rmtree(entry)
+        entry.mkdir(parents=True)
+        kept, how = {}, set()
+        for stage, path in sample_files(sample).items():
+            name = stage + Path(path).suffix
+            how.add(_place(path, entry / name))
+            kept[stage] = {"name": name, "bytes": os.path.getsize(path)}
+        stamp = {"kind": STAMP_KIND, "version": STAMP_VERSION, "recipe": recipe_digest(sample),
+                 "files": kept, "timings": timings}
+        atomic_text(entry / STAMP_NAME, json.dumps(stamp, indent=1) + "\n")
+    except (OSError, OutputError, InputError) as exc:
+        log(f"{entry}: not kept ({exc}); a cut batch would compute this sample again")
+        return
+    if "copy" in how:
+        log(f"{entry}: kept as copies (no hard links on this file system)")
 
 
 def remove(store, log=print) -> None:

@@ -167,6 +167,23 @@ def test_without_hard_links_the_store_copies(tmp_path, monkeypatch):
     assert again.calls == [1, 2] and _bytes(samples[:1]) == first and not store.exists()
 
 
+def test_a_sample_that_cannot_be_kept_is_a_log_line_not_the_batchs_end(tmp_path, monkeypatch):
+    def no_link(src, dst):
+        raise OSError(errno.EXDEV, "Invalid cross-device link")
+
+    def full(src, dst):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "link", no_link)
+    monkeypatch.setattr(finished_store.shutil, "copyfile", full)
+    samples = _samples(tmp_path / "results", n=2)
+    run = FakeRun()
+    _batch(tmp_path, samples, run)
+    assert run.calls == [0, 1] and len(_timings(tmp_path)) == 6
+    log = (tmp_path / "batch.log").read_text()
+    assert log.count("not kept (cannot write") == 2, log
+
+
 def test_a_refused_sample_ends_the_batch_and_keeps_the_ones_before(tmp_path):
     samples = _samples(tmp_path / "results", n=3)
     with pytest.raises(SystemExit):
