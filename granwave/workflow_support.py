@@ -103,30 +103,48 @@ def signal_of(system, path_linear: str, *, method: str, ic: str, t_max: float, s
 
 
 def run_batch(run, samples, *, log_path, timings_path, fields, failed_key,
-              keys=("scene", "pressure", "size", "seed")) -> None:
+              keys=("scene", "pressure", "size", "seed"), store=None) -> None:
     """A workflow batch (one process): ``run(sample, log)`` for every sample, its log lines
     into ``log_path``, and one row per sample and stage of ``fields`` into the tab-separated
     ``timings_path`` (the sample's ``keys``, then what ``run`` timed). A sample that fails
     (InputError, ConvergenceError) ends the batch with exit status 1 and its reason in the log
-    (the sample named by ``sample['out'][failed_key]``)."""
+    (the sample named by ``sample['out'][failed_key]``).
+
+    ``store``: the batch's finished-sample store (granwave.finished_store; None: none). A sample
+    kept there by an earlier, cut run of the batch with the same recipe is restored (files and
+    timing rows) instead of run; every sample run is kept there as it finishes; the store is
+    removed once the timings table, the batch's last output, is written."""
     import csv
     import sys
 
+    from . import finished_store
     from .errors import ConvergenceError, InputError
 
     with open(log_path, "w") as log:
-        rows = []
+        def say(line):
+            print(line, file=log, flush=True)
+
+        rows, computed = [], 0
         for sample in samples:
-            try:
-                timings = run(sample, log=lambda line: print(line, file=log, flush=True))
-            except (InputError, ConvergenceError) as exc:
-                print(f"{sample['out'][failed_key]}: {exc}", file=log)
-                sys.exit(1)
+            label = sample["out"][failed_key]
+            timings = finished_store.restore(store, sample, keys, label, say) if store else None
+            if timings is None:
+                try:
+                    timings = run(sample, log=say)
+                except (InputError, ConvergenceError) as exc:
+                    print(f"{label}: {exc}", file=log)
+                    sys.exit(1)
+                if store:
+                    finished_store.keep(store, sample, keys, timings, say)
+                    computed += 1
+                    finished_store.stop_for_tests(computed)
             rows += [{**{k: sample[k] for k in keys}, **t} for t in timings]
         with open(timings_path, "w", newline="") as f:
             writer = csv.DictWriter(f, fields, delimiter="\t")
             writer.writeheader()
             writer.writerows({k: r[k] for k in fields} for r in rows)
+        if store:
+            finished_store.remove(store, say)
 
 
 def run_command(item: dict, log=print) -> list[dict]:
