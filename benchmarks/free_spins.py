@@ -27,7 +27,7 @@ from granwave.io import files
 from granwave.linear.assemble import linearize
 from granwave.linear.eigen import eigensolve
 from granwave.linear.propagate import time_domain_signal
-from granwave.workflow_support import shear_record_length
+from granwave.workflow_config import shear_record_length
 
 SAFETY = 0.1
 

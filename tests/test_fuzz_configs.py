@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from granwave import workflow_support as ws
+from granwave import workflow_config as ws
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "workflow" / "Snakefile"
@@ -307,7 +307,7 @@ def test_a_config_file_that_reads_cleanly_gives_the_mapping():
 
 @pytest.mark.xfail(strict=True, reason="Snakemake reads --configfile files itself, before the "
                    "workflow's code runs, and prints a traceback for a binary or deeply nested "
-                   "one; the workflow cannot intercept it (granwave.workflow_support."
+                   "one; the workflow cannot intercept it (granwave.workflow_config."
                    "read_config_file says it in one line for a wrapper that reads first)")
 def test_binary_configfile_on_the_command_line_is_one_line(tmp_path):
     path = tmp_path / "c.yaml"

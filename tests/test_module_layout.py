@@ -21,7 +21,6 @@ MAX_LINES = 800
 PENDING = {
     "granwave/linear/assemble.py": "stiffness blocks and their assembly: to split into blocks / assembly",
     "granwave/io/files.py": "readers and writers of every file kind: to split per kind",
-    "granwave/workflow_support.py": "the workflow's helpers: to split per rule family",
 }
 
 

@@ -8,7 +8,7 @@ from click.testing import CliRunner
 from granwave.cli import main
 from granwave.errors import InputError
 from granwave.params import MAX_SEED, MIN_PRESSURE, PrepareParams, PropagateParams
-from granwave.workflow_support import samples_error
+from granwave.workflow_config import samples_error
 
 
 @pytest.mark.parametrize("kw, message", [

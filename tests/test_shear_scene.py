@@ -167,7 +167,7 @@ def _config():
     (lambda c: c["shear"].update(frictional2d=c["shear"]["shear2d"]), "defined twice"),
 ])
 def test_shear_config_errors_name_the_key(change, text):
-    from granwave.workflow_support import shear_error
+    from granwave.workflow_config import shear_error
 
     cfg = _config()
     assert shear_error(cfg) is None

@@ -33,7 +33,7 @@ def test_config_typo_fails_at_once(tmp_path):
 def _tiny_config():
     import yaml
 
-    from granwave.workflow_support import SCENE_KINDS
+    from granwave.workflow_config import SCENE_KINDS
 
     cfg = yaml.safe_load(TINY.read_text())
     for kind in SCENE_KINDS:
@@ -93,7 +93,7 @@ CROSS_CASES = [
 
 @pytest.mark.parametrize("change, key", SCHEMA_CASES)
 def test_schema_error_is_one_line_naming_the_key(change, key):
-    from granwave.workflow_support import cross_reference_error, schema_error
+    from granwave.workflow_config import cross_reference_error, schema_error
 
     assert schema_error(_tiny_config(), _schema()) is None
     assert cross_reference_error(_tiny_config()) is None
@@ -103,7 +103,7 @@ def test_schema_error_is_one_line_naming_the_key(change, key):
 
 @pytest.mark.parametrize("change, key", CROSS_CASES)
 def test_cross_reference_error_is_one_line_naming_the_key(change, key):
-    from granwave.workflow_support import cross_reference_error, schema_error
+    from granwave.workflow_config import cross_reference_error, schema_error
 
     cfg = _edit(_tiny_config(), change)
     assert schema_error(cfg, _schema()) is None  # the schema alone accepts it

@@ -247,7 +247,7 @@ def load_config(path) -> dict:
     """The workflow config (YAML or JSON) as a dict, read as strictly as the workflow reads it
     (no duplicate keys, text only, a mapping at the top level)."""
     from ..io.files import record_input
-    from ..workflow_support import read_config_file
+    from ..workflow_config import read_config_file
 
     path = Path(path)
     if not path.is_file():

@@ -27,9 +27,9 @@ def _check_config():
     """The whole config, before any sample is listed: each config file read strictly (a key
     given twice, a binary or non-mapping file), no NaN or infinity, the schema, cross
     references, the labels that become paths, the number of samples and the results folder.
-    Every failure is one line naming the key (granwave.workflow_support)."""
+    Every failure is one line naming the key (granwave.workflow_config)."""
     import yaml
-    from granwave import workflow_support as ws
+    from granwave import workflow_config as ws
 
     for path in workflow.configfiles:
         message = ws.config_file_error(path)
@@ -57,7 +57,7 @@ _check_config()
 R = config["results"]
 
 
-from granwave.workflow_support import WILDCARDS, height_label, pressure_label as fmt_p
+from granwave.workflow_config import WILDCARDS, height_label, pressure_label as fmt_p
 
 
 def _disordered_entries(spec):
@@ -756,7 +756,7 @@ def _check_samples():
     """Every job's options through its stage's own parameter checks (granwave/params.py), as the
     jobs will pass them: each sample of each batch, the height series, the continuum analyses,
     the damping pulses and the snapshot signal (one line naming the config key, exit 2)."""
-    from granwave.workflow_support import analyses_error, samples_error
+    from granwave.workflow_config import analyses_error, samples_error
 
     message = samples_error(batches(), config)
     if message is None:

@@ -6,6 +6,7 @@ shear and compressional kicks (time domain) and every pick at each wavelength
 table (read by benchmarks/workflow_runtime.py).
 """
 
+import os
 import signal
 import sys
 
@@ -23,4 +24,5 @@ sys.argv = ["workflow/scripts/shear_batch.py", snakemake.rule]  # provenance: co
 FIELDS = ["scene", "pressure", "size", "seed", "stage", "n_dof", "cpu_s", "wall_s"]
 
 run_batch(run_shear_sample, snakemake.params.samples, log_path=snakemake.log[0],
-          timings_path=snakemake.output.timings, fields=FIELDS, failed_key="picks")
+          timings_path=snakemake.output.timings, fields=FIELDS, failed_key="picks",
+          store=os.path.join(snakemake.config["results"], "finished", snakemake.rule))
