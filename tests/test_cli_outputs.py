@@ -11,11 +11,11 @@ import pytest
 from click.testing import CliRunner
 
 from granwave.cli import main
-from granwave.io import files
+from granwave.io import atomic
 
 
 def run(args):
-    files._INPUTS.clear()  # as separate processes would
+    atomic._INPUTS.clear()  # as separate processes would
     return CliRunner().invoke(main, [str(a) for a in args])
 
 

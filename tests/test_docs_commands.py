@@ -24,7 +24,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from granwave.cli import main
-from granwave.io import files
+from granwave.io import atomic, files
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = sorted((ROOT / "docs").glob("*.md")) + [ROOT / "README.md"]
@@ -152,7 +152,7 @@ def test_docs_commands_run_as_written(tmp_path, monkeypatch):
         args, redirect = split_redirect(runnable(command))
         # Each line runs as its own process would: forget the files earlier lines read
         # (a file read in this process may not be replaced by a later write).
-        files._INPUTS.clear()
+        atomic._INPUTS.clear()
         result = runner.invoke(main, args, catch_exceptions=False)
         assert result.exit_code == 0, f"{where}: `granwave {' '.join(args)}` failed:\n{result.output}"
         if redirect:

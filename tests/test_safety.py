@@ -23,7 +23,7 @@ from granwave import resources, systems
 from granwave.cli import main
 from granwave.cli.common import stage
 from granwave.errors import InputError, OutputError, ResourceError
-from granwave.io import files
+from granwave.io import atomic, files
 from granwave.linear.assemble import linearize
 from granwave.linear.eigen import eigensolve
 from granwave.linear.propagate import modal_propagate
@@ -149,7 +149,7 @@ def _dead_pid() -> int:
 
 
 def test_stale_temporaries_of_killed_runs_are_removed(tmp_path):
-    host = files._HOST
+    host = atomic._HOST
     killed = tmp_path / f".out.h5.p{_dead_pid()}h{host}.k1ll3d00.tmp"
     live = tmp_path / f".out.h5.p{os.getppid()}h{host}.l1ve0000.tmp"  # a live writer's file
     old_legacy = tmp_path / ".out.h5.abcd1234.tmp"  # an older granwave's name, hours old
@@ -157,7 +157,7 @@ def test_stale_temporaries_of_killed_runs_are_removed(tmp_path):
     other = tmp_path / ".other.h5.abcd1234.tmp"  # another output's temporary: not ours
     for p in (killed, live, old_legacy, new_legacy, other):
         p.write_bytes(b"partial")
-    hours_ago = time.time() - 3 * files.STALE_AGE
+    hours_ago = time.time() - 3 * atomic.STALE_AGE
     os.utime(old_legacy, (hours_ago, hours_ago))
     os.utime(other, (hours_ago, hours_ago))
     files.write_packing(tmp_path / "out.h5", systems.chain(n_balls=3, pressure=1e-4))
