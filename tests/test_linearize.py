@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from granwave.cli import main
 from granwave.errors import InputError
 from granwave.io import files
-from granwave.linear import assemble
+from granwave.linear import assemble, stiffness_check
 from granwave.linear.assemble import expected_zero_modes, linearize
 from granwave.linear.check import (finite_difference_stiffness, reference_chain,
                                    reference_frozen_forces, reference_lattice)
@@ -115,7 +115,7 @@ def test_zero_modes_of_lattices(friction):
 def test_sparse_check_agrees_with_dense(monkeypatch):
     lat = reference_lattice(6, 5, pressure=1e-5, friction=0.0)
     dense = linearize(lat).attrs
-    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", 10)
+    monkeypatch.setattr(stiffness_check, "DENSE_CHECK_MAX_DOF", 10)
     sparse = linearize(lat).attrs
     assert sparse["psd_check"].startswith("lobpcg") and sparse["psd_check_converged"]
     assert sparse["n_zero_modes"] == dense["n_zero_modes"] == 1
@@ -283,9 +283,9 @@ def test_sparse_check_counts_every_kept_spin(dem_packing_3d, monkeypatch):
     and the lowest positive mode found: here forced with one LOBPCG step and a fallback of one
     mode, which without that rule would report a single zero mode."""
     dense = linearize(dem_packing_3d).attrs
-    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", 10)
-    monkeypatch.setattr(assemble, "SPARSE_CHECK_MODES", 1)
-    monkeypatch.setattr(assemble, "CHECK_MAXITER", 1)
+    monkeypatch.setattr(stiffness_check, "DENSE_CHECK_MAX_DOF", 10)
+    monkeypatch.setattr(stiffness_check, "SPARSE_CHECK_MODES", 1)
+    monkeypatch.setattr(stiffness_check, "CHECK_MAXITER", 1)
     sparse = linearize(dem_packing_3d).attrs
     assert sparse["psd_check"].startswith("eigsh shift-invert")
     assert sparse["n_zero_modes"] == dense["n_zero_modes"] == sparse["expected_zero_modes"] > 1

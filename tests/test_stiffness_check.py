@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from granwave.linear import assemble
+from granwave.linear import assemble, stiffness_check
 from granwave.linear.assemble import check_stiffness, linearize
 from granwave.linear.check import reference_lattice
 from granwave.model import LinearSystem
@@ -43,7 +43,7 @@ def test_sparse_path_agrees_with_dense(lattice_system):
     dense = check_stiffness(lattice_system)
     sparse = check_stiffness(lattice_system, dense_max=SMALL)
     assert dense["psd_check"] == "dense eigvalsh" and sparse["psd_check"].startswith("lobpcg + AMG")
-    assert sparse["psd_check_converged"] and sparse["psd_check_residual"] <= 1.01 * assemble.CHECK_RESIDUAL
+    assert sparse["psd_check_converged"] and sparse["psd_check_residual"] <= 1.01 * stiffness_check.CHECK_RESIDUAL
     assert sparse["n_zero_modes"] == dense["n_zero_modes"] == lattice_system.attrs["expected_zero_modes"]
     assert sparse["n_zero_modes_exact"]
     assert sparse["n_negative_modes"] == dense["n_negative_modes"] == 0
@@ -79,21 +79,21 @@ def test_symmetry_check_unchanged_above_the_dense_limit(lattice_system):
 
 
 def test_unconverged_lobpcg_falls_back_to_shift_invert(lattice_system, monkeypatch):
-    monkeypatch.setattr(assemble, "CHECK_MAXITER", 1)
+    monkeypatch.setattr(stiffness_check, "CHECK_MAXITER", 1)
     lines = []
     res = check_stiffness(lattice_system, dense_max=SMALL, progress=lines.append)
     assert res["psd_check"].startswith("eigsh shift-invert") and "lobpcg did not converge" in res["psd_check"]
     assert res["n_zero_modes"] == lattice_system.attrs["expected_zero_modes"]
     assert any("falling back" in line for line in lines)
     # too large for a sparse LU: the unconverged Ritz values are reported, flagged
-    monkeypatch.setattr(assemble, "SHIFT_INVERT_MAX_DOF", 10)
+    monkeypatch.setattr(stiffness_check, "SHIFT_INVERT_MAX_DOF", 10)
     res = check_stiffness(lattice_system, dense_max=SMALL)
     assert not res["psd_check_converged"] and res["psd_check"].endswith("not converged")
     assert not res["n_zero_modes_exact"]
 
 
 def test_linearize_reports_progress_above_the_dense_limit(monkeypatch):
-    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", SMALL)
+    monkeypatch.setattr(stiffness_check, "DENSE_CHECK_MAX_DOF", SMALL)
     lines = []
     s = linearize(reference_lattice(10, 10, pressure=1e-4, friction=0.5), progress=lines.append)
     assert s.attrs["psd_check"].startswith("lobpcg + AMG") and s.attrs["psd_check_converged"]
@@ -110,7 +110,7 @@ def test_cli_linearize_prints_the_check_above_the_dense_limit(tmp_path, monkeypa
     from granwave.cli import main
     from granwave.io import files
 
-    monkeypatch.setattr(assemble, "DENSE_CHECK_MAX_DOF", SMALL)
+    monkeypatch.setattr(stiffness_check, "DENSE_CHECK_MAX_DOF", SMALL)
     files.write_packing(tmp_path / "p.h5", reference_lattice(10, 10, pressure=1e-4, friction=0.5))
     args = ["linearize", str(tmp_path / "p.h5"), "-o", str(tmp_path / "l.h5")]
     r = CliRunner().invoke(main, args)
