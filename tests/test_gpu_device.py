@@ -50,10 +50,13 @@ def test_gpu_cpu_path_imports_no_gpu_package():
     assert "gpu modules:" in r.stdout
 
 
-@pytest.mark.parametrize("stage", ["prepare-packing", "propagate"])
+@pytest.mark.parametrize("stage", ["prepare-packing", "prepare-packing-rolling", "propagate"])
 def test_gpu_without_a_gpu_exits_2_with_one_line_and_no_output(tmp_path, stage):
+    """(With rolling resistance too: the GPU runs it, so the line is the missing GPU's.)"""
     out = tmp_path / "out.h5"
-    args = ["prepare-packing", "--grains", "20"] if stage == "prepare-packing" else []
+    args = ["prepare-packing", "--grains", "20"] if stage.startswith("prepare-packing") else []
+    if stage == "prepare-packing-rolling":
+        args += ["--rolling", "sds"]
     if stage == "propagate":
         src = tmp_path / "lin.h5"
         make = ("from granwave import api; from granwave.io import files; "
@@ -102,15 +105,33 @@ def test_gpu_engine_takes_the_mean_flow_rule():
         Stepper(pos, np.full(3, 0.5), [6.0], 3.0, **kw)
 
 
-def test_gpu_engine_refuses_rolling_resistance():
-    """The device's pair kernel has no rolling couple: a GPU engine with the rolling sub-model is
-    refused in one line rather than run without it."""
+def test_gpu_engine_takes_rolling_resistance():
+    """The device's pair kernel computes the rolling couple (tests/test_gpu_rolling.py checks it
+    against the CPU, bit for bit, in the simulator): a GPU engine with the rolling sub-model has
+    the CPU engine's history columns (F_t, then the rolling displacement) and is not refused, nor
+    is ``device="gpu"`` with ``rolling="sds"`` before the device is looked for."""
     import numpy as np
 
     pytest.importorskip("numba.cuda")
+    from granwave.contact_models import options as CO
     from granwave.gpu.dem import GpuEngine
+    from granwave.params import PrepareParams
 
     pos = np.array([[1.0, 0.6], [3.0, 0.6], [2.0, 1.5]])
-    with pytest.raises(InputError, match="rolling resistance runs on the CPU only"):
-        GpuEngine(pos, np.full(3, 0.5), [6.0], 3.0, friction=0.5, rolling="sds", rolling_stiffness=1.0,
+    e = GpuEngine(pos, np.full(3, 0.5), [6.0], 3.0, friction=0.5, rolling="sds", rolling_stiffness=1.0,
                   rolling_friction=0.1)
+    assert e.pair_ft.shape[1] == e.wall_ft.shape[1] == 4
+    assert CO.cpu_only(CO.values_of(PrepareParams(rolling="sds"))) is None
+
+
+def test_gpu_dem_pulse_refuses_a_rolling_packing_in_one_line():
+    """The DEM pulse does not run rolling resistance on either device: with ``device="gpu"`` a
+    rolling packing is refused in one line before any device work (no GPU needed)."""
+    from granwave.dem.pulse import propagate_dem
+
+    packing = api.prepare_packing(grains=10, seed=1, tol=1e-2, pressure=1e-2, rolling="sds")
+    for device in ("gpu", "cpu"):
+        with pytest.raises(InputError) as exc:
+            propagate_dem(packing, t_max=1.0, samples=3, device=device)
+        message = str(exc.value)
+        assert "does not run rolling resistance" in message and "\n" not in message, message

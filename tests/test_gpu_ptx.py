@@ -48,6 +48,17 @@ def _types(*values):
     return tuple(numba.typeof(v) for v in values)
 
 
+def _has_couple(ptx: str) -> bool:
+    """Whether a kernel's PTX holds the rolling couple (its frame threshold, a literal of the
+    couple's code): the couple is a run-time branch of the pair kernel, one specialization with
+    and without rolling resistance, so compiling it here compiles the couple too."""
+    import struct
+
+    from granwave.contact_models import rolling
+
+    return struct.pack(">d", rolling.FRAME_EPSILON).hex().upper() in ptx.upper()
+
+
 @pytest.mark.parametrize("dim,rot", [(2, 1), (2, 0), (3, 3)])
 def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     _nvvm_or_skip()
@@ -124,6 +135,8 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx
+        if kernel is G.pair_forces:
+            assert _has_couple(ptx)
 
 
 def test_gpu_linear_kernels_compile_to_ptx():
@@ -192,3 +205,5 @@ def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx
+        if kernel is B.pair_forces_batch:
+            assert _has_couple(ptx)

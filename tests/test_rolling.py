@@ -166,7 +166,6 @@ def invoke(*args):
 
 @pytest.mark.parametrize("extra, message", [
     (["--friction", "0"], "needs friction > 0"),
-    (["--device", "gpu"], "CPU only"),
     (["--rolling-stiffness", "0"], "rolling_stiffness must be > 0"),
     (["--rolling-friction", "-1"], "rolling_friction must be >= 0"),
 ])

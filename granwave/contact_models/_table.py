@@ -96,7 +96,7 @@ SUBMODELS = {'hertz': {'kind': 'normal',
          'description': 'rolling resistance',
          'parameters': ('rolling_stiffness', 'rolling_damping', 'rolling_friction'),
          'needs_friction': True,
-         'devices': ('cpu',),
+         'devices': ('cpu', 'gpu'),
          'history_width': {2: 2, 3: 3}}}
 
 #: parameter name -> its kind, sub-model, default, units, help and range

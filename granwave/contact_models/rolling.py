@@ -46,8 +46,6 @@ PARAMETERS = (
 )
 #: a couple needs the grains' rotations: refused without friction
 NEEDS_FRICTION = True
-#: the GPU's pair kernel has no couple (its wall routine, the CPU's own, would)
-DEVICES = ("cpu",)
 #: LAMMPS' name of the model (``pair_coeff ... rolling sds k_r gamma_r mu_r``)
 LAMMPS_ROLLING = "sds"
 #: LAMMPS' threshold for carrying the history into a new tangent plane (GRAN_KERNEL_EPSILON)

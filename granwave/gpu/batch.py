@@ -491,7 +491,7 @@ class Ensemble:
             row=z(n + npack, np.int64), goff=to(goff), poff=to(poff),
             # the batched one-block rebuild's work arrays (rb_small_batch; cells: Ensemble.cells)
             cell=z(n, np.int64), members=z(n, np.int64), gcnt=z((n, 2), np.int64), gptr=z((n + npack, 2), np.int64),
-            nbr=z(2 * p, np.int64), ni=z(p, np.int64), nj=z(p, np.int64), nft=z((p, d_)), nov=z(p),
+            nbr=z(2 * p, np.int64), ni=z(p, np.int64), nj=z(p, np.int64), nft=z((p, hist)), nov=z(p),
             ncode=z(2 * p, np.int64),
             small=to(np.array([m.position.shape[0] <= m.small_rebuild for m in members], np.int64)),
             gk=to(np.repeat(np.arange(npack, dtype=np.int64), sizes)),

@@ -60,6 +60,8 @@ def _two_body(cls, steps: int, friction: float = 0.5, dim: int = 2):
 
 
 STATE = ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration")
+#: The wall contacts' histories (every column: the tangential one, then a sub-model's).
+WALLS = ("wall_ft", "wall_ov")
 
 
 def two_body(steps: int = 40) -> dict:
@@ -127,14 +129,14 @@ def _gas(cls, dim: int, steps: int, **kw):
 
 def _gas_engine(cls, dim: int, seed: int = 0, room: int | None = None, small: int | None = None,
                 every: int = 1, friction: float = 0.5, top: float | None = None, grains: int | None = None,
-                **rule):
+                radii: tuple = (0.3, 0.4), **rule):
     """A dense frictional gas in a 6 x 6 (x 6) box (radii 0.3-0.4 on a jittered grid, random
     velocities and a vertical squeeze, so that pairs form and the list is rebuilt every ~10
     steps); ``room``: the pair arrays cut to that many slots before the run (the GPU engine
     must make room on the device's request); ``small``: the GPU engine's ``small_rebuild`` (0:
     the multi-kernel rebuild of large systems); ``top``: the top wall's height (default: the box
-    side); ``rule``: more engine arguments (the mean-flow rule's ``mean_flow`` and
-    ``background_damping``, a piston's mass and force)."""
+    side); ``radii``: the radii's range; ``rule``: more engine arguments (the mean-flow rule's
+    ``mean_flow`` and ``background_damping``, a piston's mass and force)."""
     rng = np.random.default_rng(seed)
     side = 6 if dim == 2 else 5
     axes = np.meshgrid(*[np.arange(side) + 0.5] * dim, indexing="ij")
@@ -142,7 +144,7 @@ def _gas_engine(cls, dim: int, seed: int = 0, room: int | None = None, small: in
     pos = pos[rng.permutation(len(pos))[: grains or len(pos) * 2 // 3]]  # room to move
     pos += rng.uniform(-0.1, 0.1, pos.shape)
     n = len(pos)
-    rad = rng.uniform(0.3, 0.4, n)
+    rad = rng.uniform(*radii, n)
     vel = rng.normal(0.0, 1.0, pos.shape)
     vel[:, -1] -= 0.5 * (pos[:, -1] - side / 2)
     rot = 1 if dim == 2 else 3
@@ -239,14 +241,20 @@ def batch(steps: int = 10) -> dict:
     large packings; each against the same runs of a
     :class:`GpuEngine` alone (bitwise: state, pair list and histories, piston, slabs, steps,
     rebuilds) and of the CPU engine (``cpu_abs``: the piston force is reduced in another order)."""
+    setups = ((0, 24, None, None), (1, 20, 0, None), (2, 22, None, 0))  # (seed, grains, room, small)
+    return _batched(setups, steps, {})
+
+
+def _batched(setups, steps: int, extra: dict) -> dict:
+    """:func:`batch`'s runs for ``setups`` ((seed, grains, room, small) per packing), the gases
+    made with the engine arguments ``extra`` too (a contact sub-model's: tests/gpu_rolling_checks.py)."""
     from ..dem.integrator import Engine
     from ..dem.mean_flow import M_GAMMA_L, M_GAMMA_M
     from .batch import Ensemble
     from .dem import GpuEngine
 
-    setups = ((0, 24, None, None), (1, 20, 0, None), (2, 22, None, 0))  # (seed, grains, room, small)
     kw = dict(friction=0.5, background_damping=2.0, piston_mass=1.0, piston_force=20.0, top=5.8,
-              mean_flow=(0.2, 1.0), check_every=8)
+              mean_flow=(0.2, 1.0), check_every=8, **extra)
 
     def job(cls, seed, grains, room, small):
         def run():
@@ -276,7 +284,7 @@ def batch(steps: int = 10) -> dict:
         out[f"room_made_{key}"] = b.room_made
         out[f"same_{key}"] = bool(
             b.steps == alone.steps and b.rebuilds == alone.rebuilds and b.n_pairs == m
-            and all(getattr(b, s).tobytes() == getattr(alone, s).tobytes() for s in STATE)
+            and all(getattr(b, s).tobytes() == getattr(alone, s).tobytes() for s in (*STATE, *WALLS))
             and all(getattr(b, s)[:m].tobytes() == getattr(alone, s)[:m].tobytes()
                     for s in ("pair_i", "pair_j", "pair_ft", "pair_ov"))
             and b.piston.tobytes() == alone.piston.tobytes() and b.slabs.tobytes() == alone.slabs.tobytes()
@@ -284,6 +292,9 @@ def batch(steps: int = 10) -> dict:
         out[f"cpu_abs_{key}"] = max(float(np.max(np.abs(getattr(cpu, s) - getattr(b, s)), initial=0.0))
                                     for s in STATE)
         out[f"cpu_steps_{key}"] = cpu.steps
+        out[f"history_width_{key}"] = int(b.pair_ft.shape[1])
+        # the history columns of a sub-model after the tangential ones (none without one)
+        out[f"extra_history_max_{key}"] = float(np.max(np.abs(b.pair_ft[:m, b.dim:]), initial=0.0))
     out["seconds_alone_and_cpu"] = time.perf_counter() - t1
     return out
 

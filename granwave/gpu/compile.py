@@ -42,9 +42,9 @@ MEAN_FLOW_FUNCTIONS = ("_slab", "lateral_on", "add_slab_damping")
 #: those it calls; the per-grain routines of granwave.dem.grain_step last.
 ENGINE_FUNCTIONS = ("contact_force3", "_pair_geometry", "_spin", "_contact_velocity",
                     "_add_torque3", "wall_contact", "relative_spin", "couple_history", "store_couple_history",
-                    "wall_couple", "torque_with_couple", "add_torque_with_couple", "piston_acceleration",
-                    "pair_constants3", "drift_grain", "_pair_law", "grain_walls", "grain_damping",
-                    "grain_measures")
+                    "pair_couple", "wall_couple", "torque_with_couple", "add_torque_with_couple",
+                    "piston_acceleration", "pair_constants3", "drift_grain", "_pair_law", "grain_walls",
+                    "grain_damping", "grain_measures")
 
 
 def _rebound(py_func, namespace: dict):

@@ -12,7 +12,8 @@ One step on the device (four kernels, six with the mean-flow rule; no floating-p
 2. ``pair_forces`` (a thread per pair of the Verlet list): the pair's geometry and contact law
    (:func:`granwave.dem.kernels._pair_law`, the CPU engines' own, compiled for the device from
    its source, :mod:`granwave.gpu.compile`), history updated in place; the pair's force and the two
-   torques are stored per pair;
+   torques (with rolling resistance on, each with the pair's rolling couple added, the CPU's
+   ``pair_couple`` and ``add_torque_with_couple``) are stored per pair;
 3. ``grain_forces`` (a thread per grain): sums its pairs' forces over a per-grain incidence
    list in increasing pair order (the order in which the CPU loop adds them), then the two
    wall contacts, the background damping, the accelerations and the second half kick;
@@ -44,10 +45,8 @@ import math
 
 import numpy as np
 
-from ..contact_models import options as CO
 from ..dem import kernels as K
 from ..dem.integrator import Engine
-from ..errors import InputError
 from . import load_cuda, simulated
 from .compile import device_functions
 from . import mean_flow as MF
@@ -68,7 +67,10 @@ pair_constants3 = DF.pair_constants3
 effective_young = DF.effective_young
 effective_shear = DF.effective_shear
 law_of = DF.law_of
+law_force = DF.law_force
 couple_of = DF.couple_of
+pair_couple = DF.pair_couple
+add_torque_with_couple = DF.add_torque_with_couple
 grain_walls = DF.grain_walls
 grain_damping = DF.grain_damping
 
@@ -102,8 +104,8 @@ def kick_drift(pos, vel, acc, omega, alpha, lateral, pos0, piston1, dt, gv2, gdi
 def pair_forces(pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j, ctl, pair_ft, pair_ov,
                 fpar1, pf, tq_i, tq_j, pdelta):
     """Force on i of every listed pair (the CPU force loop's pair body; ``ctl[C_NPAIRS]`` pairs,
-    a grid-stride loop), its torques on i and j, and its overlap (-1: not touching); tangential
-    history updated in place."""
+    a grid-stride loop), its torques on i and j (with the rolling couple), and its overlap (-1:
+    not touching); its history (tangential, then rolling) updated in place."""
     fpar = fpar1[0]  # the record (granwave.dem.layout), uploaded as a one-element array
     if ctl[C_STATUS] != 0:
         return
@@ -131,14 +133,15 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
     i = pair_i[p]
     j = pair_j[p]
     r12, root_r12, meff = pair_constants3(inv_rad[i], inv_rad[j], mass[i], mass[j])
+    law = law_of(fpar)
+    e_pair = effective_young(False)
     touching, delta, ai, aj, nx, ny, nz, fx, fy, fz, hx, hy, hz = pair_law(
         pos, vel, omega, rad, lateral, pair_ft, pair_ov, p, i, j, dt, DF.dashpot_of(fpar), DF.friction_of(fpar),
-        rescale,
-        effective_young(False), effective_shear(poisson, False), r12, root_r12, meff, law_of(fpar))
+        rescale, e_pair, effective_shear(poisson, False), r12, root_r12, meff, law)
     if not touching:
         if pair_ov[p] != 0.0:  # the contact opened: its history is destroyed
             pair_ov[p] = 0.0
-            for a in range(d):
+            for a in range(pair_ft.shape[1]):  # the tangential history and a rolling one after it
                 pair_ft[p, a] = 0.0
         return
     if mu > 0.0:
@@ -151,8 +154,16 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
     pf[p, 1] = fy
     pf[p, 2] = fz
     if r > 0:
-        add_torque3(tq_i, p, ai, nx, ny, nz, fx, fy, fz)
-        add_torque3(tq_j, p, aj, nx, ny, nz, fx, fy, fz)
+        couple = couple_of(fpar)
+        if couple.code != 0:  # the rolling couple c on i, -c on j, stored with the force's torque
+            # the law's elastic normal force, as contact_force3 computed it inside _pair_law
+            fel = law_force(law, delta, root_r12, e_pair)
+            cx, cy, cz = pair_couple(omega, pair_ft, p, i, j, nx, ny, nz, r12, fel, dt, couple)
+            add_torque_with_couple(tq_i, p, ai, nx, ny, nz, fx, fy, fz, cx, cy, cz)
+            add_torque_with_couple(tq_j, p, aj, nx, ny, nz, fx, fy, fz, -cx, -cy, -cz)
+        else:
+            add_torque3(tq_i, p, ai, nx, ny, nz, fx, fy, fz)
+            add_torque3(tq_j, p, aj, nx, ny, nz, fx, fy, fz)
     pdelta[p] = delta
 
 
@@ -345,13 +356,6 @@ class GpuEngine(Engine):
             g["slab_lo"] = to(np.full(ns, n, np.int64))
             g["slab_hi"] = to(np.full(ns, -1, np.int64))
 
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        # the device's pair kernel has no couple sub-model (its wall routine, the CPU's own, would)
-        refused = CO.cpu_only(self.contact)
-        if refused:
-            raise InputError(refused)
-
     def _cpu_only(self) -> None:
         """Nothing to refuse: the device runs every rule of the CPU engine (the CPU engine's
         constructor calls this where a rule might be missing on another engine)."""
@@ -388,10 +392,10 @@ class GpuEngine(Engine):
     def _rebuild_work(self, cap: int) -> dict:
         """The device rebuild's work arrays for ``cap`` pairs (the cell list's capacity from the
         piston's height now, as at every upload)."""
-        n, d = self.position.shape
+        n = self.position.shape[0]
         ncell = NB.cell_capacity(self.lateral, self.piston.h, self.fpar.r_max, self.fpar.skin_max)
         z = cuda.device_array
-        return dict(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, d)), nov=z(cap),
+        return dict(ni=z(cap, np.int64), nj=z(cap, np.int64), nft=z((cap, self.pair_ft.shape[1])), nov=z(cap),
                     ncode=z(2 * cap, np.int64), nbr=z(2 * cap, np.int64), cell=z(n, np.int64),
                     members=z(n, np.int64), ccount=cuda.to_device(np.zeros((ncell, 2), np.int64)),
                     cstart=z((ncell + 1, 2), np.int64), gcnt=z((n, 2), np.int64),

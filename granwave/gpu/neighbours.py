@@ -262,7 +262,7 @@ def rb_merge(ctl, gptr, nbr, row, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft
 
 @cuda.jit(device=True)
 def _merge(i, gptr, nbr, row, pair_j, pair_ft, pair_ov, new_i, new_j, new_ft, new_ov, new_code):
-    d = pair_ft.shape[1]
+    d = pair_ft.shape[1]  # every history column: the tangential one, then a rolling one
     base = gptr[i, 1]
     cnt = gptr[i + 1, 1] - base
     up = gptr[i + 1, 0] - gptr[i, 0]
