@@ -43,6 +43,16 @@ def test_packing_round_trip(tmp_path):
         assert f.attrs["machine"].startswith(platform.machine()) and "numpy SIMD" in f.attrs["machine"]
 
 
+def test_a_packing_its_reader_would_refuse_is_not_written(tmp_path):
+    """An overlap above half the smaller radius (a pressure too high for so few grains) fails the
+    reader's checks: the writer refuses it in one line and leaves no file."""
+    p = tiny_packing()
+    p.contacts.overlap[0] = 0.3
+    with pytest.raises(InputError, match=r"overlaps by 0\.3, more than 0\.5 of the radius .*not written"):
+        files.write_packing(tmp_path / "p.h5", p)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_refuses_foreign_schema_and_major_version(tmp_path):
     files.write_packing(tmp_path / "p.h5", tiny_packing())
     with pytest.raises(InputError, match="expected a granwave.signal file"):
@@ -59,7 +69,9 @@ def test_refuses_foreign_schema_and_major_version(tmp_path):
 def test_nan_in_file_is_refused(tmp_path):
     p = tiny_packing()
     p.position[0, 0] = np.nan
-    files.write_packing(tmp_path / "p.h5", p)
+    with pytest.raises(InputError, match="NaN"):
+        files.write_packing(tmp_path / "p.h5", p)
+    files.write_packing(tmp_path / "p.h5", p, check=False)
     with pytest.raises(InputError, match="NaN"):
         files.read_packing(tmp_path / "p.h5")
 

@@ -192,7 +192,7 @@ def test_bad_input_is_refused(tmp_path):
     # NaN in the packing
     bad = make_lattice(4, 4, 1e-4)
     bad.contacts.force_normal[3] = np.nan
-    files.write_packing(tmp_path / "nan.h5", bad)
+    files.write_packing(tmp_path / "nan.h5", bad, check=False)  # a damaged file, as the reader meets it
     _assert_refused(["linearize", tmp_path / "nan.h5"], out, "NaN")
     # unconverged packing: refused, accepted with --force
     unc = make_lattice(4, 4, 1e-4)

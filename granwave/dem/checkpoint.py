@@ -138,7 +138,7 @@ class Checkpoint:
         """Write the state of ``run`` at a chunk boundary: a temporary file beside ``path``,
         then renamed over it at once (not held back with a command's outputs: it is not one)."""
         from .. import __version__
-        from ..io.files import _temporary, _write_failure
+        from ..io.atomic import _temporary, _write_failure
 
         rules = {name: (None if getattr(run, name) is None else getattr(run, name).state())
                  for name in ("settling", "end_game")}

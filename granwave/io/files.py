@@ -266,29 +266,30 @@ def _nbytes(*arrays) -> int:
 
 
 # ---------------------------------------------------------------- packing
-def write_packing(path, packing: Packing) -> None:
+def write_packing(path, packing: Packing, *, check: bool = True) -> None:
+    """Write a packing; one that its reader would refuse (:func:`granwave.io.validate.packing`,
+    e.g. an overlap above half a radius) is refused instead (InputError), and no file is written.
+    ``check=False`` writes it as it is (tests of the readers)."""
     c = packing.contacts
-    size = _nbytes(packing.position, packing.radius, packing.mass, packing.inertia, c.i, c.j,
-                   c.normal, c.overlap, c.force_normal, c.force_tangential, c.stiffness_normal,
-                   c.stiffness_tangential, *(getattr(c, h) for h in CO.history_datasets()))
+    datasets = {"grains/position": packing.position, "grains/radius": packing.radius,
+                "grains/mass": packing.mass, "grains/inertia": packing.inertia, "box/size": packing.box,
+                "contacts/i": c.i.astype(np.int64), "contacts/j": c.j.astype(np.int64),
+                "contacts/normal": c.normal, "contacts/overlap": c.overlap,
+                "contacts/force_normal": c.force_normal, "contacts/force_tangential": c.force_tangential,
+                "contacts/stiffness_normal": c.stiffness_normal,
+                "contacts/stiffness_tangential": c.stiffness_tangential}
+    for h in CO.history_datasets():  # a contact sub-model's history, where it keeps one
+        if getattr(c, h) is not None:
+            datasets[f"contacts/{h}"] = getattr(c, h)
     attrs = {**packing.attrs, "dim": packing.dim, "packing_digest": packing_digest(packing)}
-    with atomic_h5(path, S.PACKING, attrs, nbytes=size) as f:
-        put(f, S.PACKING, "grains/position", packing.position)
-        put(f, S.PACKING, "grains/radius", packing.radius)
-        put(f, S.PACKING, "grains/mass", packing.mass)
-        put(f, S.PACKING, "grains/inertia", packing.inertia)
-        put(f, S.PACKING, "box/size", packing.box)
-        put(f, S.PACKING, "contacts/i", c.i.astype(np.int64))
-        put(f, S.PACKING, "contacts/j", c.j.astype(np.int64))
-        put(f, S.PACKING, "contacts/normal", c.normal)
-        put(f, S.PACKING, "contacts/overlap", c.overlap)
-        put(f, S.PACKING, "contacts/force_normal", c.force_normal)
-        put(f, S.PACKING, "contacts/force_tangential", c.force_tangential)
-        put(f, S.PACKING, "contacts/stiffness_normal", c.stiffness_normal)
-        put(f, S.PACKING, "contacts/stiffness_tangential", c.stiffness_tangential)
-        for h in CO.history_datasets():  # a contact sub-model's history, where it keeps one
-            if getattr(c, h) is not None:
-                put(f, S.PACKING, f"contacts/{h}", getattr(c, h))
+    try:
+        if check:
+            V.packing(path, {k: np.asarray(v) for k, v in datasets.items()}, attrs)
+    except InputError as exc:
+        raise InputError(f"{exc} (not written: it would not read back)") from None
+    with atomic_h5(path, S.PACKING, attrs, nbytes=_nbytes(*datasets.values())) as f:
+        for name, data in datasets.items():
+            put(f, S.PACKING, name, data)
 
 
 def packing_digest(packing: Packing) -> str:
