@@ -47,7 +47,8 @@ def _at_cap(engine, values: dict) -> int:
         delta = engine.pair_ov[p]
         if delta > 0.0:
             ri, rj = engine.radius[engine.pair_i[p]], engine.radius[engine.pair_j[p]]
-            fcrit = values["rolling_friction"] * CD.law_force(law, delta, math.sqrt(ri * rj / (ri + rj)), e_pair)
+            r12 = C.effective_radius(1.0 / ri, 1.0 / rj)
+            fcrit = values["rolling_friction"] * CD.law_force(law, delta, math.sqrt(r12), e_pair)
             spring = values["rolling_stiffness"] * float(np.linalg.norm(engine.pair_ft[p, d:]))
             count += abs(spring - fcrit) <= 1e-9 * fcrit
     return count
