@@ -189,7 +189,7 @@ def dem_rates(grains: int, gpu_steps: int, cpu_steps: int, tiny: bool) -> dict:
         out[f"{name}_grain_steps_per_s"] = len(rad) * steps / elapsed
         out["pairs"] = eng.n_pairs
         out["rebuilds_" + name] = eng.rebuilds
-    out["bytes_per_step"] = G.bytes_per_step(len(rad), out["pairs"], 2, 1)
+    out["bytes_per_step"] = G.bytes_per_step(len(rad), out["pairs"], 2, 1, eng.pair_ft.shape[1])
     return out
 
 
@@ -413,7 +413,7 @@ def dem_with_rebuilds(grains: int, gpu_steps: int, plain_steps: int, cpu_steps: 
     out["cpu"] = dict(steps=cpu_steps, seconds=el, grain_steps_per_s=len(rad) * cpu_steps / el,
                       rebuilds=eng.rebuilds - r0)
     out["speedup_vs_one_core"] = out["gpu"]["grain_steps_per_s"] / out["cpu"]["grain_steps_per_s"]
-    out["bytes_per_step"] = G.bytes_per_step(len(rad), out["gpu"]["pairs"], 2, 1)
+    out["bytes_per_step"] = G.bytes_per_step(len(rad), out["gpu"]["pairs"], 2, 1, eng.pair_ft.shape[1])
     return out
 
 

@@ -13,11 +13,8 @@ grain runs (peak resident size minus the interpreter's) and rounded up:
 stage                    peak memory
 =======================  =====================================================
 prepare-packing          2300 B per grain (2D), 8800 B per grain (3D): whole
-                         preparations of 1e5 grains on 2 threads (peaks 317 MB
-                         2D, 907 MB 3D on 2026-11-26, less the 110 MB of an
-                         interpreter with granwave imported: 2070 B and 7970 B,
-                         plus about 10 %; earlier 280 / 414 MB); dense tiled
-                         states of 36000 / 30000 grains gave 911 / 1929 B
+                         preparations of 1e5 grains on 2 threads, less the
+                         interpreter with granwave imported, plus about 10 %
 chain                    200 B per ball
 lattice                  600 B per ball
 linearize                50 B per stiffness-block entry: (2 p)^2 per contact,
