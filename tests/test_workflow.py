@@ -128,6 +128,14 @@ def test_lint_is_clean(tmp_path):
     assert "Congratulations, your workflow is in a good condition!" in run.stdout + run.stderr
 
 
+def test_unlock_needs_no_cores_with_tall_columns(tmp_path):
+    """`snakemake --unlock` (docs/cluster.md "Resuming", after kill -9) parses the workflow without
+    --cores: a config with tall columns (threads from the cores) must still parse."""
+    run = snakemake("--unlock", "--configfile", str(ROOT / "config" / "continuum.yaml"), cwd=tmp_path)
+    assert run.returncode == 0, (run.stdout + run.stderr)[-3000:]
+    assert "Unlocked working directory" in run.stdout + run.stderr
+
+
 @pytest.mark.parametrize("config", ["config.yaml"])
 def test_slurm_profile_dry_run_resolves_resources(tmp_path, config):
     pytest.importorskip("snakemake_executor_plugin_slurm")

@@ -5,6 +5,7 @@ import os
 import sys
 from types import SimpleNamespace
 
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
 
 min_version("8.0")
@@ -211,8 +212,17 @@ def preparation_threads(grains):
     GRAINS_PER_THREAD grains, at most the cores the workflow was given (snakemake's --cores)."""
     if grains < TALL_GRAINS:
         return 1
-    cores = workflow.cores if isinstance(workflow.cores, int) and workflow.cores > 0 else math.inf
-    return int(max(1, min(cores, grains // GRAINS_PER_THREAD)))
+    return int(max(1, min(given_cores(), grains // GRAINS_PER_THREAD)))
+
+
+def given_cores():
+    """Snakemake's --cores, or inf where none was given: `snakemake --unlock` and the like parse
+    the workflow without it (and run no job), and snakemake raises on reading workflow.cores then."""
+    try:
+        cores = workflow.cores
+    except WorkflowError:
+        return math.inf
+    return cores if isinstance(cores, int) and cores > 0 else math.inf
 
 
 def batch_threads(samples):
