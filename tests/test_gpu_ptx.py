@@ -135,6 +135,7 @@ def test_gpu_dem_kernels_compile_to_ptx(dim, rot):
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx
+        assert "fma.rn" not in ptx, kernel.py_func.__name__  # products and sums rounded as on the CPU (gpu.load_cuda)
         if kernel is G.pair_forces:
             assert _has_couple(ptx)
 
@@ -154,6 +155,7 @@ def test_gpu_linear_kernels_compile_to_ptx():
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx
+        assert "fma.rn" not in ptx, kernel.py_func.__name__  # products and sums rounded as on the CPU (gpu.load_cuda)
 
 
 @pytest.mark.parametrize("dim,rot", [(2, 1), (2, 0), (3, 3)])
@@ -205,5 +207,6 @@ def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx
+        assert "fma.rn" not in ptx, kernel.py_func.__name__  # products and sums rounded as on the CPU (gpu.load_cuda)
         if kernel is B.pair_forces_batch:
             assert _has_couple(ptx)

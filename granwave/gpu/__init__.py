@@ -49,7 +49,35 @@ def load_cuda():
         numpy.row_stack = numpy.vstack
     from numba import cuda
 
+    if not simulated():
+        _compile_without_contraction()
     return cuda
+
+
+def _compile_without_contraction() -> None:
+    """Make numba's CUDA compiler round ``a * b + c`` as the CPU does: a product, then a sum.
+
+    libNVVM fuses such pairs into one fused multiply-add (``-fma=1``, its default, also without
+    fastmath), which rounds once instead of twice: a kernel then differs from the CPU's in the
+    last bits, and a DEM run, being chaotic, ends in other step counts and other packings.
+    numba-cuda 0.30's ``cuda.jit`` has no option for it (NVIDIA/numba-cuda issue 118), so
+    its ``nvvm.compile_ir`` is wrapped to pass ``fma=False`` unless the caller gives ``fma``
+    or ``fastmath`` (whose own ``fma=True`` then wins). The wrapper applies to every kernel
+    compiled in the process; granwave's cached kernels carry its source's stamp
+    (granwave.kernel_cache), so none compiled before this rule is loaded.
+    """
+    from numba.cuda.cudadrv import nvvm
+
+    compile_ir = nvvm.compile_ir
+    if getattr(compile_ir, "granwave_without_fma", False):
+        return
+
+    def compile_ir_without_fma(llvmir, **options):
+        options.setdefault("fma", False)
+        return compile_ir(llvmir, **options)
+
+    compile_ir_without_fma.granwave_without_fma = True
+    nvvm.compile_ir = compile_ir_without_fma
 
 
 def require_gpu() -> None:
