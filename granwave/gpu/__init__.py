@@ -36,12 +36,13 @@ def simulated() -> bool:
 
 
 def load_cuda():
-    """numba's CUDA module, loaded after putting back ``numpy.row_stack`` where numpy lacks it.
+    """numba's CUDA module, loaded after putting back ``numpy.row_stack`` where numpy lacks it,
+    and set to compile without fused multiply-adds (:func:`_compile_without_contraction`).
 
     numba-cuda 0.30 registers ``np.row_stack`` when it first compiles a kernel, and numpy 2.5
     removed that name (an alias of ``np.vstack``); without it every kernel fails to compile on
-    a machine whose numpy is 2.5 (docs/gpu.md "On a real H100"). The alias is only added where
-    missing, so other numpy versions are untouched.
+    a machine whose numpy is 2.5 (found on a real H100: benchmarks/results/gpu_history.md). The
+    alias is only added where missing, so other numpy versions are untouched.
     """
     import numpy
 
