@@ -51,7 +51,7 @@ def test_gpu_run_interrupted_and_resumed_gives_the_uninterrupted_file(gpu, case)
     the seeds advanced together): killed after some checkpoints (exit 130, no packing, the
     checkpoints left, marked 'gpu'), refused in one line by --device cpu, then resumed: it says
     where each seed resumed, writes the bytes and attributes of an uninterrupted GPU run and
-    removes the checkpoints. All four cases take about 25 minutes in the simulator on a loaded
+    removes the checkpoints. All four cases took 21 minutes in the simulator on a loaded
     2-core machine (one process)."""
     r = gpu[case]
     assert r["stopped_exit"] == 130 and r["stopped_no_output"] and r["checkpoints_left"]
