@@ -125,11 +125,12 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     parameter object as JSON in ``prepare_params``). ``device``: "cpu" (default)
     or "gpu" (docs/gpu.md; recorded as the attribute ``device`` when "gpu").
 
-    ``checkpoint``: a file path (CPU only). The run's state is written there atomically
+    ``checkpoint``: a file path. The run's state is written there atomically
     every ``checkpoint_every`` seconds (0: at every chunk of steps); when the file exists at
     the start and belongs to these parameters (seed included) and this granwave source, the
     run goes on from it, and the packing is the same, bit for bit, as an uninterrupted
-    run's; another run's checkpoint is refused (InputError). The file is removed once the
+    run's; another run's checkpoint, or one written on the other device, is refused
+    (InputError). The file is removed once the
     packing is returned, unless ``keep_checkpoint`` (the command line removes it after
     writing the packing). docs/dem.md "Checkpoints".
     """
@@ -147,9 +148,7 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     if checkpoint is not None:
         from .dem.checkpoint import Checkpoint
 
-        if kernels.device != "cpu":
-            raise InputError("checkpoints run on the CPU only for now (use --device cpu)")
-        saved = Checkpoint(checkpoint, p, checkpoint_every)
+        saved = Checkpoint(checkpoint, p, checkpoint_every, device=kernels.device)
         saved.check()  # refuse another run's checkpoint before any work
     packing = run(p, progress=progress, engine=kernels.engine, checkpoint=saved)
     if saved is not None and not keep_checkpoint:
@@ -161,7 +160,8 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
 
 
 def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress: Callable[[str], None] | None = None,
-                     threads: int | None = None, device: str | None = None, **fields) -> list[Packing]:
+                     threads: int | None = None, device: str | None = None, checkpoint: str | None = None,
+                     checkpoint_every: float = 600.0, keep_checkpoint: bool = False, **fields) -> list[Packing]:
     """One packing per seed of ``seeds`` (the parameters otherwise the same; ``params.seed`` is
     not used), in the order of ``seeds``: each the packing :func:`prepare_packing` makes for that
     seed on that device, with the same attributes, bit for bit.
@@ -170,6 +170,11 @@ def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress:
     "Ensembles per launch"); ``"cpu"`` (default) one after another. ``progress`` lines start
     with ``seed N:``. When a seed does not converge, the first such error (in the order of
     ``seeds``, its message starting with ``seed N:``) is raised once every seed has ended.
+
+    ``checkpoint``: a file path with ``{seed}`` (one checkpoint per seed, as
+    :func:`prepare_packing`'s): each seed goes on from its own file, to the same bits. The
+    files are removed once every packing is returned (none when a seed fails, so that a second
+    call goes on from them), unless ``keep_checkpoint``.
     """
     p = _params(PrepareParams, params, fields)
     seeds = [int(s) for s in seeds]
@@ -178,12 +183,34 @@ def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress:
     for s in seeds:
         dataclasses.replace(p, seed=s)  # validated (the largest seed) before any work
     _progress(progress)
+    if checkpoint is not None and "{seed}" not in str(checkpoint):
+        raise InputError(f"checkpoint {str(checkpoint)!r} must contain {{seed}} (one checkpoint per seed)")
+    paths = {s: None if checkpoint is None else str(checkpoint).replace("{seed}", str(s)) for s in seeds}
     if device in (None, "cpu"):
+        from .dem.checkpoint import Checkpoint
+
+        for s in seeds:  # every seed's checkpoint refused or accepted before any work
+            if paths[s] is not None:
+                Checkpoint(paths[s], dataclasses.replace(p, seed=s), checkpoint_every).check()
+
         def one(s):
             tell = None if progress is None else (lambda line: progress(f"seed {s}: {line}"))
-            return prepare_packing(dataclasses.replace(p, seed=s), progress=tell, threads=threads, device=device)
+            return prepare_packing(dataclasses.replace(p, seed=s), progress=tell, threads=threads, device=device,
+                                   checkpoint=paths[s], checkpoint_every=checkpoint_every, keep_checkpoint=True)
 
-        return [one(s) for s in seeds]
+        packings = [one(s) for s in seeds]
+    else:
+        packings = _prepare_on_gpu(p, seeds, paths, checkpoint_every, progress, threads, device)
+    if checkpoint is not None and not keep_checkpoint:
+        _remove_checkpoints(p, paths)
+    return packings
+
+
+def _prepare_on_gpu(p: PrepareParams, seeds: list, paths: dict, every: float, progress, threads,
+                    device) -> list[Packing]:
+    """:func:`prepare_packings` on the GPU: the seeds advanced together (granwave.gpu.batch), each
+    from its checkpoint ``paths[seed]`` (None: none)."""
+    from .dem.checkpoint import Checkpoint
     from .gpu import backend
 
     refused = CO.cpu_only(CO.values_of(p))
@@ -191,13 +218,26 @@ def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress:
         raise InputError(refused)
     kernels = backend(device)  # a missing GPU fails here, before any work
     _threads(threads)
+    saved = [None if paths[s] is None else Checkpoint(paths[s], dataclasses.replace(p, seed=s), every,
+                                                      device=kernels.device) for s in seeds]
+    for c in saved:
+        if c is not None:
+            c.check()  # refuse another run's checkpoint before any work
     from .gpu.batch import prepare_packings as together
 
-    packings = together(p, seeds, progress=progress)
+    packings = together(p, seeds, progress=progress, checkpoints=saved)
     for s, packing in zip(seeds, packings):
         dataclasses.replace(p, seed=s).record(packing.attrs)
         packing.attrs["device"] = kernels.device
     return packings
+
+
+def _remove_checkpoints(p: PrepareParams, paths: dict) -> None:
+    """Delete the seeds' checkpoints (every packing is returned)."""
+    from .dem.checkpoint import Checkpoint
+
+    for s, path in paths.items():
+        Checkpoint(path, dataclasses.replace(p, seed=s)).remove()
 
 
 def lattice(params: LatticeParams | None = None, /, **fields) -> Packing:

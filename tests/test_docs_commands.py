@@ -65,6 +65,10 @@ SKIP = {
     "granwave prepare-packing --grains 600 --pressure 1e-4 --seeds 0-9 --device gpu -o 'packing_{seed}.h5'":
         "needs an NVIDIA GPU (tests/test_gpu_batch.py runs --seeds on the CPU and the batch in the "
         "CUDA simulator)",
+    "granwave prepare-packing --grains 600 --device gpu --checkpoint run.ckpt.h5 -o run.h5":
+        "needs an NVIDIA GPU (tests/test_gpu_checkpoint.py runs it in the CUDA simulator)",
+    "granwave prepare-packing --grains 600 --seeds 0-9 --device gpu --checkpoint 'ck_{seed}.h5' -o 'p_{seed}.h5'":
+        "needs an NVIDIA GPU (tests/test_gpu_checkpoint.py runs it in the CUDA simulator)",
 }
 
 COMMAND = re.compile(r"^\s*(?:\$\s+)?(granwave\s.*)$")

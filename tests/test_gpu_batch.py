@@ -89,7 +89,8 @@ def _run(tmp_path, *args):
     (["--seeds", "0,1,1", "-o", "p_{seed}.h5"], "listed twice"),
     (["--seeds", "0-2", "-o", "p.h5"], "must contain {seed}"),
     (["--seeds", "0-1", "--seed", "4", "-o", "p_{seed}.h5"], "give one of them"),
-    (["--seeds", "0-1", "--checkpoint", "c.ckpt", "-o", "p_{seed}.h5"], "--checkpoint runs one seed"),
+    (["--seeds", "0-1", "--checkpoint", "c.ckpt", "-o", "p_{seed}.h5"], "one checkpoint per seed"),
+    (["--seeds", "0-1", "--checkpoint", "p_{seed}.h5", "-o", "p_{seed}.h5"], "is the output file"),
 ])
 def test_prepare_seeds_bad_input_is_one_line_exit_2_no_files(tmp_path, args, message):
     r = _run(tmp_path, "--grains", 10, *args)
@@ -157,6 +158,46 @@ def test_workflow_device_gpu_sends_each_heights_seeds_to_one_gpu_job(tmp_path):
     cpu = _snakemake(tmp_path, "-n", "--quiet", "rules")
     assert cpu.returncode == 0
     assert "gpu_packings_" not in cpu.stdout + cpu.stderr
+
+
+TALL = """\
+name: tall
+results: results
+ic: A
+samples: 800
+t_max_factor: 2.5
+edge_heights: [8, 200]
+disordered:
+  tall2d:
+    friction: 0.5
+    pressures: [1.0e-4]
+    heights: [8, 200]
+    seeds: 2
+damping:
+  enabled: false
+"""
+
+
+def test_workflow_device_gpu_checkpoints_tall_heights_where_the_cpu_does(tmp_path):
+    """device: gpu, a tall height (4800 grains >= TALL_GRAINS): its GPU job makes the checkpoints'
+    folder and passes one checkpoint per seed, in the folder and under the names of the CPU's
+    (common.smk's checkpoint_path: results/checkpoints/<scene>/p<p>/<size>/s<seed>.h5); the short
+    height's job passes none."""
+    import re
+
+    (tmp_path / "tall.yaml").write_text(TALL)
+    r = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
+                        "--configfile", "tall.yaml", "--config", "device=gpu", "-n", "-p"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    out = r.stdout + r.stderr
+    assert r.returncode == 0, out[-3000:]
+    commands = sorted(set(re.findall(r"(?:mkdir -p \S+ && )?granwave prepare-packing .*", out)))
+    assert len(commands) == 2, commands
+    short, tall = sorted(commands, key=lambda c: "--grains 4800" in c)
+    assert "--grains 192 " in short and "--checkpoint" not in short and not short.startswith("mkdir")
+    folder = "results/checkpoints/tall2d/p0.0001/h200"
+    assert tall.startswith(f"mkdir -p {folder} && granwave prepare-packing ")
+    assert "--seeds 0,1 --device gpu" in tall and f"--checkpoint '{folder}/s{{seed}}.h5'" in tall
 
 
 def test_batch_pipeline_reads_a_given_packing(tmp_path):

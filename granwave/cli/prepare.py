@@ -21,8 +21,9 @@ device_option = click.option(
 checkpoint_option = click.option(
     "--checkpoint", type=click.Path(dir_okay=False), default=None,
     help="Write the run's state to this file every --checkpoint-every seconds; if it exists at the "
-         "start (same parameters and seed), go on from it. The packing is the same, bit for bit, as "
-         "an uninterrupted run's; the file is removed once the packing is written. CPU only.")
+         "start (same parameters, seed and --device), go on from it. The packing is the same, bit for "
+         "bit, as an uninterrupted run's; the file is removed once the packing is written. With "
+         "--seeds a pattern with {seed}: one checkpoint per seed (e.g. 'ck_{seed}.h5').")
 checkpoint_every_option = click.option(
     "--checkpoint-every", type=click.FloatRange(min=0.0), default=600.0, show_default=True,
     metavar="SECONDS", help="Seconds between two checkpoints (0: after every chunk of steps).")
@@ -75,24 +76,21 @@ def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds
     its attributes.
     """
     from .. import api
-    from ..io.files import check_writable, same_file_as, write_packing
+    from ..io.files import check_writable, write_packing
 
     params = params_from(PrepareParams, options)
     if seeds is not None:
-        _prepare_seeds(params, parse_seeds(seeds), output, threads, device, checkpoint, quiet)
+        _prepare_seeds(params, parse_seeds(seeds), output, threads, device, checkpoint, checkpoint_every, quiet)
         return
     check_writable(output)
-    if checkpoint is not None and (os.path.abspath(checkpoint) == os.path.abspath(output)
-                                   or same_file_as(checkpoint, [output])):
-        raise InputError(f"--checkpoint {checkpoint} is the output file; choose another name")
+    if checkpoint is not None:
+        _not_an_output(checkpoint, [output])
     packing = api.prepare_packing(params, progress=progress_printer(not quiet), threads=threads,
                                   device=device, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
                                   keep_checkpoint=True)
     write_packing(output, packing)
     if checkpoint is not None:
-        from ..dem.checkpoint import Checkpoint
-
-        Checkpoint(checkpoint, params).remove()  # the packing is written
+        _remove_when_written(checkpoint, params)
     if not quiet:
         a = packing.attrs
         click.echo(f"wrote {output}: {packing.n_grains} grains, {len(packing.contacts)} contacts, "
@@ -100,24 +98,52 @@ def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds
                    err=True)
 
 
-def _prepare_seeds(params, seeds, pattern, threads, device, checkpoint, quiet) -> None:
-    """``--seeds``: every output name checked before any work, then one file per seed."""
+def _not_an_output(checkpoint, outputs) -> None:
+    """Refuse a checkpoint that is one of the outputs (one line)."""
+    from ..io.files import same_file_as
+
+    if (any(os.path.abspath(checkpoint) == os.path.abspath(out) for out in outputs)
+            or same_file_as(checkpoint, outputs)):
+        raise InputError(f"--checkpoint {checkpoint} is the output file; choose another name")
+
+
+def _remove_when_written(checkpoint, params) -> None:
+    """Delete the checkpoint once the command's outputs are all in place (never when one of them
+    could not be written: a second run goes on from it)."""
+    from ..dem.checkpoint import Checkpoint
+    from ..io.atomic import after_outputs
+
+    after_outputs(Checkpoint(checkpoint, params).remove)
+
+
+def _prepare_seeds(params, seeds, pattern, threads, device, checkpoint, checkpoint_every, quiet) -> None:
+    """``--seeds``: every output name checked before any work, then one file per seed; with
+    ``--checkpoint`` a pattern with {seed}, each seed's checkpoint removed only once every file
+    is written (a seed that fails writes no file and leaves every checkpoint)."""
+    import dataclasses
+
     from .. import api
     from ..io.files import check_writable, write_packing
 
     if click.get_current_context().get_parameter_source("seed").name != "DEFAULT":
         raise InputError("--seed and --seeds: give one of them")
-    if checkpoint is not None:
-        raise InputError("--checkpoint runs one seed; use --seed, or leave --checkpoint out")
     if "{seed}" not in pattern:
         raise InputError(f"--seeds: the output {pattern!r} must contain {{seed}} (one file per seed)")
+    if checkpoint is not None and "{seed}" not in checkpoint:
+        raise InputError(f"--seeds: the checkpoint {checkpoint!r} must contain {{seed}} (one checkpoint per seed)")
     outputs = [pattern.replace("{seed}", str(s)) for s in seeds]
     for out in outputs:
         check_writable(out)
+    checkpoints = [] if checkpoint is None else [checkpoint.replace("{seed}", str(s)) for s in seeds]
+    for path in checkpoints:
+        _not_an_output(path, outputs)
     packings = api.prepare_packings(params, seeds=seeds, progress=progress_printer(not quiet), threads=threads,
-                                    device=device)
-    for out, packing in zip(outputs, packings):
+                                    device=device, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+                                    keep_checkpoint=True)
+    for k, (out, packing) in enumerate(zip(outputs, packings)):
         write_packing(out, packing)
+        if checkpoints:
+            _remove_when_written(checkpoints[k], dataclasses.replace(params, seed=seeds[k]))
         if not quiet:
             a = packing.attrs
             click.echo(f"wrote {out}: seed {a['seed']}, {packing.n_grains} grains, {len(packing.contacts)} "

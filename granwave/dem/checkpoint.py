@@ -8,12 +8,18 @@ time step and step counters, the neighbour lists of the last rebuild), the state
 settling and end-game rules, and the run's convergence history (for its ETA and its hint
 on failure). Nothing else is needed: the grains and the gas come again from the seed, and
 the chunking, the thread count and the moment a checkpoint is written change no bit of
-the run (docs/dem.md "Checkpoints").
+the run (docs/dem.md "Checkpoints"). The GPU engine's state is the same host arrays: each of
+its runs uploads them and downloads them at the end (granwave.gpu.dem), and what it keeps on
+the device (the device rebuild's work arrays, the control words) is made again from them at
+the next upload; an ensemble's member likewise (granwave.gpu.batch).
 
 The file is HDF5, internal to granwave (docs/formats.md): written to a temporary file
 beside it and renamed (a run killed while writing leaves the previous checkpoint whole),
 keyed by a digest of the preparation's parameters (seed included) and one of granwave's
-source: a checkpoint of other parameters or of other code is refused, never resumed.
+source, and marked with the device that ran it: a checkpoint of other parameters, of other
+code or of the other device is refused, never resumed (the GPU reduces the piston force in
+another order than the CPU, so the two devices' runs part in the last bits: a run resumed on
+the other device would be the packing of neither).
 """
 
 from __future__ import annotations
@@ -53,19 +59,20 @@ def source_digest() -> str:
 
 
 class Checkpoint:
-    """The checkpoint file ``path`` of one preparation (parameters ``params``), written at most
-    every ``every`` seconds (0: at every chunk boundary).
+    """The checkpoint file ``path`` of one preparation (parameters ``params``) run on ``device``
+    ("cpu" or "gpu"), written at most every ``every`` seconds (0: at every chunk boundary).
 
     :meth:`resume` restores a run from the file if it exists; :meth:`due` / :meth:`save` write
     it; :meth:`remove` deletes it once the packing is safe.
     """
 
-    def __init__(self, path, params, every: float = EVERY):
+    def __init__(self, path, params, every: float = EVERY, device: str = "cpu"):
         if not (isinstance(every, (int, float)) and every >= 0 and np.isfinite(every)):
             raise InputError(f"checkpoint interval must be a number of seconds >= 0, got {every!r}")
         self.path = Path(path)
         self.every = float(every)
         self.params = params
+        self.device = str(device)
         self.key = params_digest(params)
         self.saves = 0  # checkpoints written by this process
         self._last = time.monotonic()
@@ -85,6 +92,11 @@ class Checkpoint:
             if a["params_digest"] != self.key:
                 raise InputError(f"checkpoint {self.path} belongs to another preparation (its parameters: "
                                  f"{a['prepare_params']}); remove it or choose another --checkpoint")
+            written_on = str(a.get("device", "cpu"))
+            if written_on != self.device:
+                raise InputError(f"checkpoint {self.path} was written on the {written_on.upper()}: resume it with "
+                                 f"--device {written_on} (the devices' runs part in the last bits), or remove it "
+                                 "to start over")
             if a["source_digest"] != source_digest():
                 raise InputError(f"checkpoint {self.path} was written by other granwave code (version "
                                  f"{a['granwave_version']}), which may step to other bits; remove it to "
@@ -145,7 +157,7 @@ class Checkpoint:
         tmp = _temporary(self.path)
         try:
             with h5py.File(tmp, "w") as f:
-                f.attrs.update(kind=KIND, version=VERSION, params_digest=self.key,
+                f.attrs.update(kind=KIND, version=VERSION, params_digest=self.key, device=self.device,
                                source_digest=source_digest(), granwave_version=__version__,
                                prepare_params=json.dumps(self.params.as_dict(), sort_keys=True),
                                step=run.engine.steps, written=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),

@@ -529,12 +529,15 @@ class Ensemble:
 
 
 
-def prepare_packings(params, seeds, progress=None, ensemble: Ensemble | None = None) -> list:
+def prepare_packings(params, seeds, progress=None, ensemble: Ensemble | None = None, checkpoints=None) -> list:
     """One packing per seed of ``seeds`` (``params`` with each seed), prepared together on the GPU
     (:class:`Ensemble`); each the packing :func:`granwave.dem.protocol.prepare_packing` makes for
     that seed with :class:`granwave.gpu.dem.GpuEngine`. ``progress``: one line of text, prefixed
     by the seed. The first failure (in the order of ``seeds``) is raised once all have ended.
-    ``ensemble``: the :class:`Ensemble` to use (a new one by default; its counters are the run's)."""
+    ``ensemble``: the :class:`Ensemble` to use (a new one by default; its counters are the run's).
+    ``checkpoints``: None, or one :class:`granwave.dem.checkpoint.Checkpoint` (or None) per seed:
+    each seed resumes from its own and writes it in its own protocol's thread (a member's state is
+    whole in its host arrays between two of its runs, as the single engine's)."""
     import dataclasses
 
     from ..dem.protocol import prepare_packing
@@ -542,11 +545,14 @@ def prepare_packings(params, seeds, progress=None, ensemble: Ensemble | None = N
     ensemble = Ensemble() if ensemble is None else ensemble
     engine = ensemble.member_class()
 
-    def job(seed):
-        tell = None if progress is None else (lambda line: progress(f"seed {seed}: {line}"))
-        return lambda: prepare_packing(dataclasses.replace(params, seed=seed), progress=tell, engine=engine)
+    checkpoints = [None] * len(seeds) if checkpoints is None else list(checkpoints)
 
-    outcome = ensemble.run([job(s) for s in seeds])
+    def job(seed, saved):
+        tell = None if progress is None else (lambda line: progress(f"seed {seed}: {line}"))
+        return lambda: prepare_packing(dataclasses.replace(params, seed=seed), progress=tell, engine=engine,
+                                       checkpoint=saved)
+
+    outcome = ensemble.run([job(s, c) for s, c in zip(seeds, checkpoints)])
     for seed, (ok, value) in zip(seeds, outcome):
         if not ok:
             if hasattr(value, "args") and value.args and isinstance(value.args[0], str):

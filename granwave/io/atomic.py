@@ -258,6 +258,18 @@ def _write_failure(path: Path, exc: OSError) -> OutputError:
 #: Renames held back until the running command has written all its outputs
 #: (:func:`outputs_together`): (temporary, target, replace_input); None: rename at once.
 _PENDING: list | None = None
+#: What runs once those outputs are all in place (:func:`after_outputs`); None: at once.
+_AFTER: list | None = None
+
+
+def after_outputs(callback) -> None:
+    """Call ``callback()`` once the running command's outputs are all in place: at the end of the
+    enclosing :func:`outputs_together` block, and only when its renames succeed (at once outside
+    one). For what may go only when the outputs exist (a preparation's checkpoint)."""
+    if _AFTER is None:
+        callback()
+    else:
+        _AFTER.append(callback)
 
 
 @contextlib.contextmanager
@@ -274,21 +286,28 @@ def outputs_together(keep=None) -> Iterator[None]:
     summary failed, after the outputs were complete). Nested blocks join the outermost
     one. :func:`granwave.cli.common.stage` runs every command inside one.
     """
-    global _PENDING
+    global _PENDING, _AFTER
     if _PENDING is not None:
         yield
         return
     _PENDING = pending = []
+    _AFTER = after = []
     try:
         try:
             yield
         except BaseException as exc:
             if keep is not None and isinstance(exc, Exception) and keep(exc):
                 _rename_all(pending)
+                _AFTER = None
+                for callback in after:
+                    callback()
             raise
         _rename_all(pending)
+        _AFTER = None
+        for callback in after:
+            callback()
     finally:
-        _PENDING = None
+        _PENDING = _AFTER = None
         for tmp, _, _ in pending:  # what was not renamed (an error, an interrupt)
             with contextlib.suppress(OSError):
                 os.unlink(tmp)

@@ -506,6 +506,7 @@ def formats_markdown() -> str:
         "a layout that may change with granwave's code (a checkpoint of other code is refused).",
         "HDF5 with root attributes `kind` = `granwave.checkpoint`, `version`, `params_digest`",
         "(the preparation's parameters, seed included) and `source_digest` (granwave's source),",
+        "`device` (`cpu` or `gpu`: the device that wrote it, the only one that resumes it),",
         "`prepare_params` (JSON), `granwave_version`, `step`, `written` (UTC) and `rules` (JSON:",
         "the state of the settling and end-game rules); group `engine/`: the engine's arrays",
         "(positions, velocities, spins, accelerations, the pair list with its tangential",

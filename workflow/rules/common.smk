@@ -315,13 +315,22 @@ def gpu_packings():
 
 def gpu_packings_command(group):
     """The prepare-packing command of one height's seeds on the GPU (gpu_packings): the options of
-    its samples (batch_sample's, without the seed), one file per seed at the samples' paths."""
-    make = {k: v for k, v in group[0]["make"].items() if k != "seed"}
+    its samples (batch_sample's, without the seed), one file per seed at the samples' paths; a
+    tall height (TALL_GRAINS) also one checkpoint per seed where checkpoint_path puts the CPU's,
+    its folder made first, so that a killed GPU job goes on from them with the same bits."""
+    first = group[0]
+    make = {k: v for k, v in first["make"].items() if k != "seed"}
     options = " ".join(f"--{key.replace('_', '-')} {value}" for key, value in make.items())
     seeds = ",".join(str(s["seed"]) for s in group)
-    folder = os.path.dirname(group[0]["out"]["packing"])  # the samples' paths, s<seed>.h5
+    folder = os.path.dirname(first["out"]["packing"])  # the samples' paths, s<seed>.h5
     pattern = os.path.join(folder, "s{seed}.h5")
-    return f"granwave prepare-packing {options} --seeds {seeds} --device gpu --quiet -o '{pattern}'"
+    command = f"granwave prepare-packing {options} --seeds {seeds} --device gpu --quiet -o '{pattern}'"
+    tail = f"{first['scene']}/p{first['pressure']}/{first['size']}/s{first['seed']}"
+    path = checkpoint_path(first["kind"], first["make"], tail)
+    if path is None:
+        return command
+    checkpoints = os.path.dirname(path)
+    return f"mkdir -p {checkpoints} && {command} --checkpoint '{os.path.join(checkpoints, 's{seed}.h5')}'"
 
 
 REFERENCE_KINDS = ("lattices", "chains")
