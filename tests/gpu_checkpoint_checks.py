@@ -147,13 +147,49 @@ def interrupted_and_resumed(name: str, folder: Path) -> dict:
     return res
 
 
+def engine_state(first: int = 14, then: int = 14) -> dict:
+    """What a checkpoint relies on, at the engine's level and cheaply (the test suite runs this;
+    the whole preparations of :data:`CASES` take minutes each in the simulator): the dense
+    frictional gas of granwave.gpu.checks on the GPU engine, with the device rebuild and with a
+    piston, run ``first`` steps, its :meth:`state` taken into a fresh engine built with the same
+    arguments, ``then`` more steps there; against ``first + then`` steps of one engine: state,
+    pair list and histories, wall histories, piston, counters compared bitwise. 2D (pair arrays
+    cut, so that the device asks for room) and 3D."""
+    from granwave.gpu import checks as GC
+
+    out = {}
+    for dim, room in ((2, 0), (3, None)):
+        kw = dict(seed=1, room=room, piston_mass=1.0, piston_force=20.0)
+        straight = GC._gas(GD.GpuEngine, dim, first + then, **kw)
+        before = GC._gas(GD.GpuEngine, dim, first, **kw)
+        saved = before.state()
+        after = GC._gas_engine(GD.GpuEngine, dim, **kw)
+        after.restore(saved)
+        after.run(then)
+        m = straight.n_pairs
+        key = f"{dim}d"
+        out[f"same_state_{key}"] = all(getattr(straight, n).tobytes() == getattr(after, n).tobytes()
+                                       for n in (*GC.STATE, *GC.WALLS))
+        out[f"same_pairs_{key}"] = bool(after.n_pairs == m and all(
+            getattr(straight, n)[:m].tobytes() == getattr(after, n)[:m].tobytes()
+            for n in ("pair_i", "pair_j", "pair_ft", "pair_ov")))
+        out[f"same_piston_{key}"] = straight.piston.tobytes() == after.piston.tobytes()
+        out[f"same_counters_{key}"] = (straight.steps, straight.rebuilds) == (after.steps, after.rebuilds)
+        out[f"rebuilds_after_restore_{key}"] = after.rebuilds - before.rebuilds
+        out[f"pairs_{key}"] = m
+        start = GC._gas_engine(GD.GpuEngine, dim, **kw)
+        out[f"piston_moved_{key}"] = float(abs(np.asarray(straight.piston["h"]).ravel()[0]
+                                               - np.asarray(start.piston["h"]).ravel()[0]))
+    return out
+
+
 def main(argv) -> None:
     names = argv or list(CASES)
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name in names:
             t0 = time.perf_counter()
-            out[name] = interrupted_and_resumed(name, Path(tmp))
+            out[name] = engine_state() if name == "engine_state" else interrupted_and_resumed(name, Path(tmp))
             out[name]["seconds"] = time.perf_counter() - t0
     print(json.dumps(out))
 

@@ -1,9 +1,11 @@
 """Checkpoints of GPU preparations and of ``--seeds`` (docs/dem.md "Checkpoints", docs/gpu.md).
 
-The GPU runs (one seed in 2D, in 3D and with mean-flow compaction; two seeds advanced together)
-run in numba's CUDA simulator in a subprocess (``tests/gpu_checkpoint_checks.py``; the simulator
-is chosen when numba.cuda is first imported): interrupted after a few checkpoints and resumed,
-the packing file holds the bytes of an uninterrupted GPU run. The rest needs no GPU: a checkpoint
+The GPU runs run in numba's CUDA simulator in a subprocess (``tests/gpu_checkpoint_checks.py``;
+the simulator is chosen when numba.cuda is first imported): the GPU engine's state taken into a
+fresh engine goes on to the bytes of an uninterrupted one; and, with
+GRANWAVE_GPU_CHECKPOINT_RUNS=1 (minutes each), whole preparations (one seed in 2D, in 3D and with
+mean-flow compaction; two seeds advanced together) interrupted after a few checkpoints and
+resumed hold the bytes of an uninterrupted GPU run. The rest needs no GPU: a checkpoint
 belongs to the device that wrote it, ``--seeds`` with a ``{seed}`` pattern on the CPU, and
 checkpoints removed only once every output is in place.
 """
@@ -35,24 +37,43 @@ SEEDS_ARGS = ["--grains", "40", "--tol", "1e-9", "--seeds", "2-3"]
 
 
 # ---------------------------------------------------------------- the GPU, in the CUDA simulator
-#: The cases of gpu_checkpoint_checks.py run here: one seed, and two advanced together (about
-#: 3 min each in the simulator); the 3D and mean-flow cases take as long again each and run on
-#: demand: NUMBA_ENABLE_CUDASIM=1 python tests/gpu_checkpoint_checks.py single_3d single_mean_flow_2d
-SIMULATED = ("single_2d", "seeds_2d")
+#: The whole preparations of gpu_checkpoint_checks.py take 3-5 minutes each in the simulator, too
+#: long for the suite: they run when this variable is 1 (their run: benchmarks/results/gpu_history.md);
+#: the suite runs the engine-level check (about 40 s).
+WHOLE_RUNS = os.environ.get("GRANWAVE_GPU_CHECKPOINT_RUNS", "0") == "1"
+CASES = ("single_2d", "single_3d", "single_mean_flow_2d", "seeds_2d")
 
 
-@pytest.fixture(scope="module")
-def gpu():
+def _simulated(*names) -> dict:
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
     script = Path(__file__).with_name("gpu_checkpoint_checks.py")
-    r = subprocess.run([sys.executable, str(script), *SIMULATED], capture_output=True, text=True, env=env,
+    r = subprocess.run([sys.executable, str(script), *names], capture_output=True, text=True, env=env,
                        timeout=3000)
     assert r.returncode == 0, r.stderr[-3000:]
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
+@pytest.fixture(scope="module")
+def gpu():
+    return _simulated(*CASES)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("case", SIMULATED)
+def test_gpu_engine_state_taken_into_a_fresh_engine_goes_on_to_the_same_bytes():
+    """What a GPU checkpoint relies on (gpu_checkpoint_checks.engine_state): the GPU engine's
+    state() after some steps, restored into a fresh engine, continues to the bytes of one
+    uninterrupted engine (state, pairs and histories, walls, piston, counters; device rebuilds
+    and, in 2D, room made on the device's request), in 2D and 3D under a moving piston."""
+    r = _simulated("engine_state")["engine_state"]
+    for d in ("2d", "3d"):
+        assert r[f"same_state_{d}"] and r[f"same_pairs_{d}"] and r[f"same_piston_{d}"] and r[f"same_counters_{d}"]
+        assert r[f"rebuilds_after_restore_{d}"] >= 1 and r[f"pairs_{d}"] > 0 and r[f"piston_moved_{d}"] > 1e-3
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not WHOLE_RUNS, reason="whole GPU preparations in the simulator take minutes each: "
+                                           "GRANWAVE_GPU_CHECKPOINT_RUNS=1 runs them")
+@pytest.mark.parametrize("case", CASES)
 def test_gpu_run_interrupted_and_resumed_gives_the_uninterrupted_file(gpu, case):
     """prepare-packing --device gpu --checkpoint (one seed; or --seeds 0-1 with a {seed} pattern,
     the seeds advanced together): killed after some checkpoints (exit 130, no packing, the
