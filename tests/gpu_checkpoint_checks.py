@@ -30,7 +30,7 @@ from granwave.dem import checkpoint as CK
 from granwave.gpu import batch as GB
 from granwave.gpu import dem as GD
 from granwave.io import files
-from granwave.provenance import FILE_ATTRS
+from packing_bytes import packing_data
 
 #: Most steps one engine call makes in the interrupted runs (a checkpoint after each call).
 CALL_STEPS = 40
@@ -46,16 +46,6 @@ CASES = {
 }
 
 
-def _data(path) -> tuple[bytes, dict]:
-    """A packing file's arrays (bytes) and its attributes but the command line's."""
-    p = files.read_packing(path)
-    c = p.contacts
-    data = b"".join(np.ascontiguousarray(x).tobytes() for x in (
-        p.position, p.radius, p.box, c.i, c.j, c.normal, c.overlap, c.force_normal, c.force_tangential,
-        c.stiffness_normal, c.stiffness_tangential))
-    with h5py.File(path, "r") as f:
-        attrs = {k: str(v) for k, v in f.attrs.items() if k not in FILE_ATTRS}
-    return data, attrs
 
 
 def _cli(*args):
@@ -139,7 +129,7 @@ def interrupted_and_resumed(name: str, folder: Path) -> dict:
     straight_steps = []
     same = []
     for o, ref in zip(outs, refs):
-        a, b = _data(o), _data(ref)
+        a, b = packing_data(o), packing_data(ref)
         same.append(a[0] == b[0] and a[1] == b[1])
         straight_steps.append(int(files.read_packing(ref).attrs["steps"]))
     res["same"] = same

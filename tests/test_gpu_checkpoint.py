@@ -19,7 +19,6 @@ import sys
 from pathlib import Path
 
 import h5py
-import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -30,7 +29,7 @@ from granwave.dem import protocol
 from granwave.dem.params import PrepareParams
 from granwave.errors import InputError
 from granwave.io import atomic, files
-from granwave.provenance import FILE_ATTRS
+from packing_bytes import packing_data
 
 #: Two seeds of a column long enough for several chunks of 200 steps (13 780 and 10 360 steps).
 SEEDS_ARGS = ["--grains", "40", "--tol", "1e-9", "--seeds", "2-3"]
@@ -115,17 +114,6 @@ def test_a_checkpoint_belongs_to_its_device(tmp_path):
 
 
 # ---------------------------------------------------------------- --seeds on the CPU
-def _data(path) -> tuple[bytes, dict]:
-    p = files.read_packing(path)
-    c = p.contacts
-    data = b"".join(np.ascontiguousarray(x).tobytes() for x in (
-        p.position, p.radius, p.box, c.i, c.j, c.normal, c.overlap, c.force_normal, c.force_tangential,
-        c.stiffness_normal, c.stiffness_tangential))
-    with h5py.File(path, "r") as f:
-        attrs = {k: str(v) for k, v in f.attrs.items() if k not in FILE_ATTRS}
-    return data, attrs
-
-
 def _cli(tmp_path, *args):
     cwd = os.getcwd()
     os.chdir(tmp_path)
@@ -167,7 +155,7 @@ def test_seeds_on_the_cpu_resume_each_from_its_own_checkpoint(tmp_path, monkeypa
     assert resumed.exit_code == 0, resumed.output
     for s in (2, 3):
         assert f"seed {s}: resumed from step {steps[s]} (ck_{s}.h5)" in resumed.output
-        assert _data(tmp_path / f"p_{s}.h5") == _data(tmp_path / f"straight_{s}.h5")
+        assert packing_data(tmp_path / f"p_{s}.h5") == packing_data(tmp_path / f"straight_{s}.h5")
         assert not (tmp_path / f"ck_{s}.h5").exists()
 
 
