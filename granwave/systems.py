@@ -125,7 +125,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
     a = 1.0 - delta_g
     f_g = pressure * a / SQRT3
     f_w = pressure * a  # wall force per ball: p times the wall length per ball (a) times 1 d
-    delta_w = module.overlap_at_force(f_w, r12_w, e12_w, law.c0)
+    delta_w = CM.overlap_at_force(values, f_w, r12_w, e12_w)
     h = a * SQRT3 / 2.0
     y0 = radius - delta_w
     if not (y0 > 0.0 and a > 0.0):

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from granwave import contact as C
+from granwave import contact_models as CM
 from granwave.dem import kernels as K
 
 
@@ -46,7 +47,8 @@ def test_stick_then_slide_in_engine_contact_routine():
     s_slide = mu * fel / kt
     s = 0.0
     for _ in range(int(2 * s_slide / dt)):
-        K.contact_force(n, delta, r12, e12, g12, 1.0, v, ft, delta, dt, 0.0, mu, fvec)
+        K.contact_force(n, delta, r12, e12, g12, 1.0, v, ft, delta, dt, CM.damping_model(0.0), CM.tangential_model(mu),
+                        fvec)
         s += dt
         expected = min(kt * s, mu * fel)
         assert fvec[1] == pytest.approx(expected, rel=1e-9)

@@ -10,84 +10,39 @@ then rewrites the generated ``_table.py`` and ``_dispatch.py``. Checked here:
 - the derived things follow the registry: PrepareParams' fields (hence prepare-packing's
   options), the engine's parameter record, the file attributes.
 
-The static rule (``_named``): in every ``.py`` file under granwave/ except granwave/contact_models/,
-parsed with ``ast``, no identifier (a name, attribute, function, class, argument, keyword,
-imported name or module) has as one of its ``_``-separated words (case-insensitive) a registered
-sub-model's name (hertz, harmonic, sds) or the name or option of a kind that can be off (rolling),
-and is not a parameter's name or a history's dataset name (harmonic_stiffness,
-rolling_stiffness, rolling_displacement, ...); and no string that is not a docstring equals (up
-to case and surrounding blanks) one of those. Comments and docstrings may name them (they
-document). The normal kind's option (``contact_law``) and the dispatchers' generic names may
-appear: every engine has a normal law, and a new law of that kind needs no change there.
-Exceptions, by file, where "hertz" is Hertz's theory and not the engine's choice of law
-(:data:`THEORY`).
+The static rule is granwave.contact_models.names' (its docstring): no module of granwave
+outside granwave/contact_models/ uses a sub-model's name, a kind that can be off or a parameter's
+name as an identifier or a string; the generator refuses a registry whose names collide with an
+identifier of the package, naming the collision. Codes, counts and names are read from the
+registry here, never typed in.
 """
 
 from __future__ import annotations
 
-import ast
 import dataclasses
 import types
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from granwave.contact_models import generate as G
+from granwave.contact_models import names as N
 from granwave.contact_models import options as CO
 from granwave.errors import InputError
 
 ROOT = Path(__file__).resolve().parent.parent / "granwave"
 
-#: files that use "hertz" for Hertz's theory, not for the engine's contact law: the analytic
-#: Hertzian chains and lattices' stiffness model (systems, params' SystemsParams.hertz, api's
-#: build_system, the linear check's reference lattice), the effective-medium exponent p^(1/3) of
-#: the shear scene and its report, figure and table
-THEORY = {"granwave/systems.py": {"hertz"}, "granwave/params.py": {"hertz"}, "granwave/api.py": {"hertz"},
-          "granwave/linear/check.py": {"hertz"}, "granwave/analysis/shear_scene.py": {"hertz"},
-          "granwave/report/shear.py": {"hertz"}, "granwave/figures/shear.py": {"hertz"},
-          "granwave/report/tables.py": {"hertz"}}
+
+def _banned() -> tuple[list, list]:
+    """(names matched as runs of words, names matched whole): the registry's."""
+    words = list(CO.SUBMODELS) + [x for k, v in CO.KINDS.items() if v["off"] is not None for x in (k, v["option"])]
+    return words, list(CO.PARAMETERS) + list(CO.history_datasets())
 
 
-def _banned() -> tuple[set, set]:
-    """(words banned inside identifiers, whole names banned)."""
-    words = set(CO.SUBMODELS) | {k for k, v in CO.KINDS.items() if v["off"] is not None} | \
-        {v["option"] for v in CO.KINDS.values() if v["off"] is not None}
-    return words, set(CO.PARAMETERS) | set(CO.history_datasets())
-
-
-def _named(source: str, allowed: set = frozenset()) -> list[str]:
-    """Where ``source`` names a sub-model or its parameters (the module docstring's rule)."""
-    words, whole = _banned()
-    words -= allowed
-    tree = ast.parse(source)
-    docs = {id(n.body[0].value) for n in ast.walk(tree)
-            if isinstance(n, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and n.body
-            and isinstance(n.body[0], ast.Expr) and isinstance(n.body[0].value, ast.Constant)}
-    found = []
-    for node in ast.walk(tree):
-        ids = []
-        if isinstance(node, ast.Name):
-            ids.append(node.id)
-        elif isinstance(node, ast.Attribute):
-            ids.append(node.attr)
-        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-            ids.append(node.name)
-        elif isinstance(node, ast.arg):
-            ids.append(node.arg)
-        elif isinstance(node, ast.keyword) and node.arg:
-            ids.append(node.arg)
-        elif isinstance(node, ast.alias):
-            ids += node.name.split(".") + ([node.asname] if node.asname else [])
-        elif isinstance(node, ast.ImportFrom) and node.module:
-            ids += node.module.split(".")
-        for name in ids:
-            if set(name.lower().split("_")) & words or name in whole:
-                found.append(f"line {node.lineno}: identifier {name}")
-        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
-            text = node.value.strip().lower()
-            if text in words or text in whole:
-                found.append(f"line {node.lineno}: string {node.value!r}")
-    return found
+def _named(source: str, allowed: set = frozenset()) -> list:
+    """Where ``source`` names a sub-model or its parameters (granwave.contact_models.names' rule)."""
+    return N.named(source, *_banned(), allowed)
 
 
 def test_generated_files_are_current():
@@ -97,12 +52,8 @@ def test_generated_files_are_current():
 
 
 def test_no_module_outside_contact_models_names_a_sub_model():
-    offenders = []
-    for path in sorted(ROOT.rglob("*.py")):
-        rel = path.relative_to(ROOT.parent).as_posix()
-        if rel.startswith("granwave/contact_models/"):
-            continue
-        offenders += [f"{rel}: {x}" for x in _named(path.read_text(), THEORY.get(rel, set()))]
+    """The rule over the package, as the generator runs it (so no collision is left to refuse)."""
+    offenders = N.collisions(*_banned())
     assert not offenders, "\n".join(offenders)
 
 
@@ -145,11 +96,19 @@ def test_prepare_params_fields_are_the_registry_s():
 def test_engine_parameters_hold_each_kind_s_code_and_constants():
     from granwave.dem.layout import PARAMS
 
-    for kind, k in CO.KINDS.items():
-        assert PARAMS.fields[f"{kind}_code"][0].kind == "i"
-        # generated names, or the engine's older ones the kind declares (damping: zeta, tangential: mu)
+    from granwave.contact_models.kinds import KINDS
+
+    for kind in KINDS:
+        k = CO.KINDS[kind.name]
+        assert PARAMS.fields[f"{kind.name}_code"][0].kind == "i"
+        # as many constants as its sub-model with the most needs
+        assert k["slots"] == max((len(s["constants"]) for s in CO.SUBMODELS.values() if s["kind"] == kind.name),
+                                 default=0)
+        # the engine's older names the kind declares (damping: zeta, tangential: mu), then generated ones
         assert len(k["fields"]) == k["slots"] and all(f in PARAMS.names for f in k["fields"])
-        assert k["fields"] == tuple(f"{kind}_c{i}" for i in range(k["slots"])) or kind in ("damping", "tangential")
+        assert k["fields"] == tuple(kind.fields[i] if i < len(kind.fields) else f"{kind.name}_c{i}"
+                                    for i in range(k["slots"]))
+        assert all(PARAMS.fields[f][0] == np.float64 for f in k["fields"])
 
 
 def test_a_selection_goes_through_the_file_attributes_and_back():
@@ -183,22 +142,24 @@ def test_checks_come_from_the_declarations():
 
 
 def test_a_new_sub_model_is_one_more_branch_of_the_generated_dispatchers(monkeypatch):
-    """A third normal law registered (a stand-in module here) gets code 2, its branch in every
-    normal dispatcher, its parameter in the table; nothing else changes in the generated text."""
+    """One more normal law registered (a stand-in module here) gets the next code, its branch in
+    every normal dispatcher, its parameter in the table; nothing else changes in the generated text."""
     from granwave.contact_models import harmonic
     from granwave.contact_models.declare import Parameter
 
     fake = types.SimpleNamespace(**{k: getattr(harmonic, k) for k in dir(harmonic) if not k.startswith("__")})
     fake.NAME, fake.__name__ = "stiffer", "granwave.contact_models.stiffer"
     fake.PARAMETERS = (Parameter("stiffer_stiffness", 2.0, "E* d", "k of the stand-in law.", lo=0.0),)
+    fake.kernel_constants = lambda values: (2.0 * values["stiffer_stiffness"],)
+    code = len(CO.names("normal"))  # the next code: the kind has no off name
     before = G.dispatch_source()
     monkeypatch.setattr(G, "modules", lambda real=G.modules: [*real(), fake])
     after = G.dispatch_source()
     assert "from . import stiffer as _normal_stiffer" in after
     for fn, name, _, _, _ in G.KINDS[0].functions:
         assert f"def {name}(" in after
-        assert f"    if model.code == 2:\n        return _normal_stiffer.{fn}(" in after
-    assert after.count("model.code == 2") == len(G.KINDS[0].functions)
+        assert f"    if model.code == {code}:\n        return _normal_stiffer.{fn}(" in after
+    assert after.count(f"model.code == {code}:") == len(G.KINDS[0].functions)
     assert len(after.splitlines()) > len(before.splitlines())
     table = G.table_source()
     assert "'stiffer_stiffness': {'submodel': 'stiffer'" in table
@@ -224,15 +185,16 @@ def _stand_in(real, name: str, parameters: tuple, **formulas):
 
 
 @pytest.mark.parametrize("kind_name, real_name, name, parameter", [
-    # LAMMPS's ``damping velocity``: a constant coefficient
-    ("damping", "damping_critical", "velocity", "velocity_coefficient"),
-    # LAMMPS's ``tangential linear_history``: a constant k_t
-    ("tangential", "mindlin", "linear_history", "linear_history_stiffness"),
+    # a damping law with a constant of its own (LAMMPS's ``damping velocity``, say; ``velocity``
+    # itself would be refused: granwave has velocity identifiers)
+    ("damping", "damping_critical", "stand_in_dashpot", "stand_in_coefficient"),
+    # a tangential law with a constant of its own (a constant k_t, say)
+    ("tangential", "mindlin", "stand_in_spring", "stand_in_stiffness"),
 ])
 def test_a_second_damping_or_tangential_law_is_one_more_branch_of_every_dispatcher(monkeypatch, kind_name,
                                                                                     real_name, name, parameter):
-    """A second damping (or tangential) law registered (a stand-in module) gets code 1, its branch in
-    every dispatcher of its kind (the engines' contact routine, the tile law's general path, the
+    """One more damping (or tangential) law registered (a stand-in module) gets the next code, its
+    branch in every dispatcher of its kind (the engines' contact routine, the tile law's general path, the
     GPU's device copies and the time step all call these), its parameter in the table and so a
     PrepareParams field; the other kinds' dispatchers are unchanged."""
     import importlib
@@ -242,6 +204,7 @@ def test_a_second_damping_or_tangential_law_is_one_more_branch_of_every_dispatch
     real = importlib.import_module(f"granwave.contact_models.{real_name}")
     kind = next(k for k in G.KINDS if k.name == kind_name)
     fake = _stand_in(real, name, (Parameter(parameter, 1.0, "E* d", "the stand-in's constant.", lo=0.0),))
+    code = len(CO.names(kind_name))  # the next code (neither kind has an off name)
     before = G.dispatch_source()
     monkeypatch.setattr(G, "modules", lambda real=G.modules: [*real(), fake])
     after = G.dispatch_source()
@@ -249,15 +212,15 @@ def test_a_second_damping_or_tangential_law_is_one_more_branch_of_every_dispatch
     assert f"from . import {name} as {alias}" in after
     for fn, dispatcher, _, _, _ in kind.functions:
         body = after.split(f"def {dispatcher}(", 1)[1].split("\n\n\n", 1)[0]
-        assert f"    if model.code == 1:\n        return {alias}.{fn}(" in body
+        assert f"    if model.code == {code}:\n        return {alias}.{fn}(" in body
         assert f"return _{kind_name}_{real.NAME}.{fn}(" in body  # the default: the fall-through
     assert after.count(f"return {alias}.") == len(kind.functions)
     # nothing else changes: the new lines are its import, its branches and its device functions
     added = set(after.splitlines()) - set(before.splitlines())
-    assert all(alias in line or line == "    if model.code == 1:" for line in added)
+    assert all(alias in line or line == f"    if model.code == {code}:" for line in added)
     table = {}
     exec(G.table_source(), table)
-    assert table["SUBMODELS"][name]["kind"] == kind_name and table["SUBMODELS"][name]["code"] == 1
+    assert table["SUBMODELS"][name]["kind"] == kind_name and table["SUBMODELS"][name]["code"] == code
     assert table["PARAMETERS"][parameter]["submodel"] == name and table["PARAMETERS"][parameter]["kind"] == kind_name
 
 
@@ -275,10 +238,13 @@ def test_the_kinds_parameters_are_fields_and_engine_constants():
     assert {f.name: f.default for f in dataclasses.fields(LatticeParams)}["friction"] == 0.0
     assert CO.KINDS["tangential"]["parameters"] == ("friction", "poisson")
     assert CO.KINDS["damping"]["parameters"] == ("damping",)
+    default = {kind: CO.SUBMODELS[CO.KINDS[kind]["default"]]["code"] for kind in ("damping", "tangential")}
     fpar = record(PARAMS)
     CM.fill_params(fpar, CO.resolve(dict(friction=0.3, damping=0.2, poisson=0.1)))
-    assert (fpar.mu, fpar.zeta, fpar.damping_code, fpar.tangential_code) == (0.3, 0.2, 0, 0)
-    assert CM.damping_model(0.2) == (0, 0.2) and CM.tangential_model(0.3) == (0, 0.3)
+    assert (fpar.mu, fpar.zeta, fpar.damping_code, fpar.tangential_code) == (0.3, 0.2, default["damping"],
+                                                                             default["tangential"])
+    assert CM.damping_model(0.2)[:2] == (default["damping"], 0.2)
+    assert CM.tangential_model(0.3)[:2] == (default["tangential"], 0.3)
     with pytest.raises(InputError, match=r"damping must be in \[0, 1\], got 1.5"):
         PrepareParams(damping=1.5)
 
@@ -293,11 +259,129 @@ def test_the_default_damping_and_tangential_laws_are_contact_py_s_formulas():
     for m, k, n in [(0.5, 2e-3, 1e-3), (0.3, 0.7, 0.02)]:
         assert CD.dashpot_coefficient(damping, m, k, n) == C.damping_coefficient(0.3, m, k)
         assert CD.dashpot_acts(damping) and not CD.dashpot_acts(CD.DampingModel(0, 0.0))
-        assert CD.dashpot_step_ratio(damping) == 0.3
-        assert CD.tangential_spring(tangential, k, n) == k
+        assert CD.dashpot_step_ratio(damping, k, m) == 0.3
+        assert CD.tangential_spring(tangential, k, n, 0.5) == k
     assert CD.friction_acts(tangential) and not CD.friction_acts(CD.TangentialModel(0, 0.0))
     for old, new, rescale in [(2e-3, 1e-3, True), (1e-3, 2e-3, True), (2e-3, 1e-3, False)]:
         assert CD.tangential_unloads(tangential, old, new, rescale) == C.unloads(old, new, rescale)
     for f, s in [((1e-4, -2e-4, 0.0), (1e-3, 0.0, 2e-3)), ((1e-2, 0.0, 0.0), (1.0, 1.0, 0.0))]:  # sticks, slides
         assert CD.tangential_increment(tangential, *f, *s, 0.05, 0.01) == C.increment_and_cap3(*f, *s, 0.05, 0.01, 0.4)
     assert CD.tangential_increment(tangential, 1e-2, 0.0, 0.0, 1.0, 1.0, 0.0, 0.05, 0.01)[3]
+
+
+# ------------------------------------------------ the generator's checks (granwave.contact_models.generate)
+def _registered_plus(monkeypatch, fake):
+    monkeypatch.setattr(G, "modules", lambda real=G.modules: [*real(), fake])
+
+
+@pytest.mark.parametrize("name, identifier", [("velocity", r"\w*velocity\w*"), ("on_limit", r"_on_limit")])
+def test_a_name_colliding_with_an_identifier_of_the_package_is_refused(monkeypatch, name, identifier):
+    """A sub-model named like an identifier elsewhere in granwave is refused with the collision
+    named (file and line): its name as a run of words in an identifier (``on_limit`` in
+    ``_on_limit``) counts, as a whole one does."""
+    from granwave.contact_models import damping_critical
+
+    _registered_plus(monkeypatch, _stand_in(damping_critical, name, ()))
+    with pytest.raises(G.RegistryError, match=rf"the name '{name}' collides with the identifier '{identifier}' "
+                                              r"\(granwave/[\w/]+\.py line \d+\)"):
+        G.dispatch_source()
+
+
+def test_a_parameter_named_like_an_identifier_or_taken_is_refused(monkeypatch):
+    from granwave.contact_models import damping_critical
+    from granwave.contact_models.declare import Parameter
+
+    _registered_plus(monkeypatch, _stand_in(damping_critical, "stand_in", (Parameter("pressure", 1.0, None, "x"),)))
+    with pytest.raises(G.RegistryError, match=r"the name 'pressure' collides with the identifier 'pressure'"):
+        G.dispatch_source()
+    monkeypatch.undo()
+    taken = next(iter(CO.KIND_PARAMETERS))
+    _registered_plus(monkeypatch, _stand_in(damping_critical, "stand_in", (Parameter(taken, 1.0, None, "x"),)))
+    with pytest.raises(G.RegistryError, match=rf"the parameter name '{taken}' is taken \(a parameter of the"):
+        G.dispatch_source()
+
+
+def test_a_formula_of_the_wrong_arity_is_refused(monkeypatch):
+    """Each formula takes its kind's arguments and exactly its own constants: one too many (a
+    second constant the module does not declare) is refused, naming the function and the call."""
+    import numba
+
+    from granwave.contact_models import damping_critical
+
+    fake = _stand_in(damping_critical, "stand_in", (), coefficient=numba.njit(lambda meff, k, overlap, zeta, extra: 0.0))
+    _registered_plus(monkeypatch, fake)
+    with pytest.raises(G.RegistryError, match=r"coefficient\(meff, k, overlap, zeta, extra\) takes 5 arguments, the "
+                                              r"damping kind calls it with 4: \(meff, k, overlap, zeta;"):
+        G.dispatch_source()
+    # kernel_constants must give one number per declared constant
+    fake.coefficient = damping_critical.coefficient
+    fake.kernel_constants = lambda values: (values["damping"], 1.0)
+    with pytest.raises(G.RegistryError, match=r"kernel_constants gives \(0.5, 1.0\) at the defaults, expected 1 "
+                                              r"floats \(zeta\)"):
+        G.dispatch_source()
+
+
+def test_a_missing_hook_or_lammps_words_is_refused(monkeypatch):
+    """A formula of the kind missing, a formula the GPU would not compile (not in DEVICE_FUNCTIONS),
+    and neither LAMMPS words nor NO_LAMMPS: each refused in one line."""
+    from granwave.contact_models import mindlin
+
+    real = G.modules
+    for change, message in [(dict(at_limit=None, DEVICE_FUNCTIONS=mindlin.DEVICE_FUNCTIONS[:-1]),
+                             r"defines the numba function at_limit"),
+                            (dict(DEVICE_FUNCTIONS=("acts", "stiffness")), r"list unloads in DEVICE_FUNCTIONS"),
+                            (dict(lammps_tangential=None, lammps_stiffness_ratio=None),
+                             r"define its LAMMPS words .* or say NO_LAMMPS"),
+                            (dict(CONSTANTS=("k",), kernel_constants=lambda v: (1.0,)),
+                             r"the tangential kind's constants start with mu")]:
+        fake = _stand_in(mindlin, "stand_in", ())
+        for k, v in change.items():
+            if v is None:
+                delattr(fake, k)
+            else:
+                setattr(fake, k, v)
+        monkeypatch.setattr(G, "modules", lambda real=real, fake=fake: [*real(), fake])
+        with pytest.raises(G.RegistryError, match=message):
+            G.dispatch_source()
+    # an explicit "no LAMMPS equivalent" is accepted, and recorded in the table
+    fake = _stand_in(mindlin, "stand_in", ())
+    del fake.lammps_tangential, fake.lammps_stiffness_ratio
+    fake.NO_LAMMPS = "a stand-in"
+    monkeypatch.setattr(G, "modules", lambda: [*real(), fake])
+    table = {}
+    exec(G.table_source(), table)
+    assert table["SUBMODELS"]["stand_in"]["lammps"] == "a stand-in"
+
+
+def test_every_damping_law_is_off_with_its_constants_at_zero():
+    """The pulse switches the dashpot off by zeroing the damping law's constants (models.without_dashpot):
+    every registered damping law must then not act, and the record comes back as it was."""
+    from granwave.contact_models import _dispatch as CD
+    from granwave.contact_models import models as CM
+    from granwave.dem.layout import PARAMS, record
+
+    for name, s in CO.SUBMODELS.items():
+        if s["kind"] == "damping":
+            assert not CD.dashpot_acts(CD.DampingModel(s["code"])), name
+    fpar = record(PARAMS)
+    CM.fill_params(fpar, CO.resolve(dict(damping=0.4, friction=0.5, poisson=0.0)))
+    with CM.without_dashpot(fpar):
+        assert not CD.dashpot_acts(CD.dashpot_of(fpar))
+    assert fpar.zeta == 0.4 and CD.dashpot_acts(CD.dashpot_of(fpar))
+
+
+def test_the_docs_tables_are_the_registry_s():
+    """Every generated span of the docs (granwave.contact_models.docs) is what the registry gives
+    now, each document has some, and a stale one is found: one more sub-model changes them."""
+    from granwave.contact_models import docs as D
+
+    texts = D.outputs()
+    assert {p.relative_to(D.ROOT).as_posix() for p in texts} == set(D.DOCUMENTS)
+    for path, text in texts.items():
+        assert D.SPAN.search(path.read_text()), f"{path} has no generated span"
+        assert path.read_text() == text, f"{path.name} is stale: run python -m granwave.contact_models.generate"
+    table = D.submodels_table()
+    for name, s in CO.SUBMODELS.items():
+        assert f"| `{name}`" in table and s["summary"].replace("|", "\\|") in table
+    for name in CO.ALL_PARAMETERS:
+        assert f"`--{name.replace('_', '-')}`" in D.parameters_table()

@@ -439,8 +439,8 @@ def test_contact_flags_cone_is_the_laws(harmonic_packing):
         ws = np.zeros(eng.wall_ov.shape[0], np.int8)
         PK.classify(eng.position.shape[1], eng.radius, eng.pair_i, eng.pair_j, eng.n_pairs, eng.pair_ft,
                     eng.pair_ov, eng.wall_ft, eng.wall_ov, K.friction_of(eng.fpar), ps, ws, True, law)
-        assert bool(ps[q] & PK.CONE0) == on and bool(ws[w] & PK.CONE0) == on
-        assert np.count_nonzero(ps & PK.CONE0) + np.count_nonzero(ws & PK.CONE0) == 2 * on
+        assert bool(ps[q] & PK.LIMIT0) == on and bool(ws[w] & PK.LIMIT0) == on
+        assert np.count_nonzero(ps & PK.LIMIT0) + np.count_nonzero(ws & PK.LIMIT0) == 2 * on
 
 
 def test_cli_dem_pulse_of_a_harmonic_packing_records_the_law(tmp_path, harmonic_packing):

@@ -286,5 +286,5 @@ def test_sliding_flag_is_the_tangential_laws_limit_on_the_normal_laws_force(law)
         walls = np.zeros(4, np.int8)
         PK.classify(2, rad, np.array([0]), np.array([1]), 1, pair_ft, np.array([overlap]), np.zeros((4, 4)),
                     np.zeros(4), tangential, state, walls, True, normal)
-        assert bool(state[0] & PK.CONE0) == (slid or (fx == limit)), (fx, fy)
+        assert bool(state[0] & PK.LIMIT0) == (slid or (fx == limit)), (fx, fy)
         assert state[0] & PK.INITIAL and not walls.any()

@@ -20,8 +20,10 @@ from . import damping_critical as _damping_critical_fraction
 from . import mindlin as _tangential_mindlin
 from . import rolling as _rolling_sds
 
-#: what the kernels receive of the selected sub-model of this kind: its code and constants
-NormalModel = namedtuple('NormalModel', ('code', 'c0'))
+#: what the kernels receive of the selected sub-model of this kind: its code and constants (a
+#: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may
+#: leave them out)
+NormalModel = namedtuple('NormalModel', ('code', 'c0'), defaults=(0.0, ))
 
 
 @numba.njit(cache=True, inline="always")
@@ -35,7 +37,7 @@ def law_force(model, overlap, root_r12, e12):
     """Normal contact law: ``force`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.force(overlap, root_r12, e12, model.c0)
-    return _normal_hertz.force(overlap, root_r12, e12, model.c0)
+    return _normal_hertz.force(overlap, root_r12, e12)
 
 
 @numba.njit(cache=True, inline="always")
@@ -43,7 +45,7 @@ def law_stiffness(model, overlap, root_r12, e12):
     """Normal contact law: ``stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.stiffness(overlap, root_r12, e12, model.c0)
-    return _normal_hertz.stiffness(overlap, root_r12, e12, model.c0)
+    return _normal_hertz.stiffness(overlap, root_r12, e12)
 
 
 @numba.njit(cache=True, inline="always")
@@ -51,7 +53,7 @@ def law_energy(model, overlap, r12, e12):
     """Normal contact law: ``energy`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.energy(overlap, r12, e12, model.c0)
-    return _normal_hertz.energy(overlap, r12, e12, model.c0)
+    return _normal_hertz.energy(overlap, r12, e12)
 
 
 @numba.njit(cache=True, inline="always")
@@ -59,14 +61,14 @@ def law_tangential_stiffness(model, overlap, r12, g12):
     """Normal contact law: ``tangential_stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.tangential_stiffness(overlap, r12, g12, model.c0)
-    return _normal_hertz.tangential_stiffness(overlap, r12, g12, model.c0)
+    return _normal_hertz.tangential_stiffness(overlap, r12, g12)
 
 
 @numba.njit(cache=True, inline="always")
 def law_unloading_scale(model, overlap_old, overlap_new):
     """Normal contact law: ``unloading_scale`` of the sub-model of ``model``'s code."""
     if model.code == 1:
-        return _normal_harmonic.unloading_scale(overlap_old, overlap_new)
+        return _normal_harmonic.unloading_scale(overlap_old, overlap_new, model.c0)
     return _normal_hertz.unloading_scale(overlap_old, overlap_new)
 
 
@@ -75,10 +77,12 @@ def law_step_stiffness(model, overlap, root_r12, e12):
     """Normal contact law: ``step_stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.step_stiffness(overlap, root_r12, e12, model.c0)
-    return _normal_hertz.step_stiffness(overlap, root_r12, e12, model.c0)
+    return _normal_hertz.step_stiffness(overlap, root_r12, e12)
 
-#: what the kernels receive of the selected sub-model of this kind: its code and constants
-DampingModel = namedtuple('DampingModel', ('code', 'c0'))
+#: what the kernels receive of the selected sub-model of this kind: its code and constants (a
+#: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may
+#: leave them out)
+DampingModel = namedtuple('DampingModel', ('code', 'c0'), defaults=(0.0, ))
 
 
 @numba.njit(cache=True, inline="always")
@@ -100,12 +104,14 @@ def dashpot_coefficient(model, meff, k, overlap):
 
 
 @numba.njit(cache=True, inline="always")
-def dashpot_step_ratio(model):
+def dashpot_step_ratio(model, k, m):
     """Contact damping law: ``step_ratio`` of the sub-model of ``model``'s code."""
-    return _damping_critical_fraction.step_ratio(model.c0)
+    return _damping_critical_fraction.step_ratio(k, m, model.c0)
 
-#: what the kernels receive of the selected sub-model of this kind: its code and constants
-TangentialModel = namedtuple('TangentialModel', ('code', 'c0'))
+#: what the kernels receive of the selected sub-model of this kind: its code and constants (a
+#: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may
+#: leave them out)
+TangentialModel = namedtuple('TangentialModel', ('code', 'c0'), defaults=(0.0, ))
 
 
 @numba.njit(cache=True, inline="always")
@@ -121,9 +127,9 @@ def friction_acts(model):
 
 
 @numba.njit(cache=True, inline="always")
-def tangential_spring(model, kt_law, overlap):
+def tangential_spring(model, kt_law, overlap, e12):
     """Tangential contact law: ``stiffness`` of the sub-model of ``model``'s code."""
-    return _tangential_mindlin.stiffness(kt_law, overlap, model.c0)
+    return _tangential_mindlin.stiffness(kt_law, overlap, e12, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
@@ -139,9 +145,9 @@ def tangential_increment(model, fx, fy, fz, sx, sy, sz, kt, fel):
 
 
 @numba.njit(cache=True, inline="always")
-def tangential_step_ratio(model, poisson):
+def tangential_step_ratio(model, kn, m, poisson):
     """Tangential contact law: ``step_ratio`` of the sub-model of ``model``'s code."""
-    return _tangential_mindlin.step_ratio(poisson, model.c0)
+    return _tangential_mindlin.step_ratio(kn, m, poisson, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
@@ -149,8 +155,10 @@ def tangential_at_limit(model, fx, fy, fz, fel, tol):
     """Tangential contact law: ``at_limit`` of the sub-model of ``model``'s code."""
     return _tangential_mindlin.at_limit(fx, fy, fz, fel, tol, model.c0)
 
-#: what the kernels receive of the selected sub-model of this kind: its code and constants
-RollingModel = namedtuple('RollingModel', ('code', 'c0', 'c1', 'c2'))
+#: what the kernels receive of the selected sub-model of this kind: its code and constants (a
+#: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may
+#: leave them out)
+RollingModel = namedtuple('RollingModel', ('code', 'c0', 'c1', 'c2'), defaults=(0.0, 0.0, 0.0, ))
 
 
 @numba.njit(cache=True, inline="always")

@@ -24,6 +24,8 @@ SUMMARY = "c = 2 zeta sqrt(m_eff k) on the normal and (sticking) tangential velo
 DESCRIPTION = "contact damping, a fraction zeta of critical"
 #: its own parameters beyond the kind's (damping: zeta here)
 PARAMETERS = ()
+#: its kernels' constant: zeta
+CONSTANTS = ("zeta",)
 #: its numba functions in the order the GPU compiles them (each after those it calls)
 DEVICE_FUNCTIONS = ("acts", "coefficient", "step_ratio")
 
@@ -46,8 +48,8 @@ def coefficient(meff, k, overlap, zeta):
 
 
 @numba.njit(cache=True, inline="always")
-def step_ratio(zeta):
-    """The damping ratio of a contact's normal mode: zeta itself."""
+def step_ratio(k, m, zeta):
+    """The damping ratio of a spring ``k`` on a mass ``m`` with this dashpot: zeta itself."""
     return zeta
 
 
@@ -59,12 +61,18 @@ def lammps_words(values: dict, scale: float, normal: str, kt_over_kn: float) -> 
     """LAMMPS's equivalent of c = 2 zeta sqrt(m_eff k): ``damping coeff_restitution`` with the
     restitution e whose x(e) = zeta ``scale`` (the normal law's ``LAMMPS_RESTITUTION_SCALE``;
     x(e) = -ln e / sqrt(pi^2 + ln^2 e)) and the tangential ratio xgammat = c_t / c_n =
-    sqrt(k_t / k_n); ValueError where no e < 1 gives it (``normal``: the normal law's LAMMPS
-    name, for the message)."""
+    sqrt(k_t / k_n) (``kt_over_kn`` None: not constant, which only zeta = 0 can express); ValueError
+    where no e < 1 gives it (``normal``: the normal law's LAMMPS name, for the message). The
+    restitution is the normal model's damping number (``normal_damping``)."""
     zeta = float(values["damping"])
     x = zeta * scale
     if not (0.0 <= zeta and x < 1.0):
         raise ValueError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution "
                          f"damping of a {normal} contact (needs 0 <= zeta < {1.0 / scale:.4f})")
-    return dict(restitution=math.exp(-math.pi * x / math.sqrt(1.0 - x * x)), xgammat=math.sqrt(kt_over_kn),
+    if kt_over_kn is None and zeta > 0.0:
+        raise ValueError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution damping "
+                         "where k_t / k_n changes with the overlap (its tangential dashpot is a fixed fraction "
+                         "of the normal one): only damping 0")
+    e = math.exp(-math.pi * x / math.sqrt(1.0 - x * x))
+    return dict(restitution=e, normal_damping=e, xgammat=math.sqrt(kt_over_kn) if kt_over_kn is not None else 0.0,
                 damping_words=LAMMPS_DAMPING)

@@ -41,16 +41,19 @@ class Kind:
     ``option``: the ``PrepareParams`` field (and file attribute) that selects the sub-model by
     name; ``off``: the name meaning "no sub-model of this kind" (None: one is always on);
     ``default``: the name selected by default; ``recorded``: whether a file records the
-    selection when it is the default too; ``slots``: float constants its kernels receive (the
-    kind's fixed signature); ``history``: name of the per-contact history it keeps in the
-    tangential history's arrays after their ``dim`` columns, and the file dataset
-    ``contacts/<history>`` that stores it (None: no history); ``reader``: the
-    generated kernel that reads its model from the engine's ``fpar``; ``functions``: its
-    formulas and their dispatchers (granwave.contact_models.kinds); ``parameters``: parameters
-    every sub-model of the kind takes (declared once, here; ``friction`` and ``poisson`` of the
-    tangential kind); ``fields``: the ``fpar`` fields of its constants c0, c1, ... (empty: the
-    generated ``<kind>_c0``, ...; the damping and tangential kinds keep the engine's older names
-    ``zeta`` and ``mu``).
+    selection when it is the default too; ``history``: name of the per-contact history it keeps
+    in the tangential history's arrays after their ``dim`` columns, and the file dataset
+    ``contacts/<history>`` that stores it (None: no history); ``reader``: the generated kernel
+    that reads its model from the engine's ``fpar``; ``functions``: its formulas and their
+    dispatchers (granwave.contact_models.kinds); ``python``: the Python hooks and constants each
+    of its sub-models defines besides ``kernel_constants``; ``parameters``: parameters every
+    sub-model of the kind takes (declared once, here; ``friction`` and ``poisson`` of the
+    tangential kind); ``leading``: the names every sub-model's ``CONSTANTS`` start with (the
+    tangential kind's mu); ``fields``: the ``fpar`` fields of its first constants c0, c1, ...
+    (the damping and tangential kinds keep the engine's older names ``zeta`` and ``mu``; the
+    others, and the constants after these, are the generated ``<kind>_c<i>``). How many
+    constants a kind carries is not declared here: the generator takes the largest
+    ``len(CONSTANTS)`` of its sub-models.
     """
 
     name: str
@@ -59,14 +62,15 @@ class Kind:
     default: str
     off: str | None = None
     recorded: bool = False
-    slots: int = 0
     history: str | None = None
     history_help: str = ""
     reader: str = ""
     functions: tuple = field(default=())
+    python: tuple = field(default=())
     parameters: tuple = field(default=())
+    leading: tuple = field(default=())
     fields: tuple = field(default=())
 
-    def field_names(self) -> tuple:
-        """The ``fpar`` fields of the kind's constants c0, c1, ..."""
-        return self.fields or tuple(f"{self.name}_c{i}" for i in range(self.slots))
+    def field_names(self, slots: int) -> tuple:
+        """The ``fpar`` fields of the kind's constants c0 ... c{slots-1}."""
+        return tuple(self.fields[i] if i < len(self.fields) else f"{self.name}_c{i}" for i in range(slots))

@@ -31,6 +31,8 @@ DESCRIPTION = ("harmonic: F_n = k_n n, k_n = harmonic_stiffness between two grai
 #: the law's parameter: k_n of a grain pair (the kernels' k is twice it)
 PARAMETERS = (Parameter("harmonic_stiffness", 1.0, "E* d", "k_n of two grains under --contact-law harmonic "
                         "(a wall contact: twice it).", lo=0.0, lo_open=True),)
+#: its kernels' constant: k = k_n / E*12
+CONSTANTS = ("k",)
 LAMMPS_NORMAL = "hooke"
 #: LAMMPS' coeff_restitution damping of ``hooke``: c_n = 2 x(e) sqrt(m_eff k_n), so x(e) = zeta
 LAMMPS_RESTITUTION_SCALE = 1.0
@@ -89,7 +91,7 @@ def tangential_stiffness(overlap, r12, g12, k):
 
 
 @numba.njit(cache=True, inline="always")
-def unloading_scale(overlap_old, overlap_new):
+def unloading_scale(overlap_old, overlap_new, k):
     """k_t(n_new) / k_t(n_old) = 1 while touching; 0 once the contact opened."""
     return 1.0 if overlap_new > 0.0 else 0.0
 

@@ -4,7 +4,7 @@ F_n = (4/3) sqrt(R12) E*12 n^(3/2), k_n = 2 sqrt(R12) E*12 n^(1/2),
 energy (8/15) sqrt(R12) E*12 n^(5/2), k_t = 8 G*12 sqrt(R12 n); units of docs/units.md
 (lengths in d, forces in E* d^2). The formulas themselves live in :mod:`granwave.contact`
 (its callers predate the seam); this module binds them to the seam's signature
-(``(overlap, root_r12 or r12, e12 or g12, k)``, ``k`` unused here).
+(``(overlap, root_r12 or r12, e12 or g12)``: the law has no constants of its own).
 """
 
 from __future__ import annotations
@@ -25,22 +25,21 @@ SUMMARY = "F_n ~ n^(3/2), Mindlin k_t"
 DESCRIPTION = "Hertz-Mindlin with Coulomb friction (granwave.contact), tangential history from the packing"
 #: parameters of the law beyond the grain material (none: E* = 1 and nu set it)
 PARAMETERS = ()
+#: its kernels' constants (none)
+CONSTANTS = ()
 #: LAMMPS ``pair_style granular`` normal sub-model (granwave.interop.lammps)
 LAMMPS_NORMAL = "hertz"
 #: LAMMPS' coeff_restitution damping: x(e) = zeta times this (F_n / n = (2/3) k_n for Hertz)
 LAMMPS_RESTITUTION_SCALE = math.sqrt(6.0 / 5.0)
 #: (1/2) m v^2 = IMPACT_WORK x F delta: the work of the force up to delta, over F delta
 IMPACT_WORK = 0.4
-#: contacts of a grain at the estimated stiffness that the time-step estimate assumes act together
-#: (kernels.stable_dt): one, the stiffness being that at the largest overlap of the packing
-STEP_CONTACTS = 1
 #: its numba functions in the order the GPU compiles them (each after those it calls)
 DEVICE_FUNCTIONS = ("force", "stiffness", "energy", "tangential_stiffness", "unloading_scale", "step_stiffness")
 
 
 def kernel_constants(values: dict) -> tuple:
-    """The kernels' constant k (unused)."""
-    return (0.0,)
+    """The kernels' constants: none."""
+    return ()
 
 
 def lammps_words(values: dict, e12_pair: float, e12_wall: float, g12_pair: float, g12_wall: float) -> dict:
@@ -51,25 +50,25 @@ def lammps_words(values: dict, e12_pair: float, e12_wall: float, g12_pair: float
 
 
 @numba.njit(cache=True, inline="always")
-def force(overlap, root_r12, e12, k):
+def force(overlap, root_r12, e12):
     """F_n (E* d^2) at ``overlap`` (d) given sqrt(R12) (d^1/2) and E*12 (E*)."""
     return C.normal_force_root(overlap, root_r12, e12)
 
 
 @numba.njit(cache=True, inline="always")
-def stiffness(overlap, root_r12, e12, k):
+def stiffness(overlap, root_r12, e12):
     """k_n = dF_n/dn (E* d)."""
     return C.normal_stiffness_root(overlap, root_r12, e12)
 
 
 @numba.njit(cache=True, inline="always")
-def energy(overlap, r12, e12, k):
+def energy(overlap, r12, e12):
     """Elastic energy (E* d^3), whose derivative is F_n."""
     return C.normal_energy(overlap, r12, e12)
 
 
 @numba.njit(cache=True, inline="always")
-def tangential_stiffness(overlap, r12, g12, k):
+def tangential_stiffness(overlap, r12, g12):
     """Mindlin k_t = 8 G*12 sqrt(R12 n) (E* d)."""
     return C.tangential_stiffness(overlap, r12, g12)
 
@@ -81,12 +80,13 @@ def unloading_scale(overlap_old, overlap_new):
 
 
 @numba.njit(cache=True, inline="always")
-def step_stiffness(overlap, root_r12, e12, k):
+def step_stiffness(overlap, root_r12, e12):
     """The stiffness the time-step estimate takes (granwave.dem.time_step.stable_dt): k_n itself
-    (STEP_CONTACTS = 1)."""
-    return stiffness(overlap, root_r12, e12, k)
+    (one contact: the estimate takes the stiffness at the largest overlap of the packing, above
+    that of most contacts)."""
+    return stiffness(overlap, root_r12, e12)
 
 
-def overlap_at_force(f: float, r12: float, e12: float, k: float) -> float:
+def overlap_at_force(f: float, r12: float, e12: float) -> float:
     """The overlap (d) at which the contact carries the normal force ``f`` (E* d^2)."""
     return (f / C.normal_force(1.0, r12, e12)) ** (2.0 / 3.0)

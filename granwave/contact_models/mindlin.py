@@ -25,6 +25,8 @@ SUMMARY = "the normal law's k_t (Hertz: Mindlin 8 G*12 sqrt(R12 n)), rescaled on
 DESCRIPTION = "Mindlin tangential spring with Coulomb friction"
 #: its own parameters beyond the kind's (friction, poisson)
 PARAMETERS = ()
+#: its kernels' constant: mu
+CONSTANTS = ("mu",)
 #: its numba functions in the order the GPU compiles them (each after those it calls)
 DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment", "step_ratio", "at_limit")
 
@@ -41,7 +43,7 @@ def acts(mu):
 
 
 @numba.njit(cache=True, inline="always")
-def stiffness(kt_law, overlap, mu):
+def stiffness(kt_law, overlap, e12, mu):
     """k_t: the normal law's own (``kt_law``, E* d)."""
     return kt_law
 
@@ -59,9 +61,9 @@ def increment(fx, fy, fz, sx, sy, sz, kt, fel, mu):
 
 
 @numba.njit(cache=True, inline="always")
-def step_ratio(poisson, mu):
-    """k_t / k_n = eta = 2(1-nu)/(2-nu): the normal laws' own ratio (Hertz: Mindlin's 8 G*12 over
-    2 E*12 at any overlap; harmonic: k_t = eta k_n)."""
+def step_ratio(kn, m, poisson, mu):
+    """k_t / k_n = eta = 2(1-nu)/(2-nu) at any stiffness ``kn`` and mass ``m``: the normal laws'
+    own ratio (Hertz: Mindlin's 8 G*12 over 2 E*12 at any overlap; harmonic: k_t = eta k_n)."""
     return C.stiffness_ratio(poisson)
 
 
@@ -74,9 +76,16 @@ def at_limit(fx, fy, fz, fel, tol, mu):
     return fel > 0.0 and fx * fx + fy * fy + fz * fz >= cap * cap
 
 
-def lammps_tangential(values: dict, word: str, kt: float, xgammat: float) -> str:
-    """``tangential WORD k_t xgammat mu`` of ``pair_style granular`` (``word``, ``kt``: the normal
-    law's LAMMPS tangential model and stiffness, e.g. ``mindlin_rescale`` for Hertz), or
-    ``tangential linear_nohistory 0 0`` without friction."""
+def lammps_tangential(values: dict, words: dict, side: str, xgammat: float) -> str:
+    """``tangential WORD k_t xgammat mu`` of ``pair_style granular`` with the normal law's LAMMPS
+    tangential model and stiffness (``words``: its LAMMPS words, e.g. ``mindlin_rescale`` for Hertz;
+    ``side``: "pair" or "wall"), or ``tangential linear_nohistory 0 0`` without friction."""
     mu = float(values["friction"])
-    return f"tangential {word} {kt:.17g} {xgammat:.17g} {mu:.17g}" if mu > 0 else "tangential linear_nohistory 0 0"
+    if not mu > 0:
+        return "tangential linear_nohistory 0 0"
+    return f"tangential {words['tangential']} {words['kt_' + side]:.17g} {xgammat:.17g} {mu:.17g}"
+
+
+def lammps_stiffness_ratio(values: dict, words: dict) -> float:
+    """k_t / k_n of every contact (the dashpots' ratio LAMMPS needs): eta = 2(1-nu)/(2-nu)."""
+    return C.stiffness_ratio(float(values["poisson"]))

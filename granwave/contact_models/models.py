@@ -9,6 +9,7 @@ generated ``_dispatch.py``'s, re-exported here. The named helpers at the end (``
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 
 from . import _dispatch as D
@@ -31,6 +32,20 @@ def model_of(kind: str, values: dict, chosen: dict | None = None):
     if name is None:
         return tup(0, *([0.0] * (len(tup._fields) - 1)))
     return tup(O.SUBMODELS[name]["code"], *module(name).kernel_constants(values))
+
+
+def own_constants(kind: str, model) -> tuple:
+    """The constants of a model tuple that its sub-model takes (its ``CONSTANTS``; the tuple is
+    sized for the kind's largest count)."""
+    name = next((n for n, s in O.SUBMODELS.items() if s["kind"] == kind and s["code"] == int(model.code)), None)
+    return tuple(model[1:1 + len(O.SUBMODELS[name]["constants"])]) if name is not None else ()
+
+
+def overlap_at_force(values: dict, f: float, r12: float, e12: float) -> float:
+    """The overlap (d) at which a contact of the selection's normal law carries the normal force
+    ``f`` (E* d^2) given R12 (d) and E*12 (E*)."""
+    module_, model = normal_law(values)
+    return module_.overlap_at_force(f, r12, e12, *own_constants("normal", model))
 
 
 def models_of(values: dict) -> dict:
@@ -76,6 +91,31 @@ def fill_params(fpar, values: dict) -> None:
             setattr(fpar, field, value)
 
 
+@contextlib.contextmanager
+def without_dashpot(fpar):
+    """The engine's record ``fpar`` with the damping law's constants at 0 inside the ``with``
+    block, then as before: no damping law acts with its constants at 0 (granwave.contact_models.
+    kinds; tests/test_contact_registry.py checks each), so the dashpot is off whatever the law."""
+    names = O.KINDS["damping"]["fields"]
+    saved = [float(getattr(fpar, f)) for f in names]
+    for f in names:
+        setattr(fpar, f, 0.0)
+    try:
+        yield fpar
+    finally:
+        for f, v in zip(names, saved):
+            setattr(fpar, f, v)
+
+
+def uncapped(tangential):
+    """The tangential model tuple ``tangential`` without its slider: mu (every tangential law's first
+    constant, granwave.contact_models.kinds) infinite, where the law acts (the frozen-history
+    forces of the linearization's contract); a law that does not act is returned as it is."""
+    if not tangential[1] > 0.0:
+        return tangential
+    return tangential._replace(c0=float("inf"))
+
+
 def history_columns(dim: int, values: dict) -> int:
     """Columns of a contact's history (pair_ft, wall_ft): the tangential force's, then those of the
     selected sub-models."""
@@ -90,20 +130,29 @@ def linear_blocks(blocks, values: dict, n, wall, r_i, r_j, dim: int, p: int) -> 
             module(name).linear_blocks(blocks, values, n, wall, r_i, r_j, dim, p)
 
 
+def no_lammps(values: dict) -> str | None:
+    """A sentence naming the first selected sub-model without a LAMMPS equivalent and why (its
+    ``NO_LAMMPS``), or None."""
+    for kind, name in O.check(values).items():
+        if name is not None and O.SUBMODELS[name]["lammps"] is not None:
+            return (f"no LAMMPS equivalent of the {O.KINDS[kind]['option'].replace('_', ' ')} {name!r}: "
+                    f"{O.SUBMODELS[name]['lammps']}")
+    return None
+
+
 def lammps_parts(values: dict, e12_pair: float, e12_wall: float, g12_pair: float, g12_wall: float) -> tuple:
     """(the normal law's LAMMPS words and stiffnesses, its restitution scale, the other selected
     sub-models' fragments) of a selection (granwave.interop.lammps); ValueError for a sub-model
-    without a LAMMPS equivalent."""
+    without a LAMMPS equivalent (its ``NO_LAMMPS``)."""
     chosen = O.check(values)
+    reason = no_lammps(values)
+    if reason is not None:
+        raise ValueError(reason)
     normal = module(chosen["normal"])
-    if not hasattr(normal, "lammps_words"):
-        raise ValueError(f"no LAMMPS equivalent of the contact law {chosen['normal']!r}")
     fragments = []
     for kind, name in chosen.items():
         if O.KINDS[kind]["off"] is None or name is None:
             continue  # the pair style's fixed words (normal, damping, tangential): lammps_words
-        if not hasattr(module(name), "lammps_fragment"):
-            raise ValueError(f"no LAMMPS equivalent of the {O.KINDS[kind]['option']} {name!r}")
         fragments.append(module(name).lammps_fragment(values))
     return (normal.lammps_words(values, e12_pair, e12_wall, g12_pair, g12_wall), normal.LAMMPS_RESTITUTION_SCALE,
             fragments)
@@ -114,9 +163,7 @@ def lammps_parts(values: dict, e12_pair: float, e12_wall: float, g12_pair: float
 NORMAL_LAWS = {n: module(n) for n in O.names("normal")}
 DEFAULT_LAW = O.KINDS["normal"]["default"]
 ContactModel = NormalModel
-HERTZ = O.SUBMODELS["hertz"]["code"]
-HARMONIC = O.SUBMODELS["harmonic"]["code"]
-NO_ROLLING = RollingModel(0, 0.0, 0.0, 0.0)
+NO_ROLLING = RollingModel(0)
 #: rolling resistance's names (its off name first)
 ROLLING_NAMES = O.names("rolling")
 
@@ -181,14 +228,12 @@ def lammps_words(values: dict, friction: float, poisson: float, damping: float) 
     e12 = (C.effective_young(False), C.effective_young(True))
     g12 = (C.effective_shear(poisson, False), C.effective_shear(poisson, True))
     words, scale, fragments = lammps_parts(values, *e12, *g12)
-    for kind in ("damping", "tangential"):
-        if not hasattr(module(chosen[kind]), "lammps_words" if kind == "damping" else "lammps_tangential"):
-            raise ValueError(f"no LAMMPS equivalent of the {O.KINDS[kind]['option']} {chosen[kind]!r}")
-    damp = module(chosen["damping"]).lammps_words(values, scale, words["normal"], C.stiffness_ratio(poisson))
     tangential = module(chosen["tangential"])
+    ratio = tangential.lammps_stiffness_ratio(values, words)
+    damp = module(chosen["damping"]).lammps_words(values, scale, words["normal"], ratio)
 
     def fixed(side: str) -> str:
-        t = tangential.lammps_tangential(values, words["tangential"], words["kt_" + side], damp["xgammat"])
-        return (f"{words['normal']} {words['kn_' + side]:.17g} {damp['restitution']:.17g} {t} "
+        t = tangential.lammps_tangential(values, words, side, damp["xgammat"])
+        return (f"{words['normal']} {words['kn_' + side]:.17g} {damp['normal_damping']:.17g} {t} "
                 f"damping {damp['damping_words']}")
     return dict(words, **damp), fragments, fixed

@@ -44,6 +44,8 @@ PARAMETERS = (
     Parameter("rolling_friction", 0.1, None, "mu_r of --rolling sds: the rolling force is capped at mu_r F_n.",
               lo=0.0),
 )
+#: its kernels' constants: k_r, gamma_r, mu_r
+CONSTANTS = ("k", "gamma", "mu")
 #: a couple needs the grains' rotations: refused without friction
 NEEDS_FRICTION = True
 #: LAMMPS' name of the model (``pair_coeff ... rolling sds k_r gamma_r mu_r``)

@@ -104,7 +104,7 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
         tz = vz - vn * nz
         # Scalar forms of the law (contact.py): the history stays in registers.
         gx, gy, gz = C.project_tangential3(hx, hy, hz, nx, ny, nz)
-        kt = CD.tangential_spring(tangential, CD.law_tangential_stiffness(law, delta, r12, g12), delta)
+        kt = CD.tangential_spring(tangential, CD.law_tangential_stiffness(law, delta, r12, g12), delta, e12)
         # contact.update_tangential3's steps, with the normal law's unloading factor
         if CD.tangential_unloads(tangential, overlap_old, delta, rescale):
             scale = CD.law_unloading_scale(law, overlap_old, delta)
@@ -121,21 +121,20 @@ def contact_force3(nx, ny, nz, delta, r12, root_r12, e12, g12, meff, vx, vy, vz,
 
 
 @numba.njit(cache=True)
-def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, zeta, mu, fvec,
-                  rescale=True, law=CD.NormalModel(0, 0.0), damping_code=0, tangential_code=0):
+def contact_force(n, delta, r12, e12, g12, meff, vrel, ft, overlap_old, dt, damping, tangential, fvec,
+                  rescale=True, law=CD.NormalModel(0)):
     """Array form of :func:`contact_force3` (tests, frozen-history forces).
 
     ``n``, ``vrel``, ``ft``, ``fvec`` have length d = 2 or 3; ``ft`` is updated
     in place, the force on i is written into ``fvec``, the elastic normal force returned.
-    ``zeta``, ``mu``: the damping and tangential laws' constants (``damping_code``,
-    ``tangential_code``: the laws, the defaults' 0 unless given).
+    ``damping``, ``tangential``, ``law``: the sub-models' model tuples (granwave.contact_models).
     """
     d = n.shape[0]
     three = d == 3
     fx, fy, fz, fel, hx, hy, hz = contact_force3(
         n[0], n[1], n[2] if three else 0.0, delta, r12, math.sqrt(r12), e12, g12, meff,
         vrel[0], vrel[1], vrel[2] if three else 0.0, ft[0], ft[1], ft[2] if three else 0.0,
-        overlap_old, dt, CD.DampingModel(damping_code, zeta), CD.TangentialModel(tangential_code, mu), rescale, law)
+        overlap_old, dt, damping, tangential, rescale, law)
     ft[0] = hx
     ft[1] = hy
     if three:

@@ -27,8 +27,8 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 
 
 @numba.njit(cache=True)
-def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, mu, law, force, torque, couple,
-                   hist_stored, tangential_code):
+def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, tangential, law, force, torque,
+                   couple, hist_stored, damping):
     n_grains, d = pos.shape
     r = rot.shape[1]
     e_pair = C.effective_young(False)
@@ -81,10 +81,9 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
             K.rotation_velocity(du, nv, rot, i, j, ai, aj)
         for a in range(d):
             ft[a] = ft_stored[c, a]
-        # overlap_old = delta: no unloading rescale; mu = inf (or 0): no Coulomb cap; zeta = 0: no
-        # dashpot; the packing's tangential law
-        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, 0.0, mu, fvec, False, law, np.int64(0),
-                        tangential_code)
+        # overlap_old = delta: no unloading rescale; the packing's tangential law without its slider
+        # (models.uncapped); ``damping``: the default damping law at 0, no dashpot
+        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, damping, tangential, fvec, False, law)
         for a in range(d):
             force[i, a] += fvec[a]
         if r > 0:
@@ -139,14 +138,16 @@ def frozen_history_forces(packing: Packing, displacement=None, rotation=None):
     force = np.zeros((n, d))
     torque = np.zeros((n, r))
     values = CO.values_of_attrs(packing.attrs)
+    # the tangential law's constants with the packing's friction (0: none) and poisson
+    contact = {**values, "friction": float(friction), "poisson": float(packing.attrs.get("poisson", 0.0))}
     _frozen_kernel(np.ascontiguousarray(packing.position, dtype=float),
                    np.ascontiguousarray(packing.radius, dtype=float),
                    np.ascontiguousarray(packing.box[:-1], dtype=float), float(packing.box[-1]),
                    np.ascontiguousarray(c.i, dtype=np.int64), np.ascontiguousarray(c.j, dtype=np.int64),
                    np.ascontiguousarray(c.force_tangential, dtype=float).reshape(len(c), d), disp, rot,
-                   float(packing.attrs.get("poisson", 0.0)), math.inf if friction > 0.0 else 0.0,
+                   float(packing.attrs.get("poisson", 0.0)), CM.uncapped(CM.model_of("tangential", contact)),
                    CM.model_of("normal", values), force, torque, CM.couple_model(values),
-                   CM.stored_couple_history(c, d), CO.SUBMODELS[CO.selected(values)["tangential"]]["code"])
+                   CM.stored_couple_history(c, d), CM.damping_model(0.0))
     return force, torque
 
 
@@ -208,7 +209,7 @@ def contact_table(position, radius, lateral, height, pair_i, pair_j, pair_ft, wa
         if friction > 0.0:  # the tangential law's k_t (Mindlin: the normal law's)
             kt[k] = CM.tangential_spring(tangential, CM.law_tangential_stiffness(law, overlap[k], r12,
                                                                                   C.effective_shear(poisson, wall)),
-                                         overlap[k])
+                                         overlap[k], e12)
             C.project_tangential(ft[k], normal[k])
         else:
             ft[k] = 0.0

@@ -299,7 +299,7 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
             for c in range(nc):
                 delta = t[T_DELTA * ROW + c]
                 kt = CD.tangential_spring(tangential, CD.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12),
-                                          delta)
+                                          delta, e12)
                 t[T_KT * ROW + c] = kt
                 t[T_CT * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c], kt, delta)
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])

@@ -135,8 +135,9 @@ def pressure_scales(pressure: float, mean_mass: float, contact: dict | None = No
     granwave.contact_models.options; None: the defaults), and the contact time scale
     t_p = sqrt(m_mean / k_p)."""
     r12, e12 = 0.25, C.effective_young(False)
-    module, model = CM.normal_law(CO.values_of(contact or {}))
-    delta = module.overlap_at_force(pressure, r12, e12, model.c0)
+    values = CO.values_of(contact or {})
+    _, model = CM.normal_law(values)
+    delta = CM.overlap_at_force(values, pressure, r12, e12)
     k = CM.law_stiffness(model, delta, math.sqrt(r12), e12)
     return delta, k, math.sqrt(mean_mass / k)
 
@@ -148,8 +149,9 @@ def impact_velocity(tol: float, mass: float, contact: dict | None = None) -> flo
     Hertz 2/5, a linear spring 1/2)."""
     r12, e12 = 0.25, C.effective_young(False)
     force = mass * tol
-    module, model = CM.normal_law(CO.values_of(contact or {}))
-    delta = module.overlap_at_force(force, r12, e12, model.c0)
+    values = CO.values_of(contact or {})
+    module, _ = CM.normal_law(values)
+    delta = CM.overlap_at_force(values, force, r12, e12)
     m_eff = C.reduced_mass(mass, mass, False)
     return math.sqrt(2.0 * module.IMPACT_WORK * force * delta / m_eff)
 

@@ -70,6 +70,7 @@ from ..params import PropagateParams
 from ..resources import check_propagate, check_run_time, predicted_seconds
 from ..threads import at_most
 from ..provenance import SAMPLE_ATTRS, carried
+from .. import contact_models as CM
 from ..contact_models import options as CO
 from . import kernels as K
 from . import pulse_kernels as PK
@@ -190,7 +191,9 @@ def packing_law(packing: Packing) -> tuple[str, dict]:
     """(normal law's name, the contact sub-models' selection) of a packing (its attributes: the
     defaults where absent; granwave.contact_models.options); InputError for an unknown law, a
     parameter out of range or a sub-model the pulse does not run (only the normal law)."""
-    values = CO.values_of_attrs(packing.attrs)
+    # the material's laws from the packing; the dashpot is the pulse's own (its damping zeta, a
+    # fraction of critical: the damping series of docs/method.md §11), not the preparation's
+    values = {**CO.values_of_attrs(packing.attrs), CO.KINDS["damping"]["option"]: CO.KINDS["damping"]["default"]}
     try:
         chosen = CO.check(values)
     except ValueError as e:
@@ -397,7 +400,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
                                     if base is not None else float("nan")),
         n_source_grains=int(len(grains)), n_contacts_initial=kicked["n_contacts_initial"],
         n_opened=kicked["n_opened"], n_formed=kicked["n_formed"], n_sliding=kicked["n_sliding"],
-        n_sliding_new=kicked["n_sliding_new"], n_at_cone_initial=kicked["n_at_cone_initial"],
+        n_sliding_new=kicked["n_sliding_new"], **{"n_at_cone_initial": kicked["n_at_cone_initial"]},
         max_displacement=kicked["max_displacement"],
         max_displacement_over_overlap=kicked["max_displacement"] / dbar,
         baseline_max_displacement_over_overlap=(base["max_displacement"] / dbar if base is not None
@@ -449,13 +452,11 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             e0 = engine.elastic_energy()
             u0 = np.zeros_like(engine.position)
             u0[grains, d - 1] = values
-            zeta = engine.fpar.zeta
-            engine.fpar.zeta = 0.0
-            engine.position += u0
-            engine.velocity[:] = u0  # one kinematic increment: slip = tangential u_rel (dt = 1)
-            _forces_now(engine, dt=1.0)
-            engine.velocity[:] = 0.0
-            engine.fpar.zeta = zeta
+            with CM.without_dashpot(engine.fpar):
+                engine.position += u0
+                engine.velocity[:] = u0  # one kinematic increment: slip = tangential u_rel (dt = 1)
+                _forces_now(engine, dt=1.0)
+                engine.velocity[:] = 0.0
             _forces_now(engine)
             energy_input = float(engine.elastic_energy() - e0)
 
@@ -519,8 +520,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     return dict(top=shear_force if shear else top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
                 n_contacts_initial=count(PK.INITIAL), n_opened=count(PK.OPENED), n_formed=count(PK.FORMED),
                 n_sliding=count(PK.SLID),
-                n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.CONE0))),
-                n_at_cone_initial=count(PK.CONE0), max_displacement=float(stats[0]),
+                n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),
+                **{"n_at_cone_initial": count(PK.LIMIT0)}, max_displacement=float(stats[0]),
                 rebuilds=int(engine.rebuilds))
 
 

@@ -15,9 +15,9 @@ Contact state flags (``int8`` bit field, one per pair slot and per wall slot):
 overlap after some step; ``FORMED`` a contact not present at t = 0 found with
 overlap after some step; ``SLID`` the tangential force found on its
 slider's limit after some step: the tangential law's ``at_limit`` (granwave.contact_models; for
-Mindlin's Coulomb slider ``|F_t| >= (1 - CONE_TOL) mu F_n``) with F_n the elastic normal force of
+Mindlin's Coulomb slider ``|F_t| >= (1 - LIMIT_TOL) mu F_n``) with F_n the elastic normal force of
 the engine's law (``contact_models.law_force`` of ``kernels.law_of(fpar)``, as the engine caps
-F_t: a sliding contact sits exactly on the limit, a sticking one stays inside); ``CONE0`` on the limit at t = 0 already (fully mobilized in the
+F_t: a sliding contact sits exactly on the limit, a sticking one stays inside); ``LIMIT0`` on the limit at t = 0 already (fully mobilized in the
 stored state).
 
 The pair list can be rebuilt by the engine during a step (grains moved more
@@ -42,30 +42,30 @@ from . import kernels as K
 from . import serial
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
-INITIAL, OPENED, FORMED, SLID, CONE0 = 1, 2, 4, 8, 16
+INITIAL, OPENED, FORMED, SLID, LIMIT0 = 1, 2, 4, 8, 16
 #: Relative tolerance of the "on the slider's limit" test.
-CONE_TOL = 1e-9
+LIMIT_TOL = 1e-9
 
 
 @numba.njit(cache=True, inline="always")
 def _on_limit(tangential, ft, k, d, fel):
     """Whether contact ``k``'s tangential force (the first ``d`` columns of its history ``ft``;
     a rolling history may follow) sits on its tangential law's limit at normal force ``fel``."""
-    return CM.tangential_at_limit(tangential, ft[k, 0], ft[k, 1], ft[k, 2] if d == 3 else 0.0, fel, CONE_TOL)
+    return CM.tangential_at_limit(tangential, ft[k, 0], ft[k, 1], ft[k, 2] if d == 3 else 0.0, fel, LIMIT_TOL)
 
 
 @numba.njit(cache=True, inline="always")
-def _touching_state(s, cone, initial):
-    """Flags of a contact that touches now: INITIAL / CONE0 when recording the initial state,
+def _touching_state(s, at_limit, initial):
+    """Flags of a contact that touches now: INITIAL / LIMIT0 when recording the initial state,
     else FORMED (it did not touch initially) and SLID (it is on its slider's limit)."""
     if initial:
         s |= INITIAL
-        if cone:
-            s |= CONE0
+        if at_limit:
+            s |= LIMIT0
     else:
         if not (s & INITIAL):
             s |= FORMED
-        if cone:
+        if at_limit:
             s |= SLID
     return s
 
@@ -76,7 +76,7 @@ def classify(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov,
     """Update the contact flags from the current history arrays (after a force evaluation).
 
     ``d``: the dimension (the tangential force's columns of the histories). ``initial``: set
-    INITIAL / CONE0 from the current state instead of the run flags. ``tangential`` and ``law``:
+    INITIAL / LIMIT0 from the current state instead of the run flags. ``tangential`` and ``law``:
     the engine's tangential and normal model tuples (granwave.contact_models;
     ``kernels.friction_of(fpar)``, ``kernels.law_of(fpar)``): the slider's limit and the normal
     force that sets it. Parallel over contacts (each writes only its own flag).

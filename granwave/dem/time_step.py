@@ -37,12 +37,13 @@ def stable_dt(fpar):
     at the larger of the largest current overlap and the overlap floor (that of a
     contact carrying p d^2), acting on the lightest grain: k_n, omega_n^2 = k_n / m_min.
     Two modes of that contact bound the step (:func:`verlet_limit`):
-    - normal: omega_n, damping ratio zeta;
-    - tangential (mu > 0): the grain turning about its contact, mode mass m / 3.5
-      (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n, the tangential
-      law's step_ratio) and, since
-      c_t = 2 zeta sqrt(m k_t) uses the translational mass (docs/method.md §2), damping ratio
-      zeta sqrt(3.5).
+    - normal: omega_n, the damping law's ratio zeta of k_n on m_min (its step_ratio: the default
+      law's zeta itself);
+    - tangential (where the tangential law acts): the grain turning about its contact, mode mass
+      m / 3.5 (m a^2 / I <= 2.5), so omega_t^2 = 3.5 eta omega_n^2 (eta = k_t / k_n, the
+      tangential law's step_ratio given k_n and m_min: Mindlin's 2(1-nu)/(2-nu)) and, since the
+      dashpot's ratio is that of k_t on the translational mass (docs/method.md §2: c_t = 2 zeta
+      sqrt(m k_t) for the default law), damping ratio zeta_t sqrt(3.5).
     A grain has several contacts, so the true limit is 0.7-1.0 of this estimate for zeta in
     [0, 1], with and without friction; hence ``safety`` <= 0.06 (params;
     docs/decisions/0009-time-step-rule.md). k_n is the engine's normal law's
@@ -51,12 +52,15 @@ def stable_dt(fpar):
     """
     k = CD.law_step_stiffness(law_of(fpar), fpar.overlap_floor, math.sqrt(fpar.r_max), C.effective_young(True))
     omega = math.sqrt(k / fpar.m_min)
-    zeta = CD.dashpot_step_ratio(dashpot_of(fpar))
+    dashpot = dashpot_of(fpar)
+    zeta = CD.dashpot_step_ratio(dashpot, k, fpar.m_min)
     limit = verlet_limit(omega, zeta)
     tangential = friction_of(fpar)
     if CD.friction_acts(tangential):
-        omega_t = omega * math.sqrt(ROTATION_FACTOR * CD.tangential_step_ratio(tangential, fpar.poisson))
-        limit = min(limit, verlet_limit(omega_t, zeta * math.sqrt(ROTATION_FACTOR)))
+        eta = CD.tangential_step_ratio(tangential, k, fpar.m_min, fpar.poisson)
+        omega_t = omega * math.sqrt(ROTATION_FACTOR * eta)
+        zeta_t = CD.dashpot_step_ratio(dashpot, eta * k, fpar.m_min)
+        limit = min(limit, verlet_limit(omega_t, zeta_t * math.sqrt(ROTATION_FACTOR)))
     couple = couple_of(fpar)
     if couple.code != 0:  # the couple sub-model's own mode (granwave.contact_models, kind rolling)
         omega_c, zeta_c = CD.couple_step_mode(couple, fpar.m_min)

@@ -121,7 +121,6 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
     r = omega.shape[1]
     dt = fpar.dt
     zeta = fpar.zeta
-    mu = fpar.mu
     poisson = fpar.poisson
     rescale = fpar.rescale != 0.0
     for a in range(3):
@@ -144,7 +143,7 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
             for a in range(pair_ft.shape[1]):  # the tangential history and a rolling one after it
                 pair_ft[p, a] = 0.0
         return
-    if mu > 0.0:
+    if DF.friction_acts(DF.friction_of(fpar)):  # the tangential law's history
         pair_ft[p, 0] = hx
         pair_ft[p, 1] = hy
         if d == 3:
