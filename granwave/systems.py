@@ -1,7 +1,8 @@
 """Exact reference states (docs/method.md §3): the perfect triangular lattice and the 1D chain.
 
 No preparation run is needed: contact forces follow from the pressure and the
-geometry, overlaps from inverting the contact law of :mod:`granwave.contact`,
+geometry, overlaps from inverting the normal contact law (Hertz by default,
+:mod:`granwave.contact`; any registered one, :mod:`granwave.contact_models`),
 and positions from the overlaps, so the state is an exact equilibrium (the
 recorded ``max_acceleration`` is the computed residual, round-off only).
 
@@ -18,7 +19,7 @@ Contact forces: in the perfect (isotropic) lattice all six contacts of a
 ball are equally compressed, so the geometry stays exactly equilateral.
 Vertical stress p (docs/method.md §1: force per wall length × one diameter) through a
 horizontal line crosses two inclined contacts per ball, i.e. per length a:
-2 f sin60° = p a, hence **f = p a/√3** (a = 1 − δ, δ the Hertz overlap at
+2 f sin60° = p a, hence **f = p a/√3** (a = 1 − δ, δ the normal law's overlap at
 force f: solved self-consistently, so σ22 = p holds exactly and not only to
 leading order in p). The bulk lateral stress is then σ11 = p too. A ball of
 the first row rests on the bottom wall by one contact that carries the
@@ -26,9 +27,9 @@ vertical push of its two upper neighbours, **f_wall = √3 f = p a**, so the
 wall force per length is p; the last row presses on the top wall the same
 way. Balls of the first and last row have 5 contacts (4 grains + wall).
 
-Stiffnesses: k_n (Hertz) and the Mindlin k_t are computed from
-:mod:`granwave.contact` for every contact, also when ``friction = 0`` (the
-linearization ignores k_t then). The tangential forces are zero.
+Stiffnesses: the normal law's k_n and the tangential law's k_t (Hertz and Mindlin
+by default) for every contact, also when ``friction = 0`` (the linearization ignores
+k_t then). The tangential forces are zero.
 
 1D chain
 --------
@@ -132,6 +133,13 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
         raise InputError(f"pressure {pressure:g} is too large: the wall overlap {delta_w:.3g} leaves "
                          f"no positive spacing between the first row and the wall (radius {radius})")
 
+    tangential = CM.model_of("tangential", {**values, "friction": float(friction), "poisson": float(poisson)})
+
+    def kt_of(delta, r12, e12, wall):
+        """The tangential law's k_t (Mindlin: the normal law's own)."""
+        kt_law = CM.law_tangential_stiffness(law, delta, r12, contact.effective_shear(poisson, wall))
+        return CM.tangential_spring(tangential, kt_law, delta, e12)
+
     row = np.repeat(np.arange(rows), width)
     col = np.tile(np.arange(width), rows)
     position = np.stack([(col + 0.5 * (row % 2)) * a, y0 + row * h], axis=1)
@@ -167,9 +175,7 @@ def triangular_lattice(*, rows: int, width: int, pressure: float, friction: floa
         force_tangential=np.zeros((m, 2)),
         stiffness_normal=np.where(wall, CM.law_stiffness(law, delta_w, math.sqrt(r12_w), e12_w),
                                   CM.law_stiffness(law, delta_g, math.sqrt(r12_g), e12_g)),
-        stiffness_tangential=np.where(
-            wall, CM.law_tangential_stiffness(law, delta_w, r12_w, contact.effective_shear(poisson, True)),
-            CM.law_tangential_stiffness(law, delta_g, r12_g, contact.effective_shear(poisson, False))),
+        stiffness_tangential=np.where(wall, kt_of(delta_w, r12_w, e12_w, True), kt_of(delta_g, r12_g, e12_g, False)),
     )
     n = rows * width
     mass = grain_mass(np.full(n, radius))

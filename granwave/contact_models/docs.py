@@ -10,8 +10,9 @@ tests/test_contact_registry.py fails when one is not what the registry gives now
   equivalent;
 - ``contact-parameters``: one row per parameter (the kinds' and the sub-models'): option,
   default, units, range, meaning;
-- ``contact-lammps``: one row per sub-model: the words ``export lammps`` writes for it at the
-  defaults (granwave.contact_models.models.lammps_words), or why it has none.
+- ``contact-lammps``: one row per sub-model: the words ``export lammps`` writes for it with the
+  other kinds at their defaults (granwave.contact_models.models.lammps_words), or why it has none
+  (its ``NO_LAMMPS``, or the refusal of that combination).
 """
 
 from __future__ import annotations
@@ -88,9 +89,13 @@ def lammps_table() -> str:
             rows.append(f"| `{name}` | none: {_cell(s['lammps'])} |")
             continue
         values = O.values_of({k["option"]: name})
-        words, fragments, fixed = M.lammps_words(values, O.KIND_PARAMETERS["friction"]["default"],
-                                                 O.KIND_PARAMETERS["poisson"]["default"],
-                                                 O.KIND_PARAMETERS["damping"]["default"])
+        try:
+            words, fragments, fixed = M.lammps_words(values, O.KIND_PARAMETERS["friction"]["default"],
+                                                     O.KIND_PARAMETERS["poisson"]["default"],
+                                                     O.KIND_PARAMETERS["damping"]["default"])
+        except ValueError as e:  # this combination has none (the refusal export lammps prints)
+            rows.append(f"| `{name}` | none with the other defaults: {_cell(e)} |")
+            continue
         text = " ".join([fixed("pair"), *fragments])
         text = re.sub(r"(?<![\w.])-?\d+\.\d+(e-?\d+)?", lambda m: f"{float(m.group(0)):.4g}", text)
         rows.append(f"| `{name}` | `{text}` |")
