@@ -18,6 +18,7 @@ from . import hertz as _normal_hertz
 from . import harmonic as _normal_harmonic
 from . import damping_critical as _damping_critical_fraction
 from . import mindlin as _tangential_mindlin
+from . import linear_history as _tangential_linear_history
 from . import rolling as _rolling_sds
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
@@ -111,48 +112,60 @@ def dashpot_step_ratio(model, k, m):
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
 #: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may
 #: leave them out)
-TangentialModel = namedtuple('TangentialModel', ('code', 'c0'), defaults=(0.0, ))
+TangentialModel = namedtuple('TangentialModel', ('code', 'c0', 'c1'), defaults=(0.0, 0.0, ))
 
 
 @numba.njit(cache=True, inline="always")
 def friction_of(fpar):
     """The TangentialModel of the engine's parameters."""
-    return TangentialModel(int(fpar.tangential_code), fpar.mu)
+    return TangentialModel(int(fpar.tangential_code), fpar.mu, fpar.tangential_c1)
 
 
 @numba.njit(cache=True, inline="always")
 def friction_acts(model):
     """Tangential contact law: ``acts`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _tangential_linear_history.acts(model.c0, model.c1)
     return _tangential_mindlin.acts(model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def tangential_spring(model, kt_law, overlap, e12):
     """Tangential contact law: ``stiffness`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _tangential_linear_history.stiffness(kt_law, overlap, e12, model.c0, model.c1)
     return _tangential_mindlin.stiffness(kt_law, overlap, e12, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def tangential_unloads(model, overlap_old, overlap_new, rescale):
     """Tangential contact law: ``unloads`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _tangential_linear_history.unloads(overlap_old, overlap_new, rescale, model.c0, model.c1)
     return _tangential_mindlin.unloads(overlap_old, overlap_new, rescale, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def tangential_increment(model, fx, fy, fz, sx, sy, sz, kt, fel):
     """Tangential contact law: ``increment`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _tangential_linear_history.increment(fx, fy, fz, sx, sy, sz, kt, fel, model.c0, model.c1)
     return _tangential_mindlin.increment(fx, fy, fz, sx, sy, sz, kt, fel, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def tangential_step_ratio(model, kn, m, poisson):
     """Tangential contact law: ``step_ratio`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _tangential_linear_history.step_ratio(kn, m, poisson, model.c0, model.c1)
     return _tangential_mindlin.step_ratio(kn, m, poisson, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def tangential_at_limit(model, fx, fy, fz, fel, tol):
     """Tangential contact law: ``at_limit`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _tangential_linear_history.at_limit(fx, fy, fz, fel, tol, model.c0, model.c1)
     return _tangential_mindlin.at_limit(fx, fy, fz, fel, tol, model.c0)
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
@@ -202,7 +215,7 @@ def couple_step_mode(model, m_min):
 #: model tuple classes by kind
 MODELS = {'normal': NormalModel, 'damping': DampingModel, 'tangential': TangentialModel, 'rolling': RollingModel}
 #: the sub-model modules by the names the dispatchers call them
-MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_damping_critical_fraction': _damping_critical_fraction, '_tangential_mindlin': _tangential_mindlin, '_rolling_sds': _rolling_sds}
+MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_damping_critical_fraction': _damping_critical_fraction, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
 #: (module alias, function) of every sub-model formula, then (None, name) of every reader and
 #: dispatcher, each after those it calls: granwave.gpu.compile makes device copies in this order
 DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
@@ -237,6 +250,12 @@ DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
  ('_tangential_mindlin', 'increment'),
  ('_tangential_mindlin', 'step_ratio'),
  ('_tangential_mindlin', 'at_limit'),
+ ('_tangential_linear_history', 'acts'),
+ ('_tangential_linear_history', 'stiffness'),
+ ('_tangential_linear_history', 'unloads'),
+ ('_tangential_linear_history', 'increment'),
+ ('_tangential_linear_history', 'step_ratio'),
+ ('_tangential_linear_history', 'at_limit'),
  (None, 'friction_of'),
  (None, 'friction_acts'),
  (None, 'tangential_spring'),

@@ -13,4 +13,5 @@ SUBMODELS = (
     "rolling",
     "damping_critical",
     "mindlin",
+    "linear_history",
 )
