@@ -17,6 +17,7 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 from . import hertz as _normal_hertz
 from . import harmonic as _normal_harmonic
 from . import damping_critical as _damping_critical_fraction
+from . import damping_viscous as _damping_constant_viscous
 from . import mindlin as _tangential_mindlin
 from . import linear_history as _tangential_linear_history
 from . import rolling as _rolling_sds
@@ -95,18 +96,24 @@ def dashpot_of(fpar):
 @numba.njit(cache=True, inline="always")
 def dashpot_acts(model):
     """Contact damping law: ``acts`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _damping_constant_viscous.acts(model.c0)
     return _damping_critical_fraction.acts(model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def dashpot_coefficient(model, meff, k, overlap):
     """Contact damping law: ``coefficient`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _damping_constant_viscous.coefficient(meff, k, overlap, model.c0)
     return _damping_critical_fraction.coefficient(meff, k, overlap, model.c0)
 
 
 @numba.njit(cache=True, inline="always")
 def dashpot_step_ratio(model, k, m):
     """Contact damping law: ``step_ratio`` of the sub-model of ``model``'s code."""
+    if model.code == 1:
+        return _damping_constant_viscous.step_ratio(k, m, model.c0)
     return _damping_critical_fraction.step_ratio(k, m, model.c0)
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
@@ -215,7 +222,7 @@ def couple_step_mode(model, m_min):
 #: model tuple classes by kind
 MODELS = {'normal': NormalModel, 'damping': DampingModel, 'tangential': TangentialModel, 'rolling': RollingModel}
 #: the sub-model modules by the names the dispatchers call them
-MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_damping_critical_fraction': _damping_critical_fraction, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
+MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_damping_critical_fraction': _damping_critical_fraction, '_damping_constant_viscous': _damping_constant_viscous, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
 #: (module alias, function) of every sub-model formula, then (None, name) of every reader and
 #: dispatcher, each after those it calls: granwave.gpu.compile makes device copies in this order
 DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
@@ -240,6 +247,9 @@ DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
  ('_damping_critical_fraction', 'acts'),
  ('_damping_critical_fraction', 'coefficient'),
  ('_damping_critical_fraction', 'step_ratio'),
+ ('_damping_constant_viscous', 'acts'),
+ ('_damping_constant_viscous', 'coefficient'),
+ ('_damping_constant_viscous', 'step_ratio'),
  (None, 'dashpot_of'),
  (None, 'dashpot_acts'),
  (None, 'dashpot_coefficient'),

@@ -14,4 +14,5 @@ SUBMODELS = (
     "damping_critical",
     "mindlin",
     "linear_history",
+    "damping_viscous",
 )
