@@ -240,13 +240,20 @@ def _remove_checkpoints(p: PrepareParams, paths: dict) -> None:
         Checkpoint(path, dataclasses.replace(p, seed=s)).remove()
 
 
+def _contact_fields(p) -> dict:
+    """The contact sub-models' fields a stage's parameters hold (granwave.contact_models.options),
+    by name: what systems.triangular_lattice and systems.chain take."""
+    names = set(CO.options())
+    return {f.name: getattr(p, f.name) for f in dataclasses.fields(p) if f.name in names}
+
+
 def lattice(params: LatticeParams | None = None, /, **fields) -> Packing:
     """Perfect triangular lattice under pressure (docs/method.md §3, §12; granwave.systems)."""
     from .systems import triangular_lattice
 
     p = _params(LatticeParams, params, fields)
     packing = triangular_lattice(rows=p.rows, width=p.width, pressure=p.pressure,
-                                 friction=p.friction, poisson=p.poisson)
+                                 friction=p.friction, poisson=p.poisson, **_contact_fields(p))
     p.record(packing.attrs)
     return packing
 
@@ -256,9 +263,11 @@ def chain(params: ChainParams | None = None, /, **fields) -> Packing:
     from .systems import chain as make_chain
 
     p = _params(ChainParams, params, fields)
+    law = p.law()
+    contact = {k: v for k, v in _contact_fields(p).items() if k != "contact_law"}
     packing = make_chain(n_balls=p.balls, pressure=p.pressure, polydispersity=p.polydispersity,
                          seed=p.seed, stiffness=p.stiffness,
-                         stiffness_model="hertz" if p.hertz else "equal")
+                         stiffness_model="equal" if law is None else "law", contact_law=law, **contact)
     p.record(packing.attrs)
     return packing
 

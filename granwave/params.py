@@ -320,12 +320,16 @@ class PrepareParams(Params):
 
 
 @dataclass(frozen=True, kw_only=True)
+@CO.with_fields([(n, k, param(d, **m)) for n, k, d, m in CO.kind_fields(("normal", "tangential"), own=False)],
+                after="poisson")
 class LatticeParams(Params):
     """Perfect triangular lattice of unit balls under vertical stress p (docs/method.md §3, §12).
 
     rows >= 2 (first on the bottom wall, last on the top wall), width >= 3 balls
     per row (periodic); pressure p in E* (force per wall length x one diameter);
-    friction mu and Poisson ratio nu (recorded; they set k_t).
+    friction mu and Poisson ratio nu (recorded; they set k_t); the normal contact law
+    (contact_law) and the tangential law with their sub-models' parameters (fields generated from
+    granwave.contact_models' registry, after poisson; their help says what they mean).
     """
 
     ATTR = "lattice_params"
@@ -337,15 +341,28 @@ class LatticeParams(Params):
     friction: float = _friction(0.0)
     poisson: float = _poisson()
 
+    def __post_init__(self):
+        super().__post_init__()
+        try:
+            CO.check(CO.values_of(self))
+        except ValueError as e:
+            raise InputError(str(e)) from None
+
 
 @dataclass(frozen=True, kw_only=True)
+@CO.with_fields([(n, k, param(d, **(dict(m, help="Give each contact the k_n of this normal contact law at "
+                                          "force p instead of one K: " + m["help"].split(": ", 1)[1])
+                                     if k == "str | None" else m)))
+                 for n, k, d, m in CO.kind_fields(("normal",), default={"contact_law": None})], after="stiffness")
 class ChainParams(Params):
     """1D chain of balls between two walls (docs/method.md §3, §12).
 
     balls N; pressure: the force on every contact in E* d^2; polydispersity W
     (diameters uniform in [1-W, 1+W], masses pi d^3/6 follow); seed; stiffness K
     (E* d) of every spring, walls included (None: the Hertz k_n of two unit
-    balls at force p); hertz: every contact its own Hertz k_n instead.
+    balls at force p); contact_law (None: the springs K) and its parameters (fields generated
+    from granwave.contact_models' registry, after stiffness): every contact its own k_n of that
+    normal law at force p (radius dependent) instead; hertz: the same as contact_law 'hertz'.
     """
 
     ATTR = "chain_params"
@@ -364,6 +381,19 @@ class ChainParams(Params):
     def _cross_check(self):
         if self.hertz and self.stiffness is not None:
             raise InputError("give either --stiffness K or --hertz, not both")
+        if self.contact_law is not None and self.stiffness is not None:
+            raise InputError("give either --stiffness K or --contact-law, not both")
+        if self.hertz and self.contact_law not in (None, CO.KINDS["normal"]["default"]):
+            raise InputError(f"give either --hertz or --contact-law {self.contact_law}, not both")
+        if self.contact_law is not None:
+            try:
+                CO.check(CO.values_of(self))
+            except ValueError as e:
+                raise InputError(str(e)) from None
+
+    def law(self) -> str | None:
+        """The normal law every contact takes its k_n from (None: the springs K)."""
+        return CO.KINDS["normal"]["default"] if self.hertz and self.contact_law is None else self.contact_law
 
 
 # ----------------------------------------------------------------- linear model

@@ -39,7 +39,8 @@ walls included, carries the force p. Springs are linear with the same
 stiffness K on every contact (walls included), docs/method.md §3;
 default K = the Hertz k_n of two unit balls at contact force p. With
 ``stiffness_model="hertz"`` each contact instead gets its own Hertz k_n
-(radii-dependent; wall contacts use the wall law) — not the default of docs/method.md §3.
+(radii-dependent; wall contacts use the wall law) — not the default of docs/method.md §3;
+``"law"`` does the same with any registered normal law (``contact_law=...``).
 Overlaps are consistent with the spring law: δ = p/K for linear springs,
 the Hertz overlap at force p for ``"hertz"``. Polydisperse chains have
 diameters uniform in [1 − W, 1 + W] (seeded); masses ρπd³/6 vary with them.
@@ -197,13 +198,15 @@ def default_chain_stiffness(pressure: float) -> float:
 
 
 def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: int = 0,
-          stiffness: float | None = None, stiffness_model: str = "equal") -> Packing:
+          stiffness: float | None = None, stiffness_model: str = "equal", **submodels) -> Packing:
     """1D chain of ``n_balls`` balls between two walls under force ``pressure`` × 1 d² (module docstring).
 
     polydispersity W: diameters uniform in [1 − W, 1 + W] (0 <= W < 1, drawn
     with ``numpy.random.default_rng(seed)``). ``stiffness`` K (E* d) of every
     spring, walls included; None = :func:`default_chain_stiffness`.
-    ``stiffness_model="hertz"`` gives every contact its own Hertz k_n instead.
+    ``stiffness_model="law"`` gives every contact its own k_n of the normal law of ``submodels``
+    (``contact_law`` and its parameters by the names of ``PrepareParams``' fields; Hertz by
+    default) at force p instead; ``"hertz"``: the same with Hertz.
     """
     if int(n_balls) != n_balls or n_balls < 1:
         raise InputError(f"n_balls must be a positive integer, got {n_balls}")
@@ -212,10 +215,24 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     _check_common(pressure, 0.0, 0.0)
     if not (np.isfinite(polydispersity) and 0.0 <= polydispersity < 1.0):
         raise InputError(f"polydispersity must be in [0, 1), got {polydispersity}")
-    if stiffness_model not in ("equal", "hertz"):
-        raise InputError(f"stiffness_model must be 'equal' or 'hertz', got {stiffness_model!r}")
-    if stiffness_model == "hertz" and stiffness is not None:
-        raise InputError("give either a stiffness K or stiffness_model='hertz', not both")
+    if stiffness_model not in ("equal", "hertz", "law"):
+        raise InputError(f"stiffness_model must be 'equal', 'hertz' or 'law', got {stiffness_model!r}")
+    if stiffness_model != "equal" and stiffness is not None:
+        raise InputError(f"give either a stiffness K or stiffness_model={stiffness_model!r}, not both")
+    from . import contact_models as CM
+    from .contact_models import options as CO
+
+    values = CO.resolve(submodels, "chain")
+    if stiffness_model == "hertz":
+        values[CO.KINDS["normal"]["option"]] = CO.KINDS["normal"]["default"]
+    try:
+        _, law = CM.normal_law(values)
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    for option, name in CO.off_kinds_on(values):
+        raise InputError(f"a chain has no {CO.SUBMODELS[name]['description']} (--{option.replace('_', '-')} {name})")
+    if stiffness_model == "law" and CO.selected(values)["normal"] == CO.KINDS["normal"]["default"]:
+        stiffness_model = "hertz"  # the default law: the files of stiffness_model 'hertz', bit for bit
     if stiffness is not None and not (np.isfinite(stiffness) and stiffness > 0):
         raise InputError(f"stiffness must be positive and finite, got {stiffness}")
     if int(seed) != seed or seed < 0:
@@ -238,6 +255,10 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
         overlap = np.array([hertz_overlap(pressure, r, e) for r, e in zip(r12, e12)])
         k = np.array([contact.normal_stiffness(d, r, e) for d, r, e in zip(overlap, r12, e12)])
         k_record = "hertz"
+    elif stiffness_model == "law":
+        overlap = np.array([CM.overlap_at_force(values, pressure, r, e) for r, e in zip(r12, e12)])
+        k = np.array([CM.law_stiffness(law, d, math.sqrt(r), e) for d, r, e in zip(overlap, r12, e12)])
+        k_record = CO.selected(values)["normal"]
     else:
         K = default_chain_stiffness(pressure) if stiffness is None else float(stiffness)
         k = np.full(n + 1, K)
@@ -262,5 +283,7 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
                  converged=True, max_acceleration=residual, n_balls=n,
                  polydispersity=float(polydispersity), stiffness=k_record,
                  stiffness_model=stiffness_model, pressure_meaning="force per mean diameter squared")
+    if stiffness_model == "law":
+        attrs.update(CO.attrs_of(values, recorded=False))
     return Packing(position=position, radius=radius, mass=mass, inertia=grain_inertia(radius),
                    box=box, contacts=contacts, attrs=attrs)

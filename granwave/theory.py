@@ -93,6 +93,8 @@ resolves.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import special
 
@@ -216,6 +218,35 @@ def lattice_speed(pressure, *, friction: bool = False, poisson: float = 0.0):
     if friction:
         c = c * np.sqrt(1.0 + contact.stiffness_ratio(poisson) / 3.0)
     return c if c.ndim else float(c)
+
+
+def law_lattice_speed(pressure: float, submodels: dict | None = None, *, friction: bool = False,
+                      poisson: float = 0.0) -> float:
+    """:func:`lattice_speed` of a lattice whose contacts follow the normal law (and, with
+    friction, the tangential law) of the selection ``submodels`` (granwave.contact_models.options;
+    None: Hertz-Mindlin, for which this is :func:`lattice_speed`), units sqrt(E*/rho).
+
+    The row chain of docs/method.md §12 at leading order in p: c = h sqrt(K_row / m), h = sqrt(3)/2,
+    m = pi/6, K_row = (3/2) (k_n + k_t/3) (k_t = 0 without friction), k_n and k_t those of two unit
+    balls (R12 = 1/4, E*12 = 1/2) carrying the contact force p / sqrt(3).
+    """
+    from . import contact_models as CM
+    from .contact_models import options as CO
+
+    p = float(pressure)
+    if not (math.isfinite(p) and p > 0):
+        raise InputError("pressure must be positive and finite")
+    values = CO.resolve({**(submodels or {}), "friction": 1.0 if friction else 0.0, "poisson": float(poisson)})
+    _, law = CM.normal_law(values)
+    r12, e12 = 0.25, contact.effective_young(False)
+    n = CM.overlap_at_force(values, p / math.sqrt(3.0), r12, e12)
+    kn = CM.law_stiffness(law, n, math.sqrt(r12), e12)
+    kt = 0.0
+    if friction:
+        kt = CM.tangential_spring(CM.model_of("tangential", values),
+                                  CM.law_tangential_stiffness(law, n, r12, contact.effective_shear(poisson, False)),
+                                  n, e12)
+    return math.sqrt(3.0) / 2.0 * math.sqrt(1.5 * (kn + kt / 3.0) / (math.pi / 6.0))
 
 
 def lattice_shear_speed(pressure, *, poisson: float = 0.0):

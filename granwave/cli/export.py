@@ -47,8 +47,9 @@ def export_lammps_cmd(packing, output, steps, damping, quiet):
     """Write a LAMMPS data file (atom_style sphere) and an input deck in.granwave.
 
     The deck reads packing.data in units lj (= granwave's reduced units) and sets up
-    the same physics: pair_style granular (hertz, mindlin_rescale with friction, or for a
-    harmonic packing hooke, linear_history; damping matched to granwave's zeta), a granular bottom wall and a force-driven
+    the same physics: pair_style granular with the packing's contact sub-models' LAMMPS words
+    (Hertz: hertz, mindlin_rescale with friction, damping matched to granwave's zeta; every
+    sub-model's in docs/interop.md; one without an equivalent is refused), a granular bottom wall and a force-driven
     piston (see granwave.interop.lammps). Run it with `lmp -in in.granwave` inside
     the folder; it ends with `write_data continued.data`, which `granwave import
     lammps` reads back. LAMMPS starts every contact without tangential force (a data

@@ -69,8 +69,8 @@ def parse_seeds(spec: str) -> list[int]:
 def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds, quiet, **options):
     """Prepare a packing in mechanical equilibrium by piston compression of a granular gas.
 
-    Hertz-Mindlin contacts (or harmonic ones: --contact-law) with Coulomb friction and
-    damping; converged when every acceleration (grains, rotations, piston) is below --tol
+    The contact sub-models of --contact-law, --damping-law, --tangential and --rolling
+    (Hertz-Mindlin with Coulomb friction and damping by default); converged when every acceleration (grains, rotations, piston) is below --tol
     and every speed below the impact speed of --tol (see docs/dem.md). Writes a granwave.packing file with
     the force-carrying contacts (j = -1 bottom wall, -2 piston) and the protocol in
     its attributes.

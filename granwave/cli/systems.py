@@ -28,16 +28,17 @@ def lattice(output, quiet, **options):
     """Perfect triangular lattice of unit balls under pressure (no preparation run).
 
     Rows are parallel to the walls; all contacts carry f = p a/sqrt(3) (a the
-    centre spacing, solved with the Hertz overlap), wall contacts p a, so the
-    vertical stress is exactly p. Overlaps, k_n and k_t follow from the
-    Hertz-Mindlin law. Lengths in mean diameters, forces in E* d^2.
+    centre spacing, solved with the normal law's overlap), wall contacts p a, so
+    the vertical stress is exactly p. Overlaps and k_n follow from the normal
+    contact law (--contact-law), k_t from the tangential law (--tangential).
+    Lengths in mean diameters, forces in E* d^2.
     """
     from .. import api
 
     params = params_from(LatticeParams, options)
     packing = _write(output, api.lattice, params)
     if not quiet:
-        click.echo(f"lattice {params.rows} x {params.width}, p = {params.pressure:g}: spacing "
+        click.echo(f"lattice {params.rows} x {params.width}, p = {params.pressure:g}, {params.contact_law}: spacing "
                    f"{packing.attrs['spacing']:.12g}, height {packing.height:.8g} -> {output}", err=True)
 
 
@@ -50,8 +51,9 @@ def chain(output, quiet, **options):
     """1D chain of balls between two walls, linear springs of equal stiffness.
 
     Every contact (walls included) carries the force p; springs have one
-    stiffness K and overlap p/K; positions follow. Lengths in mean diameters,
-    stiffness in E* d, forces in E* d^2.
+    stiffness K and overlap p/K (or, with --contact-law, each contact the k_n
+    and overlap of that normal law at force p); positions follow. Lengths in
+    mean diameters, stiffness in E* d, forces in E* d^2.
     """
     from .. import api
 

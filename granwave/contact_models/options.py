@@ -67,6 +67,25 @@ def prepare_fields() -> list[tuple[str, str, object, dict]]:
     return out
 
 
+def kind_fields(kinds, default=None, own=True) -> list[tuple[str, str, object, dict]]:
+    """:func:`prepare_fields` of the kinds ``kinds`` only (a stage that makes packings of those:
+    a lattice's normal and tangential laws, a chain's normal law), without the kinds' own
+    parameters unless ``own``; ``default``: {option: default} replacing a kind's default (None:
+    the option may be left out: type ``str | None``)."""
+    options = {KINDS[k]["option"]: k for k in kinds}
+    out = []
+    for name, kind, value, meta in prepare_fields():
+        p = ALL_PARAMETERS.get(name)
+        if name in options:
+            if default and name in default:
+                value = default[name]
+                kind = "str | None" if value is None else kind
+            out.append((name, kind, value, meta))
+        elif p is not None and p["kind"] in kinds and (own or "submodel" in p):
+            out.append((name, kind, value, meta))
+    return out
+
+
 def values_of(source) -> dict:
     """The selection of ``source``: an object with the options as attributes (PrepareParams) or a
     mapping; what it lacks takes the default."""

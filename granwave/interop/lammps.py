@@ -102,7 +102,9 @@ def lammps_coefficients(friction: float, poisson: float, damping: float, law: st
     try:
         words, fragments, fixed = CM.lammps_words(values, friction, poisson, damping)
     except ValueError as e:
-        raise InputError(f"no LAMMPS equivalent: {e}" if "cannot be expressed" not in str(e) else str(e)) from None
+        message = str(e)
+        raise InputError(message if "cannot be expressed" in message or message.startswith("no LAMMPS")
+                         else f"no LAMMPS equivalent: {message}") from None
     return dict(words, mu=friction, fragments=fragments, fixed=fixed)
 
 
