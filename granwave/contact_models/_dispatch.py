@@ -16,6 +16,8 @@ import numba
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 from . import hertz as _normal_hertz
 from . import harmonic as _normal_harmonic
+from . import cone as _normal_cone
+from . import crossover as _normal_crossover
 from . import damping_critical as _damping_critical_fraction
 from . import damping_viscous as _damping_constant_viscous
 from . import mindlin as _tangential_mindlin
@@ -25,13 +27,13 @@ from . import rolling as _rolling_sds
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
 #: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may
 #: leave them out)
-NormalModel = namedtuple('NormalModel', ('code', 'c0'), defaults=(0.0, ))
+NormalModel = namedtuple('NormalModel', ('code', 'c0', 'c1', 'c2'), defaults=(0.0, 0.0, 0.0, ))
 
 
 @numba.njit(cache=True, inline="always")
 def law_of(fpar):
     """The NormalModel of the engine's parameters."""
-    return NormalModel(int(fpar.normal_code), fpar.normal_c0)
+    return NormalModel(int(fpar.normal_code), fpar.normal_c0, fpar.normal_c1, fpar.normal_c2)
 
 
 @numba.njit(cache=True, inline="always")
@@ -39,6 +41,10 @@ def law_force(model, overlap, root_r12, e12):
     """Normal contact law: ``force`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.force(overlap, root_r12, e12, model.c0)
+    if model.code == 2:
+        return _normal_cone.force(overlap, root_r12, e12, model.c0)
+    if model.code == 3:
+        return _normal_crossover.force(overlap, root_r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.force(overlap, root_r12, e12)
 
 
@@ -47,6 +53,10 @@ def law_stiffness(model, overlap, root_r12, e12):
     """Normal contact law: ``stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.stiffness(overlap, root_r12, e12, model.c0)
+    if model.code == 2:
+        return _normal_cone.stiffness(overlap, root_r12, e12, model.c0)
+    if model.code == 3:
+        return _normal_crossover.stiffness(overlap, root_r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.stiffness(overlap, root_r12, e12)
 
 
@@ -55,6 +65,10 @@ def law_energy(model, overlap, r12, e12):
     """Normal contact law: ``energy`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.energy(overlap, r12, e12, model.c0)
+    if model.code == 2:
+        return _normal_cone.energy(overlap, r12, e12, model.c0)
+    if model.code == 3:
+        return _normal_crossover.energy(overlap, r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.energy(overlap, r12, e12)
 
 
@@ -63,6 +77,10 @@ def law_tangential_stiffness(model, overlap, r12, g12):
     """Normal contact law: ``tangential_stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.tangential_stiffness(overlap, r12, g12, model.c0)
+    if model.code == 2:
+        return _normal_cone.tangential_stiffness(overlap, r12, g12, model.c0)
+    if model.code == 3:
+        return _normal_crossover.tangential_stiffness(overlap, r12, g12, model.c0, model.c1, model.c2)
     return _normal_hertz.tangential_stiffness(overlap, r12, g12)
 
 
@@ -71,6 +89,10 @@ def law_unloading_scale(model, overlap_old, overlap_new):
     """Normal contact law: ``unloading_scale`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.unloading_scale(overlap_old, overlap_new, model.c0)
+    if model.code == 2:
+        return _normal_cone.unloading_scale(overlap_old, overlap_new, model.c0)
+    if model.code == 3:
+        return _normal_crossover.unloading_scale(overlap_old, overlap_new, model.c0, model.c1, model.c2)
     return _normal_hertz.unloading_scale(overlap_old, overlap_new)
 
 
@@ -79,6 +101,10 @@ def law_step_stiffness(model, overlap, root_r12, e12):
     """Normal contact law: ``step_stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
         return _normal_harmonic.step_stiffness(overlap, root_r12, e12, model.c0)
+    if model.code == 2:
+        return _normal_cone.step_stiffness(overlap, root_r12, e12, model.c0)
+    if model.code == 3:
+        return _normal_crossover.step_stiffness(overlap, root_r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.step_stiffness(overlap, root_r12, e12)
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
@@ -222,7 +248,7 @@ def couple_step_mode(model, m_min):
 #: model tuple classes by kind
 MODELS = {'normal': NormalModel, 'damping': DampingModel, 'tangential': TangentialModel, 'rolling': RollingModel}
 #: the sub-model modules by the names the dispatchers call them
-MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_damping_critical_fraction': _damping_critical_fraction, '_damping_constant_viscous': _damping_constant_viscous, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
+MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_normal_cone': _normal_cone, '_normal_crossover': _normal_crossover, '_damping_critical_fraction': _damping_critical_fraction, '_damping_constant_viscous': _damping_constant_viscous, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
 #: (module alias, function) of every sub-model formula, then (None, name) of every reader and
 #: dispatcher, each after those it calls: granwave.gpu.compile makes device copies in this order
 DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
@@ -237,6 +263,19 @@ DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
  ('_normal_harmonic', 'tangential_stiffness'),
  ('_normal_harmonic', 'unloading_scale'),
  ('_normal_harmonic', 'step_stiffness'),
+ ('_normal_cone', 'force'),
+ ('_normal_cone', 'stiffness'),
+ ('_normal_cone', 'energy'),
+ ('_normal_cone', 'tangential_stiffness'),
+ ('_normal_cone', 'unloading_scale'),
+ ('_normal_cone', 'step_stiffness'),
+ ('_normal_crossover', 'radius_factor'),
+ ('_normal_crossover', 'force'),
+ ('_normal_crossover', 'stiffness'),
+ ('_normal_crossover', 'energy'),
+ ('_normal_crossover', 'tangential_stiffness'),
+ ('_normal_crossover', 'unloading_scale'),
+ ('_normal_crossover', 'step_stiffness'),
  (None, 'law_of'),
  (None, 'law_force'),
  (None, 'law_stiffness'),

@@ -15,4 +15,6 @@ SUBMODELS = (
     "mindlin",
     "linear_history",
     "damping_viscous",
+    "cone",
+    "crossover",
 )
