@@ -703,4 +703,5 @@ def pressure_sweep(summaries: Sequence[dict], params: SweepParams | None = None,
     p = _params(SweepParams, params, fields)
     if not summaries and not height_series:
         raise InputError("no summary files given")
-    return run(list(summaries), height_series=list(height_series), poisson=p.poisson)
+    return run(list(summaries), height_series=list(height_series), poisson=p.poisson,
+               crossover=(p.crossover_low, p.crossover_high) if p.crossover else None)

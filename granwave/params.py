@@ -643,6 +643,16 @@ class SweepParams(Params):
     ATTR = "sweep_params"
 
     poisson: float = _poisson()
+    crossover: bool = param(False, help="Also fit the crossover pressure p* of c_tof, c_l and c_t between "
+                            "c ~ p^low below and p^high above (the asperity and Hertz laws; docs/method.md "
+                            "§10), with its 95 % interval.")
+    crossover_low: float = param(0.25, help="Exponent of the speeds below p* (--crossover).", lo=0.0, lo_open=True)
+    crossover_high: float = param(1.0 / 6.0, help="Exponent of the speeds above p* (--crossover).", lo=0.0,
+                                  lo_open=True)
+
+    def _cross_check(self):
+        if self.crossover_low == self.crossover_high:
+            raise InputError("crossover_low and crossover_high must differ (two power laws meet at p*)")
 
 
 @dataclass(frozen=True, kw_only=True)

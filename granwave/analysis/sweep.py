@@ -44,6 +44,9 @@ The sweep (choices)
   samples of a pressure from being counted many times.
 * ``c_tof_over_c_l`` = mean c_tof / mean c_l, relative errors added in
   quadrature.
+* With a crossover asked (``pressure-sweep --crossover``): the pressure p* where c_tof, c_l
+  and c_t turn from p^(1/4) to p^(1/6) (or the exponents given), each with its 95 % interval
+  (:mod:`granwave.analysis.crossover`), through the same per-pressure means and errors.
 * Side by side: the triangular-lattice speeds of docs/method.md §12
   (:func:`granwave.theory.lattice_speed`, frictionless and frictional with
   the sweep's Poisson ratio), and for each measured speed the p^{1/6} curve
@@ -282,13 +285,17 @@ def _speed_with_error(stats: dict, flat_rows: list[dict], quantity: str) -> tupl
 
 
 def pressure_sweep(summaries: Sequence[dict], *, height_series: Sequence[dict] = (),
-                   poisson: float = 0.0) -> dict:
+                   poisson: float = 0.0, crossover: tuple | None = None) -> dict:
     """Group summaries by pressure and fit the speeds (docs/method.md §10); rules in the module docstring.
 
     Returns a JSON-ready dict: ``pressures``, ``quantities`` (names), ``per_pressure`` (one
     row per pressure: pressure, count, speeds with ``*_err``, lattice speeds, ``*_p16`` and
     ``stats`` {quantity: {mean, std, sem, count}}), the fitted exponents ``alpha_*`` with
-    ``*_err``, and ``expected_exponent`` = 1/6.
+    ``*_err``, and ``expected_exponent`` = 1/6. ``crossover`` = (low, high): also the crossover
+    pressure of c_tof, c_l and c_t between c ~ p^low and p^high (granwave.analysis.crossover):
+    ``crossover_<speed>`` (the fit) and its scalars ``p_star_<speed>``, ``p_star_<speed>_lo95``,
+    ``p_star_<speed>_hi95``, ``log10_p_star_<speed>`` with ``_err``; a speed known at fewer than 3
+    pressures gets a note instead.
     """
     from .. import theory
 
@@ -353,9 +360,42 @@ def pressure_sweep(summaries: Sequence[dict], *, height_series: Sequence[dict] =
         else:
             for row in rows:
                 row[name + "_p16"] = math.nan
+    if crossover is not None:
+        _crossover_fits(out, rows, notes, *crossover)
     out["fit_notes"] = notes
     out["per_pressure"] = rows
     return out
+
+
+#: the speeds whose crossover pressure ``pressure_sweep(crossover=...)`` fits, and their suffix
+CROSSOVER_SPEEDS = {"c_tof": "tof", "c_l": "l", "c_t": "t"}
+
+
+def _crossover_fits(out: dict, rows: list, notes: list, low: float, high: float) -> None:
+    """The crossover fits of :func:`pressure_sweep` into ``out``; each row gets the fitted curve
+    ``<speed>_crossover`` (NaN where there is none)."""
+    from .crossover import crossover_fit
+
+    for name, tag in CROSSOVER_SPEEDS.items():
+        pts = [(row["pressure"], row[name], row[name + "_err"]) for row in rows
+               if math.isfinite(row[name]) and row[name] > 0]
+        for row in rows:
+            row[name + "_crossover"] = math.nan
+        if len(pts) < 3:
+            notes.append(f"crossover of {name}: known at {len(pts)} pressure(s), need 3")
+            continue
+        p, c, e = (np.array(v, float) for v in zip(*pts))
+        fit = crossover_fit(p, c, e if np.all(np.isfinite(e) & (e > 0)) else None, low=low, high=high,
+                            what=f"{name} against pressure")
+        out[f"crossover_{tag}"] = fit
+        for key in ("p_star", "p_star_lo95", "p_star_hi95", "log10_p_star", "log10_p_star_err"):
+            out[key.replace("p_star", f"p_star_{tag}", 1)] = fit[key]
+        if fit["note"]:
+            notes.append(f"crossover of {name}: {fit['note']}")
+            continue
+        for row in rows:
+            x = math.log(row["pressure"] / fit["p_star"])
+            row[name + "_crossover"] = fit["c_star"] * math.exp((low if x <= 0 else high) * x)
 
 
 # ---------------------------------------------------------------- outputs
@@ -458,8 +498,20 @@ def tables(result: dict) -> dict[str, tuple[str, str]]:
                           ("lattice (μ=0)", "lattice_frictionless", None),
                           ("lattice (μ>0)", "lattice_frictional", None),
                           ("c_tof ∝ p^1/6", "c_tof_p16", None), ("c_l ∝ p^1/6", "c_l_p16", None),
-                          ("c_t ∝ p^1/6", "c_t_p16", None)])
+                          ("c_t ∝ p^1/6", "c_t_p16", None)]
+                   + [(f"{name} crossover fit", f"{name}_crossover", None) for name in CROSSOVER_SPEEDS
+                      if f"crossover_{CROSSOVER_SPEEDS[name]}" in res])
     return {"statics": statics, "moduli": moduli, "speeds": speeds}
+
+
+def crossover_text(fit: dict) -> str:
+    """p* of a crossover fit as text: the value and its 95 % interval (an open side as ≤ / ≥ the
+    sweep's range), or why there is none."""
+    if fit.get("note"):
+        return f"not determined ({fit['note']})"
+    lo, hi = fit["p_star_lo95"], fit["p_star_hi95"]
+    interval = f"[{'…' if not math.isfinite(lo) else f'{lo:.3g}'}, {'…' if not math.isfinite(hi) else f'{hi:.3g}'}]"
+    return f"{fit['p_star']:.3g} (95 %: {interval}, log10 p* = {fit['log10_p_star']:.3f} ± {fit['log10_p_star_err']:.2g})"
 
 
 def write_tables(result: dict, folder, prefix: str = "sweep") -> list[str]:
@@ -470,9 +522,11 @@ def write_tables(result: dict, folder, prefix: str = "sweep") -> list[str]:
     written = []
     fits = ", ".join(f"{a} = {_fmt(result.get(a), result.get(a + '_err'))}"
                      for a in ("alpha_tof", "alpha_l", "alpha_t"))
+    crossings = "".join(f"; p* of {name} = {crossover_text(result[f'crossover_{tag}'])}"
+                        for name, tag in CROSSOVER_SPEEDS.items() if f"crossover_{tag}" in result)
     titles = {"statics": "Static quantities per pressure (mean ± std over samples, docs/method.md §4)",
               "moduli": "Stress ratio and elastic moduli per pressure (mean ± std, docs/method.md §6)",
-              "speeds": f"Speeds per pressure (docs/method.md §10); fits c ∝ p^α: {fits}; expected 1/6"}
+              "speeds": f"Speeds per pressure (docs/method.md §10); fits c ∝ p^α: {fits}; expected 1/6{crossings}"}
     for name, (md, text) in tables(result).items():
         md_path, csv_path = folder / f"{prefix}_{name}.md", folder / f"{prefix}_{name}.csv"
         atomic_text(md_path, f"# {titles[name]}\n\n{md}")

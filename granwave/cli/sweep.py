@@ -36,7 +36,9 @@ def pressure_sweep(summaries, heights_files, output, tables_dir, as_json, **opti
     moduli), in sqrt(E*/rho), are fitted as c ~ p^alpha through the
     per-pressure means (alpha_tof, alpha_l, alpha_t, one standard error),
     beside the expected 1/6, the triangular-lattice formulas (frictionless
-    and frictional) and c_tof/c_l. Pressures in E*.
+    and frictional) and c_tof/c_l; with --crossover also the pressure p*
+    where each turns from p^(1/4) to p^(1/6) (--crossover-low,
+    --crossover-high), with its 95 % interval. Pressures in E*.
 
     Writes OUTPUT (schema granwave.sweep) and, into --tables (default: the
     output's folder), <stem>_statics, <stem>_moduli and <stem>_speeds as
@@ -70,12 +72,18 @@ def pressure_sweep(summaries, heights_files, output, tables_dir, as_json, **opti
         echo_json(res)
         return
     head = {k: v for k, v in res.items()
-            if k not in ("per_pressure", "quantities", "pressures", "fit_notes", "tables")}
+            if k not in ("per_pressure", "quantities", "pressures", "fit_notes", "tables")
+            and not k.startswith("crossover_")}
     echo_table(head, title=f"pressure sweep: {res['n_summaries']} summaries, "
                            f"{res['n_height_series']} height series, "
                            f"{len(res['pressures'])} pressures -> {out}")
     for note in res["fit_notes"]:
         click.echo(f"  note: {note}")
+    from ..analysis.sweep import CROSSOVER_SPEEDS, crossover_text
+
+    for name, tag in CROSSOVER_SPEEDS.items():
+        if f"crossover_{tag}" in res:
+            click.echo(f"  crossover p* of {name}: {crossover_text(res[f'crossover_{tag}'])}")
     click.echo(f"  {'p':>10} {'n':>4} {'c_tof':>11} {'c_l':>11} {'c_t':>11} {'tof/l':>8} "
                f"{'lat μ=0':>10} {'lat μ>0':>10}")
     for r in res["per_pressure"]:
