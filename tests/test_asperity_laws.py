@@ -1,5 +1,5 @@
 """The low-pressure normal laws (docs/method.md §2, "Low-pressure laws"): ``cone`` (Goddard's conical
-asperity, F_n ~ n^2) and ``crossover`` (the asperity below n*, Hertz above): exact checks.
+asperity, F_n ~ n^2) and ``cone_hertz`` (the crossover law: the asperity below n*, Hertz above): exact checks.
 
 - formulas through the dispatchers: F_n = dE/dn, k_n = dF_n/dn, k_t = eta k_n, the inverse
   overlap; the crossover's force, stiffness and k_t continuous at n*;
@@ -45,7 +45,7 @@ def _law(law, **params):
 
 
 @pytest.mark.parametrize("law, params", [("cone", dict(cone_slope=0.05)), ("cone", dict(cone_slope=0.3)),
-                                         ("crossover", dict(crossover_overlap=1e-3))])
+                                         ("cone_hertz", dict(crossover_overlap=1e-3))])
 def test_formulas(law, params):
     m = _law(law, **params)
     g12 = C.effective_shear(0.0, False)
@@ -104,15 +104,15 @@ def _contact_time(law, params, V):
 
 
 @pytest.mark.parametrize("law, params, V", [("cone", dict(cone_slope=0.05), 2e-3),
-                                            ("crossover", dict(crossover_overlap=1e-3), 5e-5),  # asperity only
-                                            ("crossover", dict(crossover_overlap=1e-3), 2e-3)])  # into Hertz
+                                            ("cone_hertz", dict(crossover_overlap=1e-3), 5e-5),  # asperity only
+                                            ("cone_hertz", dict(crossover_overlap=1e-3), 2e-3)])  # into Hertz
 def test_head_on_collision_contact_time_and_restitution(law, params, V):
     """Contact time of the closed form to 1e-5 at 2000 steps per contact (velocity Verlet's error:
     measured -1.5e-7, (omega dt)^2 / 24 = 1e-7 for a linear spring; the start and end interpolated
     between steps), restitution 1 to 1e-8 (measured 1e-11; no damping). The crossover at the higher
     speed reaches past n*."""
     t_c, n_m = _contact_time(law, params, V)
-    if law == "crossover":
+    if law == "cone_hertz":
         assert (n_m > params["crossover_overlap"]) == (V > 1e-3)
     dt = t_c / 2000
     gap = 50.5 * V * dt
@@ -152,8 +152,8 @@ def _row_speed(lat, prestress=True):
 
 @pytest.mark.parametrize("law, params, p1, p2, alpha", [
     ("cone", dict(cone_slope=0.05), 1e-9, 1e-8, 0.25),
-    ("crossover", dict(crossover_overlap=2e-5), 1e-12, 1e-11, 0.25),  # p* = (3/8) n*^(3/2) = 3.4e-8
-    ("crossover", dict(crossover_overlap=2e-5), 1e-6, 1e-5, 1 / 6),
+    ("cone_hertz", dict(crossover_overlap=2e-5), 1e-12, 1e-11, 0.25),  # p* = (3/8) n*^(3/2) = 3.4e-8
+    ("cone_hertz", dict(crossover_overlap=2e-5), 1e-6, 1e-5, 1 / 6),
     ("hertz", {}, 1e-6, 1e-5, 1 / 6),
 ])
 def test_lattice_stiffness_and_speed_exponents(law, params, p1, p2, alpha):
@@ -204,7 +204,7 @@ def test_lattice_front_speed_through_the_pipeline_scales_as_p_to_one_quarter():
 
 
 # ---------------------------------------------------------------- DEM-prepared packings
-@pytest.fixture(scope="module", params=["cone", "crossover"])
+@pytest.fixture(scope="module", params=["cone", "cone_hertz"])
 def packing(request):
     from granwave.dem.protocol import prepare_packing
 
@@ -231,7 +231,7 @@ def test_prepared_packing_linearizes_as_the_dem_forces(packing):
     e12 = np.where(wall, C.effective_young(True), C.effective_young(False))
     expect = [CM.law_stiffness(law, n, math.sqrt(r), e) for n, r, e in zip(c.overlap, r12, e12)]
     np.testing.assert_allclose(c.stiffness_normal, expect, rtol=1e-13)
-    if p.attrs["contact_law"] == "crossover":
+    if p.attrs["contact_law"] == "cone_hertz":
         n_star = p.attrs["crossover_overlap"]
         assert (c.overlap < n_star).sum() >= 5 and (c.overlap > n_star).sum() >= 5
     s = linearize(p, prestress=True)
@@ -266,17 +266,17 @@ def invoke(*args):
 
 def test_cli_options_files_and_no_lammps_equivalent(tmp_path):
     out = tmp_path / "lat.h5"
-    r = invoke("lattice", "--rows", 4, "--width", 3, "--pressure", 1e-6, "--contact-law", "crossover",
+    r = invoke("lattice", "--rows", 4, "--width", 3, "--pressure", 1e-6, "--contact-law", "cone_hertz",
                "--crossover-overlap", 2e-4, "-o", out, "--quiet")
     assert r.exit_code == 0, r.output
     from granwave.io import files
 
     lat = files.read_packing(out)
-    assert lat.attrs["contact_law"] == "crossover" and lat.attrs["crossover_overlap"] == 2e-4
+    assert lat.attrs["contact_law"] == "cone_hertz" and lat.attrs["crossover_overlap"] == 2e-4
     r = invoke("lattice", "--rows", 4, "--width", 3, "--pressure", 1e-6, "--contact-law", "cone",
                "--cone-slope", 0, "-o", tmp_path / "bad.h5")
     assert r.exit_code == 2 and "cone_slope must be > 0" in r.output and not (tmp_path / "bad.h5").exists()
     r = invoke("export", "lammps", out, "-o", tmp_path / "lmp", "--quiet")
-    assert r.exit_code == 2 and "no LAMMPS equivalent" in r.output and "crossover" in r.output
-    assert CO.SUBMODELS["crossover"]["lammps"] in r.output and "Traceback" not in r.output
+    assert r.exit_code == 2 and "no LAMMPS equivalent" in r.output and "cone_hertz" in r.output
+    assert CO.SUBMODELS["cone_hertz"]["lammps"] in r.output and "Traceback" not in r.output
     assert not (tmp_path / "lmp").exists()

@@ -17,7 +17,7 @@ from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whol
 from . import hertz as _normal_hertz
 from . import harmonic as _normal_harmonic
 from . import cone as _normal_cone
-from . import crossover as _normal_crossover
+from . import cone_hertz as _normal_cone_hertz
 from . import damping_critical as _damping_critical_fraction
 from . import damping_viscous as _damping_constant_viscous
 from . import mindlin as _tangential_mindlin
@@ -44,7 +44,7 @@ def law_force(model, overlap, root_r12, e12):
     if model.code == 2:
         return _normal_cone.force(overlap, root_r12, e12, model.c0)
     if model.code == 3:
-        return _normal_crossover.force(overlap, root_r12, e12, model.c0, model.c1, model.c2)
+        return _normal_cone_hertz.force(overlap, root_r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.force(overlap, root_r12, e12)
 
 
@@ -56,7 +56,7 @@ def law_stiffness(model, overlap, root_r12, e12):
     if model.code == 2:
         return _normal_cone.stiffness(overlap, root_r12, e12, model.c0)
     if model.code == 3:
-        return _normal_crossover.stiffness(overlap, root_r12, e12, model.c0, model.c1, model.c2)
+        return _normal_cone_hertz.stiffness(overlap, root_r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.stiffness(overlap, root_r12, e12)
 
 
@@ -68,7 +68,7 @@ def law_energy(model, overlap, r12, e12):
     if model.code == 2:
         return _normal_cone.energy(overlap, r12, e12, model.c0)
     if model.code == 3:
-        return _normal_crossover.energy(overlap, r12, e12, model.c0, model.c1, model.c2)
+        return _normal_cone_hertz.energy(overlap, r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.energy(overlap, r12, e12)
 
 
@@ -80,7 +80,7 @@ def law_tangential_stiffness(model, overlap, r12, g12):
     if model.code == 2:
         return _normal_cone.tangential_stiffness(overlap, r12, g12, model.c0)
     if model.code == 3:
-        return _normal_crossover.tangential_stiffness(overlap, r12, g12, model.c0, model.c1, model.c2)
+        return _normal_cone_hertz.tangential_stiffness(overlap, r12, g12, model.c0, model.c1, model.c2)
     return _normal_hertz.tangential_stiffness(overlap, r12, g12)
 
 
@@ -92,7 +92,7 @@ def law_unloading_scale(model, overlap_old, overlap_new):
     if model.code == 2:
         return _normal_cone.unloading_scale(overlap_old, overlap_new, model.c0)
     if model.code == 3:
-        return _normal_crossover.unloading_scale(overlap_old, overlap_new, model.c0, model.c1, model.c2)
+        return _normal_cone_hertz.unloading_scale(overlap_old, overlap_new, model.c0, model.c1, model.c2)
     return _normal_hertz.unloading_scale(overlap_old, overlap_new)
 
 
@@ -104,7 +104,7 @@ def law_step_stiffness(model, overlap, root_r12, e12):
     if model.code == 2:
         return _normal_cone.step_stiffness(overlap, root_r12, e12, model.c0)
     if model.code == 3:
-        return _normal_crossover.step_stiffness(overlap, root_r12, e12, model.c0, model.c1, model.c2)
+        return _normal_cone_hertz.step_stiffness(overlap, root_r12, e12, model.c0, model.c1, model.c2)
     return _normal_hertz.step_stiffness(overlap, root_r12, e12)
 
 #: what the kernels receive of the selected sub-model of this kind: its code and constants (a
@@ -248,7 +248,7 @@ def couple_step_mode(model, m_min):
 #: model tuple classes by kind
 MODELS = {'normal': NormalModel, 'damping': DampingModel, 'tangential': TangentialModel, 'rolling': RollingModel}
 #: the sub-model modules by the names the dispatchers call them
-MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_normal_cone': _normal_cone, '_normal_crossover': _normal_crossover, '_damping_critical_fraction': _damping_critical_fraction, '_damping_constant_viscous': _damping_constant_viscous, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
+MODULES = {'_normal_hertz': _normal_hertz, '_normal_harmonic': _normal_harmonic, '_normal_cone': _normal_cone, '_normal_cone_hertz': _normal_cone_hertz, '_damping_critical_fraction': _damping_critical_fraction, '_damping_constant_viscous': _damping_constant_viscous, '_tangential_mindlin': _tangential_mindlin, '_tangential_linear_history': _tangential_linear_history, '_rolling_sds': _rolling_sds}
 #: (module alias, function) of every sub-model formula, then (None, name) of every reader and
 #: dispatcher, each after those it calls: granwave.gpu.compile makes device copies in this order
 DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
@@ -269,13 +269,13 @@ DEVICE_FUNCTIONS = (('_normal_hertz', 'force'),
  ('_normal_cone', 'tangential_stiffness'),
  ('_normal_cone', 'unloading_scale'),
  ('_normal_cone', 'step_stiffness'),
- ('_normal_crossover', 'radius_factor'),
- ('_normal_crossover', 'force'),
- ('_normal_crossover', 'stiffness'),
- ('_normal_crossover', 'energy'),
- ('_normal_crossover', 'tangential_stiffness'),
- ('_normal_crossover', 'unloading_scale'),
- ('_normal_crossover', 'step_stiffness'),
+ ('_normal_cone_hertz', 'radius_factor'),
+ ('_normal_cone_hertz', 'force'),
+ ('_normal_cone_hertz', 'stiffness'),
+ ('_normal_cone_hertz', 'energy'),
+ ('_normal_cone_hertz', 'tangential_stiffness'),
+ ('_normal_cone_hertz', 'unloading_scale'),
+ ('_normal_cone_hertz', 'step_stiffness'),
  (None, 'law_of'),
  (None, 'law_force'),
  (None, 'law_stiffness'),

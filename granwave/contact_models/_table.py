@@ -89,22 +89,23 @@ SUBMODELS = {'hertz': {'kind': 'normal',
           'lammps': "LAMMPS's granular normal models (hooke, hertz, hertz/material, dmt, jkr) have no F ~ "
                     'n^2 law',
           'history_width': {2: 0, 3: 0}},
- 'crossover': {'kind': 'normal',
-               'code': 3,
-               'module': 'granwave.contact_models.crossover',
-               'summary': 'asperity (cone, F_n ~ n^2) below n* = --crossover-overlap, Hertz (n - n*/4)^(3/2) '
-                          'above, force and stiffness continuous; c ~ p^(1/4) then p^(1/6); docs/method.md',
-               'description': 'crossover: conical asperity F_n ~ n^2 below crossover_overlap n*, Hertz F_n = '
-                              '(4/3) sqrt(R12) E*12 (n - n*/4)^(3/2) above, Mindlin k_t = 8 G*12 a, with '
-                              'Coulomb friction (granwave.contact_models.crossover), tangential history from '
-                              'the packing',
-               'parameters': ('crossover_overlap',),
-               'constants': ('n_star', 'shift', 'b'),
-               'needs_friction': False,
-               'devices': ('cpu', 'gpu'),
-               'lammps': "LAMMPS's granular normal models (hooke, hertz, hertz/material, dmt, jkr) have no "
-                         'asperity law turning into Hertz',
-               'history_width': {2: 0, 3: 0}},
+ 'cone_hertz': {'kind': 'normal',
+                'code': 3,
+                'module': 'granwave.contact_models.cone_hertz',
+                'summary': 'asperity (cone, F_n ~ n^2) below n* = --crossover-overlap, Hertz (n - '
+                           'n*/4)^(3/2) above, force and stiffness continuous; c ~ p^(1/4) then p^(1/6); '
+                           'docs/method.md',
+                'description': 'cone_hertz: conical asperity F_n ~ n^2 below crossover_overlap n*, Hertz F_n '
+                               '= (4/3) sqrt(R12) E*12 (n - n*/4)^(3/2) above, Mindlin k_t = 8 G*12 a, with '
+                               'Coulomb friction (granwave.contact_models.cone_hertz), tangential history '
+                               'from the packing',
+                'parameters': ('crossover_overlap',),
+                'constants': ('n_star', 'shift', 'b'),
+                'needs_friction': False,
+                'devices': ('cpu', 'gpu'),
+                'lammps': "LAMMPS's granular normal models (hooke, hertz, hertz/material, dmt, jkr) have no "
+                          'asperity law turning into Hertz',
+                'history_width': {2: 0, 3: 0}},
  'critical_fraction': {'kind': 'damping',
                        'code': 0,
                        'module': 'granwave.contact_models.damping_critical',
@@ -187,11 +188,11 @@ PARAMETERS = {'harmonic_stiffness': {'submodel': 'harmonic',
                 'lo_open': True,
                 'hi': None,
                 'hi_open': False},
- 'crossover_overlap': {'submodel': 'crossover',
+ 'crossover_overlap': {'submodel': 'cone_hertz',
                        'kind': 'normal',
                        'default': 0.001,
-                       'help': "Overlap n* where --contact-law crossover turns from the asperity's F_n ~ n^2 "
-                               "to Hertz's (n - n*/4)^(3/2).",
+                       'help': "Overlap n* where --contact-law cone_hertz turns from the asperity's F_n ~ "
+                               "n^2 to Hertz's (n - n*/4)^(3/2).",
                        'units': 'd',
                        'lo': 0.0,
                        'lo_open': True,

@@ -16,5 +16,5 @@ SUBMODELS = (
     "linear_history",
     "damping_viscous",
     "cone",
-    "crossover",
+    "cone_hertz",
 )

@@ -30,13 +30,13 @@ from .declare import Parameter
 from .kinds import NORMAL
 
 KIND = NORMAL
-NAME = "crossover"
+NAME = "cone_hertz"
 SUMMARY = ("asperity (cone, F_n ~ n^2) below n* = --crossover-overlap, Hertz (n - n*/4)^(3/2) above, force and "
            "stiffness continuous; c ~ p^(1/4) then p^(1/6); docs/method.md")
-DESCRIPTION = ("crossover: conical asperity F_n ~ n^2 below crossover_overlap n*, Hertz F_n = (4/3) sqrt(R12) E*12 "
+DESCRIPTION = ("cone_hertz: conical asperity F_n ~ n^2 below crossover_overlap n*, Hertz F_n = (4/3) sqrt(R12) E*12 "
                "(n - n*/4)^(3/2) above, Mindlin k_t = 8 G*12 a, with Coulomb friction (granwave.contact_models."
-               "crossover), tangential history from the packing")
-PARAMETERS = (Parameter("crossover_overlap", 1e-3, "d", "Overlap n* where --contact-law crossover turns from the "
+               "cone_hertz), tangential history from the packing")
+PARAMETERS = (Parameter("crossover_overlap", 1e-3, "d", "Overlap n* where --contact-law cone_hertz turns from the "
                         "asperity's F_n ~ n^2 to Hertz's (n - n*/4)^(3/2).", lo=0.0, lo_open=True, hi=0.1),)
 #: its kernels' constants: n*, the offset s = n*/4 and B = (sqrt(3)/2) / sqrt(n*)
 CONSTANTS = ("n_star", "shift", "b")
