@@ -265,9 +265,11 @@ def chain(params: ChainParams | None = None, /, **fields) -> Packing:
     p = _params(ChainParams, params, fields)
     law = p.law()
     contact = {k: v for k, v in _contact_fields(p).items() if k != "contact_law"}
+    if law is not None:
+        contact["contact_law"] = law
     packing = make_chain(n_balls=p.balls, pressure=p.pressure, polydispersity=p.polydispersity,
                          seed=p.seed, stiffness=p.stiffness,
-                         stiffness_model="equal" if law is None else "law", contact_law=law, **contact)
+                         stiffness_model="equal" if law is None else "law", **contact)
     p.record(packing.attrs)
     return packing
 

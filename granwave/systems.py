@@ -254,11 +254,11 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
     if stiffness_model == "hertz":
         overlap = np.array([hertz_overlap(pressure, r, e) for r, e in zip(r12, e12)])
         k = np.array([contact.normal_stiffness(d, r, e) for d, r, e in zip(overlap, r12, e12)])
-        k_record = "hertz"
+        k_record = None  # each contact its own (stiffness_model): no one K (a file's "none")
     elif stiffness_model == "law":
         overlap = np.array([CM.overlap_at_force(values, pressure, r, e) for r, e in zip(r12, e12)])
         k = np.array([CM.law_stiffness(law, d, math.sqrt(r), e) for d, r, e in zip(overlap, r12, e12)])
-        k_record = CO.selected(values)["normal"]
+        k_record = None
     else:
         K = default_chain_stiffness(pressure) if stiffness is None else float(stiffness)
         k = np.full(n + 1, K)

@@ -93,6 +93,8 @@ def sample_keys(config: dict, kind: str, scene: str, sample: dict) -> dict:
         keys["rows"] = f"{base}.rows[{_index_of(spec.get('rows'), lambda r: f'r{r}', size)}]"
     else:
         keys["balls"] = f"{base}.balls[{_index_of(spec.get('balls'), lambda n: f'n{n}', size)}]"
+    for field in contact_keys(kind):
+        keys[field] = f"{base}.contact.{field}"
     own = kind == "continuum"  # a continuum scene may set its own record, step and length
     keys["method"] = f"{base}.solver"
     keys["ic"] = f"{base}.ic" if kind == "chains" else "ic"
@@ -132,6 +134,54 @@ def samples_error(batches, config: dict | None = None) -> str | None:
                                        f" (sample {tail})")
                 if message:
                     return message
+    return None
+
+
+#: the contact sub-models' kinds each scene kind may set in its ``contact`` mapping (a lattice has
+#: no dashpot or history, a chain only a normal law per contact; granwave.contact_models)
+CONTACT_KINDS = {"disordered": None, "continuum": None, "lattices": ("normal", "tangential"), "chains": ("normal",)}
+
+
+def contact_keys(kind: str) -> tuple:
+    """The keys a scene of ``kind`` may give in its ``contact`` mapping: the options of its contact
+    kinds and their sub-models' parameters (the kinds' own, friction and poisson, are scene keys)."""
+    from .contact_models import options as CO
+
+    kinds = CONTACT_KINDS[kind] or tuple(CO.KINDS)
+    return tuple(CO.KINDS[k]["option"] for k in kinds) + tuple(n for n, p in CO.PARAMETERS.items()
+                                                               if p["kind"] in kinds)
+
+
+def contact_error(config: dict) -> str | None:
+    """The first scene whose ``contact`` mapping (the contact sub-models of its packings, by the
+    names of prepare-packing's options; granwave.contact_models) names an unknown key, a sub-model
+    not registered or a parameter out of range, as one line naming the key; None if all pass."""
+    from .contact_models import options as CO
+
+    for kind in SCENE_KINDS:
+        for scene, spec in (config.get(kind) or {}).items():
+            contact = (spec or {}).get("contact") or {}
+            base = f"{kind}.{scene}.contact"
+            allowed = contact_keys(kind)
+            for key, value in contact.items():
+                if key not in allowed:
+                    return f"config: unknown key {base}.{key} (known keys: {', '.join(allowed)})"
+                options = {k["option"] for k in CO.KINDS.values()}
+                if (key in options) != isinstance(value, str) or isinstance(value, bool):
+                    what = "a sub-model's name" if key in options else "a number"
+                    return f"config: {base}.{key}: must be {what}, got {value!r}"
+            values = {**CO.values_of(dict(contact)), "friction": float(spec.get("friction", 0.0)),
+                      "poisson": float(spec.get("poisson", 0.0))}
+            try:
+                CO.check(values, friction=values["friction"] if kind != "chains" else None)
+            except ValueError as e:
+                text = str(e)
+                first = text.split(" ", 1)[0]
+                key = next((k for k in contact if k == first), None)
+                if key is None:  # "unknown contact law 'x'", "... needs friction > 0": the option's key
+                    key = next((k for k in contact if isinstance(contact[k], str) and repr(contact[k]) in text),
+                               next(iter(contact), ""))
+                return f"config: {base}.{key}: {text}"
     return None
 
 

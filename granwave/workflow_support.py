@@ -37,12 +37,30 @@ def crossing_time(kind: str, spec: dict, pressure: float, size: str) -> float:
     their exact wall-to-wall time (N+1) l / c with unit balls.
     """
     value = float(size[1:])
+    contact = spec.get("contact") or {}
     if kind == "chains":
-        return chain_travel_time(int(value), stiffness=default_chain_stiffness(pressure),
-                                 mass=float(grain_mass(0.5)))
+        stiffness = default_chain_stiffness(pressure) if not contact else law_chain_stiffness(pressure, contact)
+        return chain_travel_time(int(value), stiffness=stiffness, mass=float(grain_mass(0.5)))
     height = value * math.sqrt(3.0) / 2.0 if kind == "lattices" else value
+    if contact:  # the scene's contact law: its lattice's row-chain speed (granwave.theory)
+        from .theory import law_lattice_speed
+
+        return height / law_lattice_speed(pressure, contact, friction=spec.get("friction", 0.0) > 0,
+                                          poisson=spec.get("poisson", 0.0))
     return height / lattice_speed(pressure, friction=spec.get("friction", 0.0) > 0,
                                   poisson=spec.get("poisson", 0.0))
+
+
+def law_chain_stiffness(pressure: float, contact: dict) -> float:
+    """k_n (E* d) of two unit balls pressed together by the force ``pressure`` x 1 d^2 under the
+    normal law of ``contact`` (a selection, granwave.contact_models.options)."""
+    from . import contact_models as CM
+    from .contact_models import options as CO
+
+    values = CO.values_of(dict(contact))
+    _, law = CM.normal_law(values)
+    n = CM.overlap_at_force(values, pressure, 0.25, 0.5)
+    return float(CM.law_stiffness(law, n, 0.5, 0.5))
 
 
 def _write_json(path, obj) -> None:
@@ -74,7 +92,8 @@ def make_sample(kind: str, make: dict, checkpoint=None):
         return triangular_lattice(**make)
     from .systems import chain
 
-    return chain(**make)
+    # a normal law given (the scene's contact): every contact its own k_n of that law
+    return chain(**make, **({"stiffness_model": "law"} if "contact_law" in make else {}))
 
 
 def front_section(sig) -> dict:
@@ -294,7 +313,12 @@ def run_sample(sample: dict, log=print) -> list[dict]:
         _write_json(out["moduli"], sections["moduli"])
     sections["front"] = timed("front", lambda: front_section(sig))
     _write_json(out["front"], sections["front"])
-    write_summary(out["summary"], merge_summary(attrs=sig.attrs, scene=sample["scene"], **sections))
+    # the packing's contact sub-models (granwave.contact_models: the normal law always, the others
+    # where not the defaults), so that a summary says which law it measured
+    from .contact_models import options as CO
+
+    contact = CO.attrs_of(CO.values_of_attrs(packing.attrs))
+    write_summary(out["summary"], merge_summary(attrs=sig.attrs, scene=sample["scene"], **contact, **sections))
     meta = {"n_grains": int(packing.n_grains), "n_dof": int(system.n_dof),
             "steps": int(packing.attrs.get("steps", 0))}
     for t in timings:

@@ -60,5 +60,7 @@ def chain(output, quiet, **options):
     params = params_from(ChainParams, options)
     packing = _write(output, api.chain, params)
     if not quiet:
-        click.echo(f"chain of {params.balls} balls, p = {params.pressure:g}, K = {packing.attrs['stiffness']}: "
+        k = packing.attrs["stiffness"]
+        stiffness = f"K = {k:g}" if k is not None else f"k_n of {params.law()} per contact"
+        click.echo(f"chain of {params.balls} balls, p = {params.pressure:g}, {stiffness}: "
                    f"height {packing.height:.8g} -> {output}", err=True)

@@ -35,6 +35,7 @@ from .html import markdown_to_html
 from .continuum import continuum_inputs, continuum_section
 from .shear import shear_inputs, shear_section
 from .inputs import Scenes, scene_of
+from .laws import laws_section
 
 
 SYMBOLS = [
@@ -117,6 +118,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     md += T.speeds_section(groups, h_by_scene, scenes)
     md += T.exponents_section(hts, scenes, sorted(per_scene))
     md += T.lattice_section(h_by_scene, scenes)
+    md += laws_section(h_by_scene, scenes)
     if damping:
         md += T.damping_section(damping)
     dims = {name: int(spec.get("dim", 2)) for name, spec in ((config or {}).get("continuum") or {}).items()

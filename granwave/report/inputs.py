@@ -223,6 +223,11 @@ class Scenes:
     def poisson_of(self, scene: str) -> float:
         return num(self.spec.get(scene, {}).get("poisson", 0.0))
 
+    def contact_of(self, scene: str) -> dict:
+        """The scene's contact sub-models (its config's ``contact``: options and parameters by
+        name; empty: the defaults, Hertz-Mindlin)."""
+        return dict(self.spec.get(scene, {}).get("contact") or {})
+
     def ic_of(self, scene: str, obj: Mapping | None = None) -> str:
         if obj is not None and obj.get("ic") not in (None, "none"):
             return str(obj["ic"])

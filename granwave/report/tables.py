@@ -502,11 +502,12 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
 
 # ====================================================================== lattices
 def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[str]:
-    from ..theory import lattice_speed
+    from ..theory import law_lattice_speed
 
     md = ["## Triangular lattices against the formula", "",
           "c_theory = 3^{19/12}/(2^{3/2} π^{1/2}) p^{1/6} (× √(1 + η/3) with friction), "
-          "`granwave.theory.lattice_speed`; simulated speeds from the arrival times of the two "
+          "`granwave.theory.lattice_speed`, for Hertz; for another contact law of the scene its "
+          "row chain's speed at the same order, `granwave.theory.law_lattice_speed`; simulated speeds from the arrival times of the two "
           "lattices of heights L1–L2 [d̄] (one deterministic lattice per height: no ±). Speeds in "
           "√(E*/ρ), p in E*; the ratios are dimensionless.", ""]
     names = sorted(s for s in h_by_scene if scenes.kind_of(s) == "lattices")
@@ -517,7 +518,7 @@ def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[s
         mu = scenes.friction_of(scene)
         frictional = bool(math.isfinite(mu) and mu > 0)
         for p, h in sorted(h_by_scene[scene].items()):
-            c = lattice_speed(p, friction=frictional, poisson=scenes.poisson_of(scene))
+            c = law_lattice_speed(p, scenes.contact_of(scene), friction=frictional, poisson=scenes.poisson_of(scene))
             edges = h.get("edge_heights") or []
             row = [scene, fmt(mu, digits=3), f"{p:.3g}", "–".join(f"{x:.3g}" for x in edges) or "—",
                    fmt(c)]

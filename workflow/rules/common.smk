@@ -44,7 +44,7 @@ def _check_config():
     if message:
         _stop(message)
     validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
-    for check in (ws.cross_reference_error, ws.labels_error, ws.count_error, ws.shear_error):
+    for check in (ws.cross_reference_error, ws.contact_error, ws.labels_error, ws.count_error, ws.shear_error):
         message = check(config)
         if message:
             _stop(message)
@@ -188,6 +188,13 @@ def prepare_args(wildcards):
     return " ".join(f"--{key.replace('_', '-')} {value}" for key, value in make.items())
 
 
+def contact_args(wildcards):
+    """The scene's contact sub-models as CLI options (`--contact-law cone --cone-slope 0.1`): the
+    lone lattice and chain rules' (a packing's are in prepare_args, from its batch's options)."""
+    contact = scene_spec(wildcards.scene).get("contact") or {}
+    return " ".join(f"--{key.replace('_', '-')} {value}" for key, value in contact.items())
+
+
 def moduli_args(wildcards):
     """analyze moduli options for one sample outside its batch: local moduli where its batch
     computes them (not for continuum columns)."""
@@ -273,6 +280,7 @@ def batch_sample(scene, p, size, seed):
     else:
         make = dict(n_balls=int(size[1:]), pressure=float(p),
                     polydispersity=float(spec["polydispersity"]), seed=seed)
+    make.update(spec.get("contact") or {})  # the scene's contact sub-models (granwave.contact_models)
     wc = SimpleNamespace(scene=scene, pressure=p, size=size, seed=seed)
     out = {stage: f"{R}/{stage}/{tail}.h5" for stage in ("packing", "linear", "signal")}
     for stage in summary_inputs(wc):  # front, and statics / moduli where the scene has them

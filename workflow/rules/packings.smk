@@ -30,13 +30,14 @@ rule make_lattice:
         f"{R}/logs/packing/{{scene}}/p{{pressure}}/r{{rows}}/s0.log",
     params:
         spec=lambda w: scene_spec(w.scene),
+        contact=contact_args,
     resources:
         mem_mb=500,
         runtime=5,
     shell:
         "granwave lattice --rows {wildcards.rows} --width {params.spec[width]} "
         "--pressure {wildcards.pressure} --friction {params.spec[friction]} "
-        "--poisson {params.spec[poisson]} -o {output} > {log} 2>&1"
+        "--poisson {params.spec[poisson]} {params.contact} -o {output} > {log} 2>&1"
 
 
 rule make_chain:
@@ -48,10 +49,11 @@ rule make_chain:
         f"{R}/logs/packing/{{scene}}/p{{pressure}}/n{{balls}}/s{{seed}}.log",
     params:
         spec=lambda w: scene_spec(w.scene),
+        contact=contact_args,
     resources:
         mem_mb=500,
         runtime=5,
     shell:
         "granwave chain --balls {wildcards.balls} --pressure {wildcards.pressure} "
         "--polydispersity {params.spec[polydispersity]} --seed {wildcards.seed} "
-        "-o {output} > {log} 2>&1"
+        "{params.contact} -o {output} > {log} 2>&1"
