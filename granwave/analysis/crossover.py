@@ -20,7 +20,7 @@ The interval of p* is the profile likelihood's: the ln p* where chi^2 - chi^2_mi
 the sweep's range is open on that side (NaN). ``log10_p_star_err``: half the 68 % interval's width
 in log10 p. This is the estimator of ``pressure-sweep --crossover`` (granwave.analysis.sweep);
 benchmarks/truth_cases/laws.py runs it on synthetic series of known p* (its bias, and the
-coverage of its 95 % interval, in docs/truth.md).
+coverage of its 95 % interval, in the truth suite's table).
 """
 
 from __future__ import annotations

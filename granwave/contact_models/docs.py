@@ -70,7 +70,7 @@ def parameters_table() -> str:
     rows = ["| option | default | units | range | meaning |", "|---|---|---|---|---|"]
     for kind, k in O.KINDS.items():
         rows.append(f"| `{_option(k['option'])}` | `{k['default']}` | | {', '.join(f'`{n}`' for n in O.names(kind))} "
-                    f"| {_cell(k['help'])} (the table above) |")
+                    f"| {_cell(k['help'])} (its sub-models: docs/dem.md, \"How to add a contact model\") |")
         for n, p in O.ALL_PARAMETERS.items():
             if p["kind"] == kind:
                 whose = f" (`{p['submodel']}`)" if "submodel" in p else ""

@@ -9,7 +9,8 @@ lattice row chain's speed, :func:`granwave.theory.law_lattice_speed`: 1/4 for an
 for Hertz), and the crossover pressure p* where c_tof turns from p^{1/4} to p^{1/6} with its 95 %
 interval: the estimator of ``pressure-sweep --crossover`` (:func:`granwave.analysis.sweep.
 pressure_sweep`, its defaults), run on the scene's height series, with its validated bias where
-the truth suite has measured it (granwave/data/truth.json, key ``sweep.p_star``).
+the truth suite has measured it (its table shipped with the package, data/truth.json, key
+``sweep.p_star``).
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ def _validated_bias() -> str:
         return ""
     parts = [f"{r.get('setting', '?')}: relative bias {fmt(num(r.get('bias_rel')), num(r.get('bias_err')))}, "
              f"95 % coverage {fmt(num(r.get('coverage95')), digits=2)} ({r.get('verdict', '?')})" for r in rows]
-    return " Its check on series of known p* (docs/truth.md): " + "; ".join(parts) + "."
+    return " Its check on series of known p* (the truth suite): " + "; ".join(parts) + "."
 
 
 def laws_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[str]:
