@@ -469,8 +469,11 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                                   dof_axis=source.dof_axis)
             omega_max = math.sqrt(max(float(np.max(modes.omega2, initial=0.0)), 0.0))
         else:
-            sig = time_domain_signal(source, ic=p.ic, t_max=p.t_max, dt=p.dt, samples=p.samples,
-                                     safety=p.safety, snapshots=p.snapshots, progress=progress)
+            from .linear.step_rule import accurate_signal
+
+            sig = accurate_signal(time_domain_signal, source, tolerance=p.tolerance, ic=p.ic,
+                                  t_max=p.t_max, dt=p.dt, samples=p.samples, safety=p.safety,
+                                  snapshots=p.snapshots, progress=progress)
             omega_max = float(sig.attrs["omega_max"])
     else:
         from .dem.pulse import DEFAULT_AMPLITUDE, DEFAULT_DAMPING, propagate_dem
