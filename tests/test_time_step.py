@@ -102,3 +102,23 @@ def test_cli_tolerance(tmp_path, solved):
                                       "--tolerance", "0", "-o", str(tmp_path / "first.h5")])
     assert r.exit_code == 0, r.output
     assert files.read_signal(tmp_path / "first.h5").attrs["step_runs"] == 1
+
+
+def test_auto_takes_the_modal_sum_when_the_shorter_step_would_cost_more(solved, monkeypatch):
+    """method auto: a first time-domain run above the tolerance whose repetition is predicted
+    dearer than the modal sum gives the modal sum (the cost constants set so that the modal sum
+    lies between the first run and the repetition)."""
+    system, modes, c = solved
+    p = PropagateParams(method="auto", source_kind="shear", t_max=5 * system.height / c["shear"])
+    first = api._time_seconds(system, p, p.safety * 2.0 / api._omega_max_bound(system))
+    monkeypatch.setattr(api, "EIGEN_SECONDS_PER_DOF3", 2 * first / system.n_dof**3)
+    monkeypatch.setattr(api, "MODAL_SUM_SECONDS_PER_TERM", 0.0)
+    assert api.choose_method(system, p)[0] == "time"
+    sig = api.propagate(system, p)
+    assert sig.attrs["method"] == "modal" and sig.attrs["method_requested"] == "auto"
+    assert "above the tolerance" in sig.attrs["method_reason"]
+    assert np.array_equal(sig.force, modal_signal(modes.for_source("shear"), ic="A", times=sig.time))
+    monkeypatch.setattr(api, "EIGEN_SECONDS_PER_DOF3", 1e3)  # modal far dearer: the time domain, rerun
+    sig = api.propagate(system, p)
+    assert sig.attrs["method"] == "time" and sig.attrs["step_runs"] >= 2
+    assert _error(sig, modes, "shear") <= TOL

@@ -67,7 +67,8 @@ def check_tolerance(tolerance: float) -> float:
 
 
 def accurate_signal(integrate: Callable, system, *, tolerance: float,
-                    dt: float | None = None, progress: Callable[[str], None] | None = None, **kw):
+                    dt: float | None = None, progress: Callable[[str], None] | None = None,
+                    rerun_ok: Callable[[float], bool] | None = None, **kw):
     """``integrate(system, dt=..., **kw)`` (a time-domain integrator: CPU or GPU), repeated
     with a shorter step until its ``step_error_estimate`` is at most ``tolerance``.
 
@@ -75,7 +76,10 @@ def accurate_signal(integrate: Callable, system, *, tolerance: float,
     above the tolerance is followed by one at dt x sqrt(RERUN_TARGET tolerance / estimate), at
     most :data:`MAX_RUNS` runs in all. ``tolerance`` 0: the first run as it is. The signal
     records ``step_tolerance``, ``step_runs``, ``step_first_dt`` and ``wall_time_all_runs`` (s);
-    one still above the tolerance emits a :class:`StepAccuracyWarning`.
+    one still above the tolerance emits a :class:`StepAccuracyWarning`. ``rerun_ok(dt)``: asked
+    before each repetition (None: always yes); a no returns the signal as it is, with
+    ``step_rerun_declined`` True and ``step_declined_dt`` the step it would have taken, and no
+    warning (the caller takes another method: ``method auto``).
     """
     tolerance = check_tolerance(tolerance)
     t0 = time.perf_counter()
@@ -85,6 +89,10 @@ def accurate_signal(integrate: Callable, system, *, tolerance: float,
         est = float(sig.attrs["step_error_estimate"])
         dt = float(sig.attrs["dt"]) * math.sqrt(RERUN_TARGET * tolerance / est) if math.isfinite(est) \
             else 0.5 * float(sig.attrs["dt"])
+        if rerun_ok is not None and not rerun_ok(dt):
+            sig.attrs.update(step_rerun_declined=True, step_declined_dt=dt, step_tolerance=tolerance,
+                             step_runs=runs, step_first_dt=first)
+            return sig
         if progress is not None:
             progress(f"propagate: estimated step error {est:.3g} of max|F| at dt = {sig.attrs['dt']:.4g} "
                      f"exceeds the tolerance {tolerance:g}: again with dt <= {dt:.4g}")
