@@ -327,9 +327,14 @@ def workflow_jobs(config: str) -> int:
         run = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
                               "-n", "--quiet", "rules", "--configfile", str(ROOT / config)],
                              cwd=work, capture_output=True, text=True, env=env, timeout=600)
-    totals = re.findall(r"^total\s+(\d+)\s*$", run.stdout + run.stderr, re.M)
-    if run.returncode or not totals:
-        raise RuntimeError(f"snakemake -n with {config} failed:\n{run.stderr[-2000:]}")
+    return jobs_of_plan(run.returncode, run.stdout + run.stderr, config)
+
+
+def jobs_of_plan(returncode: int, output: str, config: str) -> int:
+    """The job total of a `snakemake -n --quiet rules` run (its exit status and output)."""
+    totals = re.findall(r"^total\s+(\d+)\s*$", output, re.M)
+    if returncode or not totals:
+        raise RuntimeError(f"snakemake -n with {config} failed:\n{output[-2000:]}")
     return int(totals[-1])
 
 
