@@ -571,7 +571,8 @@ def recommendations(res):
         trunc_txt = (f"not a truncated modal sum (every truncation by |a_n b_n| tested left a front error "
                      f"> 1 % and acausal ripples ahead of the front that the front rule mistakes for it)")
     lines.append(f"- time-domain propagation at safety {td_quick_s:g} (front error "
-                 f"{prop[td_quick_s]['err_front']:.1e} of max|F|), {trunc_txt};")
+                 f"{prop[td_quick_s]['err_front']:.1e} of max|F|; with `--tolerance 0`, else the "
+                 f"whole record's 1 % check repeats the run at a shorter step, §9), {trunc_txt};")
     lines.append(f"- no prestress (it changes c_tof by {pct(prestress_effect[0])} and C22 by "
                  f"{pct(prestress_effect[2])} at p = {PRESSURE:g}).")
     lines.append("")
