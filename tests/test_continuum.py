@@ -43,7 +43,7 @@ def test_local_speeds_ratio_and_exponents_exact():
     np.testing.assert_allclose(loc["c_zero"], 1.5)
     np.testing.assert_allclose(loc["ratio"], 1.25)
     np.testing.assert_allclose(loc["gamma_eff"], 0.5)
-    np.testing.assert_allclose(loc["alpha_eff"], 0.25)
+    np.testing.assert_allclose(loc["chi_eff"], 0.25)
     np.testing.assert_allclose(r["per_height"]["c_tof_apparent"], [8 / 5, 16 / 9, 32 / 17, 64 / 33])
     assert r["global"]["c_tof_all"] == pytest.approx(2.0)
 

@@ -275,6 +275,17 @@ rule figure_airy:
         "granwave plot airy --n 100 --n 400 --n 1600 -o {output} > {log} 2>&1"
 
 
+def all_timings():
+    """The timing tables (`timings` outputs) of every batch, analysis and figure job: the run's
+    CPU time on the report's first page."""
+    tables = [f"{R}/timings/{name}.tsv" for name, _, _ in batches()]
+    tables += [f"{R}/timings/analyses/{name}.tsv" for name, _, _ in scene_analyses()]
+    tables += [f"{R}/timings/analyses/{name}.tsv"
+               for name, _ in study_figures() + main_sample_extras() + continuum_jobs()]
+    tables += [f"{R}/timings/shear/{name}.tsv" for name, _, _ in shear_batches()]
+    return tables
+
+
 rule report:
     conda:
         "../envs/granwave.yaml"
@@ -290,6 +301,7 @@ rule report:
         damping=[f"{R}/damping/table.json"] if config["damping"]["enabled"] else [],
         continuum=continuum_outputs(),
         shear=shear_outputs(),
+        timings=all_timings(),
     output:
         md=f"{R}/report/index.md",
         html=f"{R}/report/index.html",
@@ -303,7 +315,8 @@ rule report:
                                         flags("--figures", input.figures),
                                         flags("--damping", input.damping),
                                         flags("--continuum", input.continuum),
-                                        flags("--shear", input.shear)]),
+                                        flags("--shear", input.shear),
+                                        flags("--timings", input.timings)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
 

@@ -48,6 +48,7 @@ rule shear_analysis:
         source=lambda w: config["shear"][w.scene]["scene"],
         material=lambda w: config["shear"][w.scene]["material"],
         diameter_mm=lambda w: config["shear"][w.scene]["diameter_mm"],
+        poisson=lambda w: float(scene_spec(config["shear"][w.scene]["scene"])["poisson"]),  # the packings' nu
     resources:
         runtime=5,
     script:
