@@ -89,11 +89,14 @@ def inputs(tmp_path_factory):
                                         "c_zero": 0.3999, "edge_heights": [8.66, 25.1]},
         ("chain_B", 1.0): {"ic": "B", "gamma": 0.9712, "gamma_err": 0.005, "alpha": 0.3401,
                            "alpha_err": 0.002, "n_aliased": 2},  # a file of before the rename: alpha = χ
+        # two heights only: its slope's ± (the scatter of two packings per height) is not shown
+        ("frictionless3d", 1e-4): {"c_tof": 0.31, "c_peak": 0.29, "c_zero": 0.28, "gamma": 1.5123, "gamma_err": 0.0101, "chi": 0.7012, "chi_err": 0.021,
+                                   "n_heights": 2, "n_signals": 4},
     }
     for (scene, p), obj in heights.items():
         (hd / scene).mkdir(parents=True, exist_ok=True)
-        L = [8.0, 8.0, 25.0, 25.0]
-        obj = {"pressure": p, "ic": obj.get("ic", "A"), "n_signals": 4, "n_heights": 2, **obj,
+        L = [8.0, 8.0, 16.0, 16.0, 25.0, 25.0]
+        obj = {"pressure": p, "ic": obj.get("ic", "A"), "n_signals": 6, "n_heights": 3, **obj,
                "samples": [{"height": h, "t_lead10": h / 0.2, "t_peak": h / 0.19, "t_zero": h / 0.18,
                             "amplitude": h ** -0.8, "width": h ** 0.45} for h in L]}
         (hd / scene / f"p{p:g}.json").write_text(json.dumps(obj))
@@ -167,7 +170,8 @@ def test_report_contents(page):
     assert "| initial condition A | 0.6667 | 0.3333 |" in md
     assert "| initial condition B | 1 | 0.3333 |" in md
     # aliased signals are marked, and the page says what that means
-    assert "| chain_B | chains | 1 | B | 4 at 2 (2 aliased) | 8 … 25 |" in md  # its old `alpha` read as χ
+    assert "| chain_B | chains | 1 | B | 6 at 3 (2 aliased) | 8 … 25 |" in md  # its old `alpha` read as χ
+    assert "| frictionless3d | disordered | 0.0001 | A | 4 at 2 | 8 … 25 | 1.512 | 0.7012 |" in md
     assert "| 0.971 ± 0.005 | 0.340 ± 0.002 |" in md
     assert 'Rows marked "aliased": 2 signals in 1 height series were sampled' in md
     # the lattice against the formula (frictional, from the config)
@@ -343,3 +347,37 @@ def test_sweep_without_fits_is_one_line():
     # a file of before the rename (alpha_*) reads the same
     old = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
     assert old[2] == rows[2] and len(old) == 4
+
+
+def test_findings_first_with_references_and_verdicts(page):
+    md, _ = page
+    find = section(md, "## Findings")
+    assert "What was run" in find and "frictional2d" in find
+    # the sweep's κ_tof (0.247 ± 0.013 in the fixture) against 1/6: 6σ off, and why
+    row = [r for r in rows_of(find, "pressure exponent κ_tof of c_tof (c ∝ p^κ), frictional2d")][0]
+    assert row[1] == "0.247 ± 0.013" and row[3].startswith("1/6 = 0.1667")
+    assert row[5].startswith("differs by 6σ: a fixed network gives 1/6") and row[6] == "[table](#sweeps)"
+    # the estimator's worth: "not validated" without a truth-suite record (never a typed number)
+    assert row[4] in ("not validated",) or row[4].startswith(("validated:", "biased:", "undercovered:"))
+    # moduli against the affine effective medium: five packings at the tall height, a ±
+    em = [r for r in find.splitlines() if r.startswith("| longitudinal modulus") and "frictional2d" in r]
+    assert em and "±" in em[0].split("|")[2]
+    # a two-height series: no ± and no σ
+    two = [r for r in find.splitlines() if r.startswith("| amplitude exponent γ, frictionless3d")][0]
+    assert "| 1.51 |" in two and "a slope through two heights: no σ" in two
+
+
+def test_every_symbol_defined_once(page):
+    """The generated page uses no symbol its symbol table lacks, and the table defines each
+    once (the figures' labels: tests/figure_rules.py)."""
+    from granwave.report.symbols import duplicates, undefined_symbols
+
+    md, _ = page
+    assert not duplicates()
+    assert not undefined_symbols(md), sorted(undefined_symbols(md))
+    table = section(md, "## Symbols")
+    spellings = [f.strip() for line in table.splitlines() if line.startswith("| ") and "---" not in line
+                 for f in line.strip("|").split("|")[0].replace("\\|", "|").split(", ")][1:]
+    assert len(spellings) == len(set(spellings)) and "κ" in spellings and "χ" in spellings
+    # the checker does fail: a symbol nobody defined, and the old width exponent δ
+    assert undefined_symbols("with ν_x = 3 and W ∝ L^δ") == {"ν_x", "δ"}

@@ -25,7 +25,7 @@ def _line(ax, p, fit, **kw):
         ax.plot(p, fit["prefactor"] * p ** fit["exponent"], **kw)
 
 
-def shear_panels(analysis: Mapping, path, *, pdf: bool = False) -> list[Path]:
+def shear_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | None = None) -> list[Path]:
     """Four panels from a shear scene's analysis (granwave.analysis.shear_scene):
     (a) V_s, V_p (waves, the scene's pick) and c_t, c_l (moduli) against p with the fitted power
     laws; (b) G_max = Φ3* V_s² and the moduli's G with the free fit and the p^(1/3) line;

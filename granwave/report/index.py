@@ -125,7 +125,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         ("provenance", T.provenance_section(groups) if groups else []),
         ("figures", _figures_section(figures, out_dir, caption_for)),
     ]
-    rows = (FI.pressure_rows(sweeps, groups, "sweeps") + FI.front_rows(h_by_scene, scenes, "exponents")
+    rows = (FI.pressure_rows(sweeps, groups) + FI.front_rows(h_by_scene, scenes, "exponents")
             + FI.lattice_rows(h_by_scene, scenes, "lattices")
             + FI.effective_medium_rows(groups, scenes, "moduli", config)
             + FI.continuum_rows(cont, "continuum") + FI.shear_rows(shr, "shear"))

@@ -1,4 +1,4 @@
-"""The report's shear section (docs/shear.md, "The shear scene"): V_s(p), V_p(p), G_max(p)
+"""The report's shear section (docs/shear.md, "The shear scene"): Vstat_cell(p), V_p(p), G_max(p)
 against p^(1/3) and the measured exponent, V_p/V_s and the Poisson ratio from waves and from
 the moduli, and the pick table (which pick lands within 5 % of c_t at which distance and
 wavelength).
@@ -37,7 +37,7 @@ def shear_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, 
 FASTEST_P = 1.1
 
 
-def _s(stat: Mapping | None, digits: int = 4) -> str:
+def stat_cell(stat: Mapping | None, digits: int = 4) -> str:
     """mean ± standard error over 5 packings or more; over fewer the range of the values (two
     values are exactly mean ± sem) or, where it cannot be had, the mean without a ±."""
     stat = stat or {}
@@ -79,7 +79,7 @@ def pick_table(analysis: Mapping) -> list[str]:
         ok = ", ".join(f"`{p}`" for p in row.get("within_5pct", [])) or "none"
         lines.append(f"| {num(row['pressure']):g} | {num(row['wavelength']):g} | "
                      f"{fmt(row.get('height'), digits=3)} | {fmt_count(row.get('n'))} | "
-                     f"{_s(ratio.get(num(row['pressure'])), 3)} | "
+                     f"{stat_cell(ratio.get(num(row['pressure'])), 3)} | "
                      + " | ".join(cells) + f" | {ok} |")
     return lines
 
@@ -119,9 +119,9 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
         md += ["| p (E*) | n | V_s | c_t | V_s/c_t | V_p | c_ℓ | V_p/c_ℓ | G_max | G (moduli) |",
                "|---|---|---|---|---|---|---|---|---|---|"]
         for r in a["pressures"]:
-            md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {_s(r['V_s'])} | {_s(r['c_t'])} | "
-                      f"{_s(r['V_s_over_c_t'], 3)} | {_s(r['V_p'])} | {_s(r['c_l'])} | "
-                      f"{_s(r['V_p_over_c_l'], 3)} | {_s(r['G_max'])} | {_s(r['G_moduli'])} |")
+            md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {stat_cell(r['V_s'])} | {stat_cell(r['c_t'])} | "
+                      f"{stat_cell(r['V_s_over_c_t'], 3)} | {stat_cell(r['V_p'])} | {stat_cell(r['c_l'])} | "
+                      f"{stat_cell(r['V_p_over_c_l'], 3)} | {stat_cell(r['G_max'])} | {stat_cell(r['G_moduli'])} |")
         fast = [r for r in a["pressures"] if num((r.get("V_p_over_c_l") or {}).get("mean")) > FASTEST_P]
         if fast:
             md += ["", f"**V_p above {FASTEST_P:g} c_ℓ at p = "
@@ -162,9 +162,9 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
                    "| p (kPa) | V_s (m/s) | c_t (m/s) | V_p (m/s) | c_ℓ (m/s) | G_max (MPa) | G moduli (MPa) "
                    "| f shear (kHz) | f compr. (kHz) |", "|---|---|---|---|---|---|---|---|---|"]
             for r in si["rows"]:
-                md.append(f"| {fmt(r['pressure_kPa'], digits=3)} | {_s(r['V_s_m_s'], 3)} | {_s(r['c_t_m_s'], 3)} | "
-                          f"{_s(r['V_p_m_s'], 3)} | {_s(r['c_l_m_s'], 3)} | {_s(r['G_max_MPa'], 3)} | "
-                          f"{_s(r['G_moduli_MPa'], 3)} | {fmt(r['f_shear_kHz'], digits=3)} | "
+                md.append(f"| {fmt(r['pressure_kPa'], digits=3)} | {stat_cell(r['V_s_m_s'], 3)} | {stat_cell(r['c_t_m_s'], 3)} | "
+                          f"{stat_cell(r['V_p_m_s'], 3)} | {stat_cell(r['c_l_m_s'], 3)} | {stat_cell(r['G_max_MPa'], 3)} | "
+                          f"{stat_cell(r['G_moduli_MPa'], 3)} | {fmt(r['f_shear_kHz'], digits=3)} | "
                           f"{fmt(r['f_normal_kHz'], digits=3)} |")
             md.append("")
         md += [f"V_p/V_s and the packing's effective Poisson ratio ν_eff: from waves V_p/V_s, from the "
@@ -174,9 +174,9 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
                "| p (E*) | V_p/V_s | c_ℓ/c_t | ν_eff (waves) | ν_eff (moduli) | ν_eff (tensor) |",
                "|---|---|---|---|---|---|"]
         for r in a["pressures"]:
-            md.append(f"| {num(r['pressure']):g} | {_s(r['ratio_waves'], 3)} | {_s(r['ratio_moduli'], 3)} | "
-                      f"{_s(r['poisson_waves'], 3)} | {_s(r['poisson_moduli'], 3)} | "
-                      f"{_s(r['poisson_tensor'], 3)} |")
+            md.append(f"| {num(r['pressure']):g} | {stat_cell(r['ratio_waves'], 3)} | {stat_cell(r['ratio_moduli'], 3)} | "
+                      f"{stat_cell(r['poisson_waves'], 3)} | {stat_cell(r['poisson_moduli'], 3)} | "
+                      f"{stat_cell(r['poisson_tensor'], 3)} |")
         md += ["", f"Pick table: V/c_t of every pick (docs/shear.md) per pressure, wavelength and "
                f"nominal height (L its mean wall-to-wall distance). c_ℓ/c_t (P): the moduli's ratio "
                f"at that pressure (packings of the fit height), the speed of the compressional "

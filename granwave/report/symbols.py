@@ -80,6 +80,7 @@ SYMBOLS: tuple[Symbol, ...] = (
            key="c_l_inf", forms=("c_l∞",)),
     # ------------------------------------------------------------- the signal and its front (§8–§9)
     Symbol("F_sig", "the signal: extra vertical force on the top wall", FORCE),
+    Symbol("F_top", "total normal force of the top-wall contacts (the nonlinear DEM's signal)", FORCE),
     Symbol("s", "scale of the nonlinear kick (the DEM signal is divided by it)"),
     Symbol("A", "amplitude of the first peak of the signal", FORCE, key="amplitude"),
     Symbol("W", "width of the first pulse, t_zero − t_10", TIME, key="width"),

@@ -492,7 +492,9 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
     md = ["## Front scaling with distance: γ and χ", "",
           "A ∝ L^−γ and W ∝ L^χ fitted over every signal of a height series (± one standard "
           "error of the fitted slope; none with two points), against the identical-ball chain's "
-          "exact values (Airy asymptote, docs/method.md §12). n: signals at the nominal heights "
+          "exact values (Airy asymptote, docs/method.md §12); no ± where the series has two "
+          "heights only (the scatter of two packings per height is no error bar). n: signals at "
+          "the nominal heights "
           "counted after \"at\". γ and χ are dimensionless (the fits' JSON keys: `gamma`, `chi`; "
           "`alpha` in files written before the rename).", ""]
     exact = {ic: chain_exact_exponents(ic) for ic in ("A", "B")}
@@ -504,13 +506,14 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
         ic = scenes.ic_of(h["_scene"], h)
         e = exact.get(ic.upper(), exact["A"])
         g, a = num(h.get("gamma")), num(h.get("chi"))
+        two = num(h.get("n_heights")) < 3  # a slope through two heights: its ± says nothing
+        ge, ae = (None, None) if two else (h.get("gamma_err"), h.get("chi_err"))
         heights = (h.get("per_height") or {}).get("height") or [num(x.get("height")) for x in (
             h.get("samples") or []) if isinstance(x, Mapping)]
         rows.append([h["_scene"], scenes.kind_of(h["_scene"]), fmt(h.get("pressure"), digits=3), ic,
                      n_at_k(h), fmt_range(min(heights), max(heights)) if heights else "—",
-                     fmt(g, h.get("gamma_err")), fmt(a, h.get("chi_err")),
-                     fmt(g / e["gamma"], num(h.get("gamma_err")) / e["gamma"]),
-                     fmt(a / e["chi"], num(h.get("chi_err")) / e["chi"])])
+                     fmt(g, ge), fmt(a, ae), fmt(g / e["gamma"], num(ge) / e["gamma"]),
+                     fmt(a / e["chi"], num(ae) / e["chi"])])
     if rows:
         md += table(["scene", "kind", "p", "ic", "n at heights", "L", "γ", "χ", "γ/γ chain",
                      "χ/χ chain"], rows)
