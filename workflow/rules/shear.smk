@@ -65,7 +65,7 @@ rule figure_shear:
     log:
         f"{R}/logs/figures/shear_{{scene}}.log",
     shell:
-        "granwave plot shear {input} -o {output} > {log} 2>&1"
+        "granwave plot shear {input} --scene {wildcards.scene} -o {output} > {log} 2>&1"
 
 
 # The analysis and its figure in one process, at the end of the run where every second of

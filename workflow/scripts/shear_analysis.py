@@ -32,5 +32,5 @@ with open(snakemake.log[0], "w") as log:
         matplotlib.use("Agg")
         from granwave.figures.shear import shear_panels
 
-        shear_panels(json.loads(text), figure)
+        shear_panels(json.loads(text), figure, scene=snakemake.wildcards.scene)
 
