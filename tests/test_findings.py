@@ -141,3 +141,20 @@ def test_material_presets_and_the_si_refusal(tmp_path):
     res = r.invoke(main, [*args, str(sig["glass"])])  # the recorded material is the default
     assert res.exit_code == 0, res.output
     assert json.loads(res.output)["si"]["material"] == "glass"
+
+
+# ------------------------------------------------------------------ repository basics
+def test_license_and_citation_name_the_software_and_the_study():
+    from pathlib import Path
+
+    import yaml
+
+    root = Path(__file__).resolve().parents[1]
+    assert "MIT License" in (root / "LICENSE").read_text()
+    assert 'license = {text = "MIT"}' in (root / "pyproject.toml").read_text()
+    cff = yaml.safe_load((root / "CITATION.cff").read_text())
+    assert cff["cff-version"] == "1.2.0" and cff["license"] == "MIT" and cff["type"] == "software"
+    study = cff["references"][0]
+    assert study["doi"] == "10.1103/PhysRevE.72.021301" and study["authors"][0]["family-names"] == "Somfai"
+    for doc in ("README.md", "docs/method.md"):  # the study cited where users read
+        assert study["doi"] in (root / doc).read_text(), doc

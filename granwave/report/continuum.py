@@ -213,8 +213,11 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
           "consecutive heights (group means), at the geometric mean height; the apparent speed is "
           "L/t of each packing. Error bars: one standard error over packings (docs/continuum.md).",
           ""]
+    from ..analysis.renamed_keys import HEIGHTS, current_keys
+
     for scene, d in sorted(scenes.items()):
         front, att = d.get("front"), d.get("attenuation")
+        front = current_keys(front, HEIGHTS) if front else front  # chi_eff: alpha_eff before
         md += [f"### {scene}", ""]
         if front:
             cl, ct = front.get("c_l", {}), front.get("c_t", {})

@@ -428,7 +428,7 @@ def findings_section(rows: Sequence[Finding], run_lines: Sequence[str]) -> list[
     md += ["One row per headline result: the measured value (± one standard error; a range "
            "where fewer than 5 packings enter), what it rests on, the reference it is compared "
            "with, what its estimator is worth (bias and 95 % coverage measured by the truth suite "
-           "on inputs with a known answer through the same code and defaults, docs/truth.md; "
+           "on inputs with a known answer through the same code and defaults; "
            "\"not validated\" where the suite has no such check yet; — where no estimator is "
            "involved) and the verdict. The tables follow.", ""]
     md += table(["quantity", "measured", "n", "reference", "estimator (truth suite)", "verdict",

@@ -2,7 +2,7 @@
 
 :data:`SYMBOLS` is the one list; the report's symbol table is made from it
 (:func:`symbol_table`), and :func:`undefined_symbols` finds the symbols a text uses that the
-list does not define (tests/test_symbols.py runs it on the generated report and on every
+list does not define (tests/test_report.py runs it on the generated report, tests/figure_rules.py on every
 figure's labels). The choices (κ for pressure exponents, χ for the width exponent, ν for the
 grains' Poisson ratio only, ...) and why: docs/decisions/0038-one-symbol-per-quantity.md.
 

@@ -1,8 +1,9 @@
 """What an estimator is worth: its validated bias and coverage from the truth suite.
 
-The truth suite (``python benchmarks/truth.py``, docs/truth.md) runs every estimator the
-report quotes through the functions and defaults the scenes use, on inputs with a known
-answer, and writes the current table to ``granwave/data/truth.json``::
+The truth suite (its runner in the benchmarks folder, its table in the docs) runs every
+estimator the report quotes through the functions and defaults the scenes use, on inputs with
+a known answer, and writes the current table into the package's data folder
+(:data:`TRUTH_FILE`)::
 
     {"revision": ..., "date": ...,
      "estimators": {key: [{"setting", "truth", "n_seeds", "bias", "bias_rel", "bias_err",
