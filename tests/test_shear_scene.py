@@ -115,7 +115,9 @@ def test_scene_analysis_refuses_bad_input():
         shear_scene(_records(2)[:3] + _records(3)[:3])
 
 
-def test_report_section_and_figure_from_a_made_analysis(tmp_path):
+def test_report_section_and_figure_from_a_made_analysis(tmp_path, monkeypatch):
+    from figure_rules import capture, check
+
     from granwave.figures import caption_for, shear_panels
     from granwave.report import build_report
     from granwave.report.shear import shear_section
@@ -154,8 +156,10 @@ def test_report_section_and_figure_from_a_made_analysis(tmp_path):
     assert "| c_ℓ/c_t (P) |" in md
     page = build_report(shear=[(tmp_path / "shear2d" / "analysis.json", a, None)], out_dir=tmp_path)
     assert "## Shear waves" in page
+    figs = capture(monkeypatch)
     files = shear_panels(a, tmp_path / "shear_shear2d.png")
     assert files[0].stat().st_size > 10_000
+    check(figs[0], scene="shear2d", pressure=False)  # several pressures: p on the axes
     assert caption_for(files[0]).startswith("Shear scene:") and caption_for(files[0]).endswith("(shear2d)")
 
 

@@ -166,14 +166,20 @@ def scene_title(what: str, *, scene: str | None = None, pressure=None, height=No
 
 
 def plain_log_ticks(ax, which: str = "xy") -> None:
-    """Label a log axis in one notation: plain numbers (0.02, 0.05, 0.1, 20, 50) at 1, 2 and
-    5 × 10^k, no minor labels (matplotlib otherwise mixes 10^k with 2×10^k)."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    """Label a log axis in one notation (matplotlib otherwise mixes 10^k with 2×10^k): over
+    more than two decades the decades only, as 10^k; over fewer plain numbers (0.02, 0.05,
+    0.1, 20, 50) at 1, 2 and 5 × 10^k. No minor labels."""
+    from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation, LogLocator, NullFormatter
 
     for name in which:
         axis = ax.xaxis if name == "x" else ax.yaxis
         if axis.get_scale() != "log":
             continue
-        axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        lo, hi = sorted(ax.get_xlim() if name == "x" else ax.get_ylim())
+        if lo > 0 and hi / lo > 100:
+            axis.set_major_locator(LogLocator(base=10))
+            axis.set_major_formatter(LogFormatterSciNotation())
+        else:
+            axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         axis.set_minor_formatter(NullFormatter())

@@ -56,9 +56,10 @@ SYMBOLS: tuple[Symbol, ...] = (
     Symbol("π", "the number π"),
     Symbol("σ", "one standard error (in verdicts: agrees within 1σ)"),
     # ------------------------------------------------------------- statics (docs/method.md §4)
-    Symbol("Φ2", "area fraction of the discs", key="phi2"),
-    Symbol("Φ3", "solid fraction of the spheres in a layer one d̄ thick", key="phi3"),
-    Symbol("Φ3*", "Φ3 without rattlers: the density in the sound speeds", key="phi3_star"),
+    Symbol("Φ2", "area fraction of the discs", key="phi2", forms=("Φ_2",)),
+    Symbol("Φ3", "solid fraction of the spheres in a layer one d̄ thick", key="phi3", forms=("Φ_3",)),
+    Symbol("Φ3*", "Φ3 without rattlers: the density in the sound speeds", key="phi3_star",
+           forms=("Φ_3*",)),
     Symbol("z*", "force-carrying contacts per non-rattler grain", key="z_star"),
     Symbol("f0", "fraction of rattlers (grains that carry no force)", key="rattler_fraction"),
     Symbol("⟨F_n⟩/p", "mean normal force over the pressure", "d̄²", key="mean_force_over_p"),
