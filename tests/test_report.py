@@ -381,3 +381,19 @@ def test_every_symbol_defined_once(page):
     assert len(spellings) == len(set(spellings)) and "κ" in spellings and "χ" in spellings
     # the checker does fail: a symbol nobody defined, and the old width exponent δ
     assert undefined_symbols("with ν_x = 3 and W ∝ L^δ") == {"ν_x", "δ"}
+
+
+def test_timings_give_the_run_s_cpu_time(inputs, tmp_path):
+    """--timings: the CPU time of the first page is the sum of the timing tables' cpu_s."""
+    t = tmp_path / "timings"
+    (t / "analyses").mkdir(parents=True)
+    (t / "batch_0.tsv").write_text("scene\tstage\tcpu_s\twall_s\nx\tpacking\t1.25\t2.5\nx\tlinear\t0.5\t1.0\n")
+    (t / "analyses" / "a.tsv").write_text("stage\tcpu_s\twall_s\nheights\t2.0\t3.0\n")
+    out = tmp_path / "index.md"
+    res = CliRunner().invoke(main, ["report", "--summaries", str(inputs / "summary"), "--timings", str(t),
+                                    "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "- CPU time: 4 CPU-s over 3 stages (6 s wall)" in out.read_text()
+    res = CliRunner().invoke(main, ["report", "--summaries", str(inputs / "summary"), "--timings",
+                                    str(tmp_path / "none"), "-o", str(tmp_path / "j.md")])
+    assert res.exit_code == 2 and "no such file or folder" in res.output

@@ -262,8 +262,9 @@ def exponents(heights_json, labels, chain, ic, output, pdf, scene):
         series[f"chain (exact, {ic})"] = chain_series(ns, ic=ic)
     if not series:
         raise InputError("give heights JSON files and/or --chain")
-    refs = {"gamma": 2 / 3 if ic == "A" else 1.0, "chi": 1 / 3}
-    _done(figs.amplitude_width(series, output, references=refs, pdf=pdf, scene=scene))
+    if chain:  # the exact chain's own reference; else each series' initial condition's
+        series[f"chain (exact, {ic})"]["ic"] = ic
+    _done(figs.amplitude_width(series, output, pdf=pdf, scene=scene))
 
 
 @plot.command()

@@ -156,8 +156,11 @@ def scene_title(what: str, *, scene: str | None = None, pressure=None, height=No
         h = np.atleast_1d(np.asarray(height, float))
         h = h[np.isfinite(h)]
         if h.size:
+            from ..report.numbers import fmt_bound
+
             lo, hi = float(h.min()), float(h.max())
-            parts.append(f"L = {lo:.3g}" if np.isclose(lo, hi, rtol=0.05) else f"L = {lo:.3g}–{hi:.3g}")
+            parts.append(f"L = {fmt_bound(lo, 3)}" if np.isclose(lo, hi, rtol=0.05)
+                         else f"L = {fmt_bound(lo, 3)}–{fmt_bound(hi, 3)}")
     if count:
         parts.append(f"n = {count}")
     import textwrap

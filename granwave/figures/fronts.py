@@ -78,13 +78,20 @@ def amplitude_width(series: Mapping[str, Mapping], path, *, references: Mapping 
     distinct heights (:func:`granwave.analysis.ensemble.local_exponents_of_means`),
     with the propagated standard errors as error bars; those with an error above
     :data:`MAX_LOCAL_ERROR` are left out, and without any left the figure has no local row.
-    ``references``: exponents drawn as dashed lines (default: the chain's γ = 2/3 and χ = 1/3).
+    ``references``: exponents drawn as dashed lines (default: the identical-ball chain's, for
+    the initial condition of each series, ``ic``: γ = 2/3 (A) or 1 (B), χ = 1/3; one line per
+    initial condition present).
     """
     from ..analysis.ensemble import local_exponents_of_means
     from ..analysis.renamed_keys import HEIGHTS, current_keys
 
     need(len(series) > 0, "no series to plot")
-    ref = {"gamma": 2 / 3, "chi": 1 / 3} if references is None else current_keys(dict(references), HEIGHTS)
+    chain = {"A": {"gamma": 2 / 3, "chi": 1 / 3}, "B": {"gamma": 1.0, "chi": 1 / 3}}
+    if references is None:
+        ics = sorted({str(s.get("ic", "A")).upper() for s in series.values()} & set(chain)) or ["A"]
+        refs = {f" (chain {ic})" if len(ics) > 1 else "": chain[ic] for ic in ics}
+    else:
+        refs = {"": current_keys(dict(references), HEIGHTS)}
     series = {label: current_keys(dict(s), HEIGHTS) for label, s in series.items()}
     local = {}
     for label, s in series.items():
@@ -94,8 +101,9 @@ def amplitude_width(series: Mapping[str, Mapping], path, *, references: Mapping 
             sem = None if s.get(key + "_sem") is None else np.asarray(s[key + "_sem"], float)
             loc = local_exponents_of_means(np.asarray(s["height"], float),
                                            np.abs(np.asarray(s[key], float)), sem)
-            ok = np.isfinite(loc["exponent_err"]) & (loc["exponent_err"] <= MAX_LOCAL_ERROR) \
-                if sem is not None else np.ones(loc["height_mid"].size, bool)
+            # an error known to be large drops the point; none known (one exact system per
+            # height, a chain) keeps it
+            ok = ~(np.asarray(loc["exponent_err"], float) > MAX_LOCAL_ERROR)
             local[(label, key)] = (loc, ok)
     rows = 2 if any(ok.any() for _, ok in local.values()) else 1
     fig = new_figure((12, 8.5 if rows == 2 else 4.8))
@@ -146,9 +154,10 @@ def amplitude_width(series: Mapping[str, Mapping], path, *, references: Mapping 
         axg.set_ylabel(r"local $-\,d\log A/d\log L$  [1]")
         axa.set_ylabel(r"local $d\log W/d\log L$  [1]")
         for ax, key, name in ((axg, "gamma", "γ"), (axa, "chi", "χ")):
-            if ref.get(key) is not None:
-                ax.axhline(ref[key], ls="--", color="k", lw=1.2, zorder=5,
-                           label=f"{name} = {ref[key]:.3g} (reference)")
+            for (tag, ref), ls in zip(refs.items(), ("--", ":")):
+                if ref.get(key) is not None:
+                    ax.axhline(ref[key], ls=ls, color="k", lw=1.2, zorder=5,
+                               label=f"{name} = {ref[key]:.3g} (reference{tag})")
             ax.set_xlabel(L_LABEL)
             ax.legend(fontsize=8)
     axA.set_title(r"$A \propto L^{-\gamma}$: means ± standard error, line: fit", fontsize=10)

@@ -132,7 +132,7 @@ def heights_means(obj: Mapping, *, source="heights") -> dict:
         with np.errstate(invalid="ignore", divide="ignore"):
             out[k + "_sem"] = np.where(count > 1, std / np.sqrt(count), math.nan)
     for k in ("gamma", "gamma_err", "chi", "chi_err", "amplitude_prefactor", "width_prefactor",
-              "n_signals", "pressure"):
+              "n_signals", "pressure", "ic"):
         if obj.get(k) is not None:
             out[k] = obj[k]
     return out
