@@ -364,7 +364,7 @@ def test_findings_first_with_references_and_verdicts(page):
     assert em and "±" in em[0].split("|")[2]
     # a two-height series: no ± and no σ
     two = [r for r in find.splitlines() if r.startswith("| amplitude exponent γ, frictionless3d")][0]
-    assert "| 1.51 |" in two and "a slope through two heights: no σ" in two
+    assert "| 1.51 |" in two and "two heights, few packings: no σ" in two
 
 
 def test_every_symbol_defined_once(page):

@@ -236,7 +236,9 @@ def front_rows(h_by_scene, scenes, anchor: str) -> list[Finding]:
             heights = h.get("per_height", {}).get("height") or []
             span = f"L = {min(heights):.3g}–{max(heights):.3g}" if heights else ""
             n = f"{fmt_count(h.get('n_signals'))} signals at {fmt_count(h.get('n_heights'))} heights"
-            two = num(h.get("n_heights")) < 3  # a slope through two heights: its ± is no error bar
+            from .tables import slope_error_unknown
+
+            two = slope_error_unknown(h)  # two heights, few packings: its ± is no error bar
             for sym, key, ref in (("γ", "gamma", e["gamma"]), ("χ", "chi", e["chi"])):
                 v, err = h.get(key), None if two else h.get(f"{key}_err")
                 if not math.isfinite(num(v)):
@@ -251,7 +253,7 @@ def front_rows(h_by_scene, scenes, anchor: str) -> list[Finding]:
                     f"{'amplitude' if key == 'gamma' else 'width'} exponent {sym}, {scene}, "
                     f"p = {p:g}", fmt(v, err, 3), n,
                     f"{fmt(ref, digits=4)} (identical-ball chain, Airy, ic {ic}; docs/method.md §12)",
-                    verdict(v, err, ref, why=why, no_sigma="a slope through two heights: no σ"), anchor,
+                    verdict(v, err, ref, why=why, no_sigma="two heights, few packings: no σ"), anchor,
                     truth=(f"heights.{key}",) + (("heights.alpha",) if key == "chi" else ())))
     return rows
 

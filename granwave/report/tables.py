@@ -352,8 +352,8 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
           "Speeds in √(E*/ρ), p in E*, L in d̄. Every ± is one standard error: of the mean over "
           "n ≥ 5 packings for c_ℓ and c_t (over fewer: the range of their values), of the fitted "
           "slope for the time-of-flight speeds c_tof, c_peak, c_zero (`analyze heights`, "
-          "docs/method.md §9; no ± where the slope goes through two points, one packing per "
-          "height); c_tof/c_ℓ with relative errors in quadrature (a range over the packings' c_ℓ "
+          "docs/method.md §9; no ± where the edge heights hold fewer than 5 packings each: the "
+          "slope's residual is then the scatter of so few); c_tof/c_ℓ with relative errors in quadrature (a range over the packings' c_ℓ "
           "where fewer than 5). c_ℓ and c_t: the whole cell's moduli over the bulk Φ3* "
           "(`moduli.c_l`, `moduli.c_t`, as in the moduli table; the continuum section uses the "
           "bulk slab's). Exponents: least-squares fit c ∝ p^κ through the per-pressure means of "
@@ -413,10 +413,11 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                 row = [f"{p:.3g}", "–".join(f"{x:.3g}" for x in edges) or "—",
                        fmt_count(h.get("n_signals")) + (f" ({aliased_of(h)[0]} aliased)"
                                                          if aliased_of(h)[0] else "")]
+                few = slope_error_unknown(h, edges)  # two edge heights, few packings at one
                 for k in SPEED_KEYS:
-                    row.append(fmt(h.get(k), h.get(k + "_err")))
+                    row.append(fmt(h.get(k), None if few else h.get(k + "_err")))
                     cols[k].append(num(h.get(k)))
-                ct, ect = num(h.get("c_tof")), num(h.get("c_tof_err"))
+                ct, ect = num(h.get("c_tof")), math.nan if few else num(h.get("c_tof_err"))
                 r = ct / cl if cl else math.nan
                 er = abs(r) * math.hypot(ect / ct if ct else math.nan, ecl / cl if cl else math.nan)
                 few = [c for c in map(num, cls) if math.isfinite(c) and c > 0]
@@ -480,6 +481,23 @@ def aliased_note(series: Sequence[Mapping]) -> list[str]:
             "with more `samples` (or a shorter `t_max`) to remove the mark.", ""]
 
 
+def slope_error_unknown(h: Mapping, heights: Sequence[float] | None = None) -> bool:
+    """Whether a height series' fitted slope (γ, χ over every height; c_tof, c_peak, c_zero
+    over ``heights``, its two edge heights) rests on two heights with fewer than
+    :data:`MIN_FOR_ERROR` packings at one of them: its residual error is then the scatter of
+    so few packings, no error bar (issue 61), and the report shows the slope without a ±."""
+    ph = h.get("per_height") if isinstance(h.get("per_height"), Mapping) else {}
+    hs = [num(x) for x in ph.get("height") or []]
+    counts = [num(x) for x in ph.get("count") or []]
+    if heights is not None and hs and counts:
+        pick = [c for x, c in zip(hs, counts) if any(abs(x - e) <= GROUP_RTOL * e for e in heights)]
+        return len(pick) < 3 and (min(pick, default=0) < MIN_FOR_ERROR)
+    n_h = num(h.get("n_heights"))
+    if counts:
+        return n_h < 3 and min(counts) < MIN_FOR_ERROR
+    return n_h < 3 and num(h.get("n_signals")) / max(n_h, 1) < MIN_FOR_ERROR
+
+
 def n_at_k(h: Mapping) -> str:
     """The "n at k" cell of a height series, marked when some of its signals are aliased."""
     n_al, _ = aliased_of(h)
@@ -493,8 +511,8 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
           "A ∝ L^−γ and W ∝ L^χ fitted over every signal of a height series (± one standard "
           "error of the fitted slope; none with two points), against the identical-ball chain's "
           "exact values (Airy asymptote, docs/method.md §12); no ± where the series has two "
-          "heights only (the scatter of two packings per height is no error bar). n: signals at "
-          "the nominal heights "
+          "heights only and fewer than 5 packings at one (the scatter of so few is no error bar). "
+          "n: signals at the nominal heights "
           "counted after \"at\". γ and χ are dimensionless (the fits' JSON keys: `gamma`, `chi`; "
           "`alpha` in files written before the rename).", ""]
     exact = {ic: chain_exact_exponents(ic) for ic in ("A", "B")}
@@ -506,7 +524,7 @@ def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequen
         ic = scenes.ic_of(h["_scene"], h)
         e = exact.get(ic.upper(), exact["A"])
         g, a = num(h.get("gamma")), num(h.get("chi"))
-        two = num(h.get("n_heights")) < 3  # a slope through two heights: its ± says nothing
+        two = slope_error_unknown(h)  # two heights, few packings: its ± says nothing
         ge, ae = (None, None) if two else (h.get("gamma_err"), h.get("chi_err"))
         heights = (h.get("per_height") or {}).get("height") or [num(x.get("height")) for x in (
             h.get("samples") or []) if isinstance(x, Mapping)]
