@@ -51,13 +51,19 @@ def texts(fig) -> dict[str, list[str]]:
 
 
 def number_problems(text: str) -> list[str]:
-    """Every "value ± error" of ``text`` that is not written as granwave.report.numbers.fmt
-    writes it (error to 1–2 significant digits, the value rounded to match)."""
+    """Every "value ± error" of ``text`` off the rule of granwave.report.numbers.fmt: the error
+    to one significant digit (two when it starts with 1) and the value to the same decimal
+    place. Read back from the printed digits (0.0096 prints as 0.01, so "0.16 ± 0.01" is right);
+    an error of three or more digits, or a value with more or fewer decimals, is not."""
     bad = []
     for m in _PM.finditer(text):
-        v, e = float(m.group(1)), float(m.group(2))
-        if e > 0 and fmt(v, e) != m.group(0):
-            bad.append(f"{m.group(0)!r} (the rule: {fmt(v, e)!r})")
+        v, e = m.group(1), m.group(2)
+        dec = (lambda x: len(x.split(".")[1]) if "." in x else 0)
+        digits = e.replace(".", "").lstrip("0")
+        ok = dec(v) == dec(e) and (len(digits) == 1 or (len(digits) == 2 and digits[0] == "1")
+                                   or (digits.endswith("0") and len(digits.rstrip("0")) <= 2))
+        if not ok:
+            bad.append(f"{m.group(0)!r} (the rule: {fmt(float(v), float(e))!r})")
     return bad
 
 

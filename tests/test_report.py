@@ -397,3 +397,14 @@ def test_timings_give_the_run_s_cpu_time(inputs, tmp_path):
     res = CliRunner().invoke(main, ["report", "--summaries", str(inputs / "summary"), "--timings",
                                     str(tmp_path / "none"), "-o", str(tmp_path / "j.md")])
     assert res.exit_code == 2 and "no such file or folder" in res.output
+
+
+def test_every_number_on_the_page_follows_the_rule(page):
+    """Every "value ± error" of the page as the number rule writes it (tests/figure_rules.py
+    reads them back: the error to 1–2 significant digits, the value to the same decimals);
+    the checker fails on the legends issue 62 found."""
+    from figure_rules import number_problems
+
+    md, _ = page
+    assert not number_problems(md), number_problems(md)[:5]
+    assert len(number_problems("p^0.164 ± 0.0058, δ = 0.600 ± 0.086")) == 2
