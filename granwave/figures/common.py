@@ -146,7 +146,7 @@ def value_text(value, err=None, digits: int = 3) -> str:
 
 
 def scene_title(what: str, *, scene: str | None = None, pressure=None, height=None,
-                count: str | None = None) -> str:
+                count: str | None = None, width: int = 110) -> str:
     """A figure's title: what it shows, then its scene, p, L and n where they apply, e.g.
     "signals and their ensemble average — frictional2d, p = 1e-04, L = 25.4, n = 2 packings"."""
     parts = [scene] if scene else []
@@ -165,7 +165,7 @@ def scene_title(what: str, *, scene: str | None = None, pressure=None, height=No
         parts.append(f"n = {count}")
     import textwrap
 
-    return textwrap.fill(what, 110) + ("\n" + textwrap.fill(", ".join(parts), 110) if parts else "")
+    return textwrap.fill(what, width) + ("\n" + textwrap.fill(", ".join(parts), width) if parts else "")
 
 
 def plain_log_ticks(ax, which: str = "xy") -> None:

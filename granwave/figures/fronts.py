@@ -60,7 +60,7 @@ def arrival_times(data: Mapping, path, *, pdf: bool = False, scene: str | None =
     n = data.get("n_signals") or np.sum(np.isfinite(L))
     ax.set_title(scene_title("arrival times against distance", scene=scene or data.get("label"),
                              pressure=data.get("pressure"), height=L,
-                             count=f"{int(n)} signals"), fontsize=10)
+                             count=f"{int(n)} signals", width=80), fontsize=10)
     return save_figure(fig, path, pdf=pdf)
 
 

@@ -84,7 +84,7 @@ def speeds_vs_pressure(sweep: Mapping, path, *, lattice_theory: Callable | None 
     ax.legend(uniq.values(), uniq.keys(), fontsize=8)
     ax.set_title(scene_title("sound speeds against pressure (c_tof between the edge heights; c_ℓ, c_t: "
                              "every height of a pressure pooled)", scene=scene,
-                             count=f"{p.size} pressures"), fontsize=10)
+                             count=f"{p.size} pressures", width=80), fontsize=10)
     return save_figure(fig, path, pdf=pdf)
 
 

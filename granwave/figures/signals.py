@@ -129,7 +129,7 @@ def signal_comparison(signals: Sequence[Signal], path, *, labels: Sequence[str] 
     ax.legend()
     ax.set_title(scene_title("signals of different systems, time over distance", scene=scene,
                              pressure=signals[0].attrs.get("pressure"), height=_heights(signals),
-                             count="one packing each"), fontsize=9)
+                             count="one packing each", width=90), fontsize=9)
     return save_figure(fig, path, pdf=pdf)
 
 
