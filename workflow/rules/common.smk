@@ -669,6 +669,17 @@ def report_inputs():
     return inputs
 
 
+def all_timings():
+    """The timing tables (`timings` outputs) of every batch, analysis and figure job: the run's
+    CPU time on the report's first page."""
+    tables = [f"{R}/timings/{name}.tsv" for name, _, _ in batches()]
+    tables += [f"{R}/timings/analyses/{name}.tsv" for name, _, _ in scene_analyses()]
+    tables += [f"{R}/timings/analyses/{name}.tsv"
+               for name, _ in study_figures() + main_sample_extras() + continuum_jobs()]
+    tables += [f"{R}/timings/shear/{name}.tsv" for name, _, _ in shear_batches()]
+    return tables
+
+
 def continuum_outputs():
     """The continuum analyses of every continuum scene (front and attenuation JSON)."""
     return [f"{R}/continuum/{s}/{what}.json" for s in scenes("continuum")

@@ -291,17 +291,6 @@ rule figure_airy:
         "granwave plot airy --n 100 --n 400 --n 1600 -o {output} > {log} 2>&1"
 
 
-def all_timings():
-    """The timing tables (`timings` outputs) of every batch, analysis and figure job: the run's
-    CPU time on the report's first page."""
-    tables = [f"{R}/timings/{name}.tsv" for name, _, _ in batches()]
-    tables += [f"{R}/timings/analyses/{name}.tsv" for name, _, _ in scene_analyses()]
-    tables += [f"{R}/timings/analyses/{name}.tsv"
-               for name, _ in study_figures() + main_sample_extras() + continuum_jobs()]
-    tables += [f"{R}/timings/shear/{name}.tsv" for name, _, _ in shear_batches()]
-    return tables
-
-
 rule report:
     conda:
         "../envs/granwave.yaml"
