@@ -1,7 +1,7 @@
 """The report's table of speed exponents per contact law (docs/method.md §2 "Low-pressure laws", §10).
 
 For every lattice and disordered scene with height series at 3 or more pressures: its contact law
-(the config's ``contact``; Hertz-Mindlin where none), the exponent ν of c_tof ∝ p^ν over all its
+(the config's ``contact``; Hertz-Mindlin where none), the exponent κ of c_tof ∝ p^κ over all its
 pressures and over the lower and the upper half of them (least squares in log–log through the
 per-pressure values, :func:`granwave.analysis.fits.power_law_fit`, ± one standard error), beside
 the exponents of the law itself at the lowest and the highest pressure (the local slope of the
@@ -9,21 +9,20 @@ lattice row chain's speed, :func:`granwave.theory.law_lattice_speed`: 1/4 for an
 for Hertz), and the crossover pressure p* where c_tof turns from p^{1/4} to p^{1/6} with its 95 %
 interval: the estimator of ``pressure-sweep --crossover`` (:func:`granwave.analysis.sweep.
 pressure_sweep`, its defaults), run on the scene's height series, with its validated bias where
-the truth suite has measured it (its table shipped with the package, data/truth.json, key
-``sweep.p_star``).
+the truth suite has measured it (:func:`granwave.report.validated.check_cell`, key ``sweep.p_star``).
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
-from pathlib import Path
 
 from .inputs import Scenes, num
 from .numbers import fmt
+from .validated import check_cell
 
-TRUTH = Path(__file__).resolve().parents[1] / "data" / "truth.json"
+#: the truth suite's key of the p* estimator (benchmarks/truth_cases/laws.py)
+P_STAR_KEY = "sweep.p_star"
 
 
 def law_label(contact: Mapping) -> str:
@@ -44,17 +43,6 @@ def law_exponent(p: float, contact: Mapping, friction: bool) -> float:
 
     c0, c1 = (law_lattice_speed(q, dict(contact), friction=friction) for q in (p, 1.01 * p))
     return math.log(c1 / c0) / math.log(1.01)
-
-
-def _validated_bias() -> str:
-    """The truth suite's word on the p* estimator (its relative bias and 95 % coverage), or ""."""
-    try:
-        rows = json.loads(TRUTH.read_text())["estimators"]["sweep.p_star"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return ""
-    parts = [f"{r.get('setting', '?')}: relative bias {fmt(num(r.get('bias_rel')), num(r.get('bias_err')))}, "
-             f"95 % coverage {fmt(num(r.get('coverage95')), digits=2)} ({r.get('verdict', '?')})" for r in rows]
-    return " Its check on series of known p* (the truth suite): " + "; ".join(parts) + "."
 
 
 def laws_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[str]:
@@ -78,7 +66,7 @@ def laws_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[str]
         c = [num(h["c_tof"]) for h in series]
         half = len(p) // 2
 
-        def nu(a, b):
+        def kappa(a, b):
             fit = power_law_fit(p[a:b], c[a:b], what=f"{scene}: c_tof against p")
             return fmt(fit.exponent, fit.exponent_err)
         contact = scenes.contact_of(scene)
@@ -87,18 +75,19 @@ def laws_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[str]
         fit = pressure_sweep([], height_series=[dict(h) for h in series],
                              crossover=(d.crossover_low, d.crossover_high))["crossover_tof"]
         rows.append([scene, scenes.kind_of(scene), law_label(contact), f"{p[0]:.3g}–{p[-1]:.3g} ({len(p)})",
-                     nu(0, len(p)), nu(0, max(half, 2)), nu(min(half, len(p) - 2), len(p)),
+                     kappa(0, len(p)), kappa(0, max(half, 2)), kappa(min(half, len(p) - 2), len(p)),
                      f"{law_exponent(p[0], contact, frictional):.4f} / {law_exponent(p[-1], contact, frictional):.4f}",
                      crossover_text(fit)])
     if not rows:
         return []
     md = ["## Speed exponents per contact law (docs/method.md §2, §10)", "",
-          "c_tof ∝ p^ν from each scene's height series (the front's 10 % edge between the heights L1–L2, "
-          "§9): ν over all its pressures and over the lower and upper half of them (± one standard "
-          "error; none with two pressures), beside the law's own exponent of the lattice speed at the "
-          "lowest / highest pressure (`granwave.theory.law_lattice_speed`: 1/4 for an asperity, 1/6 for "
-          "Hertz), and the pressure p* where c_tof turns from p^{1/4} to p^{1/6} "
-          "(`pressure-sweep --crossover`, its 95 % interval; a law without a crossover still gets a "
-          "nominal p*: read it with the two halves' ν). p in E*, ν dimensionless." + _validated_bias(), ""]
-    return md + table(["scene", "kind", "contact law", "p (n)", "ν (all)", "ν (lower half)", "ν (upper half)",
-                       "law's ν at p_min / p_max", "p* (95 %)"], rows)
+          "c_tof ∝ p^κ from each scene's height series (the front's 10 % edge between the edge heights, "
+          "§9): κ over all its pressures and over the lower and upper half of them (± one standard "
+          "error of the slope; none with two pressures), beside the law's own exponent of the lattice "
+          "speed at the lowest / highest pressure (`granwave.theory.law_lattice_speed`: 1/4 for an "
+          "asperity, 1/6 for Hertz), and the crossover pressure p* where c_tof turns from p^{1/4} to "
+          "p^{1/6} (`pressure-sweep --crossover`, its 95 % interval; a law without a crossover still "
+          "gets a nominal p*: read it with the two halves' κ). p in E*, κ dimensionless. The p* "
+          f"estimator on series of known p*: {check_cell(P_STAR_KEY)}.", ""]
+    return md + table(["scene", "kind", "contact law", "p (n)", "κ (all)", "κ (lower half)", "κ (upper half)",
+                       "law's κ at the lowest / highest p", "p* (95 %)"], rows)
