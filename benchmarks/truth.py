@@ -57,7 +57,7 @@ def collect(modules: list[str] | None = None) -> tuple[list, list[str]]:
         try:
             mod = importlib.import_module(f"benchmarks.truth_cases.{name}")
         except Exception as exc:  # a broken topic must not hide the others
-            errors.append(f"benchmarks/truth_cases/{name}.py: {type(exc).__name__}: {exc}")
+            errors.append(f"topic {name!r} (benchmarks.truth_cases.{name}): {type(exc).__name__}: {exc}")
             continue
         found = getattr(mod, "CASES", None)
         if found is None:
@@ -89,20 +89,21 @@ def evaluate(case, seeds, progress=None) -> dict:
     """Run ``case`` on every seed of ``seeds`` and summarize (the module docstring's rules)."""
     import numpy as np
 
-    est, lo, hi, quoted = [], [], [], False
+    est, lo, hi, said = [], [], [], []
     t0 = time.process_time()
     last = time.monotonic()
     seeds = list(seeds)
     for i, seed in enumerate(seeds):
         e, a, b = case.run(int(seed))
-        quoted |= a is not None or b is not None
+        said.append(a is not None or b is not None)  # None, None: no interval quoted on this input
         est.append(_num(e))
         lo.append(_num(a))
         hi.append(_num(b))
         if progress and (time.monotonic() - last > 5 or i + 1 == len(seeds)):
             progress(i + 1, len(seeds))
             last = time.monotonic()
-    est, lo, hi = np.array(est), np.array(lo), np.array(hi)
+    est, lo, hi, said = np.array(est), np.array(lo), np.array(hi), np.array(said)
+    quoted = bool(said.any())
     fin = np.isfinite(est)
     n = int(fin.sum())
     truth = float(case.truth)
@@ -116,8 +117,9 @@ def evaluate(case, seeds, progress=None) -> dict:
            "fast": bool(case.fast)}
     if quoted:
         with np.errstate(invalid="ignore"):
-            covered = (lo <= truth) & (truth <= hi)  # NaN bounds: no interval, a miss
-        row["coverage95"] = float(covered.mean())
+            covered = (lo <= truth) & (truth <= hi)  # NaN bounds: an estimate without its interval, a miss
+        row["coverage95"] = float(covered[said].mean())
+        row["n_intervals"] = int(said.sum())
         half = (hi - lo) / 2
         finite = np.isfinite(half)
         row["quoted_error"] = float(np.median(half[finite]) / Z95) if finite.any() else None

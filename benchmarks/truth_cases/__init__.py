@@ -7,9 +7,10 @@ collects them, runs each over many seeds and reports, per estimator key and sett
 and the coverage of the quoted 95 % interval.
 
 A case's ``run(seed)`` returns ``(estimate, lo95, hi95)``: the estimator's value on the
-seed's input, and the 95 % interval the output quotes (None, None where it quotes none; an
-infinite end where it quotes a one-sided bound; a NaN estimate where it quotes only a bound
-or gives nothing on that input). Where an output quotes its own 95 % interval (``*_ci95``,
+seed's input, and the 95 % interval the output quotes (None, None where it quotes none on that
+input, e.g. a frequency outside the band; NaN bounds where it quotes an estimate without its
+interval, a miss; an infinite end where it quotes a one-sided bound; a NaN estimate where it
+quotes only a bound). Where an output quotes its own 95 % interval (``*_ci95``,
 ``*_ci``), that interval is checked; where it quotes one standard error only, the interval
 checked is value ± 2 errors (:func:`interval`), which is how the report reads an error
 (``granwave.report.numbers.interval95``).
@@ -41,6 +42,14 @@ class Case:
     run: Callable[[int], tuple[float, float | None, float | None]]
     fast: bool = False
     tolerance: float | None = None
+
+
+def edge_x(level: float) -> float:
+    """x > 1 with x e^{(1 − x²)/2} = level: where g′ (g a Gaussian of width σ) reaches ``level``
+    of its peak on its leading side, in σ ahead of its centre."""
+    from scipy import optimize
+
+    return float(optimize.brentq(lambda x: x * math.exp(0.5 * (1 - x * x)) - level, 1.0, 10.0))
 
 
 def t95(dof: float) -> float:

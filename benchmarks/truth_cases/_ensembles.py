@@ -213,7 +213,7 @@ class Fronts:
     amplitude A(L) = amp1 (L / L1)^−gamma. Per packing: arrival jitter τ ~ N(0, jitter L), the
     width and the amplitude times e^{ε}, ε ~ N(0, width_jitter²) and N(0, amp_jitter²).
 
-    The 10 % edge lies at t₁₀ = a − x₁₀ σ (x₁₀ = 2.7: :func:`benchmarks.truth_cases.front.edge_x`),
+    The 10 % edge lies at t₁₀ = a − x₁₀ σ (x₁₀ = 2.7: :func:`benchmarks.truth_cases.edge_x`),
     the peak at a − σ, the zero crossing at a, the width W = x₁₀ σ; the expectation over packings
     of every time is exact (E e^{ε} = e^{s²/2}). ``arrival(L)``: a(L) = L / c unless ``edge``
     gives the mean 10 % edge time instead (then a = edge(L) + x₁₀ σ(L) e^{s²/2})."""
@@ -241,7 +241,7 @@ class Fronts:
         return self.amp1 * (np.asarray(L, float) / self.L1) ** (-self.gamma)
 
     def x10(self) -> float:
-        from .front import edge_x
+        from . import edge_x
 
         return edge_x(0.1)
 

@@ -1,6 +1,6 @@
 """continuum.* of the front against distance: `analyze continuum` (granwave.analysis.continuum.
 continuum with its defaults: tolerance 5 %, bootstrap 200, each packing's own c_ℓ) on synthetic
-columns whose 10 % edge approaches c_ℓ by a known law (benchmarks/truth_cases/_ensembles.Fronts
+columns whose 10 % edge approaches c_ℓ by a known law (benchmarks/truth_cases/_ensembles.py, Fronts
 with the mean edge time built height by height so that the local speed between consecutive
 heights is exactly c_ℓ (1 + a L_mid^−β), L_mid their geometric mean: a = 2.7, β = 0.71, the
 fit of continuum2d_p4). The signals go through the front picks; the truths are β, r∞ = 1 (the
@@ -82,6 +82,21 @@ def ratio_tallest(seed):
     return r, r - 2 * e, r + 2 * e
 
 
+def peak_ratio_tallest(seed):
+    """The peak's local speed over c_ℓ at the tallest pair, errors propagated as for c_tof/c_ℓ."""
+    loc = analysed(seed)["local"]
+    c, ce = float(loc["c_peak"][-1]), float(loc["c_peak_err"][-1])
+    cl, cle = float(loc["c_l"][-1]), float(loc["c_l_err"][-1])
+    r = c / cl
+    e = abs(r) * math.hypot(ce / c, cle / cl)
+    return r, r - 2 * e, r + 2 * e
+
+
+def _peak_truth() -> float:
+    lo, hi = HEIGHTS[-2], HEIGHTS[-1]
+    return (hi - lo) / (DESIGN.mean_time(hi, "t_peak") - DESIGN.mean_time(lo, "t_peak")) / DESIGN.c
+
+
 MID = math.sqrt(HEIGHTS[-1] * HEIGHTS[-2])
 CASES = [
     Case("continuum.L_star", WORDS + "; 95 % interval: the fit's covariance",
@@ -92,4 +107,6 @@ CASES = [
     Case("continuum.r_inf", WORDS + " (limit free)", 1.0, r_inf, fast=True),
     Case("continuum.ratio", WORDS + f"; local c_tof/c_ℓ at the tallest pair (L = {MID:.0f} d̄)",
          1.0 + A * MID ** (-BETA), ratio_tallest, fast=True),
+    Case("continuum.ratio", WORDS + f"; local c_peak/c_ℓ at the tallest pair (L = {MID:.0f} d̄)",
+         _peak_truth(), peak_ratio_tallest),
 ]

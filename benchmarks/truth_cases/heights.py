@@ -1,7 +1,7 @@
 """heights.*: `analyze heights` (granwave.analysis.heights.height_series with its defaults: c_tof,
 c_peak, c_zero between the heights nearest 8 and 25 d̄, γ and the width exponent over every
 sample) on height series of synthetic signals whose front features are known at every height
-(benchmarks/truth_cases/_ensembles.Fronts: the δ′ response of a non-dispersive column delayed
+(benchmarks/truth_cases/_ensembles.py, Fronts: the δ′ response of a non-dispersive column delayed
 by L/c and broadened by σ ∝ L^0.75, amplitude ∝ L^−1.3, per-packing jitter of the arrival,
 the width and the amplitude). The signals go through the front picks (no arrival times are
 given): the truths are c_tof = (L2 − L1)/(E t₁₀(L2) − E t₁₀(L1)) from the closed forms (faster

@@ -2,7 +2,7 @@
 log-log through the per-pressure means) on synthetic inputs of known exponent at the study's
 four pressures 1e-7 … 1e-4: each packing's c_ℓ = c1 (p/p1)^ν_ℓ (1 + 3 % ε), c_t likewise with
 ν_t, and per pressure a height series made by `analyze heights` (granwave.analysis.heights.
-height_series) from δ′-response signals at 8 and 25 d̄ (benchmarks/truth_cases/_ensembles.Fronts)
+height_series) from δ′-response signals at 8 and 25 d̄ (benchmarks/truth_cases/_ensembles.py, Fronts)
 whose speed is c1 (p/p1)^ν_tof and whose time scales all go as 1/c, so c_tof ∝ p^ν_tof exactly.
 Two readings of the fit's error are checked: the sweep's 95 % interval (``alpha_*_ci95``,
 Student t with n − 2 degrees of freedom) and "value ± 2 errors" (how the report reads a ±).
