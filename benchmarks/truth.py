@@ -118,9 +118,9 @@ def evaluate(case, seeds, progress=None) -> dict:
     if quoted:
         with np.errstate(invalid="ignore"):
             covered = (lo <= truth) & (truth <= hi)  # NaN bounds: an estimate without its interval, a miss
+            half = (hi - lo) / 2
         row["coverage95"] = float(covered[said].mean())
         row["n_intervals"] = int(said.sum())
-        half = (hi - lo) / 2
         finite = np.isfinite(half)
         row["quoted_error"] = float(np.median(half[finite]) / Z95) if finite.any() else None
     row["verdict"] = verdict(row)

@@ -73,18 +73,18 @@ def per_frequency(name: str, key: str, w: float):
 
 
 def q_run(name: str, w: float):
-    """Q and the report's 95 % interval of it: ω/(2 α c_g) over α's 95 % interval (an upper bound
-    only where α's interval reaches 0)."""
+    """Q as the report quotes it (granwave.report.continuum.q_cell): Q ± 2 errors where α is
+    resolved (its interval above 0 and within a decade), else the bound ω/(2 α_upper c_g)."""
     def run(seed):
         r = analysed(name, seed)
         if not _in_band(r, w):
             return math.nan, None, None
-        a_lo, a_hi = (at(r["omega"], r["alpha_ci95"][:, j], w) for j in (0, 1))
         cg = at(r["omega"], r["c_group"], w)
-        q = at(r["omega"], r["Q"], w)
-        lo = w / (2 * a_hi * cg) if a_hi > 0 else math.nan
-        hi = w / (2 * a_lo * cg) if a_lo > 0 else math.inf
-        return (q if a_lo > 0 else math.nan), lo, hi
+        q, q_err = at(r["omega"], r["Q"], w), at(r["omega"], r["Q_err"], w)
+        a, a_err = at(r["omega"], r["alpha"], w), at(r["omega"], r["alpha_err"], w)
+        if a - 2 * a_err > 0 and a + 2 * a_err <= 10 * (a - 2 * a_err):
+            return interval(q, q_err)
+        return math.nan, (w / (2 * (a + 2 * a_err) * cg) if a + 2 * a_err > 0 else math.nan), math.inf
     return run
 
 

@@ -359,14 +359,17 @@ def _distance_at(wc, L, w: float) -> tuple[float, str]:
     if not below.any():
         return float(L[-1]), "beyond the tallest"
     k = int(np.argmax(below))
-    f = (wc[k - 1] - w) / (wc[k - 1] - wc[k])
+    # ln ω_c linear in ln L between the two heights: the centroid of a spectrum losing
+    # e^{−α L} with α ∝ ω² falls as L^−½ (linear in ω_c instead put L_λ ~2 % long)
+    f = (np.log(wc[k - 1]) - np.log(w)) / (np.log(wc[k - 1]) - np.log(wc[k]))
     return float(np.exp(np.log(L[k - 1]) + f * (np.log(L[k]) - np.log(L[k - 1])))), "within"
 
 
 def continuum_distance(heights, omega, amplitude, omega_star: float, omega_star_ci=None) -> dict:
     """The distance beyond which the coherent pulse is made of wavelengths longer than λ*: where
     the spectral centroid ω_c(L) = Σ ω |S|² / Σ |S|² of each height's coherent spectrum falls
-    to ω* (interpolated in ln L between the heights; a bound outside them). With ω*'s 95 %
+    to ω* (ln ω_c interpolated linearly in ln L between the heights; a bound outside them).
+    With ω*'s 95 %
     interval ``omega_star_ci`` also ``L_lambda_ci`` (0 or ∞ where an end lies outside the
     heights)."""
     amp = np.nan_to_num(np.asarray(amplitude, float))
