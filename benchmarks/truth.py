@@ -190,14 +190,19 @@ def _revision() -> str:
     return git_revision()
 
 
-def merged_table(old: dict | None, results: dict, *, replace: bool) -> dict:
+def merged_table(old: dict | None, results: dict, *, replace: bool, current=None) -> dict:
     """granwave/data/truth.json's ``estimators``: the rows of this run, with the old table's
-    rows of other (key, setting) pairs kept unless ``replace`` (a full run)."""
+    rows of other (key, setting) pairs kept unless ``replace`` (a full run) — and only those
+    of a case that still exists (``current``: the (key, setting) pairs collected now)."""
     est = {} if replace or not old else {k: list(v) for k, v in old.get("estimators", {}).items()}
+    if current is not None:
+        est = {k: [r for r in v if (k, r["setting"]) in current] for k, v in est.items()}
     for key, rows in results.items():
         keep = [r for r in est.get(key, []) if r["setting"] not in {x["setting"] for x in rows}]
         est[key] = keep + rows
-    return dict(sorted(est.items()))
+    order = {pair: i for i, pair in enumerate(current or [])}
+    return {k: sorted(v, key=lambda r: order.get((k, r["setting"]), 0))
+            for k, v in sorted(est.items()) if v}
 
 
 def _clean(obj):
@@ -220,9 +225,13 @@ def _atomic_write(path: Path, text: str) -> None:
 
 def doc_table(table: dict) -> str:
     """The generated block of docs/truth.md from granwave/data/truth.json's content."""
-    lines = [f"Recorded {table.get('date')}, revision {table.get('revision')}"
+    revs = sorted({r.get("revision") for rows in table["estimators"].values() for r in rows} - {None})
+    lines = [f"Last recorded {table.get('date')}, revision {table.get('revision')}"
              + (f", {table['cpu_s']:.0f} CPU-s" if table.get("cpu_s") else "")
-             + (f" ({table['command']})" if table.get("command") else "") + ".", "",
+             + (f" ({table['command']})" if table.get("command") else "") + "."
+             + (f" The rows come from the runs of revisions {', '.join(revs)} (each row's `revision` "
+                "in granwave/data/truth.json; every run is in benchmarks/results/truth.jsonl)."
+                if len(revs) > 1 else ""), "",
              "| key | setting | truth | seeds | bias (relative) ± s.e. | coverage of the 95 % interval | verdict |",
              "|---|---|---|---|---|---|---|"]
     for key, rows in table["estimators"].items():
@@ -231,8 +240,12 @@ def doc_table(table: dict) -> str:
             rel_err = r.get("bias_rel_err")
             bias = (f"{_g(r.get('bias'))} ({_g(rel, 2)}) ± {_g(rel_err, 1)}" if rel is not None
                     else f"{_g(r.get('bias'))} ± {_g(r.get('bias_err'), 2)}")
-            cov = "— (tolerance {:g})".format(r["tolerance"]) if r.get("coverage95") is None else \
-                f"{r['coverage95']:.0%}"
+            if r.get("coverage95") is not None:
+                cov = f"{r['coverage95']:.0%}"
+            elif r.get("tolerance") is not None:
+                cov = f"— (tolerance {r['tolerance']:g})"
+            else:
+                cov = "— (nothing quoted on these inputs)"
             n = f"{r.get('n_estimates', r['n_seeds'])}/{r['n_seeds']}"
             lines.append(f"| `{key}` | {r['setting']} | {_g(r['truth'], 5)} | {n} | {bias} | {cov} | "
                          f"{r['verdict']} |")
@@ -249,10 +262,16 @@ def write_doc(table: dict, doc: Path = DOC) -> None:
     _atomic_write(doc, head + begin + "\n" + doc_table(table) + "\n" + end + tail)
 
 
-def record(results: dict, *, command: str, cpu_s: float, n_seeds: int, replace: bool) -> dict:
+def record(results: dict, *, command: str, cpu_s: float, n_seeds: int, replace: bool,
+           revision: str | None = None, current=None) -> dict:
     """Append the run to benchmarks/results/truth.jsonl; rewrite granwave/data/truth.json and
-    docs/truth.md's table. Returns the new table."""
-    rev = _revision()
+    docs/truth.md's table. ``revision``: the git revision the run started from (default: now);
+    ``current``: the (key, setting) pairs of every case collected now (rows of cases that no
+    longer exist are dropped). Returns the new table."""
+    rev = revision or _revision()
+    for rows in results.values():
+        for r in rows:
+            r["revision"] = rev
     date = time.strftime("%Y-%m-%d")
     counts = {}
     for rows in results.values():
@@ -267,7 +286,7 @@ def record(results: dict, *, command: str, cpu_s: float, n_seeds: int, replace: 
         fh.write(json.dumps(_clean(rec)) + "\n")
     old = json.loads(TABLE.read_text()) if TABLE.exists() else None
     table = {"revision": rev, "date": date, "command": command, "cpu_s": round(cpu_s, 1),
-             "estimators": merged_table(old, results, replace=replace)}
+             "estimators": merged_table(old, results, replace=replace, current=current)}
     _atomic_write(TABLE, json.dumps(_clean(table), indent=1) + "\n")
     write_doc(_clean(table))
     print(f"recorded: {RECORD.relative_to(ROOT)}, {TABLE.relative_to(ROOT)}, {DOC.relative_to(ROOT)}",
@@ -289,10 +308,10 @@ def main(argv=None) -> int:
     if args.seeds < 2:
         print("error: --seeds must be at least 2", file=sys.stderr)
         return 2
-    cases, errors = collect()
+    every, errors = collect()
     for e in errors:
         print(f"error: {e}", file=sys.stderr)
-    cases = select(cases, fast=args.fast, keys=args.keys)
+    cases = select(every, fast=args.fast, keys=args.keys)
     if not cases:
         print("error: no case matches", file=sys.stderr)
         return 2
@@ -301,6 +320,7 @@ def main(argv=None) -> int:
             print(f"{c.key:28s} {'fast ' if c.fast else '     '}{c.setting}")
         return 0
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    revision = _revision() if args.record else None  # the code the run starts from
     cpu0 = time.process_time()
     results, failed = run(cases, args.seeds, quiet=args.quiet)
     cpu = time.process_time() - cpu0
@@ -314,7 +334,8 @@ def main(argv=None) -> int:
             return 1
         command = "python benchmarks/truth.py " + " ".join(argv if argv is not None else sys.argv[1:])
         record(results, command=command.strip(), cpu_s=cpu, n_seeds=args.seeds,
-               replace=not (args.fast or args.keys))
+               replace=not (args.fast or args.keys), revision=revision,
+               current=[(c.key, c.setting) for c in every])
     return 1 if (errors or failed) else 0
 
 

@@ -32,7 +32,7 @@ SETTINGS = {
              (0.012, 0.016, 0.02)),
     "wide": (Design(heights=(16.0, 32.0, 64.0, 128.0, 256.0), packings=(10,) * 5),
              "wide-column design (16 … 256 d̄, 10 packings each), medium as 'dispersion'",
-             (0.014, 0.02, 0.03)),
+             (0.02, 0.025, 0.03)),
 }
 
 
@@ -112,7 +112,9 @@ def lambda_run(name: str, which: str = "lambda_star_ci"):
 def l_lambda_run(name: str):
     def run(seed):
         lam = analysed(name, seed)["continuum_length"]
-        lo, hi = lam.get("L_lambda_ci") or (math.nan, math.nan)
+        if not lam.get("L_lambda_ci"):
+            return math.nan, None, None  # no ω*, no L_λ quoted (λ* beyond the band's bottom)
+        lo, hi = lam["L_lambda_ci"]
         return (lam.get("L_lambda", math.nan) if lam.get("L_lambda_status") == "within" else math.nan,
                 lo, hi)
     return run

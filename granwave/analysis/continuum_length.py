@@ -97,10 +97,6 @@ def contributing_reference(c_l_groups, used, band, omega, omega_star=math.nan) -
             "contributing_heights": heights, "n_packings": int(n)}
 
 
-def _lam(omega, c, i):
-    return float(2.0 * math.pi * c[i] / omega[i])
-
-
 def continuum_wavelength(omega, c, alpha, c_group, band, c0, *, c_tol: float = DEFAULT_C_TOL,
                          q_tol: float = DEFAULT_Q_TOL, c_err=None, alpha_ci=None,
                          c_ref_err: float = 0.0, ci_factor: float = 2.0,
@@ -124,8 +120,8 @@ def continuum_wavelength(omega, c, alpha, c_group, band, c0, *, c_tol: float = D
         qinv = 2.0 * np.asarray(alpha, float)[idx] * np.asarray(c_group, float)[idx] / w
     g_disp = np.abs(ratio - 1.0) - c_tol
     g_loss = qinv - q_tol
-    g = np.fmax(g_disp, g_loss)
-    fail = ~(g <= 0)  # NaN fails
+    g = np.fmax(g_disp, g_loss)  # an unknown α (NaN): the dispersion alone decides there
+    fail = ~(g <= 0)  # both unknown: fails
     lam = 2.0 * math.pi * c[idx] / w
     if fail[0]:
         out.update(status="beyond", lambda_bound=float(lam[0]),
