@@ -194,7 +194,9 @@ def merged_table(old: dict | None, results: dict, *, replace: bool, current=None
     """granwave/data/truth.json's ``estimators``: the rows of this run, with the old table's
     rows of other (key, setting) pairs kept unless ``replace`` (a full run) — and only those
     of a case that still exists (``current``: the (key, setting) pairs collected now)."""
-    est = {} if replace or not old else {k: list(v) for k, v in old.get("estimators", {}).items()}
+    est = {} if replace or not old else {
+        k: [{**r, "revision": r.get("revision", old.get("revision"))} for r in v]
+        for k, v in old.get("estimators", {}).items()}
     if current is not None:
         est = {k: [r for r in v if (k, r["setting"]) in current] for k, v in est.items()}
     for key, rows in results.items():
