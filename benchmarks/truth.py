@@ -151,6 +151,11 @@ def _g(x, digits=3) -> str:
     return "—" if x is None or not math.isfinite(x) else f"{x:.{digits}g}"
 
 
+def _pct(x) -> str:
+    """A relative value in percent with two significant digits (e.g. −1.4 %, 0.0031 %)."""
+    return "—" if x is None or not math.isfinite(x) else f"{100 * x:.2g} %"
+
+
 def line(key: str, row: dict) -> str:
     cov = "—" if row["coverage95"] is None else f"{row['coverage95']:.0%}"
     tol = "" if row["tolerance"] is None else f" (tol {row['tolerance']:g})"
@@ -234,14 +239,15 @@ def doc_table(table: dict) -> str:
              + (f" The rows come from the runs of revisions {', '.join(revs)} (each row's `revision` "
                 "in granwave/data/truth.json; every run is in benchmarks/results/truth.jsonl)."
                 if len(revs) > 1 else ""), "",
-             "| key | setting | truth | seeds | bias (relative) ± s.e. | coverage of the 95 % interval | verdict |",
+             "| key | setting | truth | estimates/seeds | bias ± s.e. (relative) | coverage of the 95 % interval | verdict |",
              "|---|---|---|---|---|---|---|"]
     for key, rows in table["estimators"].items():
         for r in rows:
             rel = r.get("bias_rel")
             rel_err = r.get("bias_rel_err")
-            bias = (f"{_g(r.get('bias'))} ({_g(rel, 2)}) ± {_g(rel_err, 1)}" if rel is not None
-                    else f"{_g(r.get('bias'))} ± {_g(r.get('bias_err'), 2)}")
+            bias = f"{_g(r.get('bias'))} ± {_g(r.get('bias_err'), 2)}"
+            if rel is not None and rel_err is not None:
+                bias += f" ({_pct(rel)} ± {_pct(rel_err)})"
             if r.get("coverage95") is not None:
                 cov = f"{r['coverage95']:.0%}"
             elif r.get("tolerance") is not None:
@@ -255,6 +261,8 @@ def doc_table(table: dict) -> str:
 
 
 def write_doc(table: dict, doc: Path = DOC) -> None:
+    """Rewrite docs/truth.md's generated block from a table (granwave/data/truth.json's content);
+    ``python benchmarks/truth.py --doc`` does it from the shipped table, without a run."""
     text = doc.read_text()
     begin, end = DOC_BLOCK
     if begin not in text or end not in text:
@@ -305,8 +313,13 @@ def main(argv=None) -> int:
                     help="append benchmarks/results/truth.jsonl, regenerate granwave/data/truth.json "
                          "and docs/truth.md")
     ap.add_argument("--list", action="store_true", help="list the selected cases and exit")
+    ap.add_argument("--doc", action="store_true",
+                    help="only rewrite docs/truth.md's table from granwave/data/truth.json")
     ap.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     args = ap.parse_args(argv)
+    if args.doc:
+        write_doc(json.loads(TABLE.read_text()))
+        return 0
     if args.seeds < 2:
         print("error: --seeds must be at least 2", file=sys.stderr)
         return 2

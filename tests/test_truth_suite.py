@@ -170,7 +170,7 @@ def test_fits_of_few_points_need_the_student_interval():
     # four pressures: ± 2 errors holds the exponent in ~80 % of the cases, the fit's t interval in 95 %
     c2 = _cases("sweep.exponent", "30 packings each; ν of c_l = 0.22; value ± 2 errors")[0]
     ct = _cases("sweep.exponent", "30 packings each; ν of c_l = 0.22; its 95 % interval")[0]
-    row2, rowt = truth.evaluate(c2, range(60)), truth.evaluate(ct, range(60))
+    row2, rowt = truth.evaluate(c2, range(40)), truth.evaluate(ct, range(40))
     assert row2["verdict"] == "undercovered" and rowt["coverage95"] >= 0.9
     assert abs(rowt["bias"]) < rowt["quoted_error"]
 

@@ -187,13 +187,10 @@ def lambda_sentence(lam: Mapping, recomputed: bool = False) -> str:
                + (f" (95 % {_ci_open(ci)} d̄ from the per-frequency intervals)" if ci else ""))
     if st == "within":
         txt += f", ω* = {fmt(lam.get('omega_star'), digits=3)}" + (f", set by {binding}" if binding else "") + where
-        # L_λ is an indication: its interval held the truth in fewer than 90 % of the truth
-        # suite's seeds where the loss bound sets λ* (docs/truth.md)
         if lam.get("L_lambda_status") == "within":
             txt += (f"; the pulse's spectral centroid falls to ω* at L_λ ≈ "
                     f"{fmt_bound(lam.get('L_lambda'), 3)} d̄"
-                    + (f" (95 % {_ci_open(lam['L_lambda_ci'])} d̄)" if lam.get("L_lambda_ci") else "")
-                    + ", an indication, not a validated measurement")
+                    + (f" (95 % {_ci_open(lam['L_lambda_ci'])} d̄)" if lam.get("L_lambda_ci") else ""))
         elif str(lam.get("L_lambda_status", "")).startswith("beyond"):
             txt += (f"; the pulse's spectral centroid is still above ω* at the tallest column "
                     f"(L_λ > {fmt_bound(lam.get('L_lambda_bound'), 3)} d̄)")
@@ -238,7 +235,9 @@ def low_frequency_phrase(att: Mapping, lam: Mapping) -> str:
            f"what the band itself says: c0 ≥ {fmt(low.get('c0_lower_bound'), digits=4)} (c at its "
            "bottom, 95 %)")
     if "c0_over_c_l" in low:
-        txt += f"; c0/c_ℓ = {fmt(low['c0_over_c_l'], low['c0_over_c_l_err'])} (the contributing heights' c_ℓ)"
+        txt += (f"; the extrapolation over the contributing heights' c_ℓ: c0/c_ℓ = "
+                f"{fmt(low['c0_over_c_l'], low['c0_over_c_l_err'])} (not a validated measurement: "
+                "docs/truth.md)")
     return txt
 
 
