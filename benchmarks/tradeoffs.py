@@ -713,10 +713,10 @@ Seeds {cfg.seeds_tol}, mean over seeds; changes relative to the reference model 
 ## 5. Ensemble size
 
 {len(cfg.seeds_ens)} packings per height (seeds {cfg.seeds_ens[0]}…{cfg.seeds_ens[-1]}), heights ≈ 8, 12, 16 d.
-Per packing set: c_tof (lowest/tallest), γ from A(L) ∝ L^−γ and α from W(L) ∝ L^α (least squares in
+Per packing set: c_tof (lowest/tallest), γ from A(L) ∝ L^−γ and χ from W(L) ∝ L^χ (least squares in
 log-log over the three heights). Standard errors of the ensemble mean by bootstrap (2000 resamples
 of n packings drawn from the {len(cfg.seeds_ens)}). Means: c_tof = {ens_mean[0]:.4f} (sd {ens_sd[0]:.4f}),
-γ = {ens_mean[1]:.3f} (sd {ens_sd[1]:.3f}), α = {ens_mean[2]:.3f} (sd {ens_sd[2]:.3f}).
+γ = {ens_mean[1]:.3f} (sd {ens_sd[1]:.3f}), χ = {ens_mean[2]:.3f} (sd {ens_sd[2]:.3f}).
 **A 2 % standard error on c_tof needs n ≥ {n2} packings** of this size (n = (sd/(0.02 mean))²,
 extrapolated as 1/sqrt(n)).
 

@@ -80,7 +80,7 @@ FILE_ATTRS = ("schema", "schema_version", "granwave_version", "git_revision", "c
 
 #: Attributes that identify a sample: every stage carries them from its input to its output
 #: (each stage adds the few of its own that later stages need).
-SAMPLE_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson")
+SAMPLE_ATTRS = ("pressure", "seed", "friction", "kind", "dim", "poisson", "material")
 
 
 def carried(attrs: dict, keys=SAMPLE_ATTRS) -> dict:

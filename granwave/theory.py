@@ -248,3 +248,44 @@ def lattice_transverse_branches(q, *, kn: float, kt: float, mass: float = np.pi 
     low = 2.0 * c / (-b + root)  # the small root without cancellation
     high = (-b + root) / (2.0 * a)
     return np.sqrt(np.maximum(low, 0.0)), np.sqrt(high)
+
+
+# ---------------------------------------------------------------- effective medium (affine)
+def effective_medium_moduli(pressure: float, *, z: float, phi: float, dim: int = 2,
+                            friction: bool = True, poisson: float = 0.0, mean_d3: float = 1.0,
+                            stress_ratio: float = 1.0) -> dict:
+    """Affine effective-medium moduli of a random, isotropic packing of Hertz–Mindlin spheres of
+    mean diameter d̄ = 1 fed the measured coordination ``z`` (z*, per non-rattler grain), solid
+    fraction ``phi`` (Φ3*) and pressure p (E*); units E* and √(E*/ρ).
+
+    Every contact (branch length d̄, the same force) follows the affine strain: with
+    n_c = z Φ / (2 ⟨v⟩) contacts per volume (⟨v⟩ = π ⟨d³⟩/6; 2D: per layer one d̄ thick) and
+    isotropic averages of the contact normals, C_ijkl = n_c d̄² ⟨(k_n − k_t) n_i n_j n_k n_l +
+    k_t δ_ik n_j n_l⟩. The mean stress p̄ = n_c ⟨F_n⟩ d̄ / dim gives the contact force, Hertz
+    (docs/method.md §2, R12 = d̄/4, E*12 = 1/2) its stiffness k_n = (3 F_n)^{1/3} / 2, and
+    k_t = η k_n (0 without friction). Then
+
+    * 2D (in-plane isotropy): M = C22 = n_c (3 k_n + k_t)/8, G = C33 = n_c (k_n + k_t)/8;
+    * 3D: M = C33 = n_c (3 k_n + 2 k_t)/15, G = n_c (2 k_n + 3 k_t)/30.
+
+    ``stress_ratio`` σ1/σ2 (horizontal over vertical, = p) sets p̄ = p (1 + σ1/σ2)/2 in 2D and
+    p (1 + 2 σ1/σ2)/3 in 3D. The affine field ignores the grains' relaxation, so both are upper
+    bounds of the relaxed packing's moduli (Voigt), G far above it near jamming.
+    Returns ``M`` (longitudinal modulus), ``G``, ``c_l`` = √(M/Φ), ``c_t`` = √(G/Φ),
+    ``force`` ⟨F_n⟩ and ``k_n``.
+    """
+    if dim not in (2, 3):
+        raise InputError(f"dim must be 2 or 3, got {dim}")
+    if not (pressure > 0 and z > 0 and phi > 0 and mean_d3 > 0 and stress_ratio > 0):
+        raise InputError("the effective medium needs positive pressure, z, phi, mean_d3 and stress ratio")
+    n_c = z * phi / (2.0 * np.pi * mean_d3 / 6.0)
+    p_mean = pressure * (1.0 + (dim - 1) * stress_ratio) / dim
+    force = dim * p_mean / n_c
+    kn = 0.5 * (3.0 * force) ** (1.0 / 3.0)
+    kt = contact.stiffness_ratio(poisson) * kn if friction else 0.0
+    if dim == 2:
+        m, g = n_c * (3 * kn + kt) / 8.0, n_c * (kn + kt) / 8.0
+    else:
+        m, g = n_c * (3 * kn + 2 * kt) / 15.0, n_c * (2 * kn + 3 * kt) / 30.0
+    return {"M": float(m), "G": float(g), "c_l": float(np.sqrt(m / phi)),
+            "c_t": float(np.sqrt(g / phi)), "force": float(force), "k_n": float(kn)}

@@ -105,3 +105,27 @@ def material_scales(material: str, diameter_m: float) -> dict:
     speed = (e_star / m["rho"]) ** 0.5
     return {"material": material, **m, "E_star": e_star, "speed": speed, "time": diameter_m / speed,
             "diameter": diameter_m}
+
+
+def material_record(material: str) -> dict:
+    """The material a packing records (attribute ``material``, JSON): its name, Young's modulus
+    E (Pa), Poisson ratio nu and density rho (kg/m^3) from :data:`MATERIALS`."""
+    from .errors import InputError
+
+    if material not in MATERIALS:
+        raise InputError(f"material must be one of {', '.join(MATERIALS)} (got {material!r})")
+    return {"name": material, **MATERIALS[material]}
+
+
+def poisson_mismatch(material: str, poisson: float, *, tolerance: float = 1e-9) -> str | None:
+    """Why an SI conversion for ``material`` does not describe a run made with Poisson ratio
+    ``poisson`` (the ratio sets eta = k_t/k_n, hence the speeds; docs/units.md), or None when
+    they agree. One line, naming both ratios and their eta."""
+    from .contact import stiffness_ratio
+
+    nu = MATERIALS[material]["nu"]
+    if abs(float(poisson) - nu) <= tolerance:
+        return None
+    return (f"the packing ran with Poisson ratio {float(poisson):g} (eta = {stiffness_ratio(float(poisson)):.3f}) "
+            f"but {material} has {nu:g} (eta = {stiffness_ratio(nu):.3f}): its speeds and moduli "
+            f"are not those of {material} grains (prepare with --material {material})")

@@ -43,7 +43,7 @@ def test_local_speeds_ratio_and_exponents_exact():
     np.testing.assert_allclose(loc["c_zero"], 1.5)
     np.testing.assert_allclose(loc["ratio"], 1.25)
     np.testing.assert_allclose(loc["gamma_eff"], 0.5)
-    np.testing.assert_allclose(loc["alpha_eff"], 0.25)
+    np.testing.assert_allclose(loc["chi_eff"], 0.25)
     np.testing.assert_allclose(r["per_height"]["c_tof_apparent"], [8 / 5, 16 / 9, 32 / 17, 64 / 33])
     assert r["global"]["c_tof_all"] == pytest.approx(2.0)
 
@@ -96,13 +96,15 @@ def _signal_files(tmp_path):
     return paths, moduli
 
 
-def test_cli_figure_and_report_section(tmp_path):
+def test_cli_figure_and_report_section(tmp_path, monkeypatch):
     import json
 
     from click.testing import CliRunner
+    from figure_rules import capture, check
 
     from granwave.cli import main
     from granwave.report.continuum import continuum_inputs, continuum_section
+    from granwave.report.symbols import undefined_symbols
 
     paths, moduli = _signal_files(tmp_path)
     runner = CliRunner()
@@ -122,15 +124,18 @@ def test_cli_figure_and_report_section(tmp_path):
     (tmp_path / "sc").mkdir()
     (tmp_path / "sc" / "front.json").write_text(front.output)
     (tmp_path / "sc" / "attenuation.json").write_text(att.output)
+    figs = capture(monkeypatch)
     fig = runner.invoke(main, ["plot", "continuum", str(tmp_path / "sc" / "front.json"),
                                "--attenuation", str(tmp_path / "sc" / "attenuation.json"),
-                               "-o", str(tmp_path / "continuum_sc.png")])
+                               "--scene", "sc", "-o", str(tmp_path / "continuum_sc.png")])
     assert fig.exit_code == 0, fig.output
     assert (tmp_path / "continuum_sc.png").stat().st_size > 10000
+    check(figs[0], scene="sc", pressure=False)  # the synthetic signals carry no pressure
     items = [(tmp_path / "sc" / n, json.loads((tmp_path / "sc" / n).read_text()), None)
              for n in ("front.json", "attenuation.json")]
     md = "\n".join(continuum_section(continuum_inputs(items)))
     assert "### sc" in md and "c0/c_ℓ" in md and "L*" in md
+    assert not undefined_symbols(md)
 
 
 def test_a_failed_moduli_solve_costs_the_packing_its_c_l_not_the_batch(tmp_path, monkeypatch):

@@ -63,9 +63,9 @@ def test_exact_power_laws_and_speeds_are_recovered():
         assert res["c_zero" + suffix] == pytest.approx(0.9, rel=1e-10)
     assert res["t0_t_lead10"] == pytest.approx(2.0, rel=1e-9)
     assert res["gamma"] == pytest.approx(0.7, rel=1e-10)
-    assert res["alpha"] == pytest.approx(0.4, rel=1e-10)
+    assert res["chi"] == pytest.approx(0.4, rel=1e-10)
     # linregress derives stderr from 1 - r^2, which cancels to ~1e-16 on exact data: ~1e-8.
-    assert res["gamma_err"] < 1e-7 and res["alpha_err"] < 1e-7
+    assert res["gamma_err"] < 1e-7 and res["chi_err"] < 1e-7
     # Local exponents from the per-height means: exact for groups of one sample,
     # and the mean of a power law over a group is not a power law, so compare
     # with the same computation done by hand.
@@ -75,7 +75,7 @@ def test_exact_power_laws_and_speeds_are_recovered():
     np.testing.assert_allclose(ph["amplitude"], amp, rtol=1e-12)
     np.testing.assert_allclose(res["gamma_local"], -np.diff(np.log(amp)) / np.diff(np.log(hm)), rtol=1e-12)
     np.testing.assert_allclose(res["gamma_local"][1], 0.7, rtol=1e-12)  # between single samples 12, 16.2
-    np.testing.assert_allclose(res["alpha_local"][1], 0.4, rtol=1e-12)
+    np.testing.assert_allclose(res["chi_local"][1], 0.4, rtol=1e-12)
 
 
 def test_grouping_rule():
@@ -116,7 +116,7 @@ def test_aliased_signals_are_counted_and_flagged():
 @pytest.mark.parametrize("ic, gamma_exact", [("A", 2 / 3), ("B", 1.0)])
 def test_chain_exponents_approach_theory(ic, gamma_exact):
     res = height_series(chain_signals(ic), edge_heights=(CHAIN_N[0] + 1, CHAIN_N[1] + 1))
-    g, a = np.asarray(res["gamma_local"]), np.asarray(res["alpha_local"])
+    g, a = np.asarray(res["gamma_local"]), np.asarray(res["chi_local"])
     # Local exponents approach the Airy values monotonically from below ...
     assert np.all(np.diff(g) > 0) and np.all(g < gamma_exact)
     assert np.all(np.diff(a) > 0) and np.all(a < 1 / 3)

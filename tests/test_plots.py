@@ -185,7 +185,8 @@ def test_local_exponents_between_ensemble_means():
 def test_damping_and_compare_labels():
     from granwave.figures.damping import DEM_F_LABEL, _reference_label
 
-    assert "E^*" not in DEM_F_LABEL and "s" in DEM_F_LABEL  # the DEM signal is divided by s
+    # the DEM signal divided by the kick's scale s: the linear signal's normalization, E* d̄²
+    assert "/s" in DEM_F_LABEL and "E^*" in DEM_F_LABEL
     assert _reference_label(synthetic_signal()) == "linear model (modal), same packing"
     from granwave.figures.signals import with_height
 
@@ -323,7 +324,7 @@ def files(tmp_path_factory, packing):
                        np.zeros(ndof), np.zeros(ndof), np.zeros(ndof),
                        {"dim": 2, "pressure": 1e-4, "friction": 0.5, "height": 6.0, "prestress": False})
     gio.write_linear(d / "linear.h5", lin)
-    (d / "heights.json").write_text(json.dumps(jittered_series()))
+    (d / "heights.json").write_text(json.dumps({**jittered_series(), "pressure": 1e-4}))
     # a real small system for the pulse figure: lattice, linear system, modes with vectors
     from granwave.linear.assemble import linearize
     from granwave.linear.check import reference_lattice
@@ -367,16 +368,31 @@ CLI_CASES = [
 ]
 
 
+#: What each figure's title must give besides its scene (p, L, n): not the chain's pressure or
+#: height (it has N), not the sweep's one height (it pools several)
+TITLE_PARTS = {"airy": (False, False, False), "speeds": (False, False, True)}
+
+
 @pytest.mark.parametrize("name,args,size", CLI_CASES, ids=[c[0] for c in CLI_CASES])
-def test_cli_plot(files, tmp_path, name, args, size):
+def test_cli_plot(files, tmp_path, name, args, size, monkeypatch):
+    """Each figure from tiny inputs: the PNG, and the figure's rules (tests/figure_rules.py:
+    title with scene, p, L, n; units on every axis; no empty panel; legend numbers by the
+    number rule; every symbol defined)."""
+    from figure_rules import capture, check
+
     from granwave.cli import main
 
+    figs = capture(monkeypatch)
     args = [str(files / a) if a.endswith((".h5", ".json")) else a for a in args]
     out = tmp_path / f"{name}.png"
     pdf = name == "speeds" or args[0].endswith("/signal.h5")  # PDFs are slow: two cases check it
-    res = CliRunner().invoke(main, ["plot", name, *args, "-o", str(out)] + (["--pdf"] if pdf else []))
+    res = CliRunner().invoke(main, ["plot", name, *args, "--scene", "tinyscene", "-o", str(out)]
+                             + (["--pdf"] if pdf else []))
     assert res.exit_code == 0, res.output
     check_png(out, size)
+    assert len(figs) == 1
+    p, L, n = TITLE_PARTS.get(name, (True, True, True))
+    check(figs[0], scene="tinyscene", pressure=p, height=L, count=n)
     assert out.with_suffix(".pdf").exists() == pdf
     if pdf:
         assert out.with_suffix(".pdf").stat().st_size > 1000

@@ -24,6 +24,7 @@ from granwave.theory import lattice_speed  # noqa: E402
 
 PRESSURES = (1e-6, 1e-4)
 TALL, SHORT, TINY = 25.0, 8.1, 5.0  # container heights of the frictional scene
+N_TALL = 5  # packings at the tall height (5: mean ± error); 2 at the short one (a range)
 
 
 def c_l_of(p, seed, height):
@@ -67,7 +68,7 @@ def inputs(tmp_path_factory):
         (d / f"s{seed}.json").write_text(json.dumps(obj))
 
     for p in PRESSURES:
-        for seed in range(3):
+        for seed in range(N_TALL):
             put("frictional2d", p, "h25", seed, summary(p, seed))
         for seed in range(2):
             put("frictional2d", p, "h8", seed, summary(p, seed, SHORT))
@@ -80,19 +81,22 @@ def inputs(tmp_path_factory):
     heights = {
         ("frictional2d", 1e-6): {"c_tof": 0.2345, "c_tof_err": 0.0012, "c_peak": 0.2222,
                                   "c_zero": 0.2111, "gamma": 0.8123, "gamma_err": 0.021,
-                                  "alpha": 0.4567, "alpha_err": 0.034, "edge_heights": [SHORT, TALL]},
+                                  "chi": 0.4567, "chi_err": 0.034, "edge_heights": [SHORT, TALL]},
         ("frictional2d", 1e-4): {"c_tof": 0.4811, "c_tof_err": 0.002, "c_peak": 0.4711,
                                   "c_zero": 0.4611, "gamma": 0.7911, "gamma_err": 0.02,
-                                  "alpha": 0.4412, "alpha_err": 0.03, "edge_heights": [SHORT, TALL]},
+                                  "chi": 0.4412, "chi_err": 0.03, "edge_heights": [SHORT, TALL]},
         ("lattice_frictional", 1e-5): {"c_tof": 0.4321, "c_tof_err": None, "c_peak": 0.4012,
                                         "c_zero": 0.3999, "edge_heights": [8.66, 25.1]},
         ("chain_B", 1.0): {"ic": "B", "gamma": 0.9712, "gamma_err": 0.005, "alpha": 0.3401,
-                           "alpha_err": 0.002, "n_aliased": 2},
+                           "alpha_err": 0.002, "n_aliased": 2},  # a file of before the rename: alpha = χ
+        # two heights only: its slope's ± (the scatter of two packings per height) is not shown
+        ("frictionless3d", 1e-4): {"c_tof": 0.31, "c_peak": 0.29, "c_zero": 0.28, "gamma": 1.5123, "gamma_err": 0.0101, "chi": 0.7012, "chi_err": 0.021,
+                                   "n_heights": 2, "n_signals": 4},
     }
     for (scene, p), obj in heights.items():
         (hd / scene).mkdir(parents=True, exist_ok=True)
-        L = [8.0, 8.0, 25.0, 25.0]
-        obj = {"pressure": p, "ic": obj.get("ic", "A"), "n_signals": 4, "n_heights": 2, **obj,
+        L = [8.0, 8.0, 16.0, 16.0, 25.0, 25.0]
+        obj = {"pressure": p, "ic": obj.get("ic", "A"), "n_signals": 6, "n_heights": 3, **obj,
                "samples": [{"height": h, "t_lead10": h / 0.2, "t_peak": h / 0.19, "t_zero": h / 0.18,
                             "amplitude": h ** -0.8, "width": h ** 0.45} for h in L]}
         (hd / scene / f"p{p:g}.json").write_text(json.dumps(obj))
@@ -101,11 +105,11 @@ def inputs(tmp_path_factory):
     from granwave.analysis.sweep import pressure_sweep
     from granwave.io.files import jsonable
 
-    sums = [summary(p, s) for p in PRESSURES for s in range(3)]
+    sums = [summary(p, s) for p in PRESSURES for s in range(N_TALL)]
     for s in sums:  # a height series per pressure, copied into its samples' summaries
         s["tof"] = {"c_tof": 0.2345 if s["pressure"] < 1e-5 else 0.4811}
     res = pressure_sweep(sums)
-    res["alpha_tof"], res["alpha_tof_err"] = 0.2468, 0.0135  # stands out in the report
+    res["kappa_tof"], res["kappa_tof_err"] = 0.2468, 0.0135  # stands out in the report
     sweep.write_text(json.dumps(jsonable(res)))
     figs = root / "figures"
     figs.mkdir()
@@ -158,19 +162,24 @@ def test_report_contents(page):
                     "## Triangular lattices against the formula", "## Pressure-sweep fits",
                     "## Provenance and numerical checks", "## Figures"):
         assert heading in md
-    # gamma and alpha with uncertainties, against the chain's exact values
+    # the findings come first, then the symbols, then the tables (each one under its anchor)
+    assert md.index("## Findings") < md.index("## Symbols") < md.index("## Statics per pressure")
+    assert '<a id="exponents"></a>' in md and "[table](#exponents)" in md
+    # gamma and chi with uncertainties, against the chain's exact values
     assert "0.81 ± 0.02" in md and "0.46 ± 0.03" in md and "0.971 ± 0.005" in md
     assert "| initial condition A | 0.6667 | 0.3333 |" in md
     assert "| initial condition B | 1 | 0.3333 |" in md
     # aliased signals are marked, and the page says what that means
-    assert "| chain_B | chains | 1 | B | 4 at 2 (2 aliased) |" in md
+    assert "| chain_B | chains | 1 | B | 6 at 3 (2 aliased) | 8 … 25 |" in md  # its old `alpha` read as χ
+    assert "| frictionless3d | disordered | 0.0001 | A | 4 at 2 | 8 … 25 | 1.512 | 0.7012 |" in md
+    assert "| 0.971 ± 0.005 | 0.340 ± 0.002 |" in md
     assert 'Rows marked "aliased": 2 signals in 1 height series were sampled' in md
     # the lattice against the formula (frictional, from the config)
     c = lattice_speed(1e-5, friction=True)
     assert R.fmt(c) in md and R.fmt(0.4321 / c) in md
     # the sweep's numbers as given
     assert "### frictional2d\n\n| exponent | value | pressures |\n|---|---|---|\n" \
-           "| ν of c_tof (`alpha_tof`) | 0.247 ± 0.013 | 2 |" in md
+           "| κ of c_tof (`kappa_tof`) | 0.247 ± 0.013 | 2 |" in md
     # figures: relative links, captions, PDF twin
     assert "![Chain signals against the Airy shape" in md
     assert "](../" in md and "figures/airy_A.png)" in md and "figures/exponents.png)" in md
@@ -185,16 +194,20 @@ def test_statics_one_row_per_pressure_and_height(page):
     md, _ = page
     statics = section(md, "## Statics per pressure and container height")
     for p in PRESSURES:
-        for height, seeds in ((TALL, range(3)), (SHORT, range(2))):
-            phi2 = [summary(p, s, height)["statics"]["phi2"] for s in seeds]
-            L = np.mean([height + 0.01 * s for s in seeds])
-            row = f"| {p:.3g} | {L:.3g} | {len(phi2)} | {R.fmt(np.mean(phi2), np.std(phi2, ddof=1))} |"
-            assert row in statics, row
-        pooled = [summary(p, s, h)["statics"]["phi2"] for h, n in ((TALL, 3), (SHORT, 2))
+        # five packings: mean ± sample standard deviation; two: their range, not a ± of two
+        phi2 = [summary(p, s, TALL)["statics"]["phi2"] for s in range(N_TALL)]
+        L = np.mean([TALL + 0.01 * s for s in range(N_TALL)])
+        row = f"| {p:.3g} | {L:.3g} | {N_TALL} | {R.fmt(np.mean(phi2), np.std(phi2, ddof=1))} |"
+        assert row in statics, row
+        phi2 = [summary(p, s, SHORT)["statics"]["phi2"] for s in range(2)]
+        L = np.mean([SHORT + 0.01 * s for s in range(2)])
+        row = f"| {p:.3g} | {L:.3g} | 2 | {R.fmt_range(min(phi2), max(phi2))} |"
+        assert row in statics, row
+        pooled = [summary(p, s, h)["statics"]["phi2"] for h, n in ((TALL, N_TALL), (SHORT, 2))
                   for s in range(n)]
         assert R.fmt(np.mean(pooled), np.std(pooled, ddof=1)) not in md  # heights never pooled
     # the rattler fraction is the same in every packing: no "± 0"
-    assert "0.1 (all 3 equal)" in statics and "± 0 " not in md and "± 0 |" not in md
+    assert f"0.1 (all {N_TALL} equal)" in statics and "± 0 " not in md and "± 0 |" not in md
     # the short containers have no bulk: they are not in the table, and the page says why
     assert f"| {PRESSURES[0]:.3g} | {TINY:.3g} |" not in statics.split("Packings not in")[0]
     assert "no statics: the container has no bulk (L ≤ 2 l + 1 with wall layers l = 3 d̄)" in statics
@@ -209,11 +222,12 @@ def test_diagnostics_apart_and_fixed_values_not_statistics(page):
         for diag in ("layer", "min_contacts", "max_force_residual", "piston_balance", "dim", "n_dof"):
             assert not any(diag in h for h in header), (name, diag)
     prov = section(md, "## Provenance and numerical checks")
-    header = rows_of(prov, "p")[0]
-    assert "layer (statics)" in header and "dim (moduli)" in header
-    row = [r for r in rows_of(prov, f"{1e-4:.3g}") if r[1] == f"{TALL:.3g}"][0]
-    assert row[header.index("layer (statics)")] == "3" and row[header.index("dim (moduli)")] == "2"
-    assert row[header.index("max_force_residual (statics)")] == "1e-07 … 3e-07"  # a range
+    prov = prov[prov.index("### frictional2d"):]
+    header = rows_of(prov, "diagnostic (section)")[0]  # one row per diagnostic, a column per pressure
+    col = header.index(f"p = {1e-4:.3g} (n = {N_TALL + 3})")
+    assert rows_of(prov, "`layer` (statics)")[0][col] == "3"
+    assert rows_of(prov, "`dim` (moduli)")[0][col] == "2"
+    assert rows_of(prov, "`max_force_residual` (statics)")[0][col] == "1e-07 … 5e-07"  # a range
     assert "±" not in prov
 
 
@@ -233,18 +247,18 @@ def test_speeds_one_kind_of_error_bar(page):
     speeds = section(md, "## Sound speeds against pressure")
     assert "Every ± is one standard error" in speeds and "± sample standard deviation" not in speeds
     for p in PRESSURES:
-        cl = [c_l_of(p, s, TALL) for s in range(3)]
-        sem = np.std(cl, ddof=1) / np.sqrt(3)
+        cl = [c_l_of(p, s, TALL) for s in range(N_TALL)]
+        sem = np.std(cl, ddof=1) / np.sqrt(N_TALL)
         assert R.fmt(np.mean(cl), sem) in speeds
     # c_tof from the height series, against c_ℓ of the taller edge height
     assert "0.2345 ± 0.0012" in speeds and "0.481 ± 0.002" in speeds
-    cl = np.mean([c_l_of(1e-6, s, TALL) for s in range(3)])
+    cl = np.mean([c_l_of(1e-6, s, TALL) for s in range(N_TALL)])
     row = rows_of(speeds, f"{1e-6:.3g}")
     tof_row = [r for r in row if r[3] == "0.2345 ± 0.0012"][0]
     assert tof_row[1] == f"{SHORT:.3g}–{TALL:.3g}" and tof_row[7].startswith(R.fmt(0.2345 / cl)[:5])
     alpha_tof = math.log(0.4811 / 0.2345) / math.log(100)
     assert R.fmt(alpha_tof) in speeds
-    assert "ν = 0.1667" in speeds  # the Hertz exponent from the lattice formula
+    assert "κ = 0.1667" in speeds  # the Hertz exponent from the lattice formula
 
 
 def test_no_empty_tables(page):
@@ -254,7 +268,7 @@ def test_no_empty_tables(page):
     fl = fl[fl.index("### frictionless2d"):]
     assert "No time-of-flight speeds: the scene has 1 container height" in fl
     assert "c_tof" not in fl.split("No time-of-flight")[0]
-    assert "No γ or δ for frictionless2d: one container height" in md
+    assert "No γ or χ for frictionless2d: no height series of theirs" in md
     # no table row whose numbers are all missing
     for line in md.splitlines():
         if line.startswith("| ") and not line.startswith("|---"):
@@ -318,15 +332,79 @@ def test_report_from_single_files(inputs, tmp_path):
     assert res.exit_code == 0, res.output
     md = out.read_text()
     assert "### frictional2d" in md and "| lattice_frictional | 0.5 | 1e-05 |" in md
-    assert f"| {1e-4:.3g} | {TALL:.3g} | 3 |" in md and "figures/exponents.png)" in md
+    assert f"| {1e-4:.3g} | {TALL:.3g} | {N_TALL} |" in md and "figures/exponents.png)" in md
 
 
 def test_sweep_without_fits_is_one_line():
     from granwave.report.tables import sweep_table
 
-    obj = {"alpha_tof": None, "alpha_tof_err": None, "alpha_tof_n": 0, "alpha_l": None,
-           "fit_notes": ["alpha_tof: c_tof known at 1 pressure(s), need 2"]}
-    assert sweep_table(obj) == ["No exponent fitted: alpha_tof: c_tof known at 1 pressure(s), "
+    obj = {"kappa_tof": None, "kappa_tof_err": None, "kappa_tof_n": 0, "kappa_l": None,
+           "fit_notes": ["kappa_tof: c_tof known at 1 pressure(s), need 2"]}
+    assert sweep_table(obj) == ["No exponent fitted: kappa_tof: c_tof known at 1 pressure(s), "
                                 "need 2.", ""]
-    rows = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
-    assert rows[2] == "| ν of c_tof (`alpha_tof`) | 0.200 ± 0.010 | 4 |" and len(rows) == 4  # no "—" row for alpha_l
+    rows = sweep_table({"kappa_tof": 0.2, "kappa_tof_err": 0.01, "kappa_tof_n": 4, "kappa_l": None})
+    assert rows[2] == "| κ of c_tof (`kappa_tof`) | 0.200 ± 0.010 | 4 |" and len(rows) == 4  # no "—" row for kappa_l
+    # a file of before the rename (alpha_*) reads the same
+    old = sweep_table({"alpha_tof": 0.2, "alpha_tof_err": 0.01, "alpha_tof_n": 4, "alpha_l": None})
+    assert old[2] == rows[2] and len(old) == 4
+
+
+def test_findings_first_with_references_and_verdicts(page):
+    md, _ = page
+    find = section(md, "## Findings")
+    assert "What was run" in find and "frictional2d" in find
+    # the sweep's κ_tof (0.247 ± 0.013 in the fixture) against 1/6: 6σ off, and why
+    row = [r for r in rows_of(find, "pressure exponent κ_tof of c_tof (c ∝ p^κ), frictional2d")][0]
+    assert row[1] == "0.247 ± 0.013" and row[3].startswith("1/6 = 0.1667")
+    assert row[5].startswith("differs by 6σ: a fixed network gives 1/6") and row[6] == "[table](#sweeps)"
+    # the estimator's worth: "not validated" without a truth-suite record (never a typed number)
+    assert row[4] in ("not validated",) or row[4].startswith(("validated:", "biased:", "undercovered:"))
+    # moduli against the affine effective medium: five packings at the tall height, a ±
+    em = [r for r in find.splitlines() if r.startswith("| longitudinal modulus") and "frictional2d" in r]
+    assert em and "±" in em[0].split("|")[2]
+    # a two-height series: no ± and no σ
+    two = [r for r in find.splitlines() if r.startswith("| amplitude exponent γ, frictionless3d")][0]
+    assert "| 1.51 |" in two and "two heights, few packings: no σ" in two
+
+
+def test_every_symbol_defined_once(page):
+    """The generated page uses no symbol its symbol table lacks, and the table defines each
+    once (the figures' labels: tests/figure_rules.py)."""
+    from granwave.report.symbols import duplicates, undefined_symbols
+
+    md, _ = page
+    assert not duplicates()
+    assert not undefined_symbols(md), sorted(undefined_symbols(md))
+    table = section(md, "## Symbols")
+    spellings = [f.strip() for line in table.splitlines() if line.startswith("| ") and "---" not in line
+                 for f in line.strip("|").split("|")[0].replace("\\|", "|").split(", ")][1:]
+    assert len(spellings) == len(set(spellings)) and "κ" in spellings and "χ" in spellings
+    # the checker does fail: a symbol nobody defined, and the old width exponent δ
+    assert undefined_symbols("with ν_x = 3 and W ∝ L^δ") == {"ν_x", "δ"}
+
+
+def test_timings_give_the_run_s_cpu_time(inputs, tmp_path):
+    """--timings: the CPU time of the first page is the sum of the timing tables' cpu_s."""
+    t = tmp_path / "timings"
+    (t / "analyses").mkdir(parents=True)
+    (t / "batch_0.tsv").write_text("scene\tstage\tcpu_s\twall_s\nx\tpacking\t1.25\t2.5\nx\tlinear\t0.5\t1.0\n")
+    (t / "analyses" / "a.tsv").write_text("stage\tcpu_s\twall_s\nheights\t2.0\t3.0\n")
+    out = tmp_path / "index.md"
+    res = CliRunner().invoke(main, ["report", "--summaries", str(inputs / "summary"), "--timings", str(t),
+                                    "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "- CPU time: 4 CPU-s over 3 stages (6 s wall)" in out.read_text()
+    res = CliRunner().invoke(main, ["report", "--summaries", str(inputs / "summary"), "--timings",
+                                    str(tmp_path / "none"), "-o", str(tmp_path / "j.md")])
+    assert res.exit_code == 2 and "no such file or folder" in res.output
+
+
+def test_every_number_on_the_page_follows_the_rule(page):
+    """Every "value ± error" of the page as the number rule writes it (tests/figure_rules.py
+    reads them back: the error to 1–2 significant digits, the value to the same decimals);
+    the checker fails on the legends issue 62 found."""
+    from figure_rules import number_problems
+
+    md, _ = page
+    assert not number_problems(md), number_problems(md)[:5]
+    assert len(number_problems("p^0.164 ± 0.0058, δ = 0.600 ± 0.086")) == 2

@@ -115,7 +115,9 @@ def test_scene_analysis_refuses_bad_input():
         shear_scene(_records(2)[:3] + _records(3)[:3])
 
 
-def test_report_section_and_figure_from_a_made_analysis(tmp_path):
+def test_report_section_and_figure_from_a_made_analysis(tmp_path, monkeypatch):
+    from figure_rules import capture, check
+
     from granwave.figures import caption_for, shear_panels
     from granwave.report import build_report
     from granwave.report.shear import shear_section
@@ -132,7 +134,17 @@ def test_report_section_and_figure_from_a_made_analysis(tmp_path):
     assert row["f_shear_kHz"] == pytest.approx(a["pressures"][-1]["c_t"]["mean"] * sc["speed"] / (8 * 0.5e-3) / 1e3)
     assert "In SI units for quartz grains" in md and "| p (kPa) | V_s (m/s)" in md
     assert "## Shear waves" in md and "### shear2d (2D, packings of frictional2d)" in md
-    assert "ν_s = 0.25" in md                      # exponent ± error, error to 1-2 digits
+    assert "κ_s = 0.25" in md                      # exponent ± error, error to 1-2 digits
+    from granwave.report.symbols import undefined_symbols
+
+    assert not undefined_symbols(md), sorted(undefined_symbols(md))
+    assert "Not quartz beads" not in md  # no Poisson ratio given: nothing to compare
+    # packings that ran with another Poisson ratio than the material's: the SI table says so
+    b = shear_scene(_records(), pick="cross_correlation", material="quartz", diameter_mm=0.5, poisson=0.0)
+    assert b["si"]["poisson_mismatch"].startswith("the packing ran with Poisson ratio 0 (eta = 1.000)")
+    md_b = "\n".join(shear_section({"shear2d": {**b, "scene": "shear2d", "source_scene": "frictional2d"}}))
+    assert "**Not quartz beads:** the packing ran with Poisson ratio 0" in md_b
+    assert "per unit length of wall" in md_b  # 2D moduli: per d̄-thick layer
     assert "| 1e-07 | 3 |" in md                   # counts as integers
     assert "`first_deflection`, `cross_correlation`" in md  # within 5 %
     assert "in no row: `edge10`, `peak_to_peak`, `phase`, `impulse_edge10`, `impulse_peak`" in md
@@ -144,8 +156,10 @@ def test_report_section_and_figure_from_a_made_analysis(tmp_path):
     assert "| c_ℓ/c_t (P) |" in md
     page = build_report(shear=[(tmp_path / "shear2d" / "analysis.json", a, None)], out_dir=tmp_path)
     assert "## Shear waves" in page
+    figs = capture(monkeypatch)
     files = shear_panels(a, tmp_path / "shear_shear2d.png")
     assert files[0].stat().st_size > 10_000
+    check(figs[0], scene="shear2d", pressure=False)  # several pressures: p on the axes
     assert caption_for(files[0]).startswith("Shear scene:") and caption_for(files[0]).endswith("(shear2d)")
 
 

@@ -49,7 +49,7 @@ def test_exponents_and_per_pressure_statistics():
     sums = synthetic()
     res = pressure_sweep(sums)
     assert res["pressures"] == list(PRESSURES)
-    for key in ("alpha_tof", "alpha_l", "alpha_t"):
+    for key in ("kappa_tof", "kappa_l", "kappa_t"):
         assert res[key] == pytest.approx(1 / 6, abs=1e-10)
         assert res[key + "_err"] < 1e-7  # exact power law: only rounding scatter
     for row, p in zip(res["per_pressure"], PRESSURES):
@@ -84,9 +84,9 @@ def test_fit_uses_per_pressure_means_with_uncertainty():
     slope, intercept = np.polyfit(x, y, 1)
     resid = y - (slope * x + intercept)
     se = math.sqrt(np.sum(resid**2) / 2 / np.sum((x - x.mean()) ** 2))
-    assert res["alpha_l"] == pytest.approx(slope, rel=1e-12)
-    assert res["alpha_l_err"] == pytest.approx(se, rel=1e-6)
-    assert math.isnan(res["alpha_tof"]) and any("alpha_tof" in n for n in res["fit_notes"])
+    assert res["kappa_l"] == pytest.approx(slope, rel=1e-12)
+    assert res["kappa_l_err"] == pytest.approx(se, rel=1e-6)
+    assert math.isnan(res["kappa_tof"]) and any("kappa_tof" in n for n in res["fit_notes"])
 
 
 def test_merge_summary_from_attrs_and_sections(tmp_path):
@@ -123,9 +123,9 @@ def test_height_series_define_tof_at_their_pressure():
     series = [{"pressure": p, "c_tof": 3.0 * p ** 0.2, "c_tof_err": 0.02, "c_peak": 2.0 * p ** 0.2,
                "per_height": {"height": [8.0, 25.0]}, "gamma": 0.6} for p in PRESSURES]
     res = pressure_sweep(sums, height_series=series)
-    assert res["alpha_tof"] == pytest.approx(0.2, abs=1e-10)  # the summaries' tof (1/6) is replaced
-    assert res["alpha_peak"] == pytest.approx(0.2, abs=1e-10)
-    assert res["alpha_l"] == pytest.approx(1 / 6, abs=1e-10)
+    assert res["kappa_tof"] == pytest.approx(0.2, abs=1e-10)  # the summaries' tof (1/6) is replaced
+    assert res["kappa_peak"] == pytest.approx(0.2, abs=1e-10)
+    assert res["kappa_l"] == pytest.approx(1 / 6, abs=1e-10)
     row = res["per_pressure"][0]
     assert row["c_tof_err"] == 0.02 and row["n_height_series"] == 1 and row["count"] == 3
     assert row["stats"]["tof.gamma"]["count"] == 1
@@ -151,7 +151,7 @@ def test_cli_writes_sweep_and_tables(tmp_path):
                                        "--tables", str(tmp_path / "tables"), "--json"])
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)
-    assert res["alpha_l"] == pytest.approx(1 / 6, abs=1e-10) and res["n_summaries"] == 12
+    assert res["kappa_l"] == pytest.approx(1 / 6, abs=1e-10) and res["n_summaries"] == 12
     lib = pressure_sweep(sums)
     back = read_sweep(out)
     np.testing.assert_array_equal(back["pressure"], PRESSURES)
@@ -159,7 +159,7 @@ def test_cli_writes_sweep_and_tables(tmp_path):
     np.testing.assert_array_equal(back["mean"][:, j], [r["stats"]["statics.phi3"]["mean"]
                                                        for r in lib["per_pressure"]])
     np.testing.assert_allclose(back["c_tof"], [2.1 * p ** (1 / 6) for p in PRESSURES], rtol=1e-14)
-    assert back["attrs"]["alpha_tof"] == pytest.approx(1 / 6, abs=1e-10)
+    assert back["attrs"]["kappa_tof"] == pytest.approx(1 / 6, abs=1e-10)
     # tables: CSV numbers are the per-pressure means and stds, exactly
     with open(tmp_path / "tables" / "sweep_statics.csv") as fh:
         rows = list(csv.DictReader(fh))
@@ -172,11 +172,11 @@ def test_cli_writes_sweep_and_tables(tmp_path):
         mod = list(csv.DictReader(fh))
     assert float(mod[3]["C11"]) == pytest.approx(100 * 1e-4 ** (1 / 3), rel=1e-12)
     md = (tmp_path / "tables" / "sweep_speeds.md").read_text()
-    assert f"{theory.lattice_speed(1e-4):.6g}" in md and "alpha_tof" in md
+    assert f"{theory.lattice_speed(1e-4):.6g}" in md and "kappa_tof" in md
     # default table folder: beside the output
     r = CliRunner().invoke(sweep_cmd, [*paths, "-o", str(tmp_path / "two.h5")])
     assert r.exit_code == 0, r.output
-    assert (tmp_path / "two_moduli.md").exists() and "alpha_l" in r.output
+    assert (tmp_path / "two_moduli.md").exists() and "kappa_l" in r.output
     # height-series files, by option or among the summaries; a new tables folder is created
     for i, p in enumerate(PRESSURES[:2]):
         (tmp_path / f"h{i}.json").write_text(json.dumps(
@@ -186,7 +186,7 @@ def test_cli_writes_sweep_and_tables(tmp_path):
                                        "--json"])
     assert r.exit_code == 0, r.output
     res = json.loads(r.output)
-    assert res["n_height_series"] == 2 and res["alpha_tof"] == pytest.approx(0.2, abs=1e-10)
+    assert res["n_height_series"] == 2 and res["kappa_tof"] == pytest.approx(0.2, abs=1e-10)
     assert (tmp_path / "new" / "three_speeds.csv").exists()
 
 

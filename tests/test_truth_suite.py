@@ -122,7 +122,7 @@ def test_front_picks_on_exact_delta_prime_chain_and_precursor_signals():
 
 
 def test_heights_speeds_and_exponents_cover_the_closed_forms():
-    for key in ("heights.c_tof", "heights.c_zero", "heights.gamma", "heights.alpha"):
+    for key in ("heights.c_tof", "heights.c_zero", "heights.gamma", "heights.chi"):
         for c in _cases(key):
             res = _run(c, range(4))
             inside = sum(lo <= c.truth <= hi for _, lo, hi in res)
@@ -168,8 +168,8 @@ def test_attenuation_on_the_dispersive_scene_with_the_production_window():
 
 def test_fits_of_few_points_need_the_student_interval():
     # four pressures: ± 2 errors holds the exponent in ~80 % of the cases, the fit's t interval in 95 %
-    c2 = _cases("sweep.exponent", "30 packings each; ν of c_l = 0.22; value ± 2 errors")[0]
-    ct = _cases("sweep.exponent", "30 packings each; ν of c_l = 0.22; its 95 % interval")[0]
+    c2 = _cases("sweep.exponent", "30 packings each; κ of c_l = 0.22; value ± 2 errors")[0]
+    ct = _cases("sweep.exponent", "30 packings each; κ of c_l = 0.22; its 95 % interval")[0]
     row2, rowt = truth.evaluate(c2, range(40)), truth.evaluate(ct, range(40))
     assert row2["verdict"] == "undercovered" and rowt["coverage95"] >= 0.9
     assert abs(rowt["bias"]) < rowt["quoted_error"]

@@ -60,7 +60,7 @@ def cases() -> list[Case]:
                 Case("heights.c_zero", s + " (zero crossing, 8 → 25 d̄)", design.c,
                      quantity(name, "c_zero"), fast),
                 Case("heights.gamma", s, design.gamma, quantity(name, "gamma"), fast),
-                Case("heights.alpha", s, design.width_exponent, quantity(name, "alpha"), fast)]
+                Case("heights.chi", s, design.width_exponent, quantity(name, "chi"), fast)]
     return out
 
 

@@ -2,7 +2,7 @@
 
 * ``moduli.c_l_exponent``, ``moduli.c_t_exponent``: the report's exponent of c_ℓ(p), c_t(p)
   at one height (granwave.report.tables.power_exponent: log-log least squares through the
-  per-pressure means of each packing's c_ℓ, c_t), on packings with c = c1 (p/p1)^ν (1 + 3 % ε),
+  per-pressure means of each packing's c_ℓ, c_t), on packings with c = c1 (p/p1)^κ (1 + 3 % ε),
   30 per pressure at 1e-7 … 1e-4; read as the report prints it, value ± 2 errors, and by the
   fit's own 95 % interval (``exponent_ci95`` of granwave.analysis.fits.power_law_fit).
 * ``moduli.c_l_inf``: the bulk speed of `analyze continuum` (granwave.analysis.continuum.
@@ -58,7 +58,7 @@ def c_l_inf(seed):
     return interval(r["c_l_inf"], r["c_l_inf_err"])
 
 
-CASES = [Case(f"moduli.{speed}_exponent", f"four pressures 1e-7 … 1e-4, 30 packings each, ν = {nu:g}; "
+CASES = [Case(f"moduli.{speed}_exponent", f"four pressures 1e-7 … 1e-4, 30 packings each, κ = {nu:g}; "
               + ("the report's value ± 2 errors" if reading == "2err" else
                  "the fit's 95 % interval (Student t, 2 dof: exponent_ci95)"),
               nu, exponent_run(speed, reading), fast=speed == "c_l")

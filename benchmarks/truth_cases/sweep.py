@@ -1,10 +1,10 @@
-"""sweep.exponent: `pressure-sweep` (granwave.analysis.sweep.pressure_sweep: c ∝ p^ν fitted in
+"""sweep.exponent: `pressure-sweep` (granwave.analysis.sweep.pressure_sweep: c ∝ p^κ fitted in
 log-log through the per-pressure means) on synthetic inputs of known exponent at the study's
-four pressures 1e-7 … 1e-4: each packing's c_ℓ = c1 (p/p1)^ν_ℓ (1 + 3 % ε), c_t likewise with
-ν_t, and per pressure a height series made by `analyze heights` (granwave.analysis.heights.
+four pressures 1e-7 … 1e-4: each packing's c_ℓ = c1 (p/p1)^κ_ℓ (1 + 3 % ε), c_t likewise with
+κ_t, and per pressure a height series made by `analyze heights` (granwave.analysis.heights.
 height_series) from δ′-response signals at 8 and 25 d̄ (benchmarks/truth_cases/_ensembles.py, Fronts)
-whose speed is c1 (p/p1)^ν_tof and whose time scales all go as 1/c, so c_tof ∝ p^ν_tof exactly.
-Two readings of the fit's error are checked: the sweep's 95 % interval (``alpha_*_ci95``,
+whose speed is c1 (p/p1)^κ_tof and whose time scales all go as 1/c, so c_tof ∝ p^κ_tof exactly.
+Two readings of the fit's error are checked: the sweep's 95 % interval (``kappa_*_ci95``,
 Student t with n − 2 degrees of freedom) and "value ± 2 errors" (how the report reads a ±).
 """
 
@@ -22,7 +22,7 @@ from . import Case, interval
 from ._ensembles import Fronts, fronts
 
 PRESSURES = (1e-7, 1e-6, 1e-5, 1e-4)
-EXPONENTS = {"c_l": ("alpha_l", 0.22), "c_t": ("alpha_t", 0.26), "c_tof": ("alpha_tof", 0.20)}
+EXPONENTS = {"c_l": ("kappa_l", 0.22), "c_t": ("kappa_t", 0.26), "c_tof": ("kappa_tof", 0.20)}
 SCATTER = 0.03
 SETTINGS = {"paper": (30, "four pressures 1e-7 … 1e-4, 30 packings each"),
             "quick": (2, "four pressures 1e-7 … 1e-4, 2 packings each")}
@@ -68,5 +68,5 @@ for name, (n, words) in SETTINGS.items():
     for speed, (key, nu) in EXPONENTS.items():
         for reading, how in (("ci95", "its 95 % interval (Student t, 2 dof)"),
                              ("2err", "value ± 2 errors")):
-            CASES.append(Case("sweep.exponent", f"{words}; ν of {speed} = {nu:g}; {how}", nu,
+            CASES.append(Case("sweep.exponent", f"{words}; κ of {speed} = {nu:g}; {how}", nu,
                               run_of(n, key, reading), fast=name == "paper" and speed == "c_l"))

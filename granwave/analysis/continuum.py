@@ -405,8 +405,8 @@ def continuum_from_features(heights, features: Sequence[dict], c_l, c_t=None, *,
     wid = local_exponents_of_means(Lm, per["width"], per["width_sem"])
     local["gamma_eff"] = -amp["exponent"]
     local["gamma_eff_err"] = amp["exponent_err"]
-    local["alpha_eff"] = wid["exponent"]
-    local["alpha_eff_err"] = wid["exponent_err"]
+    local["chi_eff"] = wid["exponent"]
+    local["chi_eff_err"] = wid["exponent_err"]
 
     series = height_series_from_features(L, features, edge_heights=(float(Lm[0]), float(Lm[1])),
                                          group_rtol=group_rtol)

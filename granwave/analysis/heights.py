@@ -19,7 +19,7 @@ Choices (also in ``docs/summaries.md`` and the CLI help)
   heights nearest to ``edge_heights`` (default 8 and 25 d, docs/method.md §9), and the
   same three from the fit over all heights as ``c_tof_all``, ``c_peak_all``,
   ``c_zero_all``. None of them is adjusted.
-* **Exponents.** |A|(L) ~ L^-gamma and W(L) ~ L^alpha (W = t_zero - t_lead10,
+* **Exponents.** |A|(L) ~ L^-gamma and W(L) ~ L^chi (W = t_zero - t_lead10,
   :mod:`granwave.analysis.front`), fitted in log-log over every sample.
   Local effective exponents d log|A|/d log L and d log W/d log L are taken
   between consecutive nominal heights (group means), reported at the
@@ -171,12 +171,12 @@ def height_series_from_features(heights, features: Sequence[dict], *,
     amp = power_law_fit(L, feats["amplitude"], what="amplitude against height")
     wid = power_law_fit(L, feats["width"], what="width against height")
     out.update(gamma=-amp.exponent, gamma_err=amp.exponent_err, amplitude_prefactor=amp.prefactor,
-               alpha=wid.exponent, alpha_err=wid.exponent_err, width_prefactor=wid.prefactor,
+               chi=wid.exponent, chi_err=wid.exponent_err, width_prefactor=wid.prefactor,
                gamma_ci95=[-amp.exponent_ci95[1], -amp.exponent_ci95[0]],
-               alpha_ci95=list(wid.exponent_ci95))
+               chi_ci95=list(wid.exponent_ci95))
     h_mid, a_loc = local_exponents(g_height, per_height["amplitude"])
     _, w_loc = local_exponents(g_height, per_height["width"])
-    out.update(heights_local=h_mid, gamma_local=-a_loc, alpha_local=w_loc)
+    out.update(heights_local=h_mid, gamma_local=-a_loc, chi_local=w_loc)
     out["per_height"] = per_height
     out["samples"] = [{"height": float(h), **{k: float(feats[k][i]) for k in FEATURES}}
                       for i, h in enumerate(L)]

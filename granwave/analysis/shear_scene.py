@@ -142,12 +142,14 @@ def _rms_free(p, y, fit) -> float:
     return float(np.sqrt(np.mean(res ** 2)))
 
 
-def si_rows(rows: Sequence[Mapping], *, material: str, diameter_mm: float, wavelength: float) -> dict:
+def si_rows(rows: Sequence[Mapping], *, material: str, diameter_mm: float, wavelength: float,
+            poisson: float | None = None) -> dict:
     """The per-pressure speeds (m/s) and moduli (MPa) of :func:`shear_scene`'s rows for grains of
     ``material`` (granwave.units.MATERIALS) and mean diameter ``diameter_mm``, and the source
     frequencies f = c_t/λ and c_l/λ (kHz) of ``wavelength`` (d): speeds and moduli do not depend
-    on the diameter, frequencies do (docs/units.md)."""
-    from ..units import material_scales
+    on the diameter, frequencies do (docs/units.md). ``poisson``: the packings' own Poisson
+    ratio; where it is not the material's, ``poisson_mismatch`` says so (the report warns)."""
+    from ..units import material_scales, poisson_mismatch
 
     sc = material_scales(material, diameter_mm * 1e-3)
     speed, modulus = sc["speed"], sc["E_star"] / 1e6
@@ -165,11 +167,14 @@ def si_rows(rows: Sequence[Mapping], *, material: str, diameter_mm: float, wavel
                     "G_max_MPa": scaled(r["G_max"], modulus), "G_moduli_MPa": scaled(r["G_moduli"], modulus),
                     "f_shear_kHz": r["c_t"]["mean"] * khz, "f_normal_kHz": r["c_l"]["mean"] * khz})
     return {"material": material, "diameter_mm": float(diameter_mm), "E_star_GPa": sc["E_star"] / 1e9,
-            "density": sc["rho"], "wavelength": float(wavelength), "rows": out}
+            "density": sc["rho"], "wavelength": float(wavelength), "rows": out,
+            "poisson_run": None if poisson is None else float(poisson),
+            "poisson_mismatch": None if poisson is None else poisson_mismatch(material, poisson)}
 
 
 def shear_scene(records: Sequence[Mapping], *, pick: str = "first_deflection",
-                material: str | None = None, diameter_mm: float = 1.0) -> dict:
+                material: str | None = None, diameter_mm: float = 1.0,
+                poisson: float | None = None) -> dict:
     """The scene's analysis (module docstring) from :func:`sample_record` records; with
     ``material`` also the speeds and moduli in SI (:func:`si_rows`, key ``si``)."""
     if pick not in PICKS:
@@ -235,7 +240,8 @@ def shear_scene(records: Sequence[Mapping], *, pick: str = "first_deflection",
                 # one group: the packings of one nominal height (their L differ by a few %)
                 series = shear_series(members, group_rtol=math.inf)["rows"][0]
                 table.append({"pressure": p, "wavelength": lam, "height_nominal": h, **series})
-    si = si_rows(rows, material=material, diameter_mm=diameter_mm, wavelength=lams[0]) if material else None
+    si = si_rows(rows, material=material, diameter_mm=diameter_mm, wavelength=lams[0],
+                 poisson=poisson) if material else None
     return {"dim": dim, "pick": pick, "pulse": records[0].get("pulse"), "wavelengths": lams, "si": si,
             "fit_height": fit_height, "n_records": len(records), "pressures": rows, "fits": fits,
             "G_max": gmax, "hertz_exponent": HERTZ_EXPONENT, "tolerance": TOLERANCE,

@@ -6,7 +6,7 @@ A *summary* is one JSON object per sample (layout: ``docs/summaries.md``)::
      "statics": {...},   # granwave analyze statics --json
      "moduli":  {...},   # granwave analyze moduli --json (C11 ... C33, c_l, c_t, phi3_star)
      "front":   {...},   # granwave analyze front --json
-     "tof":     {...}}   # granwave analyze heights --json (c_tof, c_peak, c_zero, gamma, alpha...)
+     "tof":     {...}}   # granwave analyze heights --json (c_tof, c_peak, c_zero, gamma, chi...)
 
 ``pressure``, ``seed`` (an integer, or null for deterministic systems such
 as lattices), ``kind`` and ``height`` are required; the four sections are
@@ -36,9 +36,10 @@ The sweep (choices)
   when the samples scatter; when they do not (one height series copied into
   every summary of its pressure, or a single sample) it is the mean of the
   ``<key>_err`` the summaries carry (e.g. ``tof.c_tof_err``), else NaN.
-* c ∝ p^α is fitted by least squares in log-log through the per-pressure
-  means (:func:`granwave.analysis.fits.power_law_fit`): keys ``alpha_tof``,
-  ``alpha_l``, ``alpha_t`` (and ``alpha_peak``, ``alpha_zero``) with one
+* c ∝ p^κ is fitted by least squares in log-log through the per-pressure
+  means (:func:`granwave.analysis.fits.power_law_fit`): keys ``kappa_tof``,
+  ``kappa_l``, ``kappa_t`` (and ``kappa_peak``, ``kappa_zero``; ``alpha_*`` before
+  granwave 1.x, :mod:`granwave.analysis.renamed_keys`) with one
   standard error (NaN with two pressures; NaN and a note with fewer) and the 95 % interval
   ``*_ci95`` (± t(0.975, n − 2) errors: ± 4.3 errors with four pressures; "± 2 errors" holds
   the truth in only ~82 % of the cases there, docs/truth.md).
@@ -76,11 +77,11 @@ REQUIRED = ("pressure", "seed", "kind", "height")
 EXPECTED_EXPONENT = 1.0 / 6.0
 # speed name -> (quantity, key of its fitted exponent)
 SPEEDS = {
-    "c_tof": ("tof.c_tof", "alpha_tof"),
-    "c_peak": ("tof.c_peak", "alpha_peak"),
-    "c_zero": ("tof.c_zero", "alpha_zero"),
-    "c_l": ("moduli.c_l", "alpha_l"),
-    "c_t": ("moduli.c_t", "alpha_t"),
+    "c_tof": ("tof.c_tof", "kappa_tof"),
+    "c_peak": ("tof.c_peak", "kappa_peak"),
+    "c_zero": ("tof.c_zero", "kappa_zero"),
+    "c_l": ("moduli.c_l", "kappa_l"),
+    "c_t": ("moduli.c_t", "kappa_t"),
 }
 STATICS_TABLE = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p",
                  "Z2", "Z3", "F2", "F2_strong", "stress_ratio")
@@ -289,7 +290,7 @@ def pressure_sweep(summaries: Sequence[dict], *, height_series: Sequence[dict] =
 
     Returns a JSON-ready dict: ``pressures``, ``quantities`` (names), ``per_pressure`` (one
     row per pressure: pressure, count, speeds with ``*_err``, lattice speeds, ``*_p16`` and
-    ``stats`` {quantity: {mean, std, sem, count}}), the fitted exponents ``alpha_*`` with
+    ``stats`` {quantity: {mean, std, sem, count}}), the fitted exponents ``kappa_*`` with
     ``*_err``, and ``expected_exponent`` = 1/6.
     """
     from .. import theory
@@ -338,17 +339,17 @@ def pressure_sweep(summaries: Sequence[dict], *, height_series: Sequence[dict] =
            "pressures": pressures, "poisson": float(poisson),
            "expected_exponent": EXPECTED_EXPONENT, "quantities": quantities}
     notes = []
-    for name, (_, alpha) in SPEEDS.items():
+    for name, (_, kappa) in SPEEDS.items():
         pts = [(row["pressure"], row[name]) for row in rows
                if math.isfinite(row[name]) and row[name] > 0]
         if len(pts) >= 2:
             fit = power_law_fit([a for a, _ in pts], [b for _, b in pts], what=f"{name} against pressure")
-            out[alpha], out[alpha + "_err"], out[alpha + "_n"] = fit.exponent, fit.exponent_err, fit.n
-            out[alpha + "_ci95"] = list(fit.exponent_ci95)  # Student t, n − 2 (granwave.analysis.fits)
+            out[kappa], out[kappa + "_err"], out[kappa + "_n"] = fit.exponent, fit.exponent_err, fit.n
+            out[kappa + "_ci95"] = list(fit.exponent_ci95)  # Student t, n − 2 (granwave.analysis.fits)
         else:
-            out[alpha], out[alpha + "_err"], out[alpha + "_n"] = math.nan, math.nan, len(pts)
-            out[alpha + "_ci95"] = [math.nan, math.nan]
-            notes.append(f"{alpha}: {name} known at {len(pts)} pressure(s), need 2")
+            out[kappa], out[kappa + "_err"], out[kappa + "_n"] = math.nan, math.nan, len(pts)
+            out[kappa + "_ci95"] = [math.nan, math.nan]
+            notes.append(f"{kappa}: {name} known at {len(pts)} pressure(s), need 2")
         # p^(1/6) curve through the value at the highest pressure that has one
         if pts:
             p_ref, c_ref = pts[-1]
@@ -473,10 +474,10 @@ def write_tables(result: dict, folder, prefix: str = "sweep") -> list[str]:
         raise InputError(f"tables folder {folder} does not exist")
     written = []
     fits = ", ".join(f"{a} = {_fmt(result.get(a), result.get(a + '_err'))}"
-                     for a in ("alpha_tof", "alpha_l", "alpha_t"))
+                     for a in ("kappa_tof", "kappa_l", "kappa_t"))
     titles = {"statics": "Static quantities per pressure (mean ± std over samples, docs/method.md §4)",
               "moduli": "Stress ratio and elastic moduli per pressure (mean ± std, docs/method.md §6)",
-              "speeds": f"Speeds per pressure (docs/method.md §10); fits c ∝ p^α: {fits}; expected 1/6"}
+              "speeds": f"Speeds per pressure (docs/method.md §10); fits c ∝ p^κ: {fits}; expected 1/6"}
     for name, (md, text) in tables(result).items():
         md_path, csv_path = folder / f"{prefix}_{name}.md", folder / f"{prefix}_{name}.csv"
         atomic_text(md_path, f"# {titles[name]}\n\n{md}")

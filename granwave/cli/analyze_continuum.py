@@ -24,7 +24,7 @@ def continuum(signals, moduli_paths, as_json, **options):
     and standard errors of the front features (granwave analyze front), of c_l and c_t and
     of the apparent speeds L/t. Between consecutive heights: the local speeds c_tof (10%
     edge), c_peak, c_zero = dL/dt of the means, c_tof/c_l, and the local exponents
-    gamma_eff = -dln|A|/dlnL, alpha_eff = dlnW/dlnL, all with error bars from the standard
+    gamma_eff = -dln|A|/dlnL, chi_eff = dlnW/dlnL, all with error bars from the standard
     errors and a bootstrap over the packings within each height through the whole chain
     (--bootstrap). The approach c_tof/c_l = 1 + a L^-beta is fitted (95% intervals, from the
     fit's covariance and from the bootstrap) and L*, where c_tof is within --tolerance of
@@ -59,11 +59,11 @@ def continuum(signals, moduli_paths, as_json, **options):
                      f"c_l = {res['c_l_kind']}")
     loc = res["local"]
     click.echo(f"  {'L':>9} {'c_tof':>9} {'c_peak':>9} {'c_zero':>9} {'c_l':>9} {'ratio':>9} "
-               f"{'err':>8} {'gamma':>8} {'alpha':>8}")
+               f"{'err':>8} {'gamma':>8} {'chi':>8}")
     for i in range(len(loc["height"])):
         click.echo(f"  {loc['height'][i]:9.4g} {loc['c_tof'][i]:9.4g} {loc['c_peak'][i]:9.4g} "
                    f"{loc['c_zero'][i]:9.4g} {loc['c_l'][i]:9.4g} {loc['ratio'][i]:9.4g} "
-                   f"{loc['ratio_err'][i]:8.2g} {loc['gamma_eff'][i]:8.3g} {loc['alpha_eff'][i]:8.3g}")
+                   f"{loc['ratio_err'][i]:8.2g} {loc['gamma_eff'][i]:8.3g} {loc['chi_eff'][i]:8.3g}")
     cand = res.get("candidates")
     if cand:
         click.echo("  candidate L* (d) by arrival rule, tolerance and c_l reference "

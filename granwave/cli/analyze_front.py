@@ -22,13 +22,18 @@ from .common import echo_result, options_from, params_from, stage
               help="Shear signals: the pulse's wavelength c_t / f in diameters (with --moduli).")
 @click.option("--units", type=click.Choice(["reduced", "si"]), default="reduced", show_default=True,
               help="Shear signals: si adds V_s (m/s), G_max (MPa), times (us) for --material.")
-@click.option("--material", type=click.Choice(["glass", "quartz", "steel"]), default="glass",
-              show_default=True, help="Grain material for --units si (granwave.units.MATERIALS).")
+@click.option("--material", type=click.Choice(["glass", "quartz", "steel"]), default=None,
+              help="Grain material for --units si (granwave.units.MATERIALS) [default: the one the "
+                   "packing records (prepare-packing --material), else glass]. Refused where the "
+                   "packing's Poisson ratio is not the material's (see --any-poisson).")
+@click.option("--any-poisson", is_flag=True,
+              help="--units si: convert even where the packing's Poisson ratio is not the "
+                   "material's (a warning instead of a refusal; the JSON records the mismatch).")
 @click.option("--diameter", type=float, default=1.0, show_default=True,
               help="Mean grain diameter in mm for --units si (times and frequencies scale with it).")
 @stage
-def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, material, diameter,
-          **options):
+def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, material, any_poisson,
+          diameter, **options):
     """Leading edge, first peak, zero crossing and width of a signal's first pulse.
 
     SIGNAL is a granwave.signal file (from `granwave propagate`). Printed:
@@ -64,8 +69,13 @@ def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, mat
     moduli = None
     if moduli_path is not None:
         moduli = read_moduli(moduli_path, required="c_t")
+    mismatch = None
+    if units == "si":
+        material, mismatch = _si_material(sig, signal, material, any_poisson)
     out = api.shear_front(sig, moduli=moduli, frequency=frequency, wavelength=wavelength, pulse=pulse,
-                          units=units, material=material, diameter=diameter * 1e-3)
+                          units=units, material=material or "glass", diameter=diameter * 1e-3)
+    if mismatch:
+        out["si"]["poisson_mismatch"] = mismatch
     if as_json:
         echo_result(out, True, title="")
         return
@@ -84,3 +94,24 @@ def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, mat
                    f"{si['G_moduli_MPa']:.4g} MPa, f = {si['frequency_kHz']:.4g} kHz")
     for name, why in out["errors"].items():
         click.echo(f"  {name}: {why}", err=True)
+
+
+def _si_material(sig, path, material, any_poisson):
+    """(material, mismatch) for --units si: the material given, else the packing's recorded one,
+    else glass; refused (one line) where the packing's Poisson ratio is not the material's,
+    unless --any-poisson (then a warning, and the mismatch returned for the JSON)."""
+    import json
+
+    from ..errors import InputError
+    from ..units import poisson_mismatch
+
+    recorded = sig.attrs.get("material")
+    if material is None:
+        material = json.loads(recorded)["name"] if isinstance(recorded, str) and recorded.startswith("{") \
+            else "glass"
+    why = poisson_mismatch(material, float(sig.attrs.get("poisson", 0.0)))
+    if why and not any_poisson:
+        raise InputError(f"{path}: --units si --material {material}: {why}; or --any-poisson")
+    if why:
+        click.echo(f"warning: {path}: {why}", err=True)
+    return material, why

@@ -25,8 +25,8 @@ def heights(signals, as_json, **options):
     Reported: arrival times of the 10% leading edge, the first peak and the
     first zero crossing against L; speeds c = 1/slope (sqrt(E*/rho)) with
     one-standard-error uncertainties: c_tof (10% edge), c_peak, c_zero between
-    the --edge-heights, and the same over all heights (*_all); gamma and alpha
-    from |A| ~ L^-gamma and W ~ L^alpha (W = t_zero - t_lead10), and the local
+    the --edge-heights, and the same over all heights (*_all); gamma and chi
+    from |A| ~ L^-gamma and W ~ L^chi (W = t_zero - t_lead10), and the local
     exponents between consecutive heights. Uncertainties of a fit through
     exactly two points are undetermined (null).
     """
@@ -42,7 +42,7 @@ def heights(signals, as_json, **options):
         echo_json(res)
         return
     scalars = {k: v for k, v in res.items()
-               if k not in ("per_height", "samples", "heights_local", "gamma_local", "alpha_local",
+               if k not in ("per_height", "samples", "heights_local", "gamma_local", "chi_local",
                             "front_options")}
     echo_table(scalars, title=f"height series: {res['n_signals']} signals, {res['n_heights']} heights")
     ph = res["per_height"]
@@ -54,5 +54,5 @@ def heights(signals, as_json, **options):
                    f"{ph['t_peak'][i]:12.6g} {ph['t_zero'][i]:12.6g} {ph['amplitude'][i]:12.6g} "
                    f"{ph['width'][i]:12.6g}")
     click.echo("  local exponents between consecutive heights:")
-    for h, g, a in zip(res["heights_local"], res["gamma_local"], res["alpha_local"]):
-        click.echo(f"  L={h:10.4g}  gamma={g:.6g}  alpha={a:.6g}")
+    for h, g, a in zip(res["heights_local"], res["gamma_local"], res["chi_local"]):
+        click.echo(f"  L={h:10.4g}  gamma={g:.6g}  chi={a:.6g}")

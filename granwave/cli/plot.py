@@ -21,9 +21,13 @@ def load_json(path):
 _fig_path = output_path_option((".png", ".pdf", ".svg"), help="Output figure, written atomically.")
 
 
+_scene = click.option("--scene", default=None, metavar="NAME",
+                      help="The scene's name for the figure's title (e.g. the workflow config's).")
+
+
 def fig_output(func):
-    """``-o FIG`` and ``-q`` of every figure."""
-    return _fig_path(quiet_flag(func))
+    """``-o FIG``, ``-q`` and ``--scene`` of every figure."""
+    return _fig_path(quiet_flag(_scene(func)))
 pdf_option = click.option("--pdf", is_flag=True, help="Also write a PDF beside the PNG.")
 
 
@@ -63,7 +67,7 @@ def _signal_or_ensemble(path) -> dict:
             raise InputError(f"{path}: the ensemble file has no 'height' attribute")
         return e
     s = read_signal(path)
-    return {"time": s.time, "mean": s.force, "rms": None, "n": 1, "height": s.height}
+    return {"time": s.time, "mean": s.force, "rms": None, "n": 1, "height": s.height, "attrs": s.attrs}
 
 
 @click.group()
@@ -81,13 +85,13 @@ def plot():
 @pdf_option
 @click.option("--walls", is_flag=True, help="Include wall contacts in the histograms.")
 @stage
-def network(packing, output, pdf, walls):
+def network(packing, output, pdf, scene, walls):
     """Force and stiffness networks of a packing, with their histograms."""
     figs = _figures()
     from ..io.files import read_packing
 
     figs.output_paths(output, pdf)
-    _done(figs.force_network(read_packing(packing), output, pdf=pdf, walls=walls))
+    _done(figs.force_network(read_packing(packing), output, pdf=pdf, walls=walls, scene=scene))
 
 
 @plot.command()
@@ -97,7 +101,7 @@ def network(packing, output, pdf, walls):
 @click.option("--walls", is_flag=True, help="Include wall contacts.")
 @click.option("--bins", type=click.IntRange(4, 360), default=36, show_default=True)
 @stage
-def roses(packing, output, pdf, walls, bins):
+def roses(packing, output, pdf, scene, walls, bins):
     # Every plot command has this shape (read one file, call one figure of
     # granwave.figures); they differ in the reader and the figure, not in logic.
     """Contact-direction roses: all, strong and weak contacts."""
@@ -105,7 +109,7 @@ def roses(packing, output, pdf, walls, bins):
     from ..io.files import read_packing
 
     figs.output_paths(output, pdf)
-    _done(figs.contact_roses(read_packing(packing), output, pdf=pdf, walls=walls, bins=bins))
+    _done(figs.contact_roses(read_packing(packing), output, pdf=pdf, walls=walls, bins=bins, scene=scene))
 
 
 @plot.command()
@@ -126,7 +130,7 @@ def roses(packing, output, pdf, walls, bins):
 @fig_output
 @pdf_option
 @stage
-def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf):
+def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf, scene):
     """The pulse: displacement snapshots on one scale and, with --modes, the coherent front
     in space and time (energy E(y, t) on a log scale, low-pass displacement, arrival lines)."""
     figs = _figures()
@@ -152,7 +156,7 @@ def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf):
         fields = row_fields(lin, mo, pk.position,
                             ic=str(sig.attrs.get("ic", "A")), t_max=float(sig.time[-1]), **cut)
     _done(figs.displacement_snapshot(sig, output, packing=pk, index=list(index) or None,
-                                     fields=fields, pdf=pdf))
+                                     fields=fields, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -164,7 +168,7 @@ def snapshot(signal, packing, index, modes, linear, cutoff_factor, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def signals(signals, ensemble, max_traces, output, pdf):
+def signals(signals, ensemble, max_traces, output, pdf, scene):
     """Signals of several packings overlaid, and the ensemble average ± rms."""
     figs = _figures()
     from ..io.files import read_signal
@@ -172,7 +176,7 @@ def signals(signals, ensemble, max_traces, output, pdf):
     figs.output_paths(output, pdf)
     sigs = [read_signal(s) for s in signals]
     ens = read_ensemble(ensemble) if ensemble else None
-    _done(figs.signals_overlay(sigs, output, ensemble=ens, max_traces=max_traces, pdf=pdf))
+    _done(figs.signals_overlay(sigs, output, ensemble=ens, max_traces=max_traces, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -183,7 +187,7 @@ def signals(signals, ensemble, max_traces, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def compare(signals, labels, speeds, output, pdf):
+def compare(signals, labels, speeds, output, pdf, scene):
     """Signals of different systems (frictional 2D, frictionless 2D, 3D) in one panel."""
     figs = _figures()
     from ..errors import InputError
@@ -196,7 +200,7 @@ def compare(signals, labels, speeds, output, pdf):
         raise InputError(f"give one --speed per signal ({len(signals)}), or none")
     sigs = [read_signal(s) for s in signals]
     _done(figs.signal_comparison(sigs, output, labels=list(labels) or None,
-                                  speeds=list(speeds) or None, pdf=pdf))
+                                  speeds=list(speeds) or None, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -204,11 +208,11 @@ def compare(signals, labels, speeds, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def coherent(files, output, pdf):
+def coherent(files, output, pdf, scene):
     """Coherent part at several heights (ensemble files with a height, or signal files)."""
     figs = _figures()
     figs.output_paths(output, pdf)
-    _done(figs.coherent_heights([_signal_or_ensemble(f) for f in files], output, pdf=pdf))
+    _done(figs.coherent_heights([_signal_or_ensemble(f) for f in files], output, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -216,14 +220,14 @@ def coherent(files, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def arrivals(heights_json, output, pdf):
+def arrivals(heights_json, output, pdf, scene):
     """Arrival times of the three characteristic points against L (analyze heights --json)."""
     figs = _figures()
     from ..report import heights_arrays
 
     figs.output_paths(output, pdf)
     data = heights_arrays(load_json(heights_json), source=heights_json)
-    _done(figs.arrival_times(data, output, pdf=pdf))
+    _done(figs.arrival_times(data, output, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -236,7 +240,7 @@ def arrivals(heights_json, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def exponents(heights_json, labels, chain, ic, output, pdf):
+def exponents(heights_json, labels, chain, ic, output, pdf, scene):
     """A(L) and W(L) log-log: ensemble means per height ± standard error, the fits of
     `analyze heights`, and local exponents between distinct heights with error bars."""
     figs = _figures()
@@ -258,8 +262,9 @@ def exponents(heights_json, labels, chain, ic, output, pdf):
         series[f"chain (exact, {ic})"] = chain_series(ns, ic=ic)
     if not series:
         raise InputError("give heights JSON files and/or --chain")
-    refs = {"gamma": 2 / 3 if ic == "A" else 1.0, "alpha": 1 / 3}
-    _done(figs.amplitude_width(series, output, references=refs, pdf=pdf))
+    if chain:  # the exact chain's own reference; else each series' initial condition's
+        series[f"chain (exact, {ic})"]["ic"] = ic
+    _done(figs.amplitude_width(series, output, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -275,7 +280,7 @@ def exponents(heights_json, labels, chain, ic, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf):
+def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf, scene):
     """Speeds against pressure (pressure-sweep --json) with the lattice theory."""
     figs = _figures()
     from ..report import sweep_speeds
@@ -291,7 +296,8 @@ def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf)
                 points.append({"pressure": h["pressure"], "speed": h[key], "friction": fr,
                                "label": f"lattice simulation ({key}), "
                                         + ("frictional" if fr else "frictionless")})
-    _done(figs.speeds_vs_pressure(data, output, lattice_points=points, poisson=poisson, pdf=pdf))
+    _done(figs.speeds_vs_pressure(data, output, lattice_points=points, poisson=poisson, pdf=pdf,
+                                  scene=scene))
 
 
 @plot.command()
@@ -301,13 +307,13 @@ def speeds(sweep_json, lattice, lattice_fr, lattice_speed, poisson, output, pdf)
 @fig_output
 @pdf_option
 @stage
-def spectrum(modes, ic, bins, output, pdf):
+def spectrum(modes, ic, bins, output, pdf, scene):
     """Eigen-spectrum (density of ω) and the weights a_n b_n."""
     figs = _figures()
     from ..io.files import read_modes
 
     figs.output_paths(output, pdf)
-    _done(figs.spectrum(read_modes(modes), output, ic=ic, bins=bins, pdf=pdf))
+    _done(figs.spectrum(read_modes(modes), output, ic=ic, bins=bins, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -320,7 +326,7 @@ def spectrum(modes, ic, bins, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def modes(modes, linear, packing, mode_index, ic, output, pdf):
+def modes(modes, linear, packing, mode_index, ic, output, pdf, scene):
     """Selected mode shapes as arrows (needs eigensolve --vectors)."""
     figs = _figures()
     import numpy as np
@@ -344,11 +350,15 @@ def modes(modes, linear, packing, mode_index, ic, output, pdf):
         chosen = figs.select_modes(m, dof_grain=lin.dof_grain, dof_axis=lin.dof_axis, dim=pk.dim,
                                     ic=ic)
     idx = list(chosen.values())
-    labels = [f"{name} (n = {i})" if not name.startswith("mode") else name
+    names = {"lowest nonzero": "lowest-frequency mode with ω > 0",
+             "strongest |a_n b_n|": "largest weight |a_n b_n|",
+             "most localized": "most localized (least participation)"}
+    labels = [f"{names.get(name, name)} (file index {i})" if not name.startswith("mode") else name
               for name, i in chosen.items()]
     _done(figs.mode_shapes(m.vectors[:, idx], lin.dof_grain, lin.dof_axis, pk.position, output,
                             omega=np.sqrt(np.maximum(m.omega2[idx], 0)), labels=labels,
-                            radius=pk.radius, box=pk.box, pdf=pdf))
+                            radius=pk.radius, box=pk.box, pdf=pdf, scene=scene,
+                            pressure=pk.attrs.get("pressure")))
 
 
 @plot.command()
@@ -358,7 +368,7 @@ def modes(modes, linear, packing, mode_index, ic, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def damping(signals, reference, output, pdf):
+def damping(signals, reference, output, pdf, scene):
     """Signals of one packing for several contact dampings ζ (attribute 'damping')."""
     figs = _figures()
     from ..io.files import read_signal
@@ -366,7 +376,7 @@ def damping(signals, reference, output, pdf):
     figs.output_paths(output, pdf)
     ref = read_signal(reference) if reference else None
     _done(figs.damping_series([read_signal(s) for s in signals], output, reference=ref,
-                               labels=list(signals), pdf=pdf))
+                               labels=list(signals), pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -376,11 +386,11 @@ def damping(signals, reference, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def airy(n_balls, ic, output, pdf):
+def airy(n_balls, ic, output, pdf, scene):
     """Chain wall force (exact modal sum) against the Airy asymptote, co-moving frame."""
     figs = _figures()
     figs.output_paths(output, pdf)
-    _done(figs.chain_airy(output, n_balls=list(n_balls) or (25, 50, 100, 200), ic=ic, pdf=pdf))
+    _done(figs.chain_airy(output, n_balls=list(n_balls) or (25, 50, 100, 200), ic=ic, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -390,14 +400,14 @@ def airy(n_balls, ic, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def continuum(front_json, attenuation_json, output, pdf):
+def continuum(front_json, attenuation_json, output, pdf, scene):
     """The continuum scene from `analyze continuum --json`: local speeds and c_l against L,
     c_tof/c_l with its fit, amplitude and width with local exponents, and (with
     --attenuation) alpha(omega), c(omega) with the reliable band."""
     figs = _figures()
     figs.output_paths(output, pdf)
     att = load_json(attenuation_json) if attenuation_json else None
-    _done(figs.continuum_panels(load_json(front_json), att, output, pdf=pdf))
+    _done(figs.continuum_panels(load_json(front_json), att, output, pdf=pdf, scene=scene))
 
 
 @plot.command()
@@ -405,7 +415,7 @@ def continuum(front_json, attenuation_json, output, pdf):
 @fig_output
 @pdf_option
 @stage
-def shear(analysis_json, output, pdf):
+def shear(analysis_json, output, pdf, scene):
     """A shear scene from its analysis (results/shear/<scene>/analysis.json): V_s, V_p and c_t,
     c_l against pressure, G_max against p^1/3, V_p/V_s and the Poisson ratio from waves and
     moduli, and every pick's V/c_t against distance (docs/shear.md)."""
@@ -416,4 +426,4 @@ def shear(analysis_json, output, pdf):
     data = load_json(analysis_json)
     if not (isinstance(data, dict) and "pick_table" in data and "pressures" in data):
         raise InputError(f"{analysis_json}: not a shear-scene analysis (no pick_table / pressures)")
-    _done(figs.shear_panels(data, output, pdf=pdf))
+    _done(figs.shear_panels(data, output, pdf=pdf, scene=scene))

@@ -38,6 +38,42 @@ seeds_option = click.option(
          "launches (docs/gpu.md), with --device cpu one after another.")
 
 
+#: ``--material NAME``: the grains' Poisson ratio from a material preset (granwave.units.MATERIALS),
+#: recorded in the packing for SI conversions (docs/units.md).
+material_option = click.option(
+    "--material", type=click.Choice(["glass", "quartz", "steel"]), default=None,
+    help="Grain material preset: sets --poisson to the material's (glass 0.23, eta = 0.870; quartz "
+         "0.08; steel 0.29) and records the material (E, nu, rho) in the packing, so that SI "
+         "conversions (analyze front --units si) describe the grains that ran (docs/units.md).")
+
+
+def with_material(options: dict, material: str | None) -> dict:
+    """``options`` with the poisson of ``material`` (unchanged without one); an explicit
+    --poisson that differs from the material's is refused (one line)."""
+    if material is None:
+        return options
+    from ..units import MATERIALS
+
+    nu = MATERIALS[material]["nu"]
+    given = click.get_current_context().get_parameter_source("poisson").name != "DEFAULT"
+    if given and abs(float(options["poisson"]) - nu) > 1e-12:
+        raise InputError(f"--poisson {options['poisson']:g} and --material {material} (nu = {nu:g}): "
+                         "give one of them")
+    return {**options, "poisson": nu}
+
+
+def record_material(packing, material: str | None):
+    """Record ``material`` (name, E, nu, rho; JSON) in the packing's attributes; later stages
+    carry it (granwave.provenance.SAMPLE_ATTRS). Nothing without one: outputs stay as before."""
+    if material is not None:
+        import json
+
+        from ..units import material_record
+
+        packing.attrs["material"] = json.dumps(material_record(material), sort_keys=True)
+    return packing
+
+
 def parse_seeds(spec: str) -> list[int]:
     """The seeds of ``spec``: comma-separated seeds and inclusive ranges ``a-b`` ("0-9", "1,4-6")."""
     seeds = []
@@ -64,9 +100,10 @@ def parse_seeds(spec: str) -> list[int]:
 @checkpoint_option
 @checkpoint_every_option
 @seeds_option
+@material_option
 @quiet_option
 @stage
-def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds, quiet, **options):
+def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds, material, quiet, **options):
     """Prepare a packing in mechanical equilibrium by piston compression of a granular gas.
 
     Hertz-Mindlin contacts (or harmonic ones: --contact-law) with Coulomb friction and
@@ -78,9 +115,10 @@ def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds
     from .. import api
     from ..io.files import check_writable, write_packing
 
-    params = params_from(PrepareParams, options)
+    params = params_from(PrepareParams, with_material(options, material))
     if seeds is not None:
-        _prepare_seeds(params, parse_seeds(seeds), output, threads, device, checkpoint, checkpoint_every, quiet)
+        _prepare_seeds(params, parse_seeds(seeds), output, threads, device, checkpoint, checkpoint_every, quiet,
+                       material)
         return
     check_writable(output)
     if checkpoint is not None:
@@ -88,7 +126,7 @@ def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds
     packing = api.prepare_packing(params, progress=progress_printer(not quiet), threads=threads,
                                   device=device, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
                                   keep_checkpoint=True)
-    write_packing(output, packing)
+    write_packing(output, record_material(packing, material))
     if checkpoint is not None:
         _remove_when_written(checkpoint, params)
     if not quiet:
@@ -116,7 +154,8 @@ def _remove_when_written(checkpoint, params) -> None:
     after_outputs(Checkpoint(checkpoint, params).remove)
 
 
-def _prepare_seeds(params, seeds, pattern, threads, device, checkpoint, checkpoint_every, quiet) -> None:
+def _prepare_seeds(params, seeds, pattern, threads, device, checkpoint, checkpoint_every, quiet,
+                   material=None) -> None:
     """``--seeds``: every output name checked before any work, then one file per seed; with
     ``--checkpoint`` a pattern with {seed}, each seed's checkpoint removed only once every file
     is written (a seed that fails writes no file and leaves every checkpoint)."""
@@ -141,7 +180,7 @@ def _prepare_seeds(params, seeds, pattern, threads, device, checkpoint, checkpoi
                                     device=device, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
                                     keep_checkpoint=True)
     for k, (out, packing) in enumerate(zip(outputs, packings)):
-        write_packing(out, packing)
+        write_packing(out, record_material(packing, material))
         if checkpoints:
             _remove_when_written(checkpoints[k], dataclasses.replace(params, seed=seeds[k]))
         if not quiet:

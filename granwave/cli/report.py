@@ -30,11 +30,14 @@ from .common import output_path_option, quiet_option, stage
 @click.option("--shear", multiple=True, type=click.Path(),
               help="Shear-scene analyses (results/shear/<scene>/analysis.json, the workflow's "
                    "shear_analysis rule), files or folders: the shear section (docs/shear.md).")
+@click.option("--timings", multiple=True, type=click.Path(),
+              help="The workflow's timing tables (results/timings/*.tsv), files or folders: the "
+                   "run's CPU time on the first page.")
 @click.option("--title", default="granwave report", show_default=True)
 @quiet_option
 @stage
-def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, shear, title,
-           quiet):
+def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, shear, timings,
+           title, quiet):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
 
@@ -44,14 +47,16 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
         --heights results/heights --sweep results/sweep/frictional2d.json \\
         --figures results/figures -o results/report/index.md
 
-    Contents: statics and moduli per scene, pressure and container height (mean ± std
-    over n packings, units stated), a provenance table of diagnostics; c_l, c_t per
-    height and c_tof, c_peak, c_zero per pressure (± one standard error) with fitted
-    exponents and c_tof/c_l; gamma and alpha of every height series against the
+    Contents: the findings first (what was run, its CPU time from --timings, one row per
+    headline result against its reference with the estimator's validated bias and a verdict),
+    the symbol table, then statics and moduli per scene, pressure and container height (mean ± std
+    over n >= 5 packings, the range over fewer, units stated), a provenance table of diagnostics;
+    c_l, c_t per height and c_tof, c_peak, c_zero per pressure (± one standard error) with fitted
+    exponents kappa and c_tof/c_l; gamma and chi of every height series against the
     chain's exact values; lattice speeds against the formula of docs/method.md §12;
     the damping table; the continuum section (--continuum: speeds, c_tof/c_l and its
     approach, alpha(omega), c(omega), docs/continuum.md); the shear section (--shear: V_s,
-    V_p, G_max against pressure, V_p/V_s and the Poisson ratio from waves and moduli, the pick
+    V_p, G_max against pressure, V_p/V_s and the effective Poisson ratio from waves and moduli, the pick
     table, docs/shear.md); the sweep fits; every figure; the config name, the granwave
     version and git revision. Without any input it refuses (exit status 2).
     """
@@ -80,10 +85,28 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
         raise refused
     md = build_report(**inputs,
                       out_dir=out.parent.resolve() if str(out.parent) else Path(".").resolve(),
-                      config=cfg, config_path=config, title=title, damping=damping)
+                      config=cfg, config_path=config, title=title, damping=damping,
+                      timings=_timing_tables(timings))
     for p in write_report(out, md, title=title):
         if not quiet:
             click.echo(f"wrote {p}", err=True)
+
+
+def _timing_tables(paths):
+    """The .tsv timing tables among ``paths`` (folders searched recursively)."""
+    from pathlib import Path
+
+    from ..errors import InputError
+
+    files = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            files += sorted(p.rglob("*.tsv"))
+        elif p.is_file():
+            files.append(p)
+        else:
+            raise InputError(f"{p}: no such file or folder")
+    return files
 
 
 def _shear_analyses(paths):

@@ -33,8 +33,8 @@ def pressure_sweep(summaries, heights_files, output, tables_dir, as_json, **opti
     any `tof` section of the summaries there. Samples are grouped by
     pressure; every numeric quantity gets mean, std, standard error and
     count per pressure. c_tof (analyze heights), c_l and c_t (analyze
-    moduli), in sqrt(E*/rho), are fitted as c ~ p^alpha through the
-    per-pressure means (alpha_tof, alpha_l, alpha_t, one standard error),
+    moduli), in sqrt(E*/rho), are fitted as c ~ p^kappa through the
+    per-pressure means (kappa_tof, kappa_l, kappa_t, one standard error),
     beside the expected 1/6, the triangular-lattice formulas (frictionless
     and frictional) and c_tof/c_l. Pressures in E*.
 

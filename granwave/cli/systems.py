@@ -6,6 +6,7 @@ import click
 
 from ..params import ChainParams, LatticeParams
 from .common import options_from, output_option, params_from, quiet_option, stage
+from .prepare import material_option, record_material, with_material
 
 
 
@@ -21,10 +22,11 @@ def _write(output, build, params):
 
 @click.command()
 @options_from(LatticeParams)
+@material_option
 @output_option
 @quiet_option
 @stage
-def lattice(output, quiet, **options):
+def lattice(output, material, quiet, **options):
     """Perfect triangular lattice of unit balls under pressure (no preparation run).
 
     Rows are parallel to the walls; all contacts carry f = p a/sqrt(3) (a the
@@ -34,8 +36,8 @@ def lattice(output, quiet, **options):
     """
     from .. import api
 
-    params = params_from(LatticeParams, options)
-    packing = _write(output, api.lattice, params)
+    params = params_from(LatticeParams, with_material(options, material))
+    packing = _write(output, lambda p: record_material(api.lattice(p), material), params)
     if not quiet:
         click.echo(f"lattice {params.rows} x {params.width}, p = {params.pressure:g}: spacing "
                    f"{packing.attrs['spacing']:.12g}, height {packing.height:.8g} -> {output}", err=True)

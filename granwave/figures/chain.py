@@ -7,12 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import need, new_figure, save_figure
+from .common import need, new_figure, save_figure, scene_title
 
 
 def chain_airy(path, *, n_balls: Sequence[int] = (25, 50, 100, 200), ic: str = "A",
                exact: Callable | None = None, airy: Callable | None = None,
-               window: float = 12.0, samples: int = 800, pdf: bool = False) -> list[Path]:
+               window: float = 12.0, samples: int = 800, pdf: bool = False,
+               scene: str | None = None) -> list[Path]:
     """Chain wall force (exact modal sum) against the Airy asymptote, co-moving frame.
 
     Units of the chain: ℓ = 1, c = 1 (so t0 = N + 1). The x axis is
@@ -49,9 +50,12 @@ def chain_airy(path, *, n_balls: Sequence[int] = (25, 50, 100, 200), ic: str = "
         ax2.plot([], [], "k--", lw=0.9, label="Airy asymptote")
     ax1.set_xlabel(r"time $t$  [$\ell/c$]")
     ax1.set_ylabel(r"wall force $F$  [$K\ell$]")
-    ax1.set_title(f"1D chain, initial condition {ic}: exact modal sum")
-    ax2.set_xlabel(r"$s = 2(t-t_0)c/(\ell N^{1/3})$,  $t_0 = (N+1)\ell/c$")
+    ax1.set_title(f"initial condition {ic}: exact modal sum")
+    ax2.set_xlabel(r"$2(t-t_0)c/(\ell N^{1/3})$  [1],  $t_0 = (N+1)\ell/c$")
     ax2.set_ylabel(f"$F\\,N^{{{'2/3' if ic == 'A' else '1'}}}$  [$K\\ell$]")
+    fig.suptitle(scene_title(f"1D chain of N = {', '.join(map(str, sorted(n_balls)))} identical balls "
+                             "against the Airy asymptote (springs K, spacing ℓ, ball mass m, c = ℓ√(K/m); "
+                             "docs/method.md §12)", scene=scene), fontsize=9)
     ax2.set_title("co-moving frame")
     ax2.set_xlim(-window, window / 2)
     ax1.legend(fontsize=8)

@@ -135,3 +135,54 @@ def plane_axes(dim: int) -> tuple[int, int]:
 def fmt_err(x: float | None, digits: str = ".2g") -> str:
     """" ± err" or nothing when the uncertainty is undetermined (NaN, two points)."""
     return "" if x is None or not np.isfinite(x) else f" ± {x:{digits}}"
+
+
+def value_text(value, err=None, digits: int = 3) -> str:
+    """A legend's number by the report's rule (granwave.report.numbers.fmt): the error to one or
+    two significant digits and the value rounded to match; ``digits`` digits without an error."""
+    from ..report.numbers import fmt
+
+    return fmt(value, err, digits)
+
+
+def scene_title(what: str, *, scene: str | None = None, pressure=None, height=None,
+                count: str | None = None, width: int = 110) -> str:
+    """A figure's title: what it shows, then its scene, p, L and n where they apply, e.g.
+    "signals and their ensemble average — frictional2d, p = 1e-04, L = 25.4, n = 2 packings"."""
+    parts = [scene] if scene else []
+    if pressure is not None and np.isfinite(float(pressure)):
+        parts.append(f"p = {float(pressure):.3g}")
+    if height is not None:
+        h = np.atleast_1d(np.asarray(height, float))
+        h = h[np.isfinite(h)]
+        if h.size:
+            from ..report.numbers import fmt_bound
+
+            lo, hi = float(h.min()), float(h.max())
+            parts.append(f"L = {fmt_bound(lo, 3)}" if np.isclose(lo, hi, rtol=0.05)
+                         else f"L = {fmt_bound(lo, 3)}–{fmt_bound(hi, 3)}")
+    if count:
+        parts.append(f"n = {count}")
+    import textwrap
+
+    return textwrap.fill(what, width) + ("\n" + textwrap.fill(", ".join(parts), width) if parts else "")
+
+
+def plain_log_ticks(ax, which: str = "xy") -> None:
+    """Label a log axis in one notation (matplotlib otherwise mixes 10^k with 2×10^k): over
+    more than two decades the decades only, as 10^k; over fewer plain numbers (0.02, 0.05,
+    0.1, 20, 50) at 1, 2 and 5 × 10^k. No minor labels."""
+    from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation, LogLocator, NullFormatter
+
+    for name in which:
+        axis = ax.xaxis if name == "x" else ax.yaxis
+        if axis.get_scale() != "log":
+            continue
+        lo, hi = sorted(ax.get_xlim() if name == "x" else ax.get_ylim())
+        if lo > 0 and hi / lo > 100:
+            axis.set_major_locator(LogLocator(base=10))
+            axis.set_major_formatter(LogFormatterSciNotation())
+        else:
+            axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        axis.set_minor_formatter(NullFormatter())

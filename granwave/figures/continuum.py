@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import C_UNIT, L_LABEL, array, need, new_figure, save_figure
+from .common import C_UNIT, L_LABEL, array, need, new_figure, plain_log_ticks, save_figure, scene_title, value_text
 
 
 def _errorbar(ax, x, y, e, **kw):
@@ -16,7 +16,7 @@ def _errorbar(ax, x, y, e, **kw):
 
 
 def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
-                     pdf: bool = False) -> list[Path]:
+                     pdf: bool = False, scene: str | None = None) -> list[Path]:
     """Six panels from `analyze continuum --json` (``front``) and `analyze attenuation --json`.
 
     (a) local speeds c_tof, c_peak, c_zero and c_l, c_t against L; (b) c_tof/c_l (local and
@@ -24,8 +24,13 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     (d) width against L (means ± standard error) with the local exponents γ_eff, δ_eff on a
     twin axis; (e) α(ω) and (f) c(ω) with error bars, the reliable band shaded, c_l dashed
     (the bulk c_l∞ dotted, with the local c_tof/c_l∞ in (b), when the analysis gives it).
-    Nothing is computed here: every number comes from the two analyses.
+    α and c are drawn at the reliable frequencies only, as points with error bars (outside
+    the band the analysis does not stand behind them). Nothing is computed here: every number
+    comes from the two analyses.
     """
+    from ..analysis.renamed_keys import HEIGHTS, current_keys
+
+    front = current_keys(front, HEIGHTS)  # chi_eff (alpha_eff in files of before the rename)
     loc, per = front["local"], front["per_height"]
     Lm = array(loc["height"], "local height")
     L = array(per["height"], "height")
@@ -60,12 +65,17 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     tol = float(app.get("tolerance", 0.05))
     xs = np.geomspace(min(Lm.min(), L.min()), max(L.max(), min(float(app.get("L_star") or 0), 1e5)) * 1.2, 100)
     if np.isfinite(app.get("beta", np.nan) or np.nan):
-        from ..report.numbers import fmt, fmt_bound, fmt_named, fmt_positive, resolved
+        from ..report.numbers import fmt, fmt_bound, num, resolved
 
         ci = app.get("L_star_ci")
-        lstar = (f"$L^*$ = {fmt_bound(app.get('L_star'), 3)}" if resolved(app.get("L_star"), None, ci)
-                 else fmt_named("$L^*$", fmt_positive(app.get("L_star"), None, ci).split(" (")[0])
-                 + " (95 %)")
+        if resolved(app.get("L_star"), None, ci):
+            lstar = f"$L^*$ = {fmt_bound(app.get('L_star'), 3)}"
+        elif app.get("status") == "beyond":  # the one bound the data give
+            lstar = f"$L^*$ > {fmt_bound(app.get('L_max'), 3)} (not reached)"
+        elif ci and num(ci[0]) > 0:
+            lstar = f"$L^*$ > {fmt_bound(ci[0], 2)} (95 %; the fit does not bound it above)"
+        else:
+            lstar = "$L^*$ not constrained by the fit"
         lab = (rf"$1 + a L^{{-\beta}}$, $\beta$ = {fmt(app['beta'], app.get('beta_err'), 3)}, "
                + lstar)
         ax.plot(xs, 1 + app["a"] * xs ** -app["beta"], "-", color="C0", lw=1, label=lab)
@@ -73,22 +83,23 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
     ax.axhline(1.0, color="k", lw=0.8)
     ax.set_xscale("log")
     ax.set_xlabel(L_LABEL)
-    ax.set_ylabel(r"$c_{\rm tof}/c_\ell$")
+    ax.set_ylabel(r"$c_{\rm tof}/c_\ell$  [1]")
     ax.legend(fontsize=8)
 
-    for k, (key, eff, sign, label) in enumerate((("amplitude", "gamma_eff", r"$\gamma_{\rm eff}$", "|A|"),
-                                                 ("width", "alpha_eff", r"$\delta_{\rm eff}$", "W"))):
+    for k, (key, eff, sign, label, unit) in enumerate((
+            ("amplitude", "gamma_eff", r"$\gamma_{\rm eff}$", "|A|", r"$E^*\bar d^{\,2}$"),
+            ("width", "chi_eff", r"$\chi_{\rm eff}$", "W", r"$\bar d/\sqrt{E^*/\rho}$"))):
         ax = fig.add_subplot(3, 2, 3 + k)
         _errorbar(ax, L, np.asarray(per[key], float), np.asarray(per[key + "_sem"], float), fmt="o-",
                   color="C0", label=f"{label} (mean ± s.e.)")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(L_LABEL)
-        ax.set_ylabel(label)
+        ax.set_ylabel(f"{'amplitude' if key == 'amplitude' else 'width'} {label}  [{unit}]")
         tw = ax.twinx()
-        _errorbar(tw, Lm, np.asarray(loc[eff], float), np.asarray(loc[eff + "_err"], float), fmt="s--",
+        _errorbar(tw, Lm, np.asarray(loc[eff], float), np.asarray(loc[eff + "_err"], float), fmt="s",
                   color="C3", label=sign)
-        tw.set_ylabel(f"local exponent {sign}", color="C3")
+        tw.set_ylabel(f"local exponent {sign}  [1]", color="C3")
         ax.legend(fontsize=8, loc="upper left")
         tw.legend(fontsize=8, loc="lower right")
 
@@ -98,12 +109,10 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
         for k, (key, ylabel) in enumerate((("alpha", r"attenuation $\alpha(\omega)$  [1/$\bar d$]"),
                                            ("c", f"phase velocity $c(\\omega)$  [{C_UNIT}]"))):
             ax = fig.add_subplot(3, 2, 5 + k)
-            y = np.asarray(attenuation[key], float)
-            e = np.asarray(attenuation[key + "_err"], float)
-            ax.plot(om, y, "-", color="0.7", lw=0.8, label="all frequencies")
-            ax.plot(om[rel], y[rel], "-", color="C0", label="reliable band")
-            ax.fill_between(om[rel], (y - e)[rel], (y + e)[rel], color="C0", alpha=0.25, lw=0,
-                            label="± error")
+            y = np.asarray([np.nan if v is None else v for v in attenuation[key]], float)
+            e = np.asarray([np.nan if v is None else v for v in attenuation[key + "_err"]], float)
+            ax.errorbar(om[rel], y[rel], yerr=np.where(np.isfinite(e[rel]), e[rel], 0.0), fmt="o",
+                        ms=3, color="C0", capsize=2, label="reliable band, ± one standard error")
             if rel.any():
                 ax.axvspan(om[rel][0], om[rel][-1], color="0.93", zorder=0)
                 lo, hi = np.nanmin(y[rel] - np.nan_to_num(e[rel])), np.nanmax(y[rel] + np.nan_to_num(e[rel]))
@@ -113,7 +122,7 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
             cut = attenuation.get("omega_cutoff")
             if cut is not None and np.isfinite(cut):
                 ax.axvline(cut, color="C3", ls="-.", lw=1,
-                           label=r"lateral cutoff $2\pi c_t/W$")
+                           label=r"lateral cutoff $2\pi c_t/L_1$")
             if key == "c":
                 cl = front.get("c_l", {}).get("mean")
                 if cl:
@@ -122,9 +131,14 @@ def continuum_panels(front: Mapping, attenuation: Mapping | None, path, *,
                     ax.axhline(bulk, color="k", ls=":", lw=1, label=r"$c_{\ell\infty}$")
                 c0 = attenuation.get("c0")
                 if c0 is not None and np.isfinite(c0):
-                    ax.plot([0], [c0], "D", color="C3", label=f"c0 = {c0:.4g}")
+                    ax.plot([0], [c0], "D", color="C3", clip_on=False,
+                            label="$c_0$ = " + value_text(c0, attenuation.get("c0_err"), 4))
             ax.set_xlabel(r"$\omega$  [$\sqrt{E^*/\rho}/\bar d$]")
             ax.set_ylabel(ylabel)
             ax.legend(fontsize=8)
-    fig.tight_layout()
+    for a in fig.get_axes():
+        plain_log_ticks(a)
+    fig.suptitle(scene_title("the front against distance and the coherent signal's attenuation and "
+                             "phase velocity", scene=scene, pressure=front.get("pressure"), height=L,
+                             count=f"{front.get('n_signals')} packings"), fontsize=10)
     return save_figure(fig, path, pdf=pdf)

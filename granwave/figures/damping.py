@@ -7,12 +7,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .common import T_LABEL, need, new_figure, save_figure
+from .common import T_LABEL, need, new_figure, save_figure, scene_title
 
 if TYPE_CHECKING:
     from ..model import Signal
 
-DEM_F_LABEL = r"$\Delta F_{\rm top}/s$  ($s$: the kick's scale)"
+#: The DEM signal over the kick's scale s has the linear model's units (force per unit kick).
+DEM_F_LABEL = r"$\Delta F_{\rm top}/s$  [$E^*\bar d^{\,2}$]"
 
 
 def _reference_label(reference: Signal) -> str:
@@ -24,7 +25,8 @@ def _reference_label(reference: Signal) -> str:
 
 
 def damping_series(signals: Sequence[Signal], path, *, reference: Signal | None = None,
-                   labels: Sequence[str] | None = None, pdf: bool = False) -> list[Path]:
+                   labels: Sequence[str] | None = None, pdf: bool = False,
+                   scene: str | None = None) -> list[Path]:
     """Signals of one packing for several contact dampings ζ, side by side.
 
     Each signal needs ``attrs['damping']``; panels are ordered by ζ and share
@@ -41,8 +43,8 @@ def damping_series(signals: Sequence[Signal], path, *, reference: Signal | None 
                       "`propagate --method dem` signal)")
     order = sorted(signals, key=lambda s: float(s.attrs["damping"]))
     n = len(order)
-    ncol = min(n, 4)
-    nrow = math.ceil(n / ncol)
+    nrow = math.ceil(n / 5)          # up to five panels a row, rows as even as they go:
+    ncol = math.ceil(n / nrow)       # no empty slot beyond the last row's remainder
     fig = new_figure((3.6 * ncol + 0.5, 3.2 * nrow + 0.4))
     first = None
     for k, s in enumerate(order):
@@ -56,11 +58,18 @@ def damping_series(signals: Sequence[Signal], path, *, reference: Signal | None 
         ax.set_xlabel(T_LABEL)
         if k % ncol == 0:
             ax.set_ylabel(DEM_F_LABEL)
+        else:  # the shared scale: its numbers once a row
+            ax.tick_params(labelleft=False)
         if k == 0:
             ax.legend(fontsize=8)
-    h = order[0].attrs.get("height")
-    fig.suptitle("one packing, nonlinear DEM" + (f" (L = {float(h):.3g})" if h else "")
-                 + r"; $\Delta F_{\rm top}/s$ tends to the linear signal as the kick vanishes",
+    a = order[0].attrs
+    amp, scale = a.get("amplitude"), a.get("scale")
+    kick = (f"one kick amplitude: largest single-contact excursion {float(amp):g} mean overlaps"
+            if amp is not None else "one kick amplitude")
+    fig.suptitle(scene_title("nonlinear DEM kicks for several contact dampings ζ", scene=scene,
+                             pressure=a.get("pressure"), height=a.get("height"), count="one packing")
+                 + f"\n{kick}" + (f" (s = {float(scale):.3g})" if scale is not None else "")
+                 + r"; the DEM signal over $s$ has the linear model's normalization (dashed)",
                  fontsize=9)
     return save_figure(fig, path, pdf=pdf)
 

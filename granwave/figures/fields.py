@@ -9,7 +9,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .common import L_UNIT, T_LABEL, T_UNIT, need, new_figure, plane_axes, save_figure
+from .common import L_UNIT, T_LABEL, T_UNIT, need, new_figure, plane_axes, save_figure, scene_title
+
+#: The longest arrow (|u| at or above the panel's scale), in mean diameters: long enough to see
+#: on a 600-grain panel printed a few inches wide.
+ARROW_LENGTH = 2.0
 
 if TYPE_CHECKING:
     from ..analysis.pulse_field import RowFields
@@ -47,8 +51,8 @@ def _arrows(ax, position, u, has, dim, box=None, radius=None, title="", scale=No
     clip = np.minimum(1.0, scale / np.where(mag > 0, mag, 1.0))  # |arrow| ≤ scale
     q = ax.quiver(xy[has, 0], xy[has, 1], uv[has, 0] * clip[has] / scale,
                   uv[has, 1] * clip[has] / scale, np.minimum(mag[has] / scale, 1.0),
-                  cmap="viridis", angles="xy", scale_units="xy", scale=0.8, width=0.004,
-                  pivot="tail", zorder=2)
+                  cmap="viridis", angles="xy", scale_units="xy", scale=1.0 / ARROW_LENGTH,
+                  width=0.006, headwidth=3.5, headlength=4, pivot="tail", zorder=2)
     ax.set_aspect("equal")
     if box is not None:
         ax.set_xlim(0, box[ax0])
@@ -63,7 +67,7 @@ def _arrows(ax, position, u, has, dim, box=None, radius=None, title="", scale=No
 
 def displacement_snapshot(signal: Signal, path, *, packing: Packing | None = None,
                           index: Sequence[int] | None = None, fields: RowFields | None = None,
-                          pdf: bool = False) -> list[Path]:
+                          pdf: bool = False, scene: str | None = None) -> list[Path]:
     """The pulse: displacement snapshots as arrows, and (with ``fields``) the coherent front.
 
     Top row: the snapshots of a signal file (translational dofs), all on ONE
@@ -78,8 +82,9 @@ def displacement_snapshot(signal: Signal, path, *, packing: Packing | None = Non
     Bottom row, when ``fields`` (:func:`granwave.analysis.pulse_field.row_fields`)
     is given: the row-averaged energy per unit height E(y, t) on a log colour
     scale, and the low-pass row-averaged vertical displacement (modes below
-    the front's band), each with the arrival lines of the 10 % edge and of the
-    first peak (source at t = 0, detector at y = L).
+    the front's band), each with the detector's arrival times of the 10 % edge and of the
+    first peak marked at y = L (no line from the source: arrivals fitted against L have an
+    intercept t_i ≠ 0, docs/method.md §9).
     """
     need(signal.snapshot_time is not None and signal.snapshot_displacement is not None,
          "signal has no snapshots (rerun propagate with snapshot times)")
@@ -108,11 +113,14 @@ def displacement_snapshot(signal: Signal, path, *, packing: Packing | None = Non
                     title=f"t = {float(signal.snapshot_time[i]):.4g} " + T_UNIT)
     largest = max((float(np.max(np.linalg.norm(u[has][:, list(plane_axes(dim))], axis=1)))
                    for u, has in panels if has.any()), default=0.0)
-    fig.colorbar(q, ax=fig.axes, label=rf"$|u|/u_{{{ARROW_QUANTILE * 100:g}\%}}$, clipped at 1 "
+    fig.colorbar(q, ax=fig.axes[:ncol], label=rf"$|u|/u_{{{ARROW_QUANTILE * 100:g}\%}}$  [1], clipped at 1 "
                  "(one scale for all panels)", shrink=0.8)
-    fig.suptitle(f"displacement snapshots; full arrow = {scale:.3g} (kick units, the "
-                 f"{ARROW_QUANTILE * 100:g}th percentile of |u| over the panels; longer arrows, up to "
-                 f"{largest:.3g}, clipped), the same in every panel", fontsize=10)
+    a = signal.attrs
+    fig.suptitle(scene_title("the pulse: displacement snapshots", scene=scene, pressure=a.get("pressure"),
+                             height=a.get("height"), count="one packing")
+                 + f"\nfull arrow ({ARROW_LENGTH:g} d̄) = {scale:.3g} kick units, the "
+                 f"{ARROW_QUANTILE * 100:g}th percentile of |u| over the panels (longer ones, up to "
+                 f"{largest:.3g}, clipped): the same in every panel", fontsize=10)
     if fields is not None:
         _front_maps(fig, gs[1].subgridspec(1, 2), fields)
     return save_figure(fig, path, pdf=pdf)
@@ -162,28 +170,32 @@ def _front_maps(fig, grid, f: RowFields) -> None:
     top = float(np.nanmax(np.abs(d))) if np.isfinite(d).any() else 0.0
     top = top or 1.0
     m2 = ax2.pcolormesh(edges_t, edges_y, d / top, vmin=-1, vmax=1, cmap="RdBu_r", shading="flat")
-    fig.colorbar(m2, ax=ax2, label=r"$\bar u_y / \max|\bar u_y|$")
+    fig.colorbar(m2, ax=ax2, label=r"$\bar u_y / \max|\bar u_y|$  [1]")
     ax2.set_title(f"low-pass row-mean vertical displacement (ω < {a['omega_cut']:.3g}: "
                   f"{a['modes_below_cut']} of {a['modes_nonzero']} modes)", fontsize=10)
     for ax in (ax1, ax2):
-        for key, style, name in (("t_lead10", "--", "10% edge"), ("t_peak", "-", "first peak")):
+        for key, mk, name in (("t_lead10", "v", "10% edge"), ("t_peak", "o", "first peak")):
             t_arr = float(a[key])
-            ax.plot([0, t_arr], [0, L], style, color="cyan" if ax is ax1 else "k", lw=1.2,
-                    label=f"{name}: arrives at t = {t_arr:.3g}")
+            ax.plot([t_arr], [L], mk, color="cyan" if ax is ax1 else "k", ms=9, mec="k",
+                    clip_on=False, zorder=5, label=f"{name} at the detector: t = {t_arr:.3g}")
         ax.set_xlim(f.time[0], f.time[-1])
         ax.set_ylim(0, L)
         ax.set_xlabel(T_LABEL)
         ax.legend(fontsize=8, loc="lower right")
     ax1.set_ylabel(f"height y above the source  [{L_UNIT}]")
+    ax2.set_ylabel(f"height y  [{L_UNIT}]")
 
 
 def mode_shapes(vectors: np.ndarray, dof_grain, dof_axis, position, path, *,
                 omega: Sequence[float] | None = None, labels: Sequence[str] | None = None,
-                radius=None, box=None, pdf: bool = False) -> list[Path]:
+                radius=None, box=None, pdf: bool = False, scene: str | None = None,
+                pressure=None) -> list[Path]:
     """Selected eigenmodes as displacement arrows (translational part).
 
     ``vectors`` has one mode per column (n_dof, K); ``dof_grain``/``dof_axis``
-    come from the linear file, ``position`` (N, dim) from the packing.
+    come from the linear file, ``position`` (N, dim) from the packing. Each panel's full arrow
+    is the larger of the 90th percentile of its |φ| and 1/20 of its largest (a localized mode's
+    few large arrows clipped, the rest still visible).
     """
     vectors = np.asarray(vectors, float)
     if vectors.ndim == 1:
@@ -199,11 +211,18 @@ def mode_shapes(vectors: np.ndarray, dof_grain, dof_axis, position, path, *,
         u, has = _field(dof_grain, dof_axis, vectors[:, k], position.shape[0], dim)
         title = labels[k] if labels is not None else f"mode {k}"
         if omega is not None:
-            title += f", ω = {float(omega[k]):.4g} " + r"$\sqrt{E^*/\rho}/\bar d$"
-        q = _arrows(ax, position, u, has, dim, box, radius, title=title)
-    fig.colorbar(q, ax=fig.axes, label=r"$|\phi|/|\phi|_{\max}$", shrink=0.8)
-    fig.suptitle("mode shapes (translational part); each panel scaled to its largest arrow",
-                 fontsize=10)
+            title += f"\nω = {float(omega[k]):.4g} " + r"$\sqrt{E^*/\rho}/\bar d$"
+        mag = np.linalg.norm(u[has][:, list(plane_axes(dim))], axis=1)
+        mag = mag[mag > 0]
+        scale = max(float(np.quantile(mag, 0.9)), float(mag.max()) / 20) if mag.size else 1.0
+        q = _arrows(ax, position, u, has, dim, box, radius, title=title, scale=scale)
+    fig.colorbar(q, ax=fig.axes, label=r"$|\phi|$ over the panel's full arrow  [1], clipped at 1",
+                 shrink=0.8)
+    height = None if box is None else float(np.asarray(box)[dim - 1])
+    fig.suptitle(scene_title("mode shapes (translational part)", scene=scene, pressure=pressure,
+                             height=height, count="one packing")
+                 + "\nfull arrow: the larger of the panel's 90th percentile of |φ| and 1/20 of its "
+                 "largest", fontsize=10)
     return save_figure(fig, path, pdf=pdf)
 
 

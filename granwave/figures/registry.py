@@ -10,24 +10,29 @@ FIGURES: dict[str, str] = {
                "with the force and stiffness histograms",
     "roses": "Contact-direction roses for all, strong and weak contacts",
     "snapshot": "The pulse: displacement snapshots on one scale, the row-averaged energy E(y, t) "
-                "(log scale) and the low-pass displacement with the arrival lines",
+                "(log scale) and the low-pass displacement with the detector's arrival times",
     "signals": "Signals of several packings and the ensemble average ± rms",
-    "compare": "Signals of the frictional 2D, frictionless 2D and 3D systems (heights L in the legend)",
+    "compare": "Signals of the frictional 2D, frictionless 2D and 3D systems against t/L (heights L "
+               "in the legend), cut to a common range",
     "coherent": "Coherent part of the signal at several heights",
     "arrivals": "Arrival times of the 10% edge, the peak and the zero crossing against distance",
     "exponents": "Amplitude A(L) and width W(L): ensemble means ± standard error, fits, and local "
                  "exponents between distinct heights",
-    "speeds": "Sound speeds against pressure with the lattice theory and p^1/6, p^1/4 guides",
+    "exponents_chains": "Amplitude A(L) and width W(L) of the chains (L ≈ N), with local exponents "
+                        "(apart from the packings' figure: their L differ a hundredfold)",
+    "speeds": "Sound speeds c_tof, c_ℓ and c_t against pressure with the lattice theory and p^(1/6), "
+              "p^(1/4) guides",
     "spectrum": "Eigen-spectrum and the modes' weights a_n b_n in the signal",
     "modes": "Selected mode shapes",
-    "damping": "Nonlinear DEM signals for several contact dampings ζ, the linear model dashed",
+    "damping": "Nonlinear DEM signals for several contact dampings ζ at one kick amplitude, the linear "
+               "model dashed",
     "airy": "Chain signals against the Airy shape in the co-moving frame",
-    "continuum": "Continuum scene: local speeds and c_l against L, c_tof/c_l with the fit "
-                 "1 + a L^-beta, amplitude and width with local exponents, attenuation and phase "
-                 "velocity of the coherent signal",
-    "shear": "Shear scene: V_s, V_p (waves) and c_t, c_l (moduli) against pressure with fits, "
-             "G_max against p^1/3 and the measured exponent, V_p/V_s and the Poisson ratio from "
-             "waves and moduli, every arrival pick's V/c_t against distance",
+    "continuum": "Continuum scene: local speeds and c_ℓ against L, c_tof/c_ℓ with the fit "
+                 "1 + a L^−β, amplitude and width with local exponents, attenuation α(ω) and phase "
+                 "velocity c(ω) of the coherent signal in its reliable band",
+    "shear": "Shear scene: V_s, V_p (waves) and c_t, c_ℓ (moduli) against pressure with fits, "
+             "G_max against p^(1/3) and the measured exponent κ_G, V_p/V_s and the effective Poisson "
+             "ratio ν_eff from waves and moduli, every arrival pick's V/c_t against distance",
 }
 """Figure name (the ``granwave plot`` subcommand) -> caption used by the report."""
 

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .common import F_LABEL, T_LABEL, need, new_figure, save_figure, thin
+from .common import F_LABEL, T_LABEL, need, new_figure, save_figure, scene_title, thin
 
 if TYPE_CHECKING:
     from ..model import Signal
@@ -25,8 +25,12 @@ def _average(signals: Sequence[Signal]) -> dict | None:
     return {"time": e.time, "mean": e.mean, "rms": e.rms, "n": e.n_signals}
 
 
+def _heights(signals) -> list[float]:
+    return [float(s.attrs["height"]) for s in signals if "height" in s.attrs]
+
+
 def signals_overlay(signals: Sequence[Signal], path, *, ensemble: Mapping | None = None,
-                    max_traces: int = 30, pdf: bool = False) -> list[Path]:
+                    max_traces: int = 30, pdf: bool = False, scene: str | None = None) -> list[Path]:
     """Several packings' signals overlaid, and the ensemble average ± rms band.
 
     ``ensemble`` is a dict with ``time``, ``mean``, ``rms`` and ``n`` (an
@@ -54,10 +58,16 @@ def signals_overlay(signals: Sequence[Signal], path, *, ensemble: Mapping | None
         ax2.set_title("ensemble average" + (f" over {int(n)} packing{'s' if int(n) != 1 else ''}"
                                             if n is not None else ""))
         ax2.legend()
-    else:
-        ax2.text(0.5, 0.5, "one signal: no average", ha="center", transform=ax2.transAxes)
-    ax2.set_xlabel(T_LABEL)
-    ax2.set_ylabel(F_LABEL)
+    else:  # one signal: no average, so no second panel
+        fig.delaxes(ax2)
+        ax2 = None
+    if ax2 is not None:
+        ax2.set_xlabel(T_LABEL)
+        ax2.set_ylabel(F_LABEL)
+    n = len(signals)
+    fig.suptitle(scene_title("signals of several packings and their ensemble average", scene=scene,
+                             pressure=signals[0].attrs.get("pressure"), height=_heights(signals),
+                             count=f"{n} packing{'s' if n != 1 else ''}"))
     return save_figure(fig, path, pdf=pdf)
 
 
@@ -78,13 +88,15 @@ def signal_label(signal: Signal) -> str:
 
 def signal_comparison(signals: Sequence[Signal], path, *, labels: Sequence[str] | None = None,
                       speeds: Sequence[float | None] | None = None,
-                      pdf: bool = False) -> list[Path]:
+                      pdf: bool = False, scene: str | None = None) -> list[Path]:
     """Frictional 2D, frictionless 2D and 3D signals (any list) in one panel.
 
     Containers of different heights arrive at different times, so every label
-    gives its source–detector distance L. With a speed c for a signal (e.g. its
-    c_ℓ) its time axis is t c / L, so that a front travelling at c sits at 1;
-    without, raw time. Forces are normalized by each signal's largest |F|.
+    gives its source–detector distance L, and time is divided by L: with a speed c for
+    every signal (e.g. its c_ℓ) the axis is t c / L, so that a front travelling at c sits
+    at 1; without, t/L (the inverse of the speed at which a feature arrived). Every record is
+    cut to the shortest one's range of that axis, so that none runs on alone. Forces are
+    normalized by each signal's largest |F| before the cut.
     """
     need(len(signals) > 0, "no signals to compare")
     labels = list(labels) if labels is not None else [signal_label(s) for s in signals]
@@ -95,24 +107,29 @@ def signal_comparison(signals: Sequence[Signal], path, *, labels: Sequence[str] 
     need(all(scaled) or not any(scaled), "give a speed for every signal or for none")
     fig = new_figure((8, 5))
     ax = fig.add_subplot(1, 1, 1)
+    curves = []
     for s, lab, c in zip(signals, labels, speeds):
         f = np.asarray(s.force, float)
         peak = np.max(np.abs(f)) or 1.0
-        t = np.asarray(s.time, float)
         lab = with_height(lab, s)
         if c is not None:
             need(c > 0, "speeds must be positive")
-            t = t * c / s.height
+            x = np.asarray(s.time, float) * c / s.height
             lab = f"{lab} (c = {c:.3g})"
-        ax.plot(t, f / peak, lw=1.2, label=lab)
+        else:
+            x = np.asarray(s.time, float) / s.height
+        curves.append((x, f / peak, lab))
+    end = min(float(x[-1]) for x, _, _ in curves)  # the shortest record's end: no one runs on alone
+    for x, y, lab in curves:
+        keep = x <= end
+        ax.plot(x[keep], y[keep], lw=1.2, label=lab)
     ax.axhline(0, color="0.6", lw=0.5)
-    ax.set_xlabel(r"$t\,c/L$" if scaled[0] else T_LABEL)
-    if not scaled[0] and len({round(float(x.height), 1) for x in signals}) > 1:
-        ax.set_title("signals of different systems (different heights L: compare at t ≈ L/c)")
-    ax.set_ylabel(r"$F_{\rm sig}/\max|F_{\rm sig}|$")
+    ax.set_xlabel(r"$t\,c/L$  [1]" if scaled[0] else r"$t/L$  [$1/\sqrt{E^*/\rho}$]")
+    ax.set_ylabel(r"$F_{\rm sig}/\max|F_{\rm sig}|$  [1]")
     ax.legend()
-    if not ax.get_title():
-        ax.set_title("signals of different systems")
+    ax.set_title(scene_title("signals of different systems, time over distance", scene=scene,
+                             pressure=signals[0].attrs.get("pressure"), height=_heights(signals),
+                             count="one packing each", width=90), fontsize=9)
     return save_figure(fig, path, pdf=pdf)
 
 
@@ -121,7 +138,8 @@ def with_height(label: str, signal: Signal) -> str:
     return f"{label}, L = {signal.height:.3g}"
 
 
-def coherent_heights(series: Sequence[Mapping], path, *, pdf: bool = False) -> list[Path]:
+def coherent_heights(series: Sequence[Mapping], path, *, pdf: bool = False,
+                     scene: str | None = None, pressure=None) -> list[Path]:
     """The coherent (ensemble-averaged) signal at several heights.
 
     ``series``: dicts with ``height``, ``time``, ``mean`` and optionally ``rms``
@@ -150,8 +168,16 @@ def coherent_heights(series: Sequence[Mapping], path, *, pdf: bool = False) -> l
     ax1.set_ylabel(r"$\langle F_{\rm sig}\rangle$  [$E^*\bar d^{\,2}$]")
     ax1.set_title("coherent part (ensemble average, band ± rms)")
     ax2.set_xlabel(r"$t/L$  [$1/\sqrt{E^*/\rho}$]")
-    ax2.set_ylabel(r"$\langle F_{\rm sig}\rangle/\max|\langle F_{\rm sig}\rangle|$")
+    ax2.set_ylabel(r"$\langle F_{\rm sig}\rangle/\max|\langle F_{\rm sig}\rangle|$  [1]")
     ax2.set_title("scaled by height and peak")
     ax1.legend(fontsize=8)
+    if pressure is None:
+        pressure = next((s.get("attrs", {}).get("pressure") for s in series
+                         if isinstance(s.get("attrs"), Mapping) and s["attrs"].get("pressure") is not None), None)
+    counts = sorted({int(s["n"]) for s in series if s.get("n") is not None})
+    fig.suptitle(scene_title("the coherent part of the signal at several heights", scene=scene,
+                             pressure=pressure, height=[float(s["height"]) for s in series],
+                             count=("–".join(map(str, counts[::max(len(counts) - 1, 1)])) + " packings per height")
+                             if counts else None))
     return save_figure(fig, path, pdf=pdf)
 

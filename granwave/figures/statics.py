@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..analysis.statics import branch_vectors
-from .common import L_UNIT, need, new_figure, plane_axes, save_figure
+from .common import L_UNIT, need, new_figure, plane_axes, save_figure, scene_title
 
 if TYPE_CHECKING:
     from ..model import Packing
@@ -98,8 +98,14 @@ def _weights(c, walls: bool):
 
 
 # ====================================================================== statics
+def _title(what: str, packing: Packing, scene: str | None) -> str:
+    a = packing.attrs
+    return scene_title(what, scene=scene, pressure=a.get("pressure"), height=packing.height,
+                       count=f"{packing.n_grains} grains, one packing")
+
+
 def force_network(packing: Packing, path, *, pdf: bool = False, walls: bool = False,
-                  bins: int = 40, max_width: float = 4.0) -> list[Path]:
+                  bins: int = 40, max_width: float = 4.0, scene: str | None = None) -> list[Path]:
     """Force network beside stiffness network, and their histograms (docs/method.md §4).
 
     Line widths are proportional to the normal force (left) and the normal
@@ -111,10 +117,8 @@ def force_network(packing: Packing, path, *, pdf: bool = False, walls: bool = Fa
     need(len(c) > 0, "packing has no force-carrying contacts")
     fig = new_figure((12, 10))
     gs = fig.add_gridspec(2, 2, height_ratios=[1.6, 1])
-    p = packing.attrs.get("pressure")
-    ptxt = f" (p = {float(p):.3g} E*)" if p is not None else ""
     _network(fig.add_subplot(gs[0, 0]), packing, c.force_normal, "C3",
-             f"force network{ptxt}: width ∝ $F_n$", max_width)
+             "force network: width ∝ $F_n$", max_width)
     _network(fig.add_subplot(gs[0, 1]), packing, c.stiffness_normal, "C0",
              r"stiffness network: width ∝ $k_n$", max_width)
     keep = _weights(c, walls)
@@ -129,11 +133,12 @@ def force_network(packing: Packing, path, *, pdf: bool = False, walls: bool = Fa
                 label=r"$F_n/\langle F_n\rangle$")
         ax.hist(kr, bins=edges, density=True, histtype="step", lw=1.5, color="C0",
                 label=r"$k_n/\langle k_n\rangle$")
-        ax.set_xlabel(r"$F_n/\langle F_n\rangle$,  $k_n/\langle k_n\rangle$")
-        ax.set_ylabel("probability density")
+        ax.set_xlabel(r"$F_n/\langle F_n\rangle$,  $k_n/\langle k_n\rangle$  [1]")
+        ax.set_ylabel("probability density  [1]")
         if log:
             ax.set_yscale("log")
         ax.legend(title=f"{f.size} contacts")
+    fig.suptitle(_title("force and stiffness networks", packing, scene))
     return save_figure(fig, path, pdf=pdf)
 
 
@@ -149,12 +154,13 @@ def contact_angles(packing: Packing, *, walls: bool = False):
 
 
 def contact_roses(packing: Packing, path, *, pdf: bool = False, walls: bool = False,
-                  bins: int = 36) -> list[Path]:
+                  bins: int = 36, scene: str | None = None) -> list[Path]:
     """Polar histograms of contact directions: all, strong (F > ⟨F⟩) and weak contacts.
 
     Each contact counts with n and −n (the rose is centrally symmetric); radii
-    are probability densities per radian (isotropic value 1/2π). In 3D the
-    angle is that of the normal's projection on the x–z plane.
+    are probability densities per radian (isotropic value 1/2π), on one radial scale in all
+    three panels, its tick labels on a white ground at 22.5°. In 3D the angle is that of the
+    normal's projection on the x–z plane.
     """
     need(len(packing.contacts) > 0, "packing has no force-carrying contacts")
     theta, strong = contact_angles(packing, walls=walls)
@@ -164,19 +170,28 @@ def contact_roses(packing: Packing, path, *, pdf: bool = False, walls: bool = Fa
     width = edges[1] - edges[0]
     sets = [("all contacts", np.ones_like(strong)), ("strong: $F_n>\\langle F_n\\rangle$", strong),
             ("weak: $F_n\\leq\\langle F_n\\rangle$", ~strong)]
-    for k, (title, mask) in enumerate(sets):
-        ax = fig.add_subplot(1, 3, k + 1, projection="polar")
+    hists = []
+    for title, mask in sets:
         t = theta[mask]
         both = np.concatenate([t, np.angle(np.exp(1j * (t + np.pi)))])
         h, _ = np.histogram(both, bins=edges, density=True) if both.size else (np.zeros(bins), None)
+        hists.append((t, h))
+    top = 1.1 * max(float(np.max(h)) for _, h in hists)  # one radial scale for the three panels
+    for k, ((title, _), (t, h)) in enumerate(zip(sets, hists)):
+        ax = fig.add_subplot(1, 3, k + 1, projection="polar")
         ax.bar(edges[:-1] + width / 2, h, width=width, color=f"C{k}", alpha=0.75, edgecolor="k",
                lw=0.3)
         ax.plot(np.linspace(0, 2 * np.pi, 200), np.full(200, 1 / (2 * np.pi)), "k--", lw=0.8)
+        ax.set_ylim(0, top)
+        ax.set_rlabel_position(22.5)
+        ax.tick_params(axis="y", labelsize=7)
+        for lab in ax.get_yticklabels():  # readable over the bars
+            lab.set_bbox({"facecolor": "white", "alpha": 0.8, "edgecolor": "none", "pad": 0.5})
         if t.size:
             F2 = np.mean(np.sin(t) ** 2)
-            title += f"\n{t.size} contacts, $\\langle n_y^2\\rangle$ = {F2:.3f}"
+            title += f"\n{t.size} contacts, F2 = $\\langle n_y^2\\rangle$ = {F2:.3f}"
         ax.set_title(title, fontsize=10)
-    fig.suptitle("contact directions (density per radian; dashed: isotropic 1/2π; "
-                 "angle from the horizontal axis)")
+    fig.suptitle(_title("contact directions: density per radian [1/rad] (dashed: isotropic 1/2π; "
+                        "angle from the horizontal)", packing, scene))
     return save_figure(fig, path, pdf=pdf)
 

@@ -26,11 +26,14 @@ def _kind(obj) -> str | None:
 
 def continuum_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, dict]:
     """{scene: {"front": obj, "attenuation": obj}}: the scene is the file's folder name."""
+    from ..analysis.renamed_keys import HEIGHTS, current_keys
+
     out: dict[str, dict] = {}
     for path, obj, _ in items:
         kind = _kind(obj)
-        if kind:
-            out.setdefault(Path(path).parent.name, {})[kind] = obj
+        if kind:  # the front's local exponents: chi_eff (alpha_eff in older files)
+            out.setdefault(Path(path).parent.name, {})[kind] = current_keys(obj, HEIGHTS) \
+                if kind == "front" else obj
     return out
 
 
@@ -89,7 +92,7 @@ def alpha_cell(att: Mapping, i: int) -> str:
 
 def q_cell(att: Mapping, i: int) -> str:
     """Q = ω/(2 α c_g) at the i-th frequency: an estimate only where α is resolved; else the
-    lower bound ω/(2 α_upper c_g) from α's upper bound α + 2 errors."""
+    lower bound ω/(2 (α + 2σ) c_g) from α's upper bound α + 2σ (σ its standard error)."""
     a, ea = num(att["alpha"][i]), num(att["alpha_err"][i])
     if resolved(a, ea):
         return fmt_positive(att["Q"][i], att["Q_err"][i])
@@ -245,13 +248,13 @@ def cutoff_sentence(att: Mapping) -> str:
     """Where the column's first lateral shear cutoff lies against the reliable band."""
     cut = att.get("omega_cutoff")
     if cut is None or not math.isfinite(num(cut)):
-        return ("The column's first lateral shear cutoff 2π c_t/W was not given: whether α(ω) and "
+        return ("The column's first lateral shear cutoff 2π c_t/L1 was not given: whether α(ω) and "
                 "c(ω) are the medium's or the waveguide's is not checked here.")
     band = att.get("band") or [math.nan, math.nan]
     where = ("the reliable band lies below it: α and c there are the medium's"
              if num(band[1]) <= num(cut) else
              "the reliable band reaches above it: there α and c are the waveguide's, not the medium's")
-    return f"First lateral shear cutoff 2π c_t/W = {fmt(cut, digits=3)} √(E*/ρ)/d̄: {where}."
+    return f"First lateral shear cutoff 2π c_t/L1 = {fmt(cut, digits=3)} √(E*/ρ)/d̄: {where}."
 
 
 #: The report's words for the c_ℓ an analysis used (``c_l_kind`` of `analyze continuum`).
@@ -314,8 +317,11 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
           "consecutive heights (group means), at the geometric mean height; the apparent speed is "
           "L/t of each packing. Error bars: one standard error over packings (docs/continuum.md).",
           ""]
+    from ..analysis.renamed_keys import HEIGHTS, current_keys
+
     for scene, d in sorted(scenes.items()):
         front, att = d.get("front"), d.get("attenuation")
+        front = current_keys(front, HEIGHTS) if front else front  # chi_eff: alpha_eff before
         md += [f"### {scene}", ""]
         if front:
             cl, ct = front.get("c_l", {}), front.get("c_t", {})
@@ -339,7 +345,7 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
                           f"{fmt(per['amplitude'][i], per['amplitude_sem'][i])} | "
                           f"{fmt(per['width'][i], per['width_sem'][i])} |")
             loc = front["local"]
-            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | δ_eff |",
+            md += ["", "| L mid (d̄) | c_tof | c_peak | c_zero | c_tof/c_ℓ | γ_eff | χ_eff |",
                    "|---|---|---|---|---|---|---|"]
             for i in range(len(loc["height"])):
                 md.append(f"| {fmt(loc['height'][i])} | {fmt(loc['c_tof'][i], loc['c_tof_err'][i])} | "
@@ -347,7 +353,7 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
                           f"{fmt(loc['c_zero'][i], loc['c_zero_err'][i])} | "
                           f"{fmt(loc['ratio'][i], loc['ratio_err'][i])} | "
                           f"{fmt(loc['gamma_eff'][i], loc['gamma_eff_err'][i], 3)} | "
-                          f"{fmt(loc['alpha_eff'][i], loc['alpha_eff_err'][i], 3)} |")
+                          f"{fmt(loc['chi_eff'][i], loc['chi_eff_err'][i], 3)} |")
             app = front.get("approach", {})
             md += ["", f"Approach of the local c_tof/c_ℓ: {app.get('model', '')} fitted over "
                    f"{fmt_count(app.get('n'))} distances: β = "
@@ -433,7 +439,7 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
             md += [f"**{w}**" for w in _warnings(att, ("packings",))]
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
                    "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
-                   "and Q then a lower bound, Q > ω/(2 α_upper c_g); where that interval spans more "
+                   "and Q then a lower bound, Q > ω/(2 (α + 2σ) c_g); where that interval spans more "
                    "than a decade only the interval is shown, for α and for Q:", "",
                    *(["| ω | α (1/d̄) | Q | c(ω) | c_g(ω) |", "|---|---|---|---|---|"]
                      if "c_group" in att else ["| ω | α (1/d̄) | Q | c(ω) |", "|---|---|---|---|"])]
@@ -469,7 +475,7 @@ def _at(att: Mapping, key: str, omega: float) -> tuple[float, float]:
 def width_comparison(scenes: Mapping[str, Mapping], dims: Mapping[str, int], points: int = 5) -> list[str]:
     """Markdown lines comparing c(ω) and α(ω) of scenes of one dimension (``dims``: scene →
     2 or 3; scenes not in it are left out) at one pressure whose columns differ in width (so in
-    their first lateral cutoff 2π c_t/W), at ``points`` frequencies spread over the overlap of
+    their first lateral cutoff 2π c_t/L1), at ``points`` frequencies spread over the overlap of
     their reliable bands: each scene's value against the widest column's, in units of their
     combined standard error. Nothing unless two such scenes have both analyses."""
     groups: dict[tuple[int, float], list[tuple[str, Mapping]]] = {}

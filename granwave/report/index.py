@@ -28,28 +28,16 @@ from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from ..analysis.renamed_keys import HEIGHTS, SWEEP, current_keys
 from ..errors import InputError
 from ..io.files import atomic_text
+from . import findings as FI
 from . import tables as T
-from .html import markdown_to_html
 from .continuum import continuum_inputs, continuum_section
-from .shear import shear_inputs, shear_section
+from .html import markdown_to_html
 from .inputs import Scenes, scene_of
-
-
-SYMBOLS = [
-    "Symbols (one per quantity on this page; the JSON keys of the inputs in code font):", "",
-    "| symbol | quantity |", "|---|---|",
-    "| p, L, n | pressure (E*); container height or source–detector distance (d̄); a count |",
-    "| ν | pressure exponent of a speed, c ∝ p^ν (`alpha_*` of `pressure-sweep`) |",
-    "| γ, δ | amplitude and width exponents of the front, \\|A\\| ∝ L^−γ, W ∝ L^δ "
-    "(`gamma`, `alpha` of `analyze heights`) |",
-    "| α, Q | attenuation of the coherent signal, \\|S\\| ∝ e^−αL (1/d̄), and quality "
-    "factor Q = ω/(2αc_g), c_g = dω/dk the group velocity |",
-    "| β, a, L* | approach of c_tof/c_ℓ to 1 with distance (continuum section) |",
-    "| μ, ζ, Φ2 | friction coefficient, contact damping (fraction of critical), area fraction |",
-    "",
-]
+from .shear import shear_inputs, shear_section
+from .symbols import symbol_table
 
 
 def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
@@ -59,15 +47,21 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
                  config: Mapping | None = None, config_path: str | None = None,
                  title: str = "granwave report", damping: Sequence[Mapping] = (),
                  continuum: Sequence[tuple[Path, object, str | None]] = (),
-                 shear: Sequence[tuple[Path, object, str | None]] = ()) -> str:
+                 shear: Sequence[tuple[Path, object, str | None]] = (),
+                 timings: Sequence[Path] = ()) -> str:
     """The report as Markdown (sources: module docstring).
 
     ``summaries``, ``heights``, ``sweeps``: (path, object, scene guess) from
     :func:`granwave.report.collect_json`; ``damping``: rows of
     ``granwave analyze damping --json``; ``continuum``: (path, object, guess) of the
     continuum scenes' analyses (:mod:`granwave.report.continuum`); ``shear``: the shear scenes'
-    analyses (:mod:`granwave.report.shear`). Refuses (InputError) a call with no
+    analyses (:mod:`granwave.report.shear`); ``timings``: the workflow's timing tables
+    (results/timings/*.tsv) for the run's CPU time. Refuses (InputError) a call with no
     input at all: an empty report would look like a finished study.
+
+    The page: a header, the findings (:mod:`granwave.report.findings`), the symbol table
+    (:mod:`granwave.report.symbols`), then one section per entry of ``sections`` below, each
+    under its anchor (the findings link to it). A new section is one more entry.
     """
     from .. import __version__
     from ..analysis.sweep import validate_summary
@@ -87,7 +81,9 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     for path, obj, guess in heights:
         if not isinstance(obj, Mapping):
             raise InputError(f"{path}: expected an `analyze heights --json` object")
-        hts.append({**obj, "_scene": scene_of(path, obj, guess), "_path": str(path)})
+        hts.append({**current_keys(obj, HEIGHTS), "_scene": scene_of(path, obj, guess),
+                    "_path": str(path)})
+    sweeps = [(path, current_keys(obj, SWEEP), guess) for path, obj, guess in sweeps]
     scenes = Scenes(config, sums)
 
     name = (config or {}).get("name") or (Path(config_path).stem if config_path else "(none given)")
@@ -99,9 +95,10 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
            "- units (docs/method.md §1): lengths d̄, pressures and moduli E*, forces E* d̄², "
            "speeds √(E*/ρ), times d̄/√(E*/ρ); every table says which apply",
            "- numbers: value ± error with the error to 1–2 significant digits and the value "
-           "rounded to match; counts as integers; a positive quantity whose 95 % interval reaches "
-           "0 or spans more than a decade is shown as a bound, not an estimate", ""]
-    md += SYMBOLS
+           "rounded to match; counts as integers; a quantity over fewer than 5 packings as the "
+           "range of their values (min … max), not a ± from so few; a positive quantity whose "
+           "95 % interval reaches 0 or spans more than a decade as a bound, not an estimate; "
+           "every table says which error its ± is", ""]
 
     per_scene: dict[str, list] = defaultdict(list)
     for s in sums:
@@ -112,29 +109,57 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         if h.get("pressure") is not None:
             h_by_scene[h["_scene"]][T.pressure_key(h["pressure"])] = h
 
-    md += T.statics_section(groups, scenes)
-    md += T.moduli_section(groups, scenes)
-    md += T.speeds_section(groups, h_by_scene, scenes)
-    md += T.exponents_section(hts, scenes, sorted(per_scene))
-    md += T.lattice_section(h_by_scene, scenes)
-    if damping:
-        md += T.damping_section(damping)
     dims = {name: int(spec.get("dim", 2)) for name, spec in ((config or {}).get("continuum") or {}).items()
             if isinstance(spec, Mapping)}
-    md += continuum_section(continuum_inputs(continuum), dims)
-    md += shear_section(shear_inputs(shear))
-    if sweeps:
-        md += ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
-               "The fitted exponents ν (c ∝ p^ν) of each sweep file, as computed by `pressure-sweep` "
-               "(through the per-pressure means of the summaries; dimensionless, ± one standard "
-               "error; pressures: how many the fit used).", ""]
-        for path, obj, _ in sweeps:
-            label = obj.get("scene") if isinstance(obj, Mapping) and obj.get("scene") else Path(path).stem
-            md += [f"### {label}", ""] + T.sweep_table(obj)
-    md += T.provenance_section(groups) if groups else []
-    md += ["## Figures", ""]
+    cont, shr = continuum_inputs(continuum), shear_inputs(shear)
+    sections = [  # (anchor, lines): the page's sections in order
+        ("statics", T.statics_section(groups, scenes)),
+        ("moduli", T.moduli_section(groups, scenes)),
+        ("speeds", T.speeds_section(groups, h_by_scene, scenes)),
+        ("exponents", T.exponents_section(hts, scenes, sorted(per_scene))),
+        ("lattices", T.lattice_section(h_by_scene, scenes)),
+        ("damping", T.damping_section(damping) if damping else []),
+        ("continuum", continuum_section(cont, dims)),
+        ("shear", shear_section(shr)),
+        ("sweeps", _sweeps_section(sweeps)),
+        ("provenance", T.provenance_section(groups) if groups else []),
+        ("figures", _figures_section(figures, out_dir, caption_for)),
+    ]
+    rows = (FI.pressure_rows(sweeps, groups) + FI.front_rows(h_by_scene, scenes, "exponents")
+            + FI.lattice_rows(h_by_scene, scenes, "lattices")
+            + FI.effective_medium_rows(groups, scenes, "moduli", config)
+            + FI.continuum_rows(cont, "continuum") + FI.shear_rows(shr, "shear"))
+    md += FI.findings_section(rows, FI.what_was_run(sums, scenes, timings, continuum=cont, shear=shr,
+                                                      damping=damping))
+    md += ['<a id="symbols"></a>', "", "## Symbols", "",
+           "One symbol per quantity, on this page and in the figures; the JSON keys of the inputs "
+           "in code font (renamed keys: docs/decisions/0038-one-symbol-per-quantity.md).", ""]
+    md += symbol_table()
+    for anchor, lines in sections:
+        if lines:
+            md += [f'<a id="{anchor}"></a>', ""] + lines
+    return "\n".join(md).rstrip() + "\n"
+
+
+def _sweeps_section(sweeps) -> list[str]:
+    if not sweeps:
+        return []
+    md = ["## Pressure-sweep fits (`granwave pressure-sweep`)", "",
+          "The fitted exponents κ (c ∝ p^κ) of each sweep file, as computed by `pressure-sweep` "
+          "through the per-pressure means of the summaries — every height of a pressure pooled, "
+          "so they differ from the per-height fits of the speeds section (dimensionless, ± one "
+          "standard error of the fitted slope; pressures: how many the fit used; c_ℓ the whole "
+          "cell's).", ""]
+    for path, obj, _ in sweeps:
+        label = obj.get("scene") if isinstance(obj, Mapping) and obj.get("scene") else Path(path).stem
+        md += [f"### {label}", ""] + T.sweep_table(obj)
+    return md
+
+
+def _figures_section(figures, out_dir, caption_for) -> list[str]:
+    md = ["## Figures", ""]
     if not figures:
-        md += ["No figures given.", ""]
+        return md + ["No figures given.", ""]
     for f in figures:
         rel = Path(os.path.relpath(f, out_dir)).as_posix()
         cap = caption_for(f)
@@ -142,7 +167,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         twin = Path(f).with_suffix(".pdf")
         if twin.exists() and twin != Path(f):
             md += [f"[PDF]({Path(os.path.relpath(twin, out_dir)).as_posix()})", ""]
-    return "\n".join(md).rstrip() + "\n"
+    return md
 
 
 def _plain(text) -> str:

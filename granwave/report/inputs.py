@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.renamed_keys import HEIGHTS, current_keys
 from ..errors import InputError
 from ..io.files import load_json
 
@@ -79,6 +80,7 @@ def heights_arrays(obj: Mapping, *, source="heights") -> dict:
     """
     if not isinstance(obj, Mapping):
         raise InputError(f"{source}: expected a JSON object from `granwave analyze heights --json`")
+    obj = current_keys(obj, HEIGHTS)  # files written before the renames (alpha: chi)
     keys = ("t_lead10", "t_peak", "t_zero", "amplitude", "width")
     if isinstance(obj.get("samples"), list) and obj["samples"]:
         rows = obj["samples"]
@@ -111,10 +113,11 @@ def heights_means(obj: Mapping, *, source="heights") -> dict:
     = groups of nearly equal L, docs/summaries.md): ``height``, ``count``,
     ``amplitude``, ``width`` (means) and ``amplitude_sem``, ``width_sem``
     (std/sqrt(count); NaN for one packing), plus the analysis's fitted
-    ``gamma``, ``alpha`` (with ``_err``) and prefactors.
+    ``gamma``, ``chi`` (with ``_err``; ``alpha`` in older files) and prefactors.
     """
     if not isinstance(obj, Mapping) or not isinstance(obj.get("per_height"), Mapping):
         raise InputError(f"{source}: no per-height table (expected `granwave analyze heights --json`)")
+    obj = current_keys(obj, HEIGHTS)
     ph = obj["per_height"]
     out = {"height": np.asarray(ph.get("height"), float)}
     if out["height"].size == 0:
@@ -128,8 +131,8 @@ def heights_means(obj: Mapping, *, source="heights") -> dict:
         std = np.asarray([num(x) for x in ph.get(k + "_std") or [math.nan] * count.size], float)
         with np.errstate(invalid="ignore", divide="ignore"):
             out[k + "_sem"] = np.where(count > 1, std / np.sqrt(count), math.nan)
-    for k in ("gamma", "gamma_err", "alpha", "alpha_err", "amplitude_prefactor", "width_prefactor",
-              "n_signals", "pressure"):
+    for k in ("gamma", "gamma_err", "chi", "chi_err", "amplitude_prefactor", "width_prefactor",
+              "n_signals", "pressure", "ic"):
         if obj.get(k) is not None:
             out[k] = obj[k]
     return out

@@ -34,7 +34,7 @@ def chain_series(n_balls: Sequence[int], *, ic: str = "A") -> dict:
 
 
 def chain_exact_exponents(ic: str = "A", *, n_balls: tuple[int, int] = (10**6, 8 * 10**6)) -> dict:
-    """γ and δ (key ``alpha``, W ∝ L^δ) of the chain from the Airy asymptote (docs/method.md §12).
+    """γ and χ (key ``chi``, W ∝ L^χ) of the chain from the Airy asymptote (docs/method.md §12).
 
     The front features of :func:`granwave.theory.chain_wall_force_airy` at two
     very large N give d log A / d log L and d log W / d log L; the corrections
@@ -50,4 +50,4 @@ def chain_exact_exponents(ic: str = "A", *, n_balls: tuple[int, int] = (10**6, 8
         feats.append(front_features(t, chain_wall_force_airy(t, n, ic=ic)))
     lr = math.log((n_balls[1] + 1) / (n_balls[0] + 1))
     return {"gamma": -math.log(feats[1].amplitude / feats[0].amplitude) / lr,
-            "alpha": math.log(feats[1].width / feats[0].width) / lr}
+            "chi": math.log(feats[1].width / feats[0].width) / lr}

@@ -1,4 +1,4 @@
-"""The report's shear section (docs/shear.md, "The shear scene"): V_s(p), V_p(p), G_max(p)
+"""The report's shear section (docs/shear.md, "The shear scene"): Vstat_cell(p), V_p(p), G_max(p)
 against p^(1/3) and the measured exponent, V_p/V_s and the Poisson ratio from waves and from
 the moduli, and the pick table (which pick lands within 5 % of c_t at which distance and
 wavelength).
@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .numbers import MISSING, fmt, fmt_count, num
+from .numbers import MISSING, fmt, fmt_count, fmt_positive, fmt_range, num
 
 
 def _is_analysis(obj) -> bool:
@@ -37,8 +37,18 @@ def shear_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, 
 FASTEST_P = 1.1
 
 
-def _s(stat: Mapping | None, digits: int = 4) -> str:
+def stat_cell(stat: Mapping | None, digits: int = 4) -> str:
+    """mean ± standard error over 5 packings or more; over fewer the range of the values (two
+    values are exactly mean ± sem) or, where it cannot be had, the mean without a ±."""
     stat = stat or {}
+    n = stat.get("n")
+    if n is not None and num(n) < 5:
+        if stat.get("min") is not None and stat.get("max") is not None:
+            return fmt_range(stat["min"], stat["max"])
+        m, e = num(stat.get("mean")), num(stat.get("sem"))
+        if num(n) == 2 and math.isfinite(e):
+            return fmt_range(m - e, m + e)
+        return fmt(m, None, digits) + (f" (mean of {fmt_count(n)})" if num(n) > 1 else "")
     return fmt(stat.get("mean"), stat.get("sem"), digits)
 
 
@@ -69,7 +79,7 @@ def pick_table(analysis: Mapping) -> list[str]:
         ok = ", ".join(f"`{p}`" for p in row.get("within_5pct", [])) or "none"
         lines.append(f"| {num(row['pressure']):g} | {num(row['wavelength']):g} | "
                      f"{fmt(row.get('height'), digits=3)} | {fmt_count(row.get('n'))} | "
-                     f"{_s(ratio.get(num(row['pressure'])), 3)} | "
+                     f"{stat_cell(ratio.get(num(row['pressure'])), 3)} | "
                      + " | ".join(cells) + f" | {ok} |")
     return lines
 
@@ -109,55 +119,64 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
         md += ["| p (E*) | n | V_s | c_t | V_s/c_t | V_p | c_ℓ | V_p/c_ℓ | G_max | G (moduli) |",
                "|---|---|---|---|---|---|---|---|---|---|"]
         for r in a["pressures"]:
-            md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {_s(r['V_s'])} | {_s(r['c_t'])} | "
-                      f"{_s(r['V_s_over_c_t'], 3)} | {_s(r['V_p'])} | {_s(r['c_l'])} | "
-                      f"{_s(r['V_p_over_c_l'], 3)} | {_s(r['G_max'])} | {_s(r['G_moduli'])} |")
+            md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {stat_cell(r['V_s'])} | {stat_cell(r['c_t'])} | "
+                      f"{stat_cell(r['V_s_over_c_t'], 3)} | {stat_cell(r['V_p'])} | {stat_cell(r['c_l'])} | "
+                      f"{stat_cell(r['V_p_over_c_l'], 3)} | {stat_cell(r['G_max'])} | {stat_cell(r['G_moduli'])} |")
         fast = [r for r in a["pressures"] if num((r.get("V_p_over_c_l") or {}).get("mean")) > FASTEST_P]
         if fast:
             md += ["", f"**V_p above {FASTEST_P:g} c_ℓ at p = "
                    + ", ".join(f"{num(r['pressure']):g}" for r in fast)
                    + "**: faster than the packing's compressional waves, so the pick locked onto an "
                    "earlier cycle of the pulse (V = c/(1 − λ/L) for one period; docs/shear.md); V_p, "
-                   "V_p/V_s and ν (waves) of those rows are not measurements."]
+                   "V_p/V_s and ν_eff (waves) of those rows are not measurements."]
         f = a.get("fits", {})
-        md += ["", "Pressure exponents (c ∝ p^ν; G ∝ p^n):", "",
+        md += ["", "Pressure exponents (c ∝ p^κ, G ∝ p^κ_G; ± one standard error of the fitted slope):", "",
                "| quantity | from waves | from the moduli |", "|---|---|---|",
-               f"| shear speed | ν_s = {_fit(f.get('V_s'))} | {_fit(f.get('c_t'))} |",
-               f"| compressional speed | ν_p = {_fit(f.get('V_p'))} | {_fit(f.get('c_l'))} |",
-               f"| G_max | n = {_fit(f.get('G_max'))} | {_fit(f.get('G_moduli'))} |", ""]
+               f"| shear speed | κ_s = {_fit(f.get('V_s'))} | {_fit(f.get('c_t'))} |",
+               f"| compressional speed | κ_p = {_fit(f.get('V_p'))} | {_fit(f.get('c_l'))} |",
+               f"| G_max | κ_G = {_fit(f.get('G_max'))} | {_fit(f.get('G_moduli'))} |", ""]
         g = a.get("G_max", {})
         hz, free = g.get("hertz"), g.get("free")
         if hz and free:
             dev = num(g.get("deviation_from_hertz"))
             md += [f"G_max against p^(1/3) (Hertz–Mindlin effective medium): G_max = "
-                   f"{fmt(hz['prefactor'], hz.get('prefactor_err'), 3)} p^(1/3), rms log residual "
-                   f"{fmt(hz['rms_log_residual'], digits=2)}; with the measured exponent "
-                   f"n = {_fit(free)}: G_max = {fmt(free['prefactor'], free.get('prefactor_err'), 3)} "
-                   f"p^n, rms log residual {fmt(free['rms_log_residual'], digits=2)}"
-                   + (f"; n − 1/3 = {fmt(dev, digits=2)} standard errors." if math.isfinite(dev) else "."),
+                   f"{fmt_positive(hz['prefactor'], hz.get('prefactor_err'), digits=3)} × p^(1/3), rms log "
+                   f"residual {fmt(hz['rms_log_residual'], digits=2)}; with the measured exponent "
+                   f"κ_G = {_fit(free)}: G_max prefactor "
+                   f"{fmt_positive(free['prefactor'], free.get('prefactor_err'), digits=3)} (× p^κ_G), "
+                   f"rms log residual {fmt(free['rms_log_residual'], digits=2)}"
+                   + (f"; κ_G − 1/3 = {fmt(dev, digits=2)} standard errors." if math.isfinite(dev) else "."),
                    ""]
         si = a.get("si")
         if si:
+            if si.get("poisson_mismatch"):
+                md += [f"**Not {si['material']} beads:** {si['poisson_mismatch']}. The table below "
+                       f"scales these packings with {si['material']}'s E* and ρ only.", ""]
+            if dim == 2:
+                md += ["2D moduli are those of a layer one d̄ thick (docs/units.md, the \"3D pressure\" "
+                       "convention): × d̄ gives the modulus per unit length of wall (MPa × mm = kN/m).",
+                       ""]
             md += [f"In SI units for {si['material']} grains (E* = {num(si['E_star_GPa']):.4g} GPa, "
                    f"ρ = {num(si['density']):g} kg/m³) of mean diameter {num(si['diameter_mm']):g} mm "
                    f"(docs/units.md; f: the source frequency of λ = {num(si['wavelength']):g} d̄):", "",
                    "| p (kPa) | V_s (m/s) | c_t (m/s) | V_p (m/s) | c_ℓ (m/s) | G_max (MPa) | G moduli (MPa) "
                    "| f shear (kHz) | f compr. (kHz) |", "|---|---|---|---|---|---|---|---|---|"]
             for r in si["rows"]:
-                md.append(f"| {fmt(r['pressure_kPa'], digits=3)} | {_s(r['V_s_m_s'], 3)} | {_s(r['c_t_m_s'], 3)} | "
-                          f"{_s(r['V_p_m_s'], 3)} | {_s(r['c_l_m_s'], 3)} | {_s(r['G_max_MPa'], 3)} | "
-                          f"{_s(r['G_moduli_MPa'], 3)} | {fmt(r['f_shear_kHz'], digits=3)} | "
+                md.append(f"| {fmt(r['pressure_kPa'], digits=3)} | {stat_cell(r['V_s_m_s'], 3)} | {stat_cell(r['c_t_m_s'], 3)} | "
+                          f"{stat_cell(r['V_p_m_s'], 3)} | {stat_cell(r['c_l_m_s'], 3)} | {stat_cell(r['G_max_MPa'], 3)} | "
+                          f"{stat_cell(r['G_moduli_MPa'], 3)} | {fmt(r['f_shear_kHz'], digits=3)} | "
                           f"{fmt(r['f_normal_kHz'], digits=3)} |")
             md.append("")
-        md += [f"V_p/V_s and the Poisson ratio: from waves r = V_p/V_s, from the moduli r = c_ℓ/c_t; "
-               f"ν by the isotropic formula {a.get('poisson_formula', '')}; the tensor's own ratio "
-               f"{a.get('tensor_formula', '')} differs where the packing is anisotropic.", "",
-               "| p (E*) | V_p/V_s | c_ℓ/c_t | ν (waves) | ν (moduli) | ν (tensor) |",
+        md += [f"V_p/V_s and the packing's effective Poisson ratio ν_eff: from waves V_p/V_s, from the "
+               f"moduli c_ℓ/c_t, then ν_eff by the isotropic formula "
+               f"`{a.get('poisson_formula', '')}` (r the speed ratio); the tensor's own ratio "
+               f"`{a.get('tensor_formula', '')}` differs where the packing is anisotropic.", "",
+               "| p (E*) | V_p/V_s | c_ℓ/c_t | ν_eff (waves) | ν_eff (moduli) | ν_eff (tensor) |",
                "|---|---|---|---|---|---|"]
         for r in a["pressures"]:
-            md.append(f"| {num(r['pressure']):g} | {_s(r['ratio_waves'], 3)} | {_s(r['ratio_moduli'], 3)} | "
-                      f"{_s(r['poisson_waves'], 3)} | {_s(r['poisson_moduli'], 3)} | "
-                      f"{_s(r['poisson_tensor'], 3)} |")
+            md.append(f"| {num(r['pressure']):g} | {stat_cell(r['ratio_waves'], 3)} | {stat_cell(r['ratio_moduli'], 3)} | "
+                      f"{stat_cell(r['poisson_waves'], 3)} | {stat_cell(r['poisson_moduli'], 3)} | "
+                      f"{stat_cell(r['poisson_tensor'], 3)} |")
         md += ["", f"Pick table: V/c_t of every pick (docs/shear.md) per pressure, wavelength and "
                f"nominal height (L its mean wall-to-wall distance). c_ℓ/c_t (P): the moduli's ratio "
                f"at that pressure (packings of the fit height), the speed of the compressional "

@@ -8,15 +8,17 @@ Rules (also in docs/figures.md, "The report"):
   tolerance 5 %, over the whole scene so that one nominal height keeps its
   label across pressures), and every row is one (pressure, nominal height).
   A deterministic system (a lattice, a chain) is one row per size.
-* **Every table states its units and what n counts.** Statistics tables give
-  mean ± sample standard deviation over the n packings (the spread of the
-  ensemble); speed tables give ± one standard error (of the mean over packings,
-  or of the regression slope for time-of-flight speeds), and say so.
+* **Every table states its units, what n counts and which error its ± is.**
+  Statistics tables give mean ± sample standard deviation over the n packings
+  (the spread of the ensemble); speed tables give ± one standard error (of the
+  mean over packings, or of the regression slope for time-of-flight speeds).
+  A row of fewer than :data:`MIN_FOR_ERROR` packings shows the range
+  min … max of their values instead: a ± from two or three values says little.
 * **Numbers** (:mod:`granwave.report.numbers`): value ± error with the error
   to 1–2 significant digits and the value rounded to match, counts as
   integers, positive quantities not resolved shown as bounds.
 * **Cells.** One value: the value. Values all equal: the value and "(all n
-  equal)". Values all zero within precision (|x| ≤ 1e-12 × the row's largest
+  equal)". Fewer than 5 values: their range. Values all zero within precision (|x| ≤ 1e-12 × the row's largest
   modulus): "0 (< 1e-12 × max Cij)". A quantity measured on fewer packings than
   the row's n shows "(n = k)".
 * **Diagnostics apart.** Numerical checks and fixed parameters (layer,
@@ -50,12 +52,13 @@ LOCAL_ANY = re.compile(r"C\d\d_(body|lines)_n\d+(_ratio)?")  # shown as ratios, 
 SPEED_KEYS = ("c_tof", "c_peak", "c_zero")
 LABELS = {
     "phi2": "Φ2", "phi3": "Φ3", "phi3_star": "Φ3*", "z_star": "z*", "rattler_fraction": "f0",
-    "mean_force_over_p": "⟨N⟩/p", "Z2": "Z(2)", "Z3": "Z(3)", "F2": "F2", "F2_strong": "F2^S",
+    "mean_force_over_p": "⟨F_n⟩/p", "Z2": "Z(2)", "Z3": "Z(3)", "F2": "F2", "F2_strong": "F2^S",
     "stress_ratio": "σ1/σ2", "C11": "C11", "C12": "C12", "C22": "C22", "C33": "C33",
     "c_l": "c_ℓ", "c_t": "c_t",
 }
 ZERO_RTOL = 1e-12
 GROUP_RTOL = 0.05
+MIN_FOR_ERROR = 5  # fewer packings: the range of their values, not a ± (issue 61)
 
 
 # ====================================================================== cells
@@ -80,6 +83,8 @@ def cell(values, *, error: str = "std", zero_scale: float | None = None, of: int
     if np.all(v == v[0]):
         same = fmt_count(v[0]) if v[0] == round(v[0]) else fmt(v[0])
         return f"{same} (all {n} equal)" + suffix
+    if n < MIN_FOR_ERROR:
+        return fmt_range(v.min(), v.max()) + suffix
     return fmt(d["mean"], d[error]) + suffix
 
 
@@ -150,7 +155,8 @@ def _with(items, section) -> list[Mapping]:
 # ====================================================================== statics / moduli
 def quantity_table(groups: Groups, section: str, keys: Sequence[str], *,
                    zero_keys: Sequence[str] = ()) -> list[str] | None:
-    """Rows (p, L, n) × the section's quantities, mean ± std over the n packings."""
+    """Rows (p, L, n) × the section's quantities, mean ± std over the n packings (a range
+    where n < 5)."""
     rows, present = [], []
     for key in groups.keys():
         items = _with(groups.cells[key], section)
@@ -176,11 +182,13 @@ def quantity_table(groups: Groups, section: str, keys: Sequence[str], *,
 def label(key: str) -> str:
     """Column name of a quantity (local moduli ratios as 'C22 lines n=1')."""
     m = re.fullmatch(r"(C\d\d)_(body|lines)_n(\d+)_ratio", key)
-    return f"{m[1]} {m[2]} n={m[3]}" if m else LABELS.get(key, key)
+    return f"{m[1]} {m[2]}, order {m[3]}" if m else LABELS.get(key, key)
 
 
 def diagnostics_table(groups: Groups, sections: Mapping[str, Sequence[str]]) -> list[str] | None:
-    """Provenance: every numeric key of the sections not shown as a quantity, value or range."""
+    """Provenance: every numeric key of the sections not shown as a quantity, one row per key
+    (a long table reads in Markdown, a wide one does not), one column per pressure: the value
+    when every packing there has the same, else the range min … max over its heights."""
     cols: list[tuple[str, str]] = []
     for key in groups.keys():
         for sec, shown in sections.items():
@@ -190,13 +198,11 @@ def diagnostics_table(groups: Groups, sections: Mapping[str, Sequence[str]]) -> 
                         cols.append((sec, k))
     if not cols:
         return None
-    body = []
-    for key in groups.keys():
-        items = groups.cells[key]
-        row = [f"{key[0]:.3g}", f"{groups.height(key):.3g}", str(len(items))]
-        row += [value_or_range([_scalars(s[sec]).get(k) for s in _with(items, sec)]) for sec, k in cols]
-        body.append(row)
-    return table(["p", "L", "n"] + [f"{k} ({sec})" for sec, k in cols], body)
+    ps = groups.pressures()
+    items = {p: [s for key in groups.keys() if key[0] == p for s in groups.cells[key]] for p in ps}
+    body = [[f"`{k}` ({sec})"] + [value_or_range([_scalars(s[sec]).get(k) for s in _with(items[p], sec)])
+                                 for p in ps] for sec, k in cols]
+    return table(["diagnostic (section)"] + [f"p = {p:.3g} (n = {len(items[p])})" for p in ps], body)
 
 
 def _layer(groups: Groups) -> float:
@@ -248,7 +254,7 @@ def close_packing_note(groups: Groups) -> list[str]:
     return [f"Φ2 above the close packing of equal discs, π/(2√3) = {close:.4f} (up to "
             f"{max(over):.4f} here), is a matter of definition, not of the packing: Φ2 counts "
             "every disc's whole area, so the overlaps of compressed contacts count twice (about "
-            "+2δ/d̄ for a mean overlap δ), and the bulk slab L − 2l cuts the discs exactly but holds "
+            "twice the mean overlap over d̄), and the bulk slab L − 2l cuts the discs exactly but holds "
             "a non-integer number of rows, so a lattice's row-density ripple does not average out "
             "in a short container (docs/method.md §4).", ""]
 
@@ -258,7 +264,8 @@ def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None
           "One row per scene, pressure p [E*] and nominal container height L [d̄] (mean of the "
           "row's packings); n: the packings in the row. Every quantity is dimensionless "
           "(docs/method.md §4): mean ± sample standard deviation over the n packings (the "
-          "ensemble's spread); bulk quantities exclude the wall layers.", ""]
+          "ensemble's spread) where n ≥ 5, the range min … max of the values where fewer; bulk "
+          "quantities exclude the wall layers of thickness l.", ""]
     any_table = False
     for scene, groups in groups_by_scene.items():
         t = quantity_table(groups, "statics", STATICS_KEYS)
@@ -274,9 +281,12 @@ def statics_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes | None
 
 def moduli_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes) -> list[str]:
     md = ["## Elastic moduli per pressure and container height", "",
-          "C11, C12, C22, C33 in E*; c_ℓ = √(C22/Φ3*), c_t = √(C33/Φ3*) in √(E*/ρ); Φ3* "
+          "C11, C12, C22, C33 in E* (2D: a layer one d̄ thick, docs/units.md); c_ℓ = √(C22/Φ3*), "
+          "c_t = √(C33/Φ3*) in √(E*/ρ), of the whole cell's moduli over the bulk Φ3*; Φ3* "
           "dimensionless (docs/method.md §6). Mean ± sample standard deviation over the n "
-          "packings of the row. Local moduli: ratios to the global C22 or C33 (dimensionless).", ""]
+          "packings of the row where n ≥ 5, the range min … max where fewer. Local moduli: "
+          "ratios to the global C22 or C33 (dimensionless; body force of order 1, 2 and imposed "
+          "lines of order 1, 3, docs/method.md §6).", ""]
     any_table = False
     for scene, groups in groups_by_scene.items():
         t = quantity_table(groups, "moduli", MODULI_KEYS, zero_keys=MODULUS_KEYS)
@@ -285,8 +295,7 @@ def moduli_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes) -> lis
         tl = quantity_table(groups, "moduli", local) if local else None
         if t or tl:
             md += [f"### {scene}", ""] + (t or [])
-            md += (["Local moduli as ratios to the global C22 or C33 (body force n = 1, 2; "
-                    "imposed lines n = 1, 3; docs/method.md §6):", ""] + tl) if tl else []
+            md += (["Local moduli as ratios to the global C22 or C33:", ""] + tl) if tl else []
             any_table = True
         elif scenes.kind_of(scene) != "chains" and any(_with(i, "statics") for i in groups.cells.values()):
             md += [f"### {scene}", "", "No moduli computed for this scene (the workflow config's "
@@ -296,9 +305,10 @@ def moduli_section(groups_by_scene: Mapping[str, Groups], scenes: Scenes) -> lis
 
 def provenance_section(groups_by_scene: Mapping[str, Groups]) -> list[str]:
     md = ["## Provenance and numerical checks", "",
-          "Fixed parameters and diagnostics of the same rows: the value when every packing has "
-          "the same, else the range min … max (not statistics). Residuals and piston balance "
-          "are relative (docs/method.md §3–§6).", ""]
+          "Fixed parameters and diagnostics of the summaries, one row per diagnostic and one "
+          "column per pressure (every height of it): the value when every packing has the same, "
+          "else the range min … max (not statistics). Residuals and piston balance are relative "
+          "(docs/method.md §3–§6).", ""]
     any_table = False
     notes = []
     for scene, groups in groups_by_scene.items():
@@ -340,12 +350,17 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
     hertz = math.log(lattice_speed(1e-4) / lattice_speed(1e-6)) / math.log(100)
     md = ["## Sound speeds against pressure", "",
           "Speeds in √(E*/ρ), p in E*, L in d̄. Every ± is one standard error: of the mean over "
-          "the n packings for c_ℓ and c_t, of the fitted slope for the time-of-flight speeds "
-          "c_tof, c_peak, c_zero (`analyze heights`, docs/method.md §9; no ± where the slope "
-          "goes through two points, one packing per height); c_tof/c_ℓ with relative errors in "
-          "quadrature. Exponents: least-squares fit c ∝ p^ν over the pressures (± its standard "
-          f"error). Fixed Hertzian network (triangular-lattice formula, docs/method.md §12): "
-          f"ν = {hertz:.4f}.", ""]
+          "n ≥ 5 packings for c_ℓ and c_t (over fewer: the range of their values), of the fitted "
+          "slope for the time-of-flight speeds c_tof, c_peak, c_zero (`analyze heights`, "
+          "docs/method.md §9; no ± where the edge heights hold fewer than 5 packings each: the "
+          "slope's residual is then the scatter of so few); c_tof/c_ℓ with relative errors in quadrature (a range over the packings' c_ℓ "
+          "where fewer than 5). c_ℓ and c_t: the whole cell's moduli over the bulk Φ3* "
+          "(`moduli.c_l`, `moduli.c_t`, as in the moduli table; the continuum section uses the "
+          "bulk slab's). Exponents: least-squares fit c ∝ p^κ through the per-pressure means of "
+          "one height (± the standard error of the slope): they differ from the sweep section's, "
+          "which pools every height of a pressure, and from the shear section's, of its own fit "
+          f"height. Fixed Hertzian network (triangular-lattice formula, docs/method.md §12): "
+          f"κ = {hertz:.4f}.", ""]
     names = sorted(s for s in set(groups_by_scene) | set(h_by_scene) if scenes.kind_of(s) == "disordered")
     if not names:
         return md + ["No disordered scenes among the inputs.", ""]
@@ -361,22 +376,24 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                 items = _with(groups.cells[key], "moduli")
                 if not items:
                     continue
-                cl, ecl, n = _sem([s["moduli"].get("c_l") for s in items])
+                cls = [s["moduli"].get("c_l") for s in items]
+                cl, ecl, n = _sem(cls)
                 ct, ect, _ = _sem([s["moduli"].get("c_t") for s in items])
-                cl_of[key] = (cl, ecl)
-                cont.append([f"{key[0]:.3g}", f"{groups.height(key):.3g}", str(n), fmt(cl, ecl),
-                             fmt(ct, ect)])
+                cl_of[key] = (cl, ecl if n >= MIN_FOR_ERROR else math.nan, cls)
+                cont.append([f"{key[0]:.3g}", f"{groups.height(key):.3g}", str(n),
+                             cell(cls, error="sem"),
+                             cell([s["moduli"].get("c_t") for s in items], error="sem")])
                 ph = per_height[key[1]]
                 ph[0].append(key[0]), ph[1].append(cl), ph[2].append(ct)
             for gi, (ps, cls, cts) in sorted(per_height.items()):
                 if len(set(ps)) >= 2:
                     Ls = [groups.height(k) for k in groups.keys() if k[1] == gi]
                     label = f"L ≈ {np.mean(Ls):.3g}"
-                    fits += [[f"c_ℓ ({label})", fmt(*power_exponent(ps, cls)), str(len(ps))],
-                             [f"c_t ({label})", fmt(*power_exponent(ps, cts)), str(len(ps))]]
+                    fits += [[f"κ_ℓ of c_ℓ ({label})", fmt(*power_exponent(ps, cls)), str(len(ps))],
+                             [f"κ_t of c_t ({label})", fmt(*power_exponent(ps, cts)), str(len(ps))]]
         if cont:
             md += ["Continuum speeds from the global moduli, per pressure and height "
-                   "(n packings, ± standard error of the mean):", ""]
+                   "(n packings; ± standard error of the mean, a range where n < 5):", ""]
             md += table(["p", "L", "n", "c_ℓ", "c_t"], cont)
         else:
             md += ["No moduli for this scene, so no c_ℓ or c_t (the workflow config's "
@@ -387,33 +404,38 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                 edges = h.get("edge_heights") or []
                 hi = max(edges) if edges else math.nan
                 # c_ℓ of the taller edge height: the packings the front crossed farthest
-                cl, ecl = math.nan, math.nan
+                cl, ecl, cls = math.nan, math.nan, []
                 if groups is not None and math.isfinite(hi):
                     near = [k for k in groups.keys() if k[0] == p and k in cl_of
                             and abs(groups.height(k) - hi) <= GROUP_RTOL * hi]
                     if near:
-                        cl, ecl = cl_of[near[0]]
+                        cl, ecl, cls = cl_of[near[0]]
                 row = [f"{p:.3g}", "–".join(f"{x:.3g}" for x in edges) or "—",
                        fmt_count(h.get("n_signals")) + (f" ({aliased_of(h)[0]} aliased)"
                                                          if aliased_of(h)[0] else "")]
+                few = slope_error_unknown(h, edges)  # two edge heights, few packings at one
                 for k in SPEED_KEYS:
-                    row.append(fmt(h.get(k), h.get(k + "_err")))
+                    row.append(fmt(h.get(k), None if few else h.get(k + "_err")))
                     cols[k].append(num(h.get(k)))
-                ct, ect = num(h.get("c_tof")), num(h.get("c_tof_err"))
+                ct, ect = num(h.get("c_tof")), math.nan if few else num(h.get("c_tof_err"))
                 r = ct / cl if cl else math.nan
                 er = abs(r) * math.hypot(ect / ct if ct else math.nan, ecl / cl if cl else math.nan)
-                row += [fmt(cl, ecl), fmt(r, er if math.isfinite(er) else None)]
+                few = [c for c in map(num, cls) if math.isfinite(c) and c > 0]
+                if 1 < len(few) < MIN_FOR_ERROR:  # too few packings for a ±: the range
+                    row += [cell(cls, error="sem"), fmt_range(ct / max(few), ct / min(few))]
+                else:
+                    row += [fmt(cl, ecl), fmt(r, er if math.isfinite(er) else None)]
                 tof.append(row)
                 cols["p"].append(p)
-            header = ["p", "L1–L2", "n", "c_tof", "c_peak", "c_zero", "c_ℓ (L2)", "c_tof/c_ℓ"]
+            header = ["p", "edge heights", "n", "c_tof", "c_peak", "c_zero", "c_ℓ (taller)", "c_tof/c_ℓ"]
             if all(r[6] == "—" for r in tof):  # no moduli: no c_ℓ columns (said above)
                 header, tof = header[:6], [r[:6] for r in tof]
-            md += ["Time-of-flight speeds between the two edge heights L1–L2 (n signals in the "
-                   "height series" + ("; c_ℓ of the packings at L2):" if len(header) > 6 else "):"), ""]
+            md += ["Time-of-flight speeds between the two edge heights (n signals in the "
+                   "height series" + ("; c_ℓ of the packings at the taller):" if len(header) > 6 else "):"), ""]
             md += table(header, tof)
             md += aliased_note(list(series.values()))
             if len(cols["p"]) >= 2:
-                fits = [[k, fmt(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
+                fits = [[f"κ_{k[2:]} of {k}", fmt(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
                         for k in SPEED_KEYS] + fits
         else:
             hs = sorted({round(groups.height(k), 1) for k in groups.keys()}) if groups else []
@@ -422,7 +444,7 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                    "at each pressure, and c_tof, c_peak, c_zero need a height series of two or "
                    "more heights (docs/method.md §9).", ""]
         if fits:
-            md += table(["speed", "exponent ν (c ∝ p^ν)", "pressures"], fits)
+            md += table(["speed", "exponent κ (c ∝ p^κ)", "pressures"], fits)
         elif cont or series:
             md += ["One pressure: no exponent fit.", ""]
     return md
@@ -459,6 +481,23 @@ def aliased_note(series: Sequence[Mapping]) -> list[str]:
             "with more `samples` (or a shorter `t_max`) to remove the mark.", ""]
 
 
+def slope_error_unknown(h: Mapping, heights: Sequence[float] | None = None) -> bool:
+    """Whether a height series' fitted slope (γ, χ over every height; c_tof, c_peak, c_zero
+    over ``heights``, its two edge heights) rests on two heights with fewer than
+    :data:`MIN_FOR_ERROR` packings at one of them: its residual error is then the scatter of
+    so few packings, no error bar (issue 61), and the report shows the slope without a ±."""
+    ph = h.get("per_height") if isinstance(h.get("per_height"), Mapping) else {}
+    hs = [num(x) for x in ph.get("height") or []]
+    counts = [num(x) for x in ph.get("count") or []]
+    if heights is not None and hs and counts:
+        pick = [c for x, c in zip(hs, counts) if any(abs(x - e) <= GROUP_RTOL * e for e in heights)]
+        return len(pick) < 3 and (min(pick, default=0) < MIN_FOR_ERROR)
+    n_h = num(h.get("n_heights"))
+    if counts:
+        return n_h < 3 and min(counts) < MIN_FOR_ERROR
+    return n_h < 3 and num(h.get("n_signals")) / max(n_h, 1) < MIN_FOR_ERROR
+
+
 def n_at_k(h: Mapping) -> str:
     """The "n at k" cell of a height series, marked when some of its signals are aliased."""
     n_al, _ = aliased_of(h)
@@ -468,35 +507,49 @@ def n_at_k(h: Mapping) -> str:
 
 # ====================================================================== exponents
 def exponents_section(hts: Sequence[Mapping], scenes: Scenes, all_scenes: Sequence[str]) -> list[str]:
-    md = ["## Front scaling with distance: γ and δ", "",
-          "A ∝ L^−γ and W ∝ L^δ fitted over every signal of a height series (± one standard "
+    md = ["## Front scaling with distance: γ and χ", "",
+          "A ∝ L^−γ and W ∝ L^χ fitted over every signal of a height series (± one standard "
           "error of the fitted slope; none with two points), against the identical-ball chain's "
-          "exact values (Airy asymptote, docs/method.md §12). n: signals at k nominal heights. "
-          "γ and δ are dimensionless (the fits' JSON keys: `gamma`, `alpha`).", ""]
+          "exact values (Airy asymptote, docs/method.md §12); no ± where the series has two "
+          "heights only and fewer than 5 packings at one (the scatter of so few is no error bar). "
+          "n: signals at the nominal heights "
+          "counted after \"at\". γ and χ are dimensionless (the fits' JSON keys: `gamma`, `chi`; "
+          "`alpha` in files written before the rename).", ""]
     exact = {ic: chain_exact_exponents(ic) for ic in ("A", "B")}
-    md += table(["chain (exact)", "γ", "δ"],
-                [[f"initial condition {ic}", fmt(e["gamma"]), fmt(e["alpha"])] for ic, e in exact.items()])
-    with_fit = [h for h in hts if h.get("gamma") is not None or h.get("alpha") is not None]
+    md += table(["chain (exact)", "γ", "χ"],
+                [[f"initial condition {ic}", fmt(e["gamma"]), fmt(e["chi"])] for ic, e in exact.items()])
+    with_fit = [h for h in hts if h.get("gamma") is not None or h.get("chi") is not None]
     rows = []
     for h in sorted(with_fit, key=lambda h: (scenes.kind_of(h["_scene"]), h["_scene"], num(h.get("pressure")))):
         ic = scenes.ic_of(h["_scene"], h)
         e = exact.get(ic.upper(), exact["A"])
-        g, a = num(h.get("gamma")), num(h.get("alpha"))
+        g, a = num(h.get("gamma")), num(h.get("chi"))
+        two = slope_error_unknown(h)  # two heights, few packings: its ± says nothing
+        ge, ae = (None, None) if two else (h.get("gamma_err"), h.get("chi_err"))
+        heights = (h.get("per_height") or {}).get("height") or [num(x.get("height")) for x in (
+            h.get("samples") or []) if isinstance(x, Mapping)]
         rows.append([h["_scene"], scenes.kind_of(h["_scene"]), fmt(h.get("pressure"), digits=3), ic,
-                     n_at_k(h),
-                     fmt(g, h.get("gamma_err")), fmt(a, h.get("alpha_err")),
-                     fmt(g / e["gamma"], num(h.get("gamma_err")) / e["gamma"]),
-                     fmt(a / e["alpha"], num(h.get("alpha_err")) / e["alpha"])])
+                     n_at_k(h), fmt_range(min(heights), max(heights)) if heights else "—",
+                     fmt(g, ge), fmt(a, ae), fmt(g / e["gamma"], num(ge) / e["gamma"]),
+                     fmt(a / e["chi"], num(ae) / e["chi"])])
     if rows:
-        md += table(["scene", "kind", "p", "ic", "n at k", "γ", "δ", "γ/γ chain", "δ/δ chain"], rows)
+        md += table(["scene", "kind", "p", "ic", "n at heights", "L", "γ", "χ", "γ/γ chain",
+                     "χ/χ chain"], rows)
+        md += ["What the ratios say: above 1, the front decays (γ) or broadens (χ) faster with "
+               "distance than the identical-ball chain's, whose exponents come from the dispersion "
+               "of a perfect lattice alone; a disordered packing scatters the short waves of the "
+               "front as well. The fits are over the heights listed (L): over a short range they are "
+               "local values, not asymptotes — even the exact chain reaches its Airy values only as "
+               "N^(−1/3) → 0, so a fit of its own over a finite range of N lies off them.", ""]
         md += aliased_note(with_fit)
     else:
         md += ["No height series among the inputs.", ""]
     have = {h["_scene"] for h in with_fit}
     lonely = sorted(s for s in all_scenes if s not in have and scenes.kind_of(s) == "disordered")
     if lonely:
-        md += [f"No γ or δ for {', '.join(lonely)}: one container height per pressure (a height "
-               "series needs two or more).", ""]
+        md += [f"No γ or χ for {', '.join(lonely)}: no height series of theirs among the inputs (a "
+               "height series needs two or more heights at one pressure; a continuum scene's local "
+               "exponents are in the continuum section).", ""]
     return md
 
 
@@ -507,8 +560,12 @@ def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[s
     md = ["## Triangular lattices against the formula", "",
           "c_theory = 3^{19/12}/(2^{3/2} π^{1/2}) p^{1/6} (× √(1 + η/3) with friction), "
           "`granwave.theory.lattice_speed`; simulated speeds from the arrival times of the two "
-          "lattices of heights L1–L2 [d̄] (one deterministic lattice per height: no ±). Speeds in "
-          "√(E*/ρ), p in E*; the ratios are dimensionless.", ""]
+          "lattices of the edge heights [d̄] (one deterministic lattice per height: no ±). Speeds in "
+          "√(E*/ρ), p in E*; the ratios are dimensionless. The formula is the long-wave speed: "
+          "c_peak is the speed to compare with it; the 10 % edge runs ahead of a pulse that "
+          "broadens as it travels (docs/method.md §9), so c_tof exceeds the formula by several "
+          "per cent on a perfect lattice — a property of the pick, not a failure of the formula "
+          "(`analyze heights`' zero crossing lags behind likewise).", ""]
     names = sorted(s for s in h_by_scene if scenes.kind_of(s) == "lattices")
     if not names:
         return md + ["No lattice height series among the inputs.", ""]
@@ -525,7 +582,7 @@ def lattice_section(h_by_scene: Mapping[str, Mapping], scenes: Scenes) -> list[s
                 v = num(h.get(k))
                 row += [fmt(v, h.get(k + "_err")), fmt(v / c, num(h.get(k + "_err")) / c)]
             rows.append(row)
-    return md + table(["scene", "μ", "p", "L1–L2", "c_theory", "c_tof", "c_tof/c_theory", "c_peak",
+    return md + table(["scene", "μ", "p", "edge heights", "c_theory", "c_tof", "c_tof/c_theory", "c_peak",
                        "c_peak/c_theory", "c_zero", "c_zero/c_theory"], rows) \
         + aliased_note([h for scene in names for h in h_by_scene[scene].values()])
 
@@ -559,16 +616,20 @@ SWEEP_SPEEDS = {"tof": "c_tof", "peak": "c_peak", "zero": "c_zero", "l": "c_ℓ"
 
 
 def sweep_label(key: str) -> str:
-    """``alpha_tof`` → "ν of c_tof (`alpha_tof`)": the report's symbol, the file's key."""
-    speed = SWEEP_SPEEDS.get(key.removeprefix("alpha_"))
-    return f"ν of {speed} (`{key}`)" if speed else key
+    """``kappa_tof`` → "κ of c_tof (`kappa_tof`)": the report's symbol, the file's key."""
+    speed = SWEEP_SPEEDS.get(key.removeprefix("kappa_"))
+    return f"κ of {speed} (`{key}`)" if speed else key
 
 
 def sweep_table(obj) -> list[str]:
-    """The fitted exponents ν (c ∝ p^ν) of a ``pressure-sweep --json`` object, as given."""
+    """The fitted exponents κ (c ∝ p^κ) of a ``pressure-sweep --json`` object, as given (files
+    written before the rename: their ``alpha_*``)."""
+    from ..analysis.renamed_keys import SWEEP, current_keys
+
     if not isinstance(obj, Mapping):
         return ["(not a sweep object)", ""]
-    alphas = [k for k in obj if k.startswith("alpha_") and not k.endswith(("_err", "_n"))]
+    obj = current_keys(obj, SWEEP)
+    alphas = [k for k in obj if k.startswith("kappa_") and not k.endswith(("_err", "_n"))]
     fitted = [k for k in alphas if math.isfinite(num(obj[k]))]
     if alphas and not fitted:  # no empty table: say why
         notes = obj.get("fit_notes") or []

@@ -528,8 +528,10 @@ def figure_targets():
             figs.append(f"{F}/speeds.png")
         if scene_spec(scene).get("spectrum"):
             figs.append(f"{F}/spectrum.png")
-    if any(height_series_paths(s) for s in scenes("disordered") + scenes("chains")):
+    if any(height_series_paths(s) for s in scenes("disordered")):
         figs.append(f"{F}/exponents.png")
+    if any(height_series_paths(s) for s in scenes("chains")):  # L 100-1600: apart from L 5-26
+        figs.append(f"{F}/exponents_chains.png")
     if config["damping"]["enabled"]:
         figs.append(f"{F}/damping.png")
     figs += [f"{F}/continuum_{s}.png" for s in scenes("continuum")]
@@ -549,31 +551,35 @@ def study_figures():
         commands.append({"scene": "figures", "pressure": "all", "size": kind, "stage": "figure",
                          "args": ["plot", *args, "-o", path], "in": inputs, "out": {"result": path}})
 
-    plot("airy", ["airy", "--n", "100", "--n", "400", "--n", "1600"], [])
+    plot("airy", ["airy", "--n", "100", "--n", "400", "--n", "1600", "--scene", "exact chain"], [])
     if main_sample():
         scene, p, size = main_sample()
+        named = ["--scene", scene]  # every figure's title names its scene
         packing = first_sample_path("packing", scene)
         for kind in ("network", "roses"):
-            plot(kind, [kind, packing], [packing])
+            plot(kind, [kind, packing, *named], [packing])
         signals = sample_paths("signal", scene, pressure=p, size=size)
         ensemble = f"{R}/ensemble/{scene}/p{p}/{size}.h5"
-        plot("signals", ["signals", *signals, "--ensemble", ensemble], [*signals, ensemble])
+        plot("signals", ["signals", *signals, "--ensemble", ensemble, *named], [*signals, ensemble])
         ensembles = [f"{R}/ensemble/{scene}/p{p}/{sz}.h5" for sz in sizes(scene, p)]
-        plot("coherent", ["coherent", *ensembles], ensembles)
+        plot("coherent", ["coherent", *ensembles, *named], ensembles)
         firsts = [first_sample_path("signal", s) for s in scenes("disordered")]
-        plot("compare", ["compare", *firsts, *flags("--label", scenes("disordered")).split()], firsts)
+        plot("compare", ["compare", *firsts, *flags("--label", scenes("disordered")).split(),
+                         "--scene", " vs ".join(scenes("disordered"))], firsts)
         if len(sizes(scene, p)) >= 2:
             heights = f"{R}/heights/{scene}/p{p}.json"
-            plot("arrivals", ["arrivals", heights], [heights])
+            plot("arrivals", ["arrivals", heights, *named], [heights])
         if len(pressures(scene)) >= 2:
             sweep = f"{R}/sweep/{scene}.json"
             lattices = [lattice_heights(False), lattice_heights(True)]
             plot("speeds", ["speeds", sweep, *flags("--lattice", lattices[0]).split(),
-                            *flags("--lattice-frictional", lattices[1]).split()], [sweep, *lattices[0], *lattices[1]])
-    series = exponent_series()
-    if series:
-        paths = [path for _, path in series]
-        plot("exponents", ["exponents", *paths, *flags("--label", [scene for scene, _ in series]).split()], paths)
+                            *flags("--lattice-frictional", lattices[1]).split(), *named],
+                 [sweep, *lattices[0], *lattices[1]])
+    for kind, series in (("exponents", [s for s in exponent_series() if scene_kind(s[0]) != "chains"]),
+                         ("exponents_chains", [s for s in exponent_series() if scene_kind(s[0]) == "chains"])):
+        if series:
+            paths = [path for _, path in series]
+            plot(kind, ["exponents", *paths, *flags("--label", [scene for scene, _ in series]).split()], paths)
     return [("figures_study", commands)]
 
 
@@ -604,16 +610,17 @@ def main_sample_extras():
         vectors, snapshots = first_sample_path("modes_vectors", scene), first_sample_path("snapshots", scene)
         if scene_spec(scene).get("spectrum"):
             modes = first_sample_path("modes", scene)
-            command("figure", ["plot", "spectrum", modes, "-o", f"{F}/spectrum.png"], [], f"{F}/spectrum.png")
+            command("figure", ["plot", "spectrum", modes, "--scene", scene, "-o", f"{F}/spectrum.png"], [],
+                    f"{F}/spectrum.png")
         command("eigensolve", ["eigensolve", linear, "--vectors", "-o", vectors], [linear], vectors)
-        command("figure", ["plot", "modes", vectors, linear, packing, "-o", f"{F}/modes.png"], [packing],
-                f"{F}/modes.png")
+        command("figure", ["plot", "modes", vectors, linear, packing, "--scene", scene, "-o", f"{F}/modes.png"],
+                [packing], f"{F}/modes.png")
         wc = SimpleNamespace(scene=scene, pressure=p, size=size, seed=0)
         command("snapshot", ["propagate", linear, "--method", "time", "--ic", config["ic"],
                              "--t-max", f"{t_max(wc):.6g}", "--snapshots",
                              ",".join(f"{t:.6g}" for t in snapshot_times(wc)), "-o", snapshots], [], snapshots)
         command("figure", ["plot", "snapshot", snapshots, "--packing", packing, "--modes", vectors,
-                           "--linear", linear, "-o", f"{F}/snapshot.png"], [], f"{F}/snapshot.png")
+                           "--linear", linear, "--scene", scene, "-o", f"{F}/snapshot.png"], [], f"{F}/snapshot.png")
     if config["damping"]["enabled"]:
         d, packing = config["damping"], damping_packing()
         signals = [f"{R}/damping/zeta{z:g}.h5" for z in d["zetas"]]
@@ -625,8 +632,8 @@ def main_sample_extras():
         command("damping_table", ["analyze", "damping", *signals, "--json"], [], f"{R}/damping/table.json",
                 printed=True)
         reference = damping_linear_reference()
-        command("figure", ["plot", "damping", *signals, "--reference", reference, "-o", f"{F}/damping.png"],
-                [reference], f"{F}/damping.png")
+        command("figure", ["plot", "damping", *signals, "--reference", reference, "--scene", d["scene"],
+                           "-o", f"{F}/damping.png"], [reference], f"{F}/damping.png")
     return [("sample_extras", commands)] if commands else []
 
 
@@ -652,14 +659,25 @@ def continuum_jobs():
                                     str(scene_spec(scene)["bootstrap"]), *flags("--moduli", moduli).split(),
                                     "--lateral-period", str(scene_spec(scene)["width"]), "--json"],
                     [*signals, *moduli], attenuation, True),
-            command("figure", ["plot", "continuum", front, "--attenuation", attenuation, "-o", figure],
-                    [], figure, False)]))
+            command("figure", ["plot", "continuum", front, "--attenuation", attenuation, "--scene", scene,
+                               "-o", figure], [], figure, False)]))
     return out
 
 
 def report_inputs():
     inputs = [f"{R}/report/index.md"]
     return inputs
+
+
+def all_timings():
+    """The timing tables (`timings` outputs) of every batch, analysis and figure job: the run's
+    CPU time on the report's first page."""
+    tables = [f"{R}/timings/{name}.tsv" for name, _, _ in batches()]
+    tables += [f"{R}/timings/analyses/{name}.tsv" for name, _, _ in scene_analyses()]
+    tables += [f"{R}/timings/analyses/{name}.tsv"
+               for name, _ in study_figures() + main_sample_extras() + continuum_jobs()]
+    tables += [f"{R}/timings/shear/{name}.tsv" for name, _, _ in shear_batches()]
+    return tables
 
 
 def continuum_outputs():

@@ -55,5 +55,5 @@ rule figure_continuum:
     log:
         f"{R}/logs/figures/continuum_{{scene}}.log",
     shell:
-        "granwave plot continuum {input.front} --attenuation {input.attenuation} -o {output} "
+        "granwave plot continuum {input.front} --attenuation {input.attenuation} --scene {wildcards.scene} -o {output} "
         "> {log} 2>&1"

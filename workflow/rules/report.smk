@@ -90,8 +90,10 @@ rule figure_network:
         f"{R}/logs/figures/{{kind}}.log",
     wildcard_constraints:
         kind="network|roses",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
-        "granwave plot {wildcards.kind} {input} -o {output} > {log} 2>&1"
+        "granwave plot {wildcards.kind} {input} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule figure_signals:
@@ -105,8 +107,10 @@ rule figure_signals:
         f"{F}/signals.png",
     log:
         f"{R}/logs/figures/signals.log",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
-        "granwave plot signals {input.signals} --ensemble {input.ensemble} -o {output} > {log} 2>&1"
+        "granwave plot signals {input.signals} --ensemble {input.ensemble} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule figure_coherent:
@@ -119,8 +123,10 @@ rule figure_coherent:
         f"{F}/coherent.png",
     log:
         f"{R}/logs/figures/coherent.log",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
-        "granwave plot coherent {input} -o {output} > {log} 2>&1"
+        "granwave plot coherent {input} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule figure_compare:
@@ -147,21 +153,24 @@ rule figure_arrivals:
         f"{F}/arrivals.png",
     log:
         f"{R}/logs/figures/arrivals.log",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
-        "granwave plot arrivals {input} -o {output} > {log} 2>&1"
+        "granwave plot arrivals {input} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule figure_exponents:
     conda:
         "../envs/granwave.yaml"
     input:
-        lambda w: [path for _, path in exponent_series()],
+        lambda w: [path for scene, path in exponent_series() if scene_kind(scene) != "chains"],
     output:
         f"{F}/exponents.png",
     log:
         f"{R}/logs/figures/exponents.log",
     params:
-        labels=lambda w: flags("--label", [scene for scene, _ in exponent_series()]),
+        labels=lambda w: flags("--label", [scene for scene, _ in exponent_series()
+                                           if scene_kind(scene) != "chains"]),
     shell:
         "granwave plot exponents {input} {params.labels} -o {output} > {log} 2>&1"
 
@@ -178,9 +187,10 @@ rule figure_speeds:
     log:
         f"{R}/logs/figures/speeds.log",
     params:
+        scene=lambda w: main_sample()[0],
         lattices=lambda w, input: lattice_flags(input),
     shell:
-        "granwave plot speeds {input.sweep} {params.lattices} -o {output} > {log} 2>&1"
+        "granwave plot speeds {input.sweep} {params.lattices} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule figure_spectrum:
@@ -192,8 +202,10 @@ rule figure_spectrum:
         f"{F}/spectrum.png",
     log:
         f"{R}/logs/figures/spectrum.log",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
-        "granwave plot spectrum {input} -o {output} > {log} 2>&1"
+        "granwave plot spectrum {input} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule eigensolve_vectors:
@@ -223,8 +235,10 @@ rule figure_modes:
         f"{F}/modes.png",
     log:
         f"{R}/logs/figures/modes.log",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
-        "granwave plot modes {input.modes} {input.linear} {input.packing} -o {output} > {log} 2>&1"
+        "granwave plot modes {input.modes} {input.linear} {input.packing} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule snapshot_signal:
@@ -259,9 +273,11 @@ rule figure_snapshot:
         f"{F}/snapshot.png",
     log:
         f"{R}/logs/figures/snapshot.log",
+    params:
+        scene=lambda w: main_sample()[0],
     shell:
         "granwave plot snapshot {input.signal} --packing {input.packing} --modes {input.modes} "
-        "--linear {input.linear} -o {output} > {log} 2>&1"
+        "--linear {input.linear} --scene {params.scene} -o {output} > {log} 2>&1"
 
 
 rule figure_airy:
@@ -290,6 +306,7 @@ rule report:
         damping=[f"{R}/damping/table.json"] if config["damping"]["enabled"] else [],
         continuum=continuum_outputs(),
         shear=shear_outputs(),
+        timings=all_timings(),
     output:
         md=f"{R}/report/index.md",
         html=f"{R}/report/index.html",
@@ -303,7 +320,8 @@ rule report:
                                         flags("--figures", input.figures),
                                         flags("--damping", input.damping),
                                         flags("--continuum", input.continuum),
-                                        flags("--shear", input.shear)]),
+                                        flags("--shear", input.shear),
+                                        flags("--timings", input.timings)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
 
@@ -356,5 +374,7 @@ rule figure_damping:
         f"{F}/damping.png",
     log:
         f"{R}/logs/figures/damping.log",
+    params:
+        scene=config["damping"]["scene"],
     shell:
-        "granwave plot damping {input.signals} --reference {input.reference} -o {output} > {log} 2>&1"
+        "granwave plot damping {input.signals} --reference {input.reference} --scene {params.scene} -o {output} > {log} 2>&1"

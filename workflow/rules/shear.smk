@@ -48,6 +48,7 @@ rule shear_analysis:
         source=lambda w: config["shear"][w.scene]["scene"],
         material=lambda w: config["shear"][w.scene]["material"],
         diameter_mm=lambda w: config["shear"][w.scene]["diameter_mm"],
+        poisson=lambda w: float(scene_spec(config["shear"][w.scene]["scene"])["poisson"]),  # the packings' nu
     resources:
         runtime=5,
     script:
@@ -64,7 +65,7 @@ rule figure_shear:
     log:
         f"{R}/logs/figures/shear_{{scene}}.log",
     shell:
-        "granwave plot shear {input} -o {output} > {log} 2>&1"
+        "granwave plot shear {input} --scene {wildcards.scene} -o {output} > {log} 2>&1"
 
 
 # The analysis and its figure in one process, at the end of the run where every second of

@@ -16,7 +16,8 @@ with open(snakemake.log[0], "w") as log:
         print(f"skipped: {r['error']}", file=log)
     try:
         result = shear_scene([r for r in records if not r.get("error")], pick=snakemake.params.pick,
-                             material=snakemake.params.material, diameter_mm=snakemake.params.diameter_mm)
+                             material=snakemake.params.material, diameter_mm=snakemake.params.diameter_mm,
+                             poisson=snakemake.params.poisson)
     except InputError as exc:
         print(f"shear analysis: {exc}", file=log)
         sys.exit(1)
@@ -31,5 +32,5 @@ with open(snakemake.log[0], "w") as log:
         matplotlib.use("Agg")
         from granwave.figures.shear import shear_panels
 
-        shear_panels(json.loads(text), figure)
+        shear_panels(json.loads(text), figure, scene=snakemake.wildcards.scene)
 
