@@ -48,7 +48,7 @@ def test_report_section_says_the_packing_rule_the_bootstrap_interval_and_the_cut
     assert "Bootstrap over the packings within each height through the whole chain" in md
     assert "**Not quotable: 1 of 7 heights have fewer than 10 packings" in md
     assert "**Not quotable: 4 of 4 heights have fewer than 10 packings" in md
-    assert "First lateral shear cutoff 2π c_t/W = 0.015 " in md and "the waveguide's" in md
+    assert "First lateral shear cutoff 2π c_t/L1 = 0.015 " in md and "the waveguide's" in md
     assert "Q = ω/(2 α c_g)" in md and "| c_g(ω) |" in md and "(above the cutoff)" in md
     assert "Continuum length in frequency (|c/c_ref − 1| ≤ 0.02 and Q⁻¹ ≤ 0.05, c_ref c_ℓ of the " \
            "contributing heights' packings" in md
