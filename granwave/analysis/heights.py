@@ -27,7 +27,8 @@ Choices (also in ``docs/summaries.md`` and the CLI help)
 * With exactly two samples in a fit the uncertainty is undetermined (NaN). Every fitted
   quantity also carries its 95 % interval (``*_ci95``: ± t(0.975, n − 2) errors, the
   speeds' inverted from the slope's), which "± 2 errors" undercovers with few samples (two
-  packings at each of the two edge heights: 82 %; docs/truth.md).
+  packings at each of the two edge heights: two degrees of freedom, P(|t₂| < 2) = 0.82;
+  docs/truth.md).
 * **Aliasing is recorded, not hidden.** A signal whose sample interval
   exceeds the Nyquist interval of its highest mode (``aliased`` attribute,
   :func:`granwave.api.propagate`) still holds the exact signal at its sample

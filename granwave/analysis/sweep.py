@@ -42,7 +42,7 @@ The sweep (choices)
   granwave 1.x, :mod:`granwave.analysis.renamed_keys`) with one
   standard error (NaN with two pressures; NaN and a note with fewer) and the 95 % interval
   ``*_ci95`` (± t(0.975, n − 2) errors: ± 4.3 errors with four pressures; "± 2 errors" holds
-  the truth in only ~82 % of the cases there, docs/truth.md).
+  the truth in 71–86 % of the truth suite's cases there, docs/truth.md).
   Fitting the means, not the samples, keeps a height series shared by all
   samples of a pressure from being counted many times.
 * ``c_tof_over_c_l`` = mean c_tof / mean c_l, relative errors added in
