@@ -321,6 +321,18 @@ def _time_steps(params: PropagateParams, dt: float) -> float:
     return float(params.samples - 1) * (1.0 if dt >= h else math.ceil(h / dt))
 
 
+def _time_seconds(system: LinearSystem, params: PropagateParams, dt: float) -> float:
+    """Predicted seconds of one time-domain run at step dt (the constants above)."""
+    return (VERLET_SECONDS_PER_NNZ_STEP * system.stiffness.nnz * _time_steps(params, dt)
+            + TIME_SAMPLE_SECONDS_PER_DOF * system.n_dof * params.samples)
+
+
+def _modal_seconds(system: LinearSystem, params: PropagateParams) -> float:
+    """Predicted seconds of the dense eigensolve and the modal sum (the constants above)."""
+    n = system.n_dof
+    return EIGEN_SECONDS_PER_DOF3 * n**3 + MODAL_SUM_SECONDS_PER_TERM * n * params.samples
+
+
 def _omega_max_bound(system: LinearSystem) -> float:
     """Gershgorin bound on omega_max of M^-1/2 D M^-1/2 (instant; at most ~40% high)."""
     import scipy.sparse as sp
@@ -346,16 +358,36 @@ def choose_method(system: LinearSystem, params: PropagateParams) -> tuple[str, s
     nnz = system.stiffness.nnz
     dt = params.dt if params.dt is not None else params.safety * 2.0 / max(_omega_max_bound(system), 1e-300)
     steps = _time_steps(params, dt)
-    t_time = VERLET_SECONDS_PER_NNZ_STEP * nnz * steps + TIME_SAMPLE_SECONDS_PER_DOF * n * params.samples
+    t_time = _time_seconds(system, params, dt)
     if n > DENSE_MAX_DOF:
         return "time", (f"time domain: {n} dofs exceed the dense eigensolve limit {DENSE_MAX_DOF} "
                         f"(predicted {t_time:.3g} s)")
-    t_modal = EIGEN_SECONDS_PER_DOF3 * n**3 + MODAL_SUM_SECONDS_PER_TERM * n * params.samples
+    t_modal = _modal_seconds(system, params)
     method = "modal" if t_modal <= t_time else "time"
     return method, (f"{'modal sum' if method == 'modal' else 'time domain'}: predicted "
                     f"{min(t_modal, t_time):.3g} s against {max(t_modal, t_time):.3g} s for the "
                     f"{'time domain' if method == 'modal' else 'modal sum'} ({n} dofs, {nnz} "
                     f"nonzeros, {steps:.3g} steps at safety {params.safety:g})")
+
+
+def _rerun_or_modal(system: LinearSystem, params: PropagateParams):
+    """For method "auto" in the time domain: (rerun_ok(dt), why(signal)). rerun_ok says whether
+    a repeated run at the shorter step dt that the tolerance asks for is predicted cheaper than
+    the modal sum (always, above the dense limit); why gives the reason of the switch."""
+    from .linear.eigen import DENSE_MAX_DOF
+
+    t_modal = _modal_seconds(system, params)
+
+    def rerun_ok(dt: float) -> bool:
+        return system.n_dof > DENSE_MAX_DOF or _time_seconds(system, params, dt) < t_modal
+
+    def why(sig: Signal) -> str:
+        dt = float(sig.attrs["step_declined_dt"])
+        return (f"modal sum: the time domain's first run (dt = {sig.attrs['dt']:.3g}) was "
+                f"{sig.attrs['step_error_estimate']:.3g} of max|F| off, above the tolerance "
+                f"{params.tolerance:g}; the run at dt = {dt:.3g} it needs was predicted "
+                f"{_time_seconds(system, params, dt):.3g} s against {t_modal:.3g} s for the modal sum")
+    return rerun_ok, why
 
 
 def _dem_omega_max(packing: Packing) -> float:
@@ -458,8 +490,19 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                               dof_axis=None if system is None else system.dof_axis)
         omega_max = math.sqrt(max(float(np.max(source.omega2, initial=0.0)), 0.0))
     elif kind == "linear":
+        rerun_ok = None
         if method == "auto":
             method, reason = choose_method(source, p)
+            rerun_ok, switch = _rerun_or_modal(source, p)
+        if method == "time":
+            from .linear.step_rule import accurate_signal
+
+            sig = accurate_signal(time_domain_signal, source, tolerance=p.tolerance, ic=p.ic,
+                                  t_max=p.t_max, dt=p.dt, samples=p.samples, safety=p.safety,
+                                  snapshots=p.snapshots, progress=progress, rerun_ok=rerun_ok)
+            omega_max = float(sig.attrs["omega_max"])
+            if sig.attrs.get("step_rerun_declined"):
+                method, reason = "modal", switch(sig)
         if method == "modal":
             from .linear.eigen import eigensolve as solve
 
@@ -468,10 +511,6 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                                   snapshots=p.snapshots, dof_grain=source.dof_grain,
                                   dof_axis=source.dof_axis)
             omega_max = math.sqrt(max(float(np.max(modes.omega2, initial=0.0)), 0.0))
-        else:
-            sig = time_domain_signal(source, ic=p.ic, t_max=p.t_max, dt=p.dt, samples=p.samples,
-                                     safety=p.safety, snapshots=p.snapshots, progress=progress)
-            omega_max = float(sig.attrs["omega_max"])
     else:
         from .dem.pulse import DEFAULT_AMPLITUDE, DEFAULT_DAMPING, propagate_dem
 

@@ -440,6 +440,12 @@ class PropagateParams(Params):
                              lo_open=True)
     safety: float = param(0.1, help="Default time step as a fraction of the stability limit "
                           "2/omega_max.", lo=0.0, lo_open=True, hi=1.0, hi_open=True)
+    tolerance: float = param(0.01, help="time only: the largest departure of the signal from the "
+                             "exact linear solution allowed over the record, as a fraction of "
+                             "max|F| (each run estimates its own, to leading order in dt^2); a run "
+                             "above it is repeated with a shorter step, dt or safety giving the "
+                             "first. 0: the first step, unchecked (docs/linear.md).", lo=0.0, hi=1.0,
+                             hi_open=True)
     samples: int = param(2001, help="Number of equally spaced output times from 0 to t_max.", lo=2)
     snapshots: tuple | None = param(None, help="Store the displacement field at these times (modal "
                                     "needs a modes file made with --vectors).",

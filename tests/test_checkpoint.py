@@ -80,15 +80,21 @@ def _mid_rules(run, saves) -> bool:
 ], ids=["2d-frictional", "3d-frictional", "2d-mean-flow-settling-end-game"])
 def test_resumed_run_gives_the_bytes_of_an_uninterrupted_one(params, stop_when, monkeypatch, tmp_path):
     """Straight with the default chunks; stopped after a checkpoint and resumed with chunks of 200
-    steps (CALL_SECONDS far below a chunk's time): positions, contacts and forces byte for byte,
-    every attribute equal, the progress says where it resumed, the checkpoint is gone."""
+    steps (CALL_SECONDS far below a chunk's time), checkpoints still written as it goes on (at
+    every 20th chunk: not at each, which were 780 files and most of this test's time in 3D):
+    positions, contacts and forces byte for byte, every attribute equal, the progress says where
+    it resumed, the checkpoint is gone."""
     straight = api.prepare_packing(params)
     path = tmp_path / "run.ckpt.h5"
     monkeypatch.setattr(protocol, "CALL_SECONDS", 1e-9)
     step = _stopped_run(monkeypatch, params, path, stop_when)
     assert 0 < step < straight.attrs["steps"]
-    lines = []
-    resumed = api.prepare_packing(params, checkpoint=path, checkpoint_every=0, progress=lines.append)
+    lines, asked, saves = [], [], []
+    keep = CK.Checkpoint.save
+    monkeypatch.setattr(CK.Checkpoint, "due", lambda self: asked.append(1) or len(asked) % 20 == 0)
+    monkeypatch.setattr(CK.Checkpoint, "save", lambda self, *a: (saves.append(1), keep(self, *a)))
+    resumed = api.prepare_packing(params, checkpoint=path, progress=lines.append)
+    assert len(saves) == len(asked) // 20 > 0  # it went on writing checkpoints after the resume
     assert lines[0] == f"resumed from step {step} ({path})"
     assert _bytes(resumed) == _bytes(straight)
     _same_attrs(resumed.attrs, straight.attrs)
@@ -218,26 +224,23 @@ def test_workflow_samples_resume_from_their_checkpoint(monkeypatch, tmp_path):
     assert _bytes(resumed) == _bytes(straight) and path.exists()  # run_sample removes it once written
 
 
-def test_workflow_gives_tall_packings_threads_and_a_checkpoint(tmp_path):
+def test_workflow_gives_tall_packings_threads_and_a_checkpoint():
     """The per-sample rule of a tall column (12 800 grains) gets a thread per 4000 grains (three of
     16 cores, two of 2) and a checkpoint under the results folder; a short one, neither."""
-    from test_workflow import ROOT, snakemake
+    from quick_plan import CONTINUUM_PACKINGS, command_of, continuum_packing_commands
 
     def command(target, cores):
-        run = snakemake(target, "-n", "-p", "--cores", cores, "--configfile",
-                        str(ROOT / "config" / "continuum.yaml"), "--allowed-rules", "prepare_packing",
-                        cwd=tmp_path)
-        out = run.stdout + run.stderr
-        assert run.returncode == 0, out[-3000:]
-        return next(line for line in out.splitlines() if "granwave prepare-packing" in line)
+        returncode, out = continuum_packing_commands(cores)  # one dry run for these packings
+        assert returncode == 0, out[-3000:]
+        return command_of(out, target, "granwave prepare-packing")
 
-    tall = "results/packing/continuum2d_p4/p0.0001/h512/s0.h5"
+    tall, short = CONTINUUM_PACKINGS[:2]
     ck = "results/checkpoints/continuum2d_p4/p0.0001/h512/s0.h5"
-    line = command(tall, "16")
+    line = command(tall, 16)
     assert line.startswith("Shell command: mkdir -p results/checkpoints/continuum2d_p4/p0.0001/h512 && ")
     assert "--grains 12800" in line and "--threads 3 " in line and f"--checkpoint {ck} " in line, line
-    assert "--threads 2 " in command(tall, "2")
-    short = command("results/packing/continuum2d_p4/p0.0001/h64/s0.h5", "16")
+    assert "--threads 2 " in command(tall, 2)
+    short = command(short, 16)
     assert "--threads 1 " in short and "--checkpoint" not in short and "mkdir" not in short, short
 
 

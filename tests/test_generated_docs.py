@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from quick_plan import dry_run
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -44,7 +46,7 @@ def test_job_counts_in_the_docs_are_current(config):
     quoted = {text for doc in summarize.GENERATED_DOCS for name, text in _spans((ROOT / doc).read_text())
               if name == f"jobs {config}"}
     assert quoted, f"no generated job count of {config} in the docs"
-    count = summarize.workflow_jobs(config)
+    count = summarize.jobs_of_plan(*dry_run(config), config)  # the dry run workflow_jobs makes
     assert quoted == {str(count)}, (f"the docs say {quoted} jobs for {config}, snakemake -n counts {count}: "
                                     "run python benchmarks/results/summarize.py")
 

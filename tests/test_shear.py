@@ -184,12 +184,17 @@ def test_analyze_front_shear_si(tmp_path):
     assert material_scales("glass", 1e-3)["speed"] == pytest.approx(5160, rel=2e-3)
     run = CliRunner().invoke
     lat = tmp_path / "lat.h5"
-    run(main, ["lattice", "--rows", "8", "--width", "4", "--pressure", "1e-5", "--friction", "0.5", "-o", str(lat)])
+    # the lattice made of quartz (its Poisson ratio, so that --units si --material quartz matches the run)
+    r = run(main, ["lattice", "--rows", "8", "--width", "4", "--pressure", "1e-5", "--friction", "0.5",
+                   "--material", "quartz", "-o", str(lat)])
+    assert r.exit_code == 0, r.output
     run(main, ["linearize", str(lat), "-o", str(tmp_path / "lin.h5")])
     r = run(main, ["propagate", str(tmp_path / "lin.h5"), "--source", "shear", "--method", "modal",
                    "--t-max", "600", "--samples", "3001", "-o", str(tmp_path / "s.h5")])
     assert r.exit_code == 0, r.output
-    moduli = {"dim": 2, "c_t": theory.lattice_shear_speed(P_LAT), "phi3_star": 0.6, "C33": 0.011}
+    from granwave.units import MATERIALS
+    moduli = {"dim": 2, "c_t": theory.lattice_shear_speed(P_LAT, poisson=MATERIALS["quartz"]["nu"]),
+              "phi3_star": 0.6, "C33": 0.011}
     (tmp_path / "m.json").write_text(json.dumps(moduli))
     r = run(main, ["analyze", "front", str(tmp_path / "s.h5"), "--moduli", str(tmp_path / "m.json"),
                    "--pulse", "ricker", "--units", "si", "--material", "quartz", "--diameter", "0.2", "--json"])

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from quick_plan import dry_run
+
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "workflow" / "Snakefile"
 TINY = ROOT / "tests" / "data" / "tiny_workflow.yaml"
@@ -155,13 +157,12 @@ def test_slurm_profile_dry_run_resolves_resources(tmp_path, config):
     assert "This was a dry-run" in out
 
 
-def test_light_commands_and_reference_samples_share_jobs(tmp_path):
+def test_light_commands_and_reference_samples_share_jobs():
     """The quick config plans the main sample's extras, the continuum analyses and the lattice
     and chain samples as a few jobs (docs/decisions/0020-quick-workflow-budget.md), not one
     process per file: no per-file rule among its jobs."""
-    run = snakemake("-n", "--quiet", "rules", "--configfile", str(ROOT / "config" / "config.yaml"), cwd=tmp_path)
-    out = run.stdout + run.stderr
-    assert run.returncode == 0, out[-3000:]
+    returncode, out = dry_run("config/config.yaml")
+    assert returncode == 0, out[-3000:]
     jobs = dict(re.findall(r"^(\w+)\s+(\d+)$", out, re.M))
     for name in ("sample_extras", "continuum_continuum2d", "batch_reference_0", "analyses_reference",
                  "figures_study", "analyses_frictional2d"):
@@ -175,41 +176,15 @@ def test_light_commands_and_reference_samples_share_jobs(tmp_path):
 
 
 @pytest.mark.slow
-def test_tiny_workflow_end_to_end(tmp_path):
-    run = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)
-    assert run.returncode == 0, (run.stdout + run.stderr)[-5000:]
-    report = (tmp_path / "results" / "report" / "index.md").read_text()
-    assert (tmp_path / "results" / "report" / "index.html").is_file()
-    for heading in ["## Statics per pressure", "## Elastic moduli per pressure",
-                    "## Sound speeds against pressure", "## Front scaling with distance",
-                    "## Triangular lattices against the formula",
-                    "## Damping series", "## Continuum: the front against distance",
-                    "## Provenance and numerical checks",
-                    "## Figures"]:
-        assert heading in report, heading
-    figures = sorted(p.name for p in (tmp_path / "results" / "figures").glob("*.png"))
-    assert len(figures) >= 12, figures
-    for name in figures:
-        assert f"figures/{name}" in report, name
-    assert "tiny" in report  # the config it came from
-    # Rerunning with nothing changed does nothing.
-    again = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)
-    assert again.returncode == 0
-    assert "Nothing to be done" in again.stdout + again.stderr
-    # A config that adds a height plans its samples at once, not a kernel warm-up alone (the
-    # warm-ups' params follow the scenes and are unrecorded: common.smk unrecorded).
-    taller = tmp_path / "taller.yaml"
-    taller.write_text(TINY.read_text().replace("heights: [6, 10, 14]", "heights: [6, 10, 14, 18]"))
-    plan = snakemake("-n", "--quiet", "rules", "--cores", "2", "--configfile", str(taller), cwd=tmp_path)
-    jobs = dict(re.findall(r"^(\w+)\s+(\d+)$", plan.stdout + plan.stderr, re.M))
-    assert plan.returncode == 0 and "compile_kernels" not in jobs, (plan.stdout + plan.stderr)[-3000:]
-    assert any(name.startswith("batch_continuum_tiny") for name in jobs), jobs
-
-
-@pytest.mark.slow
-def test_interrupted_workflow_finishes_on_rerun(tmp_path):
-    """SIGTERM (what a scheduler or `kill` sends) mid-run, then the same command finishes the rest
-    (after SIGKILL, when snakemake hung on the SIGTERM, once `--unlock` has removed its lock)."""
+def test_tiny_workflow_interrupted_then_finished_end_to_end(tmp_path):
+    """The tiny workflow end to end, through an interruption: SIGTERM (what a scheduler or `kill`
+    sends) once its first job has finished, then the same command finishes the rest (after
+    SIGKILL, when snakemake hung on the SIGTERM, once `--unlock` has removed its lock); the
+    finished run's report holds every table and every figure the workflow made, no temporary
+    file of an interrupted atomic write is left, a second rerun has nothing to do, and a config
+    that adds a height plans its samples at once. One run of the workflow for both properties
+    (they were two runs of it): all but the jobs finished before the signal run in the rerun,
+    from the same empty start as a run never cut."""
     import os
     import signal
     import time
@@ -244,11 +219,36 @@ def test_interrupted_workflow_finishes_on_rerun(tmp_path):
     done = [int(m) for m in re.findall(r"(\d+) of \d+ steps", log)]
     total = int(re.search(r"of (\d+) steps", log).group(1)) if done else None
     assert first.returncode != 0 and done and done[-1] < total, log[-2000:]
-    rerun = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=1200)
-    assert rerun.returncode == 0, (rerun.stdout + rerun.stderr)[-3000:]
-    assert (tmp_path / "results" / "report" / "index.md").is_file()
+    rerun = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)
+    assert rerun.returncode == 0, (rerun.stdout + rerun.stderr)[-5000:]
     # no temporary file of an interrupted atomic write is left looking like an output
     assert not [p for p in (tmp_path / "results").rglob("*") if p.name.endswith(".tmp")]
+    report = (tmp_path / "results" / "report" / "index.md").read_text()
+    assert (tmp_path / "results" / "report" / "index.html").is_file()
+    for heading in ["## Statics per pressure", "## Elastic moduli per pressure",
+                    "## Sound speeds against pressure", "## Front scaling with distance",
+                    "## Triangular lattices against the formula",
+                    "## Damping series", "## Continuum: the front against distance",
+                    "## Provenance and numerical checks",
+                    "## Figures"]:
+        assert heading in report, heading
+    figures = sorted(p.name for p in (tmp_path / "results" / "figures").glob("*.png"))
+    assert len(figures) >= 12, figures
+    for name in figures:
+        assert f"figures/{name}" in report, name
+    assert "tiny" in report  # the config it came from
+    # Rerunning with nothing changed does nothing.
+    again = snakemake("--cores", "2", "--configfile", str(TINY), cwd=tmp_path)
+    assert again.returncode == 0
+    assert "Nothing to be done" in again.stdout + again.stderr
+    # A config that adds a height plans its samples at once, not a kernel warm-up alone (the
+    # warm-ups' params follow the scenes and are unrecorded: common.smk unrecorded).
+    taller = tmp_path / "taller.yaml"
+    taller.write_text(TINY.read_text().replace("heights: [6, 10, 14]", "heights: [6, 10, 14, 18]"))
+    plan = snakemake("-n", "--quiet", "rules", "--cores", "2", "--configfile", str(taller), cwd=tmp_path)
+    jobs = dict(re.findall(r"^(\w+)\s+(\d+)$", plan.stdout + plan.stderr, re.M))
+    assert plan.returncode == 0 and "compile_kernels" not in jobs, (plan.stdout + plan.stderr)[-3000:]
+    assert any(name.startswith("batch_continuum_tiny") for name in jobs), jobs
 
 
 def _lattice_sample(tmp_path, method, safety):
@@ -316,12 +316,12 @@ def test_auto_signal_method_picks_the_cheaper_prediction(tmp_path):
 def test_lone_continuum_packing_is_prepared_with_the_scenes_compaction_rule(tmp_path):
     """A single packing asked for outside its batch (the per-sample rule, e.g. to run only the
     tallest column) must be made as its batch would make it: with the scene's compaction rule."""
-    target = "results/packing/continuum2d_p4/p0.0001/h2048/s0.h5"
-    run = snakemake(target, "-n", "-p", "--configfile", str(ROOT / "config" / "continuum.yaml"),
-                    "--allowed-rules", "prepare_packing", cwd=tmp_path)
-    out = run.stdout + run.stderr
-    assert run.returncode == 0, out[-3000:]
-    command = next(line for line in out.splitlines() if "granwave prepare-packing" in line)
+    from quick_plan import CONTINUUM_PACKINGS, command_of, continuum_packing_commands
+
+    target = CONTINUUM_PACKINGS[2]  # the tallest column, in the dry run shared with test_checkpoint.py
+    returncode, out = continuum_packing_commands()
+    assert returncode == 0, out[-3000:]
+    command = command_of(out, target, "granwave prepare-packing")
     assert "--compaction mean-flow" in command and "--grains 51200" in command, command
     # and its moduli are the global ones only, as in a batch (the local solve of a 2048 d
     # column ran for minutes in LSQR where the global one takes seconds)

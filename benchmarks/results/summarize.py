@@ -11,11 +11,12 @@ prose of an earlier document carries ``"transcribed": true`` and says where from
 
 The per-packing records of ``ensembles/`` (one packing a line, written and read by the ensemble
 benchmarks: relaxation.py, settling.py, end_game.py, protocol_sensitivity.py) are listed, not
-shown: their tables are in TABLES.md. Four tables go into the docs between marker comments:
+shown: their tables are in TABLES.md. Five tables go into the docs between marker comments:
 docs/gpu.md's (the newest GPU record), docs/dem.md's (the newest value of every DEM
 measure, see :func:`dem_table`), docs/shear.md's (the pick table of the newest shear-scene
-run, see :func:`shear_scene_table`) and docs/continuum.md's (the newest run of each continuum
-scene, see :func:`continuum_scene_tables`).
+run, see :func:`shear_scene_table`), docs/continuum.md's (the newest run of each continuum
+scene, see :func:`continuum_scene_tables`) and docs/tradeoffs.md's time-step tables (the
+newest record of time_step.jsonl, see :func:`time_step_table`).
 
 It also regenerates the workflow's job counts and measured run times quoted in README.md
 and config/README.md (the spans between ``<!-- gen:NAME -->`` and ``<!-- /gen -->``: job counts
@@ -236,6 +237,71 @@ def continuum_scene_tables(folder: Path = HERE) -> str:
     return "\n".join(lines).rstrip()
 
 
+#: docs/tradeoffs.md's tables of the time domain's step sit between these two lines.
+TIME_STEP_TABLE = ("<!-- time-step-table: begin (generated; do not edit) -->", "<!-- time-step-table: end -->")
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.2f} %"
+
+
+def time_step_table(folder: Path = HERE) -> str:
+    """The newest record of time_step.jsonl (benchmarks/time_step.py): where each kick's modal
+    weight lies, the time domain's error against step and record length (with each run's own
+    estimate), and what the default step rule did."""
+    rec = _records(folder / "time_step.jsonl")[-1]
+    r = rec["result"]
+    kinds = {"normal": "compressional", "shear": "shear"}
+    lines = [f"Run: {rec['date']}, revision {rec['git_revision']}, `{rec['command']}` "
+             f"({rec['summary']['CPU (s)']:.0f} CPU-s on a shared 2-core machine; compare wall times "
+             f"within a table). One packing of {r['grains']} grains (seed {r['seed']}, p = {r['pressure']:g}, "
+             f"{r['n_dof']} dofs, height {r['height']:.1f} d; c_l = {r['c']['normal']:.4f}, "
+             f"c_t = {r['c']['shear']:.4f}), initial condition A, {r['samples']} samples; a crossing is "
+             "height / c of the kick's wave. Errors: max over the record of |F_time − F_modal| / "
+             "max|F_modal| on the output grid.", "",
+             "**Where the kick's weight lies** (|a_n b_n|, and |a_n b_n| ω_n³, which the phase error "
+             "weighs; rotational part: the share of the modes' M-norm on rotations):", "",
+             "| ω band | compressional \\|a b\\| | compressional \\|a b\\| ω³ | shear \\|a b\\| | "
+             "shear \\|a b\\| ω³ | rotational part of the modes |", "|---|---|---|---|---|---|"]
+    sn, ss = r["spectrum"]["normal"], r["spectrum"]["shear"]
+    for bn, bs in zip(sn["bands"], ss["bands"]):
+        lo, hi = bn["band"]
+        rot = "—" if bn["rot_frac"] is None else f"{bn['rot_frac']:.2f}"
+        lines.append(f"| {lo:g}–{'' if hi is None else f'{hi:g}'} | {bn['share_w']:.3f} | {bn['share_w3']:.3f} | "
+                     f"{bs['share_w']:.3f} | {bs['share_w3']:.3f} | {rot} |")
+    longest = max(x["crossings"] for x in r["default"])
+    lines += ["", "| kick | rotational part (\\|a b\\| ω³ weighted) | max\\|F‴\\| / max\\|F\\| over "
+              f"{longest:g} crossings |", "|---|---|---|"]
+    for k in ("normal", "shear"):
+        sp = r["spectrum"][k]
+        lines.append(f"| {kinds[k]} | {sp['rot_frac_w3']:.2f} | {sp['jerk_over_f']:.3f} |")
+    safeties = sorted({x["safety"] for x in r["fixed"]}, reverse=True)
+    lines += ["", "**Error against the step** (fixed safety, the first step alone; in brackets the "
+              "run's own estimate, granwave.linear.step_rule):", "",
+              "| kick | crossings | " + " | ".join(f"safety {s:g}" for s in safeties) + " |",
+              "|---|---|" + "---|" * len(safeties)]
+    walls = []
+    for k in ("normal", "shear"):
+        for n in sorted({x["crossings"] for x in r["fixed"] if x["kind"] == k}):
+            cells = {x["safety"]: x for x in r["fixed"] if x["kind"] == k and x["crossings"] == n}
+            lines.append(f"| {kinds[k]} | {n:g} | " + " | ".join(
+                f"{_pct(cells[s]['error'])} ({_pct(cells[s]['estimate'])})" for s in safeties) + " |")
+            walls.append(f"{kinds[k]} {n:g}: " + ", ".join(f"{cells[s]['wall']:.2f}" for s in safeties))
+    lines += ["", f"Wall times of those runs (s, safety {', '.join(f'{s:g}' for s in safeties)}): "
+              + "; ".join(walls) + ".", "",
+              f"**The default** (`granwave propagate --method time`: safety 0.1, tolerance "
+              f"{_pct(r['tolerance'])}):", "",
+              "| kick | crossings | runs | final ω_max dt | error | estimate | wall, all runs (s) | "
+              "largest fixed safety within the tolerance (wall, s) | modal sum: eigensolve + sum (s) |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for x in r["default"]:
+        best = "none tested" if x["best_fixed_safety"] is None else \
+            f"{x['best_fixed_safety']:g} ({x['best_fixed_wall']:.2f})"
+        lines.append(f"| {kinds[x['kind']]} | {x['crossings']:g} | {x['runs']} | {x['omega_max_dt']:.3f} | "
+                     f"{_pct(x['error'])} | {_pct(x['estimate'])} | {x['wall']:.2f} | {best} | {x['modal_wall']:.2f} |")
+    return "\n".join(lines)
+
+
 def write_block(doc: Path, markers: tuple[str, str], text: str) -> None:
     body = doc.read_text()
     begin, end = body.index(markers[0]), body.index(markers[1])
@@ -261,9 +327,14 @@ def workflow_jobs(config: str) -> int:
         run = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
                               "-n", "--quiet", "rules", "--configfile", str(ROOT / config)],
                              cwd=work, capture_output=True, text=True, env=env, timeout=600)
-    totals = re.findall(r"^total\s+(\d+)\s*$", run.stdout + run.stderr, re.M)
-    if run.returncode or not totals:
-        raise RuntimeError(f"snakemake -n with {config} failed:\n{run.stderr[-2000:]}")
+    return jobs_of_plan(run.returncode, run.stdout + run.stderr, config)
+
+
+def jobs_of_plan(returncode: int, output: str, config: str) -> int:
+    """The job total of a `snakemake -n --quiet rules` run (its exit status and output)."""
+    totals = re.findall(r"^total\s+(\d+)\s*$", output, re.M)
+    if returncode or not totals:
+        raise RuntimeError(f"snakemake -n with {config} failed:\n{output[-2000:]}")
     return int(totals[-1])
 
 
@@ -328,6 +399,7 @@ def main() -> None:
     write_block(HERE.parent.parent / "docs" / "dem.md", DEM_TABLE, dem_table())
     write_block(HERE.parent.parent / "docs" / "shear.md", SHEAR_TABLE, shear_scene_table())
     write_block(HERE.parent.parent / "docs" / "continuum.md", CONTINUUM_TABLE, continuum_scene_tables())
+    write_block(HERE.parent.parent / "docs" / "tradeoffs.md", TIME_STEP_TABLE, time_step_table())
     write_generated_docs()
 
 

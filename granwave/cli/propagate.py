@@ -18,7 +18,8 @@ from .common import (echo_result, echo_warnings, json_option, long_run_option, o
 from .prepare import device_option
 
 ROWS = ("ic", "method", "method_reason", "height", "t_max", "samples", "dt", "omega_max_dt",
-        "nyquist_ratio", "modified_energy_max_rel_deviation", "amplitude", "damping", "n_opened",
+        "nyquist_ratio", "step_error_estimate", "step_runs", "modified_energy_max_rel_deviation",
+        "amplitude", "damping", "n_opened",
         "n_formed", "n_sliding", "max_displacement_over_overlap")
 
 

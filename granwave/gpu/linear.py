@@ -15,7 +15,8 @@ stored order, as on the CPU, and the arithmetic of each row is the CPU kernel's
 runs give identical bytes, and the signal agrees with the CPU one to rounding (the CUDA
 compiler may fuse multiply-adds). The whole time loop stays on the device; at each output
 sample a two-stage reduction (NPART blocks, then one) sums (kinetic, potential, a.M.a,
-detector.u) in a fixed order into a device array, and only those samples (and requested
+detector.u) in a fixed order into a device array (and, by the same kernels, g.u and g.v for the
+step's error estimate, granwave.linear.step_rule), and only those samples (and requested
 snapshots) come back to the host.
 """
 
@@ -31,6 +32,7 @@ from ..errors import InputError
 from ..linear.assemble import asymmetry
 from ..linear.propagate import (DEFAULT_SAFETY, MAX_TIME_STEPS, _check_ic, _check_snapshots,
                                 carried_attrs, sample_times, stable_time_step)
+from ..linear.step_rule import step_error
 from ..model import LinearSystem, Signal
 from ..resources import check_propagate
 from . import load_cuda, simulated
@@ -217,6 +219,11 @@ def time_domain_signal_gpu(system: LinearSystem, *, ic: str, t_max: float, dt: f
     g_data = cuda.to_device(np.ascontiguousarray(D.data, dtype=np.float64))
     g_minv, g_m = cuda.to_device(minv), cuda.to_device(m)
     g_det = cuda.to_device(np.ascontiguousarray(system.detector, dtype=np.float64))
+    # g = D^T M^-1 detector: F'' = -g.u and F''' = -g.v for the step's error estimate
+    # (granwave.linear.step_rule), by the same reduction kernels with g as the detector
+    g_vec = D.T @ (np.asarray(system.detector, dtype=np.float64) * minv)
+    g_g = cuda.to_device(np.ascontiguousarray(g_vec))
+    g_deriv = cuda.device_array((samples, 4)), cuda.device_array((samples, 4))
     bufs = [cuda.to_device(ud), cuda.device_array(n)]
     g_v, g_a, g_vend = cuda.to_device(vh), cuda.to_device(a), cuda.to_device(v)
     g_out = cuda.device_array((samples, 4))
@@ -238,6 +245,9 @@ def time_domain_signal_gpu(system: LinearSystem, *, ic: str, t_max: float, dt: f
             if store:
                 sample_partials[NPART, RBLOCK](cur, g_vend, g_a, g_m, g_det, g_part)
                 sample_sums[1, RBLOCK](g_part, g_out, k)
+                for x, out_x in ((cur, g_deriv[0]), (g_vend, g_deriv[1])):  # g.u, then g.v
+                    sample_partials[NPART, RBLOCK](x, g_vend, g_a, g_m, g_g, g_part)
+                    sample_sums[1, RBLOCK](g_part, out_x, k)
         if progress is not None:
             now = _time.perf_counter()
             if now - t_last >= progress_interval:
@@ -249,6 +259,8 @@ def time_domain_signal_gpu(system: LinearSystem, *, ic: str, t_max: float, dt: f
     sums = g_out.copy_to_host()
     sums[0] = sums0
     force = sums[:, 3].copy()
+    curvature, jerk = -g_deriv[0].copy_to_host()[:, 3], -g_deriv[1].copy_to_host()[:, 3]
+    curvature[0], jerk[0] = -np.dot(g_vec, u), -np.dot(g_vec, v)
     e = sums[:, 0] + sums[:, 1]
     eh = e - dt * dt / 8.0 * sums[:, 2]
     e0, eh0 = e[0], eh[0]
@@ -258,6 +270,7 @@ def time_domain_signal_gpu(system: LinearSystem, *, ic: str, t_max: float, dt: f
     attrs.update(ic=ic, method="time", height=system.height, t_max=float(t_max), samples=int(samples),
                  dt=float(dt), integrator="velocity Verlet", safety=float(safety),
                  omega_max=float(wmax), omega_max_dt=float(wmax * dt), n_steps=int(n_steps),
+                 step_error_estimate=step_error(times, force, curvature, jerk, dt, ic),
                  energy_initial=float(e0),
                  energy_max_rel_deviation=float(dev / e0) if symmetric and e0 > 0 else float("nan"),
                  modified_energy_max_rel_deviation=(float(devh / eh0) if symmetric and eh0 > 0

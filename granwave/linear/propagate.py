@@ -40,6 +40,7 @@ from ..model import LinearSystem, Modes, Signal
 from ..resources import check_propagate, check_run_time, check_time_domain, predicted_seconds
 from ..provenance import SAMPLE_ATTRS, carried
 from .assemble import asymmetry, omega2_max, symmetric_part
+from .step_rule import step_error
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 from .. import team
 
@@ -418,6 +419,15 @@ def state_sums(u: np.ndarray, v: np.ndarray, a: np.ndarray, m: np.ndarray,
     return 0.5 * kin, 0.5 * pot, ama, force
 
 
+@numba.njit(cache=True)
+def sparse_dot(index: np.ndarray, value: np.ndarray, x: np.ndarray) -> float:
+    """sum_k value[k] x[index[k]], in increasing k (the same bits on every run)."""
+    acc = 0.0
+    for k in range(index.shape[0]):
+        acc += value[k] * x[index[k]]
+    return acc
+
+
 #: The time-domain kernel counts its steps in a 64-bit integer.
 MAX_TIME_STEPS = 2**63 - 1
 
@@ -498,6 +508,11 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     det = np.asarray(system.detector, dtype=np.float64)
     det_index = np.flatnonzero(det).astype(np.int64)
     det_value = np.ascontiguousarray(det[det_index])
+    # F'' = -g.u and F''' = -g.v (u'' = -M^-1 D u): the signal's derivatives that the step's
+    # error estimate needs (granwave.linear.step_rule); g is nonzero beside the detector only
+    g = D.T @ (det * minv)
+    g_index = np.flatnonzero(g).astype(np.int64)
+    g_value = np.ascontiguousarray(g[g_index])
     blocks = np.zeros(((system.n_dof + SUM_BLOCK - 1) // SUM_BLOCK, 3))
     u = np.zeros(system.n_dof)
     v = np.zeros(system.n_dof)
@@ -527,6 +542,8 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
             snap_u[s_idx] = u
     force = np.empty(samples)
     force[0] = f0
+    curvature, jerk = np.empty(samples), np.empty(samples)
+    curvature[0], jerk[0] = -sparse_dot(g_index, g_value, u), -sparse_dot(g_index, g_value, v)
     step = 0
     n_steps = sub * (samples - 1)
     t_wall0 = t_last = _time.perf_counter()
@@ -564,6 +581,7 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
                     for s_idx in np.flatnonzero(snap_k == step):
                         snap_u[s_idx] = u
         e, eh, force[k] = energies_and_force()
+        curvature[k], jerk[k] = -sparse_dot(g_index, g_value, u), -sparse_dot(g_index, g_value, v)
         if symmetric:
             dev = max(dev, abs(e - e0))
             devh = max(devh, abs(eh - eh0))
@@ -572,6 +590,7 @@ def time_domain_signal(system: LinearSystem, *, ic: str, t_max: float, dt: float
     attrs.update(ic=ic, method="time", height=system.height, t_max=float(t_max), samples=int(samples),
                  dt=float(dt), integrator="velocity Verlet", safety=float(safety),
                  omega_max=float(wmax), omega_max_dt=float(wmax * dt), n_steps=int(n_steps),
+                 step_error_estimate=step_error(times, force, curvature, jerk, dt, ic),
                  energy_initial=float(e0),
                  energy_max_rel_deviation=float(dev / e0) if symmetric and e0 > 0 else float("nan"),
                  modified_energy_max_rel_deviation=(float(devh / eh0) if symmetric and eh0 > 0
