@@ -48,16 +48,23 @@ The rule (also in ``docs/continuum.md`` and ``granwave analyze attenuation --hel
    (default 0.01; not applied with one packing per height); (d) every usable height's |S| is at
    least ``threshold`` of its own maximum; (e) c(ω) is known to ``max_error`` (relative).
    The reliable band is the contiguous run of reliable frequencies around the reference
-   frequency (the longest run when the reference frequency is not reliable).
+   frequency (the run nearest to it when the reference frequency is not reliable).
 9. **Low-frequency limit.** c(ω) = c0 + c2 ω² fitted over the band's lowest part,
    ω_lo ≤ ω ≤ 2 ω_lo (at least 4 frequencies; weighted by 1/c_err², ``numpy.polyfit`` with
    its covariance); ``c0`` and its error, the larger of the fit's and the bootstrap's (the
-   same fit on every resampling), and ``c0 / c_l`` when the effective-medium c_l is given.
+   same fit on every resampling) combined in quadrature with the spread of c0 over fit spans
+   and forms (``c0_model_spread``, :func:`granwave.analysis.continuum_length.c0_model_spread`;
+   ``c0_stat_err`` without it), and ``c0 / c_l`` against the reference c_l of rule 10.
 
-10. **Continuum length.** λ* = 2π c(ω*)/ω*, ω* the top of the run of band frequencies, from
-   its bottom, where |c/c0 − 1| ≤ ``c_tol`` and Q⁻¹ ≤ ``q_tol`` (:func:`continuum_wavelength`),
-   with a bootstrap interval; ``L_lambda`` where the pulse's spectral centroid reaches ω*
-   (:func:`continuum_distance`).
+10. **Continuum length.** λ* against one reference (:mod:`granwave.analysis.continuum_length`):
+   the c_l of the packings of the heights that enter the fits up to ω* when per-packing c_l are
+   given (``c_l`` a sequence, one per signal), the given c_l when it is one number, else c0.
+   λ* = 2π c(ω*)/ω*, ω* where from the band's bottom up |c/c_ref − 1| first exceeds ``c_tol``
+   or Q⁻¹ first exceeds ``q_tol`` (``binding`` says which; ``omega_star_above_cutoff``
+   whether it is above the lateral cutoff); 95 % interval from the per-frequency intervals
+   (``lambda_star_ci``) and, beside it, from the bootstrap (``lambda_star_boot_ci``, the
+   reference drawn about its value with its error); ``L_lambda`` where the pulse's spectral
+   centroid reaches ω* (:func:`continuum_distance`).
 11. **Lateral cutoff.** ``omega_cutoff`` (2π c_t / W, :func:`lateral_cutoff`), when given, is
    recorded and the frequencies above it marked: there α and c are the waveguide's.
 
@@ -78,6 +85,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import InputError
+from .continuum_length import c0_model_spread, continuum_wavelength, contributing_reference
 from .ensemble import ensemble_average
 from .front import front_features
 from .heights import group_heights
@@ -94,8 +102,11 @@ DEFAULT_MIN_SNR = 2.0
 DEFAULT_MIN_HEIGHTS = 3
 DEFAULT_MIN_FIT_P = 0.01
 DEFAULT_C0_SPAN = 2.0
-DEFAULT_C_TOL = 0.02  # continuum length: |c/c0 − 1| at most this
+DEFAULT_C_TOL = 0.02  # continuum length: |c/c_ref − 1| at most this
 DEFAULT_Q_TOL = 0.05  # and Q⁻¹ at most this
+__all__ = ["attenuation", "attenuation_from_groups", "continuum_wavelength", "continuum_distance",
+           "lateral_cutoff", "coherent_spectra", "noise_floor", "usable", "reliable_band",
+           "low_frequency_limit", "group_velocity", "fit_p_value", "spectra", "front_window", "window"]
 
 
 def window(time: np.ndarray, t_end: float, taper: float) -> np.ndarray:
@@ -301,10 +312,14 @@ def reliable_band(omega, S, threshold: float, i_ref: int, rel_err=None,
     mask = np.zeros(omega.size, bool)
     if not ok.any():
         return mask
-    if not ok[i_ref]:  # the longest run of reliable frequencies instead
+    if not ok[i_ref]:  # the run of reliable frequencies nearest to it instead (ties: the longer)
+        # (not the longest anywhere: that can be a run of the short columns alone far above the
+        # tallest column's spectrum, a different band; benchmarks/truth_cases/attenuation.py)
         edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(int), [0]))))
         starts, stops = edges[::2], edges[1::2]
-        i_ref = int(starts[np.argmax(stops - starts)])
+        gap = np.where(i_ref < starts, starts - i_ref, i_ref - (stops - 1))
+        best = np.lexsort((-(stops - starts), gap))[0]
+        i_ref = int(starts[best])
     lo = i_ref
     while lo > 0 and ok[lo - 1]:
         lo -= 1
@@ -335,43 +350,28 @@ def low_frequency_limit(omega, c, band, c_err=None, span: float = DEFAULT_C0_SPA
             "omega_fit": [float(omega[lower[0]]), float(omega[lower[-1]])]}
 
 
-def continuum_wavelength(omega, c, alpha, c_group, band, c0, *, c_tol: float = DEFAULT_C_TOL,
-                         q_tol: float = DEFAULT_Q_TOL) -> dict:
-    """The continuum length in frequency: the wavelength λ* = 2π c(ω*)/ω* beyond which (at every
-    reliable ω ≤ ω*, from the band's bottom up) the medium is a continuum to the stated
-    thresholds: |c(ω)/c0 − 1| ≤ ``c_tol`` (dispersion) and Q⁻¹ = 2 α c_g / ω ≤ ``q_tol``
-    (scattering loss per radian).
-
-    ``status``: ``within`` (the thresholds are first crossed inside the band: λ* estimated),
-    ``whole band`` (they hold up to the band's top: λ* ≤ its λ, an upper bound), ``beyond``
-    (they fail already at the band's bottom: λ* > its λ, a lower bound), ``undetermined`` (no
-    band or no c0).
-    """
-    idx = np.flatnonzero(np.asarray(band, bool))
-    out = {"c_tolerance": float(c_tol), "q_inverse_tolerance": float(q_tol), "omega_star": math.nan,
-           "lambda_star": math.nan, "lambda_bound": math.nan, "status": "undetermined"}
-    if not idx.size or not math.isfinite(c0):
-        return out
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dev = np.abs(np.asarray(c)[idx] / c0 - 1.0)
-        qinv = 2.0 * np.asarray(alpha)[idx] * np.asarray(c_group)[idx] / omega[idx]
-        lam = 2.0 * np.pi * np.asarray(c)[idx] / omega[idx]
-    ok = (dev <= c_tol) & (qinv <= q_tol)
-    if not ok[0]:
-        out.update(status="beyond", lambda_bound=float(lam[0]))
-        return out
-    j = int(np.argmin(ok)) if not ok.all() else ok.size
-    out.update(omega_star=float(omega[idx[j - 1]]), lambda_star=float(lam[j - 1]),
-               status="within" if j < ok.size else "whole band")
-    if j == ok.size:
-        out["lambda_bound"] = float(lam[-1])
-    return out
+def _distance_at(wc, L, w: float) -> tuple[float, str]:
+    """Where the centroids ``wc`` (one per height L, falling with L) reach ``w``: (L, "within"),
+    interpolated in ln L, or the bound (L[0], "below the shortest") / (L[-1], "beyond the tallest")."""
+    below = wc <= w
+    if below.all() or (below.any() and int(np.argmax(below)) == 0):
+        return float(L[0]), "below the shortest"
+    if not below.any():
+        return float(L[-1]), "beyond the tallest"
+    k = int(np.argmax(below))
+    # ln ω_c linear in ln L between the two heights: the centroid of a spectrum losing
+    # e^{−α L} with α ∝ ω² falls as L^−½ (linear in ω_c instead put L_λ ~2 % long)
+    f = (np.log(wc[k - 1]) - np.log(w)) / (np.log(wc[k - 1]) - np.log(wc[k]))
+    return float(np.exp(np.log(L[k - 1]) + f * (np.log(L[k]) - np.log(L[k - 1])))), "within"
 
 
-def continuum_distance(heights, omega, amplitude, omega_star: float) -> dict:
+def continuum_distance(heights, omega, amplitude, omega_star: float, omega_star_ci=None) -> dict:
     """The distance beyond which the coherent pulse is made of wavelengths longer than λ*: where
     the spectral centroid ω_c(L) = Σ ω |S|² / Σ |S|² of each height's coherent spectrum falls
-    to ω* (interpolated in ln L between the heights; a bound outside them)."""
+    to ω* (ln ω_c interpolated linearly in ln L between the heights; a bound outside them).
+    With ω*'s 95 %
+    interval ``omega_star_ci`` also ``L_lambda_ci`` (0 or ∞ where an end lies outside the
+    heights)."""
     amp = np.nan_to_num(np.asarray(amplitude, float))
     with np.errstate(invalid="ignore", divide="ignore"):
         wc = (omega[None, :] * amp**2).sum(axis=1) / (amp**2).sum(axis=1)
@@ -379,19 +379,17 @@ def continuum_distance(heights, omega, amplitude, omega_star: float) -> dict:
     out = {"centroid_frequency": wc, "L_lambda": math.nan, "L_lambda_status": "undetermined"}
     if not math.isfinite(omega_star):
         return out
-    below = wc <= omega_star
-    if below.all():
-        out.update(L_lambda_status="below the shortest", L_lambda_bound=float(L[0]))
-    elif not below.any():
-        out.update(L_lambda_status="beyond the tallest", L_lambda_bound=float(L[-1]))
+    value, status = _distance_at(wc, L, omega_star)
+    if status == "within":
+        out.update(L_lambda=value, L_lambda_status=status)
     else:
-        k = int(np.argmax(below))
-        if k == 0:
-            out.update(L_lambda_status="below the shortest", L_lambda_bound=float(L[0]))
-            return out
-        f = (wc[k - 1] - omega_star) / (wc[k - 1] - wc[k])
-        out.update(L_lambda=float(np.exp(np.log(L[k - 1]) + f * (np.log(L[k]) - np.log(L[k - 1])))),
-                   L_lambda_status="within")
+        out.update(L_lambda_status=status, L_lambda_bound=value)
+    if omega_star_ci is not None:
+        w_lo, w_hi = omega_star_ci
+        lo, s_lo = _distance_at(wc, L, w_hi) if math.isfinite(w_hi) else (0.0, "below the shortest")
+        hi, s_hi = _distance_at(wc, L, w_lo) if w_lo > 0 else (math.inf, "beyond the tallest")
+        out["L_lambda_ci"] = [0.0 if s_lo == "below the shortest" else lo,
+                              math.inf if s_hi == "beyond the tallest" else hi]
     return out
 
 
@@ -409,7 +407,7 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                             threshold: float = DEFAULT_THRESHOLD, max_error: float = DEFAULT_MAX_ERROR,
                             bootstrap: int = 200, min_periods: float = DEFAULT_MIN_PERIODS,
                             min_snr: float = DEFAULT_MIN_SNR, min_heights: int = DEFAULT_MIN_HEIGHTS,
-                            min_fit_p: float = DEFAULT_MIN_FIT_P, seed: int = 0, c_l: float | None = None,
+                            min_fit_p: float = DEFAULT_MIN_FIT_P, seed: int = 0, c_l=None,
                             omega_cutoff: float | None = None, c_tol: float = DEFAULT_C_TOL,
                             q_tol: float = DEFAULT_Q_TOL,
                             labels: Sequence[Sequence[str]] | None = None, **front_kw) -> dict:
@@ -420,7 +418,9 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     ``Q`` and their ``*_err``, ``*_fit_err``, ``*_boot_err``; ``reliable`` (mask), ``band``
     [ω_lo, ω_hi], ``omega_ref``, per-height ``heights``, ``counts``, ``t_ref``, ``t_end``,
     ``error_model``; the low-frequency limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` when
-    ``c_l`` is given); ``omega_cutoff`` and ``above_cutoff`` when the lateral cutoff is given;
+    ``c_l`` is given: one speed, or one sequence of per-packing speeds per group, the reference
+    then the contributing heights' packings, rule 10); ``continuum_length`` (λ*, rule 10);
+    ``omega_cutoff`` and ``above_cutoff`` when the lateral cutoff is given;
     ``packings`` (:func:`granwave.analysis.packings.packing_check`, the rule for fits).
     """
     if len(groups) < 2:
@@ -558,12 +558,53 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     low["c0_fit_err"] = low["c0_err"]
     low["c0_boot_err"] = float(np.nanstd(c0_boot, ddof=1)) if len(c0_boot) > 1 else math.nan
     low["c0_err"] = float(np.fmax(low["c0_fit_err"], low["c0_boot_err"]))
-    # the continuum length in frequency, and its bootstrap interval
-    cont = continuum_wavelength(omega, c, alpha, cg, band, low["c0"], c_tol=c_tol, q_tol=q_tol)
-    cont.update(continuum_distance(L, omega, np.exp(lnA), cont["omega_star"]))
+    # the c0-model error: the spread of c0 over fit spans and forms, in quadrature
+    low.update(c0_model_spread(omega, c, band, c_err))
+    low["c0_stat_err"] = low["c0_err"]
+    # what the band itself says of the low-frequency limit: c is not below c at the band's
+    # bottom where the dispersion is normal (the extrapolation c0 can miss it; docs/truth.md)
+    if band.any():
+        i_lo = int(np.flatnonzero(band)[0])
+        low["c0_lower_bound"] = float(c[i_lo] - ci95 * c_err[i_lo])
+    if math.isfinite(low["c0_model_spread"]):
+        low["c0_err"] = float(math.hypot(low["c0_stat_err"], low["c0_model_spread"]))
+    alpha_ci = np.stack([alpha - ci95 * alpha_err, alpha + ci95 * alpha_err], 1)
+    # the continuum length in frequency against one reference (granwave.analysis.continuum_length)
+    lam_kw = dict(c_tol=c_tol, q_tol=q_tol, c_err=c_err, alpha_ci=alpha_ci, ci_factor=ci95,
+                  omega_cutoff=omega_cutoff)
+    c_l_groups = None if c_l is None or np.isscalar(c_l) else [np.asarray(x, float) for x in c_l]
+    if c_l_groups is not None:
+        c_l_groups = [c_l_groups[i] for i in order]
+        # first the heights used at the band's bottom, then those used up to ω* (one pass more)
+        bottom = float(omega[band][0]) if band.any() else math.nan
+        ref = contributing_reference(c_l_groups, use, band, omega, bottom)
+        cont = continuum_wavelength(omega, c, alpha, cg, band, ref["c_ref"], c_ref_err=ref["c_ref_err"],
+                                    reference="c_l", **lam_kw)
+        upto = cont["omega_star"] if cont["status"] != "beyond" else bottom
+        ref2 = contributing_reference(c_l_groups, use, band, omega, upto)
+        if ref2["contributing_heights"] != ref["contributing_heights"]:
+            ref = ref2
+            cont = continuum_wavelength(omega, c, alpha, cg, band, ref["c_ref"],
+                                        c_ref_err=ref["c_ref_err"], reference="c_l", **lam_kw)
+        cont["contributing_heights"] = [float(L[h]) for h in ref["contributing_heights"]]
+        ref_value, ref_err = ref["c_ref"], ref["c_ref_err"]
+    elif c_l is not None:
+        ref_value, ref_err = float(c_l), 0.0
+        cont = continuum_wavelength(omega, c, alpha, cg, band, ref_value, reference="c_l (given)", **lam_kw)
+    else:
+        ref_value, ref_err = low["c0"], low["c0_err"]
+        cont = continuum_wavelength(omega, c, alpha, cg, band, ref_value, c_ref_err=ref_err,
+                                    reference="c0", **lam_kw)
+    cont.update(continuum_distance(L, omega, np.exp(lnA), cont["omega_star"], cont.get("omega_star_ci")))
     if n_boot > 1:
-        lam_b = [continuum_wavelength(omega, cb, ab, gb, band, c0b, c_tol=c_tol, q_tol=q_tol)
-                 for cb, ab, gb, c0b in zip(boot["c"], boot["alpha"], boot["cg"], c0_boot)]
+        # every resampling's λ* against the reference drawn about its value with its error
+        rng_ref = np.random.default_rng([int(seed), 1])
+        refs = ref_value + (ref_err if math.isfinite(ref_err) else 0.0) * rng_ref.standard_normal(n_boot)
+        if c_l is None:  # c0 as reference: each resampling's own c0, its model spread drawn
+            spread = low["c0_model_spread"] if math.isfinite(low["c0_model_spread"]) else 0.0
+            refs = np.asarray(c0_boot) + spread * rng_ref.standard_normal(n_boot)
+        lam_b = [continuum_wavelength(omega, cb, ab, gb, band, rb, c_tol=c_tol, q_tol=q_tol)
+                 for cb, ab, gb, rb in zip(boot["c"], boot["alpha"], boot["cg"], refs)]
         vals = np.array([d["lambda_star"] if d["status"] == "within" else
                          (math.inf if d["status"] == "beyond" else -math.inf) if d["status"] != "undetermined"
                          else math.nan for d in lam_b])
@@ -572,7 +613,7 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
             # ±inf: a resampling whose thresholds fail at the band's bottom (λ* beyond) or hold
             # over the whole band (λ* within its top): the interval then reaches past the band
             lo, hi = np.quantile(vals, [0.025, 0.975], method="inverted_cdf")
-            cont["lambda_star_ci"] = [float(lo), float(hi)]
+            cont["lambda_star_boot_ci"] = [float(lo), float(hi)]
             cont["lambda_star_boot_err"] = float(np.std(vals[np.isfinite(vals)], ddof=1)) \
                 if np.isfinite(vals).sum() > 1 else math.nan
             cont["lambda_star_boot_status"] = {k: int(sum(d["status"] == k for d in lam_b))
@@ -596,9 +637,14 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         **low,
     }
     if c_l is not None:
-        out["c_l"] = float(c_l)
-        out["c0_over_c_l"] = low["c0"] / c_l
-        out["c0_over_c_l_err"] = low["c0_err"] / c_l
+        out["c_l"] = float(ref_value)
+        out["c_l_err"] = float(ref_err)
+        out["c_l_reference"] = ("the packings of the contributing heights" if c_l_groups is not None
+                                else "given")
+        r0 = low["c0"] / ref_value
+        out["c0_over_c_l"] = r0
+        out["c0_over_c_l_err"] = abs(r0) * math.hypot(low["c0_err"] / low["c0"],
+                                                      ref_err / ref_value if ref_err else 0.0)
     out["omega_cutoff"] = None if omega_cutoff is None else float(omega_cutoff)
     if omega_cutoff is not None:
         out["band_above_cutoff"] = bool(band.any() and omega[band][-1] > omega_cutoff)
@@ -609,7 +655,7 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
                alpha_fit_err=alpha_fit[keep], alpha_boot_err=alpha_boot[keep], c=c[keep],
                c_err=c_err[keep], c_fit_err=c_fit[keep], c_boot_err=c_boot[keep],
                c_group=cg[keep], c_group_err=cg_err[keep], Q=Q[keep],
-               alpha_ci95=np.stack([alpha - ci95 * alpha_err, alpha + ci95 * alpha_err], 1)[keep],
+               alpha_ci95=alpha_ci[keep],
                c_ci95=np.stack([c - ci95 * c_err, c + ci95 * c_err], 1)[keep],
                c_group_ci95=np.stack([cg - ci95 * cg_err, cg + ci95 * cg_err], 1)[keep],
                Q_err=Q_err[keep], spectrum_amplitude=np.abs(S[:, keep]),
@@ -621,8 +667,9 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
 
 
 def attenuation(signals: Sequence["Signal"], *, labels: Sequence[str] | None = None,
-                group_rtol: float = 0.05, **kw) -> dict:
-    """:func:`attenuation_from_groups` of any set of signals, grouped by their ``height``."""
+                group_rtol: float = 0.05, c_l=None, **kw) -> dict:
+    """:func:`attenuation_from_groups` of any set of signals, grouped by their ``height``;
+    ``c_l``: None, one speed, or one per signal (each packing's own c_l, same order)."""
     signals = list(signals)
     if not signals:
         raise InputError("no signals given")
@@ -634,6 +681,11 @@ def attenuation(signals: Sequence["Signal"], *, labels: Sequence[str] | None = N
                          f"{len(signals)} are at one height, relative tolerance {group_rtol:g})")
     groups = [[s for s, gi in zip(signals, g) if gi == k] for k in range(n)]
     labs = [[lab for lab, gi in zip(labels, g) if gi == k] for k in range(n)]
-    out = attenuation_from_groups(groups, labels=labs, **kw)
+    if c_l is not None and not np.isscalar(c_l):
+        c_l = np.asarray(c_l, float)
+        if c_l.size != len(signals):
+            raise InputError(f"one c_l per signal is needed ({len(signals)} signals, {c_l.size} c_l)")
+        c_l = [c_l[g == k] for k in range(n)]
+    out = attenuation_from_groups(groups, labels=labs, c_l=c_l, **kw)
     out["group_rtol"] = float(group_rtol)
     return out

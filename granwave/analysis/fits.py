@@ -6,6 +6,10 @@ point carries the same *relative* weight. Uncertainties are one standard
 error of the fitted parameter from the scatter of the points about the line;
 with exactly two points the line passes through both and the uncertainty is
 undetermined: it is reported as NaN (``null`` in JSON), never as 0.
+
+The 95 % interval of the slope (``slope_ci95``, ``exponent_ci95``) is ± t(0.975, n − 2) standard
+errors: with few points the Student factor is far above 2 (4.30 for four points), and the
+report's "± 2 errors" would hold the truth in only ~82 % of the cases (docs/truth.md).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ class LinearFit:
     intercept: float
     intercept_err: float
     n: int
+    slope_ci95: tuple = (math.nan, math.nan)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -41,6 +46,7 @@ class PowerLawFit:
     prefactor: float
     prefactor_err: float
     n: int
+    exponent_ci95: tuple = (math.nan, math.nan)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -67,12 +73,15 @@ def linear_fit(x, y, *, what: str = "linear fit") -> LinearFit:
     x, y = _clean(x, y, what)
     r = stats.linregress(x, y)
     undetermined = x.size <= 2
+    err = math.nan if undetermined else float(r.stderr)
+    t = math.nan if undetermined else float(stats.t.ppf(0.975, x.size - 2))
     return LinearFit(
         slope=float(r.slope),
-        slope_err=math.nan if undetermined else float(r.stderr),
+        slope_err=err,
         intercept=float(r.intercept),
         intercept_err=math.nan if undetermined else float(r.intercept_stderr),
         n=int(x.size),
+        slope_ci95=(float(r.slope) - t * err, float(r.slope) + t * err),
     )
 
 
@@ -85,7 +94,7 @@ def power_law_fit(x, y, *, what: str = "power-law fit") -> PowerLawFit:
     lf = linear_fit(np.log(x), np.log(y), what=what)
     a = math.exp(lf.intercept)
     return PowerLawFit(exponent=lf.slope, exponent_err=lf.slope_err, prefactor=a,
-                       prefactor_err=a * lf.intercept_err, n=lf.n)
+                       prefactor_err=a * lf.intercept_err, n=lf.n, exponent_ci95=lf.slope_ci95)
 
 
 def inverse_slope(fit: LinearFit) -> tuple[float, float]:
@@ -94,6 +103,14 @@ def inverse_slope(fit: LinearFit) -> tuple[float, float]:
     if s == 0:
         return math.inf, math.nan
     return 1.0 / s, fit.slope_err / s**2
+
+
+def inverse_ci(fit: LinearFit) -> tuple[float, float]:
+    """The 95 % interval of c = 1/s from the slope's: [1/s_hi, 1/s_lo] (∞ where s_lo ≤ 0)."""
+    lo, hi = fit.slope_ci95
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= 0:
+        return math.nan, math.nan
+    return 1.0 / hi, (1.0 / lo if lo > 0 else math.inf)
 
 
 def local_exponents(x, y) -> tuple[np.ndarray, np.ndarray]:

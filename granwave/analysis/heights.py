@@ -24,7 +24,11 @@ Choices (also in ``docs/summaries.md`` and the CLI help)
   Local effective exponents d log|A|/d log L and d log W/d log L are taken
   between consecutive nominal heights (group means), reported at the
   geometric mean height of each pair; ``gamma_local`` is -d log|A|/d log L.
-* With exactly two samples in a fit the uncertainty is undetermined (NaN).
+* With exactly two samples in a fit the uncertainty is undetermined (NaN). Every fitted
+  quantity also carries its 95 % interval (``*_ci95``: ± t(0.975, n − 2) errors, the
+  speeds' inverted from the slope's), which "± 2 errors" undercovers with few samples (two
+  packings at each of the two edge heights: two degrees of freedom, P(|t₂| < 2) = 0.82;
+  docs/truth.md).
 * **Aliasing is recorded, not hidden.** A signal whose sample interval
   exceeds the Nyquist interval of its highest mode (``aliased`` attribute,
   :func:`granwave.api.propagate`) still holds the exact signal at its sample
@@ -43,7 +47,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..params import HeightsParams
-from .fits import inverse_slope, linear_fit, local_exponents, power_law_fit
+from .fits import inverse_ci, inverse_slope, linear_fit, local_exponents, power_law_fit
 from .front import features_of_signals
 
 if TYPE_CHECKING:  # annotations only
@@ -105,6 +109,7 @@ def _speeds(L: np.ndarray, feats: dict[str, np.ndarray], mask: np.ndarray, suffi
         c, dc = inverse_slope(fit)
         out[name + suffix] = c
         out[name + suffix + "_err"] = dc
+        out[name + suffix + "_ci95"] = list(inverse_ci(fit))  # Student t, n − 2 (granwave.analysis.fits)
         out["t0_" + key + suffix] = fit.intercept  # arrival-time offset at L = 0
     return out
 
@@ -167,7 +172,9 @@ def height_series_from_features(heights, features: Sequence[dict], *,
     amp = power_law_fit(L, feats["amplitude"], what="amplitude against height")
     wid = power_law_fit(L, feats["width"], what="width against height")
     out.update(gamma=-amp.exponent, gamma_err=amp.exponent_err, amplitude_prefactor=amp.prefactor,
-               chi=wid.exponent, chi_err=wid.exponent_err, width_prefactor=wid.prefactor)
+               chi=wid.exponent, chi_err=wid.exponent_err, width_prefactor=wid.prefactor,
+               gamma_ci95=[-amp.exponent_ci95[1], -amp.exponent_ci95[0]],
+               chi_ci95=list(wid.exponent_ci95))
     h_mid, a_loc = local_exponents(g_height, per_height["amplitude"])
     _, w_loc = local_exponents(g_height, per_height["width"])
     out.update(heights_local=h_mid, gamma_local=-a_loc, chi_local=w_loc)

@@ -11,9 +11,11 @@ from .common import echo_json, echo_table, options_from, params_from, stage
 @click.command()
 @click.argument("signals", nargs=-1, type=click.Path(dir_okay=False))
 @click.option("--moduli", "moduli_paths", multiple=True, type=click.Path(dir_okay=False),
-              help="`granwave analyze moduli --json` output of the packings (any number): their "
-                   "mean bulk-slab c_l is compared with c0 (unless --c-l is given) and, with "
-                   "--lateral-period, their mean c_t gives the lateral cutoff.")
+              help="`granwave analyze moduli --json` output of the packings: one per signal, in "
+                   "the order of SIGNALS (then the bulk-slab c_l of the packings of the heights "
+                   "that enter the fits is the reference of c0 and lambda*), or any number (their "
+                   "mean c_l); with --lateral-period their mean c_t gives the lateral cutoff. "
+                   "--c-l overrides the reference.")
 @options_from(AttenuationParams, json=True)
 @stage
 def attenuation(signals, moduli_paths, as_json, **options):
@@ -40,8 +42,12 @@ def attenuation(signals, moduli_paths, as_json, **options):
     height's spectral peak, where at least --min-heights heights are usable, the ln|S| fit's
     chi-square p-value against the noise floor is at least --min-fit-p, every usable
     height's |S| is at least --threshold of its maximum and c is known to --max-error
-    (relative). c0: c = c0 + c2 omega^2 over the band's lowest octave, compared with --c-l
-    when given. See docs/continuum.md.
+    (relative). c0: c = c0 + c2 omega^2 over the band's lowest octave (its error includes the
+    spread over fit spans and forms; c0_lower_bound: c at the band's bottom, what the band
+    itself says). lambda*: the wavelength above which |c/c_ref - 1| <= --continuum-c-tolerance
+    and 1/Q <= --continuum-q-inverse, c_ref the c_l of the contributing heights' packings
+    (--moduli, one per signal), else --c-l, else c0; which threshold sets it and whether it
+    lies above the lateral cutoff are printed. See docs/continuum.md.
     """
     from ..analysis.attenuation import attenuation as run
     from ..errors import InputError
@@ -50,7 +56,7 @@ def attenuation(signals, moduli_paths, as_json, **options):
     params = params_from(AttenuationParams, options)
     if not signals:
         raise InputError("no signal files given")
-    c_l, omega_cutoff = reference_speeds(params, moduli_paths)
+    c_l, omega_cutoff = reference_speeds(params, moduli_paths, len(signals))
     res = run([read_signal(p) for p in signals], labels=list(signals),
               group_rtol=params.group_tolerance, window_widths=params.window_widths,
               threshold=params.threshold, max_error=params.max_error,
@@ -69,10 +75,14 @@ def attenuation(signals, moduli_paths, as_json, **options):
     echo_table(scalars, title=f"attenuation: {res['n_signals']} signals, {len(res['heights'])} heights")
     m = res["reliable"]
     cl = res["continuum_length"]
-    click.echo(f"  continuum length: |c/c0 - 1| <= {cl['c_tolerance']:g} and 1/Q <= "
-               f"{cl['q_inverse_tolerance']:g}: {cl['status']}, lambda* = {cl['lambda_star']:.4g} d "
-               f"(95 % {cl.get('lambda_star_ci')}), omega* = {cl['omega_star']:.4g}, "
-               f"the pulse's spectral centroid reaches omega* at L = {cl['L_lambda']:.4g} d "
+    above = cl.get("omega_star_above_cutoff")
+    click.echo(f"  continuum length: |c/c_ref - 1| <= {cl['c_tolerance']:g} and 1/Q <= "
+               f"{cl['q_inverse_tolerance']:g}, c_ref = {cl.get('reference')} = {cl.get('c_ref', float('nan')):.4g}: "
+               f"{cl['status']}, lambda* = {cl['lambda_star']:.4g} d "
+               f"(95 % {cl.get('lambda_star_ci')}; bootstrap {cl.get('lambda_star_boot_ci')}), "
+               f"omega* = {cl['omega_star']:.4g}, set by {cl.get('binding')}"
+               + ("" if above is None else (", above the lateral cutoff" if above else ", below the lateral cutoff"))
+               + f"; the pulse's spectral centroid reaches omega* at L = {cl['L_lambda']:.4g} d "
                f"({cl['L_lambda_status']})")
     cut = res.get("omega_cutoff")
     click.echo(f"  {'omega':>10} {'alpha':>12} {'err':>10} {'c':>10} {'err':>10} {'c_group':>10} "
@@ -85,9 +95,11 @@ def attenuation(signals, moduli_paths, as_json, **options):
                    f"{res['Q'][i]:10.4g}{mark}")
 
 
-def reference_speeds(params: AttenuationParams, moduli_paths) -> tuple[float | None, float | None]:
-    """(c_l, omega_cutoff) of the analysis: the options' values, else from the moduli files (mean
-    bulk-slab c_l; 2 pi mean c_t / --lateral-period). InputError for --lateral-period without
+def reference_speeds(params: AttenuationParams, moduli_paths, n_signals: int | None = None):
+    """(c_l, omega_cutoff) of the analysis: the options' values, else from the moduli files
+    (bulk-slab c_l: one per signal when there is one file per signal, in the order of the
+    signals — the analysis then takes the packings of the heights that enter its fits — else
+    their mean; 2 pi mean c_t / --lateral-period). InputError for --lateral-period without
     --moduli, or moduli files without a finite speed."""
     import math
 
@@ -108,7 +120,8 @@ def reference_speeds(params: AttenuationParams, moduli_paths) -> tuple[float | N
     if not (math.isfinite(mean_l) and math.isfinite(mean_t)):
         raise InputError("the --moduli files give no finite c_l_slab / c_t_slab")
     if c_l is None:
-        c_l = mean_l
+        per_signal = np.asarray(speeds[0], float)
+        c_l = per_signal if n_signals == len(moduli_paths) else mean_l
     if cutoff is None and params.lateral_period is not None:
         cutoff = lateral_cutoff(mean_t, params.lateral_period)
     return c_l, cutoff

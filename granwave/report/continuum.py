@@ -116,28 +116,132 @@ def _warnings(obj: Mapping, keys) -> list[str]:
     return out
 
 
-def lambda_sentence(lam: Mapping) -> str:
-    """The continuum length in frequency (λ*) in one sentence, with its thresholds."""
-    thr = (f"|c/c0 − 1| ≤ {num(lam.get('c_tolerance')):g} and Q⁻¹ ≤ "
-           f"{num(lam.get('q_inverse_tolerance')):g}")
+def current_lambda(att: Mapping, front: Mapping | None = None) -> tuple[dict, bool]:
+    """(λ*, recomputed): the result's continuum length when made by the current rule (one
+    reference, its binding threshold named), else recomputed from its stored per-frequency
+    columns (:func:`granwave.analysis.continuum_length.lambda_star_of_result`) against the c_ℓ
+    of the contributing heights' packings from ``front``'s per-height table (c0 without it)."""
+    from ..analysis.continuum_length import lambda_star_of_result
+
+    lam = dict(att.get("continuum_length") or {})
+    if "binding" in lam or not all(k in att for k in ("used", "alpha_ci95", "c_group", "c_err")):
+        return lam, False
+    per = (front or {}).get("per_height") or {}
+    pairs = counts = None
+    if per.get("c_l") is not None and len(per["c_l"]) == len(att["heights"]):
+        pairs = list(zip(per["c_l"], per.get("c_l_sem") or [math.nan] * len(per["c_l"])))
+        counts = per["count"]
+    new = lambda_star_of_result(att, pairs, counts, c_tol=lam.get("c_tolerance"),
+                                q_tol=lam.get("q_inverse_tolerance"))
+    wc = lam.get("centroid_frequency")
+    if wc is not None and len(wc) == len(att["heights"]):  # L_λ from the stored centroids
+        import numpy as np
+
+        from ..analysis.attenuation import _distance_at
+
+        wc, L = np.asarray(wc, float), np.asarray(att["heights"], float)
+        if math.isfinite(num(new.get("omega_star"))):
+            v, st = _distance_at(wc, L, new["omega_star"])
+            new.update({"L_lambda": v, "L_lambda_status": st} if st == "within" else
+                       {"L_lambda": math.nan, "L_lambda_status": st, "L_lambda_bound": v})
+        if new.get("omega_star_ci"):
+            w_lo, w_hi = (num(x) for x in new["omega_star_ci"])
+            lo, s_lo = _distance_at(wc, L, w_hi) if math.isfinite(w_hi) else (0.0, "below the shortest")
+            hi, s_hi = _distance_at(wc, L, w_lo) if w_lo > 0 else (math.inf, "beyond the tallest")
+            new["L_lambda_ci"] = [0.0 if s_lo == "below the shortest" else lo,
+                                  math.inf if s_hi == "beyond the tallest" else hi]
+    return new, True
+
+
+def lambda_sentence(lam: Mapping, recomputed: bool = False) -> str:
+    """The continuum length in frequency (λ*) in one sentence: its thresholds, its reference,
+    its 95 % interval, the threshold that sets it and where it lies against the lateral cutoff."""
+    ref = lam.get("reference", "c0")
+    ref_txt = {"c_l": "c_ℓ of the contributing heights' packings", "c0": "the extrapolated c0",
+               "c_l (given)": "the given c_ℓ"}.get(ref, str(ref))
+    if lam.get("c_ref") is not None and math.isfinite(num(lam.get("c_ref"))):
+        ref_txt += f" = {fmt(lam.get('c_ref'), lam.get('c_ref_err') or None)}"
+        hs = lam.get("contributing_heights")
+        if hs:
+            ref_txt += " (" + ", ".join(f"{fmt(h, digits=3)}" for h in hs) + " d̄)"
+    thr = (f"|c/c_ref − 1| ≤ {num(lam.get('c_tolerance')):g} and Q⁻¹ ≤ "
+           f"{num(lam.get('q_inverse_tolerance')):g}, c_ref {ref_txt}")
     st = lam.get("status")
+    how = (" (recomputed from the stored per-frequency results by the current rule)" if recomputed
+           else "")
+    binding = {"dispersion": "the dispersion bound |c/c_ref − 1|", "loss": "the loss bound Q⁻¹",
+               "both": "both bounds"}.get(lam.get("binding"), None)
+    above = lam.get("omega_star_above_cutoff")
+    where = ("" if above is None else
+             "; ω* lies above the column's lateral cutoff: this λ* is the waveguide's, not the medium's"
+             if above else "; ω* lies below the column's lateral cutoff")
+    ci = lam.get("lambda_star_ci")
+    # the bootstrap interval (lambda_star_boot_ci) is not quoted: where the loss bound sets λ*
+    # it held the truth in fewer than 90 % of the truth suite's seeds (docs/truth.md)
+    lo, hi = (num(x) for x in (ci or (math.nan, math.nan)))
+    if st == "within" and ci and (lo <= 0 or not math.isfinite(hi)):
+        # a one-sided interval: the bound is the measurement, the point value only beside it
+        bound = (f"λ* ≤ {fmt_bound(hi, 3)} d̄" if lo <= 0 and math.isfinite(hi) else
+                 f"λ* ≥ {fmt_bound(lo, 3)} d̄" if lo > 0 else "λ* not bounded")
+        txt = (f"Continuum length in frequency ({thr}): {bound} (95 %, from the per-frequency "
+               f"intervals; point value {fmt_bound(lam.get('lambda_star'), 3)} d̄)")
+    elif st == "within":
+        txt = (f"Continuum length in frequency ({thr}): λ* = {fmt_bound(lam.get('lambda_star'), 3)} d̄"
+               + (f" (95 % {_ci_open(ci)} d̄ from the per-frequency intervals)" if ci else ""))
     if st == "within":
-        ci = lam.get("lambda_star_ci")
-        txt = (f"Continuum length in frequency: {thr} for every wavelength above "
-               f"λ* = {fmt_bound(lam.get('lambda_star'), 3)} d̄"
-               + (f" (95 % bootstrap interval {_ci(ci)} d̄)" if ci else "")
-               + f", ω* = {fmt(lam.get('omega_star'), digits=3)}")
+        txt += f", ω* = {fmt(lam.get('omega_star'), digits=3)}" + (f", set by {binding}" if binding else "") + where
         if lam.get("L_lambda_status") == "within":
-            txt += (f"; the pulse's spectral centroid falls to ω* at L ≈ "
-                    f"{fmt_bound(lam.get('L_lambda'), 3)} d̄")
-        return txt + "."
+            txt += (f"; the pulse's spectral centroid falls to ω* at L_λ ≈ "
+                    f"{fmt_bound(lam.get('L_lambda'), 3)} d̄"
+                    + (f" (95 % {_ci_open(lam['L_lambda_ci'])} d̄)" if lam.get("L_lambda_ci") else ""))
+        elif str(lam.get("L_lambda_status", "")).startswith("beyond"):
+            txt += (f"; the pulse's spectral centroid is still above ω* at the tallest column "
+                    f"(L_λ > {fmt_bound(lam.get('L_lambda_bound'), 3)} d̄)")
+        return txt + how + "."
     if st == "whole band":
-        return (f"Continuum length in frequency: {thr} over the whole reliable band, so "
-                f"λ* ≤ {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (an upper bound).")
+        return (f"Continuum length in frequency ({thr}): the bounds hold over the whole reliable "
+                f"band, so λ* ≤ {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (an upper bound)" + how + ".")
     if st == "beyond":
-        return (f"Continuum length in frequency: {thr} fails already at the band's bottom, so "
-                f"λ* > {fmt_bound(lam.get('lambda_bound'), 3)} d̄ (a lower bound).")
-    return "Continuum length in frequency: undetermined (no reliable band or no c0)."
+        return (f"Continuum length in frequency ({thr}): "
+                + (f"{binding} " if binding else "the bounds ")
+                + f"already fail at the band's bottom, so λ* > {fmt_bound(lam.get('lambda_bound'), 3)} d̄ "
+                "(a lower bound)" + how + ".")
+    return "Continuum length in frequency: undetermined (no reliable band or no reference)."
+
+
+def _ci_open(pair) -> str:
+    """A 95 % interval whose ends may be 0 or ∞ (one-sided)."""
+    if not pair:
+        return "—"
+    lo, hi = num(pair[0]), num(pair[1])
+    if not math.isfinite(hi) and lo > 0:
+        return f"≥ {fmt_bound(lo, 3)}"
+    if lo <= 0 and math.isfinite(hi):
+        return f"≤ {fmt_bound(hi, 3)}"
+    if lo <= 0 and not math.isfinite(hi):
+        return "unbounded"
+    return _ci(pair)
+
+
+def low_frequency_phrase(att: Mapping, lam: Mapping) -> str:
+    """c0 (the extrapolation, its error with the spread over fit spans and forms), the band's
+    own lower bound on it, and c0/c_ℓ against λ*'s reference when that is the contributing
+    heights' c_ℓ (recomputed for a record made before these fields)."""
+    from ..analysis.continuum_length import low_frequency_of_result
+
+    ref = lam.get("c_ref") if lam.get("reference") == "c_l" else None
+    low = low_frequency_of_result(att, ref, lam.get("c_ref_err") or 0.0)
+    fit = att.get("omega_fit") or [math.nan, math.nan]
+    txt = (f"low-frequency extrapolation c0 = {fmt(low['c0'], low['c0_err'])} √(E*/ρ) (c = c0 + c2 ω² "
+           f"over ω = {fmt(fit[0], digits=3)} … {fmt(fit[-1], digits=3)}; the error includes the "
+           f"spread over fit spans and forms, ± {fmt(low['c0_model_spread'], digits=2)}); "
+           f"what the band itself says: c0 ≥ {fmt(low.get('c0_lower_bound'), digits=4)} (c at its "
+           "bottom, 95 %)")
+    if "c0_over_c_l" in low:
+        txt += (f"; the extrapolation over the contributing heights' c_ℓ: c0/c_ℓ = "
+                f"{fmt(low['c0_over_c_l'], low['c0_over_c_l_err'])} (not a validated measurement: "
+                "docs/truth.md)")
+    return txt
 
 
 def cutoff_sentence(att: Mapping) -> str:
@@ -302,16 +406,15 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
                            f"/d̄ at the band's bottom and "
                            f"{fmt_named('α', fmt_positive(att['alpha'][i1], att['alpha_err'][i1]))} "
                            f"/d̄ at its top")
-            md[-1] += (f"; low-frequency limit c0 = {fmt(att.get('c0'), att.get('c0_err'))} √(E*/ρ) "
-                       f"(c = c0 + c2 ω² over ω = {fmt((att.get('omega_fit') or [math.nan])[0], digits=3)} … "
-                       f"{fmt((att.get('omega_fit') or [math.nan, math.nan])[-1], digits=3)})")
-            if front and front.get("c_l", {}).get("mean"):
+            lam_now, recomputed = current_lambda(att, front)
+            md[-1] += "; " + low_frequency_phrase(att, lam_now)
+            if front and front.get("c_l", {}).get("mean") and lam_now.get("reference") != "c_l":
                 cl = front["c_l"]
                 r = float(att["c0"]) / float(cl["mean"]) if att.get("c0") is not None else math.nan
                 re = abs(r) * math.hypot(float(att.get("c0_err") or math.nan) / float(att["c0"]),
                                          float(cl.get("sem") or 0.0) / float(cl["mean"])) \
                     if att.get("c0") else math.nan
-                md[-1] += f", c0/c_ℓ = {fmt(r, re)} (mean c_ℓ)"
+                md[-1] += f", c0/c_ℓ = {fmt(r, re)} (mean c_ℓ of all packings)"
                 bulk = front.get("c_l_bulk") or {}
                 cb, cbe = bulk.get("c_l_inf"), bulk.get("c_l_inf_err")
                 if cb is not None and math.isfinite(float(cb)) and att.get("c0"):
@@ -331,9 +434,8 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
                            "packings, |S| is debiased for the incoherent remainder, and "
                            "Q = ω/(2 α c_g) with the group velocity c_g = dω/dk. "
                            + cutoff_sentence(att))
-            lam = att.get("continuum_length") or {}
-            if lam.get("status"):
-                md[-1] += " " + lambda_sentence(lam)
+            if lam_now.get("status"):
+                md[-1] += " " + lambda_sentence(lam_now, recomputed)
             md += [f"**{w}**" for w in _warnings(att, ("packings",))]
             md += ["", "Within the reliable band (outside it α and Q are not shown); α and Q are "
                    "positive, so an α whose 95 % interval (± 2 errors) reaches 0 is an upper bound "
@@ -420,4 +522,33 @@ def width_comparison(scenes: Mapping[str, Mapping], dims: Mapping[str, int], poi
                       + " | ".join(fmt_positive(*al[n]) for n, _ in members) + " | "
                       + " | ".join(sigmas(al, n) for n, _ in others) + " |")
         md.append("")
+        md += slope_comparison(members, lo, hi)
     return md
+
+
+def slope_comparison(members, lo: float, hi: float) -> list[str]:
+    """How far c falls across the common band [lo, hi] in each scene (c(lo) − c(hi), the two
+    standard errors in quadrature: :func:`granwave.analysis.continuum_length.fall_across`) and
+    each pair's difference in combined standard errors: whether the dispersion moves with width."""
+    from ..analysis.continuum_length import fall_across
+
+    falls = [(n, *fall_across(a, lo, hi)) for n, a in members]
+    if not all(math.isfinite(f) for _, f, _ in falls):
+        return []
+    md = [f"Fall of c across the common band (c({fmt(lo, digits=3)}) − c({fmt(hi, digits=3)}), the "
+          "two ends' standard errors in quadrature): "
+          + "; ".join(f"`{n}` {fmt(f, e)}" for n, f, e in falls) + ". Differences: "]
+    pairs = []
+    for i in range(len(falls)):
+        for j in range(i + 1, len(falls)):
+            (a, fa, ea), (b, fb, eb) = falls[i], falls[j]
+            pairs.append(f"`{b}` − `{a}` = {fmt(fb - fa, math.hypot(ea, eb))} "
+                         f"({(fb - fa) / math.hypot(ea, eb):+.1f} σ)")
+    big = any(abs(fb - fa) > 2 * math.hypot(ea, eb) for i, (_, fa, ea) in enumerate(falls)
+              for (_, fb, eb) in falls[i + 1:])
+    md[-1] += "; ".join(pairs) + (". At least one pair differs by more than 2 σ: the dispersion "
+                                  "moves with width." if big else
+                                  ". No pair differs by 2 σ, which shows neither that the dispersion "
+                                  "moves with width nor that it does not: width independence is not "
+                                  "resolved at this precision.")
+    return md + [""]

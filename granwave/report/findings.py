@@ -336,11 +336,14 @@ def effective_medium_rows(groups_by_scene, scenes, anchor: str, config: Mapping 
 
 def continuum_rows(continuum: Mapping, anchor: str) -> list[Finding]:
     """c_tof/c_ℓ at the tallest distance (and L*), c_0/c_ℓ and λ* of the continuum scenes."""
-    from .continuum import lambda_sentence
+    from ..analysis.continuum_length import low_frequency_of_result
+    from .continuum import current_lambda, lambda_sentence
 
     rows = []
     for scene, d in sorted(continuum.items()):
         front, att = d.get("front") or {}, d.get("attenuation") or {}
+        # λ* and c0/c_ℓ by the current rule (recomputed for a record made before it)
+        lam, recomputed = current_lambda(att, front) if att else ({}, False)
         loc = front.get("local") or {}
         if loc.get("ratio"):
             r, e, L = loc["ratio"][-1], loc["ratio_err"][-1], loc["height"][-1]
@@ -355,20 +358,16 @@ def continuum_rows(continuum: Mapping, anchor: str) -> list[Finding]:
                 f"{fmt_count(front.get('n_heights'))} heights",
                 f"1 (continuum limit; c_ℓ of the {front.get('c_l_kind', '?')}, docs/continuum.md)",
                 verdict(r, e, 1.0, why=why), anchor, truth=("heights.c_tof", "continuum.L_star")))
-        if att.get("c0") is not None and front.get("c_l", {}).get("mean"):
-            ratio, re = num(att.get("c0_over_c_l")), num(att.get("c0_over_c_l_err"))
-            if not math.isfinite(ratio):
-                cl = front["c_l"]
-                ratio = num(att["c0"]) / num(cl["mean"])
-                re = abs(ratio) * math.hypot(num(att.get("c0_err")) / num(att["c0"]),
-                                             num(cl.get("sem") or 0) / num(cl["mean"]))
-            rows.append(Finding(f"low-frequency phase velocity c_0/c_ℓ, {scene}", fmt(ratio, re),
+        if att.get("c0") is not None and lam.get("reference") == "c_l" and "omega" in att:
+            low = low_frequency_of_result(att, lam.get("c_ref"), lam.get("c_ref_err") or 0.0)
+            ratio, re = num(low.get("c0_over_c_l")), num(low.get("c0_over_c_l_err"))
+            rows.append(Finding(f"extrapolated c_0/c_ℓ (not the low-frequency limit), {scene}",
+                                fmt(ratio, re),
                                 f"{fmt_count(att.get('n_signals'))} signals at {len(att.get('heights', []))} heights",
-                                "1 (the moduli's c_ℓ)", verdict(ratio, re, 1.0), anchor,
-                                truth=("attenuation.c0", "attenuation.c")))
-        lam = att.get("continuum_length") or {}
+                                "1 (the contributing heights' c_ℓ)", verdict(ratio, re, 1.0), anchor,
+                                truth=("attenuation.c0_over_c_l", "attenuation.c0")))
         if lam.get("status"):
-            text = lambda_sentence(lam).removeprefix("Continuum length in frequency: ")
+            text = lambda_sentence(lam, recomputed).removeprefix("Continuum length in frequency ")
             rows.append(Finding(f"continuum wavelength λ*, {scene}", _lambda_cell(lam),
                                 f"{fmt_count(att.get('n_signals'))} signals", "— (a measurement)",
                                 text[0].upper() + text[1:], anchor, truth=("continuum.lambda_star",)))
@@ -381,9 +380,14 @@ def _lambda_cell(lam: Mapping) -> str:
     st = lam.get("status")
     if st == "within":
         ci = lam.get("lambda_star_ci") or [None, None]
-        inside = all(v is not None for v in ci)
-        return f"{fmt_bound(lam.get('lambda_star'), 3)} d̄" + (
-            f" (95 % {fmt_bound(ci[0], 3)} … {fmt_bound(ci[1], 3)})" if inside else "")
+        lo, hi = num(ci[0]), num(ci[1])
+        if math.isfinite(lo) and lo > 0 and math.isfinite(hi):
+            return f"{fmt_bound(lam.get('lambda_star'), 3)} d̄ (95 % {fmt_bound(lo, 3)} … {fmt_bound(hi, 3)})"
+        if lo <= 0 and math.isfinite(hi):  # one-sided: the bound is the measurement
+            return f"λ* ≤ {fmt_bound(hi, 3)} d̄ (95 %; point {fmt_bound(lam.get('lambda_star'), 3)})"
+        if math.isfinite(lo) and lo > 0:
+            return f"λ* ≥ {fmt_bound(lo, 3)} d̄ (95 %; point {fmt_bound(lam.get('lambda_star'), 3)})"
+        return f"{fmt_bound(lam.get('lambda_star'), 3)} d̄ (not bounded)"
     if st == "whole band":
         return f"λ* ≤ {fmt_bound(lam.get('lambda_bound'), 3)} d̄"
     if st == "beyond":
