@@ -19,7 +19,9 @@ PRESSURES = tuple(float(p) for p in np.logspace(-8, -3, 11))
 
 
 def _estimate(p_star: float, noise: float, seed: int) -> tuple[float, float, float]:
-    """(p*, lo95, hi95) of pressure-sweep --crossover on a synthetic c_tof(p) series."""
+    """(p*, lo95, hi95) of pressure-sweep --crossover on a synthetic c_tof(p) series: an interval
+    open on one side (it reaches the sweep's range) as an infinite end; p* not located (the fit's
+    note) as NaN throughout, a miss (the truth lies inside the sweep)."""
     from granwave.analysis.crossover import synthetic_series
     from granwave.analysis.sweep import pressure_sweep
     from granwave.params import SweepParams
@@ -29,8 +31,10 @@ def _estimate(p_star: float, noise: float, seed: int) -> tuple[float, float, flo
               for a, b, s in zip(p, c, e)]
     d = SweepParams()
     fit = pressure_sweep([], height_series=series, crossover=(d.crossover_low, d.crossover_high))["crossover_tof"]
+    if fit["note"]:
+        return math.nan, math.nan, math.nan
     lo, hi = fit["p_star_lo95"], fit["p_star_hi95"]
-    return fit["p_star"], (None if not math.isfinite(lo) else lo), (None if not math.isfinite(hi) else hi)
+    return fit["p_star"], (lo if math.isfinite(lo) else 0.0), (hi if math.isfinite(hi) else math.inf)
 
 
 def _case(p_star: float, noise: float, fast: bool) -> Case:
