@@ -47,7 +47,8 @@ def _has_run(words: tuple, run: tuple) -> bool:
     return any(words[k:k + n] == run for k in range(len(words) - n + 1))
 
 
-def identifiers(source: str) -> list[tuple[int, str, str]]:
+@functools.lru_cache(maxsize=512)  # the package's modules are parsed once per process
+def identifiers(source: str) -> tuple[tuple[int, str, str], ...]:
     """(line, "identifier" or "string", text) of every identifier and every string that is not a
     docstring in ``source`` (the rule of the module docstring)."""
     tree = ast.parse(source)
@@ -74,7 +75,7 @@ def identifiers(source: str) -> list[tuple[int, str, str]]:
         out += [(node.lineno, "identifier", name) for name in ids]
         if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
             out.append((node.lineno, "string", node.value))
-    return out
+    return tuple(out)
 
 
 def named(source: str, names, whole, allowed=frozenset()) -> list[tuple[int, str, str, str]]:
