@@ -182,3 +182,17 @@ def test_bulk_speed_from_wall_layers_in_series_exact():
     out = continuum_from_features(heights, feats, cl)
     np.testing.assert_allclose(out["local"]["ratio_bulk"], 0.25 / 0.2, rtol=1e-9)
     assert out["c_l_bulk"]["c_l_inf"] == pytest.approx(0.2, rel=1e-12)
+
+
+def test_low_frequency_of_a_result_without_c0_is_nan_not_an_error():
+    """A continuum result whose band held too few heights stores c0 and its errors as null (the
+    tiny workflow's report failed on it): the low-frequency summary is NaN, not a TypeError."""
+    import math
+
+    from granwave.analysis.continuum_length import low_frequency_of_result
+
+    att = {"omega": [0.01, 0.02, 0.03], "reliable": [False, True, True], "c": [0.2, 0.19, 0.18],
+           "c_err": [0.01, 0.01, 0.01], "c0": None, "c0_err": None, "c0_stat_err": None}
+    out = low_frequency_of_result(att, c_ref=0.19, c_ref_err=0.01)
+    assert math.isnan(out["c0"]) and math.isnan(out["c0_stat_err"])
+    assert out["c0_lower_bound"] < 0.19

@@ -224,7 +224,10 @@ def test_full_stdout_after_the_output_is_one_line(inputs, tmp_path):
                             "--t-max", "5", "--samples", "11", "-o", str(out)],
                            stdout=full, stderr=subprocess.PIPE, text=True, timeout=300)
     assert p.returncode == 1 and "Traceback" not in p.stderr, p.stderr
-    assert len(p.stderr.strip().splitlines()) == 1 and "standard output" in p.stderr
+    # one error line; the step rule's notices (a rerun with a shorter step) may precede it
+    lines = p.stderr.strip().splitlines()
+    errors = [line for line in lines if not line.startswith("propagate: estimated step error")]
+    assert len(errors) == 1 and errors[0].startswith("Error:") and "standard output" in errors[0], lines
     files.read_signal(out)  # complete and valid
 
 

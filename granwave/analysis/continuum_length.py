@@ -224,6 +224,16 @@ def lambda_star_of_result(att: dict, c_l_per_height=None, counts=None, *, c_tol=
     return out
 
 
+def _stored_number(att: dict, *keys: str) -> float:
+    """The first of ``keys`` that a stored result holds as a number; NaN where none does (a
+    result without c0 stores null: too few heights in its band)."""
+    for key in keys:
+        value = att.get(key)
+        if value is not None:
+            return float(value)
+    return math.nan
+
+
 def low_frequency_of_result(att: dict, c_ref: float | None = None, c_ref_err: float = 0.0) -> dict:
     """c0 of a stored result with its model spread (:func:`c0_model_spread`) added to its error,
     the band's own lower bound c(ω_lo) − t·error, and c0/c_ref."""
@@ -232,8 +242,8 @@ def low_frequency_of_result(att: dict, c_ref: float | None = None, c_ref_err: fl
     c = np.asarray(att["c"], float)
     c_err = np.asarray(att["c_err"], float)
     out = dict(c0_model_spread(omega, c, band, c_err))
-    stat = float(att.get("c0_stat_err", att.get("c0_err", math.nan)))
-    c0 = float(att.get("c0", math.nan))
+    stat = _stored_number(att, "c0_stat_err", "c0_err")
+    c0 = _stored_number(att, "c0")
     spread = out["c0_model_spread"]
     out.update(c0=c0, c0_stat_err=stat,
                c0_err=math.hypot(stat, spread) if math.isfinite(spread) else stat)
