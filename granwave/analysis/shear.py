@@ -54,7 +54,8 @@ DEFAULT_DEFLECTION_FRACTION = 0.02
 DEFAULT_BAND = (0.5, 1.5)
 RESPONSES = ("derivative", "delay")
 DEFAULT_RESPONSE = "derivative"
-#: A template lobe at least this fraction of its largest is a main-lobe candidate (the first wins).
+#: A template lobe with at least this fraction of the largest lobe's area is a main-lobe candidate
+#: (the first wins).
 MAIN_LOBE_FRACTION = 0.9
 
 
@@ -109,21 +110,23 @@ def template(times, frequency: float, shape: str = "sine", response: str = DEFAU
 
 
 def _main_lobe(t, s) -> tuple[float, int]:
-    """(time, sign) of the template's main lobe: the first local extremum of |s| reaching
-    MAIN_LOBE_FRACTION of max |s| (the first of two equal lobes; never a side lobe)."""
-    a = np.abs(s)
-    top = a.max()
-    if not top > 0:
+    """(time, sign) of the template's main lobe: the first lobe (a run of one sign) whose area
+    reaches MAIN_LOBE_FRACTION of the largest lobe's (the first of two equal lobes, never a side
+    lobe nor a sine's quarter-period end lobe), at the peak of |s| within it."""
+    sg = np.sign(s)
+    nz = np.flatnonzero(sg != 0)
+    if nz.size == 0:
         raise InputError("the source template is zero")
-    for k in range(len(s)):
-        if a[k] >= MAIN_LOBE_FRACTION * top and (k == len(s) - 1 or a[k] >= a[k + 1]) \
-                and (k == 0 or a[k] >= a[k - 1]):
-            sign = 1 if s[k] > 0 else -1
-            if 0 < k < len(s) - 1:
-                tv, _ = _parabola_vertex(t[k - 1:k + 2], sign * s[k - 1:k + 2])
-                return tv, sign
-            return float(t[k]), sign
-    raise InputError("the source template has no main lobe")  # pragma: no cover (max is one)
+    cuts = np.flatnonzero(np.diff(sg[nz]) != 0) + 1
+    lobes = np.split(nz, cuts)
+    areas = np.array([abs(float(s[idx].sum())) for idx in lobes])
+    idx = lobes[int(np.argmax(areas >= MAIN_LOBE_FRACTION * areas.max()))]
+    sign = 1 if s[idx[0]] > 0 else -1
+    k = int(idx[np.argmax(sign * s[idx])])
+    if 0 < k < len(s) - 1:
+        tv, _ = _parabola_vertex(t[k - 1:k + 2], sign * s[k - 1:k + 2])
+        return tv, sign
+    return float(t[k]), sign
 
 
 def _lobe(t, y, sign, t_guess, half_width) -> tuple[float, float, int]:
