@@ -14,20 +14,32 @@ Source pulses w(t) (:func:`source_pulse`), frequency f (1 / time unit):
 falls as 1/ω² only), ``ricker`` (1 − 2u²) exp(−u²), u = π f (t − 1.5/f) (no energy
 above ~3 f: no grain-scale branch is excited).
 
-Every travel time is a pick on the received F_w minus the same pick on w itself:
+Every travel time is a pick on the received F_w minus the same pick on the **matched
+template** s(t), the shape F_w would have in a non-dispersive column: the wall-force detector
+responds to the top wall's strain, so the impulse response from the bottom wall's
+displacement is F_A = 2Z δ′(t − L/c) (docs/method.md §8, compression first) and
+s = w′ (``response="derivative"``, the default); ``response="delay"`` (a pure-delay path,
+F_A = δ(t − L/c)) takes s = w. On such a column every pick below gives L/c exactly.
 
-* ``first_deflection``: first time |F| reaches ``deflection_fraction`` (default 0.02)
-  of the received first peak's amplitude (source: the same fraction of its own first peak);
-* ``edge10``: the 10 % leading edges, ``peak_to_peak``: the first peaks, both by the
-  first-pulse rule of :mod:`granwave.analysis.front` (the same rule as the compressional kick);
-* ``cross_correlation``: the lag τ at which Σ F_w(t) w(t − τ) is largest (times the
-  polarity of the received first peak), over 0 ≤ τ ≤ twice the received first peak's
-  time (before the first echo), refined by a parabola;
+* ``cross_correlation``: the lag τ of the global extremum of |Σ F_w(t) s(t − τ)| over
+  0 ≤ τ ≤ twice a first delay estimate (the half-maximum reach of |F_w| minus that of s: past
+  the direct arrival, before the first echo at three times it), refined by a parabola; the
+  **polarity** is that extremum's sign (never a side lobe's);
+* the template's **main lobe**: its first lobe (run of one sign) with at least
+  ``MAIN_LOBE_FRACTION`` of the largest lobe's area (w′ of a Ricker: the first of its two equal
+  lobes; of a sine: its middle half period; w of a Ricker: its centre), at the lobe's peak t_m;
+  the received main lobe: the largest (polarity × sign) × F_w within a quarter period of
+  τ + t_m;
+* ``peak_to_peak``: the received main lobe's peak minus t_m (parabola vertices);
+* ``edge10``: the last 10 % crossing before each main lobe's peak (received minus template);
+* ``first_deflection``: the first time |F| reaches ``deflection_fraction`` (default 0.02) of its
+  main lobe's height (received minus template);
 * ``phase``: the phase velocity of the band [``band`` × f]: the transfer function
   H(ω) = FT[F_A] on a window ending at twice the cross-correlation arrival (before the
   first reflection, which comes at three times it; a cosine taper over the last quarter),
-  zero-padded 8x, phase unwrapped from ω = 0 (and the static sign removed), T(ω) = −φ/ω,
-  c(ω) = L/T(ω) averaged over the band;
+  zero-padded 8x, over the template's transfer function (iω for ``derivative``: its π/2 is
+  not a delay; 1 for ``delay``), phase unwrapped from the lowest frequency (the static sign
+  removed), T(ω) = −φ/ω, c(ω) = L/T(ω) averaged over the band;
 * ``impulse_peak`` / ``impulse_edge10``: the first peak and 10 % edge of F_A itself (the
   compressional kick's picks, docs/method.md §9); the kick is at t = 0.
 
