@@ -193,8 +193,8 @@ def test_analyze_front_shear_si(tmp_path):
                    "--t-max", "600", "--samples", "3001", "-o", str(tmp_path / "s.h5")])
     assert r.exit_code == 0, r.output
     from granwave.units import MATERIALS
-    moduli = {"dim": 2, "c_t": theory.lattice_shear_speed(P_LAT, poisson=MATERIALS["quartz"]["nu"]),
-              "phi3_star": 0.6, "C33": 0.011}
+    ct = theory.lattice_shear_speed(P_LAT, poisson=MATERIALS["quartz"]["nu"])  # the bulk's: the slab's
+    moduli = {"dim": 2, "c_t": ct, "c_t_slab": ct, "phi3_star": 0.6, "C33": 0.011}
     (tmp_path / "m.json").write_text(json.dumps(moduli))
     r = run(main, ["analyze", "front", str(tmp_path / "s.h5"), "--moduli", str(tmp_path / "m.json"),
                    "--pulse", "ricker", "--units", "si", "--material", "quartz", "--diameter", "0.2", "--json"])
@@ -203,6 +203,7 @@ def test_analyze_front_shear_si(tmp_path):
     assert set(out["picks"]) == {"first_deflection", "edge10", "peak_to_peak", "cross_correlation", "phase",
                                  "impulse_edge10", "impulse_peak"}
     assert out["picks"]["first_deflection"]["ratio"] == pytest.approx(0.98, abs=0.05)  # docs/shear.md table
+    assert out["reference"]["speed_reference"] == "bulk slab" and out["c_t"] == ct
     sc = material_scales("quartz", 0.2e-3)
     vs = out["si"]["first_deflection_Vs_m_s"]
     assert vs == pytest.approx(out["picks"]["first_deflection"]["speed"] * sc["speed"], rel=1e-12)

@@ -100,10 +100,10 @@ def reference_speeds(moduli: Mapping) -> dict:
 
     out = {"c_t_cell": speed(g_cell, phi_cell), "c_l_cell": speed(m_cell, phi_cell)}
     ct_slab, cl_slab = _num(moduli.get("c_t_slab")), _num(moduli.get("c_l_slab"))
-    if math.isfinite(ct_slab) and math.isfinite(cl_slab):
-        out.update(c_t=ct_slab, c_l=cl_slab, speed_reference="bulk slab")
-    else:
-        out.update(c_t=out["c_t_cell"], c_l=out["c_l_cell"], speed_reference="whole cell")
+    slab = math.isfinite(ct_slab)
+    out.update(c_t=ct_slab if slab else out["c_t_cell"],
+               c_l=cl_slab if math.isfinite(cl_slab) else out["c_l_cell"],
+               speed_reference="bulk slab" if slab else "whole cell")
     if dim == 3:
         out.update(c_t_polarisations=[math.nan, math.nan], c_t_x_cell=math.nan, polarisation_deg=math.nan,
                    C45_ratio=math.nan)
