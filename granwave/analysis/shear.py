@@ -22,8 +22,9 @@ s = w′ (``response="derivative"``, the default); ``response="delay"`` (a pure-
 F_A = δ(t − L/c)) takes s = w. On such a column every pick below gives L/c exactly.
 
 * ``cross_correlation``: the lag τ of the global extremum of |Σ F_w(t) s(t − τ)| over
-  0 ≤ τ ≤ twice a first delay estimate (the half-maximum reach of |F_w| minus that of s: past
-  the direct arrival, before the first echo at three times it), refined by a parabola; the
+  0 ≤ τ ≤ 2 L/c_t (past the direct arrival of any speed above c_t/2, before the first echo at
+  three times the delay; without ``c_t`` twice the received first pulse's peak time, the
+  first-pulse rule of docs/front.md), refined by a parabola; the
   **polarity** is that extremum's sign (never a side lobe's);
 * the template's **main lobe**: its first lobe (run of one sign) with at least
   ``MAIN_LOBE_FRACTION`` of the largest lobe's area (w′ of a Ricker: the first of its two equal
@@ -274,13 +275,18 @@ def shear_picks(time, force, *, height: float, frequency: float, pulse: str = "s
     state: dict = {}
 
     def xc():
-        # the lag window: twice a first estimate of the delay (the half-maximum reach of |F_w|
-        # minus the template's), past the direct arrival, before the first echo (three times it)
-        half = 0.5 * np.abs(y).max()
-        if not half > 0:
+        # the lag window: twice the expected delay L/c_t (past the direct arrival of any speed
+        # above c_t/2, before the first echo at three times it); without c_t, twice the
+        # received first pulse's peak time (docs/front.md's rule), else the whole record
+        if not np.abs(y).max() > 0:
             raise InputError("the received signal is zero")
-        t0 = _first_deflection(t, y, half) - _first_deflection(tp, sp, 0.5 * np.abs(sp).max())
-        t_last = 2.0 * t0 if t0 > 0 else t[-1]
+        if c_t and math.isfinite(c_t) and c_t > 0:
+            t_last = 2.0 * height / c_t
+        else:
+            try:
+                t_last = 2.0 * front_features(t, y).t_peak
+            except InputError:
+                t_last = t[-1]
         lag, pol = _xcorr_lag(t, y, s, t_last)
         state["polarity"] = pol
         return lag
