@@ -598,14 +598,15 @@ def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dic
 
 
 def shear_front(signal: Signal, *, moduli: dict | None = None, frequency: float | None = None,
-                wavelength: float = 8.0, pulse: str = "sine", band=(0.5, 1.5),
+                wavelength: float = 8.0, pulse: str = "sine", band=(0.5, 1.5), response: str = "derivative",
                 deflection_fraction: float = 0.02, units: str = "reduced", material: str = "glass",
                 diameter: float = 1e-3) -> dict:
     """Arrival picks of a shear signal (granwave.analysis.shear; docs/shear.md).
 
-    ``moduli``: ``analyze moduli`` output of the same packing (gives c_t, Phi3* and the
-    shear modulus); ``frequency`` of the source pulse (1/time), default c_t / ``wavelength``
-    (d). ``units`` "si": V_s (m/s) of every pick, G_max = Phi3* rho V_s^2 (MPa) and the
+    ``moduli``: ``analyze moduli`` output of the same packing (gives c_t, the bulk slab's where
+    the column has one, else the whole cell's: granwave.analysis.shear_scene.reference_speeds,
+    whose values are returned under ``reference``; Phi3* and the shear modulus); ``frequency`` of the source pulse (1/time), default c_t / ``wavelength``
+    (d); ``response``: the matched template's response, "derivative" (w′) or "delay" (w). ``units`` "si": V_s (m/s) of every pick, G_max = Phi3* rho V_s^2 (MPa) and the
     moduli's G (MPa), travel times (us) and the frequency (kHz) for ``material`` and the
     mean grain ``diameter`` (m) (granwave.units.MATERIALS).
     """
@@ -614,7 +615,10 @@ def shear_front(signal: Signal, *, moduli: dict | None = None, frequency: float 
 
     c_t = phi = g_mod = None
     if moduli is not None:
-        c_t = moduli.get("c_t")
+        from .analysis.shear_scene import reference_speeds
+
+        ref = reference_speeds(moduli)  # the bulk slab's c_t (the whole cell's without a slab)
+        c_t = ref["c_t"]
         phi = moduli.get("phi3_star")
         dim = int(moduli.get("dim", 2))
         g_mod = moduli.get("C33") if dim == 2 else (0.5 * (moduli["C44"] + moduli["C55"])
@@ -629,9 +633,14 @@ def shear_front(signal: Signal, *, moduli: dict | None = None, frequency: float 
             raise InputError(f"wavelength must be positive (got {wavelength})")
         frequency = c_t / wavelength
     out = shear_picks(signal.time, signal.force, height=float(signal.attrs["height"]), frequency=frequency,
-                      pulse=pulse, c_t=c_t, deflection_fraction=deflection_fraction, band=band)
+                      pulse=pulse, c_t=c_t, deflection_fraction=deflection_fraction, band=band,
+                      response=response)
     out["phi3_star"] = float(phi) if phi is not None else math.nan
     out["G"] = float(g_mod) if g_mod is not None else math.nan
+    if moduli is not None:
+        out["reference"] = ref
+        if math.isfinite(ref.get("c_t_x_cell", math.nan)):
+            out["ratio_x_cell"] = {k: v["speed"] / ref["c_t_x_cell"] for k, v in out["picks"].items()}
     for key in ("ic", "method", "pressure", "source_kind"):
         if key in signal.attrs:
             out[key] = signal.attrs[key]

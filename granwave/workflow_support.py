@@ -463,8 +463,11 @@ def run_shear_sample(sample: dict, log=print) -> list[dict]:
     meta = {k: sample[k] for k in ("scene", "source_scene", "pressure", "size", "seed")}
     picks = {}
     error = None
+    from .analysis.shear_scene import reference_speeds
+
+    ref = reference_speeds(mod)  # the bulk slab's c_t, c_l (the whole cell's without a slab)
     for kind, key in (("shear", "c_t"), ("normal", "c_l")):
-        c = mod.get(key)
+        c = ref[key]
         if c is None or not math.isfinite(float(c)) or float(c) <= 0:
             error = f"{sample['in']['moduli']}: no finite {key}"
             break

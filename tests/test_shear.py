@@ -193,8 +193,8 @@ def test_analyze_front_shear_si(tmp_path):
                    "--t-max", "600", "--samples", "3001", "-o", str(tmp_path / "s.h5")])
     assert r.exit_code == 0, r.output
     from granwave.units import MATERIALS
-    moduli = {"dim": 2, "c_t": theory.lattice_shear_speed(P_LAT, poisson=MATERIALS["quartz"]["nu"]),
-              "phi3_star": 0.6, "C33": 0.011}
+    ct = theory.lattice_shear_speed(P_LAT, poisson=MATERIALS["quartz"]["nu"])  # the bulk's: the slab's
+    moduli = {"dim": 2, "c_t": ct, "c_t_slab": ct, "phi3_star": 0.6, "C33": 0.011}
     (tmp_path / "m.json").write_text(json.dumps(moduli))
     r = run(main, ["analyze", "front", str(tmp_path / "s.h5"), "--moduli", str(tmp_path / "m.json"),
                    "--pulse", "ricker", "--units", "si", "--material", "quartz", "--diameter", "0.2", "--json"])
@@ -203,9 +203,63 @@ def test_analyze_front_shear_si(tmp_path):
     assert set(out["picks"]) == {"first_deflection", "edge10", "peak_to_peak", "cross_correlation", "phase",
                                  "impulse_edge10", "impulse_peak"}
     assert out["picks"]["first_deflection"]["ratio"] == pytest.approx(0.98, abs=0.05)  # docs/shear.md table
+    assert out["reference"]["speed_reference"] == "bulk slab" and out["c_t"] == ct
     sc = material_scales("quartz", 0.2e-3)
     vs = out["si"]["first_deflection_Vs_m_s"]
     assert vs == pytest.approx(out["picks"]["first_deflection"]["speed"] * sc["speed"], rel=1e-12)
     assert out["si"]["first_deflection_Gmax_MPa"] == pytest.approx(0.6 * 2650 * vs**2 / 1e6, rel=1e-12)
     r = run(main, ["analyze", "front", str(tmp_path / "s.h5")])
     assert r.exit_code == 2 and "--frequency" in r.output
+
+
+# ------------------------------------------------------------------ the picks on known responses
+def _column(response, sign, lam, n=4001, height=100.0):
+    """±δ(t − L/c) or ±δ′(t − L/c) with the echo at 3L/c (c = 1), each δ a Gaussian of 1.5 samples."""
+    f = 1.0 / lam
+    t = np.linspace(0.0, 3.0 * height + 3.0 / f, n)
+    sigma = 1.5 * (t[1] - t[0])
+    out = np.zeros_like(t)
+    for t0 in (height, 3.0 * height):
+        u = t - t0
+        g = np.exp(-0.5 * (u / sigma) ** 2) / (sigma * math.sqrt(2 * math.pi))
+        out += g if response == "delay" else -u / sigma**2 * g
+    return t, sign * out, f
+
+
+@pytest.mark.parametrize("pulse", ["ricker", "sine"])
+@pytest.mark.parametrize("lam", [8.0, 16.0, 32.0])
+@pytest.mark.parametrize("response,sign", [("derivative", 1.0), ("derivative", -1.0), ("delay", 1.0),
+                                           ("delay", -1.0)])
+def test_every_pick_gives_c_on_a_delta_or_delta_prime_response(pulse, lam, response, sign):
+    """A non-dispersive column (docs/method.md §8: F_A = 2Z δ′(t − L/c), + compression first;
+    − the opposite convention) and a pure delay δ(t − L/c): every pick within 1 % of c at
+    λ = 8-32 d, the polarity that of the response."""
+    t, fa, f = _column(response, sign, lam)
+    r = shear_picks(t, fa, height=100.0, frequency=f, pulse=pulse, c_t=1.0, response=response)
+    assert not r["errors"]
+    assert r["polarity"] == sign
+    for name in ("first_deflection", "edge10", "peak_to_peak", "cross_correlation", "phase"):
+        assert r["picks"][name]["ratio"] == pytest.approx(1.0, abs=0.01), name
+
+
+def test_the_source_itself_as_template_is_biased_on_the_detector_response():
+    """The former rule (received F_A * w against w itself) on the wall-force detector's δ′: the
+    cross-correlation and peak picks are off by a fraction of λ/L (why the template is w′)."""
+    t, fa, f = _column("derivative", 1.0, 16.0)
+    wrong = shear_picks(t, fa, height=100.0, frequency=f, pulse="ricker", c_t=1.0, response="delay")
+    right = shear_picks(t, fa, height=100.0, frequency=f, pulse="ricker", c_t=1.0)
+    assert abs(wrong["picks"]["cross_correlation"]["ratio"] - 1) > 0.03
+    assert abs(right["picks"]["cross_correlation"]["ratio"] - 1) < 1e-3
+
+
+def test_template_is_the_pulse_derivative():
+    from granwave.analysis.shear import source_pulse, template
+
+    t = np.linspace(0, 200, 20001)
+    for pulse in ("ricker", "sine"):
+        w = source_pulse(t, 0.05, pulse)
+        d = np.gradient(w, t)
+        inner = (t > 0.1) & (np.abs(t - 20.0) > 0.1)  # away from the sine's kinks at 0 and 1/f
+        np.testing.assert_allclose(template(t, 0.05, pulse)[inner], d[inner], atol=1e-4 * np.abs(d).max())
+    with pytest.raises(InputError):
+        template(t, 0.05, "ricker", "echo")

@@ -43,7 +43,8 @@ def _records(dim=2, seeds=3):
             for s in range(seeds):
                 jitter = 1 + 0.01 * rng.standard_normal()
                 ct, cl = A_S * p**NU_S * jitter, A_P * p**NU_P * jitter
-                moduli = {"dim": dim, "c_t": ct, "c_l": cl, "phi3_star": PHI}
+                moduli = {"dim": dim, "c_t_slab": ct, "c_l_slab": cl, "phi3_star": PHI,
+                          "phi3_star_cell": PHI, "phi3_star_slab": PHI}
                 if dim == 2:  # an isotropic medium: C12 = C22 - 2 C33
                     moduli.update(C11=PHI * cl**2, C22=PHI * cl**2, C33=PHI * ct**2,
                                   C12=PHI * (cl**2 - 2 * ct**2))
@@ -57,6 +58,28 @@ def _records(dim=2, seeds=3):
                                          normal=[_picks(L, cl, lam, 1.0) for lam in (8.0, 16.0)],
                                          wavelengths=(8.0, 16.0), pulse="ricker"))
     return out
+
+
+def test_reference_speeds_bulk_slab_whole_cell_and_the_in_plane_shear_block():
+    from granwave.analysis.shear_scene import reference_speeds
+
+    m = {"dim": 2, "c_t_slab": 0.1, "c_l_slab": 0.2, "C22": 0.03, "C33": 0.008, "phi3_star_cell": 0.8}
+    r = reference_speeds(m)
+    assert (r["c_t"], r["c_l"], r["speed_reference"]) == (0.1, 0.2, "bulk slab")
+    assert r["c_t_cell"] == pytest.approx(math.sqrt(0.008 / 0.8)) and r["c_l_cell"] == pytest.approx(math.sqrt(0.03 / 0.8))
+    r = reference_speeds({**m, "c_t_slab": float("nan")})  # no slab: the whole cell's, said so
+    assert r["speed_reference"] == "whole cell" and r["c_t"] == r["c_t_cell"]
+    # 3D: the block [[C55, C45], [C45, C44]] of a packing anisotropic in plane (C45 = 10 % of C44)
+    c44, c55, c45, phi = 0.010, 0.012, 0.0011, 0.6
+    v = np.zeros((6, 6))
+    v[3, 3], v[4, 4], v[3, 4], v[4, 3] = c44, c55, c45, c45
+    r = reference_speeds({"dim": 3, "C33": 0.03, "C44": c44, "C55": c55, "voigt": v.tolist(),
+                          "phi3_star_cell": phi, "c_t_slab": 0.1, "c_l_slab": 0.2})
+    mean, half = 0.5 * (c44 + c55), math.hypot(0.5 * (c55 - c44), c45)
+    assert r["c_t_polarisations"] == pytest.approx([math.sqrt((mean - half) / phi), math.sqrt((mean + half) / phi)])
+    assert r["c_t_x_cell"] == pytest.approx(math.sqrt((mean + half) / phi))  # C55 > C44: x is the fast one
+    assert r["polarisation_deg"] == pytest.approx(math.degrees(0.5 * math.atan2(2 * c45, c55 - c44)))
+    assert r["C45_ratio"] == pytest.approx(c45 / math.sqrt(c44 * c55))
 
 
 def test_poisson_from_speeds_and_from_the_tensor_agree_for_an_isotropic_medium():

@@ -80,7 +80,7 @@ def test_every_topic_module_gives_keys_of_its_topic_and_a_fast_subset():
     pairs = [(c.key, c.setting) for c in cases]
     assert len(pairs) == len(set(pairs)), "a (key, setting) pair twice"
     fast = truth.select(cases, fast=True)
-    assert {c.key.split(".")[0] for c in fast} >= TOPICS - {"shear"}
+    assert {c.key.split(".")[0] for c in fast} >= TOPICS
     assert truth.select(cases, keys="front.t_*,heights.gamma") and all(
         c.key.startswith("front.t_") or c.key == "heights.gamma" for c in truth.select(cases, keys="front.t_*,heights.gamma"))
 
@@ -119,6 +119,18 @@ def test_front_picks_on_exact_delta_prime_chain_and_precursor_signals():
         for c in [c for c in _topic("front") if setting in c.setting and "exact samples" in c.setting]:
             est = np.array([r[0] for r in _run(c, range(3))])
             assert np.all(np.abs(est / c.truth - 1) < c.tolerance), (c.key, c.setting, est, c.truth)
+
+
+def test_shear_picks_on_delta_and_delta_prime_responses():
+    # every pick within 1 % of c on δ and ±δ′ responses (the fast subset: Ricker at λ = 16 d), 3
+    # seeds each (the sign of the response drawn per seed: both polarities among them)
+    cases = [c for c in _topic("shear") if c.fast]
+    assert {c.key for c in cases} == {f"shear.{p}" for p in ("first_deflection", "edge10", "peak_to_peak",
+                                                               "cross_correlation", "phase")}
+    assert {"δ′" in c.setting for c in cases} == {True, False}
+    for c in cases:
+        est = np.array([r[0] for r in _run(c, range(3))])
+        assert np.all(np.abs(est / c.truth - 1) < c.tolerance), (c.key, c.setting, est)
 
 
 def test_heights_speeds_and_exponents_cover_the_closed_forms():

@@ -76,6 +76,54 @@ def shear_modulus(moduli: Mapping, dim: int) -> float:
         return math.nan
 
 
+def reference_speeds(moduli: Mapping) -> dict:
+    """The reference speeds of one packing's ``analyze moduli`` output (docs/shear.md).
+
+    ``c_t``, ``c_l``: the bulk slab's (``c_t_slab``, ``c_l_slab``: the slab's own strain and its
+    own density, one volume and one rattler rule for both; decision 0014), ``speed_reference``
+    "bulk slab"; where the column has no slab (thinner than 1 d), the whole cell's, "whole cell".
+    ``c_t_cell``, ``c_l_cell``: the whole cell's moduli over the whole cell's density
+    ``phi3_star_cell`` (the same rattler rule: the grains of D and M), beside them. In 3D also
+    the whole cell's in-plane shear block [[C55, C45], [C45, C44]] (waves along z, polarised in
+    the xy plane): its eigen-speeds ``c_t_polarisations`` [slow, fast] over ``phi3_star_cell``,
+    ``c_t_x_cell`` the one whose polarisation lies nearest x (the shear kick's direction), its
+    polarisation angle from x ``polarisation_deg`` and ``C45_ratio`` = C45/sqrt(C44 C55).
+    """
+    dim = int(moduli.get("dim", 2))
+    phi_cell = _num(moduli.get("phi3_star_cell"))
+    g_cell = shear_modulus(moduli, dim)
+    m_cell = _num(moduli.get("C22" if dim == 2 else "C33"))
+
+    def speed(m, rho):
+        return math.sqrt(m / rho) if (math.isfinite(m) and math.isfinite(rho) and m > 0 and rho > 0) \
+            else math.nan
+
+    out = {"c_t_cell": speed(g_cell, phi_cell), "c_l_cell": speed(m_cell, phi_cell)}
+    ct_slab, cl_slab = _num(moduli.get("c_t_slab")), _num(moduli.get("c_l_slab"))
+    slab = math.isfinite(ct_slab)
+    out.update(c_t=ct_slab if slab else out["c_t_cell"],
+               c_l=cl_slab if math.isfinite(cl_slab) else out["c_l_cell"],
+               speed_reference="bulk slab" if slab else "whole cell")
+    if dim == 3:
+        out.update(c_t_polarisations=[math.nan, math.nan], c_t_x_cell=math.nan, polarisation_deg=math.nan,
+                   C45_ratio=math.nan)
+        voigt = moduli.get("voigt")
+        try:
+            v = np.asarray(voigt, float)
+            block = np.array([[v[4, 4], 0.5 * (v[3, 4] + v[4, 3])], [0.5 * (v[3, 4] + v[4, 3]), v[3, 3]]])
+        except (TypeError, ValueError, IndexError):
+            block = None
+        if block is not None and np.all(np.isfinite(block)) and phi_cell > 0:
+            lam, vec = np.linalg.eigh(block)
+            k = int(np.argmax(np.abs(vec[0])))
+            out.update(c_t_polarisations=[speed(x, phi_cell) for x in lam],
+                       c_t_x_cell=speed(lam[k], phi_cell),
+                       polarisation_deg=float(np.degrees(np.arctan2(abs(vec[1, k]), abs(vec[0, k])))),
+                       C45_ratio=float(block[0, 1] / math.sqrt(block[0, 0] * block[1, 1]))
+                       if block[0, 0] > 0 and block[1, 1] > 0 else math.nan)
+    return out
+
+
 def sample_record(*, scene: str, source_scene: str, pressure: float, size: str, seed: int,
                   moduli: Mapping, shear: Sequence[Mapping], normal: Sequence[Mapping],
                   wavelengths: Sequence[float], pulse: str, extra: Mapping | None = None) -> dict:
@@ -88,8 +136,9 @@ def sample_record(*, scene: str, source_scene: str, pressure: float, size: str, 
            "seed": int(seed), "dim": dim, "pulse": pulse,
            "wavelengths": [float(w) for w in wavelengths],
            "height": float(shear[0]["height"]) if shear else math.nan,
-           "c_t": _num(moduli.get("c_t")), "c_l": _num(moduli.get("c_l")),
-           "phi3_star": _num(moduli.get("phi3_star")),
+           **reference_speeds(moduli),
+           "phi3_star": _num(moduli.get("phi3_star")), "phi3_star_slab": _num(moduli.get("phi3_star_slab")),
+           "phi3_star_cell": _num(moduli.get("phi3_star_cell")),
            "moduli": {k: _num(moduli.get(k)) for k in keys},
            "shear": list(shear), "normal": list(normal)}
     rec.update(extra or {})
@@ -204,6 +253,8 @@ def shear_scene(records: Sequence[Mapping], *, pick: str = "first_deflection",
         cl = np.array([r["c_l"] for r in rs], float)
         phi = np.array([r["phi3_star"] for r in rs], float)
         g_mod = np.array([shear_modulus(r["moduli"], dim) for r in rs], float)
+        ct_cell = np.array([r.get("c_t_cell", math.nan) for r in rs], float)
+        ct_x = np.array([r.get("c_t_x_cell", math.nan) for r in rs], float)
         with np.errstate(divide="ignore", invalid="ignore"):
             r_wave, r_mod = vp / vs, cl / ct
         rows.append({
@@ -211,6 +262,10 @@ def shear_scene(records: Sequence[Mapping], *, pick: str = "first_deflection",
             "height": _stats([r["height"] for r in rs]),
             "V_s": _stats(vs), "V_p": _stats(vp), "c_t": _stats(ct), "c_l": _stats(cl),
             "V_s_over_c_t": _stats(vs / ct), "V_p_over_c_l": _stats(vp / cl),
+            "c_t_cell": _stats(ct_cell), "V_s_over_c_t_cell": _stats(vs / ct_cell),
+            "c_t_x_cell": _stats(ct_x), "V_s_over_c_t_x_cell": _stats(vs / ct_x),
+            "C45_ratio": _stats([r.get("C45_ratio", math.nan) for r in rs]),
+            "speed_reference": sorted({r.get("speed_reference", "whole cell") for r in rs}),
             "phi3_star": _stats(phi),
             "G_max": _stats(phi * vs * vs), "G_moduli": _stats(g_mod),
             "ratio_waves": _stats(r_wave), "ratio_moduli": _stats(r_mod),

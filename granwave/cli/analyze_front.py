@@ -16,6 +16,11 @@ from .common import echo_result, options_from, params_from, stage
                    "(c_t, Phi3*, the shear modulus); the picks' speeds are divided by its c_t.")
 @click.option("--pulse", type=click.Choice(["sine", "ricker"]), default="sine", show_default=True,
               help="Shear signals: the source pulse the impulse signal is convolved with.")
+@click.option("--response", type=click.Choice(["derivative", "delay"]), default="derivative",
+              show_default=True,
+              help="Shear signals: the expected impulse response, which sets the matched template "
+                   "the picks compare with: derivative (the wall-force detector's delta', template "
+                   "w'; docs/method.md section 8) or delay (a pure delay, template w).")
 @click.option("--frequency", type=float, default=None,
               help="Shear signals: the pulse's frequency [1/(d/sqrt(E*/rho))]; default c_t / --wavelength.")
 @click.option("--wavelength", type=float, default=8.0, show_default=True,
@@ -32,7 +37,7 @@ from .common import echo_result, options_from, params_from, stage
 @click.option("--diameter", type=float, default=1.0, show_default=True,
               help="Mean grain diameter in mm for --units si (times and frequencies scale with it).")
 @stage
-def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, material, any_poisson,
+def front(signal, as_json, moduli_path, pulse, response, frequency, wavelength, units, material, any_poisson,
           diameter, **options):
     """Leading edge, first peak, zero crossing and width of a signal's first pulse.
 
@@ -52,7 +57,8 @@ def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, mat
     A shear signal (propagate --source shear) gets the bender-element picks
     instead: first deflection, 10% edge, peak-to-peak, cross-correlation and
     band phase velocity of the signal a --pulse of --frequency would give,
-    and the impulse's own edge and peak; speeds L/t and their ratio to the
+    each against the matched template (--response: w' by default) and the
+    same pick on it, and the impulse's own edge and peak; speeds L/t and their ratio to the
     --moduli file's c_t; --units si for V_s and G_max (docs/shear.md).
     """
     from .. import api
@@ -73,6 +79,7 @@ def front(signal, as_json, moduli_path, pulse, frequency, wavelength, units, mat
     if units == "si":
         material, mismatch = _si_material(sig, signal, material, any_poisson)
     out = api.shear_front(sig, moduli=moduli, frequency=frequency, wavelength=wavelength, pulse=pulse,
+                          response=response,
                           units=units, material=material or "glass", diameter=diameter * 1e-3)
     if mismatch:
         out["si"]["poisson_mismatch"] = mismatch

@@ -122,6 +122,22 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
             md.append(f"| {num(r['pressure']):g} | {fmt_count(r['n'])} | {stat_cell(r['V_s'])} | {stat_cell(r['c_t'])} | "
                       f"{stat_cell(r['V_s_over_c_t'], 3)} | {stat_cell(r['V_p'])} | {stat_cell(r['c_l'])} | "
                       f"{stat_cell(r['V_p_over_c_l'], 3)} | {stat_cell(r['G_max'])} | {stat_cell(r['G_moduli'])} |")
+        if all("c_t_cell" in r for r in a["pressures"]):
+            refs = sorted({x for r in a["pressures"] for x in r.get("speed_reference", [])})
+            md += ["", f"c_t, c_ℓ above: {' and '.join(refs) or '?'} (the bulk slab's own strain and "
+                   "density, one rattler rule; the whole cell's where a column has no slab). Beside "
+                   "them the whole cell's c_t (its moduli over its own Φ3*)"
+                   + (" and, in 3D, the eigen-speed of the whole cell's in-plane shear block "
+                      "[[C55, C45], [C45, C44]] polarised nearest x, the direction the kick excites "
+                      "(c_t,x):" if dim == 3 else ":"), ""]
+            head = "| p (E*) | c_t | c_t (cell) | V_s/c_t (cell) |" + (" C45/√(C44 C55) | c_t,x (cell) | V_s/c_t,x |" if dim == 3 else "")
+            md += [head, "|---|---|---|---|" + ("---|---|---|" if dim == 3 else "")]
+            for r in a["pressures"]:
+                line = (f"| {num(r['pressure']):g} | {stat_cell(r['c_t'])} | {stat_cell(r['c_t_cell'])} | "
+                        f"{stat_cell(r['V_s_over_c_t_cell'], 3)} |")
+                if dim == 3:
+                    line += f" {stat_cell(r['C45_ratio'], 3)} | {stat_cell(r['c_t_x_cell'])} | {stat_cell(r['V_s_over_c_t_x_cell'], 3)} |"
+                md.append(line)
         fast = [r for r in a["pressures"] if num((r.get("V_p_over_c_l") or {}).get("mean")) > FASTEST_P]
         if fast:
             md += ["", f"**V_p above {FASTEST_P:g} c_ℓ at p = "
