@@ -523,10 +523,12 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
                                   dof_axis=source.dof_axis)
             omega_max = math.sqrt(max(float(np.max(modes.omega2, initial=0.0)), 0.0))
     else:
-        from .dem.pulse import DEFAULT_AMPLITUDE, DEFAULT_DAMPING, propagate_dem
+        from .dem.pulse import DEFAULT_BIN, DEFAULT_DAMPING, propagate_dem
 
         sig = propagate_dem(source, ic=p.ic, t_max=p.t_max, samples=p.samples, dt=p.dt,
-                            amplitude=DEFAULT_AMPLITUDE if p.amplitude is None else p.amplitude,
+                            amplitude=p.amplitude, strain=p.strain, velocity=p.velocity,
+                            drive=p.drive or "impulse",
+                            bin_width=DEFAULT_BIN if p.bin_width is None else p.bin_width,
                             damping=DEFAULT_DAMPING if p.damping is None else p.damping,
                             progress=progress, device=device,
                             source_kind=p.source_kind)

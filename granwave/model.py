@@ -210,6 +210,9 @@ class Signal:
     dof_grain: np.ndarray | None = None
     dof_axis: np.ndarray | None = None
     position: np.ndarray | None = None  # (N, dim) equilibrium positions
+    # DEM pulses (granwave.dem.pulse): the pulse field by height bin, a dict of height (B,),
+    # count (B,), velocity (B, T), force_max (B,), force_initial (B,), arrival (B,)
+    pulse: dict | None = None
 
     @property
     def height(self) -> float:

@@ -489,6 +489,20 @@ class PropagateParams(Params):
     damping: float | None = param(None, help="dem only: contact damping zeta, fraction of "
                                   "critical, normal and tangential (docs/method.md §2). Default 0.",
                                   lo=0.0, hi=1.0)
+    strain: float | None = param(None, help="dem only: the kick's size as a strain, EPS x the mean "
+                                 "overlap / the mean diameter (instead of --amplitude; docs/shocks.md).",
+                                 lo=0.0, lo_open=True)
+    velocity: float | None = param(None, help="dem only: the kick's size as the largest source velocity: "
+                                   "of a kicked grain (impulse, initial condition A), or the piston's "
+                                   "v_p (instead of --amplitude; docs/shocks.md).",
+                                   units="(E*/rho)^1/2", lo=0.0, lo_open=True)
+    drive: str | None = param(None, help="dem only: impulse (default: the kick of --ic) or piston (the "
+                              "grains touching the bottom wall pushed at the constant velocity v_p for "
+                              "the whole record, initial condition A; docs/shocks.md).",
+                              choices=("impulse", "piston"))
+    bin_width: float | None = param(None, help="dem only: height bin of the stored pulse field (mean "
+                                    "velocity and largest contact force per bin, the front's arrival). "
+                                    "Default 1.", units="d", lo=0.0, lo_open=True, cli="--bin")
 
     def __post_init__(self):
         object.__setattr__(self, "ic", str(self.ic).upper())
@@ -515,8 +529,14 @@ class PropagateParams(Params):
 
     def check_method(self, method: str | None) -> None:
         """Refuse options that do not apply to ``method`` (None: not known yet)."""
-        if method not in (None, "dem") and (self.amplitude is not None or self.damping is not None):
-            raise InputError("--amplitude and --damping apply to --method dem only")
+        dem_only = ("amplitude", "damping", "strain", "velocity", "drive", "bin_width")
+        given = [k for k in dem_only if getattr(self, k) is not None]
+        if method not in (None, "dem") and given:
+            names = {"bin_width": "bin"}
+            raise InputError(f"{' and '.join('--' + names.get(k, k) for k in given)} apply to --method dem only")
+        sizes = [k for k in ("amplitude", "strain", "velocity") if getattr(self, k) is not None]
+        if len(sizes) > 1:
+            raise InputError(f"give one kick size, not {' and '.join('--' + k for k in sizes)}")
         if method == "dem" and self.snapshots is not None:
             raise InputError("--snapshots is not available with --method dem")
 

@@ -287,3 +287,34 @@ def chain(*, n_balls: int, pressure: float, polydispersity: float = 0.0, seed: i
         attrs.update(CO.attrs_of(values, recorded=False))
     return Packing(position=position, radius=radius, mass=mass, inertia=grain_inertia(radius),
                    box=box, contacts=contacts, attrs=attrs)
+
+
+#: Lateral period (d) of the 2D column a chain is run in by the DEM engine: wide enough that a ball
+#: never touches its own periodic image (diameters < 2) and the neighbour cells fit.
+COLUMN_WIDTH = 3.0
+
+
+def chain_column(packing: Packing, width: float = COLUMN_WIDTH) -> Packing:
+    """The 1D chain ``packing`` as a 2D packing: the balls on the vertical line x = width / 2 of a
+    box periodic in x with period ``width``, every contact along the vertical, the same overlaps,
+    forces and stiffnesses. The DEM engine (2D and 3D only) runs the chain this way: with every
+    force along z and no lateral contact, no grain ever moves sideways, so the motion is the
+    chain's (docs/shocks.md). A chain of equal linear springs (``stiffness_model`` "equal") is
+    refused: its overlaps are p / K, not those of a contact law the engine runs."""
+    if packing.dim != 1 or packing.attrs.get("kind") != "chain":
+        raise InputError("chain_column takes a 1D chain (granwave chain)")
+    if packing.attrs.get("stiffness_model", "equal") == "equal":
+        raise InputError("the DEM runs a chain made with a contact law (granwave chain --stiffness-model "
+                         "hertz or law); a chain of equal springs (stiffness_model equal) has none")
+    if not float(np.max(packing.radius)) * 2.0 < width:
+        raise InputError(f"column width {width:g} must exceed the largest diameter")
+    c = packing.contacts
+    n = packing.n_grains
+    zeros = np.zeros(len(c))
+    contacts = Contacts(i=c.i, j=c.j, normal=np.column_stack([zeros, c.normal[:, 0]]), overlap=c.overlap,
+                        force_normal=c.force_normal, force_tangential=np.zeros((len(c), 2)),
+                        stiffness_normal=c.stiffness_normal, stiffness_tangential=c.stiffness_tangential)
+    position = np.column_stack([np.full(n, 0.5 * width), packing.position[:, 0]])
+    attrs = dict(packing.attrs, dim=2, column_width=float(width))
+    return Packing(position=position, radius=packing.radius, mass=packing.mass, inertia=packing.inertia,
+                   box=np.array([float(width), float(packing.box[0])]), contacts=contacts, attrs=attrs)

@@ -320,3 +320,43 @@ def effective_medium_moduli(pressure: float, *, z: float, phi: float, dim: int =
         m, g = n_c * (3 * kn + 2 * kt) / 15.0, n_c * (2 * kn + 3 * kt) / 30.0
     return {"M": float(m), "G": float(g), "c_l": float(np.sqrt(m / phi)),
             "c_t": float(np.sqrt(g / phi)), "force": float(force), "k_n": float(kn)}
+
+
+# ---------------------------------------------------------------- solitary waves (docs/method.md §12)
+def solitary_wave_speed(force_max: float, force_0: float, *, energy, mass: float, spacing: float) -> float:
+    """Speed of the long-wave solitary wave of a chain of balls of mass ``mass`` and centre
+    spacing ``spacing`` whose contacts carry ``force_0`` at rest and ``force_max`` at the wave's
+    crest (docs/method.md §12, Nesterenko's closed form written for any law):
+
+        V² = (2 a² / m) [W(δ_m) − W(δ_0) − F_0 (δ_m − δ_0)] / (δ_m − δ_0)²,
+
+    ``energy``: a callable (force_max, force_0) -> (W(δ_m) − W(δ_0), δ_m − δ_0), the law's
+    contact energy between the two overlaps and their difference. For Hertz
+    (:func:`hertz_solitary_speed`) this is Nesterenko's formula; for a linear spring it is the
+    sound speed a sqrt(k/m) at any amplitude. The bracket is a difference of nearly equal terms as
+    F_m → F_0: a few digits are lost below F_m / F_0 − 1 ~ 1e-4 (use the sound speed there)."""
+    if not (force_max > force_0 >= 0.0):
+        raise ValueError(f"need force_max > force_0 >= 0 (got {force_max}, {force_0})")
+    dw, dd = energy(force_max, force_0)
+    return float(math.sqrt(2.0 * spacing**2 / mass * (dw - force_0 * dd) / dd**2))
+
+
+def hertz_solitary_speed(force_max: float, force_0: float, *, kappa: float, mass: float,
+                         spacing: float) -> float:
+    """:func:`solitary_wave_speed` for Hertz contacts F = κ δ^{3/2} (W = (2/5) κ δ^{5/2}): with
+    f_r = F_m / F_0 and the sound speed c_0 = a sqrt(k_0 / m), k_0 = (3/2) κ δ_0^{1/2},
+
+        V = c_0 / (f_r^{2/3} − 1) · sqrt{(4/15) [3 + 2 f_r^{5/3} − 5 f_r^{2/3}]},
+
+    and without precompression (F_0 = 0) V = sqrt(4/5) a sqrt(κ / m) δ_m^{1/4}."""
+    def energy(fm, f0):
+        dm, d0 = (fm / kappa) ** (2.0 / 3.0), (f0 / kappa) ** (2.0 / 3.0)
+        return 0.4 * kappa * (dm**2.5 - d0**2.5), dm - d0
+    return solitary_wave_speed(force_max, force_0, energy=energy, mass=mass, spacing=spacing)
+
+
+#: Full width (in a, the spacing) of the uncompressed Hertz chain's long-wave solitary wave: its
+#: strain ∝ cos⁴(√10 x / (5 a)) on |x| < 5π a / (2√10) (docs/method.md §12).
+HERTZ_SOLITARY_SUPPORT = 5.0 * math.pi / math.sqrt(10.0)
+#: Its full width at half maximum (in a): cos⁴(√10 x / (5 a)) = 1/2.
+HERTZ_SOLITARY_FWHM = 2.0 * math.acos(2.0 ** -0.25) * 5.0 / math.sqrt(10.0)

@@ -19,7 +19,8 @@ from .prepare import device_option
 
 ROWS = ("ic", "method", "method_reason", "height", "t_max", "samples", "dt", "omega_max_dt",
         "nyquist_ratio", "step_error_estimate", "step_runs", "modified_energy_max_rel_deviation",
-        "amplitude", "damping", "n_opened",
+        "amplitude", "strain", "kick_velocity", "drive", "damping", "front_speed", "front_speed_error",
+        "energy_drift", "n_opened",
         "n_formed", "n_sliding", "max_displacement_over_overlap")
 
 

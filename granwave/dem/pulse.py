@@ -93,12 +93,24 @@ CALL_SECONDS = 0.2
 #: Default number of output samples: propagate's.
 DEFAULT_SAMPLES = PropagateParams.samples
 
+#: The drives of the source (docs/shocks.md): the impulse of initial condition A or B, or the source
+#: grains pushed at a constant velocity v_p (a piston, Gomez et al. 2012).
+DRIVES = ("impulse", "piston")
+#: The piston's grains: mass and moment of inertia times this factor, so that the contact forces change
+#: their velocity by at most F t / (1e15 m) over a record: a constant velocity to round-off.
+PISTON_MASS_FACTOR = 1e15
+#: Default height bin of the pulse field (d).
+DEFAULT_BIN = 1.0
+
 AMPLITUDE_DEFINITION = {
     "A": "s = EPS * mean_overlap / max_i sqrt(k_wall_i / m_i): the largest single-contact "
          "excursion v_i sqrt(m_i / k_wall_i) of a kicked grain is EPS mean overlaps",
     "B": "s = EPS * mean_overlap / max_i (k_wall_i / <k_wall>): the largest imposed "
          "displacement is EPS mean overlaps",
+    "piston": "s = v_p, the piston's velocity; EPS = v_p * max_i sqrt(m_i / k_wall_i) / mean_overlap, "
+              "the single-contact excursion of a source grain launched at v_p in mean overlaps",
 }
+STRAIN_DEFINITION = "strain = EPS * mean_overlap / mean diameter"
 
 
 #: Attributes carried from the packing into the signal.
@@ -162,11 +174,110 @@ def amplitude_scale(packing: Packing, ic: str, amplitude: float, kind: str = "no
     return amplitude * dbar / float(np.max(kw / kw.mean()))
 
 
-def default_time_step(packing: Packing, dt_safety: float = DEFAULT_DT_SAFETY) -> float:
-    """dt_safety × 2π sqrt(m_min / k_max), k_max the largest stored normal stiffness."""
+def _check_drive(drive: str, ic: str) -> str:
+    drive = str(drive).lower()
+    if drive not in DRIVES:
+        raise InputError(f"drive must be one of {', '.join(DRIVES)} (got {drive!r})")
+    if drive == "piston" and ic != "A":
+        raise InputError("the piston drive is a velocity: initial condition A only")
+    return drive
+
+
+def _unit_speed(packing: Packing, ic: str, kind: str, drive: str) -> float:
+    """The largest source velocity per unit scale s: max_i k_wall,i / m_i (impulse A, normal), the
+    largest |velocity| of :func:`shear_kick` (impulse A, shear), 1 (piston: s = v_p); NaN for B."""
+    if drive == "piston":
+        return 1.0
+    if ic == "B":
+        return float("nan")
+    if kind == "shear":
+        return float(np.max(np.linalg.norm(shear_kick(packing)[1], axis=1)))
+    grains, kw = source(packing, kind)
+    return float(np.max(kw / packing.mass[grains]))
+
+
+def kick_size(packing: Packing, *, ic: str = "A", kind: str = "normal", drive: str = "impulse",
+              amplitude: float | None = None, strain: float | None = None,
+              velocity: float | None = None) -> dict:
+    """The kick's size from exactly one of ``amplitude`` (EPS, in mean overlaps), ``strain`` (EPS
+    δ̄ / d̄, d̄ the mean diameter) or ``velocity`` (the largest source velocity: of a kicked grain
+    for the impulse, v_p for the piston; in sqrt(E*/rho)), with the other two: a dict
+    amplitude, strain, velocity (NaN for initial condition B) and scale s (module docstring;
+    the piston's s is v_p and its EPS the single-contact excursion of a source grain at v_p)."""
+    ic = _check_ic(ic)
+    drive = _check_drive(drive, ic)
+    given = {k: v for k, v in (("amplitude", amplitude), ("strain", strain), ("velocity", velocity)) if v is not None}
+    if len(given) > 1:
+        raise InputError(f"give one kick size, not {' and '.join('--' + k for k in given)}")
+    for k, v in given.items():
+        if not (v > 0.0 and math.isfinite(v)):
+            raise InputError(f"{k} must be a positive number (got {v})")
+    grains, kw = source(packing, kind)
+    dbar = mean_overlap(packing)
+    dmean = float(np.mean(2.0 * packing.radius))
+    unit = _unit_speed(packing, ic, kind, drive)
+    if drive == "piston":
+        excursion = float(np.max(np.sqrt(packing.mass[grains] / kw)))  # per unit v_p
+        eps_per_scale = excursion / dbar
+    else:
+        eps_per_scale = amplitude_scale(packing, ic, 1.0, kind) ** -1.0
+    if "velocity" in given:
+        if not math.isfinite(unit):
+            raise InputError("initial condition B is a displacement: give --amplitude or --strain, not --velocity")
+        scale = velocity / unit
+    elif "strain" in given:
+        scale = strain * dmean / dbar / eps_per_scale
+    else:
+        scale = (DEFAULT_AMPLITUDE if amplitude is None else amplitude) / eps_per_scale
+    eps = scale * eps_per_scale
+    if not given or "amplitude" in given:  # EPS given: exactly it, and the impulse's scale bit for bit
+        eps = DEFAULT_AMPLITUDE if amplitude is None else float(amplitude)
+        if drive == "impulse":
+            scale = amplitude_scale(packing, ic, eps, kind)
+    return dict(amplitude=float(eps), strain=float(eps * dbar / dmean), velocity=float(scale * unit),
+                scale=float(scale))
+
+
+def peak_overlap(packing: Packing, *, ic: str, velocity: float, displacement: float, drive: str) -> tuple[float, float]:
+    """(Δ, k(Δ)): the overlap Δ that the kick itself presses into a contact and the normal law's
+    stiffness there. A velocity (impulse A, piston): two of the lightest grains closing at
+    v_rel (the largest kick velocity; 2 v_p for the piston, the speed of a grain bounced off it)
+    until their law's energy equals the kinetic energy of the relative motion, m_min v_rel^2 / 4;
+    a displacement (B): Δ = the largest imposed displacement. k(Δ) is the stiffness of the
+    grain-wall contact (the stiffer one) of the smallest grain at Δ."""
+    from .. import contact as C
+
+    _, values = packing_law(packing)
+    _, law = CM.normal_law(values)
+    r = float(np.min(packing.radius))
+    e_wall = C.effective_young(True)
+    stiff = lambda x: float(CM.law_stiffness(law, x, math.sqrt(r), e_wall))  # noqa: E731
+    if ic == "B" and drive == "impulse":
+        return float(displacement), stiff(float(displacement))
+    v_rel = (2.0 if drive == "piston" else 1.0) * float(velocity)
+    target = 0.25 * float(packing.mass.min()) * v_rel**2
+    r12, e12 = C.effective_radius(1.0 / r, 1.0 / r), C.effective_young(False)
+    energy = lambda x: float(CM.law_energy(law, x, r12, e12)) - target  # noqa: E731
+    hi = 1e-12
+    while energy(hi) < 0.0 and hi < r:
+        hi *= 2.0
+    if energy(hi) < 0.0:
+        return r, stiff(r)  # beyond a radius: the run's own check stops it
+    from scipy.optimize import brentq
+
+    delta = float(brentq(energy, 0.0, hi, xtol=1e-15 * hi, rtol=1e-12))
+    return delta, stiff(delta)
+
+
+def default_time_step(packing: Packing, dt_safety: float = DEFAULT_DT_SAFETY,
+                      peak_stiffness: float = 0.0) -> float:
+    """dt_safety × 2π sqrt(m_min / k_max), k_max the largest stored normal stiffness or, when larger,
+    ``peak_stiffness`` (the law's stiffness at the overlap the kick presses in, :func:`peak_overlap`:
+    a strong kick, or a chain without precompression, collides on a stiffer contact than any stored;
+    for a concave law such as Hertz k(δ0 + Δ) <= k(δ0) + k(Δ), at most twice the larger)."""
     if not 0.0 < dt_safety <= 0.2:
         raise InputError(f"dt_safety must be in (0, 0.2], got {dt_safety:g}")
-    kmax = float(np.max(packing.contacts.stiffness_normal, initial=0.0))
+    kmax = max(float(np.max(packing.contacts.stiffness_normal, initial=0.0)), float(peak_stiffness))
     if not kmax > 0.0:
         raise InputError("the packing has no contact stiffness: no time scale")
     return dt_safety * 2.0 * math.pi * math.sqrt(float(packing.mass.min()) / kmax)
@@ -259,12 +370,14 @@ def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, d
 
 
 # ---------------------------------------------------------------- the run
-def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT_AMPLITUDE,
+def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = None,
                   damping: float = DEFAULT_DAMPING, t_max: float, samples: int = DEFAULT_SAMPLES,
                   dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = DEFAULT_SKIN,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
                   progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
-                  device: str = "cpu", source_kind: str = "normal") -> Signal:
+                  device: str = "cpu", source_kind: str = "normal", drive: str = "impulse",
+                  strain: float | None = None, velocity: float | None = None,
+                  bin_width: float = DEFAULT_BIN) -> Signal:
     """Kick the packing at the bottom wall in the nonlinear DEM; the top-wall signal.
 
     Parameters
@@ -296,6 +409,18 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         velocities of :func:`shear_kick` times s, and the signal is the top wall's force
         along x (:func:`granwave.dem.pulse_kernels.top_shear_force`), minus that of the
         unkicked run, over s (docs/method.md §8, "Shear source").
+    drive : "impulse" (default: initial condition A or B as above) or "piston": the source grains
+        pushed at the constant velocity v_p = s (vertical, or along x for the shear source) for
+        the whole record, their mass and moment of inertia times :data:`PISTON_MASS_FACTOR`
+        (docs/shocks.md); the signal is then divided by v_p.
+    strain, velocity : the kick's size instead of ``amplitude`` (one of the three;
+        :func:`kick_size`): the strain EPS δ̄ / d̄, or the largest source velocity (v_p for the
+        piston). The time step's stiffness follows from the size (:func:`peak_overlap`).
+    bin_width : height bins (d) of the pulse field (CPU): per bin, the mean velocity of its
+        grains along the kick at every sample, the largest contact normal force reached over the
+        record and at t = 0, and the front's arrival (:mod:`granwave.analysis.shocks`). A 1D
+        chain (``granwave chain``, with a contact law) is run as a 2D column
+        (:func:`granwave.systems.chain_column`).
 
     Returns
     -------
@@ -309,7 +434,17 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
     ``device="gpu"`` takes Hertz packings only.
     """
     ic = _check_ic(ic)
+    drive = _check_drive(drive, ic)
     from ..model import check_source_kind, no_shear_message
+
+    if packing.dim == 1:
+        from ..systems import chain_column
+
+        packing = chain_column(packing)
+    if not (bin_width > 0.0 and math.isfinite(bin_width)):
+        raise InputError(f"bin width must be a positive number (got {bin_width})")
+    if drive == "piston" and device != "cpu":
+        raise InputError("the piston drive runs on the CPU only (--device cpu)")
 
     source_kind = check_source_kind(source_kind)
     shear = source_kind == "shear"
@@ -325,8 +460,6 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         raise InputError(f"the DEM pulse of a {law_name} packing runs on the CPU only (--device cpu)")
     if unloading not in ("incremental", "rescale"):
         raise InputError(f"unloading must be 'incremental' or 'rescale' (got {unloading!r})")
-    if not (amplitude > 0.0 and math.isfinite(amplitude)):
-        raise InputError(f"amplitude must be a positive number (got {amplitude})")
     if not 0.0 <= damping <= 1.0:
         raise InputError(f"damping zeta must be in [0, 1] (got {damping})")
     if not (t_max > 0.0 and math.isfinite(t_max)):
@@ -339,7 +472,12 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         raise InputError("the packing is not converged (attrs converged = False)")
     times = np.linspace(0.0, float(t_max), samples)
     h = float(times[1] - times[0])
-    step = default_time_step(packing, dt_safety) if dt is None else float(dt)
+    size = kick_size(packing, ic=ic, kind=source_kind, drive=drive, amplitude=amplitude, strain=strain,
+                     velocity=velocity)
+    amplitude = size["amplitude"]
+    delta_peak, k_peak = peak_overlap(packing, ic=ic, velocity=size["velocity"], drive=drive,
+                                      displacement=amplitude * mean_overlap(packing))
+    step = default_time_step(packing, dt_safety, k_peak) if dt is None else float(dt)
     if not (step > 0.0 and math.isfinite(step)):
         raise InputError(f"time step must be positive (got {dt})")
     ratio = h / step * (1.0 - 1e-12)
@@ -356,23 +494,26 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
 
     grains, kw = source(packing, source_kind)
     dbar = mean_overlap(packing)
-    scale = amplitude_scale(packing, ic, amplitude, source_kind)
+    scale = size["scale"]
     c = packing.contacts
     # the static force on the top wall: vertical, or along x (minus the stored F_t on the grains)
     f_static = (float(-np.sum(c.force_tangential[c.is_top, 0])) if shear
                 else float(np.sum(c.force_normal[c.is_top])))
     run = dict(damping=damping, step=step, sub=sub, samples=samples, skin=skin, times=times,
                progress=progress, progress_interval=progress_interval, unloading=unloading,
-               device=device, shear=shear)
+               device=device, shear=shear, drive=drive)
     t_wall0 = _time.perf_counter()
     # A: initial velocities v_i; B: imposed displacements u_i (vertical, on the source grains);
     # shear: (velocities, angular velocities) of the source grains
-    if shear:
+    if drive == "piston":
+        values = np.full(len(grains), scale)
+    elif shear:
         grains, v_kick, w_kick = shear_kick(packing)
         values = (scale * v_kick, scale * w_kick)
     else:
         values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
-    kicked = _run(packing, ic=ic, kick=(grains, values), **run)
+    field = bin_width if device == "cpu" else None
+    kicked = _run(packing, ic=ic, kick=(grains, values), field=field, **run)
     base = None
     if baseline:
         base = _run(packing, ic=ic, kick=None, **run)
@@ -406,23 +547,48 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float = DEFAULT
         baseline_max_displacement_over_overlap=(base["max_displacement"] / dbar if base is not None
                                                 else float("nan")),
         energy_input=kicked["energy_input"], neighbour_rebuilds=kicked["rebuilds"],
+        energy_drift=kicked["energy_drift"],
         wall_time=float(wall_time),
     )
     # the law's parameters where it is not the default (signals of the default as before)
     attrs.update({k: v for k, v in CO.attrs_of(contact).items() if k in CO.PARAMETERS})
-    return Signal(time=times, force=force, attrs=attrs)
+    # the drive and the kick's size in the other units (docs/shocks.md)
+    attrs.update(drive=drive, strain=size["strain"], kick_velocity=size["velocity"],
+                 strain_definition=STRAIN_DEFINITION, peak_overlap_estimate=float(delta_peak),
+                 peak_stiffness_estimate=float(k_peak))
+    if drive == "piston":
+        attrs.update(amplitude_definition=AMPLITUDE_DEFINITION["piston"], piston_velocity=float(scale),
+                     signal_definition=attrs["signal_definition"].replace("/ scale", "/ v_p"),
+                     piston_mass_factor=PISTON_MASS_FACTOR)
+    if packing.attrs.get("kind") == "chain":
+        attrs["column_width"] = float(packing.attrs["column_width"])
+    sig = Signal(time=times, force=force, attrs=attrs)
+    if kicked["field"] is not None:
+        from ..analysis.shocks import front_picks
+
+        sig.pulse = kicked["field"]
+        picks = front_picks(times, sig.pulse["height"], sig.pulse["velocity"],
+                            pick="crossing" if drive == "piston" else "peak", column=packing.height)
+        sig.pulse["arrival"] = picks["arrival"]
+        attrs.update(field_bin_width=float(bin_width), front_pick=picks["pick"],
+                     front_speed=picks["speed"], front_speed_error=picks["speed_error"],
+                     front_fit_range=picks["fit_range"], front_width=picks["width"])
+    return sig
 
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
          skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str,
-         device: str = "cpu", shear: bool = False) -> dict:
+         device: str = "cpu", shear: bool = False, drive: str = "impulse", field: float | None = None) -> dict:
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
     values are the initial velocities (A) or imposed displacements (B), vertical, or with
     ``shear`` a pair (velocities, angular velocities); ``shear`` records the top wall's force
     along x instead of the vertical one (one output sample per kernel call).
 
     Returns the top-wall force at the output times, the contact counts, the
-    largest displacement, the kick's energy and the static checks.
+    largest displacement, the kick's energy and the static checks. ``drive`` "piston": the kick's
+    values are the source grains' constant velocity (their masses made
+    :data:`PISTON_MASS_FACTOR` times larger). ``field``: the height bin (d) of the pulse field,
+    recorded after every sample (one sample per kernel call), or None.
     """
     engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin, unloading=unloading)
     d = packing.dim
@@ -435,9 +601,18 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 engine.pair_ov, engine.wall_ft, engine.wall_ov, K.friction_of(engine.fpar), pair_state, wall_state,
                 True, K.law_of(engine.fpar))
     energy_input = 0.0
+    axis = 0 if shear else d - 1
     if kick is not None:
         grains, values = kick
-        if shear:
+        if drive == "piston":
+            engine.mass[grains] *= PISTON_MASS_FACTOR
+            engine.inertia[grains] *= PISTON_MASS_FACTOR
+            K.pair_constants(engine.pair_i, engine.pair_j, engine.n_pairs, engine.radius, engine.mass,
+                             engine.ws.pair_c)
+            engine.velocity[grains, axis] = values
+            energy_input = float("nan")  # the piston works all along
+            _forces_now(engine)
+        elif shear:
             v_kick, w_kick = values
             engine.velocity[grains] += v_kick
             engine.angular_velocity[grains] += w_kick
@@ -460,8 +635,31 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             _forces_now(engine)
             energy_input = float(engine.elastic_energy() - e0)
 
+    energy_start = _energy(engine) if kick is not None and drive != "piston" else float("nan")
     top = np.empty(samples)
     top[0] = engine.piston.f_con
+    if field is not None:
+        n_bins = max(1, int(math.ceil(packing.height / field)))
+        grain_bin = np.clip((pos_ref[:, d - 1] / field).astype(np.int64), 0, n_bins - 1)
+        count = np.bincount(grain_bin, minlength=n_bins)
+        velocity_field = np.zeros((n_bins, samples))
+        force_max = np.zeros(n_bins)
+        law = K.law_of(engine.fpar)
+        fbuf = np.zeros(0)
+
+        def read_field(k):
+            nonlocal fbuf
+            velocity_field[:, k] = (np.bincount(grain_bin, weights=engine.velocity[:, axis], minlength=n_bins)
+                                    / np.maximum(count, 1))
+            m = engine.n_pairs
+            if fbuf.shape[0] < m:
+                fbuf = np.zeros(engine.pair_i.shape[0])
+            PK.pair_normal_forces(engine.radius, engine.pair_i, engine.pair_j, m, engine.pair_ov, law, fbuf)
+            z = 0.5 * (engine.position[engine.pair_i[:m], d - 1] + engine.position[engine.pair_j[:m], d - 1])
+            np.maximum.at(force_max, np.clip((z / field).astype(np.int64), 0, n_bins - 1), fbuf[:m])
+
+        read_field(0)
+        force_initial = force_max.copy()
     if shear:
         shear_force = np.empty(samples)
 
@@ -481,7 +679,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     t_wall0 = t_last = _time.perf_counter()
     n_total = sub * (samples - 1)
     while k < samples:
-        k_stop = k + 1 if shear else min(samples, k + chunk)
+        k_stop = k + 1 if shear or field is not None else min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
             engine.ws.claims[0] = numba.get_num_threads()  # the force passes' share per thread
@@ -504,6 +702,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
         k = r
         if shear:
             read_shear(k - 1)
+        if field is not None:
+            read_field(k - 1)
         elapsed = _time.perf_counter() - t0
         if elapsed > 0:  # about 0.2 s per call: Ctrl-C and SIGTERM wait for the call to return
             chunk = int(max(1, min(samples, chunk * min(4.0, CALL_SECONDS / max(elapsed, 1e-3)))))
@@ -515,6 +715,11 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             progress(f"{what}: t = {times[k - 1]:.4g} / {times[-1]:.4g}, step {engine.steps}/{n_total}, "
                      f"{rate:.0f} steps/s, ~{(n_total - engine.steps) / rate:.0f} s left")
     m = engine.n_pairs
+    energy_drift = (_energy(engine) - energy_start) / energy_input if energy_input > 0 else float("nan")
+    pulse = None
+    if field is not None:
+        pulse = dict(height=(np.arange(n_bins) + 0.5) * field, count=count, velocity=velocity_field,
+                     force_max=force_max, force_initial=force_initial)
     states = np.concatenate([pair_state[:m], wall_state])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
     return dict(top=shear_force if shear else top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
@@ -522,7 +727,14 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 n_sliding=count(PK.SLID),
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),
                 **{"n_at_cone_initial": count(PK.LIMIT0)}, max_displacement=float(stats[0]),
-                rebuilds=int(engine.rebuilds))
+                rebuilds=int(engine.rebuilds), energy_drift=float(energy_drift), field=pulse)
+
+
+def _energy(engine: Engine) -> float:
+    """Kinetic plus elastic energy of the engine's state (fixed walls: no work on them)."""
+    kinetic = 0.5 * float(np.sum(engine.mass[:, None] * engine.velocity**2)
+                          + np.sum(engine.inertia[:, None] * engine.angular_velocity**2))
+    return kinetic + float(engine.elastic_energy())
 
 
 def _check_sound(engine: Engine, top: np.ndarray, k0: int, k1: int, stats: np.ndarray, step: float,

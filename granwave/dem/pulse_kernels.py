@@ -281,3 +281,18 @@ def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
         for a in range(d):
             wall_ft[w, a] = saved[a]
     return total
+
+
+@numba.njit(cache=True)
+def pair_normal_forces(rad, pair_i, pair_j, npairs, pair_ov, law, out):
+    """The elastic normal force of the engine's law (``kernels.law_of(fpar)``) of every pair slot
+    ``0 .. npairs - 1`` at its current overlap into ``out`` (zero where the pair does not touch):
+    read-only, for the pulse field's per-layer largest force (granwave.dem.pulse)."""
+    e12 = C.effective_young(False)
+    for p in range(npairs):
+        ov = pair_ov[p]
+        if ov > 0.0:
+            r12 = C.effective_radius(1.0 / rad[pair_i[p]], 1.0 / rad[pair_j[p]])
+            out[p] = CM.law_force(law, ov, math.sqrt(r12), e12)
+        else:
+            out[p] = 0.0

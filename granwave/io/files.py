@@ -497,7 +497,8 @@ def write_signal(path, signal: Signal) -> None:
                                    f"beyond +-{V.MAX_MAGNITUDE:g}: the integration became unstable; "
                                    "use a smaller time step (--dt or --safety)")
     size = _nbytes(signal.time, signal.force, signal.snapshot_time, signal.snapshot_displacement,
-                   signal.dof_grain, signal.dof_axis, signal.position)
+                   signal.dof_grain, signal.dof_axis, signal.position,
+                   *(signal.pulse.values() if signal.pulse is not None else ()))
     with atomic_h5(path, S.SIGNAL, signal.attrs, nbytes=size) as f:
         put(f, S.SIGNAL, "signal/time", signal.time)
         put(f, S.SIGNAL, "signal/force", signal.force)
@@ -508,6 +509,10 @@ def write_signal(path, signal: Signal) -> None:
             put(f, S.SIGNAL, "snapshots/dof_axis", signal.dof_axis)
             if signal.position is not None:
                 put(f, S.SIGNAL, "snapshots/position", signal.position)
+        if signal.pulse is not None:
+            put(f, S.SIGNAL, "pulse/time", signal.time)
+            for name in S.PULSE_DATASETS[1:]:
+                put(f, S.SIGNAL, name, signal.pulse[name.split("/")[1]])
 
 
 def read_signal(path) -> Signal:
@@ -524,4 +529,6 @@ def read_signal(path) -> Signal:
         sig.dof_grain = a["snapshots/dof_grain"]
         sig.dof_axis = a["snapshots/dof_axis"]
         sig.position = a.get("snapshots/position")
+    if "pulse/height" in a:
+        sig.pulse = {name.split("/")[1]: a[name] for name in S.PULSE_DATASETS[1:]}
     return sig

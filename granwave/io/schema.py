@@ -48,7 +48,10 @@ Trees (dataset: shape, units)::
     ├── snapshots/time           (S,)       optional
     ├── snapshots/displacement   (S, n)     optional
     ├── snapshots/dof_grain, snapshots/dof_axis (n,)  optional
-    └── snapshots/position       (N, dim)   optional, reference positions
+    ├── snapshots/position       (N, dim)   optional, reference positions
+    └── pulse/...                (B,), (B, T) optional (DEM pulses, since 1.3): the pulse field by
+                                            height bin: time, height, count, velocity,
+                                            force_max, force_initial, arrival (docs/shocks.md)
 
     granwave.ensemble                      (analyze ensemble)
     ├── ensemble/time, ensemble/mean, ensemble/rms   (T,)
@@ -81,7 +84,7 @@ VERSIONS = {
     PACKING: "1.1",
     LINEAR: "1.2",
     MODES: "1.2",
-    SIGNAL: "1.2",
+    SIGNAL: "1.3",
     ENSEMBLE: "1.1",
     SWEEP: "1.1",
 }
@@ -149,6 +152,16 @@ DATASETS: dict[str, dict[str, tuple[str, str]]] = {
         "snapshots/dof_grain": (U.DIMENSIONLESS, "grain index of each dof (n,)"),
         "snapshots/dof_axis": (U.DIMENSIONLESS, "axis of each dof (n,)"),
         "snapshots/position": (U.LENGTH, "equilibrium grain positions (N, dim)"),
+        "pulse/time": (U.TIME, "sample times of the pulse field, those of signal/time (T,)"),
+        "pulse/height": (U.LENGTH, "centre of each height bin of the pulse field, from the bottom wall (B,)"),
+        "pulse/count": (U.DIMENSIONLESS, "grains in each bin, by their height at t = 0 (B,)"),
+        "pulse/velocity": (U.SPEED, "mean velocity of each bin's grains along the kick (vertical, or x "
+                           "for the shear source) at each sample (B, T)"),
+        "pulse/force_max": (U.FORCE, "largest normal force of a grain-grain contact with its midpoint in "
+                            "the bin, over the samples of the record (B,)"),
+        "pulse/force_initial": (U.FORCE, "the same at t = 0 (B,)"),
+        "pulse/arrival": (U.TIME, "the front's arrival in each bin (the front pick of the root attribute "
+                          "front_pick); NaN where the bin has no front (B,)"),
     },
     ENSEMBLE: {
         "ensemble/time": (U.TIME, "common time grid (T,)"),
@@ -213,6 +226,9 @@ DIMS: dict[str, dict[str, tuple[str, ...]]] = {
         "snapshots/time": ("time",), "snapshots/displacement": ("time", "dof"),
         "snapshots/dof_grain": ("dof",), "snapshots/dof_axis": ("dof",),
         "snapshots/position": ("grain", "axis"),
+        "pulse/time": ("time",), "pulse/height": ("height",), "pulse/count": ("height",),
+        "pulse/velocity": ("height", "time"), "pulse/force_max": ("height",),
+        "pulse/force_initial": ("height",), "pulse/arrival": ("height",),
     },
     ENSEMBLE: {"ensemble/time": ("time",), "ensemble/mean": ("time",), "ensemble/rms": ("time",)},
     SWEEP: {name: (("pressure", "quantity") if name in ("sweep/mean", "sweep/std", "sweep/count")
@@ -320,6 +336,13 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
         "snapshots/dof_grain": ("i", ("n",)),
         "snapshots/dof_axis": ("i", ("n",)),
         "snapshots/position": ("f", ("N", "d")),
+        "pulse/time": ("f", ("T",)),
+        "pulse/height": ("f", ("B",)),
+        "pulse/count": ("i", ("B",)),
+        "pulse/velocity": ("f", ("B", "T")),
+        "pulse/force_max": ("f", ("B",)),
+        "pulse/force_initial": ("f", ("B",)),
+        "pulse/arrival": ("f", ("B",)),
     },
     ENSEMBLE: {
         "ensemble/time": ("f", ("T",)),
@@ -340,12 +363,15 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
 }
 
 #: Datasets a file may lack.
+#: The pulse field of a DEM pulse (granwave.dem.pulse), all or none.
+PULSE_DATASETS = ("pulse/time", "pulse/height", "pulse/count", "pulse/velocity", "pulse/force_max",
+                  "pulse/force_initial", "pulse/arrival")
 OPTIONAL: dict[str, frozenset[str]] = {
     PACKING: frozenset(f"contacts/{h}" for h in CO.history_datasets()), ENSEMBLE: frozenset(), SWEEP: frozenset(),
     LINEAR: frozenset({"shear/source_velocity", "shear/detector"}),
     MODES: frozenset({"vectors", "shear/amplitude_A", "shear/coupling"}),
     SIGNAL: frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
-                       "snapshots/dof_axis", "snapshots/position"}),
+                       "snapshots/dof_axis", "snapshots/position", *PULSE_DATASETS}),
 }
 
 #: Optional datasets that come together (all or none).
@@ -353,7 +379,7 @@ GROUPS: dict[str, tuple[frozenset[str], ...]] = {
     LINEAR: (frozenset({"shear/source_velocity", "shear/detector"}),),
     MODES: (frozenset({"shear/amplitude_A", "shear/coupling"}),),
     SIGNAL: (frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
-                        "snapshots/dof_axis"}),),
+                        "snapshots/dof_axis"}), frozenset(PULSE_DATASETS)),
 }
 
 # Root attributes every file of a schema must carry (beyond schema, schema_version,
