@@ -30,8 +30,9 @@ PACKAGE = Path(__file__).resolve().parent.parent
 #: files that use "hertz" for Hertz's theory, not for the engine's contact law: the analytic
 #: Hertzian chains and lattices' stiffness model (systems, params' ChainParams.hertz, api's
 #: chain, the linear check's reference lattice), the effective-medium exponent p^(1/3) of the
-#: shear scene and its report, figure and table
-THEORY = {"granwave/systems.py": {"hertz"}, "granwave/params.py": {"hertz"}, "granwave/api.py": {"hertz"},
+#: shear scene and its report, figure and table, the closed forms of theory.py (the Hertzian
+#: chain's solitary wave)
+THEORY = {"granwave/theory.py": {"hertz"}, "granwave/systems.py": {"hertz"}, "granwave/params.py": {"hertz"}, "granwave/api.py": {"hertz"},
           "granwave/linear/check.py": {"hertz"}, "granwave/analysis/shear_scene.py": {"hertz"},
           "granwave/report/shear.py": {"hertz"}, "granwave/figures/shear.py": {"hertz"},
           "granwave/report/tables.py": {"hertz"}}
