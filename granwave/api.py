@@ -30,6 +30,7 @@ import numpy as np
 
 from .contact_models import options as CO
 from .errors import InputError
+from .io import validate as V
 from .model import LinearSystem, Modes, Packing, Signal
 from .params import (ChainParams, DampingParams, EigenParams, EnsembleParams, FrontParams,
                      HeightsParams, LatticeParams, LinearizeParams, ModuliParams, PrepareParams,
@@ -285,6 +286,7 @@ def linearize(packing: Packing, params: LinearizeParams | None = None, /, *,
     from .linear.assemble import linearize as build
 
     _need(packing, Packing, "packing")
+    V.contact_indices("packing", len(packing.radius), packing.contacts.i, packing.contacts.j)
     _progress(progress)
     p = _params(LinearizeParams, params, fields)
     _threads(threads)

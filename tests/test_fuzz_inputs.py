@@ -1,0 +1,44 @@
+"""Bad input that used to end in a traceback of another type (issue #66): each case is a tiny
+input, through the API (a clean InputError naming the problem) or through click's CliRunner
+(exit status 2, one line, no output file, the input untouched)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from granwave import api
+from granwave.cli import main
+from granwave.errors import InputError
+
+
+def run(args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def refused(r, *words):
+    """Exit 2, one line naming each of ``words``, no traceback."""
+    assert r.exit_code == 2, r.output
+    assert "Traceback" not in r.output
+    lines = [x for x in r.output.splitlines() if x.strip()]
+    assert len(lines) == 1, r.output
+    for w in words:
+        assert w in lines[0], r.output
+
+
+@pytest.fixture(scope="module")
+def lattice():
+    return api.lattice(rows=3, width=3, pressure=1e-3, friction=0.5)
+
+
+def test_linearize_refuses_a_contact_to_a_missing_grain(lattice):
+    n = len(lattice.radius)
+    j = lattice.contacts.j.copy()
+    lattice.contacts.j[0] = n + 90
+    try:
+        with pytest.raises(InputError, match=rf"contacts/j: index {n + 90} at entry 0 is out of range"):
+            api.linearize(lattice)
+    finally:
+        lattice.contacts.j[:] = j
+    api.linearize(lattice)  # the same packing, repaired, is linearized
