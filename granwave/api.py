@@ -581,6 +581,16 @@ def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
                    system=system, force=p.force, layer=p.layer)
 
 
+def _signal_height(signal: Signal) -> float:
+    """The signal's container height (attribute ``height``, wall to wall): a finite number > 0,
+    else InputError (a signal file always carries one; a Signal built in memory may not)."""
+    if "height" not in signal.attrs:
+        raise InputError("signal has no height attribute (the container height, wall to wall): "
+                         "set signal.attrs['height']")
+    V.material_attrs("signal", {"height": signal.attrs["height"]})
+    return float(signal.attrs["height"])
+
+
 def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dict:
     """Leading edge, first peak, zero crossing and width of the first pulse (docs/method.md §9).
 
@@ -593,7 +603,7 @@ def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dic
     p = _params(FrontParams, params, fields)
     d = front_features(signal.time, signal.force, **p.as_dict()).as_dict()
     out = {k: d[k] for k in ("t_lead10", "t_peak", "amplitude", "polarity", "t_zero", "width")}
-    out["height"] = float(signal.attrs["height"])
+    out["height"] = _signal_height(signal)
     for key in ("ic", "method", "pressure"):
         if key in signal.attrs:
             out[key] = signal.attrs[key]

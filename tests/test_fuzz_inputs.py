@@ -42,3 +42,21 @@ def test_linearize_refuses_a_contact_to_a_missing_grain(lattice):
     finally:
         lattice.contacts.j[:] = j
     api.linearize(lattice)  # the same packing, repaired, is linearized
+
+
+@pytest.fixture(scope="module")
+def signal(lattice):
+    return api.propagate(api.eigensolve(api.linearize(lattice)), method="modal", t_max=20, samples=64)
+
+
+def test_front_refuses_a_signal_without_a_height(signal):
+    height = signal.attrs.pop("height")
+    try:
+        with pytest.raises(InputError, match="signal has no height attribute"):
+            api.front(signal)
+        signal.attrs["height"] = "tall"
+        with pytest.raises(InputError, match="height must be a number"):
+            api.front(signal)
+    finally:
+        signal.attrs["height"] = height
+    assert api.front(signal)["height"] == height
