@@ -60,3 +60,17 @@ def test_front_refuses_a_signal_without_a_height(signal):
     finally:
         signal.attrs["height"] = height
     assert api.front(signal)["height"] == height
+
+
+@pytest.mark.parametrize("text", ['{"a":' * 100000 + "1" + "}" * 100000,  # past the decoder's recursion
+                                  "[" * 65 + "]" * 65],  # decodes, but deeper than any summary
+                         ids=["past-recursion", "depth-65"])
+def test_deeply_nested_json_is_refused(tmp_path, text):
+    src = tmp_path / "sums" / "s.json"
+    src.parent.mkdir()
+    src.write_text(text)
+    for args, out in ((["pressure-sweep", src, "-o", tmp_path / "sw.h5"], tmp_path / "sw.h5"),
+                      (["report", "--summaries", src.parent, "-o", tmp_path / "r.md"], tmp_path / "r.md")):
+        refused(run(args), str(src), "nested more than 64 levels deep")
+        assert not out.exists()
+    assert src.read_text() == text
