@@ -74,3 +74,23 @@ def test_deeply_nested_json_is_refused(tmp_path, text):
         refused(run(args), str(src), "nested more than 64 levels deep")
         assert not out.exists()
     assert src.read_text() == text
+
+
+def _lammps_data(rows, n=None):
+    """A LAMMPS data file (atom_style sphere: id type diameter density x y z) of ``rows``."""
+    n = len(rows) if n is None else n
+    return "\n".join(["LAMMPS data file", "", f"{n} atoms", "1 atom types", "0 4 xlo xhi", "0 4 ylo yhi",
+                      "-0.5 0.5 zlo zhi", "", "Atoms # sphere", "", *rows, ""])
+
+
+def import_refused(tmp_path, text, *words):
+    src = tmp_path / "in.data"
+    src.write_text(text)
+    out = tmp_path / "out.h5"
+    refused(run(["import", "lammps", src, "-o", out, "--pressure", 1e-4, "-q"]), str(src), *words)
+    assert not out.exists() and not list(tmp_path.glob(".out.h5*"))
+    assert src.read_text() == text
+
+
+def test_lammps_data_file_without_atoms_is_refused(tmp_path):
+    import_refused(tmp_path, _lammps_data([]), "no atoms")

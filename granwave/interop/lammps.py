@@ -352,6 +352,8 @@ def read_data(path) -> LammpsState:
     n = int(_floats(path, header["atoms"][:1], "atoms count")[0]) if header["atoms"] else -1
     if len(rows) != n:
         _fail(path, f"the Atoms section has {len(rows)} rows, the header says {n} atoms")
+    if n == 0:
+        _fail(path, "no atoms (the header says 0 atoms): no grains to import")
     short = [r for r in rows if len(r) < 7]
     if short:
         _fail(path, f"Atoms rows need 7 columns for atom_style sphere (id type diameter density x y z), "
