@@ -94,3 +94,12 @@ def import_refused(tmp_path, text, *words):
 
 def test_lammps_data_file_without_atoms_is_refused(tmp_path):
     import_refused(tmp_path, _lammps_data([]), "no atoms")
+
+
+def test_lammps_data_file_with_a_repeated_atom_id_is_refused(tmp_path):
+    from granwave.interop import lammps as LM
+
+    rows = ["1 1 1.0 1.0 1.0 1.0 0.0", "2 1 1.0 1.0 3.0 1.0 0.0"]
+    import_refused(tmp_path, _lammps_data([rows[0], "1" + rows[1][1:]]), "atom id 1 appears more than once")
+    (tmp_path / "ok.data").write_text(_lammps_data(rows))
+    assert len(LM.read_data(tmp_path / "ok.data").radius) == 2  # distinct ids read

@@ -368,6 +368,10 @@ def read_data(path) -> LammpsState:
     order = np.argsort(table[:, 0], kind="stable")
     table = table[order]
     ids = table[:, 0].astype(np.int64)
+    twice = np.flatnonzero(ids[1:] == ids[:-1])  # sorted: a repeated id sits next to itself
+    if twice.size:
+        _fail(path, f"atom id {ids[twice[0]]} appears more than once in the Atoms section "
+                    "(every atom needs its own id)")
     piston_rows = (table[:, 1] == PISTON_TYPE) & (table[:, 2] == 0.0)
     grains = ~piston_rows
     state = LammpsState(position=table[grains, 4:7], radius=0.5 * table[grains, 2], box_lo=lo, box_hi=hi,
