@@ -103,3 +103,18 @@ def test_lammps_data_file_with_a_repeated_atom_id_is_refused(tmp_path):
     import_refused(tmp_path, _lammps_data([rows[0], "1" + rows[1][1:]]), "atom id 1 appears more than once")
     (tmp_path / "ok.data").write_text(_lammps_data(rows))
     assert len(LM.read_data(tmp_path / "ok.data").radius) == 2  # distinct ids read
+
+
+def test_analyze_front_refuses_an_unknown_initial_condition(signal, tmp_path):
+    import h5py
+
+    from granwave.io import files
+
+    src = tmp_path / "s.h5"
+    files.write_signal(src, signal)
+    assert run(["analyze", "front", src, "--json"]).exit_code == 0
+    with h5py.File(src, "a") as f:
+        f.attrs["ic"] = "Z"
+    before = src.read_bytes()
+    refused(run(["analyze", "front", src, "--json"]), str(src), "root attribute ic must be one of A, B")
+    assert src.read_bytes() == before

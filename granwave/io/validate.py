@@ -548,10 +548,18 @@ def same_system(path, modes, linear_path, system) -> None:
 
 
 # ---------------------------------------------------------------- signal
+#: The initial conditions a signal can be of (docs/conventions.md): A impulse, B displacement.
+SIGNAL_ICS = ("A", "B")
+
+
 def signal(path, a: dict, attrs: dict) -> None:
     """Invariants of a signal file: finite values, a regular increasing time axis, snapshot
-    times >= 0 (in the order asked for, not necessarily sorted), dof map >= 0."""
+    times >= 0 (in the order asked for, not necessarily sorted), dof map >= 0, the initial
+    condition (``ic``) A or B."""
     material_attrs(path, attrs)
+    if "ic" in attrs and attrs["ic"] not in SIGNAL_ICS:
+        _fail(path, "", f"root attribute ic must be one of {', '.join(SIGNAL_ICS)} (the initial "
+                        f"condition), found {attrs['ic']!r}")
     _finite(path, {k: v for k, v in a.items() if k != "pulse/arrival"})  # NaN: a bin without a front
     time_axis(path, "signal/time", a["signal/time"])
     for name in ("snapshots/time", "snapshots/dof_grain", "snapshots/dof_axis"):
