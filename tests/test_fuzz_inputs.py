@@ -118,3 +118,19 @@ def test_analyze_front_refuses_an_unknown_initial_condition(signal, tmp_path):
     before = src.read_bytes()
     refused(run(["analyze", "front", src, "--json"]), str(src), "root attribute ic must be one of A, B")
     assert src.read_bytes() == before
+
+
+def test_propagate_refuses_modes_whose_omega2_are_all_zero(lattice, tmp_path):
+    import h5py
+
+    from granwave.io import files
+
+    src, out = tmp_path / "m.h5", tmp_path / "s.h5"
+    files.write_modes(src, api.eigensolve(api.linearize(lattice)))
+    with h5py.File(src, "a") as f:
+        f["omega2"][...] = 0.0
+    before = src.read_bytes()
+    refused(run(["propagate", src, "-o", out, "--t-max", 20, "--samples", 64, "-q"]),
+            "modes have omega^2 = 0: none oscillates")
+    assert not out.exists() and not list(tmp_path.glob(".s.h5*"))
+    assert src.read_bytes() == before
