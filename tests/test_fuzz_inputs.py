@@ -134,3 +134,17 @@ def test_propagate_refuses_modes_whose_omega2_are_all_zero(lattice, tmp_path):
             "modes have omega^2 = 0: none oscillates")
     assert not out.exists() and not list(tmp_path.glob(".s.h5*"))
     assert src.read_bytes() == before
+
+
+def test_numpy_scalars_are_taken_where_python_numbers_are():
+    from granwave.params import LatticeParams, PrepareParams
+
+    p = PrepareParams(grains=np.int64(10), pressure=np.float32(1e-4), friction=np.float64(0.5), seed=np.uint8(2))
+    assert (type(p.grains), type(p.pressure), type(p.seed)) == (int, float, int) and p.grains == 10
+    assert p.pressure == float(np.float32(1e-4))
+    assert api.lattice(rows=np.int32(3), width=np.array(3), pressure=np.float64(1e-3)).attrs == \
+        api.lattice(rows=3, width=3, pressure=1e-3).attrs
+    with pytest.raises(InputError, match="rows must be an integer"):
+        LatticeParams(rows=np.float64(3.5), width=3, pressure=1e-3)
+    with pytest.raises(InputError, match="pressure must be a number"):
+        LatticeParams(rows=3, width=3, pressure=np.bool_(True))
