@@ -178,11 +178,17 @@ def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress:
     call goes on from them), unless ``keep_checkpoint``.
     """
     p = _params(PrepareParams, params, fields)
-    seeds = [int(s) for s in seeds]
+    if isinstance(seeds, (str, bytes, dict)) or not hasattr(seeds, "__iter__"):
+        raise InputError(f"seeds must be a sequence of integers, got {type(seeds).__name__} {seeds!r}")
+    checked = []
+    for k, s in enumerate(seeds):  # each validated as PrepareParams.seed, before any work
+        try:
+            checked.append(dataclasses.replace(p, seed=s).seed)
+        except InputError as exc:
+            raise InputError(f"seeds[{k}]: {exc}") from None
+    seeds = checked
     if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
         raise InputError(f"seeds must be distinct non-negative integers, at least one (got {seeds!r})")
-    for s in seeds:
-        dataclasses.replace(p, seed=s)  # validated (the largest seed) before any work
     _progress(progress)
     if checkpoint is not None and "{seed}" not in str(checkpoint):
         raise InputError(f"checkpoint {str(checkpoint)!r} must contain {{seed}} (one checkpoint per seed)")

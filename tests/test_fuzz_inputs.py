@@ -148,3 +148,12 @@ def test_numpy_scalars_are_taken_where_python_numbers_are():
         LatticeParams(rows=np.float64(3.5), width=3, pressure=1e-3)
     with pytest.raises(InputError, match="pressure must be a number"):
         LatticeParams(rows=3, width=3, pressure=np.bool_(True))
+
+
+@pytest.mark.parametrize("seeds,match", [([1.5, 2.7], r"seeds\[0\]: seed must be an integer, got 1.5"),
+                                         ("12", "seeds must be a sequence of integers, got str"),
+                                         ([True, 2], r"seeds\[0\]: seed must be an integer, got True"),
+                                         ([3, "4"], r"seeds\[1\]: seed must be an integer")])
+def test_prepare_packings_refuses_seeds_that_are_not_integers(seeds, match):
+    with pytest.raises(InputError, match=match):  # refused before any DEM step
+        api.prepare_packings(grains=10, pressure=1e-4, friction=0.0, seeds=seeds)
