@@ -30,6 +30,7 @@ import numpy as np
 
 from .contact_models import options as CO
 from .errors import InputError
+from .io import validate as V
 from .model import LinearSystem, Modes, Packing, Signal
 from .params import (ChainParams, DampingParams, EigenParams, EnsembleParams, FrontParams,
                      HeightsParams, LatticeParams, LinearizeParams, ModuliParams, PrepareParams,
@@ -177,11 +178,17 @@ def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress:
     call goes on from them), unless ``keep_checkpoint``.
     """
     p = _params(PrepareParams, params, fields)
-    seeds = [int(s) for s in seeds]
+    if isinstance(seeds, (str, bytes, dict)) or not hasattr(seeds, "__iter__"):
+        raise InputError(f"seeds must be a sequence of integers, got {type(seeds).__name__} {seeds!r}")
+    checked = []
+    for k, s in enumerate(seeds):  # each validated as PrepareParams.seed, before any work
+        try:
+            checked.append(dataclasses.replace(p, seed=s).seed)
+        except InputError as exc:
+            raise InputError(f"seeds[{k}]: {exc}") from None
+    seeds = checked
     if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
         raise InputError(f"seeds must be distinct non-negative integers, at least one (got {seeds!r})")
-    for s in seeds:
-        dataclasses.replace(p, seed=s)  # validated (the largest seed) before any work
     _progress(progress)
     if checkpoint is not None and "{seed}" not in str(checkpoint):
         raise InputError(f"checkpoint {str(checkpoint)!r} must contain {{seed}} (one checkpoint per seed)")
@@ -285,6 +292,7 @@ def linearize(packing: Packing, params: LinearizeParams | None = None, /, *,
     from .linear.assemble import linearize as build
 
     _need(packing, Packing, "packing")
+    V.contact_indices("packing", len(packing.radius), packing.contacts.i, packing.contacts.j)
     _progress(progress)
     p = _params(LinearizeParams, params, fields)
     _threads(threads)
@@ -579,6 +587,16 @@ def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
                    system=system, force=p.force, layer=p.layer)
 
 
+def _signal_height(signal: Signal) -> float:
+    """The signal's container height (attribute ``height``, wall to wall): a finite number > 0,
+    else InputError (a signal file always carries one; a Signal built in memory may not)."""
+    if "height" not in signal.attrs:
+        raise InputError("signal has no height attribute (the container height, wall to wall): "
+                         "set signal.attrs['height']")
+    V.material_attrs("signal", {"height": signal.attrs["height"]})
+    return float(signal.attrs["height"])
+
+
 def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dict:
     """Leading edge, first peak, zero crossing and width of the first pulse (docs/method.md §9).
 
@@ -591,7 +609,7 @@ def front(signal: Signal, params: FrontParams | None = None, /, **fields) -> dic
     p = _params(FrontParams, params, fields)
     d = front_features(signal.time, signal.force, **p.as_dict()).as_dict()
     out = {k: d[k] for k in ("t_lead10", "t_peak", "amplitude", "polarity", "t_zero", "width")}
-    out["height"] = float(signal.attrs["height"])
+    out["height"] = _signal_height(signal)
     for key in ("ic", "method", "pressure"):
         if key in signal.attrs:
             out[key] = signal.attrs[key]

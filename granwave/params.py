@@ -116,6 +116,24 @@ def _check_field(name: str, value, meta) -> None:
         raise InputError(f"{name} must be {where}{range_text(meta)}{units}, got {_num(value)}{why}")
 
 
+#: The numpy scalar kinds (dtype.kind) taken as Python numbers, per field type.
+_NUMPY_KINDS = {"int": "iu", "int | None": "iu", "float": "iuf", "float | None": "iuf",
+                "bool": "b", "bool | None": "b"}
+
+
+def _python_scalar(value, ftype: str):
+    """A numpy scalar (np.int64(10), np.float32(1e-3), np.bool_(True), or a 0-d array) as the
+    Python number it holds, where the field takes that kind of number; anything else unchanged
+    (so np.float64(2.5) for an integer field is still refused, and np.bool_ is no number).
+    Duck-typed: this module imports no numpy."""
+    dtype = getattr(value, "dtype", None)
+    if dtype is None or getattr(value, "shape", None) != () or not hasattr(value, "item"):
+        return value
+    if getattr(dtype, "kind", "") not in _NUMPY_KINDS.get(ftype, ""):
+        return value
+    return value.item()
+
+
 class Params:
     """Base of the stage parameters: range checks from the field metadata, attribute export."""
 
@@ -124,7 +142,9 @@ class Params:
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
+            value = _python_scalar(getattr(self, f.name), f.type)
+            if value is not getattr(self, f.name):
+                object.__setattr__(self, f.name, value)
             if value is None and f.type in ("int", "float"):
                 raise InputError(f"{f.name} must be a number, got None")
             if f.type in ("int", "int | None") and value is not None:

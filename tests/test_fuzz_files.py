@@ -284,6 +284,10 @@ def test_attribute_type_fuzz(valid, tmp_path):
 @pytest.mark.parametrize("key,value,match", [
     ("schema", "granwave.signal", "expected a granwave.packing file"),
     ("schema_version", "2.0", "schema version '2.0'"),
+    ("schema", np.array(["granwave.packing", "x"], dtype=h5py.string_dtype()),
+     "root attribute schema must be a string"),  # was a ValueError (truth value of an array), #66
+    ("schema_version", "1.garbage", "schema_version must be \"MAJOR.MINOR\""),  # was read, #66
+    ("schema_version", np.array([1, 1]), "schema_version must be"),
     ("converged", "False", "converged must be a boolean"),
     ("pressure", np.array([1e-3, 2e-3]), "pressure must be a number, found an array"),
     ("dim", 2.0, "dim must be"),

@@ -352,6 +352,8 @@ def read_data(path) -> LammpsState:
     n = int(_floats(path, header["atoms"][:1], "atoms count")[0]) if header["atoms"] else -1
     if len(rows) != n:
         _fail(path, f"the Atoms section has {len(rows)} rows, the header says {n} atoms")
+    if n == 0:
+        _fail(path, "no atoms (the header says 0 atoms): no grains to import")
     short = [r for r in rows if len(r) < 7]
     if short:
         _fail(path, f"Atoms rows need 7 columns for atom_style sphere (id type diameter density x y z), "
@@ -366,6 +368,10 @@ def read_data(path) -> LammpsState:
     order = np.argsort(table[:, 0], kind="stable")
     table = table[order]
     ids = table[:, 0].astype(np.int64)
+    twice = np.flatnonzero(ids[1:] == ids[:-1])  # sorted: a repeated id sits next to itself
+    if twice.size:
+        _fail(path, f"atom id {ids[twice[0]]} appears more than once in the Atoms section "
+                    "(every atom needs its own id)")
     piston_rows = (table[:, 1] == PISTON_TYPE) & (table[:, 2] == 0.0)
     grains = ~piston_rows
     state = LammpsState(position=table[grains, 4:7], radius=0.5 * table[grains, 2], box_lo=lo, box_hi=hi,

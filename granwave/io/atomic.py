@@ -409,12 +409,37 @@ def replace_marked_block(path: str | os.PathLike, begin: str, end: str, text: st
     atomic_text(path, head + begin + "\n" + text + "\n" + end + tail)
 
 
+#: Deepest nesting of lists and objects a JSON input may have: granwave's own files nest a
+#: few levels; far deeper is no summary (and Python's decoder, or any walk over it, would
+#: run out of recursion).
+MAX_JSON_DEPTH = 64
+
+
+def _json_depth(obj) -> int:
+    """Nesting depth of lists and dicts in ``obj`` ([] and {"a": 1} are 1; iterative: any
+    depth is safe)."""
+    depth, level = 0, [obj]
+    while True:
+        level = [x for x in level if isinstance(x, (list, dict))]
+        if not level:
+            return depth
+        depth += 1
+        level = [v for x in level for v in (x.values() if isinstance(x, dict) else x)]
+
+
 def load_json(path: str | os.PathLike) -> object:
-    """Read a JSON file; an unreadable or malformed file is an InputError naming it."""
+    """Read a JSON file; an unreadable or malformed file, or one nested deeper than
+    MAX_JSON_DEPTH, is an InputError naming it."""
     record_input(path)
+    deep = InputError(f"{path}: not a granwave JSON file (nested more than {MAX_JSON_DEPTH} levels deep)")
     try:
         with open(path, encoding="utf-8") as f:
-            return json.load(f)
+            obj = json.load(f)
+        if _json_depth(obj) > MAX_JSON_DEPTH:
+            raise deep
+        return obj
+    except RecursionError:
+        raise deep from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read ({exc.strerror})") from None
     except json.JSONDecodeError as exc:

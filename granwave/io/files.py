@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 from pathlib import Path
 from typing import Iterator
 
@@ -156,9 +157,16 @@ def open_checked(path: str | os.PathLike, schema: str) -> Iterator[h5py.File]:
         except (OSError, RuntimeError, ValueError, KeyError) as exc:
             raise InputError(f"{path}: unreadable root attributes ({exc.__class__.__name__})") from None
         found = attrs.get("schema", "")
+        if not isinstance(found, str):  # an array (or a number) where the name belongs
+            raise InputError(f"{path}: root attribute schema must be a string, found "
+                             f"{type(found).__name__} {str(found)[:60]}: not a {schema} file")
         if found != schema:
             raise InputError(f"{path}: expected a {schema} file, found schema {found!r}")
-        version = str(attrs.get("schema_version", ""))
+        version = attrs.get("schema_version", "")
+        if not isinstance(version, str) or not re.fullmatch(r"[0-9]+\.[0-9]+", version):
+            raise InputError(f"{path}: root attribute schema_version must be \"MAJOR.MINOR\" "
+                             f"(this granwave writes {S.VERSIONS[schema]}), found "
+                             f"{type(version).__name__} {str(version)[:60]!r}")
         if version.split(".")[0] != S.VERSIONS[schema].split(".")[0]:
             raise InputError(
                 f"{path}: schema version {version!r} is not readable by this granwave "

@@ -260,6 +260,23 @@ def _nearest_image(x: np.ndarray, box: np.ndarray, dim: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- packing
+def contact_indices(path, n: int, i, j) -> None:
+    """Contact indices of a packing of ``n`` grains in range: i a grain, j a grain or a wall
+    (-1 bottom, -2 top), and no contact joining a grain to itself. The part of :func:`packing`
+    the library's entry points check on a packing built in memory (an index past the last
+    grain would otherwise be an IndexError deep inside the assembly)."""
+    i, j = np.asarray(i), np.asarray(j)
+    if i.shape != j.shape or i.ndim != 1:
+        _fail(path, "contacts/j", f"has shape {j.shape}, contacts/i {i.shape}: one index pair per contact")
+    for name, a in (("contacts/i", i), ("contacts/j", j)):
+        if a.size and a.dtype.kind not in "iu":
+            _fail(path, name, f"must hold integers, found {a.dtype}")
+    _in_range(path, "contacts/i", i, 0, n)
+    _in_range(path, "contacts/j", j, S.TOP_WALL, n)
+    if np.any(i == j):
+        _fail(path, "contacts/j", f"contact {int(np.flatnonzero(i == j)[0])} joins a grain to itself")
+
+
 def packing(path, a: dict, attrs: dict) -> None:
     """Invariants of a packing (``a``: dataset name -> array, as read).
 
@@ -287,10 +304,7 @@ def packing(path, a: dict, attrs: dict) -> None:
             _fail(path, "grains/position", f"grain {k} lies outside the walls "
                                            f"(coordinate {y[k]:g}, walls at 0 and {box[-1]:g})")
     i, j = a["contacts/i"], a["contacts/j"]
-    _in_range(path, "contacts/i", i, 0, n)
-    _in_range(path, "contacts/j", j, S.TOP_WALL, n)
-    if np.any(i == j):
-        _fail(path, "contacts/j", f"contact {int(np.flatnonzero(i == j)[0])} joins a grain to itself")
+    contact_indices(path, n, i, j)
     for name in ("contacts/overlap", "contacts/force_normal", "contacts/stiffness_normal",
                  "contacts/stiffness_tangential"):
         _non_negative(path, name, a[name])
@@ -534,10 +548,18 @@ def same_system(path, modes, linear_path, system) -> None:
 
 
 # ---------------------------------------------------------------- signal
+#: The initial conditions a signal can be of (docs/conventions.md): A impulse, B displacement.
+SIGNAL_ICS = ("A", "B")
+
+
 def signal(path, a: dict, attrs: dict) -> None:
     """Invariants of a signal file: finite values, a regular increasing time axis, snapshot
-    times >= 0 (in the order asked for, not necessarily sorted), dof map >= 0."""
+    times >= 0 (in the order asked for, not necessarily sorted), dof map >= 0, the initial
+    condition (``ic``) A or B."""
     material_attrs(path, attrs)
+    if "ic" in attrs and attrs["ic"] not in SIGNAL_ICS:
+        _fail(path, "", f"root attribute ic must be one of {', '.join(SIGNAL_ICS)} (the initial "
+                        f"condition), found {attrs['ic']!r}")
     _finite(path, {k: v for k, v in a.items() if k != "pulse/arrival"})  # NaN: a bin without a front
     time_axis(path, "signal/time", a["signal/time"])
     for name in ("snapshots/time", "snapshots/dof_grain", "snapshots/dof_axis"):

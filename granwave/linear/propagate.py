@@ -83,6 +83,9 @@ def _modal_coefficients(modes: Modes, ic: str) -> tuple[np.ndarray, np.ndarray]:
                 " (use the time domain to see the instability, or fix the packing)")
         raise InputError(f"the modes include {max(n_neg, int(np.sum(modes.omega2 < 0)))} negative "
                          "eigenvalue(s): no oscillatory modal solution" + hint)
+    if len(modes.omega2) and not np.max(modes.omega2) > 0:
+        raise InputError(f"all {len(modes.omega2)} modes have omega^2 = 0: none oscillates, so no "
+                         "pulse propagates (modes of a system without stiffness, or a damaged file)")
     omega = np.sqrt(modes.omega2)
     amp = modes.amplitude_A if ic == "A" else modes.amplitude_B
     return omega, amp
