@@ -26,6 +26,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
+from .front import _crossing, _parabola_vertex
 
 PICKS = ("peak", "crossing")
 #: Default threshold of the picks, a fraction of the bin's largest velocity.
@@ -49,17 +50,14 @@ def arrival_time(time: np.ndarray, v: np.ndarray, *, pick: str = "peak", level: 
     if pick == "crossing":
         if i <= 0:
             return float(time[max(i, 0)])
-        v0, v1 = float(v[i - 1]), float(v[i])
-        return float(time[i - 1] + (time[i] - time[i - 1]) * (level * vmax - v0) / (v1 - v0))
+        return _crossing(time, v, i, level * vmax)
     n = v.size
     while i + 1 < n and v[i + 1] > v[i]:
         i += 1
     if i == 0 or i + 1 >= n:
         return float(time[i])
-    a, b, c = float(v[i - 1]), float(v[i]), float(v[i + 1])
-    den = a - 2.0 * b + c
-    shift = 0.5 * (a - c) / den if den < 0.0 else 0.0
-    return float(time[i] + shift * (time[1] - time[0]))
+    # the first peak refined as the compressional front's peak pick refines its own
+    return _parabola_vertex(np.asarray(time[i - 1:i + 2], float), np.asarray(v[i - 1:i + 2], float))[0]
 
 
 def peak_width(time: np.ndarray, v: np.ndarray, *, level: float = DEFAULT_LEVEL) -> float:
