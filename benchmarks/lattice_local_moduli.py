@@ -28,7 +28,7 @@ def table() -> str:
     from granwave.linear.moduli import moduli
     from granwave.systems import triangular_lattice
 
-    head = "| μ | rows | H (d) | " + " | ".join(k.removesuffix("_ratio").replace("_", " ") for k in KEYS) + " |"
+    head = "| μ | rows | L (d) | " + " | ".join(k.removesuffix("_ratio").replace("_", " ") for k in KEYS) + " |"
     lines = [head, "|" + "---|" * (3 + len(KEYS))]
     for friction in (0.0, 0.5):
         for rows in ROWS:

@@ -4,11 +4,11 @@
         [--pressures 1e-4 1e-7] [--seeds 1] [--old-max-height 200]
         [--results benchmarks/results/ensembles/relaxation.jsonl] [--table-only] [--write-docs]
 
-For each pressure, height H and seed, prepares a 2D frictional packing (the
+For each pressure, height L and seed, prepares a 2D frictional packing (the
 defaults of PrepareParams: mu = 0.5, polydispersity 0.2, zeta 0.5, b 0.3) of
-width ``--width`` and expected height H (N = 0.82 W H / mean grain area
-grains, aspect H / W) with the compaction 'fixed' (the protocol before: b at
-every height) and 'height-scaled' (b divided by H / reference_height above
+width ``--width`` and expected height L (N = 0.82 W L / mean grain area
+grains, aspect L / W) with the compaction 'fixed' (the protocol before: b at
+every height) and 'height-scaled' (b divided by L / reference_height above
 25 d), and records the steps to convergence (load independent, unlike
 seconds) and the bulk statistics of the packing (layer 3 d). 'mean-flow' runs
 with ``mean_flow_settling='compaction'``, the setting its records were made with;
@@ -19,7 +19,7 @@ skipped above ``--old-max-height`` (its cost grows fastest); its steps
 where it was not prepared are extrapolated from its fitted exponent and
 marked "(…, fit)".
 
-Fit: log(steps) = a + k log(H) by least squares over the heights measured,
+Fit: log(steps) = a + k log(L) by least squares over the heights measured,
 k with its 95 % interval (Student t, n - 2 degrees of freedom). Every
 finished preparation appends one JSON line to ``--results``; a rerun skips
 what is there. ``--write-docs`` regenerates the block of benchmarks/results/TABLES.md between
@@ -115,7 +115,7 @@ def load(path: Path) -> list[dict]:
 
 
 def fit(heights, steps) -> tuple[float, float, float, float] | None:
-    """(k, lo, hi, a): exponent of steps ~ H^k, its 95 % interval, log prefactor; None below 2 heights."""
+    """(k, lo, hi, a): exponent of steps ~ L^k, its 95 % interval, log prefactor; None below 2 heights."""
     from scipy import stats
 
     h, s = np.log(np.asarray(heights, float)), np.log(np.asarray(steps, float))
@@ -149,10 +149,10 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
         for c in RULES:
             rows = [r for r in _rows(records, p, c) if r["height"] in heights]
             fits[p, c] = fit([r["height"] for r in rows], [r["steps"] for r in rows])
-    lines.append("| p | H (d) | grains | seeds fixed / scaled / mean-flow / late | steps, fixed "
+    lines.append("| p | L (d) | grains | seeds fixed / scaled / mean-flow / late | steps, fixed "
                  "| steps, height-scaled | steps, mean-flow | steps, late (default) | fixed / mean-flow |")
     lines.append("|" + "---|" * 9)
-    stat_lines = ["| p | H (d) | " + " | ".join(f"{label} fixed / scaled / mean-flow / late" for _, label in STATS)
+    stat_lines = ["| p | L (d) | " + " | ".join(f"{label} fixed / scaled / mean-flow / late" for _, label in STATS)
                   + " |",
                   "|" + "---|" * (2 + len(STATS))]
     for p in pressures:
@@ -185,7 +185,7 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
     lines.append("")
     lines.extend(stat_lines)
     lines.append("")
-    lines.append("Fitted exponent k of steps ∝ H^k (least squares in log-log over the measured heights, "
+    lines.append("Fitted exponent k of steps ∝ L^k (least squares in log-log over the measured heights, "
                  "95 % interval):")
     lines.append("")
     for p in pressures:
@@ -197,7 +197,7 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
                 continue
             k, lo, hi, _ = f
             ci = f" [{lo:.2f}, {hi:.2f}]" if math.isfinite(lo) else " (two heights: no interval)"
-            lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over H = {', '.join(f'{h:g}' for h in hs)}")
+            lines.append(f"- p = {p:g}, {c}: k = {k:.2f}{ci} over L = {', '.join(f'{h:g}' for h in hs)}")
     other = sorted({(r["pressure"], r["height"]) for r in records
                     if rule_of(r) == "mean-flow" and r.get("slab", DEFAULT_SLAB) != DEFAULT_SLAB})
     if other:
@@ -213,7 +213,7 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
                               key=lambda r: r["seed"])
                 steps = ", ".join(f"{r['steps']:,}" for r in rows)
                 stats = "; ".join(f"{label} " + ", ".join(f"{r[key]:.4f}" for r in rows) for key, label in STATS)
-                lines.append(f"- p = {p:g}, H = {h:g}, slab {sl:g} d, seeds "
+                lines.append(f"- p = {p:g}, L = {h:g}, slab {sl:g} d, seeds "
                              f"{', '.join(str(r['seed']) for r in rows)}: steps {steps}; {stats}")
     profiles = [r for r in records if "profile_phi" in r and r.get("slab", DEFAULT_SLAB) == DEFAULT_SLAB]
     if profiles:
@@ -224,7 +224,7 @@ def report(records: list[dict], heights, pressures, old_max: float) -> str:
         for r in sorted(profiles, key=lambda r: (rule_of(r) == "late", -r["pressure"], r["height"])):
             e = r["profile_edges"]
             bands = ", ".join(f"{lo:g}–{hi:.0f} d {phi:.4f}" for lo, hi, phi in zip(e[:-1], e[1:], r["profile_phi"]))
-            lines.append(f"- {rule_of(r)}, p = {r['pressure']:g}, H = {r['height']:g}, seed {r['seed']}: {bands}")
+            lines.append(f"- {rule_of(r)}, p = {r['pressure']:g}, L = {r['height']:g}, seed {r['seed']}: {bands}")
     return "\n".join(lines) + "\n"
 
 
@@ -250,7 +250,7 @@ def main(argv=None) -> int:
     tasks = [(c, p, h, s) for c in RULES for p in a.pressures for h in a.heights for s in range(a.first_seed, a.first_seed + a.seeds)
              if (c, p, h, s) not in done and not (c == "fixed" and h > a.old_max_height)
              and (a.only is None or c == a.only)]
-    # cheapest first (grain-steps ~ N H^k p^(-1/3)), so that a stopped run leaves the small heights
+    # cheapest first (grain-steps ~ N L^k p^(-1/3)), so that a stopped run leaves the small heights
     tasks.sort(key=lambda t: t[2] ** (2.4 if t[0] == "fixed" else 2.0) * t[1] ** (-1.0 / 3.0))
     if a.slab != DEFAULT_SLAB:
         tasks = [t for t in tasks if RULE_SETTINGS[t[0]][0] == "mean-flow"]
@@ -259,11 +259,11 @@ def main(argv=None) -> int:
             rec = measure(c, p, h, a.width, s, a.slab)
             with open(a.results, "a") as fh:
                 fh.write(json.dumps(rec) + "\n")
-            print(f"{c} p={p:g} H={h:g} seed={s}: {rec['steps']} steps ({rec['grains']} grains, "
+            print(f"{c} p={p:g} L={h:g} seed={s}: {rec['steps']} steps ({rec['grains']} grains, "
                   f"{rec['cpu_s']:.0f} s cpu)", flush=True)
     records = [r for r in load(a.results) if r["width"] == a.width]
     text = (f"Width {a.width:g} d, 2D, μ = 0.5, polydispersity 0.2; mean steps over the seeds prepared "
-            f"(each seed one point of the fit); 'fixed' prepared up to H = {a.old_max_height:g}:\n\n"
+            f"(each seed one point of the fit); 'fixed' prepared up to L = {a.old_max_height:g}:\n\n"
             + report(records, sorted(a.heights), a.pressures, a.old_max_height))
     print(text)
     if a.write_docs:

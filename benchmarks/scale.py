@@ -44,7 +44,7 @@ grains 2D at p = 1e-4; ``grid3d`` 10^5 frictional (mu = 0.5) spheres at p = 1e-4
 one crossing of a 10^6-grain 2D frictional triangular lattice (a lattice, not a disordered
 packing: preparing and linearizing a 10^6-grain packing is its own multi-hour job). Each
 prints wall time and peak memory (ru_maxrss). The time estimates use the engine's rate and
-the steps model of the relaxation (steps ~ H^1.43 at fixed width, 275,740 steps for a
+the steps model of the relaxation (steps ~ L^1.43 at fixed width, 275,740 steps for a
 10^4-grain square packing: measured with the current protocol in 2D; the 3D figure is that
 model applied to the height in diameters, not a 3D measurement). ``--stop-at STEPS`` stops a
 preparation after that many steps (the same trajectory up to there: the budget only shortens
@@ -467,7 +467,7 @@ def _square_steps(height: float) -> float:
 
 
 #: compaction of the large preparations when --compaction is not given: the rule every large run of
-#: docs/dem.md was measured with (PrepareParams' default, 'fixed', takes steps ~ H^1.65: 5.4e6 for the
+#: docs/dem.md was measured with (PrepareParams' default, 'fixed', takes steps ~ L^1.65: 5.4e6 for the
 #: column by the steps model of --dry-run)
 DEFAULT_LARGE_COMPACTION = "mean-flow"
 

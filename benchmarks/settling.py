@@ -4,7 +4,7 @@
         [--seeds 10] [--workers 2] [--results benchmarks/results/ensembles/settling.jsonl] [--table-only]
         [--write-docs]
 
-For each pressure, height H and seed, prepares the 2D frictional column of
+For each pressure, height L and seed, prepares the 2D frictional column of
 benchmarks/relaxation.py (width 25 d, the defaults of PrepareParams, compaction
 'mean-flow') twice: with ``mean_flow_settling`` ``--rule`` ('critical' or 'late') and
 'compaction' (the default, the rule before), and records the steps and the bulk statistics
@@ -80,8 +80,8 @@ def report(records: list[dict], rule: str = "critical") -> str:
         rows = [r for r in records if r["pressure"] == p and r["height"] == h]
         n = len(rows)
         omega = [r[rule]["breathing_frequency"] for r in rows]
-        lines.append(f"p = {p:g}, H = {h:g} d, {rows[0]['grains']} grains, {n} seeds; breathing frequency "
-                     f"measured {np.nanmean(omega):.3g} (ω H = {np.nanmean(omega) * h:.3f}); switch after "
+        lines.append(f"p = {p:g}, L = {h:g} d, {rows[0]['grains']} grains, {n} seeds; breathing frequency "
+                     f"measured {np.nanmean(omega):.3g} (ω L = {np.nanmean(omega) * h:.3f}); switch after "
                      f"{np.mean([r[rule]['settling_step'] for r in rows]):.0f} steps on average\n")
         lines.append(f"| statistic | {rule} | compaction | difference / its SE |")
         lines.append("|---|---|---|---|")
@@ -126,7 +126,7 @@ def main(argv=None) -> int:
                     f.write(json.dumps(rec) + "\n")
                 records.append(rec)
                 c, o = rec[args.rule], rec["compaction"]
-                print(f"p {rec['pressure']:g} H {rec['height']:g} seed {rec['seed']}: steps {c['steps']} "
+                print(f"p {rec['pressure']:g} L {rec['height']:g} seed {rec['seed']}: steps {c['steps']} "
                       f"({args.rule}) / {o['steps']} (compaction), Φ2 {c['phi2']:.4f} / {o['phi2']:.4f}", flush=True)
     keep = {(p, h) for p in args.pressures for h in args.heights}
     table = report([r for r in records if (r["pressure"], r["height"]) in keep], args.rule)

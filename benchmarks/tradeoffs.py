@@ -650,10 +650,10 @@ for them (a bug in granwave/dem/protocol.py, reported; not worked around): {cfg.
 
 Systems: 2D frictional packings (μ = 0.5, ν = 0, W = 0.2, ζ = 0.5, background damping 0.3) at
 p = {PRESSURE:g}, width ≈ 12 d, grains {', '.join(str(n) for n, _ in cfg.heights)} (heights ≈ 8, 12, 16 d;
-seed 0: {h_lo:.2f} and {h_hi:.2f}). **c_tof** = (H₂ − H₁)/(t_lead10(H₂) − t_lead10(H₁)) from the lowest
+seed 0: {h_lo:.2f} and {h_hi:.2f}). **c_tof** = (L₂ − L₁)/(t_lead10(L₂) − t_lead10(L₁)) from the lowest
 and the tallest packing of the same seed (same width), by the dense modal solution, initial
 condition A; **c_peak** the same with the peak times. C22, C33, z*, f0 (rattler fraction) from
-the tallest packing (bulk slab l = 3). Signals: {SAMPLES} samples up to t = 5 H / (0.5 c_lattice).
+the tallest packing (bulk slab l = 3). Signals: {SAMPLES} samples up to t = 5 L / (0.5 c_lattice).
 
 ## 1. Packing tolerance
 

@@ -20,8 +20,8 @@ Measured inputs (CPU seconds, not wall time: the machines these runs share drift
   is not a batch; the gather, analysis and figure jobs that stay one process each).
 
 Models fitted to them (classes: dimension x frictional or not):
-- DEM preparation: cpu = k N x steps, steps = a H^g p^e S(tol). Relaxation steps grow with
-  the container height H faster than the grain count does (g and e fitted, a per class);
+- DEM preparation: cpu = k N x steps, steps = a L^g p^e S(tol). Relaxation steps grow with
+  the container height L faster than the grain count does (g and e fitted, a per class);
   S(tol), steps against the convergence tolerance, is the packing-tolerance table of
   docs/tradeoffs.md (measured by benchmarks/tradeoffs.py), interpolated in log10(tol).
 - linearize: cpu = c0 + c1 n + c3 n^3 up to 3000 dofs (its dense eigenvalue check),
@@ -35,8 +35,8 @@ Models fitted to them (classes: dimension x frictional or not):
 Continuum scenes (config/continuum.yaml) are costed as disordered packings with time-domain
 signals at their own time_safety / samples / t_max_factor, global moduli (costed with the
 fitted moduli model, which includes local moduli: an overestimate) and no statics. Their DEM
-steps follow the tall-column law (steps = a_tall H^g_tall p^e, fitted to the packings of
-H >= 30 d of the same class) extrapolated to the tallest columns: a prediction, not a
+steps follow the tall-column law (steps = a_tall L^g_tall p^e, fitted to the packings of
+L >= 30 d of the same class) extrapolated to the tallest columns: a prediction, not a
 measurement. The time on N cores is at least the longest batch (one process, one core).
 """
 
@@ -99,7 +99,7 @@ def bench_cpu(path: Path) -> float:
 
 def kind_of(scene: str, results: Path) -> str:
     """disordered, lattices or chains: a continuum column is a disordered packing (same DEM and
-    signal models; its tall heights extend the fit of the DEM steps against H)."""
+    signal models; its tall heights extend the fit of the DEM steps against L)."""
     with h5py.File(next((results / "packing" / scene).rglob("*.h5"))) as f:
         kind = f.attrs.get("kind", "")
     kind = kind.decode() if isinstance(kind, bytes) else str(kind)
@@ -151,7 +151,7 @@ def fit_models(folders: list[Path]) -> dict:
     for s in rows:
         s["class"] = cls(s["kind"], s["dim"], s["frictional"])
         s["H"] = float(s["size"][1:])
-    # DEM preparation: steps = a_class H^g p^e (least squares in logs), cpu = k_class N steps
+    # DEM preparation: steps = a_class L^g p^e (least squares in logs), cpu = k_class N steps
     dem = [s for s in rows if s["kind"] == "disordered" and s["steps"] > 0]
     names = sorted({s["class"] for s in dem})
     X = np.array([[math.log(s["H"]), math.log(s["pressure"])] + [s["class"] == c for c in names]
@@ -162,9 +162,9 @@ def fit_models(folders: list[Path]) -> dict:
         m["classes"].setdefault(c, {})["steps_a"] = math.exp(a)
         m["classes"][c]["k_step"] = statistics.median(s["packing"] / (s["N"] * s["steps"])
                                                       for s in dem if s["class"] == c)
-    # Tall columns: the steps grow faster with H at the tall end than the all-height law says
+    # Tall columns: the steps grow faster with L at the tall end than the all-height law says
     # (measured: x3 from 32 to 64 d, x2.1 from 64 to 100 d at p = 1e-4). Per class with at
-    # least three packings at H >= TALL_FROM over two heights, steps = a_tall H^g_tall p^e_tall
+    # least three packings at L >= TALL_FROM over two heights, steps = a_tall L^g_tall p^e_tall
     # (e_tall fitted where the tall packings span two pressures, else e from above: the short
     # samples' e underpredicted tall columns at p = 1e-6 sevenfold); continuum scenes use it.
     for c in names:
@@ -414,7 +414,7 @@ def main(argv=None):
     m = fit_models(args.measured)
     light = light_job_cpu()
     print(f"models fitted to {m['n_measured']} samples of {', '.join(map(str, args.measured))} (CPU seconds):")
-    print(f"  DEM steps = a H^{m['steps_g']:.2f} p^{m['steps_e']:.3f} S(tol); cpu = k N steps")
+    print(f"  DEM steps = a L^{m['steps_g']:.2f} p^{m['steps_e']:.3f} S(tol); cpu = k N steps")
     for c, d in sorted(m["classes"].items()):
         print(f"    {c}: " + ", ".join(f"{k} {v:.3g}" for k, v in d.items()))
     for k in ("linear", "kt", "km", "km2", "statics", "moduli", "front", "batch_overhead"):

@@ -240,12 +240,12 @@ class PrepareParams(Params):
     the viscous rate gamma = b / t_i with t_i = sqrt(m_mean / (p d)) (force
     -gamma m v on grains and piston; it sets the compaction speed, hence density
     and coordination: keep it fixed within a study); compaction ('fixed': b at
-    every height; 'height-scaled': b divided by H_e / reference_height where the
-    expected final height H_e exceeds reference_height (d), so that the
-    compaction is the same in units of H at every height and the steps grow as H;
+    every height; 'height-scaled': b divided by L_e / reference_height where the
+    expected final height L_e exceeds reference_height (d), so that the
+    compaction is the same in units of L at every height and the steps grow as L;
     tall columns then differ from 'fixed' ones, docs/dem.md; 'mean-flow': the
     per-slab mean vertical flow and the piston damped at b min(1, reference_height /
-    H_e), the fluctuations about it at b; any thread count, or the GPU);
+    L_e), the fluctuations about it at b; any thread count, or the GPU);
     reference_height (d); mean_flow_slab (d, thickness of the horizontal slabs whose
     mass-weighted mean vertical velocity is the mean flow); mean_flow_settling
     ('late', the default: once the plug has arrived and the kinetic energy has fallen
@@ -274,9 +274,9 @@ class PrepareParams(Params):
         0.3, help="Background viscous damping rate in units of 1/t_i, t_i = sqrt(m/(p d)) (sets the "
         "compaction speed; keep it fixed within a study).", lo=0.0)
     compaction: str = param("fixed", help="How the background damping rate follows the column height: "
-                            "'fixed' keeps b at every height (steps grow about as H^1.7); "
-                            "'height-scaled' divides b by H/reference_height in columns expected "
-                            "taller than reference_height (steps grow as H, but tall columns come "
+                            "'fixed' keeps b at every height (steps grow about as L^1.7); "
+                            "'height-scaled' divides b by L/reference_height in columns expected "
+                            "taller than reference_height (steps grow as L, but tall columns come "
                             "out denser than with 'fixed'; docs/dem.md); 'mean-flow' divides it "
                             "only for the mean vertical flow of horizontal slabs and the piston "
                             "(any thread count, or --device gpu).",

@@ -206,6 +206,23 @@ def test_sources_and_docs_do_not_cite_spec(sources):
     assert not bad, (f"{len(bad)} lines cite SPEC; cite docs/method.md §N instead:\n" + "\n".join(bad))
 
 
+# The container height is L (granwave/report/symbols.py); H was its second name in the docs.
+HEIGHT_AS_H = re.compile(r"(?<![\w.\"'\[%])H(?=_e\b|_eff\b|[₁₂²³^]|\s*[−=<>/)]|\s+d\b|\.$)")
+
+
+def height_written_h(lines) -> list[str]:
+    return [f"{where}: {text.strip()}" for where, text in lines
+            if where.split(":")[0].endswith(".md") and not where.startswith("docs/decisions/")
+            and HEIGHT_AS_H.search(text)]
+
+
+def test_height_is_written_l_in_docs_and_help(sources, helps):
+    demo = [("a.md:1", "V = L1 H d̄ and 1/H."), ("a.md:2", "J. H. Snoeijer, %H:%M, s[\"H\"], HDF5, L = 25 d")]
+    assert height_written_h(demo) == ["a.md:1: V = L1 H d̄ and 1/H."]
+    bad = height_written_h(sources) + [f"{w}: {t.strip()}" for w, t in helps if HEIGHT_AS_H.search(t)]
+    assert not bad, "the height is L (symbol table), not H:\n" + "\n".join(bad)
+
+
 METHOD_CITATION = re.compile(r"docs/method\.md`?((?:\s*(?:§\d+(?:\s*\([a-z]\))?|,|/|and))+)")
 
 

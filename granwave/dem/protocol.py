@@ -68,18 +68,18 @@ CONVERGENCE_TEST = ("piston touches grains; max |a|, |alpha| of grains and |a| o
 
 COMPACTION_RULES = {
     "fixed": "background damping rate b / t_i at every height",
-    "height-scaled": ("background damping rate (b / t_i) min(1, reference_height / H_e), H_e the expected "
+    "height-scaled": ("background damping rate (b / t_i) min(1, reference_height / L_e), L_e the expected "
                       "final height (grain area or volume / (expected solid fraction x lateral size))"),
     "mean-flow": ("background damping rate b / t_i on the velocities about the mean vertical flow; the "
                   "mean flow (mass-weighted mean vertical velocity of the grains in horizontal slabs of "
-                  "thickness mean_flow_slab) and the piston at (b / t_i) min(1, reference_height / H_e)"),
+                  "thickness mean_flow_slab) and the piston at (b / t_i) min(1, reference_height / L_e)"),
 }
 
 
 #: Default step budget per 100 d of a column's expected height (and the least budget). At
 #: p = 1e-7, the lowest pressure of the study, the default rule took 0.82-0.88e6 steps per 100 d
-#: at 100-400 d, growing as H^0.9 (docs/dem.md "Relaxation cost"): a margin of 2.3-2.4 that
-#: grows with H, where a fixed 2e6 stopped the 400 d column after 60 % of its run
+#: at 100-400 d, growing as L^0.9 (docs/dem.md "Relaxation cost"): a margin of 2.3-2.4 that
+#: grows with L, where a fixed 2e6 stopped the 400 d column after 60 % of its run
 STEPS_PER_100D = 2_000_000
 
 
@@ -105,10 +105,10 @@ def damping_scale(params: PrepareParams, height: float) -> float:
 
     'fixed': 1. 'height-scaled': min(1, reference_height / height). In the overdamped
     compaction of a tall column the piston drags a growing plug of grains through the
-    background damping, so with a fixed rate its speed falls as 1/H and the compaction
-    takes a time ~ H^2; with the rate ~ 1/H the compaction is the same in units of H (the
-    continuum problem is invariant under x -> x H, t -> t H, gamma -> gamma / H: the same
-    speeds at the same relative depth) and the slowest mode (frequency ~ 1/H) keeps the same
+    background damping, so with a fixed rate its speed falls as 1/L and the compaction
+    takes a time ~ L^2; with the rate ~ 1/L the compaction is the same in units of L (the
+    continuum problem is invariant under x -> x L, t -> t L, gamma -> gamma / L: the same
+    speeds at the same relative depth) and the slowest mode (frequency ~ 1/L) keeps the same
     damping ratio, so time and steps grow as H. Columns up to ``reference_height`` keep b.
     """
     if params.compaction != "height-scaled" or height <= params.reference_height:
@@ -120,9 +120,9 @@ def mean_flow_scale(params: PrepareParams, height: float) -> float:
     """Factor on the damping rate of the mean vertical flow and the piston, 'mean-flow' rule only:
     min(1, reference_height / height) (1 for the other rules, whose mean flow is damped with the rest).
 
-    The plug that the piston drags is the mean flow: damped at a rate ~ 1/H its compaction is the
-    same in units of H at every height (as with 'height-scaled'), while the grain-scale agitation
-    about it, whose time scale does not grow with H, keeps the rate b / t_i of a short column.
+    The plug that the piston drags is the mean flow: damped at a rate ~ 1/L its compaction is the
+    same in units of L at every height (as with 'height-scaled'), while the grain-scale agitation
+    about it, whose time scale does not grow with L, keeps the rate b / t_i of a short column.
     """
     if params.compaction != "mean-flow" or height <= params.reference_height:
         return 1.0
