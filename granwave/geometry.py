@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from .io.schema import BOTTOM_WALL, TOP_WALL  # noqa: F401  (re-exported: -1, -2)
+from .model import BOTTOM_WALL, TOP_WALL  # noqa: F401  (re-exported: -1, -2)
 from . import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 # Random close packing fractions used only to size the box before a run

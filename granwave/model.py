@@ -13,7 +13,10 @@ import scipy.sparse as sp
 
 from .contact_models import options as CO
 from .errors import InputError
-from .io.schema import BOTTOM_WALL, TOP_WALL
+
+#: The walls' indices where a contact's second grain j would be (contacts/j in the files).
+BOTTOM_WALL = -1
+TOP_WALL = -2
 
 #: The kicks of ``propagate --source`` (docs/method.md §8): the bottom wall moved along the
 #: vertical (compressional, the default) or along x (shear); the detector reads the top wall's

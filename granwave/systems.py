@@ -56,7 +56,7 @@ from scipy import optimize
 from . import contact
 from .errors import InputError
 from .geometry import grain_inertia, grain_mass
-from .io.schema import BOTTOM_WALL, TOP_WALL
+from .model import BOTTOM_WALL, TOP_WALL
 from .model import Contacts, Packing
 from .resources import check_chain, check_lattice
 

@@ -20,7 +20,7 @@ statistics of their own: averages, fits and exponents come from
 | :mod:`.chain` | the chain against the Airy shape |
 | :mod:`.continuum` | the continuum scene: speeds, c_tof/c_l, A, W, alpha(omega), c(omega) against L |
 | :mod:`.shear` | the shear scene: V_s, V_p, G_max against p, Poisson ratios, picks against L |
-| :mod:`.registry` | figure names and captions |
+| :mod:`granwave.report.captions` | figure names and captions (the report's) |
 """
 
 from .chain import chain_airy
@@ -31,7 +31,7 @@ from .fields import displacement_snapshot, mode_shapes, select_modes
 from .fronts import amplitude_width, arrival_times
 from .pressure import speeds_vs_pressure
 from .shear import shear_panels
-from .registry import FIGURES, caption_for
+from ..report.captions import FIGURES, caption_for  # the captions are the report's; the names are the plot commands'
 from .signals import coherent_heights, signal_comparison, signal_label, signals_overlay
 from .spectrum import spectrum
 from .statics import contact_angles, contact_roses, contact_segments, force_network

@@ -69,6 +69,7 @@ from __future__ import annotations
 
 from .. import units as U
 from ..contact_models import options as CO
+from ..model import BOTTOM_WALL, TOP_WALL  # noqa: F401  (the file's contacts/j codes)
 
 # a_n of u = sum_n a_n phi_n with M-orthonormal phi_n in (rho d^3)^-1/2: a_n b_n is a force
 AMPLITUDE = "d_bar * (rho * d_bar**3)**0.5"
@@ -89,9 +90,7 @@ VERSIONS = {
     SWEEP: "1.1",
 }
 
-# Wall indices in contacts/j.
-BOTTOM_WALL = -1
-TOP_WALL = -2
+# Wall indices in contacts/j: the model's (granwave.model), written as they are.
 
 # dof/axis codes: 0..dim-1 translations, dim..(rotations) about x, y, z; in 3D a grain
 # whose free spin was removed keeps two rotations about the pair normal to its spin

@@ -18,7 +18,7 @@ computed from the inputs:
   :mod:`granwave.report.continuum`);
 * **the shear scenes** (``results/shear/<scene>/analysis.json``, :mod:`granwave.report.shear`);
 * **figures**: every PNG given, linked relative to the page, captioned from its
-  file name (:func:`granwave.figures.caption_for`).
+  file name (:func:`granwave.report.captions.caption_for`).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     """
     from .. import __version__
     from ..analysis.sweep import validate_summary
-    from ..figures.registry import caption_for
+    from .captions import caption_for
     from ..provenance import git_revision
 
     if not (summaries or heights or sweeps or figures or damping or continuum or shear):
