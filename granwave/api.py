@@ -136,7 +136,7 @@ def prepare_packing(params: PrepareParams | None = None, /, *, progress: Callabl
     writing the packing). docs/dem.md "Checkpoints".
     """
     from .dem.protocol import prepare_packing as run
-    from .gpu import backend
+    from .devices import backend
 
     p = _params(PrepareParams, params, fields)
     refused = CO.cpu_only(CO.values_of(p)) if device not in (None, "cpu") else None
@@ -215,10 +215,10 @@ def prepare_packings(params: PrepareParams | None = None, /, *, seeds, progress:
 
 def _prepare_on_gpu(p: PrepareParams, seeds: list, paths: dict, every: float, progress, threads,
                     device) -> list[Packing]:
-    """:func:`prepare_packings` on the GPU: the seeds advanced together (granwave.gpu.batch), each
+    """:func:`prepare_packings` on the GPU: the seeds advanced together (the GPU's ``prepare_packings``), each
     from its checkpoint ``paths[seed]`` (None: none)."""
     from .dem.checkpoint import Checkpoint
-    from .gpu import backend
+    from .devices import backend
 
     refused = CO.cpu_only(CO.values_of(p))
     if refused:
@@ -230,9 +230,7 @@ def _prepare_on_gpu(p: PrepareParams, seeds: list, paths: dict, every: float, pr
     for c in saved:
         if c is not None:
             c.check()  # refuse another run's checkpoint before any work
-    from .gpu.batch import prepare_packings as together
-
-    packings = together(p, seeds, progress=progress, checkpoints=saved)
+    packings = kernels.prepare_packings(p, seeds, progress=progress, checkpoints=saved)
     for s, packing in zip(seeds, packings):
         dataclasses.replace(p, seed=s).record(packing.attrs)
         packing.attrs["device"] = kernels.device
@@ -455,7 +453,7 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
     (``nyquist_ratio``, ``aliased``; an AliasingWarning when aliased).
     ``device``: "cpu" (default) or "gpu" (``method`` "time" or "dem"; docs/gpu.md).
     """
-    from .gpu import check_device
+    from .devices import check_device
     from .linear.propagate import modal_propagate
 
     kind = ("modes" if isinstance(source, Modes) else "linear" if isinstance(source, LinearSystem)
@@ -485,7 +483,7 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
     if device != "cpu" and method not in ("time", "dem"):
         raise InputError(f"--device {device}: --method {method} runs on the CPU only; use --device "
                          "cpu, or --method time (linear file) or dem (packing file)")
-    from .gpu import backend
+    from .devices import backend
 
     time_domain_signal = backend(device).time_domain_signal
     _threads(threads)

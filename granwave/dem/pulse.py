@@ -505,7 +505,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)
     k = 1
     chunk = max(1, min(samples - 1, 20_000 // sub))
-    from ..gpu import backend
+    from ..devices import backend
 
     samples_kernel = backend(device).pulse_samples  # PK.pulse_samples on the CPU
     t_wall0 = t_last = _time.perf_counter()

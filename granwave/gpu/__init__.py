@@ -1,7 +1,9 @@
 """The compute device of a stage: ``cpu`` (the numba CPU kernels) or ``gpu`` (one NVIDIA GPU).
 
-This module is the one place where a stage's kernels are picked (:func:`backend`). It
-imports nothing beyond the standard library: the GPU modules (``granwave.gpu.dem``,
+The stages pick their kernels through :func:`granwave.devices.backend`, which loads this
+package by name only when ``device="gpu"`` is asked for and takes its kernels from
+:func:`kernels`; the rest of granwave imports nothing from here. This module imports nothing
+beyond the standard library: the GPU modules (``granwave.gpu.dem``,
 ``granwave.gpu.linear``, ``granwave.gpu.pulse``, which import ``numba.cuda``) are loaded only
 when ``device="gpu"`` is asked for, so the CPU path never loads a GPU package (tests/test_gpu_device.py checks it).
 
@@ -15,19 +17,10 @@ from __future__ import annotations
 import os
 from types import SimpleNamespace
 
+from ..devices import DEVICES, backend, check_device  # noqa: F401  (re-exported for callers of granwave.gpu)
 from ..errors import InputError
 
-DEVICES = ("cpu", "gpu")
-
 INSTALL_HINT = "install the GPU extra: pip install 'granwave[gpu]' (docs/gpu.md)"
-
-
-def check_device(device: str | None) -> str:
-    """The device name, validated (None: ``cpu``)."""
-    device = "cpu" if device is None else str(device).lower()
-    if device not in DEVICES:
-        raise InputError(f"device must be one of {', '.join(DEVICES)} (got {device!r})")
-    return device
 
 
 def simulated() -> bool:
@@ -97,25 +90,16 @@ def require_gpu() -> None:
                          "this machine); use --device cpu")
 
 
-def backend(device: str | None) -> SimpleNamespace:
-    """The kernels of ``device``: ``engine`` (the DEM engine class), ``time_domain_signal`` and
-    ``pulse_samples`` (the stepping loop of the nonlinear DEM pulse).
-
-    ``cpu`` imports only the CPU modules; ``gpu`` first checks that a GPU is usable
-    (:func:`require_gpu`), so a missing GPU fails before any work or output.
-    """
-    device = check_device(device)
-    if device == "cpu":
-        from ..dem.integrator import Engine
-        from ..dem.pulse_kernels import pulse_samples
-        from ..linear.propagate import time_domain_signal
-
-        return SimpleNamespace(device="cpu", engine=Engine, time_domain_signal=time_domain_signal,
-                               pulse_samples=pulse_samples)
+def kernels() -> SimpleNamespace:
+    """The GPU's kernels for :func:`granwave.devices.backend`: ``engine`` (the DEM engine
+    class), ``time_domain_signal``, ``pulse_samples`` (the nonlinear DEM pulse's stepping loop)
+    and ``prepare_packings`` (many seeds advanced together). Checks first that a GPU is usable
+    (:func:`require_gpu`), so a missing GPU fails before any work or output."""
     require_gpu()
+    from .batch import prepare_packings
     from .dem import GpuEngine
     from .linear import time_domain_signal_gpu
     from .pulse import pulse_samples_gpu
 
     return SimpleNamespace(device="gpu", engine=GpuEngine, time_domain_signal=time_domain_signal_gpu,
-                           pulse_samples=pulse_samples_gpu)
+                           pulse_samples=pulse_samples_gpu, prepare_packings=prepare_packings)
