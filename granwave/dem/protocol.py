@@ -372,7 +372,7 @@ def prepare_packing(params: PrepareParams, progress=None, engine=Engine, checkpo
 
     ``progress``: optional callable taking one line of text, called about once
     a second. ``engine``: the engine class (the CPU :class:`Engine`, or
-    :class:`granwave.gpu.dem.GpuEngine`; granwave.gpu.backend picks it). Raises :class:`granwave.errors.ConvergenceError` when
+    :class:`granwave.gpu.dem.GpuEngine`; granwave.devices.backend picks it). Raises :class:`granwave.errors.ConvergenceError` when
     its step budget (:func:`step_budget`) does not converge. The returned packing lists the
     force-carrying contacts at the final positions (walls: j = -1 bottom,
     -2 top) and records the protocol in ``attrs``. ``checkpoint``: None or a
