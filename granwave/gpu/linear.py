@@ -90,15 +90,31 @@ def _tree4(t, s0, s1, s2, s3):
         half //= 2
 
 
+@cuda.jit(device=True)
+def _block_sum4(t, x0, x1, x2, x3, out):
+    """A block's per-thread four sums combined by :func:`_tree4` in its fixed order; thread 0
+    writes them to ``out[0 … 3]`` (a partial's row, or a sample's)."""
+    s_kin = cuda.shared.array(RBLOCK, np.float64)
+    s_pot = cuda.shared.array(RBLOCK, np.float64)
+    s_ama = cuda.shared.array(RBLOCK, np.float64)
+    s_f = cuda.shared.array(RBLOCK, np.float64)
+    s_kin[t] = x0
+    s_pot[t] = x1
+    s_ama[t] = x2
+    s_f[t] = x3
+    _tree4(t, s_kin, s_pot, s_ama, s_f)
+    if t == 0:
+        out[0] = s_kin[0]
+        out[1] = s_pot[0]
+        out[2] = s_ama[0]
+        out[3] = s_f[0]
+
+
 @cuda.jit
 def sample_partials(u, v, a, m, det, part):
     """NPART blocks: block b's share (fixed grid stride) of (v.M v, -u.M a, a.M a, detector.u)."""
     t = cuda.threadIdx.x
     b = cuda.blockIdx.x
-    s_kin = cuda.shared.array(RBLOCK, np.float64)
-    s_pot = cuda.shared.array(RBLOCK, np.float64)
-    s_ama = cuda.shared.array(RBLOCK, np.float64)
-    s_f = cuda.shared.array(RBLOCK, np.float64)
     kin = 0.0
     pot = 0.0
     ama = 0.0
@@ -110,16 +126,7 @@ def sample_partials(u, v, a, m, det, part):
         pot -= u[i] * ma
         ama += a[i] * ma
         f += det[i] * u[i]
-    s_kin[t] = kin
-    s_pot[t] = pot
-    s_ama[t] = ama
-    s_f[t] = f
-    _tree4(t, s_kin, s_pot, s_ama, s_f)
-    if t == 0:
-        part[b, 0] = s_kin[0]
-        part[b, 1] = s_pot[0]
-        part[b, 2] = s_ama[0]
-        part[b, 3] = s_f[0]
+    _block_sum4(t, kin, pot, ama, f, part[b])
 
 
 @cuda.jit
@@ -127,10 +134,6 @@ def sample_sums(part, out, k):
     """One block: out[k] = (1/2 v.M v, -1/2 u.M a, a.M a, detector.u) from the partial sums,
     combined in a fixed order."""
     t = cuda.threadIdx.x
-    s_kin = cuda.shared.array(RBLOCK, np.float64)
-    s_pot = cuda.shared.array(RBLOCK, np.float64)
-    s_ama = cuda.shared.array(RBLOCK, np.float64)
-    s_f = cuda.shared.array(RBLOCK, np.float64)
     kin = 0.0
     pot = 0.0
     ama = 0.0
@@ -140,16 +143,10 @@ def sample_sums(part, out, k):
         pot += part[b, 1]
         ama += part[b, 2]
         f += part[b, 3]
-    s_kin[t] = kin
-    s_pot[t] = pot
-    s_ama[t] = ama
-    s_f[t] = f
-    _tree4(t, s_kin, s_pot, s_ama, s_f)
+    _block_sum4(t, kin, pot, ama, f, out[k])
     if t == 0:
-        out[k, 0] = 0.5 * s_kin[0]
-        out[k, 1] = 0.5 * s_pot[0]
-        out[k, 2] = s_ama[0]
-        out[k, 3] = s_f[0]
+        out[k, 0] *= 0.5
+        out[k, 1] *= 0.5
 
 
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).

@@ -66,6 +66,33 @@ def _tree(t, s_sum0, s_sum1, s_sum2, s_max0, s_max1, s_max2):
         half //= 2
 
 
+@cuda.jit(device=True)
+def _block_reduce(t, fp, top, cnt, dmax, v2, disp, out):
+    """A block's per-thread piston force, top contacts and contacts (summed) and largest
+    overlap, |v|^2 and displacement^2 (maxima) combined by :func:`_tree` in its fixed order;
+    thread 0 writes them to ``out[R_FPISTON … R_DISP2]`` (a partial's row, or the step's ``red``)."""
+    s_fp = cuda.shared.array(RBLOCK, np.float64)
+    s_top = cuda.shared.array(RBLOCK, np.float64)
+    s_cnt = cuda.shared.array(RBLOCK, np.float64)
+    s_dmax = cuda.shared.array(RBLOCK, np.float64)
+    s_v2 = cuda.shared.array(RBLOCK, np.float64)
+    s_disp = cuda.shared.array(RBLOCK, np.float64)
+    s_fp[t] = fp
+    s_top[t] = top
+    s_cnt[t] = cnt
+    s_dmax[t] = dmax
+    s_v2[t] = v2
+    s_disp[t] = disp
+    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
+    if t == 0:
+        out[R_FPISTON] = s_fp[0]
+        out[R_NTOP] = s_top[0]
+        out[R_NCONTACT] = s_cnt[0]
+        out[R_DMAX] = s_dmax[0]
+        out[R_VMAX2] = s_v2[0]
+        out[R_DISP2] = s_disp[0]
+
+
 @cuda.jit
 def step_partials(gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, ctl, part):
     """NPART blocks: block b's share (a fixed grid stride) of the step's sums and maxima into
@@ -81,12 +108,6 @@ def _partials(b, gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
     t = cuda.threadIdx.x
     n = gfp.shape[0]
     stride = RBLOCK * NPART
-    s_fp = cuda.shared.array(RBLOCK, np.float64)
-    s_top = cuda.shared.array(RBLOCK, np.float64)
-    s_cnt = cuda.shared.array(RBLOCK, np.float64)
-    s_dmax = cuda.shared.array(RBLOCK, np.float64)
-    s_v2 = cuda.shared.array(RBLOCK, np.float64)
-    s_disp = cuda.shared.array(RBLOCK, np.float64)
     fp = 0.0
     top = 0.0
     cnt = 0.0
@@ -109,20 +130,7 @@ def _partials(b, gfp, gtop, gdmax, gcount, gv2, gdisp2, pdelta, npairs, part):
             cnt += 1.0
             if x > dmax:
                 dmax = x
-    s_fp[t] = fp
-    s_top[t] = top
-    s_cnt[t] = cnt
-    s_dmax[t] = dmax
-    s_v2[t] = v2
-    s_disp[t] = disp
-    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
-    if t == 0:
-        part[b, R_FPISTON] = s_fp[0]
-        part[b, R_NTOP] = s_top[0]
-        part[b, R_NCONTACT] = s_cnt[0]
-        part[b, R_DMAX] = s_dmax[0]
-        part[b, R_VMAX2] = s_v2[0]
-        part[b, R_DISP2] = s_disp[0]
+    _block_reduce(t, fp, top, cnt, dmax, v2, disp, part[b])
 
 
 @cuda.jit
@@ -139,12 +147,6 @@ def finish(part, piston1, fpar1, mflow, red, ctl):
 def _finish(part, piston, fpar, mflow, red, ctl):
     """The block's work in :func:`finish` (the batched engine calls it per packing)."""
     t = cuda.threadIdx.x
-    s_fp = cuda.shared.array(RBLOCK, np.float64)
-    s_top = cuda.shared.array(RBLOCK, np.float64)
-    s_cnt = cuda.shared.array(RBLOCK, np.float64)
-    s_dmax = cuda.shared.array(RBLOCK, np.float64)
-    s_v2 = cuda.shared.array(RBLOCK, np.float64)
-    s_disp = cuda.shared.array(RBLOCK, np.float64)
     fp = 0.0
     top = 0.0
     cnt = 0.0
@@ -161,23 +163,11 @@ def _finish(part, piston, fpar, mflow, red, ctl):
             v2 = part[b, R_VMAX2]
         if part[b, R_DISP2] > disp:
             disp = part[b, R_DISP2]
-    s_fp[t] = fp
-    s_top[t] = top
-    s_cnt[t] = cnt
-    s_dmax[t] = dmax
-    s_v2[t] = v2
-    s_disp[t] = disp
-    _tree(t, s_fp, s_top, s_cnt, s_dmax, s_v2, s_disp)
+    _block_reduce(t, fp, top, cnt, dmax, v2, disp, red)
     if t == 0:
-        red[R_FPISTON] = s_fp[0]
-        red[R_NTOP] = s_top[0]
-        red[R_NCONTACT] = s_cnt[0]
-        red[R_DMAX] = s_dmax[0]
-        red[R_VMAX2] = s_v2[0]
-        red[R_DISP2] = s_disp[0]
-        red[R_VMAX] = math.sqrt(s_v2[0])
+        red[R_VMAX] = math.sqrt(red[R_VMAX2])
         ctl[C_STEPS] += 1
-        piston.f_con = s_fp[0]
+        piston.f_con = red[R_FPISTON]
         gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
         piston.a = piston_acceleration(piston, gamma_piston)
         if piston.mass < math.inf:
