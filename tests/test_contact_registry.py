@@ -104,7 +104,7 @@ def test_engine_parameters_hold_each_kind_s_code_and_constants():
         # as many constants as its sub-model with the most needs
         assert k["slots"] == max((len(s["constants"]) for s in CO.SUBMODELS.values() if s["kind"] == kind.name),
                                  default=0)
-        # the engine's older names the kind declares (damping: zeta, tangential: mu), then generated ones
+        # the names the kind declares (damping: damping, tangential: friction, after their parameters), then generated ones
         assert len(k["fields"]) == k["slots"] and all(f in PARAMS.names for f in k["fields"])
         assert k["fields"] == tuple(kind.fields[i] if i < len(kind.fields) else f"{kind.name}_c{i}"
                                     for i in range(k["slots"]))
@@ -241,7 +241,7 @@ def test_the_kinds_parameters_are_fields_and_engine_constants():
     default = {kind: CO.SUBMODELS[CO.KINDS[kind]["default"]]["code"] for kind in ("damping", "tangential")}
     fpar = record(PARAMS)
     CM.fill_params(fpar, CO.resolve(dict(friction=0.3, damping=0.2, poisson=0.1)))
-    assert (fpar.mu, fpar.zeta, fpar.damping_code, fpar.tangential_code) == (0.3, 0.2, default["damping"],
+    assert (fpar.friction, fpar.damping, fpar.damping_code, fpar.tangential_code) == (0.3, 0.2, default["damping"],
                                                                              default["tangential"])
     assert CM.damping_model(0.2)[:2] == (default["damping"], 0.2)
     assert CM.tangential_model(0.3)[:2] == (default["tangential"], 0.3)
@@ -308,16 +308,16 @@ def test_a_formula_of_the_wrong_arity_is_refused(monkeypatch):
 
     from granwave.contact_models import damping_critical
 
-    fake = _stand_in(damping_critical, "stand_in", (), coefficient=numba.njit(lambda meff, k, overlap, zeta, extra: 0.0))
+    fake = _stand_in(damping_critical, "stand_in", (), coefficient=numba.njit(lambda meff, k, overlap, damping, extra: 0.0))
     _registered_plus(monkeypatch, fake)
-    with pytest.raises(G.RegistryError, match=r"coefficient\(meff, k, overlap, zeta, extra\) takes 5 arguments, the "
-                                              r"damping kind calls it with 4: \(meff, k, overlap, zeta;"):
+    with pytest.raises(G.RegistryError, match=r"coefficient\(meff, k, overlap, damping, extra\) takes 5 arguments, the "
+                                              r"damping kind calls it with 4: \(meff, k, overlap, damping;"):
         G.dispatch_source()
     # kernel_constants must give one number per declared constant
     fake.coefficient = damping_critical.coefficient
     fake.kernel_constants = lambda values: (values["damping"], 1.0)
     with pytest.raises(G.RegistryError, match=r"kernel_constants gives \(0.5, 1.0\) at the defaults, expected 1 "
-                                              r"floats \(zeta\)"):
+                                              r"floats \(damping\)"):
         G.dispatch_source()
 
 
@@ -333,7 +333,7 @@ def test_a_missing_hook_or_lammps_words_is_refused(monkeypatch):
                             (dict(lammps_tangential=None, lammps_stiffness_ratio=None),
                              r"define its LAMMPS words .* or say NO_LAMMPS"),
                             (dict(CONSTANTS=("k",), kernel_constants=lambda v: (1.0,)),
-                             r"the tangential kind's constants start with mu")]:
+                             r"the tangential kind's constants start with friction")]:
         fake = _stand_in(mindlin, "stand_in", ())
         for k, v in change.items():
             if v is None:
@@ -367,7 +367,7 @@ def test_every_damping_law_is_off_with_its_constants_at_zero():
     CM.fill_params(fpar, CO.resolve(dict(damping=0.4, friction=0.5, poisson=0.0)))
     with CM.without_dashpot(fpar):
         assert not CD.dashpot_acts(CD.dashpot_of(fpar))
-    assert fpar.zeta == 0.4 and CD.dashpot_acts(CD.dashpot_of(fpar))
+    assert fpar.damping == 0.4 and CD.dashpot_acts(CD.dashpot_of(fpar))
 
 
 def test_the_docs_tables_are_the_registry_s():

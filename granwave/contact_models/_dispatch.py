@@ -116,7 +116,7 @@ DampingModel = namedtuple('DampingModel', ('code', 'c0'), defaults=(0.0, ))
 @numba.njit(cache=True, inline="always")
 def dashpot_of(fpar):
     """The DampingModel of the engine's parameters."""
-    return DampingModel(int(fpar.damping_code), fpar.zeta)
+    return DampingModel(int(fpar.damping_code), fpar.damping)
 
 
 @numba.njit(cache=True, inline="always")
@@ -151,7 +151,7 @@ TangentialModel = namedtuple('TangentialModel', ('code', 'c0', 'c1'), defaults=(
 @numba.njit(cache=True, inline="always")
 def friction_of(fpar):
     """The TangentialModel of the engine's parameters."""
-    return TangentialModel(int(fpar.tangential_code), fpar.mu, fpar.tangential_c1)
+    return TangentialModel(int(fpar.tangential_code), fpar.friction, fpar.tangential_c1)
 
 
 @numba.njit(cache=True, inline="always")

@@ -24,33 +24,33 @@ SUMMARY = "c = 2 zeta sqrt(m_eff k) on the normal and (sticking) tangential velo
 DESCRIPTION = "contact damping, a fraction zeta of critical"
 #: its own parameters beyond the kind's (damping: zeta here)
 PARAMETERS = ()
-#: its kernels' constant: zeta
-CONSTANTS = ("zeta",)
+#: its kernels' constant: the kind's damping (zeta), under its parameter's name
+CONSTANTS = ("damping",)
 #: its numba functions in the order the GPU compiles them (each after those it calls)
 DEVICE_FUNCTIONS = ("acts", "coefficient", "step_ratio")
 
 
 def kernel_constants(values: dict) -> tuple:
-    """The kernels' constant zeta."""
+    """The kernels' constant: the damping zeta."""
     return (float(values["damping"]),)
 
 
 @numba.njit(cache=True, inline="always")
-def acts(zeta):
-    """Whether there is a dashpot: zeta > 0."""
-    return zeta > 0.0
+def acts(damping):
+    """Whether there is a dashpot: damping > 0."""
+    return damping > 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def coefficient(meff, k, overlap, zeta):
-    """c = 2 zeta sqrt(m_eff k) (force per velocity, d^2 sqrt(rho E*)); ``overlap`` unused."""
-    return C.damping_coefficient(zeta, meff, k)
+def coefficient(meff, k, overlap, damping):
+    """c = 2 damping sqrt(m_eff k) (force per velocity, d^2 sqrt(rho E*)); ``overlap`` unused."""
+    return C.damping_coefficient(damping, meff, k)
 
 
 @numba.njit(cache=True, inline="always")
-def step_ratio(k, m, zeta):
-    """The damping ratio of a spring ``k`` on a mass ``m`` with this dashpot: zeta itself."""
-    return zeta
+def step_ratio(k, m, damping):
+    """The damping ratio of a spring ``k`` on a mass ``m`` with this dashpot: damping itself."""
+    return damping
 
 
 #: LAMMPS's damping sub-model with granwave's "never attractive" (``pair_style granular``)
@@ -64,13 +64,13 @@ def lammps_words(values: dict, scale: float, normal: str, kt_over_kn: float) -> 
     sqrt(k_t / k_n) (``kt_over_kn`` None: not constant, which only zeta = 0 can express); ValueError
     where no e < 1 gives it (``normal``: the normal law's LAMMPS name, for the message). The
     restitution is the normal model's damping number (``normal_damping``)."""
-    zeta = float(values["damping"])
-    x = zeta * scale
-    if not (0.0 <= zeta and x < 1.0):
-        raise ValueError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution "
+    damping = float(values["damping"])
+    x = damping * scale
+    if not (0.0 <= damping and x < 1.0):
+        raise ValueError(f"contact damping {damping:g} cannot be expressed by LAMMPS' coeff_restitution "
                          f"damping of a {normal} contact (needs 0 <= zeta < {1.0 / scale:.4f})")
-    if kt_over_kn is None and zeta > 0.0:
-        raise ValueError(f"contact damping {zeta:g} cannot be expressed by LAMMPS' coeff_restitution damping "
+    if kt_over_kn is None and damping > 0.0:
+        raise ValueError(f"contact damping {damping:g} cannot be expressed by LAMMPS' coeff_restitution damping "
                          "where k_t / k_n changes with the overlap (its tangential dashpot is a fixed fraction "
                          "of the normal one): only damping 0")
     e = math.exp(-math.pi * x / math.sqrt(1.0 - x * x))

@@ -49,9 +49,10 @@ class Kind:
     of its sub-models defines besides ``kernel_constants``; ``parameters``: parameters every
     sub-model of the kind takes (declared once, here; ``friction`` and ``poisson`` of the
     tangential kind); ``leading``: the names every sub-model's ``CONSTANTS`` start with (the
-    tangential kind's mu); ``fields``: the ``fpar`` fields of its first constants c0, c1, ...
-    (the damping and tangential kinds keep the engine's older names ``zeta`` and ``mu``; the
-    others, and the constants after these, are the generated ``<kind>_c<i>``). How many
+    tangential kind's ``friction``); ``fields``: the ``fpar`` fields of its first constants c0,
+    c1, ... (the damping and tangential kinds name theirs after their parameters, ``damping``
+    and ``friction``: one name from the option to the kernels; the others, and the constants
+    after these, are the generated ``<kind>_c<i>``). How many
     constants a kind carries is not declared here: the generator takes the largest
     ``len(CONSTANTS)`` of its sub-models.
     """

@@ -33,7 +33,7 @@ of ``pair_ft`` / ``wall_ft``) is carried into each step's tangent plane by the e
 magnitude kept; geometry, as LAMMPS's pair style does for every tangential model); the kind's
 parameters ``friction`` (mu; 0: frictionless, no tangential force and no rotations) and
 ``poisson`` (nu; G*12, which the normal law's k_t takes) are every tangential law's, and every
-tangential law's first constant is mu (``LEADING``: the frozen-history forces set it to inf, no
+tangential law's first constant is friction (``LEADING``: the frozen-history forces set it to inf, no
 cap). Numba ``acts({c}) -> bool`` (a tangential force at all), ``stiffness(kt_law, overlap, e12,
 {c}) -> k_t`` (``kt_law``: the normal law's ``tangential_stiffness``; ``e12``: E*12, 1/2 between
 grains and 1 at a rigid wall), ``unloads(overlap_old, overlap_new, rescale, {c}) -> bool``
@@ -126,11 +126,11 @@ NORMAL = Kind("normal", option="contact_law", help="Normal contact law", default
               reader="law_of", functions=NORMAL_FUNCTIONS,
               python=("overlap_at_force", "IMPACT_WORK"))
 DAMPING = Kind("damping", option="damping_law", help="Contact damping law", default="critical_fraction",
-               fields=("zeta",), reader="dashpot_of", functions=DAMPING_FUNCTIONS,
+               fields=("damping",), reader="dashpot_of", functions=DAMPING_FUNCTIONS,
                parameters=(Parameter("damping", 0.5, None, "Contact damping zeta, fraction of critical (normal "
                                      "and tangential).", lo=0.0, hi=1.0),))
 TANGENTIAL = Kind("tangential", option="tangential", help="Tangential contact law", default="mindlin",
-                  fields=("mu",), leading=("mu",), reader="friction_of", functions=TANGENTIAL_FUNCTIONS,
+                  fields=("friction",), leading=("friction",), reader="friction_of", functions=TANGENTIAL_FUNCTIONS,
                   parameters=(Parameter("friction", 0.5, None, "Coulomb friction coefficient mu (0: frictionless, "
                                         "no rotational degrees of freedom).", lo=0.0),
                               Parameter("poisson", 0.0, None, "Poisson ratio nu of the grains: k_t/k_n = "

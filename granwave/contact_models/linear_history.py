@@ -23,42 +23,42 @@ SUMMARY = "constant k_t = --linear-history-stiffness (a wall: twice it), no unlo
 DESCRIPTION = "constant-stiffness tangential spring with Coulomb friction (LAMMPS linear_history)"
 PARAMETERS = (Parameter("linear_history_stiffness", 0.05, "E* d", "k_t of two grains under --tangential "
                         "linear_history (a wall contact: twice it).", lo=0.0, lo_open=True),)
-#: its kernels' constants: mu, then k_t of a grain pair
-CONSTANTS = ("mu", "kt")
+#: its kernels' constants: friction, then k_t of a grain pair
+CONSTANTS = ("friction", "kt")
 DEVICE_FUNCTIONS = ("acts", "stiffness", "unloads", "increment", "step_ratio", "at_limit")
 
 
 def kernel_constants(values: dict) -> tuple:
-    """The kernels' (mu, k_t of a pair)."""
+    """The kernels' (friction, k_t of a pair)."""
     return (float(values["friction"]), float(values["linear_history_stiffness"]))
 
 
 @numba.njit(cache=True, inline="always")
-def acts(mu, kt):
-    """Whether there is a tangential force: mu > 0."""
-    return mu > 0.0
+def acts(friction, kt):
+    """Whether there is a tangential force: friction > 0."""
+    return friction > 0.0
 
 
 @numba.njit(cache=True, inline="always")
-def stiffness(kt_law, overlap, e12, mu, kt):
+def stiffness(kt_law, overlap, e12, friction, kt):
     """k_t = 2 E*12 kt (E* d): kt between grains (E*12 = 1/2), 2 kt at a rigid wall."""
     return 2.0 * e12 * kt
 
 
 @numba.njit(cache=True, inline="always")
-def unloads(overlap_old, overlap_new, rescale, mu, kt):
+def unloads(overlap_old, overlap_new, rescale, friction, kt):
     """Never: a constant k_t has no unloading rescale."""
     return False
 
 
 @numba.njit(cache=True, inline="always")
-def increment(fx, fy, fz, sx, sy, sz, k, fel, mu, kt):
-    """F_t + k Δs put back on the cone |F_t| <= mu ``fel``: (fx, fy, fz, slid)."""
-    return C.increment_and_cap3(fx, fy, fz, sx, sy, sz, k, fel, mu)
+def increment(fx, fy, fz, sx, sy, sz, k, fel, friction, kt):
+    """F_t + k Δs put back on the cone |F_t| <= friction ``fel``: (fx, fy, fz, slid)."""
+    return C.increment_and_cap3(fx, fy, fz, sx, sy, sz, k, fel, friction)
 
 
 @numba.njit(cache=True, inline="always")
-def step_ratio(kn, m, poisson, mu, kt):
+def step_ratio(kn, m, poisson, friction, kt):
     """k_t / k_n of the contact that bounds the time step (``kn``: the normal law's step
     stiffness): a wall's k_t, 2 kt, counted twice (every contact of a grain has the full k_t,
     as the harmonic law counts its k_n)."""
@@ -66,20 +66,20 @@ def step_ratio(kn, m, poisson, mu, kt):
 
 
 @numba.njit(cache=True, inline="always")
-def at_limit(fx, fy, fz, fel, tol, mu, kt):
-    """Whether F_t sits on the slider's limit, |F_t| >= (1 - ``tol``) mu ``fel`` with ``fel`` > 0."""
-    cap = mu * fel * (1.0 - tol)
+def at_limit(fx, fy, fz, fel, tol, friction, kt):
+    """Whether F_t sits on the slider's limit, |F_t| >= (1 - ``tol``) friction ``fel`` with ``fel`` > 0."""
+    cap = friction * fel * (1.0 - tol)
     return fel > 0.0 and fx * fx + fy * fy + fz * fz >= cap * cap
 
 
 def lammps_tangential(values: dict, words: dict, side: str, xgammat: float) -> str:
     """``tangential linear_history k_t xgammat mu`` (k_t of the ``side``: "pair" or "wall"), or
     ``tangential linear_nohistory 0 0`` without friction."""
-    mu = float(values["friction"])
-    if not mu > 0:
+    friction = float(values["friction"])
+    if not friction > 0:
         return "tangential linear_nohistory 0 0"
     kt = float(values["linear_history_stiffness"]) * (2.0 if side == "wall" else 1.0)
-    return f"tangential linear_history {kt:.17g} {xgammat:.17g} {mu:.17g}"
+    return f"tangential linear_history {kt:.17g} {xgammat:.17g} {friction:.17g}"
 
 
 def lammps_stiffness_ratio(values: dict, words: dict) -> float | None:

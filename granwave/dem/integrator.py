@@ -163,8 +163,6 @@ class Engine:
         self.piston.mass = piston_mass if piston_mass is not None else math.inf
         self.piston.f_ext = piston_force
         self.fpar = K.record(K.PARAMS)
-        self.fpar.zeta = damping
-        self.fpar.mu = self.friction
         self.fpar.poisson = poisson
         self.fpar.gamma = background_damping
         if skin_min is not None and not 0.0 < skin_min <= skin:

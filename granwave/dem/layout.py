@@ -5,8 +5,8 @@ A record (:func:`record`) is passed to the numba kernels by reference: ``fpar.dt
 kernel writes into the engine's record. On the GPU the records travel as one-element device
 arrays (``a[0]`` in a kernel is the record, by reference too).
 
-``fpar`` (:data:`PARAMS`), the step's parameters: dt (time step), zeta (contact damping
-ratio), mu (friction), poisson, gamma (background damping rate, 1 / time), skin (of the pair
+``fpar`` (:data:`PARAMS`), the step's parameters: dt (time step), damping (the damping law's
+constant: the default law's zeta), friction (mu), poisson, gamma (background damping rate, 1 / time), skin (of the pair
 list, d), safety (dt safety factor), overlap_floor (the overlap the time step assumes at
 least), tol_a and tol_v (convergence tolerances), r_max (largest radius), m_min (smallest
 mass), v_max (the last step's largest speed), rescale (unloading rule, 1: rescale F_t on
@@ -37,7 +37,7 @@ import numpy as np
 from ..contact_models._table import PARAMS_FIELDS
 
 #: the step's parameters (``fpar``); rescale and the sub-models' ``*_code`` are codes
-PARAMS = np.dtype([("dt", np.float64), ("zeta", np.float64), ("mu", np.float64), ("poisson", np.float64),
+PARAMS = np.dtype([("dt", np.float64), ("damping", np.float64), ("friction", np.float64), ("poisson", np.float64),
                    ("gamma", np.float64), ("skin", np.float64), ("safety", np.float64),
                    ("overlap_floor", np.float64), ("tol_a", np.float64), ("tol_v", np.float64),
                    ("r_max", np.float64), ("m_min", np.float64), ("v_max", np.float64), ("rescale", np.int64),

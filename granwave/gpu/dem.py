@@ -120,7 +120,6 @@ def _pair_force(p, pos, vel, omega, rad, inv_rad, mass, lateral, pair_i, pair_j,
     d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar.dt
-    zeta = fpar.zeta
     poisson = fpar.poisson
     rescale = fpar.rescale != 0.0
     for a in range(3):
@@ -192,8 +191,6 @@ def _grain_force(i, pos, vel, acc, omega, alpha, rad, mass, inertia, inc_ptr, in
     d = pos.shape[1]
     r = omega.shape[1]
     dt = fpar.dt
-    zeta = fpar.zeta
-    mu = fpar.mu
     poisson = fpar.poisson
     gamma = fpar.gamma
     rescale = fpar.rescale != 0.0
