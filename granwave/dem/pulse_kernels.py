@@ -224,10 +224,9 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
 
 
 # The same loop as pulse_samples but for the stepping call: written twice on purpose. One body
-# with the step function as an argument or a closure cannot be cached by numba (a dispatcher
-# argument, or two closures under one qualified name in the cache index), and one body with a
-# run-time flag would compile the parallel kernels in every one-thread process, the cost this
-# variant exists to avoid.
+# taking the step function as an argument would not be cached by numba (a jitted function as an
+# argument makes the caller uncacheable), and one body with a run-time flag would compile the
+# parallel kernels in every one-thread process, the cost this variant exists to avoid.
 @numba.njit(cache=True)
 def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                          pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
