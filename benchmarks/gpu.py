@@ -11,15 +11,22 @@ as pass/fail with their largest differences; the memory bandwidth; the time-doma
 grains against one core and the roofline; DEM grain-steps/s at 10^6 grains against one core,
 over 2000 steps in which the pair list is rebuilt on the device (the tiled packing drifts along
 the periodic axis: a rebuild about every 25 steps; the rebuild count is reported) and over 200
-steps without rebuilds; the statics of twelve 600-grain 2D packings (p = 1e-4, seeds 0..11)
-prepared on the GPU against the same seeds prepared on the CPU; the continuum study's 2048 d
+steps without rebuilds; 1000 600-grain 2D packings (p = 1e-4, seeds 0..999) prepared in one
+batch on the GPU against the same preparations on 2 CPU cores (seconds per packing; the two
+ensembles' statics within errors); the continuum study's 2048 d
 mean-flow column (51 200 grains) prepared on the GPU, ten of them (seeds 0-9) in one batch
 (ensembles per launch) for 2000 steps: seconds per batched step and the whole batch predicted
-from one column's CPU step count. Parts run in the order bandwidth, checks, DEM, packings,
-columns, time domain; each has its own time budget and is skipped, with a note, when the whole
-budget (``--budget``, default 450 s wall, compilation included) is spent; the JSON is written
-(to ``--out``, else stdout) after every part, so a run stopped from outside still leaves the
-parts done.
+from one column's CPU step count. Parts run in the order bandwidth, checks, DEM, batch,
+columns, time domain (``--parts`` picks some); each has its own time budget and is skipped, with
+a note, when the whole budget (``--budget``, default 450 s wall, compilation included) is spent;
+the JSON is written (to ``--out``, else stdout) after every part, so a run stopped from outside
+still leaves the parts done. Its ``goal_table`` gives every goal of one GPU with the measured
+value, the goal and pass/fail (:func:`goal_table`); under ``--tiny`` no row passes or fails (the
+simulator measures nothing).
+
+Exit status: 0 when the run is done (goals met or not: read ``goal_table``); 2 with one line on
+stderr when no GPU is usable and neither ``--tiny`` nor ``--dry-run`` is given, or on a bad
+``--parts``; nothing is written then.
 
 On one NVIDIA GPU (``pip install -e '.[gpu]'``) it measures, in one run:
 
@@ -313,7 +320,9 @@ def agreement(deadline: float) -> dict:
     from granwave.gpu import checks
 
     out = {}
-    for name in ("two_body", "mean_flow", "rules", "batch", "protocols", "time_domain", "pulse", "rebuild"):
+    # the batch first: it compiles the single engine's and the batched kernels, and it is the
+    # only device test of the segmented rebuild (each packing against its run alone, bitwise)
+    for name in ("batch", "two_body", "mean_flow", "rules", "protocols", "time_domain", "pulse", "rebuild"):
         if time.perf_counter() > deadline:
             out[name] = {"skipped": "time budget of the checks spent"}
             continue
@@ -486,9 +495,11 @@ def batch_vs_cpu(grains: int, packings: int, cpu_cores: int, tiny: bool, deadlin
     how many of the seeds both made are the same bytes. The GPU batch stops at ``deadline``
     (reported with the steps made)."""
     import concurrent.futures as cf
+    import dataclasses
     import multiprocessing as mp
 
-    from granwave.errors import ConvergenceError, StepBudgetExceeded
+    from granwave.dem.protocol import prepare_packing
+    from granwave.errors import StepBudgetExceeded
     from granwave.gpu import batch as B
     from granwave.params import PrepareParams
 
@@ -508,17 +519,26 @@ def batch_vs_cpu(grains: int, packings: int, cpu_cores: int, tiny: bool, deadlin
         pass
     out["gpu_warm_up_s"] = time.perf_counter() - t0
     ensemble = _timed_ensemble(deadline)
-    gpu, gpu_note = [], None
+    engine = ensemble.member_class()
+
+    def job(seed):  # as granwave.gpu.batch.prepare_packings, each seed's outcome kept
+        return lambda: prepare_packing(dataclasses.replace(params, seed=seed), engine=engine)
+
     t0 = time.perf_counter()
-    try:
-        gpu = B.prepare_packings(params, list(range(packings)), ensemble=ensemble)
-    except _OutOfTime as exc:
-        gpu_note = f"not finished: {exc}"
-    except StepBudgetExceeded as exc:
-        gpu_note = f"step budget reached: {str(exc)[:200]}"
+    outcome = ensemble.run([job(s) for s in range(packings)])
     out["gpu_s"] = time.perf_counter() - t0
+    gpu = [v for ok, v in outcome if ok]
+    failed = [(s, v) for s, (ok, v) in enumerate(outcome) if not ok]
+    gpu_note = None
+    if any(isinstance(v, _OutOfTime) for _, v in failed):
+        gpu_note = f"not finished: time budget spent after {ensemble.rounds} rounds"
+    elif failed:
+        gpu_note = f"{len(failed)} seeds failed, first: seed {failed[0][0]}: {type(failed[0][1]).__name__}: " \
+                   f"{str(failed[0][1])[:200]}"
+    if len(gpu) < packings:
+        gpu = []  # the seeds in order are compared: a batch with failures is reported, not compared
     members = ensemble.key[0] if ensemble.key else ()
-    out["gpu"] = {"done": len(gpu), "seconds": out["gpu_s"], "per_packing_s": out["gpu_s"] / packings,
+    out["gpu"] = {"done": len(outcome) - len(failed), "failed": len(failed), "seconds": out["gpu_s"], "per_packing_s": out["gpu_s"] / packings,
                   "steps": sorted(int(p.attrs["steps"]) for p in gpu) if gpu else sorted(m.steps for m in members),
                   "rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued,
                   "driver_s": ensemble.seconds, "rebuild_launches": ensemble.rebuild_launches,
@@ -636,7 +656,7 @@ def column_rate(spec: dict, steps: int, columns: int = 10, rebuild_every: int = 
             **({"note": note} if note else {})}
 
 
-ALL_FULL = dict(total_s=450.0, checks_s=120.0, td_s=60.0, dem_s=60.0, batch_s=150.0, td=(1000, 1000),
+ALL_FULL = dict(total_s=450.0, checks_s=60.0, td_s=60.0, dem_s=60.0, batch_s=200.0, td=(1000, 1000),
                 dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=30, td_steps=200,
                 cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, packings=1000, cpu_cores=2, cpu_s=40.0,
                 batch_max_steps=None, columns_s=60.0, column=COLUMN, column_steps=2000, columns=10)

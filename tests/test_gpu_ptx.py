@@ -203,6 +203,7 @@ def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
                                  np.zeros(n + k, np.int64), i64, i64, p2(dim), np.zeros(m), i64, i64, p2(dim),
                                  np.zeros(m), np.zeros(2 * m, np.int64), np.zeros(n + k, np.int64),
                                  np.zeros(2 * m, np.int64), off, off, off, kv),
+        B.measure_batch: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros((k, 5)), off),
     }
     assert set(sigs) == set(B.KERNELS)
     from granwave.gpu import batch_rebuild as BR

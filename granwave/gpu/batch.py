@@ -51,6 +51,7 @@ from . import batch_rebuild as BR
 from . import dem as G
 from . import mean_flow as MF
 from . import neighbours as NB
+from . import reductions as R
 from .neighbours import C_NPAIRS, C_STATUS, C_STEPS, N_CTL
 
 cuda = load_cuda()
@@ -193,9 +194,19 @@ def rb_small_batch(red, fpars, pistons, lateral, pos, rad, pos0, ctl, cell, ccou
               inc_ptr[o + k:e + k + 1], inc_code[2 * a:2 * b])
 
 
+@cuda.jit
+def measure_batch(vel, acc, omega, alpha, mass, inertia, rad, stat, goff):
+    """:func:`granwave.gpu.reductions.measure_kernel`, block k for packing k (the convergence
+    check's measures of every packing in one launch)."""
+    k = cuda.blockIdx.x
+    o, e = goff[k], goff[k + 1]
+    R._measure(cuda.threadIdx.x, vel[o:e], acc[o:e], omega[o:e], alpha[o:e], mass[o:e], inertia[o:e], rad[o:e],
+               stat[k])
+
+
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
 KERNELS = (kick_drift_batch, pair_forces_batch, slab_bin_batch, slab_sums_batch, grain_forces_batch,
-           step_partials_batch, finish_batch, rb_small_batch)
+           step_partials_batch, finish_batch, rb_small_batch, measure_batch)
 
 
 def _blocks(n: int) -> int:
@@ -222,9 +233,15 @@ class BatchMember(G.GpuEngine):
     def step(self) -> int:
         raise RuntimeError("a batch member steps with its ensemble (Ensemble.step)")
 
+    def set_dt(self, dt: float) -> None:
+        """The time step on the host; the ensemble writes the changed parameters of all its
+        members to the device at once after their checks (:meth:`Ensemble.advance`)."""
+        self.fpar.dt = dt
+        self.ensemble.fpar_changed.add(self)
+
     def upload(self) -> None:
         """The host state into the member's slices (what :meth:`GpuEngine.upload` copies, the
-        same values), and fresh rebuild work arrays."""
+        same values); the rebuilds' work arrays are the ensemble's (:meth:`Ensemble.cells`)."""
         g, gp = self.g, self.gp
         for name in (*STATE, "radius", "mass", "inertia", "lateral", "wall_ft", "wall_ov"):
             _put(g[name], getattr(self, name))
@@ -282,6 +299,7 @@ class Ensemble:
         #: take batch_rebuild.LAUNCHES together (the simulator: 1 where none of them is due)
         self.launches_per_rebuild = collections.Counter()
         self.seconds = 0.0  # wall time in the driver's rounds (uploads, steps, checks, downloads)
+        self.fpar_changed: set = set()  # members whose parameters the device must be given (set_dt)
 
     def member_class(self) -> type:
         """The engine class for the protocol (``engine=``): its engines join this ensemble."""
@@ -346,9 +364,11 @@ class Ensemble:
         live = list(requests)
         self.layout(live)
         results = {}
+        done = []
         for m in live:
             m.upload()
         self.cells(live)
+        self.fpar_changed.clear()  # (uploaded)
         for m in list(live):
             m.target = m.steps + requests[m]
             m.room_needed = 0
@@ -368,10 +388,12 @@ class Ensemble:
                 for m in live:
                     m.upload()
                 self.cells(live)
+                self.fpar_changed.clear()
                 continue
             self.chunk(running)
             ctl = self.d["ctl"].copy_to_host()
             red = self.d["red"].copy_to_host()
+            measured = None
             for m in running:
                 status, needed = m._read_counters(ctl[m.k], red[m.k])
                 if status == 2:
@@ -381,16 +403,42 @@ class Ensemble:
                 if status == 3:
                     result = 3
                 elif int(m.ipar.check) > 0 and m.steps % int(m.ipar.check) == 0:
-                    status = m._check()
+                    if measured is None:  # every packing's measures and piston in one launch, two reads
+                        measured = self.measure()
+                    status = m._check_from(measured[0][m.k], measured[1][m.k:m.k + 1])
                     if status:
                         result = status
                 if result is None and m.steps >= m.target:
                     result = 0
                 if result is not None:
-                    m.download()
-                    results[m] = result
-                    live.remove(m)
+                    done.append((m, result))
+            self.write_fpars()
+            for m, result in done:
+                m.download()
+                results[m] = result
+                live.remove(m)
+            done.clear()
         return results
+
+    def measure(self) -> tuple:
+        """(measures, pistons) of every packing, read from the device: the convergence check's
+        (:func:`measure_batch`, the single engine's measure per packing)."""
+        d = self.d
+        measure_batch[len(self.key[0]), G.RBLOCK](d["velocity"], d["acceleration"], d["angular_velocity"],
+                                                  d["angular_acceleration"], d["mass"], d["inertia"], d["radius"],
+                                                  d["stat"], d["goff"])
+        return d["stat"].copy_to_host(), d["pistons"].copy_to_host()
+
+    def write_fpars(self) -> None:
+        """The parameters of the members whose checks changed them (their time step) to the
+        device, in one copy (GpuEngine.set_dt copies each engine's own)."""
+        if not self.fpar_changed:
+            return
+        fp = self.d["fpars"].copy_to_host()
+        for m in self.fpar_changed:
+            fp[m.k] = K.as_array(m.fpar)[0]
+        self.d["fpars"].copy_to_device(fp)
+        self.fpar_changed.clear()
 
     def chunk(self, running: list) -> int:
         """Queue the steps up to each running member's next stop (its next check, the end of its
