@@ -662,7 +662,7 @@ ALL_FULL = dict(total_s=450.0, checks_s=60.0, td_s=60.0, dem_s=60.0, batch_s=200
                 batch_max_steps=None, columns_s=60.0, column=COLUMN, column_steps=2000, columns=10)
 ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, batch_s=600.0, td=(6, 4),
                 dem_grains=40, dem_steps=30, dem_plain_steps=3, cpu_dem_steps=3, td_steps=3, cpu_td_steps=3,
-                copy_bytes=1 << 12, packing_grains=10, packings=2, cpu_cores=2, cpu_s=60.0, batch_max_steps=6,
+                copy_bytes=1 << 12, packing_grains=10, packings=2, cpu_cores=2, cpu_s=60.0, batch_max_steps=3,
                 columns_s=600.0, column=COLUMN_TINY, column_steps=20, columns=3)
 #: The parts of --all, in the order they run (``--parts`` picks some).
 PARTS = ("bandwidth", "checks", "dem", "batch", "columns", "time_domain")

@@ -40,7 +40,7 @@ def test_gpu_all_tiny_json_has_every_goal_and_claims_no_speed(tiny):
         assert row["pass"] is None and row["measurement"] is False, name  # the simulator measures nothing
     b = res["batch"]  # the batch of packings against CPU cores, at toy sizes: the same code path
     assert b["packings"] == 2 and b["cpu_cores"] == 2
-    assert b["gpu"]["steps"] == [6, 6] and b["gpu"]["rounds"] >= 1  # each packing stepped in the batch
+    assert b["gpu"]["steps"] == [3, 3] and b["gpu"]["rounds"] >= 1  # each packing stepped in the batch
     assert b["cpu"]["done"] == 2  # the same work on the CPU processes
     assert res["goal_table"]["all_wall_s"]["measured"] == res["wall_s"] > 0
 
