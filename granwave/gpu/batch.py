@@ -563,7 +563,9 @@ class Ensemble:
             tqj=z((p, max(r, 1))), delta=z(p), code=z(2 * p, np.int64), ptr=z(n + npack, np.int64),
             row=z(n + npack, np.int64), goff=to(goff), poff=to(poff),
             # the batched one-block rebuild's work arrays (rb_small_batch; cells: Ensemble.cells)
-            cell=z(n, np.int64), members=z(n, np.int64), gcnt=z((n, 2), np.int64), gptr=z((n + npack, 2), np.int64),
+            # (gcnt zeroed: the segmented rebuild's scan sums every packing's rows, due or not)
+            cell=z(n, np.int64), members=z(n, np.int64), gcnt=to(np.zeros((n, 2), np.int64)),
+            gptr=z((n + npack, 2), np.int64),
             nbr=z(2 * p, np.int64), ni=z(p, np.int64), nj=z(p, np.int64), nft=z((p, hist)), nov=z(p),
             ncode=z(2 * p, np.int64),
             gk=to(np.repeat(np.arange(npack, dtype=np.int64), sizes)),
