@@ -22,12 +22,13 @@ from granwave.gpu import checks as GC
 SETUPS = ((0, 8, None, 1, 1), (7, 10, 0, 1, 2), (2, 12, None, 3, 3))
 
 
-def gas(cls, seed: int, grains: int, room=None, every: int = 1, width: int = 4, height: int = 3):
+def gas(cls, seed: int, grains: int, room=None, every: int = 1, width: int = 4, height: int = 3, check: int = 0):
     """A dense frictional 2D gas in a ``width`` x ``height`` box (granwave.gpu.checks' gas in a
     smaller box, larger grains: fewer cells, cheaper scans in the simulator), every packing a "large" one
     (``small_rebuild`` 0: the multi-kernel rebuild alone, the segmented one in a batch), its
     list due at the first step (reference positions moved by the skin) and one grain fast enough
-    (|v| dt > skin / 4) that a list is due at every step of the rebuild test."""
+    (|v| dt > skin / 4) that a list is due at every step of the rebuild test; ``check``: steps
+    between convergence checks (0: none)."""
     rng = np.random.default_rng(seed)
     axes = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5, indexing="ij")
     pos = np.stack([a.ravel() for a in axes], axis=1)
@@ -36,7 +37,7 @@ def gas(cls, seed: int, grains: int, room=None, every: int = 1, width: int = 4, 
     dt, skin = 4e-3, 0.2
     vel[0] = [0.3 * skin / dt, 0.0]
     e = cls(pos, rng.uniform(0.4, 0.48, grains), [float(width)], float(height), friction=0.5, damping=0.3, dt=dt,
-            skin=skin, velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (grains, 1)), check_every=0)
+            skin=skin, velocity=vel, angular_velocity=rng.normal(0.0, 1.0, (grains, 1)), check_every=check)
     e.fpar.v_max = float(np.max(np.linalg.norm(vel, axis=1)))
     e.pos0 = e.pos0 - skin
     e.small_rebuild = 0
@@ -49,14 +50,16 @@ def gas(cls, seed: int, grains: int, room=None, every: int = 1, width: int = 4, 
 
 
 def same_as_alone() -> dict:
-    """The packings of :data:`SETUPS` advanced together against each run alone by the GPU engine's multi-kernel rebuild: state, reference
-    positions, pair list, histories, steps, rebuilds and rooms made compared bytewise."""
+    """The packings of :data:`SETUPS` advanced together (convergence checks every 2 steps, the
+    batch's in one launch) against each run alone by the GPU engine's multi-kernel rebuild:
+    state, reference positions, pair list, histories, time step, steps, rebuilds and rooms made
+    compared bytewise."""
     from granwave.gpu.batch import Ensemble
     from granwave.gpu.dem import GpuEngine
 
     def job(cls, setup):
         def run():
-            e = gas(cls, *setup[:4])
+            e = gas(cls, *setup[:4], check=2)  # checks every 2 steps: the batch's measures in one launch
             e.run(setup[4])
             return e
         return run
@@ -64,7 +67,7 @@ def same_as_alone() -> dict:
     ensemble = Ensemble()
     together = ensemble.run([job(ensemble.member_class(), s) for s in SETUPS])
     out = {"launches_per_rebuild": {str(k): v for k, v in ensemble.launches_per_rebuild.items()},
-           "small_rebuild_launches": ensemble.small_rebuild_launches}
+           "small_rebuild_launches": ensemble.small_rebuild_launches, "measures": ensemble.measures}
     for setup, (ok, b) in zip(SETUPS, together):
         if not ok:
             raise b
@@ -78,6 +81,7 @@ def same_as_alone() -> dict:
         out[f"room_made_alone_{key}"] = a.room_made
         out[f"same_{key}"] = bool(
             b.steps == a.steps and b.rebuilds == a.rebuilds and b.n_pairs == m and b.room_made == a.room_made
+            and b.fpar.tobytes() == a.fpar.tobytes() and b.out.tobytes() == a.out.tobytes()
             and all(getattr(b, s).tobytes() == getattr(a, s).tobytes() for s in (*GC.STATE, *GC.WALLS, "pos0"))
             and all(getattr(b, s)[:m].tobytes() == getattr(a, s)[:m].tobytes()
                     for s in ("pair_i", "pair_j", "pair_ft", "pair_ov")))

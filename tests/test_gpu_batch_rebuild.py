@@ -40,8 +40,9 @@ def test_segmented_rebuild_equals_each_packing_rebuilt_alone():
     """Three large packings of 8, 10 and 12 grains run together for 1, 2 and 3 steps, one with its
     pair arrays cut (its second rebuild runs out of room on the device, room is made, the step
     redone), one with the rebuild test every 3rd step (masked while another rebuilds, though its
-    fast grain would make it due): state, reference positions, pair list, histories, steps,
-    rebuilds and rooms made are the bytes of each run alone with the per-packing rebuild."""
+    fast grain would make it due), checks every 2 steps: state, reference positions, pair list,
+    histories, time step, measures, steps, rebuilds and rooms made are the bytes of each run alone
+    with the per-packing rebuild."""
     r = _checks("same_as_alone")
     for seed in (0, 7, 2):
         assert r[f"same_seed{seed}"], seed
@@ -50,3 +51,4 @@ def test_segmented_rebuild_equals_each_packing_rebuilt_alone():
     assert r["room_made_seed7"] == 1  # the capacity test of the segmented fill, and room made
     assert r["rebuilds_seed2"] == 1 and r["steps_seed2"] == 3  # masked at steps 2 and 3
     assert r["launches_per_rebuild"].get("12", 0) >= 2 and r["small_rebuild_launches"] == 0
+    assert r["measures"] >= 1  # the checks at step 2 of two packings: one batched measure

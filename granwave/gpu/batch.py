@@ -300,6 +300,7 @@ class Ensemble:
         self.launches_per_rebuild = collections.Counter()
         self.seconds = 0.0  # wall time in the driver's rounds (uploads, steps, checks, downloads)
         self.fpar_changed: set = set()  # members whose parameters the device must be given (set_dt)
+        self.measures = 0  # launches of measure_batch (one for the checks of all packings at a stop)
 
     def member_class(self) -> type:
         """The engine class for the protocol (``engine=``): its engines join this ensemble."""
@@ -424,6 +425,7 @@ class Ensemble:
         """(measures, pistons) of every packing, read from the device: the convergence check's
         (:func:`measure_batch`, the single engine's measure per packing)."""
         d = self.d
+        self.measures += 1
         measure_batch[len(self.key[0]), G.RBLOCK](d["velocity"], d["acceleration"], d["angular_velocity"],
                                                   d["angular_acceleration"], d["mass"], d["inertia"], d["radius"],
                                                   d["stat"], d["goff"])
