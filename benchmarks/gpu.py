@@ -538,7 +538,8 @@ def batch_vs_cpu(grains: int, packings: int, cpu_cores: int, tiny: bool, deadlin
     if len(gpu) < packings:
         gpu = []  # the seeds in order are compared: a batch with failures is reported, not compared
     members = ensemble.key[0] if ensemble.key else ()
-    out["gpu"] = {"done": len(outcome) - len(failed), "failed": len(failed), "seconds": out["gpu_s"], "per_packing_s": out["gpu_s"] / packings,
+    out["gpu"] = {"done": len(outcome) - len(failed), "failed": len(failed), "seconds": out["gpu_s"],
+                  "per_packing_s": out["gpu_s"] / packings, "measures": ensemble.measures,
                   "steps": sorted(int(p.attrs["steps"]) for p in gpu) if gpu else sorted(m.steps for m in members),
                   "rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued,
                   "driver_s": ensemble.seconds, "rebuild_launches": ensemble.rebuild_launches,
