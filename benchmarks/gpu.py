@@ -626,8 +626,11 @@ def column_rate(spec: dict, steps: int, columns: int = 10, rebuild_every: int = 
                   max_steps=int(steps))
         return PrepareParams(**kw)
 
-    saved = G.GpuEngine.rebuild_every
+    saved = G.GpuEngine.rebuild_every, G.GpuEngine.small_rebuild
     G.GpuEngine.rebuild_every = int(rebuild_every)  # the batch's engines are GpuEngines
+    # every column rebuilt as a large one (granwave.gpu.batch_rebuild's segmented rebuild), the
+    # tiny warm-up columns too (so they compile its kernels) and the toy columns of --tiny
+    G.GpuEngine.small_rebuild = 0
     try:
         t0 = time.perf_counter()
         try:
@@ -646,11 +649,12 @@ def column_rate(spec: dict, steps: int, columns: int = 10, rebuild_every: int = 
             pass
         secs = time.perf_counter() - t0
     finally:
-        G.GpuEngine.rebuild_every = saved
+        G.GpuEngine.rebuild_every, G.GpuEngine.small_rebuild = saved
     per_step = ensemble.seconds / steps
     return {"grains_per_column": p.grains, "columns": columns, "steps": steps, "seconds": secs,
             "stepping_seconds": ensemble.seconds, "warm_up_seconds": warm, "batched_steps": ensemble.steps_queued,
             "rounds": ensemble.rounds, "s_per_batched_step": per_step,
+            "launches_per_rebuild": {str(k): v for k, v in sorted(ensemble.launches_per_rebuild.items())},
             "grain_steps_per_s": columns * p.grains / per_step, "rebuild_every": int(rebuild_every),
             "cpu_steps_of_one_column": COLUMN_CPU_STEPS, "predicted_batch_s": per_step * COLUMN_CPU_STEPS,
             "how": "ensembles per launch (granwave.gpu.batch): the columns in one batch",
