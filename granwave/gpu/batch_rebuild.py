@@ -19,6 +19,9 @@ one per packing.
 - Grains: packing k's own offsets are the global ones minus the global one at its first grain
   (exact integers); :func:`rb_fill_batch` writes them into the packing's ``gptr`` rows (where
   the single rebuild's scan writes them) before :func:`rb_merge_batch` and the commit read them.
+- The scans sum the rows of packings not rebuilding too (their last counts, bounded by their
+  grains; the batch allocates ``gcnt`` zeroed): the differences within a packing do not see
+  them, and the cells' starts stay within the batch's grains.
 
 Which packings rebuild in a step is a per-packing mask (``due``: the large packings whose k-th
 step this is, ``GpuEngine.rebuild_every``): the trigger clears the rebuild flag (``C_DUE``) of
