@@ -11,15 +11,22 @@ as pass/fail with their largest differences; the memory bandwidth; the time-doma
 grains against one core and the roofline; DEM grain-steps/s at 10^6 grains against one core,
 over 2000 steps in which the pair list is rebuilt on the device (the tiled packing drifts along
 the periodic axis: a rebuild about every 25 steps; the rebuild count is reported) and over 200
-steps without rebuilds; the statics of twelve 600-grain 2D packings (p = 1e-4, seeds 0..11)
-prepared on the GPU against the same seeds prepared on the CPU; the continuum study's 2048 d
+steps without rebuilds; 1000 600-grain 2D packings (p = 1e-4, seeds 0..999) prepared in one
+batch on the GPU against the same preparations on 2 CPU cores (seconds per packing; the two
+ensembles' statics within errors); the continuum study's 2048 d
 mean-flow column (51 200 grains) prepared on the GPU, ten of them (seeds 0-9) in one batch
 (ensembles per launch) for 2000 steps: seconds per batched step and the whole batch predicted
-from one column's CPU step count. Parts run in the order bandwidth, checks, DEM, packings,
-columns, time domain; each has its own time budget and is skipped, with a note, when the whole
-budget (``--budget``, default 450 s wall, compilation included) is spent; the JSON is written
-(to ``--out``, else stdout) after every part, so a run stopped from outside still leaves the
-parts done.
+from one column's CPU step count. Parts run in the order bandwidth, checks, DEM, batch,
+columns, time domain (``--parts`` picks some); each has its own time budget and is skipped, with
+a note, when the whole budget (``--budget``, default 450 s wall, compilation included) is spent;
+the JSON is written (to ``--out``, else stdout) after every part, so a run stopped from outside
+still leaves the parts done. Its ``goal_table`` gives every goal of one GPU with the measured
+value, the goal and pass/fail (:func:`goal_table`); under ``--tiny`` no row passes or fails (the
+simulator measures nothing).
+
+Exit status: 0 when the run is done (goals met or not: read ``goal_table``); 2 with one line on
+stderr when no GPU is usable and neither ``--tiny`` nor ``--dry-run`` is given, or on a bad
+``--parts``; nothing is written then.
 
 On one NVIDIA GPU (``pip install -e '.[gpu]'``) it measures, in one run:
 
@@ -313,7 +320,9 @@ def agreement(deadline: float) -> dict:
     from granwave.gpu import checks
 
     out = {}
-    for name in ("two_body", "mean_flow", "rules", "batch", "protocols", "time_domain", "pulse", "rebuild"):
+    # the batch first: it compiles the single engine's and the batched kernels, and it is the
+    # only device test of the segmented rebuild (each packing against its run alone, bitwise)
+    for name in ("batch", "two_body", "mean_flow", "rules", "protocols", "time_domain", "pulse", "rebuild"):
         if time.perf_counter() > deadline:
             out[name] = {"skipped": "time budget of the checks spent"}
             continue
@@ -421,68 +430,167 @@ STATIC_KEYS = ("phi2", "z_star", "rattler_fraction", "mean_force_over_p", "Z2", 
                "max_force_residual", "piston_balance")
 
 
-def packing_statics(grains: int, seeds: int, tiny: bool, deadline: float) -> dict:
-    """Packings of ``grains`` grains (2D, p = 1e-4; tiny: 10 grains at p = 1e-2, loose tol) for
-    seeds 0, 1, ..., prepared on the GPU and on the CPU (one core) in turn while time is left;
-    the statics (granwave.analysis.statics) of each, their means and standard errors per
-    device, whether the means agree within errors (|difference| < 3 combined standard
-    errors), and whether the GPU packings are byte-identical to the CPU ones."""
-    from granwave import api
-    from granwave.analysis.statics import statics
+def _cpu_prepare(job):
+    """One preparation on the CPU in a worker process (one thread): (seed, seconds, packing or
+    the error's text). ``job``: (params, seed)."""
+    import dataclasses
+
+    from granwave.dem.protocol import prepare_packing
+    from granwave.errors import ConvergenceError
     from granwave.threads import set_threads
 
+    params, seed = job
     set_threads(1)
-    kw = dict(grains=grains, pressure=1e-2 if tiny else 1e-4)
+    t0 = time.perf_counter()
+    try:
+        p = prepare_packing(dataclasses.replace(params, seed=seed))
+    except ConvergenceError as exc:
+        return seed, time.perf_counter() - t0, f"{type(exc).__name__}: {exc}"[:200]
+    return seed, time.perf_counter() - t0, p
+
+
+class _OutOfTime(Exception):
+    """The batch's driver passed its deadline (benchmarks only)."""
+
+
+def _timed_ensemble(deadline: float):
+    """A granwave.gpu.batch.Ensemble whose driver stops every packing once ``deadline`` is passed
+    (each protocol then raises _OutOfTime; the members keep the steps they made)."""
+    from granwave.gpu import batch as B
+
+    class Timed(B.Ensemble):
+        def advance(self, requests):
+            if time.perf_counter() > deadline:
+                raise _OutOfTime(f"time budget spent after {self.rounds} rounds")
+            return super().advance(requests)
+
+    return Timed()
+
+
+def _ensemble_statics(packings) -> list:
+    from granwave.analysis.statics import statics
+
+    rows = []
+    for p in packings:
+        s = statics(p) if p.n_grains >= 100 else statics(p, layer=0.5)  # tiny: the whole 10-grain box
+        rows.append([float(s[k]) for k in STATIC_KEYS])
+    return rows
+
+
+def _mean_err(rows, c):
+    x = np.array([r[c] for r in rows])
+    x = x[np.isfinite(x)]
+    return (float(x.mean()), float(x.std(ddof=1) / math.sqrt(len(x)))) if len(x) >= 2 else (math.nan, math.nan)
+
+
+def batch_vs_cpu(grains: int, packings: int, cpu_cores: int, tiny: bool, deadline: float, cpu_s: float,
+                 max_steps: int | None = None) -> dict:
+    """``packings`` 2D frictional packings of ``grains`` grains at p = 1e-4 (tiny: p = 1e-2,
+    tol 1e-2, ``max_steps``), seeds 0, 1, ..., prepared in one batch on the GPU (ensembles per
+    launch, granwave.gpu.batch; after a warm-up batch of two with a short step budget: the
+    kernels' compilation), then the same preparations on ``cpu_cores`` CPU cores (one process
+    per core, one thread each, seeds 0, 1, ... while ``cpu_s`` seconds last): seconds per
+    packing on each (the GPU's: the batch's wall time over its packings), their ratio; the statics
+    of the two ensembles (means, standard errors, agreement within 3 combined standard errors) and
+    how many of the seeds both made are the same bytes. The GPU batch stops at ``deadline``
+    (reported with the steps made)."""
+    import concurrent.futures as cf
+    import dataclasses
+    import multiprocessing as mp
+
+    from granwave.dem.protocol import prepare_packing
+    from granwave.errors import StepBudgetExceeded
+    from granwave.gpu import batch as B
+    from granwave.params import PrepareParams
+
+    kw = dict(grains=grains, pressure=1e-2 if tiny else 1e-4, dim=2, friction=0.5)
     if tiny:
         kw["tol"] = 1e-2
-    rows = {"cpu": [], "gpu": []}
-    identical, steps, secs, errors = [], {"cpu": [], "gpu": []}, {"cpu": [], "gpu": []}, []
-    note = None
-    for seed in range(seeds):
-        if time.perf_counter() > deadline:
-            note = f"time budget spent after {seed} seeds"
-            break
-        got = {}
-        try:
-            for device in ("gpu", "cpu"):
-                t0 = time.perf_counter()
-                p = api.prepare_packing(**kw, seed=seed, device=device)
-                secs[device].append(time.perf_counter() - t0)
-                steps[device].append(int(p.attrs["steps"]))
-                s = statics(p, layer=0.5) if tiny else statics(p)  # the default bulk layer
-                got[device] = (p, [float(s[k]) for k in STATIC_KEYS])
-        except Exception as exc:  # noqa: BLE001 - this seed is left out, said why
-            errors.append(f"seed {seed}: {type(exc).__name__}: {exc}"[:300])
-            continue
-        for device in ("gpu", "cpu"):
-            rows[device].append(got[device][1])
-        got = {d: got[d][0] for d in got}
-        a, b = got["cpu"], got["gpu"]
-        identical.append(bool(a.position.tobytes() == b.position.tobytes() and a.height == b.height
-                              and len(a.contacts) == len(b.contacts)))
-    out = {"grains": grains, "pressure": kw["pressure"], "seeds_done": len(identical), "seeds_asked": seeds,
-           "byte_identical": identical, "steps": steps, "seconds": secs}
-    if note:
-        out["note"] = note
+    if max_steps is not None:
+        kw["max_steps"] = int(max_steps)
+    params = PrepareParams(**kw)
+    out = {"grains": grains, "pressure": kw["pressure"], "packings": packings, "cpu_cores": cpu_cores,
+           "max_steps": max_steps}
+    t0 = time.perf_counter()
+    try:  # the kernels' compilation (the small packings' one-block rebuild, the batched step)
+        if not tiny:  # (the simulator compiles nothing)
+            B.prepare_packings(PrepareParams(**{**kw, "max_steps": 40}), [0, 1])
+    except StepBudgetExceeded:
+        pass
+    out["gpu_warm_up_s"] = time.perf_counter() - t0
+    ensemble = _timed_ensemble(deadline)
+    engine = ensemble.member_class()
+
+    def job(seed):  # as granwave.gpu.batch.prepare_packings, each seed's outcome kept
+        return lambda: prepare_packing(dataclasses.replace(params, seed=seed), engine=engine)
+
+    t0 = time.perf_counter()
+    outcome = ensemble.run([job(s) for s in range(packings)])
+    out["gpu_s"] = time.perf_counter() - t0
+    gpu = [v for ok, v in outcome if ok]
+    failed = [(s, v) for s, (ok, v) in enumerate(outcome) if not ok]
+    gpu_note = None
+    if any(isinstance(v, _OutOfTime) for _, v in failed):
+        gpu_note = f"not finished: time budget spent after {ensemble.rounds} rounds"
+    elif failed:
+        gpu_note = f"{len(failed)} seeds failed, first: seed {failed[0][0]}: {type(failed[0][1]).__name__}: " \
+                   f"{str(failed[0][1])[:200]}"
+    if len(gpu) < packings:
+        gpu = []  # the seeds in order are compared: a batch with failures is reported, not compared
+    members = ensemble.key[0] if ensemble.key else ()
+    out["gpu"] = {"done": len(outcome) - len(failed), "failed": len(failed), "seconds": out["gpu_s"],
+                  "per_packing_s": out["gpu_s"] / packings, "measures": ensemble.measures,
+                  "steps": sorted(int(p.attrs["steps"]) for p in gpu) if gpu else sorted(m.steps for m in members),
+                  "rounds": ensemble.rounds, "batched_steps": ensemble.steps_queued,
+                  "driver_s": ensemble.seconds, "rebuild_launches": ensemble.rebuild_launches,
+                  "launches_per_rebuild": {str(k): v for k, v in sorted(ensemble.launches_per_rebuild.items())}}
+    if gpu_note:
+        out["gpu"]["note"] = gpu_note
+    # the same work on cpu_cores cores: one process per core, seeds in order while the time lasts
+    cpu, errors = {}, []
+    t0 = time.perf_counter()
+    with cf.ProcessPoolExecutor(cpu_cores, mp_context=mp.get_context("spawn")) as pool:
+        list(pool.map(_cpu_prepare, [(PrepareParams(**{**kw, "grains": 10, "tol": 1e-2, "pressure": 1e-2}), s)
+                                     for s in range(cpu_cores)]))  # workers started, kernels loaded
+        warm = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        waiting, running = list(range(packings)), set()
+        while True:
+            while waiting and len(running) < cpu_cores and time.perf_counter() - t0 < cpu_s:
+                running.add(pool.submit(_cpu_prepare, (params, waiting.pop(0))))
+            if not running:
+                break
+            done, running = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            for f in done:
+                sd, secs, p = f.result()
+                if isinstance(p, str):
+                    errors.append(f"seed {sd}: {p}")
+                else:
+                    cpu[sd] = p
+        cpu_wall = time.perf_counter() - t0
+    n_cpu = len(cpu) + len(errors)
+    out["cpu"] = {"done": n_cpu, "converged": len(cpu), "seconds": cpu_wall, "worker_start_s": warm,
+                  "per_packing_s": cpu_wall / max(n_cpu, 1),
+                  "steps": sorted(int(p.attrs["steps"]) for p in cpu.values())}
     if errors:
-        out["errors"] = errors
-    k = len(identical)
-    if k >= 2:
+        out["cpu"]["errors"] = errors[:10]
+    out["gpu_faster_per_packing"] = bool(gpu and n_cpu and out["gpu"]["per_packing_s"] < out["cpu"]["per_packing_s"])
+    out["cpu_over_gpu_per_packing"] = out["cpu"]["per_packing_s"] / out["gpu"]["per_packing_s"] if n_cpu else None
+    common = [s for s in cpu if s < len(gpu)]
+    out["byte_identical"] = sum(bool(gpu[s].position.tobytes() == cpu[s].position.tobytes()) for s in common)
+    out["compared_seeds"] = len(common)
+    if len(gpu) >= 2 and len(cpu) >= 2:
+        rows = {"gpu": _ensemble_statics(gpu), "cpu": _ensemble_statics(cpu.values())}
         agree = {}
         for c, key in enumerate(STATIC_KEYS):
-            stats = {}
-            for device in ("cpu", "gpu"):
-                x = np.array([r[c] for r in rows[device]])
-                x = x[np.isfinite(x)]
-                stats[device] = (float(x.mean()), float(x.std(ddof=1) / math.sqrt(len(x)))) if len(x) >= 2 else (
-                    float("nan"), float("nan"))
-            (m1, e1), (m2, e2) = stats["cpu"], stats["gpu"]
+            (m1, e1), (m2, e2) = _mean_err(rows["cpu"], c), _mean_err(rows["gpu"], c)
             err = math.hypot(e1, e2)
             agree[key] = {"cpu_mean": m1, "cpu_stderr": e1, "gpu_mean": m2, "gpu_stderr": e2,
                           "agree_3_sigma": bool(abs(m1 - m2) <= 3 * err) if err > 0 else bool(m1 == m2)}
         out["statics"] = agree
         out["all_agree"] = all(v["agree_3_sigma"] for v in agree.values())
-    out["per_seed"] = {d: [dict(zip(STATIC_KEYS, r)) for r in rows[d]] for d in rows}
+    else:
+        out["statics"] = {"skipped": "fewer than two finished packings on a device"}
     return out
 
 
@@ -518,8 +626,11 @@ def column_rate(spec: dict, steps: int, columns: int = 10, rebuild_every: int = 
                   max_steps=int(steps))
         return PrepareParams(**kw)
 
-    saved = G.GpuEngine.rebuild_every
+    saved = G.GpuEngine.rebuild_every, G.GpuEngine.small_rebuild
     G.GpuEngine.rebuild_every = int(rebuild_every)  # the batch's engines are GpuEngines
+    # every column rebuilt as a large one (granwave.gpu.batch_rebuild's segmented rebuild), the
+    # tiny warm-up columns too (so they compile its kernels) and the toy columns of --tiny
+    G.GpuEngine.small_rebuild = 0
     try:
         t0 = time.perf_counter()
         try:
@@ -538,25 +649,85 @@ def column_rate(spec: dict, steps: int, columns: int = 10, rebuild_every: int = 
             pass
         secs = time.perf_counter() - t0
     finally:
-        G.GpuEngine.rebuild_every = saved
+        G.GpuEngine.rebuild_every, G.GpuEngine.small_rebuild = saved
     per_step = ensemble.seconds / steps
     return {"grains_per_column": p.grains, "columns": columns, "steps": steps, "seconds": secs,
             "stepping_seconds": ensemble.seconds, "warm_up_seconds": warm, "batched_steps": ensemble.steps_queued,
             "rounds": ensemble.rounds, "s_per_batched_step": per_step,
+            "launches_per_rebuild": {str(k): v for k, v in sorted(ensemble.launches_per_rebuild.items())},
             "grain_steps_per_s": columns * p.grains / per_step, "rebuild_every": int(rebuild_every),
             "cpu_steps_of_one_column": COLUMN_CPU_STEPS, "predicted_batch_s": per_step * COLUMN_CPU_STEPS,
             "how": "ensembles per launch (granwave.gpu.batch): the columns in one batch",
             **({"note": note} if note else {})}
 
 
-ALL_FULL = dict(total_s=450.0, checks_s=200.0, td_s=90.0, dem_s=80.0, statics_s=130.0, td=(1000, 1000),
+ALL_FULL = dict(total_s=450.0, checks_s=60.0, td_s=60.0, dem_s=60.0, batch_s=200.0, td=(1000, 1000),
                 dem_grains=1_000_000, dem_steps=2000, dem_plain_steps=200, cpu_dem_steps=30, td_steps=200,
-                cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, seeds=12, columns_s=60.0,
-                column=COLUMN, column_steps=2000, columns=10)
-ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, statics_s=3000.0, td=(6, 4),
+                cpu_td_steps=5, copy_bytes=1 << 30, packing_grains=600, packings=1000, cpu_cores=2, cpu_s=40.0,
+                batch_max_steps=None, columns_s=60.0, column=COLUMN, column_steps=2000, columns=10)
+ALL_TINY = dict(total_s=3000.0, checks_s=1500.0, td_s=300.0, dem_s=600.0, batch_s=600.0, td=(6, 4),
                 dem_grains=40, dem_steps=30, dem_plain_steps=3, cpu_dem_steps=3, td_steps=3, cpu_td_steps=3,
-                copy_bytes=1 << 12, packing_grains=10, seeds=2, columns_s=600.0, column=COLUMN_TINY,
-                column_steps=20, columns=3)
+                copy_bytes=1 << 12, packing_grains=10, packings=2, cpu_cores=2, cpu_s=60.0, batch_max_steps=3,
+                columns_s=600.0, column=COLUMN_TINY, column_steps=20, columns=3)
+#: The parts of --all, in the order they run (``--parts`` picks some).
+PARTS = ("bandwidth", "checks", "dem", "batch", "columns", "time_domain")
+#: Wall-time goal of the whole --all run (s, compilation included).
+ALL_WALL_GOAL_S = 480.0
+#: The goal on ten 2048 d columns in one batch (s).
+COLUMNS_GOAL_S = 600.0
+#: When this module started (the --all wall time counts the imports and compilation too).
+T_START = time.perf_counter()
+
+
+def goal_table(res: dict) -> dict:
+    """The issue's goals on one GPU, each with the measured value, the goal and pass/fail (None:
+    not measured, said why). Under the simulator (``--tiny``) nothing is a measurement: every
+    ``pass`` is None and ``measurement`` false."""
+    sim = bool(res.get("simulator"))
+
+    def get(*path):
+        x = res
+        for k in path:
+            if not isinstance(x, dict) or k not in x:
+                return None
+            x = x[k]
+        return x
+
+    rows = {}
+
+    def row(name, what, measured, goal, better, source):
+        ok = None
+        if measured is not None and not sim and isinstance(measured, (int, float)) and math.isfinite(measured):
+            ok = bool(measured >= goal) if better == ">=" else bool(measured < goal)
+        rows[name] = {"what": what, "measured": measured, "goal": f"{better} {goal:g}", "pass": ok,
+                      "from": source}
+        if measured is None:
+            rows[name]["note"] = "not measured in this run (part skipped, failed or not asked)"
+
+    rates = [get("dem", k, "grain_steps_per_s") for k in ("gpu", "gpu_rebuild_every_8")]
+    rates = [r for r in rates if r is not None]
+    row("dem_rate", "DEM grain-steps/s at 1e6 grains, device rebuilds (best of the rebuild tests every step "
+        "and every 8 steps)", max(rates) if rates else None, GOALS["dem_rate"], ">=", "dem")
+    row("td_speedup", "time-domain step, GPU over one core", get("time_domain", "speedup_vs_one_core"),
+        GOALS["td_speedup"], ">=", "time_domain")
+    row("td_roofline", "time-domain step, fraction of the copy roofline", get("time_domain", "roofline_fraction"),
+        GOALS["td_roofline"], ">=", "time_domain")
+    row("columns_s", "ten 2048 d mean-flow columns in one batch, predicted whole batch (s)",
+        get("columns", "predicted_batch_s"), COLUMNS_GOAL_S, "<", "columns")
+    ratio = get("batch", "cpu_over_gpu_per_packing") if get("batch", "gpu", "note") is None else None
+    row("batch_per_packing", f"{get('batch', 'packings')} packings of {get('batch', 'grains')} grains in one "
+        f"batch: CPU ({get('batch', 'cpu_cores')} cores) seconds per packing over GPU seconds per packing",
+        ratio, 1.0, ">=", "batch")
+    agree = get("batch", "all_agree")
+    row("ensemble_statics", "GPU ensemble's statics within 3 combined standard errors of the CPU ensemble's "
+        "(1: every one)", None if agree is None else float(agree), 1.0, ">=", "batch")
+    row("all_wall_s", "benchmarks/gpu.py --all wall time, imports and compilation included (s)", res.get("wall_s"),
+        ALL_WALL_GOAL_S, "<", "wall_s")
+    if sim:
+        for r in rows.values():
+            r["measurement"] = False
+            r["note"] = "CUDA simulator at toy sizes: not a measurement"
+    return rows
 
 
 def run_all(args) -> int:
@@ -569,7 +740,8 @@ def run_all(args) -> int:
            "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), "goals": GOALS}
 
     def write() -> None:
-        res["wall_s"] = time.perf_counter() - start
+        res["wall_s"] = time.perf_counter() - T_START
+        res["goal_table"] = goal_table(res)
         text = json.dumps(res, indent=1, default=float)
         if args.out:
             tmp = args.out + ".tmp"
@@ -581,8 +753,12 @@ def run_all(args) -> int:
         print(f"[gpu.py {time.strftime('%H:%M:%S')} +{time.perf_counter() - start:.0f}s] {what}", file=sys.stderr,
               flush=True)
 
+    parts = PARTS if not args.parts else tuple(x.strip() for x in args.parts.split(","))
+
     def part(name: str, budget: float, fn) -> None:
         left = end - time.perf_counter()
+        if name not in parts:
+            return
         if left < 0.25 * budget:
             res[name] = {"skipped": f"whole time budget spent ({left:.0f} s left, part budget {budget:.0f} s)"}
             stage(f"{name}: skipped")
@@ -636,8 +812,9 @@ def run_all(args) -> int:
     part("checks", size["checks_s"], agreement)
     # the new parts first; the time domain (its code unchanged, measured before) last
     part("dem", size["dem_s"], do_dem)
-    part("packings", size["statics_s"],
-         lambda deadline: packing_statics(size["packing_grains"], size["seeds"], args.tiny, deadline))
+    part("batch", size["batch_s"],
+         lambda deadline: batch_vs_cpu(size["packing_grains"], size["packings"], size["cpu_cores"], args.tiny,
+                                       deadline - size["cpu_s"], size["cpu_s"], size["batch_max_steps"]))
     part("columns", size["columns_s"],
          lambda deadline: column_rate(size["column"], size["column_steps"], size["columns"]))
     part("time_domain", size["td_s"], do_td)
@@ -660,7 +837,11 @@ def main(argv=None) -> int:
     ap.add_argument("--all", action="store_true", help="the one prepared measurement (module docstring)")
     ap.add_argument("--out", help="with --all: write the JSON here (else stdout)")
     ap.add_argument("--budget", type=float, help="with --all: whole wall-time budget in seconds (default 450)")
+    ap.add_argument("--parts", help=f"with --all: the parts to run, comma-separated (default all: {','.join(PARTS)})")
     args = ap.parse_args(argv)
+    if args.parts and not set(x.strip() for x in args.parts.split(",")) <= set(PARTS):
+        print(f"benchmarks/gpu.py: --parts: expected some of {','.join(PARTS)} (got {args.parts!r})", file=sys.stderr)
+        return 2
     size = TINY if args.tiny else FULL
     if args.dry_run:
         print(json.dumps({"plan": plan(size), "goals": GOALS}, indent=1))

@@ -160,8 +160,9 @@ def test_gpu_linear_kernels_compile_to_ptx():
 
 @pytest.mark.parametrize("dim,rot", [(2, 1), (2, 0), (3, 3)])
 def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
-    """The kernels of ensembles per launch (granwave.gpu.batch): concatenated grains and pairs,
-    one row per packing of pistons, parameters, rates, slabs, reductions and control words."""
+    """The kernels of ensembles per launch (granwave.gpu.batch, and the segmented rebuild of
+    granwave.gpu.batch_rebuild): concatenated grains and pairs, one row per packing of pistons,
+    parameters, rates, slabs, reductions and control words."""
     _nvvm_or_skip()
     from granwave.dem import layout
     from granwave.gpu import batch as B
@@ -202,8 +203,33 @@ def test_gpu_batch_kernels_compile_to_ptx(dim, rot):
                                  np.zeros(n + k, np.int64), i64, i64, p2(dim), np.zeros(m), i64, i64, p2(dim),
                                  np.zeros(m), np.zeros(2 * m, np.int64), np.zeros(n + k, np.int64),
                                  np.zeros(2 * m, np.int64), off, off, off, kv),
+        B.measure_batch: _types(f2(dim), f2(dim), f2(rot), f2(rot), v, v, v, np.zeros((k, 5)), off),
     }
     assert set(sigs) == set(B.KERNELS)
+    from granwave.gpu import batch_rebuild as BR
+
+    # the segmented rebuild of the large packings (batch-long cells and sums; ctl per packing)
+    i2 = np.zeros((n, 2), np.int64)
+    c2 = np.zeros((4, 2), np.int64)
+    c2p = np.zeros((5, 2), np.int64)
+    g2p = np.zeros((n + 1, 2), np.int64)
+    gpk = np.zeros((n + k, 2), np.int64)
+    ipk = np.zeros(n + k, np.int64)
+    i2m = np.zeros(2 * m, np.int64)
+    any_ctl = np.zeros(B.N_CTL, np.int64)
+    sigs_rb = {
+        BR.rb_trigger_batch: _types(np.zeros((k, G.N_RED)), fps, pss, lat, ctl, off, kv, any_ctl),
+        BR.rb_cell_count_batch: _types(f2(dim), lat, pss, ctl, gi, c2, off, gi),
+        BR.rb_cell_fill_batch: _types(ctl, gi, c2, c2p, gi, off, off, gi),
+        BR.rb_count_batch: _types(f2(dim), v, lat, fps, ctl, gi, c2p, gi, i2m, i2, off, off, gi),
+        BR.rb_fill_batch: _types(f2(dim), v, lat, fps, ctl, gi, c2p, gi, g2p, gpk, i2m, off, off, off, gi),
+        BR.rb_merge_batch: _types(ctl, gpk, i2m, ipk, i64, p2(dim), np.zeros(m), i64, i64, p2(dim), np.zeros(m), i2m,
+                                  off, off, gi),
+        BR.rb_commit_batch: _types(ctl, gpk, f2(dim), f2(dim), i64, i64, p2(dim), np.zeros(m), i2m, i64, i64,
+                                   p2(dim), np.zeros(m), ipk, ipk, i2m, c2, off, off, off, any_ctl),
+    }
+    assert set(sigs_rb) == set(BR.KERNELS)
+    sigs.update(sigs_rb)
     for kernel, sig in sigs.items():
         ptx, _ = cuda.compile_ptx(kernel.py_func, sig, cc=(9, 0))
         assert ".target sm_90" in ptx

@@ -1,6 +1,9 @@
 """Append one run of ``benchmarks/gpu.py --all`` (its JSON file) to gpu.jsonl, with headline numbers.
 
     python benchmarks/results/record_gpu.py RUN.json --revision REV [--notes TEXT]
+    python benchmarks/results/record_gpu.py RUN.json --revision REV --print   # the headline only
+
+A run of the CUDA simulator (``--tiny``) is refused (exit status 2): its numbers are no measurement.
 
 The headline (``summary``) is computed from the run's own fields, never typed: the DEM and
 time-domain rates with their ratios to one core and to the goals, the agreement checks and
@@ -11,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -53,6 +57,25 @@ def headline(run: dict) -> dict:
             + ", ".join(f"{k} {'yes' if v['agree_3_sigma'] else 'no'}" for k, v in st.items()))
         out["packing seconds, GPU / CPU (means)"] = round(
             sum(pk["seconds"]["gpu"]) / max(sum(pk["seconds"]["cpu"]), 1e-300), 1)
+    b = run.get("batch")
+    if isinstance(b, dict) and "gpu" in b and "cpu" in b:  # packings in one batch against CPU cores
+        g, c = b["gpu"], b["cpu"]
+        out[f"{b['packings']} packings of {b['grains']} grains in one batch: s per packing, GPU and "
+            f"{b['cpu_cores']} CPU cores"] = {
+            "values": (f"{g['per_packing_s']:.3g} ({g['done']} done in {g['seconds']:.3g} s"
+                       + (f"; {g['note']}" if "note" in g else "") + f"), {c['per_packing_s']:.3g} "
+                       f"({c['done']} packings in {c['seconds']:.3g} s)"),
+            "ratio": None if b.get("cpu_over_gpu_per_packing") is None else round(b["cpu_over_gpu_per_packing"], 2),
+            "goal": 1.0}
+        st = b.get("statics", {})
+        if "skipped" not in st:
+            out["batch ensembles' statics within 3 s.e. (GPU vs CPU)"] = ", ".join(
+                f"{k} {'yes' if v['agree_3_sigma'] else 'no'}" for k, v in st.items())
+    for name, r in run.get("goal_table", {}).items():  # the goals: measured, goal, pass
+        verdict = "not measured" if r.get("pass") is None else ("pass" if r["pass"] else "FAIL")
+        m = r.get("measured")
+        out[f"goal {name}"] = f"{verdict}: {m:.4g} ({r['goal']})" if isinstance(m, (int, float)) else (
+            f"{verdict} ({r['goal']})")
     col = run.get("columns", "")
     if isinstance(col, dict) and "s_per_batched_step" in col:  # columns in one batch (ensembles per launch)
         out[f"{col['columns']} mean-flow columns of {col['grains_per_column']} grains in one batch: s/step; "
@@ -65,7 +88,7 @@ def headline(run: dict) -> dict:
             f"{col['s_per_step']:.3g} s/step over {col['steps']} steps; {col['predicted_one_column_s'] / 3600:.3g} h "
             f"for one column ({col['cpu_steps_of_one_column']} steps, its CPU run); ten in one batch: "
             f"{col['ten_in_one_batch']}")
-    else:  # older runs (a sentence), or a part skipped or failed
+    elif "columns" in run:  # older runs (a sentence), or a part skipped or failed
         out["columns (ten 2048 d)"] = (col.get("skipped") or col.get("error", "")) if isinstance(col, dict) else col
     out["wall time of the run (s)"] = round(run.get("wall_s", float("nan")), 1)
     return out
@@ -76,8 +99,16 @@ def main(argv=None) -> None:
     ap.add_argument("run")
     ap.add_argument("--revision", required=True, help="the git revision that ran")
     ap.add_argument("--notes", default="")
+    ap.add_argument("--print", action="store_true", help="print the headline only (nothing recorded)")
     args = ap.parse_args(argv)
     run = json.loads(Path(args.run).read_text())
+    if args.print:
+        print(json.dumps(headline(run), indent=1))
+        return 0
+    if run.get("simulator"):
+        print(f"record_gpu.py: {args.run} is a CUDA-simulator run (--tiny): not a measurement, not recorded",
+              file=sys.stderr)
+        return 2
     v = run.get("versions", {})
     rec = {"date": run["date"][:10], "benchmark": "gpu", "command": run.get("benchmark", "benchmarks/gpu.py --all"),
            "git_revision": args.revision,
@@ -87,7 +118,8 @@ def main(argv=None) -> None:
            "summary": headline(run), "notes": args.notes, "result": run}
     with open(HERE / "gpu.jsonl", "a") as f:
         f.write(json.dumps(rec) + "\n")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -19,7 +19,10 @@ One step is seven kernels for all packings together: the device rebuild of the p
 most ``small_rebuild`` grains (one block per packing, :func:`rb_small_batch`; with no rebuild
 due a block returns at once), kick and drift, pair forces, the two of the mean-flow rule, grain
 forces, the partial reductions on a grid of NPART x packings, the final reductions on one block
-per packing. A larger packing's rebuild (twelve kernels) is launched for it alone.
+per packing. The larger packings' rebuild is one segmented launch sequence for all of them
+(:mod:`granwave.gpu.batch_rebuild`: the twelve launches of one packing's rebuild, whatever their
+number). Both rebuilds take a per-packing mask of the packings whose turn it is
+(``GpuEngine.rebuild_every``); the others keep their lists.
 
 The protocols run in threads, one per packing, that take turns (one lock): a packing's
 ``engine.run(n)`` hands its request to the driver (the calling thread of :meth:`Ensemble.run`)
@@ -34,6 +37,7 @@ enlarged (a new layout) and it goes on from the step that stopped, as the single
 
 from __future__ import annotations
 
+import collections
 import math
 import threading
 import time
@@ -43,9 +47,11 @@ import numpy as np
 from ..dem import kernels as K
 from ..dem.mean_flow import M_SLAB, N_MFLOW
 from . import load_cuda, simulated
+from . import batch_rebuild as BR
 from . import dem as G
 from . import mean_flow as MF
 from . import neighbours as NB
+from . import reductions as R
 from .neighbours import C_NPAIRS, C_STATUS, C_STEPS, N_CTL
 
 cuda = load_cuda()
@@ -188,9 +194,19 @@ def rb_small_batch(red, fpars, pistons, lateral, pos, rad, pos0, ctl, cell, ccou
               inc_ptr[o + k:e + k + 1], inc_code[2 * a:2 * b])
 
 
+@cuda.jit
+def measure_batch(vel, acc, omega, alpha, mass, inertia, rad, stat, goff):
+    """:func:`granwave.gpu.reductions.measure_kernel`, block k for packing k (the convergence
+    check's measures of every packing in one launch)."""
+    k = cuda.blockIdx.x
+    o, e = goff[k], goff[k + 1]
+    R._measure(cuda.threadIdx.x, vel[o:e], acc[o:e], omega[o:e], alpha[o:e], mass[o:e], inertia[o:e], rad[o:e],
+               stat[k])
+
+
 #: Every kernel of this module (compiled to PTX by tests/test_gpu_ptx.py).
 KERNELS = (kick_drift_batch, pair_forces_batch, slab_bin_batch, slab_sums_batch, grain_forces_batch,
-           step_partials_batch, finish_batch, rb_small_batch)
+           step_partials_batch, finish_batch, rb_small_batch, measure_batch)
 
 
 def _blocks(n: int) -> int:
@@ -217,9 +233,15 @@ class BatchMember(G.GpuEngine):
     def step(self) -> int:
         raise RuntimeError("a batch member steps with its ensemble (Ensemble.step)")
 
+    def set_dt(self, dt: float) -> None:
+        """The time step on the host; the ensemble writes the changed parameters of all its
+        members to the device at once after their checks (:meth:`Ensemble.advance`)."""
+        self.fpar.dt = dt
+        self.ensemble.fpar_changed.add(self)
+
     def upload(self) -> None:
         """The host state into the member's slices (what :meth:`GpuEngine.upload` copies, the
-        same values), and fresh rebuild work arrays."""
+        same values); the rebuilds' work arrays are the ensemble's (:meth:`Ensemble.cells`)."""
         g, gp = self.g, self.gp
         for name in (*STATE, "radius", "mass", "inertia", "lateral", "wall_ft", "wall_ov"):
             _put(g[name], getattr(self, name))
@@ -249,8 +271,7 @@ class BatchMember(G.GpuEngine):
         _put(gp["ptr"], ptr)
         _put(gp["code"], code2)
         _put(gp["row"], row_)
-        gp.update(self._rebuild_work(max(len(self.pair_i), 1)))
-        self._queued = 0
+        self._queued = 0  # (the rebuild's work arrays are the ensemble's: Ensemble.layout, Ensemble.cells)
 
 
 def _put(view, host) -> None:
@@ -273,7 +294,13 @@ class Ensemble:
         self.rounds = 0  # rounds of requests advanced together (for the record)
         self.steps_queued = 0  # batched steps queued (each advances every running packing by one)
         self.small_rebuild_launches = 0  # launches of rb_small_batch (one for all small packings)
+        self.rebuild_launches = 0  # launches of both rebuilds, in all
+        #: steps by the launches their rebuilds took ({launches: steps}): a batch's large packings
+        #: take batch_rebuild.LAUNCHES together (the simulator: 1 where none of them is due)
+        self.launches_per_rebuild = collections.Counter()
         self.seconds = 0.0  # wall time in the driver's rounds (uploads, steps, checks, downloads)
+        self.fpar_changed: set = set()  # members whose parameters the device must be given (set_dt)
+        self.measures = 0  # launches of measure_batch (one for the checks of all packings at a stop)
 
     def member_class(self) -> type:
         """The engine class for the protocol (``engine=``): its engines join this ensemble."""
@@ -338,9 +365,11 @@ class Ensemble:
         live = list(requests)
         self.layout(live)
         results = {}
+        done = []
         for m in live:
             m.upload()
         self.cells(live)
+        self.fpar_changed.clear()  # (uploaded)
         for m in list(live):
             m.target = m.steps + requests[m]
             m.room_needed = 0
@@ -360,10 +389,12 @@ class Ensemble:
                 for m in live:
                     m.upload()
                 self.cells(live)
+                self.fpar_changed.clear()
                 continue
             self.chunk(running)
             ctl = self.d["ctl"].copy_to_host()
             red = self.d["red"].copy_to_host()
+            measured = None
             for m in running:
                 status, needed = m._read_counters(ctl[m.k], red[m.k])
                 if status == 2:
@@ -373,16 +404,43 @@ class Ensemble:
                 if status == 3:
                     result = 3
                 elif int(m.ipar.check) > 0 and m.steps % int(m.ipar.check) == 0:
-                    status = m._check()
+                    if measured is None:  # every packing's measures and piston in one launch, two reads
+                        measured = self.measure()
+                    status = m._check_from(measured[0][m.k], measured[1][m.k:m.k + 1])
                     if status:
                         result = status
                 if result is None and m.steps >= m.target:
                     result = 0
                 if result is not None:
-                    m.download()
-                    results[m] = result
-                    live.remove(m)
+                    done.append((m, result))
+            self.write_fpars()
+            for m, result in done:
+                m.download()
+                results[m] = result
+                live.remove(m)
+            done.clear()
         return results
+
+    def measure(self) -> tuple:
+        """(measures, pistons) of every packing, read from the device: the convergence check's
+        (:func:`measure_batch`, the single engine's measure per packing)."""
+        d = self.d
+        self.measures += 1
+        measure_batch[len(self.key[0]), G.RBLOCK](d["velocity"], d["acceleration"], d["angular_velocity"],
+                                                  d["angular_acceleration"], d["mass"], d["inertia"], d["radius"],
+                                                  d["stat"], d["goff"])
+        return d["stat"].copy_to_host(), d["pistons"].copy_to_host()
+
+    def write_fpars(self) -> None:
+        """The parameters of the members whose checks changed them (their time step) to the
+        device, in one copy (GpuEngine.set_dt copies each engine's own)."""
+        if not self.fpar_changed:
+            return
+        fp = self.d["fpars"].copy_to_host()
+        for m in self.fpar_changed:
+            fp[m.k] = K.as_array(m.fpar)[0]
+        self.d["fpars"].copy_to_device(fp)
+        self.fpar_changed.clear()
 
     def chunk(self, running: list) -> int:
         """Queue the steps up to each running member's next stop (its next check, the end of its
@@ -404,25 +462,28 @@ class Ensemble:
 
     def step(self, active: list) -> None:
         """Queue one step of every packing (those paused return at once): the rebuilds of the
-        ``active`` ones (each its own launch, on every k-th step as GpuEngine.step), then the
-        batched kernels."""
-        due = [m for m in active if m._queued % max(1, int(m.rebuild_every)) == 0]
+        ``active`` ones whose turn it is (on every k-th step, as GpuEngine.step; the small ones
+        by one launch of :func:`rb_small_batch`, the large ones by one segmented rebuild), then
+        the batched kernels."""
+        due = frozenset(m.k for m in active if m._queued % max(1, int(m.rebuild_every)) == 0)
         for m in active:
             m._queued += 1
         d = self.d
-        small = [m for m in due if m.k in self.small]
-        # one launch for the small packings when each of them that steps is due (always with the
-        # default rebuild_every = 1); the others, or all when their turns differ, launch their own
-        if small and len(small) == len([m for m in active if m.k in self.small]):
-            rb_small_batch[len(self.key[0]), G.RBLOCK](
-                d["red"], d["fpars"], d["pistons"], d["lateral"], d["position"], d["radius"], d["pos0"], d["ctl"],
-                d["cell"], d["ccount"], d["cstart"], d["members"], d["gcnt"], d["gptr"], d["nbr"], d["row"], d["i"],
-                d["j"], d["ft"], d["ov"], d["ni"], d["nj"], d["nft"], d["nov"], d["ncode"], d["ptr"], d["code"],
-                d["goff"], d["poff"], d["coff"], d["small"])
-            self.small_rebuild_launches += 1
-            due = [m for m in due if m not in small]
-        for m in due:
-            NB.launch_rebuild(m.g, m.gp, m.small_rebuild)
+        launches = 0
+        if due:
+            small, large = self._masks(due)
+            if small is not None:
+                rb_small_batch[len(self.key[0]), G.RBLOCK](
+                    d["red"], d["fpars"], d["pistons"], d["lateral"], d["position"], d["radius"], d["pos0"],
+                    d["ctl"], d["cell"], d["ccount"], d["cstart"], d["members"], d["gcnt"], d["gptr"], d["nbr"],
+                    d["row"], d["i"], d["j"], d["ft"], d["ov"], d["ni"], d["nj"], d["nft"], d["nov"], d["ncode"],
+                    d["ptr"], d["code"], d["goff"], d["poff"], d["coff"], small)
+                self.small_rebuild_launches += 1
+                launches += 1
+            if large is not None:
+                launches += BR.launch(d, large, len(self.key[0]))
+        self.rebuild_launches += launches
+        self.launches_per_rebuild[launches] += 1
         n = d["position"].shape[0]
         nb = _blocks(n)
         kick_drift_batch[nb, G.BLOCK](d["position"], d["velocity"], d["acceleration"], d["angular_velocity"],
@@ -451,6 +512,20 @@ class Ensemble:
         finish_batch[npack, G.RBLOCK](d["part"], d["pistons"], d["fpars"], d["mflow"], d["mlen"], d["red"],
                                       d["ctl"])
         self.steps_queued += 1
+
+    def _masks(self, due: frozenset) -> tuple:
+        """Device masks (one int64 per packing) of the small and of the large packings of ``due``
+        (None where there are none), kept per set of packings for the layout."""
+        if due not in self._mask_cache:
+            npack = len(self.key[0])
+            masks = []
+            for want in (True, False):
+                ks = [k for k in due if (k in self.small) == want]
+                host = np.zeros(npack, np.int64)
+                host[ks] = 1
+                masks.append(cuda.to_device(host) if ks else None)
+            self._mask_cache[due] = tuple(masks)
+        return self._mask_cache[due]
 
     def layout(self, members: list) -> None:
         """Device arrays for ``members`` (kept when the members and their pair capacities are
@@ -490,10 +565,11 @@ class Ensemble:
             tqj=z((p, max(r, 1))), delta=z(p), code=z(2 * p, np.int64), ptr=z(n + npack, np.int64),
             row=z(n + npack, np.int64), goff=to(goff), poff=to(poff),
             # the batched one-block rebuild's work arrays (rb_small_batch; cells: Ensemble.cells)
-            cell=z(n, np.int64), members=z(n, np.int64), gcnt=z((n, 2), np.int64), gptr=z((n + npack, 2), np.int64),
+            # (gcnt zeroed: the segmented rebuild's scan sums every packing's rows, due or not)
+            cell=z(n, np.int64), members=z(n, np.int64), gcnt=to(np.zeros((n, 2), np.int64)),
+            gptr=z((n + npack, 2), np.int64),
             nbr=z(2 * p, np.int64), ni=z(p, np.int64), nj=z(p, np.int64), nft=z((p, hist)), nov=z(p),
             ncode=z(2 * p, np.int64),
-            small=to(np.array([m.position.shape[0] <= m.small_rebuild for m in members], np.int64)),
             gk=to(np.repeat(np.arange(npack, dtype=np.int64), sizes)),
             pk=to(np.repeat(np.arange(npack, dtype=np.int64), caps)))
         grain = ("position", "velocity", "acceleration", "angular_velocity", "angular_acceleration", "pos0",
@@ -513,20 +589,19 @@ class Ensemble:
         self.key = key
         self.mean_flow = any(m.mflow.shape[0] > 0 for m in members)
         self.small = {k for k, m in enumerate(members) if m.position.shape[0] <= m.small_rebuild}
+        self._mask_cache = {}
 
     def cells(self, members: list) -> None:
-        """The batched rebuild's cell arrays after the members' uploads: each packing's cells as
-        its own upload sized them (GpuEngine._rebuild_work), counts zero."""
-        ncell = np.zeros(len(self.key[0]), np.int64)
+        """The rebuilds' cell arrays after the members' uploads: each packing's cells as
+        GpuEngine's upload sizes them (granwave.gpu.neighbours.cell_capacity, from the piston's
+        height now), counts zero; the segmented rebuild's sums (granwave.gpu.batch_rebuild.work)."""
+        ncell = np.ones(len(self.key[0]), np.int64)  # a packing not in this round: paused, one cell
         for m in members:
-            ncell[m.k] = m.gp["ccount"].shape[0]
-        for m in self.key[0]:
-            if m not in members:  # not in this round: paused, but its rows must exist
-                ncell[m.k] = 1
+            ncell[m.k] = NB.cell_capacity(m.lateral, m.piston.h, m.fpar.r_max, m.fpar.skin_max)
         coff = np.concatenate([[0], np.cumsum(ncell)]).astype(np.int64)
         self.d.update(ccount=cuda.to_device(np.zeros((int(coff[-1]), 2), np.int64)),
                       cstart=cuda.device_array((int(coff[-1]) + len(ncell), 2), np.int64), coff=cuda.to_device(coff))
-
+        self.d.update(BR.work(self.d["position"].shape[0], int(coff[-1])))
 
 
 def prepare_packings(params, seeds, progress=None, ensemble: Ensemble | None = None, checkpoints=None) -> list:

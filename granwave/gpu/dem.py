@@ -528,11 +528,16 @@ class GpuEngine(Engine):
     def _check(self) -> int:
         """The CPU engine's check (every ``check_every`` steps): 3 blown up, 1 converged
         candidate, else 0; adapts the time step."""
-        fpar, ipar, out, piston, g = self.fpar, self.ipar, self.out, self.piston, self.g
+        g = self.g
         measure_kernel[1, RBLOCK](g["velocity"], g["acceleration"], g["angular_velocity"],
                                   g["angular_acceleration"], g["mass"], g["inertia"], g["radius"], g["stat"])
-        stat = g["stat"].copy_to_host()
-        K.copy_record(piston, g["piston"].copy_to_host())
+        return self._check_from(g["stat"].copy_to_host(), g["piston"].copy_to_host())
+
+    def _check_from(self, stat: np.ndarray, piston_rec: np.ndarray) -> int:
+        """:meth:`_check` from the measures (``stat``) and the piston's record read from the
+        device (the batched engine reads every packing's at once)."""
+        fpar, ipar, out, piston = self.fpar, self.ipar, self.out, self.piston
+        K.copy_record(piston, piston_rec)
         out.a_max = math.sqrt(stat[S_AMAX2])
         out.alpha_max = math.sqrt(stat[S_ALMAX2])
         out.v_max = math.sqrt(stat[S_VMAX2])

@@ -177,7 +177,13 @@ def _finish(part, piston, fpar, mflow, red, ctl):
 @cuda.jit
 def measure_kernel(vel, acc, omega, alpha, mass, inertia, rad, stat):
     """One block: largest |a|^2, |alpha|^2, |v|^2, |w|^2 R^2 and the grains' kinetic energy."""
-    t = cuda.threadIdx.x
+    _measure(cuda.threadIdx.x, vel, acc, omega, alpha, mass, inertia, rad, stat)
+
+
+@cuda.jit(device=True)
+def _measure(t, vel, acc, omega, alpha, mass, inertia, rad, stat):
+    """:func:`measure_kernel`'s block (thread t of RBLOCK; the batched engine's
+    :func:`granwave.gpu.batch.measure_batch` calls it per packing)."""
     n = vel.shape[0]
     s_a = cuda.shared.array(RBLOCK, np.float64)
     s_al = cuda.shared.array(RBLOCK, np.float64)
