@@ -69,3 +69,83 @@ def test_seed_ranges_count_what_parse_seeds_lists():
     for spec in ("0-9", "1,4-6", "7", "3-3,10-12,5"):
         seeds = parse_seeds(spec)
         assert len(seeds) == sum(b - a + 1 for a, b in seed_ranges(spec)) == len(set(seeds))
+
+
+# ---------------------------------------------------------------- checkpoints
+CK_RUN = ["prepare-packing", "--grains", 12, "--seed", 3, "--checkpoint-every", 0]
+
+
+@pytest.fixture(scope="module")
+def budget_checkpoint(tmp_path_factory):
+    """A checkpoint kept after a step-budget failure (1000 steps), and the bytes of the same
+    preparation run whole."""
+    import h5py
+
+    folder = tmp_path_factory.mktemp("ck")
+    ck, out = folder / "ck.h5", folder / "p.h5"
+    r = run([*CK_RUN, "--max-steps", 1000, "--checkpoint", ck, "-o", out, "-q"])
+    assert r.exit_code == 1 and "1000 steps did not converge" in r.output, r.output
+    assert "kept at step 1000" in r.output and "larger --max-steps" in r.output
+    assert ck.exists() and not out.exists()
+    whole = folder / "whole.h5"
+    assert run([*CK_RUN[:5], "-o", whole, "-q"]).exit_code == 0
+    with h5py.File(whole) as f:
+        position = f["grains/position"][()]
+    return ck, position
+
+
+def test_a_checkpoint_kept_after_a_budget_failure_resumes_with_a_larger_budget(budget_checkpoint, tmp_path):
+    """It could only be resumed with the same budget (the budget was in its digest), which
+    failed again: a larger one goes on from it to the bytes of a run made whole."""
+    import shutil
+
+    import h5py
+    import numpy as np
+
+    ck, position = budget_checkpoint
+    mine = shutil.copy(ck, tmp_path / "ck.h5")
+    out = tmp_path / "p.h5"
+    r = run([*CK_RUN, "--max-steps", 100000, "--checkpoint", mine, "-o", out, "-q"])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        assert np.array_equal(f["grains/position"][()], position)
+        assert f.attrs["max_steps"] == 100000
+    assert not (tmp_path / "ck.h5").exists()
+
+
+def test_a_checkpoint_damaged_anywhere_is_refused_in_one_line(budget_checkpoint, tmp_path):
+    """Bytes overwritten in the middle of a checkpoint ended in an h5py RuntimeError (a
+    truncated one was refused cleanly): wherever the damage falls, the run is refused in one
+    line naming the checkpoint (its state digest catches damage inside a dataset) or, where the
+    bytes were unused, resumes."""
+    import numpy as np
+
+    ck, _ = budget_checkpoint
+    data = ck.read_bytes()
+    rng = np.random.default_rng(66)
+    outcomes = set()
+    for k, offset in enumerate(sorted(rng.integers(0, len(data) - 64, size=10))):
+        damaged = tmp_path / f"ck{k}.h5"
+        damaged.write_bytes(data[:offset] + bytes(rng.integers(0, 256, 64, dtype=np.uint8)) + data[offset + 64:])
+        out = tmp_path / f"p{k}.h5"
+        r = run([*CK_RUN, "--max-steps", 1001, "--checkpoint", damaged, "-o", out, "-q"])
+        if r.exit_code == 1:  # resumed: one more step, the budget again
+            assert "1001 steps did not converge" in r.output, r.output
+            outcomes.add("resumed")
+            continue
+        one_line_refusal(r, str(damaged))
+        assert not out.exists()
+        outcomes.add("refused")
+    assert "refused" in outcomes
+    truncated = tmp_path / "short.h5"
+    truncated.write_bytes(data[: len(data) // 2])
+    one_line_refusal(run([*CK_RUN, "--checkpoint", truncated, "-o", tmp_path / "t.h5"]), "short.h5")
+
+
+def test_another_runs_checkpoint_names_the_differences(budget_checkpoint, tmp_path):
+    """The refusal printed the whole parameter dictionary on one line: it names what differs."""
+    ck, _ = budget_checkpoint
+    line = one_line_refusal(run(["prepare-packing", "--grains", 12, "--seed", 4, "--pressure", 1e-3,
+                                 "--checkpoint", ck, "-o", tmp_path / "p.h5"]), "belongs to another")
+    assert "seed 3 (this run: 4)" in line and "pressure 0.0001 (this run: 0.001)" in line
+    assert "polydispersity" not in line and len(line) < 300
