@@ -583,8 +583,14 @@ def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
     if system is not None and p.prestress and not bool(system.attrs.get("prestress", False)):
         raise InputError("--prestress conflicts with the linear file (built without prestress)")
     _threads(threads)
-    return compute(packing, local=p.local, prestress=p.prestress, amplitude=p.amplitude, grip=p.grip,
-                   system=system, force=p.force, layer=p.layer)
+    res = compute(packing, local=p.local, prestress=p.prestress, amplitude=p.amplitude, grip=p.grip,
+                  system=system, force=p.force, layer=p.layer)
+    # the packing's identity: the analyses that pair moduli with a signal check it belongs
+    # (granwave.cli.moduli_files.moduli_mismatch)
+    a = packing.attrs
+    res.update({k: a[k] for k in ("packing_digest", "pressure", "friction", "seed") if k in a})
+    res["height"] = float(packing.box[-1])
+    return res
 
 
 def _signal_height(signal: Signal) -> float:

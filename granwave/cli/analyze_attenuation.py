@@ -56,8 +56,16 @@ def attenuation(signals, moduli_paths, as_json, **options):
     params = params_from(AttenuationParams, options)
     if not signals:
         raise InputError("no signal files given")
+    from .analyze_continuum import distinct_files
+    from .moduli_files import check_moduli_of
+
+    distinct_files(signals, "signal")
+    sigs = [read_signal(p) for p in signals]
+    if len(moduli_paths) == len(signals):  # one per signal, in their order: each of its packing
+        distinct_files(moduli_paths, "--moduli")
+        check_moduli_of(moduli_paths, sigs, signals)
     c_l, omega_cutoff = reference_speeds(params, moduli_paths, len(signals))
-    res = run([read_signal(p) for p in signals], labels=list(signals),
+    res = run(sigs, labels=list(signals),
               group_rtol=params.group_tolerance, window_widths=params.window_widths,
               threshold=params.threshold, max_error=params.max_error,
               min_periods=params.min_periods, min_snr=params.min_snr, min_heights=params.min_heights,

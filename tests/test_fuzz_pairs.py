@@ -1,0 +1,130 @@
+"""Inputs that must belong together (issue #66): a signal and its moduli, the signals of one
+height series, options that only mean something with others. Every mismatch is refused in one
+line naming the file (exit 2, nothing written); the matching inputs run. Tiny lattices (4 and 6
+rows, modal signals): the module's files take a few seconds, each case well under one."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+from click.testing import CliRunner
+
+from granwave.cli import main
+
+T = ["--method", "modal", "--t-max", 60, "--samples", 600, "-q"]
+
+
+def run(args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def refused(r, *words):
+    assert r.exit_code == 2, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: "), r.output
+    for w in words:
+        assert w in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Per lattice (rows 4 and 6; frictional): its normal and shear signals and its moduli."""
+    out = {}
+    for rows in (4, 6):
+        d = tmp_path_factory.mktemp(f"r{rows}")
+        p, lin, n, sh, mod = (d / x for x in ("p.h5", "lin.h5", "n.h5", "sh.h5", "mod.json"))
+        for args in (["lattice", "--rows", rows, "--width", 4, "--pressure", 1e-3, "--friction", 0.5, "-o", p, "-q"],
+                     ["linearize", p, "-o", lin, "-q"],
+                     ["propagate", lin, "-o", n, *T],
+                     ["propagate", lin, "-o", sh, "--source", "shear", *T]):
+            r = run(args)
+            assert r.exit_code == 0, r.output
+        r = run(["analyze", "moduli", p, "--json"])
+        assert r.exit_code == 0, r.output
+        mod.write_text(r.output)
+        out[rows] = {"packing": p, "normal": n, "shear": sh, "moduli": mod}
+    return out
+
+
+def edited(files, tmp_path, **changes):
+    m = json.loads(files[4]["moduli"].read_text())
+    m.update(changes)
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(m))
+    return path
+
+
+def test_the_moduli_of_a_shear_signal_must_be_its_packings(files, tmp_path):
+    """analyze front of a shear signal took another packing's moduli, 3D moduli for a 2D
+    signal, a dim of 7 and a c_t given as a string, with exit 0."""
+    sh = files[4]["shear"]
+    assert run(["analyze", "front", sh, "--moduli", files[4]["moduli"], "--json"]).exit_code == 0
+    refused(run(["analyze", "front", sh, "--moduli", files[6]["moduli"]]), "another packing", "mod.json")
+    old = json.loads(files[6]["moduli"].read_text())
+    old.pop("packing_digest")  # a file written before the moduli named their packing: its height
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    refused(run(["analyze", "front", sh, "--moduli", tmp_path / "old.json"]), "height")
+    m = json.loads(files[4]["moduli"].read_text())
+    m.pop("packing_digest")
+    for changes, words in (({"dim": 3}, "dim = 3, the signal 2"), ({"dim": 7}, "dim 7"),
+                           ({"c_t": "0.3"}, "c_t '0.3' is not a finite number"),
+                           ({"c_t": True}, "c_t True"), ({"dim": True}, "dim True")):
+        path = tmp_path / "m.json"
+        path.write_text(json.dumps({**m, **changes}))
+        refused(run(["analyze", "front", sh, "--moduli", path]), *words)
+
+
+@pytest.mark.parametrize("option", [["--moduli", "MOD"], ["--pulse", "ricker"], ["--response", "delay"],
+                                    ["--frequency", "0.1"], ["--wavelength", "4"], ["--units", "si"],
+                                    ["--material", "quartz"], ["--any-poisson"], ["--diameter", "2"]])
+def test_shear_options_on_a_compressional_signal_are_refused(files, option):
+    option = [str(files[4]["moduli"]) if o == "MOD" else o for o in option]
+    refused(run(["analyze", "front", files[4]["normal"], *option]), "only for shear signals", option[0])
+
+
+@pytest.mark.parametrize("args, words", [(["--frequency", "0.05", "--wavelength", "8"], "give one"),
+                                         (["--material", "quartz"], "only for --units si"),
+                                         (["--diameter", "2"], "only for --units si")])
+def test_options_that_one_another_silence_are_refused(files, args, words):
+    """--frequency with --wavelength (one silently won), --material without --units si."""
+    refused(run(["analyze", "front", files[4]["shear"], "--moduli", files[4]["moduli"], *args]), words)
+
+
+def test_a_height_series_counts_each_packing_once(files, tmp_path):
+    """analyze continuum and attenuation counted one file given twice (or two copies of it) as
+    two packings, and paired moduli with the wrong heights."""
+    a, b = files[4], files[6]
+    ok = run(["analyze", "continuum", a["normal"], b["normal"], "--moduli", a["moduli"], "--moduli",
+              b["moduli"], "--bootstrap", 5, "--json"])
+    assert ok.exit_code == 0, ok.output
+    refused(run(["analyze", "continuum", a["normal"], b["normal"], "--moduli", b["moduli"], "--moduli",
+                 a["moduli"]]), "another packing")
+    refused(run(["analyze", "continuum", a["normal"], a["normal"], "--moduli", a["moduli"], "--moduli",
+                 a["moduli"]]), "given twice")
+    copy = shutil.copy(a["normal"], tmp_path / "copy.h5")
+    for cmd in (["continuum", a["normal"], copy, b["normal"], *sum((["--moduli", m] for m in
+                 (a["moduli"], edited(files, tmp_path), b["moduli"])), [])],
+                ["attenuation", a["normal"], copy, b["normal"]]):
+        refused(run(["analyze", *cmd]), "signals of one packing", "copy.h5")
+    refused(run(["analyze", "attenuation", a["normal"], b["normal"], "--moduli", b["moduli"], "--moduli",
+                 a["moduli"]]), "another packing")
+
+
+@pytest.mark.parametrize("analysis", ["continuum", "attenuation"])
+@pytest.mark.parametrize("key, value", [("source_kind", "shear"), ("dim", 3), ("friction", 0.0),
+                                        ("lateral_width", 7.0), ("contact_law", "harmonic"), ("pressure", 1e-4)])
+def test_a_height_series_is_one_kind_of_column(files, tmp_path, analysis, key, value):
+    """Mixing 2D and 3D, widths, friction, laws, source kinds (a shear signal analysed as a
+    compressional front) or pressures: refused naming the signal."""
+    import h5py
+
+    other = shutil.copy(files[6]["normal"], tmp_path / "other.h5")
+    with h5py.File(other, "a") as f:
+        f.attrs[key] = value
+    extra = ["--moduli", files[4]["moduli"], "--moduli", files[6]["moduli"]] if analysis == "continuum" else []
+    # (continuum: a 3D signal is refused by its 2D moduli, naming it, before the mix is seen)
+    refused(run(["analyze", analysis, files[4]["normal"], other, *extra]), "other.h5")
