@@ -128,3 +128,43 @@ def test_a_height_series_is_one_kind_of_column(files, tmp_path, analysis, key, v
     extra = ["--moduli", files[4]["moduli"], "--moduli", files[6]["moduli"]] if analysis == "continuum" else []
     # (continuum: a 3D signal is refused by its 2D moduli, naming it, before the mix is seen)
     refused(run(["analyze", analysis, files[4]["normal"], other, *extra]), "other.h5")
+
+
+# ---------------------------------------------------------------- options silently ignored
+@pytest.mark.parametrize("args, words", [
+    (["prepare-packing", "--grains", 10, "--harmonic-stiffness", 2], "--contact-law harmonic"),
+    (["prepare-packing", "--grains", 10, "--rolling-stiffness", 2], "--rolling sds"),
+    (["prepare-packing", "--grains", 10, "--cone-slope", 0.1, "--contact-law", "harmonic"], "--contact-law cone"),
+    (["prepare-packing", "--grains", 10, "--viscous-damping", 0.1], "--damping-law constant_viscous"),
+    (["lattice", "--rows", 3, "--width", 4, "--pressure", 1e-3, "--harmonic-stiffness", 2], "--contact-law harmonic"),
+    (["prepare-packing", "--grains", 10, "--checkpoint-every", 5], "--checkpoint-every without --checkpoint"),
+])
+def test_an_option_without_effect_is_refused(tmp_path, args, words):
+    """Options that only mean something with another were ignored without a word."""
+    out = tmp_path / "p.h5"
+    refused(run([*args, "-o", out]), words)
+    assert not out.exists()
+
+
+def test_a_sub_models_parameter_with_its_sub_model_runs(tmp_path):
+    out = tmp_path / "p.h5"
+    r = run(["lattice", "--rows", 3, "--width", 4, "--pressure", 1e-3, "--contact-law", "harmonic",
+             "--harmonic-stiffness", 2, "-o", out, "-q"])
+    assert r.exit_code == 0 and out.exists(), r.output
+
+
+def test_import_lammps_refuses_a_harmonic_packings_data_file(tmp_path):
+    """A harmonic packing's data file was relaxed as Hertz without a word: the law is read from
+    the data file's title (or the deck beside it) and a law other than Hertz refused."""
+    p = tmp_path / "h.h5"
+    assert run(["lattice", "--rows", 3, "--width", 4, "--pressure", 1e-3, "--contact-law", "harmonic",
+                "-o", p, "-q"]).exit_code == 0
+    folder = tmp_path / "ex"
+    assert run(["export", "lammps", p, "-o", folder, "-q"]).exit_code == 0
+    data = folder / "packing.data"
+    out = tmp_path / "imp.h5"
+    refused(run(["import", "lammps", data, "--pressure", 1e-3, "-o", out]), "contact law is harmonic")
+    lines = data.read_text().splitlines()  # a title without the law (older export): the deck tells
+    data.write_text("\n".join([lines[0].replace(", contact_law harmonic", ""), *lines[1:]]) + "\n")
+    refused(run(["import", "lammps", data, "--pressure", 1e-3, "-o", out]), "hooke")
+    assert not out.exists()

@@ -136,7 +136,12 @@ def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds
     from .. import api
     from ..io.files import check_writable, write_packing
 
+    from .common import given
+
     params = params_from(PrepareParams, with_material(options, material))
+    if given("checkpoint_every") and checkpoint is None:
+        raise InputError("--checkpoint-every without --checkpoint: no checkpoint would be written "
+                         "(give --checkpoint FILE)")
     if seeds is not None:
         check_seed_count(seeds, params)
         _prepare_seeds(params, parse_seeds(seeds), output, threads, device, checkpoint, checkpoint_every, quiet,
