@@ -168,3 +168,25 @@ def test_import_lammps_refuses_a_harmonic_packings_data_file(tmp_path):
     data.write_text("\n".join([lines[0].replace(", contact_law harmonic", ""), *lines[1:]]) + "\n")
     refused(run(["import", "lammps", data, "--pressure", 1e-3, "-o", out]), "hooke")
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- messages that name the cause
+@pytest.mark.parametrize("args, words", [
+    (["--frequency", 100], "above the record's Nyquist frequency"),   # was "identically zero"
+    (["--frequency", 0.01], "longer than the record"),               # was "never reaches its peak"
+    (["--frequency", 0.04, "--pulse", "ricker"], "longer than the record"),
+])
+def test_a_pulse_the_record_cannot_hold_is_named(files, args, words):
+    refused(run(["analyze", "front", files[4]["shear"], *args]), words)
+
+
+def test_a_frictional_linear_file_without_its_shear_group(files, tmp_path):
+    """Was refused as 'the packing is frictionless (friction = 0.5)'."""
+    import h5py
+
+    lin = shutil.copy(files[4]["packing"].with_name("lin.h5"), tmp_path / "lin.h5")
+    with h5py.File(lin, "a") as f:
+        del f["shear"]
+    out = tmp_path / "s.h5"
+    line = refused(run(["propagate", lin, "--source", "shear", "-o", out, *T]), "without its shear group")
+    assert "frictionless" not in line and not out.exists()
