@@ -36,7 +36,7 @@ SYMMETRY_ROUNDOFF = 1e-9
 #: (docs/linear.md) of relative size ~0.4 mu delta/d (measured: 4.3e-4 at p = 1e-4, 9.5e-3 at
 #: p = 1e-2, mu = 0.5, 40-grain 2D Hertz packings). Overlaps are below MAX_OVERLAP_FRACTION
 #: of a radius (delta/d < 0.25), so such a D stays below 0.1 mu; PRESTRESS_ASYMMETRY_PER_MU mu
-#: leaves a factor 5 above that (decision record 0045).
+#: leaves a factor 5 above that (docs/decisions/0045-what-belongs-together.md).
 PRESTRESS_ASYMMETRY_PER_MU = 0.5
 #: Relative tolerance on |n| = 1 for contact normals.
 NORMAL_TOL = 1e-6
