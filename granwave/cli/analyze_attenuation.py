@@ -23,7 +23,8 @@ def attenuation(signals, moduli_paths, as_json, **options):
 
     SIGNALS are signal files (from `granwave propagate`, or any granwave.signal file) of
     containers of two or more heights L (attribute `height`, in d), one or more packings
-    per height, one pressure and one initial condition. Per nominal height the signals are
+    per height (each packing once), one pressure, one initial condition and one kind of column
+    (dimension, friction, law, width; compressional signals). Per nominal height the signals are
     averaged (the coherent signal), windowed from t = 0 to the front's zero crossing plus
     --window-widths front widths (cosine taper over the last width) and Fourier
     transformed. At every frequency omega: ln|S(omega, L)| = const - alpha L and the

@@ -19,8 +19,9 @@ from .moduli_files import check_moduli_of, moduli_speeds
 def continuum(signals, moduli_paths, as_json, **options):
     """Speeds, amplitude and width of the front against distance L, and c_tof/c_l.
 
-    SIGNALS are signal files of containers of several heights L (one pressure, one initial
-    condition), one --moduli file per signal in the same order. Per nominal height: means
+    SIGNALS are compressional signal files of containers of several heights L (one pressure,
+    one initial condition, one kind of column: dimension, friction, law, width; each packing
+    once), one --moduli file per signal in the same order (each of its signal's packing). Per nominal height: means
     and standard errors of the front features (granwave analyze front), of c_l and c_t and
     of the apparent speeds L/t. Between consecutive heights: the local speeds c_tof (10%
     edge), c_peak, c_zero = dL/dt of the means, c_tof/c_l, and the local exponents
