@@ -62,7 +62,7 @@ def moduli_mismatch(m: dict, signal) -> str | None:
 def check_moduli_of(paths: Sequence[str], signals, labels: Sequence[str]) -> None:
     """InputError (one line) unless each moduli file is of its signal's packing (same order)."""
     for path, sig, lab in zip(paths, signals, labels):
-        why = moduli_mismatch(read_moduli(path, required="dim"), sig)
+        why = moduli_mismatch(read_moduli(path), sig)
         if why is not None:
             raise InputError(f"{path}: the moduli {why}: they are not of {lab}'s packing (give the "
                              "moduli of each signal's packing, in the order of the signals)")
