@@ -312,6 +312,7 @@ def eigensolve(system: LinearSystem, params: EigenParams | None = None, /, *,
     from .linear.eigen import eigensolve as solve
 
     _need(system, LinearSystem, "system")
+    V.linear_system(system)  # a negative mass gave NaN modes
     p = _params(EigenParams, params, fields)
     _threads(threads)
     modes = solve(system, vectors=p.vectors, k=p.lowest)
@@ -462,6 +463,8 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
             else "packing" if isinstance(source, Packing) else None)
     if kind is None:
         raise InputError(f"propagate needs a Modes, LinearSystem or Packing, got {type(source).__name__}")
+    if kind == "linear":
+        V.linear_system(source)  # a negative mass ended in an ArpackError
     _progress(progress)
     p = _params(PropagateParams, params, fields)
     method = p.method or {"modes": "modal", "linear": "time", "packing": "dem"}[kind]

@@ -190,3 +190,33 @@ def test_a_frictional_linear_file_without_its_shear_group(files, tmp_path):
     out = tmp_path / "s.h5"
     line = refused(run(["propagate", lin, "--source", "shear", "-o", out, *T]), "without its shear group")
     assert "frictionless" not in line and not out.exists()
+
+
+# ---------------------------------------------------------------- the API's objects
+@pytest.mark.parametrize("damage, words", [("negative_mass", "mass: must be > 0"),
+                                           ("nan_detector", "detector: contains NaN"),
+                                           ("short_detector", "has shape (47,)"),
+                                           ("asymmetric", "D is not symmetric")])
+def test_a_linear_system_built_in_memory_is_checked_like_a_file(files, damage, words):
+    """api.propagate of a system with a negative mass ended in ArpackError -9999 and
+    api.eigensolve gave NaN modes: the file reader's checks run on the object."""
+    import numpy as np
+    import scipy.sparse as sp
+
+    from granwave import api
+    from granwave.errors import InputError
+    from granwave.io import files as F
+
+    s = F.read_linear(files[4]["packing"].with_name("lin.h5"))
+    assert s.n_dof == 48
+    if damage == "negative_mass":
+        s.mass[3] = -1.0
+    elif damage == "nan_detector":
+        s.detector[0] = np.nan
+    elif damage == "short_detector":
+        s.detector = s.detector[:-1]
+    else:
+        s.stiffness = (s.stiffness + 0.1 * sp.triu(s.stiffness, k=1)).tocsr()
+    for call in (lambda: api.propagate(s, method="time", t_max=5, samples=16), lambda: api.eigensolve(s)):
+        with pytest.raises(InputError, match=words.replace("(", r"\(").replace(")", r"\)")):
+            call()

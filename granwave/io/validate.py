@@ -468,6 +468,32 @@ def stiffness_symmetry(path, D, attrs: dict) -> float:
     return asym
 
 
+def linear_system(system, what: str = "the linear system") -> None:
+    """The checks of a linear file (:func:`linear`, :func:`stiffness_symmetry`) on a
+    LinearSystem built in memory (the API takes them without a file): positive finite masses,
+    finite entries, every per-dof vector of the dofs' length. InputError naming ``what``."""
+    import scipy.sparse as sp
+
+    D = sp.csr_matrix(system.stiffness, copy=True)
+    D.sum_duplicates()  # canonical rows, as a file holds them
+    n = len(np.asarray(system.mass))
+    a = {"matrix/data": np.asarray(D.data, float), "matrix/indices": np.asarray(D.indices, np.int64),
+         "matrix/indptr": np.asarray(D.indptr, np.int64), "mass": np.asarray(system.mass, float),
+         "dof/grain": np.asarray(system.dof_grain, np.int64), "dof/axis": np.asarray(system.dof_axis, np.int64)}
+    for name, v in (("source/velocity", system.source_velocity), ("detector", system.detector),
+                    ("source/displacement", system.source_displacement)):
+        v = np.asarray(v, float)
+        if v.shape != (n,):
+            _fail(what, name, f"has shape {v.shape}, the system {n} dofs")
+        if name != "source/displacement" or np.isfinite(v).all():  # NaN: a shear kick's (IC A only)
+            a[name] = v
+    for name in ("dof/grain", "dof/axis"):
+        if a[name].shape != (n,):
+            _fail(what, name, f"has shape {a[name].shape}, the system {n} dofs")
+    linear(what, a, dict(system.attrs), D.shape)
+    stiffness_symmetry(what, D, dict(system.attrs))
+
+
 def _sorted_unique_rows(path, indptr: np.ndarray, indices: np.ndarray) -> None:
     """Column indices strictly increasing within every row (canonical CSR, as granwave writes
     it): a repeated index would be summed into an entry no writer meant (an asymmetric D)."""
