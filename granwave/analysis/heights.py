@@ -96,6 +96,10 @@ def common_attr(signals: Sequence[Signal], labels: Sequence[str], key: str, *, r
 #: What the signals of one height series must share, among those that record it: one kind of
 #: column (dimension, friction, Poisson ratio, scene kind, prestress, contact law, lateral width).
 STUDY_ATTRS = ("dim", "friction", "poisson", "kind", "prestress", "contact_law", "lateral_width")
+#: Relative spread of lateral widths within one series: a prepared packing's width follows from
+#: its drawn radii and the config's width through the aspect (a few per cent apart), a series
+#: of another width is a factor apart.
+WIDTH_RTOL = 0.1
 
 
 def one_study(signals: Sequence[Signal], labels: Sequence[str], *, what: str,
@@ -115,7 +119,7 @@ def one_study(signals: Sequence[Signal], labels: Sequence[str], *, what: str,
             have = [(_with_default(s, key, "hertz"), lab) for s, lab in zip(signals, labels)]
         if have:
             common_attr([s for s, _ in have], [lab for _, lab in have], key,
-                        rtol=1e-9 if key == "lateral_width" else 0.0)
+                        rtol=WIDTH_RTOL if key == "lateral_width" else 0.0)
     seen = {}
     for s, lab in zip(signals, labels):
         digest = s.attrs.get("packing_digest")
