@@ -310,6 +310,7 @@ def eigensolve(system: LinearSystem, params: EigenParams | None = None, /, *,
     from .linear.eigen import eigensolve as solve
 
     _need(system, LinearSystem, "system")
+    V.linear_system(system)  # a negative mass gave NaN modes
     p = _params(EigenParams, params, fields)
     _threads(threads)
     modes = solve(system, vectors=p.vectors, k=p.lowest)
@@ -460,6 +461,8 @@ def propagate(source: LinearSystem | Modes | Packing, params: PropagateParams | 
             else "packing" if isinstance(source, Packing) else None)
     if kind is None:
         raise InputError(f"propagate needs a Modes, LinearSystem or Packing, got {type(source).__name__}")
+    if kind == "linear":
+        V.linear_system(source)  # a negative mass ended in an ArpackError
     _progress(progress)
     p = _params(PropagateParams, params, fields)
     method = p.method or {"modes": "modal", "linear": "time", "packing": "dem"}[kind]
@@ -581,8 +584,14 @@ def moduli(packing: Packing, params: ModuliParams | None = None, /, *,
     if system is not None and p.prestress and not bool(system.attrs.get("prestress", False)):
         raise InputError("--prestress conflicts with the linear file (built without prestress)")
     _threads(threads)
-    return compute(packing, local=p.local, prestress=p.prestress, amplitude=p.amplitude, grip=p.grip,
-                   system=system, force=p.force, layer=p.layer)
+    res = compute(packing, local=p.local, prestress=p.prestress, amplitude=p.amplitude, grip=p.grip,
+                  system=system, force=p.force, layer=p.layer)
+    # the packing's identity: the analyses that pair moduli with a signal check it belongs
+    # (granwave.cli.moduli_files.moduli_mismatch)
+    a = packing.attrs
+    res.update({k: a[k] for k in ("packing_digest", "pressure", "friction", "seed") if k in a})
+    res["height"] = float(packing.box[-1])
+    return res
 
 
 def _signal_height(signal: Signal) -> float:

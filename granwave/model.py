@@ -157,7 +157,12 @@ class LinearSystem:
         if kind == "normal":
             return replace(self, attrs={**self.attrs, "source_kind": kind})
         if self.shear_source_velocity is None or self.shear_detector is None:
-            raise InputError(no_shear_message(self.attrs))
+            if float(self.attrs.get("friction", 0.0)) == 0.0:
+                raise InputError(no_shear_message(self.attrs))
+            raise InputError(f"no shear source: this frictional system (friction = "
+                             f"{float(self.attrs['friction']):g}) holds no shear source and detector (a "
+                             "linear file without its shear group: written before the shear kick, or "
+                             "edited); run linearize again on its packing")
         return replace(self, source_velocity=self.shear_source_velocity,
                        source_displacement=np.full(self.n_dof, np.nan), detector=self.shear_detector,
                        attrs={**self.attrs, "source_kind": kind})

@@ -152,6 +152,19 @@ def check_lattice(rows: int, width: int) -> None:
     require_memory(600.0 * float(rows) * float(width), f"a lattice of {rows} x {width} balls")
 
 
+#: bytes per ball of the chain's exact wall force (granwave.theory.chain_wall_force): its modes,
+#: wave numbers, signs and weights, and their temporaries (about eight arrays of N doubles)
+CHAIN_FORCE_BYTES_PER_BALL = 80
+
+
+def check_chain_force(n_balls: int, samples: int) -> float:
+    """The exact wall force of a chain of ``n_balls`` balls at ``samples`` times: refused when
+    its arrays cannot fit (before any is allocated); returns its predicted seconds (O(samples N))."""
+    require_memory(CHAIN_FORCE_BYTES_PER_BALL * float(n_balls) + 3 * DOUBLE * float(1 << 21),
+                   f"the exact wall force of a chain of {n_balls} balls")
+    return predicted_seconds("chain-modal-sum", float(n_balls), float(samples), threads=1)
+
+
 def check_linearize(n_grains: int, n_contacts: int, dim: int, friction: float) -> None:
     """Stiffness matrix of a packing: (2 p)^2 block entries per contact."""
     p = dim + (dim * (dim - 1) // 2 if friction > 0 else 0)
@@ -199,7 +212,22 @@ RUN_LIMIT = 86400.0
 SECONDS_PER_UNIT = {
     "time-domain": (6e-9, 3e-6),   # per stored entry of D per step, per step
     "dem-pulse": (3e-6, 2e-4),     # per grain per step, per step
+    # the chain's exact modal sum (granwave.theory.chain_wall_force): per (time, mode) pair;
+    # measured 6e-8 (N = 1e5) to 1.2e-7 s (N = 1e4) with 800 times on the machine above
+    "chain-modal-sum": (1.2e-7, 0.0),
+    # a preparation's DEM step: 1.5e7 grain-steps/s on one idle core (docs/dem.md), per step
+    "dem-prepare": (6.7e-8, 1e-5),
 }
+
+#: Fewest steps a preparation takes (40 grains: 4300 steps at p = 1e-2, 15800 at 1e-4), and the
+#: seconds of writing its file: a lower bound of one seed's cost under ``--seeds``.
+PREPARE_MIN_STEPS, PREPARE_FILE_SECONDS = 1000, 0.01
+
+
+def prepare_seconds(grains: int) -> float:
+    """A lower bound of the seconds of preparing (and writing) one packing of ``grains`` grains
+    on one thread."""
+    return predicted_seconds("dem-prepare", float(grains), PREPARE_MIN_STEPS, threads=1) + PREPARE_FILE_SECONDS
 
 _run_limit = [RUN_LIMIT]
 

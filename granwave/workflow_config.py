@@ -623,3 +623,62 @@ def shear_error(config: dict) -> str | None:
         if message:
             return message
     return None
+
+
+def _tallest(kind: str, spec: dict) -> tuple[str, float, str]:
+    """(size label, lowest pressure, config key) of a scene's tallest column: the one whose
+    front arrives last."""
+    series = spec.get("series") or {}
+    if kind == "lattices":
+        return f"r{max(spec['rows'])}", min(spec["pressures"]), "rows"
+    if kind == "chains":
+        return f"n{max(spec['balls'])}", spec["pressure"], "balls"
+    heights = list(spec["heights"]) + list(series.get("heights", []))
+    pressures = list(spec["pressures"]) + list(series.get("pressures", [])) if kind == "disordered" \
+        else [spec["pressure"]]
+    return f"h{max(heights):g}", min(pressures), "height"
+
+
+def record_error(config: dict) -> str | None:
+    """One line naming the key if a scene's record ends before the front of its tallest column
+    can arrive (a dry run accepted it; the jobs then measured no front). The earliest arrival
+    is the height over a generous upper bound of the speed: the perfect-lattice speed of the
+    scene's law and pressure (the disordered front is slower), a chain's exact wall-to-wall
+    time. The record is ``t_max_factor`` such crossings, so a factor below 1 cannot hold it."""
+    from .workflow_support import crossing_time
+
+    for kind in SCENE_KINDS:
+        for scene, spec in (config.get(kind) or {}).items():
+            own = kind == "continuum" and "t_max_factor" in spec
+            factor = float(spec["t_max_factor"] if own else config["t_max_factor"])
+            if factor >= 1.0:
+                continue
+            size, p, what = _tallest(kind, spec)
+            arrival = crossing_time(kind, spec, float(p), size)
+            key = f"{kind}.{scene}.t_max_factor" if own else "t_max_factor"
+            speed = ("its exact wall-to-wall time" if kind == "chains" else
+                     f"at most the perfect-lattice speed {float(size[1:]) * (math.sqrt(3) / 2 if kind == 'lattices' else 1) / arrival:.4g} d/t")
+            return (f"config: {key} = {factor:g}: the record of {kind}.{scene}'s tallest column "
+                    f"({what} {size[1:]}, p = {float(p):g}) ends at t = {factor * arrival:.4g}, before "
+                    f"its front can arrive (not before {arrival:.4g}: {speed}); the factor must be at "
+                    "least 1 (fronts are measured with 2 or more)")
+    return None
+
+
+def width_error(config: dict) -> str | None:
+    """One line naming the key if a disordered or continuum scene's width is below what the DEM
+    engine accepts: a periodic length of more than twice (the largest diameter + the skin)
+    for unique nearest images (granwave.dem.integrator; the largest diameter of polydispersity w
+    is 1 + w). A dry run passed widths of 1 and 1.5 d that every job then refused."""
+    from .params import PrepareParams
+
+    skin = float(PrepareParams.skin)
+    for kind in ("disordered", "continuum"):
+        for scene, spec in (config.get(kind) or {}).items():
+            w = float(spec.get("polydispersity", 0.2))
+            need = 2.0 * (1.0 + w + skin)
+            if not float(spec["width"]) > need:
+                return (f"config: {kind}.{scene}.width = {float(spec['width']):g}: narrower than the DEM's "
+                        f"periodic limit, more than 2 x (largest diameter {1 + w:g} + skin {skin:g}) = "
+                        f"{need:g} d")
+    return None

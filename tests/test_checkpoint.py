@@ -138,7 +138,7 @@ def test_another_runs_checkpoint_is_refused(monkeypatch, tmp_path):
     api.prepare_packing(params, checkpoint=path, checkpoint_every=0, keep_checkpoint=True)
     ran = []
     monkeypatch.setattr(protocol, "prepare_packing", lambda *a, **k: ran.append(1))
-    with pytest.raises(InputError, match=r"belongs to another preparation .*\"seed\": 2"):
+    with pytest.raises(InputError, match=r"belongs to another preparation \(seed 2 \(this run: 3\)\)"):
         api.prepare_packing(PrepareParams(grains=40, seed=3, tol=1e-9), checkpoint=path)
     monkeypatch.setattr(CK, "source_digest", lambda: "0" * 32)
     with pytest.raises(InputError, match="written by other granwave code"):

@@ -36,6 +36,7 @@ SUBSTITUTIONS = [
     ("-o PACKING", "-o imported.h5"),       # import lammps writes a packing; keep packing.h5 as made
     ("(MODES | LINEAR)", "MODES"),           # a choice in a synopsis: the first
     ("DATA_OR_DUMP", "deck/packing.data"),  # the data file export lammps wrote
+    ("SIGNAL --packing PACKING", "snapshots.h5 --packing snapshot_packing.h5"),  # its own (SETUP)
     ("PACKING", "packing.h5"),
     ("LINEAR", "linear.h5"),
     ("MODES", "modes.h5"),
@@ -48,8 +49,11 @@ SUBSTITUTIONS = [
 ]
 
 #: Commands run after README's block: files some docs lines read that no docs line makes.
-SETUP = [
-    "granwave propagate linear.h5 --method time --t-max 30 --snapshots 10,20 -q -o snapshots.h5",
+SETUP = [  # the snapshots' packing kept apart: docs lines write packing.h5 again, and export vtk
+    # refuses a signal's snapshots on another packing's grains
+    "granwave lattice --rows 6 --width 6 --pressure 1e-4 --friction 0.5 -q -o snapshot_packing.h5",
+    "granwave linearize snapshot_packing.h5 -q -o snapshot_linear.h5",
+    "granwave propagate snapshot_linear.h5 --method time --t-max 30 --snapshots 10,20 -q -o snapshots.h5",
 ]
 
 #: Docs lines (as extracted, see :func:`docs_commands`) not run, and why.

@@ -262,6 +262,11 @@ NAMED = [
     (("lattices", "lattice_frictional", "width"), 2, "lattices.lattice_frictional.width"),
     (("continuum", "continuum2d", "samples"), 1, "continuum.continuum2d.samples"),
     (("continuum", "continuum2d", "time_safety"), math.nan, "continuum.continuum2d.time_safety"),
+    # #66: a record too short for the tallest column's front, widths below the DEM's limit
+    (("t_max_factor",), 0.7, "t_max_factor"),
+    (("continuum", "continuum2d", "t_max_factor"), 0.9, "continuum.continuum2d.t_max_factor"),
+    (("disordered", "frictional2d", "width"), 1.5, "disordered.frictional2d.width"),
+    (("continuum", "continuum2d", "width"), 1, "continuum.continuum2d.width"),
     (("results",), "/etc/hostname", "results"),
     (("results",), "", "results"),
     (("results",), "my results", "results"),

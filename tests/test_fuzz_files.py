@@ -369,7 +369,7 @@ def test_linear_and_modes_of_another_system(valid):
 
 
 @pytest.mark.parametrize("case", ["empty", "zero_stiffness", "unsorted", "duplicate", "shape_attr",
-                                  "short_mass", "indptr", "huge_detector", "tiny_mass"])
+                                  "short_mass", "indptr", "huge_detector", "tiny_mass", "asymmetric"])
 def test_linear_file_cases(valid, tmp_path, case):
     """Linear files that ended in tracebacks (or NaN signals) before: each refused in one line."""
     p = copy(valid["linear"], tmp_path / "lin.h5")
@@ -404,9 +404,53 @@ def test_linear_file_cases(valid, tmp_path, case):
             f["detector"][...] = 1e300
         elif case == "tiny_mass":
             f["mass"][0] = 1e-300
+        elif case == "asymmetric":  # eigensolve wrote the modes of its symmetric part, 0 exit
+            rows = np.repeat(np.arange(len(ip) - 1), np.diff(ip))
+            f["matrix/data"][...] = np.where(ix > rows, 1.5 * data, data)
     for cmd in (["eigensolve", p, "-o", tmp_path / "m.h5"],
                 ["propagate", p, "-o", tmp_path / "s.h5", *T_MAX, "-q"]):
         refused(run(cmd), p, Path(cmd[cmd.index("-o") + 1]))
+
+
+def test_asymmetry_limit_follows_prestress_and_friction(valid):
+    """A D more asymmetric than a linearization of its attributes can make is refused by
+    eigensolve (was a warning about negative modes and exit 0); the prestress asymmetry of a
+    frictional packing (well below PRESTRESS_ASYMMETRY_PER_MU mu) is solved as before."""
+    from granwave.io import validate as V
+    import scipy.sparse as sp
+
+    system = files.read_linear(valid["linear"])
+    D = system.stiffness.tocsr()
+    upper = sp.triu(D, k=1).tocsr()
+    for prestress, friction, scale, ok in ((False, 0.5, 1e-12, True), (False, 0.5, 1e-3, False),
+                                           (True, 0.5, 1e-3, True), (True, 0.0, 1e-3, False),
+                                           (True, 0.5, 1.5, False)):
+        system.stiffness = (D + scale * upper).tocsr()
+        system.attrs.update(prestress=prestress, friction=friction)
+        asym = float(sp.linalg.norm(system.stiffness - system.stiffness.T) / sp.linalg.norm(system.stiffness))
+        assert (asym <= V.asymmetry_limit(system.attrs)) == ok, (prestress, friction, scale, asym)
+        if ok:
+            assert api.eigensolve(system).attrs["stiffness_asymmetry"] == pytest.approx(asym)
+        else:
+            with pytest.raises(InputError, match="D is not symmetric"):
+                api.eigensolve(system)
+
+
+def test_vtk_export_of_another_packings_grains(valid, tmp_path):
+    """export vtk SIGNAL --packing OTHER drew the snapshots on another packing's grains with
+    exit 0: refused by its digest; the signal's own packing is drawn."""
+    out = tmp_path / "v.pvd"
+    for other in (valid["other_packing"],):
+        r = run(["export", "vtk", valid["signal"], "--packing", other, "-o", out])
+        refused(r, valid["signal"], out, "does not belong to")
+        assert not list(tmp_path.glob("*.vtu"))
+    p4 = tmp_path / "p4.h5"  # the same grains at another pressure: only the digest tells
+    assert run(["lattice", "--rows", 4, "--width", 4, "--pressure", 1e-4, "--friction", 0.5,
+                "-o", p4, "-q"]).exit_code == 0
+    refused(run(["export", "vtk", valid["signal"], "--packing", p4, "-o", out]), valid["signal"], out,
+            "packing_digest")
+    r = run(["export", "vtk", valid["signal"], "--packing", valid["packing"], "-o", out, "-q"])
+    assert r.exit_code == 0 and out.exists(), r.output
 
 
 def test_negative_definite_stiffness_is_refused_before_stepping(valid, tmp_path):

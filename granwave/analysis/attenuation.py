@@ -88,7 +88,7 @@ from ..errors import InputError
 from .continuum_length import c0_model_spread, continuum_wavelength, contributing_reference
 from .ensemble import ensemble_average
 from .front import front_features
-from .heights import group_heights
+from .heights import common_attr, group_heights, one_study
 from .packings import packing_check, pooled_variance
 
 if TYPE_CHECKING:
@@ -674,6 +674,9 @@ def attenuation(signals: Sequence["Signal"], *, labels: Sequence[str] | None = N
     if not signals:
         raise InputError("no signals given")
     labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
+    common_attr(signals, labels, "pressure", rtol=1e-9)
+    common_attr(signals, labels, "ic")
+    one_study(signals, labels, what="analyze attenuation (compressional signals)")
     g = group_heights([s.height for s in signals], group_rtol)
     n = int(g.max()) + 1
     if n < 2:

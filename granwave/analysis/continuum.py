@@ -56,7 +56,7 @@ from scipy import optimize, stats
 from ..errors import InputError
 from .ensemble import describe, local_exponents_of_means
 from .front import features_of_signals
-from .heights import FEATURES, common_attr, group_heights, height_series_from_features
+from .heights import FEATURES, common_attr, group_heights, height_series_from_features, one_study
 from .packings import MIN_PACKINGS, packing_check
 
 if TYPE_CHECKING:
@@ -543,6 +543,7 @@ def continuum(signals: Sequence["Signal"], c_l, c_t=None, *, labels: Sequence[st
     labels = list(labels) if labels is not None else [f"signal {i}" for i in range(len(signals))]
     pressure = common_attr(signals, labels, "pressure", rtol=1e-9)
     ic = common_attr(signals, labels, "ic")
+    one_study(signals, labels, what="analyze continuum (compressional fronts)")
     feats = features_of_signals(signals, labels, **front_kw)
     out = continuum_from_features([s.height for s in signals], feats, c_l, c_t,
                                   tolerance=tolerance, group_rtol=group_rtol, bootstrap=bootstrap,

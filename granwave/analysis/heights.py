@@ -93,6 +93,53 @@ def common_attr(signals: Sequence[Signal], labels: Sequence[str], key: str, *, r
     return ref
 
 
+#: What the signals of one height series must share, among those that record it: one kind of
+#: column (dimension, friction, Poisson ratio, scene kind, prestress, contact law, lateral width).
+STUDY_ATTRS = ("dim", "friction", "poisson", "kind", "prestress", "contact_law", "lateral_width")
+#: Relative spread of lateral widths within one series: a prepared packing's width follows from
+#: its drawn radii and the config's width through the aspect (a few per cent apart), a series
+#: of another width is a factor apart.
+WIDTH_RTOL = 0.1
+
+
+def one_study(signals: Sequence[Signal], labels: Sequence[str], *, what: str,
+              source_kind: str = "normal") -> None:
+    """Refuse (InputError, one line) signals that do not make one height series of ``what``:
+    another source kind than ``source_kind`` (a shear signal is no compressional front), a mix
+    of STUDY_ATTRS, or one packing counted twice (the same ``packing_digest``: the same file,
+    or two signals of one packing, would enter the statistics as two packings)."""
+    for s, lab in zip(signals, labels):
+        kind = s.attrs.get("source_kind", "normal")
+        if kind != source_kind:
+            raise InputError(f"{lab}: a {kind} signal (source_kind {kind}): {what} takes "
+                             f"{source_kind} signals only")
+    for key in STUDY_ATTRS:
+        have = [(s, lab) for s, lab in zip(signals, labels) if s.attrs.get(key) not in (None, "none")]
+        if key == "contact_law" and have:  # a file that names no law is of the default, Hertz
+            have = [(_with_default(s, key, "hertz"), lab) for s, lab in zip(signals, labels)]
+        if have:
+            common_attr([s for s, _ in have], [lab for _, lab in have], key,
+                        rtol=WIDTH_RTOL if key == "lateral_width" else 0.0)
+    seen = {}
+    for s, lab in zip(signals, labels):
+        digest = s.attrs.get("packing_digest")
+        if not isinstance(digest, str) or digest in ("", "none"):
+            continue
+        if digest in seen:
+            raise InputError(f"{seen[digest]} and {lab} are signals of one packing (packing_digest "
+                             f"{digest}): each packing counts once in {what}")
+        seen[digest] = lab
+
+
+def _with_default(signal, key: str, value):
+    """``signal`` itself where it records ``key``, else a stand-in whose attrs give ``value``."""
+    if signal.attrs.get(key) not in (None, "none"):
+        return signal
+    from types import SimpleNamespace
+
+    return SimpleNamespace(attrs={**signal.attrs, key: value})
+
+
 def _pick_edge_groups(group_heights_: np.ndarray, targets: tuple[float, float]) -> tuple[int, int]:
     """The two distinct groups nearest to the two target heights (lower target first)."""
     lo_t, hi_t = sorted(targets)

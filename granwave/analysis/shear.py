@@ -72,6 +72,11 @@ DEFAULT_RESPONSE = "derivative"
 MAIN_LOBE_FRACTION = 0.9
 
 
+#: a pulse's duration in periods 1/f: the sine's one period; the Ricker wavelet centred at
+#: 1.5/f, where it has decayed to e^-(1.5 pi)^2 ~ 2e-10 at 0 and 3/f
+PULSE_PERIODS = {"sine": 1.0, "ricker": 3.0}
+
+
 def source_pulse(times, frequency: float, shape: str = "sine") -> np.ndarray:
     """The wall displacement w(t) of a source pulse of ``frequency`` (module docstring)."""
     if not (frequency > 0 and math.isfinite(frequency)):
@@ -251,6 +256,18 @@ def shear_picks(time, force, *, height: float, frequency: float, pulse: str = "s
         raise InputError(f"deflection fraction must be in (0, 1) (got {deflection_fraction})")
     if not (0 < band[0] < band[1]):
         raise InputError(f"band must be two increasing positive multiples of the frequency (got {band})")
+    if not (frequency > 0 and math.isfinite(frequency)):
+        raise InputError(f"pulse frequency must be positive (got {frequency})")
+    nyquist = 0.5 / dt
+    if frequency > nyquist:  # the sampled pulse would be aliased, or no sample at all
+        raise InputError(f"pulse frequency {frequency:.4g} is above the record's Nyquist frequency "
+                         f"1/(2 dt) = {nyquist:.4g}: lower --frequency (a longer --wavelength), or "
+                         "propagate with more --samples")
+    duration = PULSE_PERIODS.get(pulse, 1.0) / frequency
+    if duration > t[-1]:
+        raise InputError(f"the {pulse} pulse lasts {duration:.4g} ({PULSE_PERIODS.get(pulse, 1.0):g}/f at "
+                         f"f = {frequency:.4g}), longer than the record ({t[-1]:.4g}): raise --frequency "
+                         "(a shorter --wavelength), or propagate with a longer --t-max")
     w = source_pulse(t, frequency, pulse)
     s = template(t, frequency, pulse, response)
     y = received(t, f, w)

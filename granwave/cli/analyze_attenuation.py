@@ -23,7 +23,8 @@ def attenuation(signals, moduli_paths, as_json, **options):
 
     SIGNALS are signal files (from `granwave propagate`, or any granwave.signal file) of
     containers of two or more heights L (attribute `height`, in d), one or more packings
-    per height, one pressure and one initial condition. Per nominal height the signals are
+    per height (each packing once), one pressure, one initial condition and one kind of column
+    (dimension, friction, law, width; compressional signals). Per nominal height the signals are
     averaged (the coherent signal), windowed from t = 0 to the front's zero crossing plus
     --window-widths front widths (cosine taper over the last width) and Fourier
     transformed. At every frequency omega: ln|S(omega, L)| = const - alpha L and the
@@ -56,8 +57,16 @@ def attenuation(signals, moduli_paths, as_json, **options):
     params = params_from(AttenuationParams, options)
     if not signals:
         raise InputError("no signal files given")
+    from .analyze_continuum import distinct_files
+    from .moduli_files import check_moduli_of
+
+    distinct_files(signals, "signal")
+    sigs = [read_signal(p) for p in signals]
+    if len(moduli_paths) == len(signals):  # one per signal, in their order: each of its packing
+        distinct_files(moduli_paths, "--moduli")
+        check_moduli_of(moduli_paths, sigs, signals)
     c_l, omega_cutoff = reference_speeds(params, moduli_paths, len(signals))
-    res = run([read_signal(p) for p in signals], labels=list(signals),
+    res = run(sigs, labels=list(signals),
               group_rtol=params.group_tolerance, window_widths=params.window_widths,
               threshold=params.threshold, max_error=params.max_error,
               min_periods=params.min_periods, min_snr=params.min_snr, min_heights=params.min_heights,

@@ -6,7 +6,7 @@ import click
 
 from ..params import ContinuumParams
 from .common import echo_json, echo_table, options_from, params_from, stage
-from .moduli_files import moduli_speeds
+from .moduli_files import check_moduli_of, moduli_speeds
 
 
 @click.command()
@@ -19,8 +19,9 @@ from .moduli_files import moduli_speeds
 def continuum(signals, moduli_paths, as_json, **options):
     """Speeds, amplitude and width of the front against distance L, and c_tof/c_l.
 
-    SIGNALS are signal files of containers of several heights L (one pressure, one initial
-    condition), one --moduli file per signal in the same order. Per nominal height: means
+    SIGNALS are compressional signal files of containers of several heights L (one pressure,
+    one initial condition, one kind of column: dimension, friction, law, width; each packing
+    once), one --moduli file per signal in the same order (each of its signal's packing). Per nominal height: means
     and standard errors of the front features (granwave analyze front), of c_l and c_t and
     of the apparent speeds L/t. Between consecutive heights: the local speeds c_tof (10%
     edge), c_peak, c_zero = dL/dt of the means, c_tof/c_l, and the local exponents
@@ -41,9 +42,13 @@ def continuum(signals, moduli_paths, as_json, **options):
     if len(moduli_paths) != len(signals):
         raise InputError(f"one --moduli file per signal is needed ({len(signals)} signals, "
                          f"{len(moduli_paths)} moduli files)")
+    distinct_files(signals, "signal")
+    distinct_files(moduli_paths, "--moduli")
     speeds = moduli_speeds(moduli_paths, params.c_l_kind)
     c_l, c_t = speeds[params.c_l_kind]
-    res = run([read_signal(p) for p in signals], c_l, c_t, labels=list(signals),
+    sigs = [read_signal(p) for p in signals]
+    check_moduli_of(moduli_paths, sigs, signals)
+    res = run(sigs, c_l, c_t, labels=list(signals),
               c_l_kind=params.c_l_kind, c_l_by_kind={k: v[0] for k, v in speeds.items()},
               tolerance=params.tolerance, group_rtol=params.group_tolerance,
               bootstrap=params.bootstrap, seed=params.seed, **params.front_kw())
@@ -80,3 +85,21 @@ def continuum(signals, moduli_paths, as_json, **options):
                 click.echo(f"  {rule:>10} tol {tol:<5g} " + " ".join(cells)
                            + f"   ratio {sp['ratio'][-1]:.4g} ± {sp['ratio_err'][-1]:.2g}")
 
+
+def distinct_files(paths, what: str) -> None:
+    """InputError (one line) for a file given twice (by any name): it would count as two packings."""
+    import os
+
+    from ..errors import InputError
+
+    seen = {}
+    for p in paths:
+        try:
+            st = os.stat(p)
+        except OSError:
+            continue  # the reader says it in its own words
+        key = (st.st_dev, st.st_ino)
+        if key in seen:
+            raise InputError(f"{seen[key]} and {p} are one {what} file, given twice: each packing "
+                             "counts once")
+        seen[key] = p

@@ -64,17 +64,35 @@ def front(signal, as_json, moduli_path, pulse, response, frequency, wavelength, 
     from .. import api
     from ..io.files import read_signal
 
+    from ..errors import InputError
+
     params = params_from(FrontParams, options)
     sig = read_signal(signal)
+    given = [name for name in SHEAR_OPTIONS if _given(name)]
     if sig.attrs.get("source_kind", "normal") != "shear":
+        if given:  # they would be ignored: the compressional front has no pulse, moduli or units
+            raise InputError(f"{signal}: a compressional signal (source_kind normal): "
+                             f"{', '.join(_flag(g) for g in given)} "
+                             f"{'is' if len(given) == 1 else 'are'} only for shear signals "
+                             "(propagate --source shear)")
         out = api.front(sig, params)
         echo_result(out, as_json, title=f"front of {signal}")
         return
-    from .moduli_files import read_moduli
+    from .moduli_files import moduli_mismatch, read_moduli
 
+    if _given("frequency") and _given("wavelength"):
+        raise InputError("--frequency and --wavelength: give one (the frequency is c_t / wavelength)")
+    if _given("wavelength") and moduli_path is None:
+        raise InputError("--wavelength needs --moduli (its c_t sets the frequency c_t / wavelength)")
+    for name in ("material", "any_poisson", "diameter"):
+        if _given(name) and units != "si":
+            raise InputError(f"--{name.replace('_', '-')} is only for --units si")
     moduli = None
     if moduli_path is not None:
         moduli = read_moduli(moduli_path, required="c_t")
+        why = moduli_mismatch(moduli, sig)
+        if why is not None:
+            raise InputError(f"{moduli_path}: the moduli {why}: they are not of {signal}'s packing")
     mismatch = None
     if units == "si":
         material, mismatch = _si_material(sig, signal, material, any_poisson)
@@ -101,6 +119,21 @@ def front(signal, as_json, moduli_path, pulse, response, frequency, wavelength, 
                    f"{si['G_moduli_MPa']:.4g} MPa, f = {si['frequency_kHz']:.4g} kHz")
     for name, why in out["errors"].items():
         click.echo(f"  {name}: {why}", err=True)
+
+
+#: the options of a shear signal's picks (the compressional front takes none of them)
+SHEAR_OPTIONS = ("moduli_path", "pulse", "response", "frequency", "wavelength", "units", "material",
+                 "any_poisson", "diameter")
+
+
+def _flag(name: str) -> str:
+    return "--moduli" if name == "moduli_path" else "--" + name.replace("_", "-")
+
+
+def _given(name: str) -> bool:
+    """Whether the option ``name`` was given on the command line (not its default)."""
+    source = click.get_current_context().get_parameter_source(name)
+    return source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP")
 
 
 def _si_material(sig, path, material, any_poisson):

@@ -189,7 +189,36 @@ def params_from(cls, options: dict, **fixed):
                 value = next((c for c in choices if str(c).upper() == str(value).upper()), value)
             values[f.name] = value
     values.update(fixed)
+    unused_contact_options(values)
     return cls(**values)
+
+
+def given(name: str) -> bool:
+    """Whether the current command's option ``name`` was given (command line or environment),
+    not left at its default; False outside a click command."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return False
+    source = ctx.get_parameter_source(name)
+    return source is not None and source.name not in ("DEFAULT", "DEFAULT_MAP")
+
+
+def unused_contact_options(values: dict) -> None:
+    """Refuse (one line) a contact sub-model's parameter given on the command line while its
+    sub-model is not selected (``--harmonic-stiffness`` under Hertz, ``--rolling-stiffness``
+    without ``--rolling sds``): it would be ignored without a word."""
+    from ..contact_models import options as CO
+
+    for name, p in CO.PARAMETERS.items():
+        option = CO.KINDS[p["kind"]]["option"]
+        if name not in values or option not in values or not given(name):
+            continue
+        chosen = values[option] if values[option] is not None else CO.KINDS[p["kind"]]["default"]
+        if str(chosen) != p["submodel"]:
+            flag = "--" + name.replace("_", "-")
+            raise BadInput(f"{flag} is a parameter of --{option.replace('_', '-')} {p['submodel']}, "
+                           f"not of the {chosen} this run uses: it would be ignored (drop it, or "
+                           f"give --{option.replace('_', '-')} {p['submodel']})")
 
 
 def _default_threads():

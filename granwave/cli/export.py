@@ -84,6 +84,7 @@ def export_vtk_cmd(source, output, packing_path, quiet):
     from ..errors import InputError
     from ..interop import vtk
     from ..io import schema as S
+    from ..io import validate as V
     from ..io.files import check_writable, file_schema, read_packing, read_signal
 
     check_writable(output)
@@ -98,6 +99,7 @@ def export_vtk_cmd(source, output, packing_path, quiet):
         radius = None
         if packing_path is not None:
             pk = read_packing(packing_path)
+            V.same_packing(source, sig, packing_path, pk)  # never another packing's grains
             position, radius = pk.position, pk.radius
         elif sig.position is not None:
             position = sig.position

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-import json
+import math
 from collections.abc import Sequence
 
 from ..errors import InputError
@@ -17,17 +17,55 @@ def _speed(value) -> float:
     return float("nan") if value is None else float(value)
 
 
+#: the numbers of a moduli file the analyses read: each a finite number or null
+NUMBERS = ("c_l", "c_t", "c_l_slab", "c_t_slab", "phi3_star", "phi3_star_cell", "phi3_star_slab",
+           "C11", "C12", "C22", "C33", "C44", "C55", "C45", "pressure", "friction", "height")
+
+
 def read_moduli(path, required: str = "c_l") -> dict:
     """The content of one `granwave analyze moduli --json` file; InputError for a file that is not
-    one, or one without the field ``required``."""
-    try:
-        with open(path) as f:
-            m = json.load(f)
-    except (OSError, ValueError) as exc:
-        raise InputError(f"{path}: not a moduli JSON file ({exc})") from None
+    one, one without the field ``required``, a ``dim`` other than 2 or 3, or a speed, modulus or
+    density that is not a number (a string, a boolean; null is a failed solve)."""
+    from ..io.files import load_json
+
+    m = load_json(path)  # an unreadable or malformed file: one line naming it
     if not isinstance(m, dict) or required not in m:
         raise InputError(f"{path}: no {required} (expected `granwave analyze moduli --json` output)")
+    dim = m.get("dim", 2)
+    if isinstance(dim, bool) or dim not in (2, 3):
+        raise InputError(f"{path}: dim {dim!r}: a moduli file is of a 2D or 3D packing")
+    for key in NUMBERS:
+        v = m.get(key)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not math.isfinite(v)):
+            raise InputError(f"{path}: {key} {v!r} is not a finite number (null where the solve failed)")
     return m
+
+
+def moduli_mismatch(m: dict, signal) -> str | None:
+    """Why the moduli ``m`` are not of the packing of ``signal``, or None: its packing_digest
+    where both record one, else the dimension, pressure, friction, seed and height they record
+    (files written before the moduli recorded their packing: the dimension only)."""
+    want, got = m.get("packing_digest"), signal.attrs.get("packing_digest")
+    if isinstance(want, str) and isinstance(got, str) and want not in ("", "none") and got != "none":
+        return None if want == got else f"are of another packing (packing_digest {want}, the signal's {got})"
+    for key in ("dim", "pressure", "friction", "seed", "height"):
+        a, b = m.get(key), signal.attrs.get("packing_seed" if key == "seed" else key,
+                                             signal.attrs.get(key))
+        if a is None or b is None or isinstance(b, str):
+            continue
+        if not math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=0.0):
+            return f"have {key} = {a:g}, the signal {float(b):g}"
+    return None
+
+
+def check_moduli_of(paths: Sequence[str], signals, labels: Sequence[str]) -> None:
+    """InputError (one line) unless each moduli file is of its signal's packing (same order)."""
+    for path, sig, lab in zip(paths, signals, labels):
+        why = moduli_mismatch(read_moduli(path), sig)
+        if why is not None:
+            raise InputError(f"{path}: the moduli {why}: they are not of {lab}'s packing (give the "
+                             "moduli of each signal's packing, in the order of the signals)")
 
 
 def moduli_speeds(paths: Sequence[str], kind: str = "slab") -> dict[str, tuple[list, list]]:

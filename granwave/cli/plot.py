@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import click
 
-from .common import POSITIVE, is_quiet, output_path_option, quiet_flag, stage
+from .common import POSITIVE, is_quiet, long_run_option, output_path_option, quiet_flag, stage
 
 
 def load_json(path):
@@ -385,6 +385,7 @@ def damping(signals, reference, output, pdf, scene):
 @click.option("--ic", type=click.Choice(["A", "B"]), default="A", show_default=True)
 @fig_output
 @pdf_option
+@long_run_option
 @stage
 def airy(n_balls, ic, output, pdf, scene):
     """Chain wall force (exact modal sum) against the Airy asymptote, co-moving frame."""

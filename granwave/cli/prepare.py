@@ -8,7 +8,8 @@ import click
 
 from ..errors import InputError
 from ..params import PrepareParams
-from .common import options_from, output_option, params_from, progress_printer, quiet_option, stage, threads_option
+from .common import (long_run_option, options_from, output_option, params_from, progress_printer, quiet_option,
+                     stage, threads_option)
 
 #: ``--device cpu|gpu`` (also used by ``propagate``): where the stage's kernels run (docs/gpu.md).
 device_option = click.option(
@@ -76,7 +77,13 @@ def record_material(packing, material: str | None):
 
 def parse_seeds(spec: str) -> list[int]:
     """The seeds of ``spec``: comma-separated seeds and inclusive ranges ``a-b`` ("0-9", "1,4-6")."""
-    seeds = []
+    return [s for a, b in seed_ranges(spec) for s in range(a, b + 1)]
+
+
+def seed_ranges(spec: str) -> list[tuple[int, int]]:
+    """The inclusive ranges (a, b) of a ``--seeds`` spec, checked (no seed twice) without listing
+    the seeds: a range of 10^8 seeds is counted, not built."""
+    ranges = []
     for part in spec.split(","):
         lo, sep, hi = part.strip().partition("-")
         try:
@@ -86,10 +93,23 @@ def parse_seeds(spec: str) -> list[int]:
             raise InputError(f"--seeds {spec!r}: expected seeds and ranges such as 0-9 or 0,2,5-7") from None
         if a < 0 or b < a:
             raise InputError(f"--seeds {spec!r}: a range a-b needs 0 <= a <= b (got {part.strip()!r})")
-        seeds.extend(range(a, b + 1))
-    if len(set(seeds)) != len(seeds):
+        ranges.append((a, b))
+    ordered = sorted(ranges)
+    if any(c <= b for (_, b), (c, _) in zip(ordered, ordered[1:])):
         raise InputError(f"--seeds {spec!r}: a seed is listed twice")
-    return seeds
+    return ranges
+
+
+def check_seed_count(spec: str, params) -> None:
+    """Refuse (before any seed is listed or any name checked) a ``--seeds`` spec whose
+    preparations are predicted to take longer than the run-time limit (``--allow-long-run``
+    lifts it): at least PREPARE_MIN_STEPS steps each (granwave.resources.prepare_seconds)."""
+    from ..resources import PREPARE_MIN_STEPS, check_run_time, prepare_seconds
+
+    count = sum(b - a + 1 for a, b in seed_ranges(spec))
+    check_run_time(count * prepare_seconds(params.grains),
+                   f"--seeds {spec}: {count} preparations of {params.grains} grains (each at least "
+                   f"{PREPARE_MIN_STEPS} steps)")
 
 
 @click.command("prepare-packing")
@@ -102,6 +122,7 @@ def parse_seeds(spec: str) -> list[int]:
 @seeds_option
 @material_option
 @quiet_option
+@long_run_option
 @stage
 def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds, material, quiet, **options):
     """Prepare a packing in mechanical equilibrium by piston compression of a granular gas.
@@ -115,8 +136,14 @@ def prepare_packing(output, threads, device, checkpoint, checkpoint_every, seeds
     from .. import api
     from ..io.files import check_writable, write_packing
 
+    from .common import given
+
     params = params_from(PrepareParams, with_material(options, material))
+    if given("checkpoint_every") and checkpoint is None:
+        raise InputError("--checkpoint-every without --checkpoint: no checkpoint would be written "
+                         "(give --checkpoint FILE)")
     if seeds is not None:
+        check_seed_count(seeds, params)
         _prepare_seeds(params, parse_seeds(seeds), output, threads, device, checkpoint, checkpoint_every, quiet,
                        material)
         return

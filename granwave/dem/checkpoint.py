@@ -44,11 +44,45 @@ VERSION = 2
 EVERY = 600.0
 
 
+#: Parameters that say where a run stops, not how it steps: left out of :func:`params_digest`,
+#: so that a checkpoint kept after a step-budget failure goes on under a larger ``max_steps``.
+NOT_IN_DIGEST = ("max_steps",)
+
+
+def _digested(params) -> dict:
+    return {k: v for k, v in params.as_dict().items() if k not in NOT_IN_DIGEST}
+
+
 def params_digest(params) -> str:
     """A digest of a preparation's parameters (a frozen dataclass with ``as_dict``; the seed is
-    one of them): the run a checkpoint belongs to."""
-    text = json.dumps(params.as_dict(), sort_keys=True)
+    one of them, the step budget not): the run a checkpoint belongs to."""
+    text = json.dumps(_digested(params), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _differences(stored: str, params, most: int = 4) -> str:
+    """The parameters in which a checkpoint's run (its ``prepare_params`` JSON) differs from
+    ``params``, as 'seed 3 (this run: 4), ...' (at most ``most``, then a count)."""
+    try:
+        theirs = json.loads(stored)
+    except (TypeError, ValueError):
+        return "unreadable parameters"
+    ours = json.loads(json.dumps(_digested(params)))
+    keys = sorted(k for k in set(theirs) | set(ours) if k not in NOT_IN_DIGEST and theirs.get(k) != ours.get(k))
+    if not keys:
+        return "parameters recorded under another digest"
+    text = ", ".join(f"{k} {theirs.get(k)!r} (this run: {ours.get(k)!r})" for k in keys[:most])
+    return text + (f" and {len(keys) - most} more" if len(keys) > most else "")
+
+
+#: What reading a damaged file can raise (h5py: OSError for a bad header, RuntimeError or
+#: KeyError for a damaged B-tree or object header in its middle)
+DAMAGED = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+
+
+def _damaged(path, exc) -> InputError:
+    first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    return InputError(f"checkpoint {path} is damaged ({type(exc).__name__}: {first}); remove it to start over")
 
 
 def source_digest() -> str:
@@ -56,6 +90,27 @@ def source_digest() -> str:
     from ..kernel_cache import source_hash
 
     return source_hash()[:32]
+
+
+def state_digest(engine: dict, history, speeds) -> str:
+    """A digest of a checkpoint's state (the engine's arrays by name, dtype and shape, the run's
+    history and speeds): HDF5 checks no data, so a file damaged inside a dataset would resume
+    to another packing without it."""
+    h = hashlib.sha256()
+    for name in sorted(engine):
+        a = np.ascontiguousarray(engine[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape};".encode())
+        h.update(a.tobytes())
+    for rows in (history, speeds):
+        h.update(np.ascontiguousarray(np.array(rows, dtype=np.float64).reshape(-1, 2)).tobytes())
+    return h.hexdigest()[:32]
+
+
+def _int(value) -> int | None:
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        return None
 
 
 class Checkpoint:
@@ -84,23 +139,29 @@ class Checkpoint:
         if not self.path.exists():
             self._check_folder()
             return
-        with self._open() as f:
-            a = f.attrs
-            if a.get("kind") != KIND or int(a.get("version", -1)) != VERSION:
-                raise InputError(f"checkpoint {self.path} is not a granwave checkpoint of version "
-                                 f"{VERSION}; remove it or choose another --checkpoint")
-            if a["params_digest"] != self.key:
-                raise InputError(f"checkpoint {self.path} belongs to another preparation (its parameters: "
-                                 f"{a['prepare_params']}); remove it or choose another --checkpoint")
-            written_on = str(a.get("device", "cpu"))
-            if written_on != self.device:
-                raise InputError(f"checkpoint {self.path} was written on the {written_on.upper()}: resume it with "
-                                 f"--device {written_on} (the devices' runs part in the last bits), or remove it "
-                                 "to start over")
-            if a["source_digest"] != source_digest():
-                raise InputError(f"checkpoint {self.path} was written by other granwave code (version "
-                                 f"{a['granwave_version']}), which may step to other bits; remove it to "
-                                 "start over")
+        try:
+            with self._open() as f:
+                a = dict(f.attrs)
+        except InputError:
+            raise
+        except DAMAGED as exc:
+            raise _damaged(self.path, exc) from None
+        if a.get("kind") != KIND or _int(a.get("version", -1)) != VERSION:
+            raise InputError(f"checkpoint {self.path} is not a granwave checkpoint of version "
+                             f"{VERSION}; remove it or choose another --checkpoint")
+        if a.get("params_digest") != self.key:
+            raise InputError(f"checkpoint {self.path} belongs to another preparation "
+                             f"({_differences(a.get('prepare_params'), self.params)}); remove it or "
+                             "choose another --checkpoint")
+        written_on = str(a.get("device", "cpu"))
+        if written_on != self.device:
+            raise InputError(f"checkpoint {self.path} was written on the {written_on.upper()}: resume it with "
+                             f"--device {written_on} (the devices' runs part in the last bits), or remove it "
+                             "to start over")
+        if a.get("source_digest") != source_digest():
+            raise InputError(f"checkpoint {self.path} was written by other granwave code (version "
+                             f"{a.get('granwave_version')}), which may step to other bits; remove it to "
+                             "start over")
 
     def _check_folder(self) -> None:
         from ..io.files import check_writable
@@ -123,21 +184,31 @@ class Checkpoint:
         if not self.path.exists():
             return None
         self.check()
-        with self._open() as f:
-            engine = {k: f["engine"][k][()] for k in f["engine"]}
-            rules = json.loads(f.attrs["rules"])
-            history = [(int(s), float(a)) for s, a in f["run/history"][()]]
-            speeds = [(int(s), float(v)) for s, v in f["run/speeds"][()]]
-        if engine["position"].shape != run.engine.position.shape:
-            raise InputError(f"checkpoint {self.path} holds {engine['position'].shape[0]} grains, "
-                             f"the run {run.engine.position.shape[0]}; remove it to start over")
-        run.engine.restore(engine)
-        for name in ("settling", "end_game"):
-            rule = getattr(run, name)
-            if (rule is None) != (rules.get(name) is None):
-                raise InputError(f"checkpoint {self.path} does not match the run's {name} rule; remove it")
-            if rule is not None:
-                rule.restore(rules[name])
+        try:
+            with self._open() as f:
+                engine = {k: f["engine"][k][()] for k in f["engine"]}
+                rules = json.loads(f.attrs["rules"])
+                history_rows, speed_rows = f["run/history"][()], f["run/speeds"][()]
+                stored = f.attrs.get("state_digest")
+            if stored != state_digest(engine, history_rows, speed_rows):
+                raise InputError(f"checkpoint {self.path} is damaged (its state does not match the digest "
+                                 "it was written with); remove it to start over")
+            history = [(int(s), float(a)) for s, a in history_rows]
+            speeds = [(int(s), float(v)) for s, v in speed_rows]
+            if engine["position"].shape != run.engine.position.shape:
+                raise InputError(f"checkpoint {self.path} holds {engine['position'].shape[0]} grains, "
+                                 f"the run {run.engine.position.shape[0]}; remove it to start over")
+            run.engine.restore(engine)
+            for name in ("settling", "end_game"):
+                rule = getattr(run, name)
+                if (rule is None) != (rules.get(name) is None):
+                    raise InputError(f"checkpoint {self.path} does not match the run's {name} rule; remove it")
+                if rule is not None:
+                    rule.restore(rules[name])
+        except InputError:
+            raise
+        except DAMAGED as exc:
+            raise _damaged(self.path, exc) from None
         self._last = time.monotonic()
         return history, speeds
 
@@ -163,10 +234,14 @@ class Checkpoint:
                                step=run.engine.steps, written=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                                rules=json.dumps(rules))
                 g = f.create_group("engine")
-                for name, a in run.engine.state().items():
+                state = run.engine.state()
+                for name, a in state.items():
                     g.create_dataset(name, data=a)
                 f.create_dataset("run/history", data=np.array(history, dtype=np.float64).reshape(-1, 2))
                 f.create_dataset("run/speeds", data=np.array(speeds, dtype=np.float64).reshape(-1, 2))
+                # of what the file holds, read back as resume() will read it
+                f.attrs["state_digest"] = state_digest({k: g[k][()] for k in g}, f["run/history"][()],
+                                                       f["run/speeds"][()])
             with open(tmp, "rb") as fh:  # on disk before it replaces the last good checkpoint
                 os.fsync(fh.fileno())
             os.replace(tmp, self.path)

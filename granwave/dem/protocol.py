@@ -363,8 +363,14 @@ class Compression:
             if checkpoint is not None and checkpoint.due():
                 checkpoint.save(self, history, speeds)  # a chunk boundary: the state the run goes on from
         m = engine.measure()
+        kept = ""
+        if checkpoint is not None:  # the run so far, for a larger budget to go on from
+            checkpoint.save(self, history, speeds)
+            kept = (f" (checkpoint {checkpoint.path} kept at step {engine.steps}: rerun with a larger "
+                    "--max-steps to go on from it)")
         raise StepBudgetExceeded(f"{self.max_steps} steps {failure}: "
-                                 + non_convergence_hint(history, m, p, engine.dt, self.max_steps), self.max_steps)
+                                 + non_convergence_hint(history, m, p, engine.dt, self.max_steps) + kept,
+                                 self.max_steps)
 
 
 def prepare_packing(params: PrepareParams, progress=None, engine=Engine, checkpoint=None) -> Packing:

@@ -111,7 +111,7 @@ STRAIN_DEFINITION = "strain = EPS * mean_overlap / mean diameter"
 
 
 #: Attributes carried from the packing into the signal.
-CARRIED_ATTRS = (*SAMPLE_ATTRS, "grains", "polydispersity")
+CARRIED_ATTRS = (*SAMPLE_ATTRS, "grains", "polydispersity", "contact_law", "packing_digest")
 
 
 # ---------------------------------------------------------------- set-up
@@ -354,7 +354,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
     force = (kicked["top"] - reference) / scale
     attrs = carried(packing.attrs, CARRIED_ATTRS)
     attrs.update(
-        ic=ic, source_kind=source_kind, method="dem", height=packing.height, amplitude=float(amplitude),
+        ic=ic, source_kind=source_kind, method="dem", height=packing.height, lateral_width=float(packing.box[0]),
+        amplitude=float(amplitude),
         damping=float(damping),
         scale=float(scale), mean_overlap=dbar, amplitude_definition=AMPLITUDE_DEFINITION[ic],
         t_max=float(t_max), samples=samples, dt=float(step),

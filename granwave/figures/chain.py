@@ -27,9 +27,16 @@ def chain_airy(path, *, n_balls: Sequence[int] = (25, 50, 100, 200), ic: str = "
     need(ic in ("A", "B"), "ic must be A or B")
     n_balls = [int(n) for n in n_balls]
     need(len(n_balls) > 0 and min(n_balls) >= 2, "give chain lengths of at least 2 balls")
+    own_sum = exact is None  # granwave.theory's modal sum: its cost is known
     if exact is None or airy is None:
         e2, a2 = _theory_chain()
         exact, airy = exact or e2, airy or a2
+    if own_sum:  # the modal sum's memory and time, refused before any array is allocated
+        from ..resources import check_chain_force, check_run_time
+
+        seconds = sum(check_chain_force(N, samples) for N in n_balls)
+        check_run_time(seconds, f"the exact wall force of chains of {', '.join(map(str, n_balls))} balls "
+                                f"at {samples} times")
     power = 2 / 3 if ic == "A" else 1.0
     fig = new_figure((12, 5))
     ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)

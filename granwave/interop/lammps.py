@@ -139,7 +139,9 @@ def data_text(packing: Packing, *, piston_mass: float, margin: float) -> str:
     """The LAMMPS data file (atom_style sphere) of a packing, the piston atom last."""
     d, n = packing.dim, packing.n_grains
     box = _box(packing, margin)
-    lines = [f"granwave packing (pressure {packing.pressure:.17g}, dim {d}); units lj = granwave units",
+    law = str(packing.attrs.get("contact_law", "hertz"))
+    lines = [f"granwave packing (pressure {packing.pressure:.17g}, dim {d}, contact_law {law}); units lj = "
+             "granwave units",
              "", f"{n + 1} atoms", "2 atom types", ""]
     for name, (lo, hi) in zip(("x", "y", "z"), box):
         lines.append(f"{lo:.17g} {hi:.17g} {name}lo {name}hi")
@@ -308,6 +310,28 @@ def _floats(path, tokens, what: str) -> list[float]:
         _fail(path, f"{what}: not a number in {' '.join(tokens)!r}")
 
 
+def _hertz_only(path, title: str) -> None:
+    """Refuse the data file of a packing made with another normal law than Hertz: the import
+    relaxes with Hertz-Mindlin (a harmonic packing's file was relaxed as Hertz without a word).
+    The law is read from the title :func:`data_text` writes, else from the ``pair_coeff`` of the
+    deck written beside it (``in.granwave``, files exported before the title named the law)."""
+    import re
+
+    m = re.search(r"contact_law (\w+)", title)
+    law = m.group(1) if m else None
+    if law is None:
+        deck = Path(path).with_name(DECK_NAME)
+        try:
+            text = deck.read_text(encoding="utf-8", errors="replace") if deck.is_file() else ""
+        except OSError:
+            text = ""
+        m = re.search(r"^pair_coeff\s+\*\s+\*\s+(\w+)", text, flags=re.M)
+        law = None if m is None else ("hertz" if m.group(1) == "hertz" else f"LAMMPS {m.group(1)} ({deck.name})")
+    if law is not None and law != "hertz":
+        _fail(path, f"the packing's contact law is {law}: import lammps relaxes with Hertz-Mindlin "
+                    "only, which would make it another packing")
+
+
 def read_data(path) -> LammpsState:
     """A LAMMPS data file with ``atom_style sphere`` atoms (id type diameter density x y z
     [ix iy iz]); type-2 atoms of diameter 0 (the piston atom of :func:`export_lammps`) give
@@ -316,7 +340,8 @@ def read_data(path) -> LammpsState:
         lines = Path(path).read_text(encoding="utf-8", errors="strict").splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         _fail(path, f"cannot read ({getattr(exc, 'strerror', None) or 'not a text file'})")
-    lines = lines[1:]  # the first line is a title
+    title, lines = (lines[0] if lines else ""), lines[1:]  # the first line is a title
+    _hertz_only(path, title)
     header: dict[str, list[str]] = {}
     sections: dict[str, tuple[str, list[list[str]]]] = {}
     k = 0

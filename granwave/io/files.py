@@ -448,6 +448,7 @@ def read_linear(path) -> LinearSystem:
     V.linear(path, a, attrs, shape)
     n = len(a["mass"])
     D = sp.csr_matrix((a["matrix/data"], a["matrix/indices"], a["matrix/indptr"]), shape=(n, n))
+    V.stiffness_symmetry(path, D, attrs)  # an edited D is refused before its modes are written
     system = LinearSystem(
         stiffness=D, mass=a["mass"], dof_grain=a["dof/grain"], dof_axis=a["dof/axis"],
         source_velocity=a["source/velocity"], source_displacement=a["source/displacement"],

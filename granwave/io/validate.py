@@ -28,6 +28,16 @@ POISSON_MIN, POISSON_MAX = 0.0, 0.5
 #: contact; half the radius lets them pass and still refuses the nonsense of a
 #: corrupted or hand-made file (overlaps of diameters, coincident grains).
 MAX_OVERLAP_FRACTION = 0.5
+#: Relative asymmetry ||D - D^T||_F / ||D||_F a linearization gives D where no tangential
+#: force enters it (no prestress, or frictionless): the assembly adds each contact's block
+#: and its transpose, so D is symmetric to round-off (measured 0 to 1e-17).
+SYMMETRY_ROUNDOFF = 1e-9
+#: With prestress the stored tangential forces F_t add a non-symmetric part to D
+#: (docs/linear.md) of relative size ~0.4 mu delta/d (measured: 4.3e-4 at p = 1e-4, 9.5e-3 at
+#: p = 1e-2, mu = 0.5, 40-grain 2D Hertz packings). Overlaps are below MAX_OVERLAP_FRACTION
+#: of a radius (delta/d < 0.25), so such a D stays below 0.1 mu; PRESTRESS_ASYMMETRY_PER_MU mu
+#: leaves a factor 5 above that (docs/decisions/0045-what-belongs-together.md).
+PRESTRESS_ASYMMETRY_PER_MU = 0.5
 #: Relative tolerance on |n| = 1 for contact normals.
 NORMAL_TOL = 1e-6
 #: Tolerance on centre distance below R_i + R_j - overlap, relative to R_i + R_j.
@@ -422,6 +432,66 @@ def linear(path, a: dict, attrs: dict, shape) -> None:
     # 3D: rotations 3..5, or 6, 7 for a grain whose free spin was removed
     _in_range(path, "dof/axis", a["dof/axis"], 0,
               S.SPIN_REDUCED_AXES[-1] + 1 if dim == 3 else dim + dim * (dim - 1) // 2)
+
+
+def asymmetry_limit(attrs: dict) -> float:
+    """The largest relative asymmetry ||D - D^T||_F / ||D||_F a linearization can give a
+    system with these attributes: round-off without prestress or without friction, else
+    PRESTRESS_ASYMMETRY_PER_MU x friction above it."""
+    prestress = attrs.get("prestress", False)
+    try:
+        friction = float(attrs.get("friction", 0.0))
+    except (TypeError, ValueError):
+        friction = 0.0
+    if isinstance(prestress, (bool, np.bool_, int, np.integer)) and bool(prestress) and friction > 0:
+        return SYMMETRY_ROUNDOFF + PRESTRESS_ASYMMETRY_PER_MU * friction
+    return SYMMETRY_ROUNDOFF
+
+
+def stiffness_symmetry(path, D, attrs: dict) -> float:
+    """The relative asymmetry of the stiffness matrix ``D`` (scipy sparse), InputError where
+    it exceeds :func:`asymmetry_limit`: such a D was not made by a linearization (an edited or
+    foreign file), and its symmetric part is not the system's (its modes, often negative,
+    would be written as if they were). Cost O(nnz)."""
+    import scipy.sparse.linalg as spla
+
+    norm = float(spla.norm(D))
+    asym = float(spla.norm(D - D.T)) / norm if norm > 0 else 0.0
+    limit = asymmetry_limit(attrs)
+    if not asym <= limit:
+        why = ("with prestress and friction " + f"{float(attrs.get('friction')):g}"
+               if limit > SYMMETRY_ROUNDOFF else
+               "the round-off of a linearization without prestress or without friction")
+        _fail(path, "matrix", f"D is not symmetric: relative asymmetry ||D - D^T||/||D|| = {asym:.3g}, "
+                              f"above the {limit:.3g} of {why}; the stiffness matrix was altered or "
+                              "is not a linearization's (rebuild it with granwave linearize)")
+    return asym
+
+
+def linear_system(system, what: str = "the linear system") -> None:
+    """The checks of a linear file (:func:`linear`, :func:`stiffness_symmetry`) on a
+    LinearSystem built in memory (the API takes them without a file): positive finite masses,
+    finite entries, every per-dof vector of the dofs' length. InputError naming ``what``."""
+    import scipy.sparse as sp
+
+    D = sp.csr_matrix(system.stiffness, copy=True)
+    D.sum_duplicates()  # canonical rows, as a file holds them
+    n = len(np.asarray(system.mass))
+    a = {"matrix/data": np.asarray(D.data, float), "matrix/indices": np.asarray(D.indices, np.int64),
+         "matrix/indptr": np.asarray(D.indptr, np.int64), "mass": np.asarray(system.mass, float),
+         "dof/grain": np.asarray(system.dof_grain, np.int64), "dof/axis": np.asarray(system.dof_axis, np.int64)}
+    for name, v in (("source/velocity", system.source_velocity), ("detector", system.detector),
+                    ("source/displacement", system.source_displacement)):
+        v = np.asarray(v, float)
+        if v.shape != (n,):
+            _fail(what, name, f"has shape {v.shape}, the system {n} dofs")
+        if name != "source/displacement" or np.isfinite(v).all():  # NaN: a shear kick's (IC A only)
+            a[name] = v
+    for name in ("dof/grain", "dof/axis"):
+        if a[name].shape != (n,):
+            _fail(what, name, f"has shape {a[name].shape}, the system {n} dofs")
+    linear(what, a, dict(system.attrs), D.shape)
+    stiffness_symmetry(what, D, dict(system.attrs))
 
 
 def _sorted_unique_rows(path, indptr: np.ndarray, indices: np.ndarray) -> None:

@@ -514,7 +514,8 @@ def linearize(packing: Packing, *, prestress: bool = False, force: bool = False,
     out_attrs = {k: attrs[k] for k in _COPIED_ATTRS if k in attrs}
     out_attrs.update(
         dim=dim, friction=friction, pressure=float(attrs.get("pressure", np.nan)),
-        height=packing.height, prestress=bool(prestress),
+        height=packing.height, lateral_width=float(packing.box[0]),  # the lateral (periodic) length
+        prestress=bool(prestress),
         n_rotations=n_rot, n_dof=n_dof, n_contacts=int(len(keep)),
         n_rattlers=int(packing.n_grains - len(np.unique(dof_grain))),
         n_spins_removed=int(len(layout.spin_grains)),

@@ -40,6 +40,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import InputError
+from ..io.validate import asymmetry_limit
 from ..model import LinearSystem, Modes
 from ..resources import check_eigensolve
 from ..provenance import FILE_ATTRS
@@ -91,6 +92,10 @@ def eigensolve(system: LinearSystem, *, vectors: bool = False, k: int | None = N
     """
     n = system.n_dof
     A, asym = mass_weighted(system)
+    if not asym <= asymmetry_limit(system.attrs):  # a file's reader refuses it the same way
+        raise InputError(f"D is not symmetric: relative asymmetry ||D - D^T||/||D|| = {asym:.3g}, above "
+                         f"the {asymmetry_limit(system.attrs):.3g} a linearization with these attributes "
+                         "(prestress, friction) can give; its symmetric part is not this system's")
     check_eigensolve(n, k, _is_tridiagonal(A))  # refuse a spectrum that cannot fit in memory
     sqrt_m = np.sqrt(system.mass)
     if k is None or k >= n - 1:

@@ -50,7 +50,7 @@ DEFAULT_SAFETY = 0.1
 #: Attributes carried from the linear / modes file into the signal file.
 CARRIED_ATTRS = (*SAMPLE_ATTRS, "prestress", "n_dof", "n_rattlers", "packing_seed", "packing_source",
                  "packing_git_revision", "n_zero_modes", "linear_source", "modes_source",
-                 "packing_digest", "linear_digest", "source_kind")
+                 "packing_digest", "linear_digest", "source_kind", "contact_law", "lateral_width")
 
 
 def sample_times(t_max: float, samples: int) -> np.ndarray:

@@ -44,7 +44,8 @@ def _check_config():
     if message:
         _stop(message)
     validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
-    for check in (ws.cross_reference_error, ws.contact_error, ws.labels_error, ws.count_error, ws.shear_error):
+    for check in (ws.cross_reference_error, ws.contact_error, ws.labels_error, ws.count_error, ws.shear_error,
+                  ws.record_error, ws.width_error):
         message = check(config)
         if message:
             _stop(message)
