@@ -408,3 +408,29 @@ def test_every_number_on_the_page_follows_the_rule(page):
     md, _ = page
     assert not number_problems(md), number_problems(md)[:5]
     assert len(number_problems("p^0.164 ± 0.0058, δ = 0.600 ± 0.086")) == 2
+
+
+def test_no_markup_from_file_names_or_text_reaches_the_html(tmp_path):
+    """A figure whose file name is markup, a link with a script URL and raw HTML in the page:
+    the HTML twin keeps the report's own tags (tables, links, images, anchors) and nothing else."""
+    from granwave.report import build_report, write_report
+
+    fig = tmp_path / "<img src=x onerror=alert(1)>.png"
+    fig.write_bytes(b"")
+    md = build_report(figures=[fig], out_dir=tmp_path)
+    md += "\n[run](javascript:alert(2)) <script>alert(3)</script>\n\n| a | b |\n|---|--:|\n| 1 | 2 |\n"
+    _, html_path = write_report(tmp_path / "r.md", md)
+    page = html_path.read_text()
+    from html.parser import HTMLParser
+
+    seen = []
+
+    class Elements(HTMLParser):
+        def handle_starttag(self, tag, attrs):
+            seen.append((tag, dict(attrs)))
+
+    Elements().feed(page)
+    assert not [t for t, a in seen if t == "script" or any(k.startswith("on") for k in a)]
+    assert not [a for _, a in seen if any("javascript" in (v or "") for v in a.values())]
+    assert ("a", {"id": "figures"}) in seen and ("td", {"align": "right"}) in seen
+    assert [a for t, a in seen if t == "img" and a.get("src", "").endswith("onerror=alert(1)>.png")]
