@@ -21,6 +21,8 @@ docs/api.md.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import dataclasses
 import math
 import warnings
@@ -641,6 +643,9 @@ def shear_front(signal: Signal, *, moduli: dict | None = None, frequency: float 
     from .units import material_scales
 
     c_t = phi = g_mod = None
+    if moduli is not None and not isinstance(moduli, Mapping):
+        raise InputError(f"moduli must be a mapping (the JSON object of analyze moduli), got "
+                         f"{type(moduli).__name__}")
     if moduli is not None:
         from .analysis.shear_scene import reference_speeds
 

@@ -11,6 +11,7 @@ from click.testing import CliRunner
 from granwave import api
 from granwave.cli import main
 from granwave.errors import InputError
+from granwave.model import Signal
 
 
 def run(args):
@@ -157,3 +158,12 @@ def test_numpy_scalars_are_taken_where_python_numbers_are():
 def test_prepare_packings_refuses_seeds_that_are_not_integers(seeds, match):
     with pytest.raises(InputError, match=match):  # refused before any DEM step
         api.prepare_packings(grains=10, pressure=1e-4, friction=0.0, seeds=seeds)
+
+
+@pytest.mark.parametrize("moduli", [[1.0, 2.0], "moduli.json", 0.09])
+def test_shear_front_refuses_moduli_that_are_not_a_mapping(moduli):
+    t = np.linspace(0.0, 100.0, 1001)
+    sig = Signal(time=t, force=np.exp(-((t - 50.0) / 5.0) ** 2),
+                 attrs=dict(ic="A", height=20.0, source_kind="shear", method="modal"))
+    with pytest.raises(InputError, match=f"moduli must be a mapping .*got {type(moduli).__name__}"):
+        api.shear_front(sig, moduli=moduli)
