@@ -22,7 +22,7 @@ if str(ROOT) not in sys.path:
 from benchmarks import truth  # noqa: E402
 from benchmarks.truth_cases import Case, interval  # noqa: E402
 
-TOPICS = {"front", "heights", "attenuation", "continuum", "sweep", "moduli", "shear"}
+TOPICS = {"front", "heights", "attenuation", "continuum", "sweep", "moduli", "shear", "shocks"}
 
 
 @functools.lru_cache(maxsize=None)
