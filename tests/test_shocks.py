@@ -256,6 +256,23 @@ def test_time_step_follows_the_kick():
     assert P.default_time_step(q, 0.01, k) == P.default_time_step(q, 0.01)
 
 
+def test_record_length_follows_the_kick():
+    """Without --t-max the record is RECORD_CROSSINGS crossings at the front speed bound of the closed
+    forms: the measured front lies within 10 % below the bound (the bound is an upper estimate) and
+    crosses the column early in the record, and a strong kick's shorter record and shorter step
+    (both ∝ v^(-1/5) on an unloaded chain) leave the number of steps unchanged."""
+    p = chain(n_balls=40, pressure=1e-9, stiffness_model="hertz")
+    sigs = [P.propagate_dem(p, velocity=v, baseline=False) for v in (1e-3, 1e-1)]
+    for sig in sigs:
+        a = sig.attrs
+        assert a["t_max_rule"].startswith(f"{P.RECORD_CROSSINGS:g} crossings")
+        assert a["t_max"] == pytest.approx(P.RECORD_CROSSINGS * a["height"] / a["front_speed_bound"], rel=1e-12)
+        assert 0.9 < a["front_speed"] / a["front_speed_bound"] < 1.0
+        assert np.all(np.isfinite(sig.pulse["arrival"])) and np.max(sig.pulse["arrival"]) < 0.5 * a["t_max"]
+    assert sigs[0].attrs["t_max"] / sigs[1].attrs["t_max"] == pytest.approx(100.0**0.2, rel=1e-3)
+    assert sigs[0].attrs["n_steps"] == sigs[1].attrs["n_steps"]
+
+
 def test_front_picks_on_a_field_of_known_speed():
     t = np.linspace(0.0, 100.0, 2001)
     z = np.arange(40) + 0.5
@@ -288,8 +305,17 @@ def test_cli_piston_and_bad_input(tmp_path):
                                  *bad])
         assert r.exit_code == 2, (bad, r.output)
         assert not target.exists()
+    # no --t-max: the dem default (docs/shocks.md); the linear methods still need it
+    out = tmp_path / "d.h5"
+    r = runner.invoke(main, ["propagate", str(c), "--method", "dem", "--velocity", "1e-2", "--samples", "301",
+                             "-q", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    with h5py.File(out) as f:
+        assert f.attrs["t_max_rule"].startswith(f"{P.RECORD_CROSSINGS:g} crossings")
     lin = tmp_path / "l.h5"
     assert runner.invoke(main, ["linearize", str(c), "-q", "-o", str(lin)]).exit_code == 0
     r = runner.invoke(main, ["propagate", str(lin), "--velocity", "1e-3", "--t-max", "10", "-q",
                              "-o", str(tmp_path / "x.h5")])
     assert r.exit_code == 2 and "dem only" in r.output
+    r = runner.invoke(main, ["propagate", str(lin), "--samples", "301", "-q", "-o", str(tmp_path / "x.h5")])
+    assert r.exit_code == 2 and "needs --t-max" in r.output and not (tmp_path / "x.h5").exists()
