@@ -1,6 +1,19 @@
-"""Cost of one damped nonlinear DEM pulse against the linear time-domain signal (printed).
+"""Cost of one damped nonlinear DEM pulse against the linear time-domain signal (printed); with
+``--shock``, a strong push across a 10⁴-grain column against the preparation engine (recorded).
 
     python benchmarks/pulse.py [--grains 600] [--damping 0.1] [--crossings 3] [--packing FILE]
+    nice -n 10 python benchmarks/pulse.py --shock [--rows 1250 --width 8] [--no-record]
+
+``--shock`` (issue #63, docs/shocks.md): a triangular lattice of rows x width grains (default
+1250 x 8 = 10⁴, Hertz, p = 1e-4, frictionless) pushed by the piston at the strain 10 δ0/d (a strong
+push: ε/δ0 = 10) over ``--fraction`` of the default record, sampled as the default record is (its
+2001 samples' interval: the same steps per sample, so the pulse field's per-sample reading costs
+what it costs in a full run); grain-steps/s of the pulse
+(``propagate_dem``, pulse field on, no baseline) on one thread against the preparation engine's
+(``Engine.run``, damped, piston, on the same state) on one thread, in the same run; and the pulse's
+rate on 2 threads against 1 (the thread ratio). Each timing is the best of ``--repeat`` (CPU time
+of this process for one thread, wall time for two). Appends benchmarks/results/pulse.jsonl; the
+machine is shared (2 cores, other work running): the ratios, measured back to back, are the numbers.
 
 One 2D frictional packing (p = 1e-4, mu = 0.5; prepared here unless
 ``--packing`` is given, preparation time not counted). Over the same t_max
@@ -32,14 +45,121 @@ from granwave.linear.assemble import linearize
 from granwave.linear.propagate import time_domain_signal
 
 
+def shock(args) -> dict:
+    """The ``--shock`` measurement (module docstring): a dict of rates and ratios."""
+    import math
+
+    import numba
+    import numpy as np
+
+    from granwave.dem.integrator import Engine
+    from granwave.dem.kick import RECORD_CROSSINGS, front_speed_bound, kick_size, peak_overlap
+    from granwave.systems import triangular_lattice
+
+    packing = triangular_lattice(rows=args.rows, width=args.width, pressure=1e-4)
+    n = packing.n_grains
+    delta0 = float(np.mean(packing.contacts.overlap[packing.contacts.j >= 0]))
+    strain = 10.0 * delta0 / 1.0  # ε = 10 δ0 / d
+    size = kick_size(packing, drive="piston", strain=strain)
+    peak, _ = peak_overlap(packing, ic="A", velocity=size["velocity"], displacement=0.0, drive="piston")
+    t_max = args.fraction * RECORD_CROSSINGS * packing.height / front_speed_bound(packing, peak=peak)["speed"]
+    # the default record's sampling (2001 samples over the whole record): as many steps per sample
+    samples = max(11, int(round(args.fraction * (args.samples - 1))) + 1)
+    kw = dict(drive="piston", strain=strain, baseline=False, samples=samples)
+    print(f"lattice {args.rows} x {args.width} = {n} grains, height {packing.height:.1f}; piston strain "
+          f"{strain:.3g} (10 delta0), v_p {size['velocity']:.3g}; t_max {t_max:.4g} "
+          f"({args.fraction:g} of the default record)", flush=True)
+    for threads in (1, 2):  # compile (the one-thread and the parallel kernels)
+        numba.set_num_threads(threads)
+        propagate_dem(packing, t_max=t_max / 100, **{**kw, "samples": 11})
+
+    def pulse_rate(threads: int) -> tuple[float, dict]:
+        numba.set_num_threads(threads)
+        best = math.inf
+        for _ in range(args.repeat):
+            c0, w0 = time.process_time(), time.perf_counter()
+            sig = propagate_dem(packing, t_max=t_max, **kw)
+            took = (time.process_time() - c0) if threads == 1 else (time.perf_counter() - w0)
+            best = min(best, took)
+        return n * sig.attrs["n_steps"] / best, sig.attrs
+
+    def prepare_rate() -> float:
+        numba.set_num_threads(1)
+        best = math.inf
+        for _ in range(args.repeat):
+            eng = Engine(packing.position, packing.radius, packing.box[:-1], float(packing.box[-1]), friction=0.0,
+                         damping=0.5, skin=0.2, piston_mass=float(n), piston_force=1e-4 * float(packing.box[0]),
+                         velocity=np.random.default_rng(0).normal(0.0, 1e-4, packing.position.shape))
+            eng.run(20)
+            c0 = time.process_time()
+            eng.run(args.prepare_steps)
+            best = min(best, time.process_time() - c0)
+        return n * args.prepare_steps / best
+
+    rate1, attrs = pulse_rate(1)
+    prep = prepare_rate()
+    rate2, _ = pulse_rate(2)
+    numba.set_num_threads(1)
+    out = {"grains": n, "steps": attrs["n_steps"], "samples": samples, "dt": attrs["dt"], "t_max": t_max,
+           "front_speed": attrs["front_speed"], "front_speed_bound": attrs["front_speed_bound"],
+           "pulse_rate_1": rate1, "prepare_rate_1": prep, "pulse_rate_2": rate2,
+           "pulse_over_prepare": rate1 / prep, "threads_2_over_1": rate2 / rate1}
+    print(f"pulse, 1 thread   : {rate1:.3g} grain-steps/s ({attrs['n_steps']} steps, dt {attrs['dt']:.3g})")
+    print(f"prepare, 1 thread : {prep:.3g} grain-steps/s ({args.prepare_steps} steps)")
+    print(f"pulse, 2 threads  : {rate2:.3g} grain-steps/s")
+    print(f"ratio pulse / preparation per core: {rate1 / prep:.3f}; 2 threads / 1: {rate2 / rate1:.3f}")
+    return out
+
+
+def record_shock(result: dict, argv: list[str]) -> None:
+    import json
+    import os
+    import platform
+    from pathlib import Path
+
+    from granwave.provenance import git_revision
+
+    rec = {"date": time.strftime("%Y-%m-%d"), "benchmark": "pulse_shock",
+           "command": "python benchmarks/pulse.py " + " ".join(argv), "git_revision": git_revision(),
+           "machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+                       "shared": True},
+           "summary": {"grains": result["grains"],
+                       "pulse / preparation per core": {"values": f"{result['pulse_rate_1']:.3g} / "
+                                                        f"{result['prepare_rate_1']:.3g} grain-steps/s",
+                                                        "ratio": round(result["pulse_over_prepare"], 3), "goal": 1.0},
+                       "2 threads / 1": {"values": f"{result['pulse_rate_2']:.3g} / {result['pulse_rate_1']:.3g}",
+                                         "ratio": round(result["threads_2_over_1"], 3)}},
+           "notes": "shared 2-core machine with other work running (4 helpers and the lead): absolute rates "
+                    "drift; the ratios are measured back to back in one run, best of the repeats",
+           "result": result}
+    path = Path(__file__).resolve().parent / "results" / "pulse.jsonl"
+    with path.open("a") as fh:
+        fh.write(json.dumps(rec) + "\n")
+    print(f"recorded {path}")
+
+
 def main() -> None:
+    import sys
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--shock", action="store_true", help="the strong push across a 10^4-grain column (recorded)")
+    ap.add_argument("--rows", type=int, default=1250)
+    ap.add_argument("--width", type=int, default=8)
+    ap.add_argument("--fraction", type=float, default=0.05, help="--shock: the part of the default record run")
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--prepare-steps", type=int, default=2000)
+    ap.add_argument("--no-record", action="store_true")
     ap.add_argument("--grains", type=int, default=600)
     ap.add_argument("--damping", type=float, default=0.1)
     ap.add_argument("--crossings", type=float, default=3.0)
     ap.add_argument("--samples", type=int, default=2001)
     ap.add_argument("--packing", default=None, help="use this packing file instead of preparing one")
     args = ap.parse_args()
+    if args.shock:
+        result = shock(args)
+        if not args.no_record:
+            record_shock(result, sys.argv[1:])
+        return
 
     if args.packing:
         packing = files.read_packing(args.packing)

@@ -473,8 +473,11 @@ class PropagateParams(Params):
                              "moved along x (needs friction; initial condition A), signal = the top "
                              "wall's force along x (docs/shear.md).", choices=("normal", "shear"),
                              cli="--source")
-    t_max: float = param(help="Length of the signal (the crossing time is height / c).",
-                         units="d/sqrt(E*/rho)", lo=0.0, lo_open=True, cli="--t-max")
+    t_max: float | None = param(None, help="Length of the signal (the crossing time is height / c). "
+                                "Needed by modal and time; with dem, default: a few crossings at an upper "
+                                "estimate of the kick's front speed (the linear and the solitary wave's "
+                                "closed forms at the kick's size; docs/shocks.md).",
+                                units="d/sqrt(E*/rho)", lo=0.0, lo_open=True, cli="--t-max")
     method: str | None = param(None, help="modal (needs a modes file, or eigensolves a linear file "
                                "on the fly), time (velocity Verlet on a linear file), auto (modal "
                                "or time, whichever is predicted cheaper at the accuracy of "
@@ -542,7 +545,7 @@ class PropagateParams(Params):
         if self.source_kind == "shear" and self.ic != "A":
             raise InputError("--source shear has initial condition A only (an impulse: the wall's "
                              "displacement has no unique shape once rotations take part); use --ic A")
-        if self.snapshots is not None and not all(math.isfinite(t) and 0 <= t <= self.t_max
+        if self.snapshots is not None and self.t_max is not None and not all(math.isfinite(t) and 0 <= t <= self.t_max
                                                   for t in self.snapshots):
             raise InputError(f"snapshot times must lie in [0, t_max = {self.t_max:g}]")
 
@@ -554,6 +557,8 @@ class PropagateParams(Params):
         if method not in (None, "dem") and given:
             names = {"bin_width": "bin"}
             raise InputError(f"{' and '.join('--' + names.get(k, k) for k in given)} apply to --method dem only")
+        if method not in (None, "dem") and self.t_max is None:
+            raise InputError(f"--method {method} needs --t-max (the record's length)")
         sizes = [k for k in ("amplitude", "strain", "velocity") if getattr(self, k) is not None]
         if len(sizes) > 1:
             raise InputError(f"give one kick size, not {' and '.join('--' + k for k in sizes)}")

@@ -360,3 +360,93 @@ def hertz_solitary_speed(force_max: float, force_0: float, *, kappa: float, mass
 HERTZ_SOLITARY_SUPPORT = 5.0 * math.pi / math.sqrt(10.0)
 #: Its full width at half maximum (in a): cos⁴(√10 x / (5 a)) = 1/2.
 HERTZ_SOLITARY_FWHM = 2.0 * math.acos(2.0 ** -0.25) * 5.0 / math.sqrt(10.0)
+
+
+# ---------------------------------------------------------------- the discrete chain's solitary wave
+def hertz_chain_solitary_wave(speed: float, force_0: float, *, kappa: float, mass: float, spacing: float,
+                              points_per_grain: int = 32, tol: float = 1e-12) -> dict:
+    """The exact solitary wave of the discrete Hertzian chain travelling at ``speed`` (docs/method.md
+    §12, "The discrete chain's wave"): the overlap δ_n(t) = δ_0 + y(n − V t / a) between balls n − 1 and
+    n solves m (V/a)² y″(ξ) = F(δ_0 + y(ξ+1)) − 2 F(δ_0 + y(ξ)) + F(δ_0 + y(ξ−1)), F = κ δ^{3/2}. With
+    F(δ_0 + y) = F_0 + k_0 y + N(y) its Fourier transform is
+
+        ŷ(q) = s(q) N̂(q) / [m (V/a)² q² − k_0 s(q)],   s = 4 sin²(q/2),
+
+    a positive operator for V above the sound speed c_0 = a sqrt(k_0/m), solved by Petviashvili's
+    iteration (y ← M^γ G N(y), M = ⟨y, y⟩ / ⟨y, G N(y)⟩, γ = 3 without precompression, 2 with it) on
+    a periodic grid of ``points_per_grain`` points per spacing, long enough for the tails to vanish
+    (their decay length, 1 / sqrt(V/c_0 − 1) grains near the linear limit). Returns xi (grains), y
+    (the overlap beyond δ_0), velocity (of the ball at ξ, along the wave), force_max = F(δ_0 + max y)
+    and iterations."""
+    if force_0 < 0.0 or not (kappa > 0.0 and mass > 0.0 and spacing > 0.0):
+        raise ValueError("need force_0 >= 0 and positive kappa, mass and spacing")
+    d0 = (force_0 / kappa) ** (2.0 / 3.0)
+    k0 = 1.5 * kappa * math.sqrt(d0)
+    c0 = spacing * math.sqrt(k0 / mass)
+    if not speed > c0:
+        raise ValueError(f"a solitary wave travels faster than the sound speed c_0 = {c0:.6g} (got {speed})")
+    length = 32.0 if force_0 == 0.0 else max(32.0, 30.0 / math.sqrt(speed / c0 - 1.0))
+    length = float(2 ** math.ceil(math.log2(length)))  # grains
+    n = int(length) * int(points_per_grain)
+    h = 1.0 / int(points_per_grain)
+    xi = (np.arange(n) - n // 2) * h
+    q = 2.0 * np.pi * np.fft.rfftfreq(n, d=h)
+    s = 4.0 * np.sin(0.5 * q) ** 2
+    w2 = mass * (speed / spacing) ** 2
+    g = np.empty_like(q)
+    g[1:] = s[1:] / (w2 * q[1:] ** 2 - k0 * s[1:])
+    g[0] = 1.0 / (w2 - k0)  # s / q² -> 1
+    gamma = 3.0 if force_0 == 0.0 else 2.0
+
+    def nonlinear(y):
+        y = np.maximum(y, -d0)  # an open contact carries no force
+        return kappa * ((d0 + y) ** 1.5 - d0**1.5) - k0 * y
+
+    scale = d0 if force_0 > 0.0 else (w2 / kappa) ** 2  # the overlap's size: its ξ⁰ balance
+    y = scale * np.exp(-(xi / 2.0) ** 2)
+    for it in range(1, 5001):
+        gn = np.fft.irfft(g * np.fft.rfft(nonlinear(y)), n)
+        m = float(np.dot(y, y) / np.dot(y, gn))
+        new = m**gamma * gn
+        err = float(np.max(np.abs(new - y)) / np.max(np.abs(new)))
+        y = new
+        if err < tol and abs(m - 1.0) < 1e-10:
+            break
+    else:
+        raise ValueError(f"the solitary wave at V = {speed} did not converge (last change {err:.2g})")
+    # the balls' velocity: y(ξ+1) = U(ξ) − U(ξ+1) for the displacement u_n = U(ξ), so U(ξ) = Σ_{k≥1} y(ξ+k)
+    # and u̇ = −(V/a) U′(ξ) (the grid holds a whole number of points per grain)
+    dy = np.fft.irfft(1j * q * np.fft.rfft(y), n)
+    rows = dy.reshape(int(length), int(points_per_grain))  # row k: ξ in [k, k + 1) grains from the left end
+    ahead = np.cumsum(rows[::-1], axis=0)[::-1] - rows  # Σ over the rows after each (no wrap past the end)
+    velocity = -speed / spacing * ahead.ravel()
+    return dict(xi=xi, y=y, velocity=velocity, force_max=float(kappa * (d0 + y.max()) ** 1.5), iterations=it)
+
+
+def hertz_chain_solitary_speed(force_max: float, force_0: float, *, kappa: float, mass: float,
+                               spacing: float) -> float:
+    """The speed of the discrete Hertzian chain's exact solitary wave of crest force ``force_max``
+    (:func:`hertz_chain_solitary_wave`, its crest force solved for by the secant method from the
+    long-wave speed, :func:`hertz_solitary_speed`). Without precompression the chain has no force
+    scale and V ∝ F_m^{1/6} exactly: one wave at the long-wave speed, rescaled."""
+    if not force_max > force_0 >= 0.0:
+        raise ValueError(f"need force_max > force_0 >= 0 (got {force_max}, {force_0})")
+    kw = dict(kappa=kappa, mass=mass, spacing=spacing)
+    v = hertz_solitary_speed(force_max, force_0, **kw)
+    if force_0 == 0.0:
+        return v * (force_max / hertz_chain_solitary_wave(v, 0.0, **kw)["force_max"]) ** (1.0 / 6.0)
+    # ln F_m against ln(V − c_0): nearly straight from the linear limit to the uncompressed law
+    c0 = spacing * math.sqrt(1.5 * kappa * (force_0 / kappa) ** (1.0 / 3.0) / mass)
+    x_of = lambda speed: math.log(speed - c0)  # noqa: E731
+    f = lambda x: math.log(hertz_chain_solitary_wave(c0 + math.exp(x), force_0, **kw)["force_max"]  # noqa: E731
+                           - force_0) - math.log(force_max - force_0)
+    x0, x1 = x_of(v), x_of(v) + 0.01
+    f0, f1 = f(x0), f(x1)
+    for _ in range(50):
+        if f1 == f0:
+            break
+        x0, x1, f0 = x1, x1 - f1 * (x1 - x0) / (f1 - f0), f1
+        f1 = f(x1)
+        if abs(x1 - x0) < 1e-12:
+            break
+    return c0 + math.exp(x1)

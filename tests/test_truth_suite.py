@@ -22,7 +22,7 @@ if str(ROOT) not in sys.path:
 from benchmarks import truth  # noqa: E402
 from benchmarks.truth_cases import Case, interval  # noqa: E402
 
-TOPICS = {"front", "heights", "attenuation", "continuum", "sweep", "moduli", "shear"}
+TOPICS = {"front", "heights", "attenuation", "continuum", "sweep", "moduli", "shear", "shocks"}
 
 
 @functools.lru_cache(maxsize=None)
@@ -131,6 +131,25 @@ def test_shear_picks_on_delta_and_delta_prime_responses():
     for c in cases:
         est = np.array([r[0] for r in _run(c, range(3))])
         assert np.all(np.abs(est / c.truth - 1) < c.tolerance), (c.key, c.setting, est)
+
+
+def test_shock_front_picks_stay_within_their_recorded_bias():
+    # the fast shocks.* cases (100 d columns: the chain and the disordered column, a cos⁴ pulse and an
+    # overshooting shock front), 3 seeds each: two of the three speed intervals hold the truth (93-100 %
+    # coverage recorded) and the mean
+    # stays within the recorded |bias| + 3 of the recorded scatter of a 3-seed mean; the width too
+    table = json.loads((ROOT / "granwave" / "data" / "truth.json").read_text())["estimators"]
+    cases = [c for c in _topic("shocks") if c.fast]
+    assert {c.key for c in cases} == {"shocks.peak_speed", "shocks.crossing_speed", "shocks.width"}
+    assert {"chain" in c.setting for c in cases} == {True, False}
+    for c in cases:
+        row = next(r for r in table[c.key] if r["setting"] == c.setting)
+        res = _run(c, range(3))
+        est = np.array([r[0] for r in res])
+        spread = row["bias_err"] * math.sqrt(row["n_estimates"])  # one seed's standard deviation
+        assert abs(est.mean() - c.truth - row["bias"]) <= 3 * spread / math.sqrt(3) + 1e-12, (c.key, c.setting, est, row)
+        if c.key != "shocks.width":
+            assert sum(lo <= c.truth <= hi for _, lo, hi in res) >= 2, (c.key, c.setting, res)
 
 
 def test_heights_speeds_and_exponents_cover_the_closed_forms():

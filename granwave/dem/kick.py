@@ -186,3 +186,46 @@ def peak_overlap(packing: Packing, *, ic: str, velocity: float, displacement: fl
 
     delta = float(brentq(energy, 0.0, hi, xtol=1e-15 * hi, rtol=1e-12))
     return delta, stiff(delta)
+
+
+#: The default record of the DEM pulse, in crossings of the column at :func:`front_speed_bound`: the
+#: bound is the perfect lattice's (or a chain's exact speed), and a disordered packing's front travels
+#: at about half of it (the workflow's t_max_factor, 2.5 crossings, for the same reason).
+RECORD_CROSSINGS = 2.5
+#: c of a triangular lattice across its rows over d sqrt(k/m) (docs/method.md §12: (√3/2) sqrt(3/2)):
+#: the densest 2D arrangement's, above a chain's (1) and a disordered packing's.
+LATTICE_SPEED_FACTOR = math.sqrt(9.0 / 8.0)
+
+
+def front_speed_bound(packing: Packing, *, peak: float) -> dict:
+    """An upper estimate of the kick's front speed from the closed forms (docs/shocks.md): the larger
+    of the linear speed c = sqrt(9/8) d̄ sqrt((k̄_n + k̄_t/3) / m̄) (the triangular lattice's with the
+    packing's mean stored stiffnesses of force-carrying grain contacts) and the long-wave solitary
+    wave's speed (:func:`granwave.theory.solitary_wave_speed`, the packing's law) of crest overlap
+    δ̄_0 + ``peak`` (:func:`peak_overlap`, an overestimate of the wave's crest: two grains colliding at
+    the full kick velocity), on the mean precompression δ̄_0. A dict linear, nonlinear, speed."""
+    from .. import contact as C
+    from ..theory import solitary_wave_speed
+
+    c = packing.contacts
+    on = (c.j >= 0) & (c.force_normal > 0.0)
+    if not np.any(on):
+        raise InputError("the packing has no force-carrying grain contact: no front speed")
+    mass = float(np.mean(packing.mass))
+    spacing = float(np.mean(2.0 * packing.radius))
+    kn, kt = float(np.mean(c.stiffness_normal[on])), float(np.mean(c.stiffness_tangential[on]))
+    linear = LATTICE_SPEED_FACTOR * spacing * math.sqrt((kn + kt / 3.0) / mass)
+    _, values = packing_law(packing)
+    _, law = CM.normal_law(values)
+    r = 0.5 * spacing
+    r12, e12 = C.effective_radius(1.0 / r, 1.0 / r), C.effective_young(False)
+    d0 = float(np.mean(c.overlap[on]))
+    dm = d0 + float(peak)
+    f0 = float(CM.law_force(law, d0, math.sqrt(r12), e12))
+    fm = float(CM.law_force(law, dm, math.sqrt(r12), e12))
+    nonlinear = 0.0
+    if fm > f0:
+        energy = lambda *_: (float(CM.law_energy(law, dm, r12, e12) - CM.law_energy(law, d0, r12, e12)),  # noqa: E731
+                             dm - d0)
+        nonlinear = solitary_wave_speed(fm, f0, energy=energy, mass=mass, spacing=spacing)
+    return dict(linear=float(linear), nonlinear=float(nonlinear), speed=float(max(linear, nonlinear)))

@@ -76,8 +76,9 @@ from . import kernels as K
 from . import pulse_kernels as PK
 from .integrator import Engine, one_thread
 from . import serial
-from .kick import (DEFAULT_AMPLITUDE, DRIVES, _check_drive, _check_ic, amplitude_scale,  # noqa: F401
-                   kick_size, mean_overlap, packing_law, peak_overlap, shear_kick, source)
+from .kick import (DEFAULT_AMPLITUDE, DRIVES, RECORD_CROSSINGS, _check_drive, _check_ic,  # noqa: F401
+                   amplitude_scale, front_speed_bound, kick_size, mean_overlap, packing_law, peak_overlap,
+                   shear_kick, source)
 
 #: Default time step as a fraction of the shortest single-contact period 2π sqrt(m_min/k_max).
 DEFAULT_DT_SAFETY = 0.01
@@ -203,7 +204,7 @@ def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, d
 
 # ---------------------------------------------------------------- the run
 def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = None,
-                  damping: float = DEFAULT_DAMPING, t_max: float, samples: int = DEFAULT_SAMPLES,
+                  damping: float = DEFAULT_DAMPING, t_max: float | None = None, samples: int = DEFAULT_SAMPLES,
                   dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = DEFAULT_SKIN,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
                   progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
@@ -220,7 +221,9 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         units of the mean overlap (module docstring); default 1e-3 (linear
         regime: docs/damping.md).
     damping : contact damping ζ in [0, 1], fraction of critical (docs/method.md §2).
-    t_max, samples : output grid of ``samples`` times from 0 to t_max (d/sqrt(E*/rho)).
+    t_max, samples : output grid of ``samples`` times from 0 to t_max (d/sqrt(E*/rho)). Default
+        t_max: :data:`RECORD_CROSSINGS` crossings of the column at the kick's front speed bound
+        (:func:`front_speed_bound`: a strong kick's faster front gets a shorter record).
     dt_safety : dt = dt_safety × 2π sqrt(m_min/k_max) (default 0.01); ``dt``
         overrides it. Either is shortened to divide the sample interval.
     skin : Verlet skin of the engine's pair list (d).
@@ -294,7 +297,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         raise InputError(f"unloading must be 'incremental' or 'rescale' (got {unloading!r})")
     if not 0.0 <= damping <= 1.0:
         raise InputError(f"damping zeta must be in [0, 1] (got {damping})")
-    if not (t_max > 0.0 and math.isfinite(t_max)):
+    if t_max is not None and not (t_max > 0.0 and math.isfinite(t_max)):
         raise InputError(f"t_max must be a positive finite time (got {t_max})")
     if int(samples) != samples or samples < 2:
         raise InputError(f"need at least 2 samples (got {samples})")
@@ -302,13 +305,18 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
     check_propagate(packing.n_grains * packing.dim, samples)  # refuse a signal that cannot fit
     if str(packing.attrs.get("converged", True)) in ("False", "false", "0"):
         raise InputError("the packing is not converged (attrs converged = False)")
-    times = np.linspace(0.0, float(t_max), samples)
-    h = float(times[1] - times[0])
     size = kick_size(packing, ic=ic, kind=source_kind, drive=drive, amplitude=amplitude, strain=strain,
                      velocity=velocity)
     amplitude = size["amplitude"]
     delta_peak, k_peak = peak_overlap(packing, ic=ic, velocity=size["velocity"], drive=drive,
                                       displacement=amplitude * mean_overlap(packing))
+    bound = front_speed_bound(packing, peak=delta_peak)
+    record_rule = "given"
+    if t_max is None:
+        t_max = RECORD_CROSSINGS * packing.height / bound["speed"]
+        record_rule = f"{RECORD_CROSSINGS:g} crossings at the front speed bound"
+    times = np.linspace(0.0, float(t_max), samples)
+    h = float(times[1] - times[0])
     step = default_time_step(packing, dt_safety, k_peak) if dt is None else float(dt)
     if not (step > 0.0 and math.isfinite(step)):
         raise InputError(f"time step must be positive (got {dt})")
@@ -388,7 +396,9 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
     # the drive and the kick's size in the other units (docs/shocks.md)
     attrs.update(drive=drive, strain=size["strain"], kick_velocity=size["velocity"],
                  strain_definition=STRAIN_DEFINITION, peak_overlap_estimate=float(delta_peak),
-                 peak_stiffness_estimate=float(k_peak))
+                 peak_stiffness_estimate=float(k_peak), front_speed_bound=bound["speed"],
+                 front_speed_bound_linear=bound["linear"], front_speed_bound_nonlinear=bound["nonlinear"],
+                 t_max_rule=record_rule)
     if drive == "piston":
         attrs.update(amplitude_definition=AMPLITUDE_DEFINITION["piston"], piston_velocity=float(scale),
                      signal_definition=attrs["signal_definition"].replace("/ scale", "/ v_p"),
