@@ -149,3 +149,56 @@ def test_kernels_index_no_parameter_array_by_number():
     assert not [name for name in vars(workspace) if re.fullmatch(r"W_[A-Z]+", name)]
     for dtype in (layout.PARAMS, layout.COUNTERS, layout.PISTON, layout.OUT):
         assert dtype.names and len(set(dtype.names)) == len(dtype.names)
+
+
+def _all_imports(tree: ast.Module, name: str, package: str, modules: dict) -> set[str]:
+    """The package's modules a module imports anywhere (function bodies too)."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("granwave"))
+        elif isinstance(node, ast.ImportFrom):
+            base = package
+            for _ in range(node.level - 1):
+                base = base.rpartition(".")[0]
+            root = ".".join(p for p in (base if node.level else "", node.module or "") if p)
+            out.update(f"{root}.{a.name}" if f"{root}.{a.name}" in modules else root for a in node.names)
+    return {m for m in out if m.startswith("granwave") and m != name}
+
+
+#: (importer prefix, imported prefix, why the importer must not): the layers' direction. The GPU
+#: is a plug-in that granwave.devices loads by name; the report sits below the figures (which
+#: format their numbers with it); the in-memory model below the files that read and write it.
+LAYERS = (
+    ("granwave", "granwave.gpu", "only granwave.devices picks a device's kernels (by name)"),
+    ("granwave.gpu", "granwave.api", "the GPU kernels sit below the library API"),
+    ("granwave.report", "granwave.figures", "the figures use the report's numbers, not the reverse"),
+    ("granwave.model", "granwave.io", "the files read and write the model, not the reverse"),
+)
+
+#: Modules above both sides of a rule, with why: granwave.gpu.checks runs whole stages through
+#: the library API on both devices and compares them (a harness, not a kernel module).
+ABOVE = {"granwave.gpu.checks": "granwave.api"}
+
+
+def _within(module: str, prefix: str) -> bool:
+    return module == prefix or module.startswith(prefix + ".")
+
+
+def test_imports_point_down_the_layers():
+    """No module imports against the layers of :data:`LAYERS`, not even inside a function
+    (a lazy import hides a dependency but keeps it)."""
+    modules = _modules()
+    # the scan sees an import inside a function, relative or absolute
+    lazy = ast.parse("def f():\n    from .gpu import batch\n    import granwave.figures.common\n")
+    assert _all_imports(lazy, "granwave.api", "granwave", modules) == {"granwave.gpu.batch",
+                                                                      "granwave.figures.common"}
+    bad = []
+    for name, path in modules.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        for target in _all_imports(ast.parse(path.read_text()), name, package, modules):
+            for importer, imported, why in LAYERS:
+                if (_within(name, importer) and _within(target, imported) and not _within(name, imported)
+                        and name != "granwave.devices" and not _within(target, ABOVE.get(name, "-"))):
+                    bad.append(f"{name} imports {target}: {why}")
+    assert not bad, "\n".join(sorted(bad))
