@@ -411,9 +411,9 @@ def test_time_step_includes_damping_and_rotation():
     w = math.sqrt(k / f.m_min)
     scale = f.safety / K.SAFETY_AT_LIMIT
     assert K.stable_dt(f) == pytest.approx(scale * 2.0 / w, rel=1e-14)
-    f.mu = 0.5
+    f.friction = 0.5
     assert K.stable_dt(f) == pytest.approx(scale * 2.0 / (w * math.sqrt(3.5)), rel=1e-14)
-    f.zeta = 1.0
+    f.damping = 1.0
     z = math.sqrt(3.5)
     assert K.stable_dt(f) == pytest.approx(scale * 2.0 * (math.sqrt(1 + z * z) - z) / (w * z), rel=1e-14)
 

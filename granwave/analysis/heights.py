@@ -40,6 +40,8 @@ Units: lengths d, times d/sqrt(E*/rho), speeds sqrt(E*/rho), forces E* d^2.
 
 from __future__ import annotations
 
+from ..contact_models import options as CO
+
 import math
 from typing import TYPE_CHECKING, Sequence
 
@@ -116,7 +118,7 @@ def one_study(signals: Sequence[Signal], labels: Sequence[str], *, what: str,
     for key in STUDY_ATTRS:
         have = [(s, lab) for s, lab in zip(signals, labels) if s.attrs.get(key) not in (None, "none")]
         if key == "contact_law" and have:  # a file that names no law is of the default, Hertz
-            have = [(_with_default(s, key, "hertz"), lab) for s, lab in zip(signals, labels)]
+            have = [(_with_default(s, key, CO.KINDS["normal"]["default"]), lab) for s, lab in zip(signals, labels)]
         if have:
             common_attr([s for s, _ in have], [lab for _, lab in have], key,
                         rtol=WIDTH_RTOL if key == "lateral_width" else 0.0)

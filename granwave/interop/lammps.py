@@ -139,7 +139,7 @@ def data_text(packing: Packing, *, piston_mass: float, margin: float) -> str:
     """The LAMMPS data file (atom_style sphere) of a packing, the piston atom last."""
     d, n = packing.dim, packing.n_grains
     box = _box(packing, margin)
-    law = str(packing.attrs.get("contact_law", "hertz"))
+    law = str(packing.attrs.get("contact_law", CO.KINDS["normal"]["default"]))
     lines = [f"granwave packing (pressure {packing.pressure:.17g}, dim {d}, contact_law {law}); units lj = "
              "granwave units",
              "", f"{n + 1} atoms", "2 atom types", ""]
@@ -310,7 +310,7 @@ def _floats(path, tokens, what: str) -> list[float]:
         _fail(path, f"{what}: not a number in {' '.join(tokens)!r}")
 
 
-def _hertz_only(path, title: str) -> None:
+def _default_law_only(path, title: str) -> None:
     """Refuse the data file of a packing made with another normal law than Hertz: the import
     relaxes with Hertz-Mindlin (a harmonic packing's file was relaxed as Hertz without a word).
     The law is read from the title :func:`data_text` writes, else from the ``pair_coeff`` of the
@@ -326,8 +326,9 @@ def _hertz_only(path, title: str) -> None:
         except OSError:
             text = ""
         m = re.search(r"^pair_coeff\s+\*\s+\*\s+(\w+)", text, flags=re.M)
-        law = None if m is None else ("hertz" if m.group(1) == "hertz" else f"LAMMPS {m.group(1)} ({deck.name})")
-    if law is not None and law != "hertz":
+        default = CO.KINDS["normal"]["default"]  # Hertz: LAMMPS's word for it is the same
+        law = None if m is None else (default if m.group(1) == default else f"LAMMPS {m.group(1)} ({deck.name})")
+    if law is not None and law != CO.KINDS["normal"]["default"]:
         _fail(path, f"the packing's contact law is {law}: import lammps relaxes with Hertz-Mindlin "
                     "only, which would make it another packing")
 
@@ -341,7 +342,7 @@ def read_data(path) -> LammpsState:
     except (OSError, UnicodeDecodeError) as exc:
         _fail(path, f"cannot read ({getattr(exc, 'strerror', None) or 'not a text file'})")
     title, lines = (lines[0] if lines else ""), lines[1:]  # the first line is a title
-    _hertz_only(path, title)
+    _default_law_only(path, title)
     header: dict[str, list[str]] = {}
     sections: dict[str, tuple[str, list[list[str]]]] = {}
     k = 0
