@@ -5,24 +5,11 @@ same request within bounds (or with --allow-long-run) runs. Each case takes well
 from __future__ import annotations
 
 import pytest
-from click.testing import CliRunner
 
 from granwave import resources as R
-from granwave.cli import main
 
 
-def run(args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def one_line_refusal(r, *words):
-    assert r.exit_code == 2, r.output
-    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
-    lines = r.output.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("Error: "), r.output
-    for w in words:
-        assert w in lines[0], lines[0]
-    return lines[0]
+from cli_refusals import one_line_refusal, run  # noqa: E402
 
 
 @pytest.mark.parametrize("n", [10**9, 10**12])

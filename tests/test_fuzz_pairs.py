@@ -9,25 +9,12 @@ import json
 import shutil
 
 import pytest
-from click.testing import CliRunner
 
-from granwave.cli import main
 
 T = ["--method", "modal", "--t-max", 60, "--samples", 600, "-q"]
 
 
-def run(args):
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def refused(r, *words):
-    assert r.exit_code == 2, r.output
-    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
-    lines = r.output.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("Error: "), r.output
-    for w in words:
-        assert w in lines[0], lines[0]
-    return lines[0]
+from cli_refusals import one_line_refusal as refused, run  # noqa: E402
 
 
 @pytest.fixture(scope="module")
