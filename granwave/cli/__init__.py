@@ -74,3 +74,38 @@ def main():
     HDF5 stages; each -o help says which): any other name, or one too long for
     the file system, is refused with one line before any work.
     """
+    _one_line_warnings()
+
+
+def _one_line_warnings() -> None:
+    """An OlderFileWarning (a check skipped for an older file) prints as one line on stderr,
+    ``warning: ...``, like the stages' own warnings, once the command has ended well (a refusal
+    stays one line); other warnings as Python prints them."""
+    import warnings
+
+    from ..errors import OlderFileWarning
+
+    _OLDER.clear()
+    warnings.simplefilter("always", OlderFileWarning)  # each command says it, not only the first
+    if getattr(warnings.showwarning, "granwave", False):
+        return
+    previous = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, OlderFileWarning):
+            _OLDER.append(str(message))
+        else:
+            previous(message, category, filename, lineno, file, line)
+
+    show.granwave = True
+    warnings.showwarning = show
+
+
+#: OlderFileWarnings of the running command, printed when it ends well (a refusal stays one line).
+_OLDER = []
+
+
+@main.result_callback()
+def _print_older_warnings(*_args, **_kwargs):
+    while _OLDER:
+        click.echo(f"warning: {_OLDER.pop(0)}", err=True)
