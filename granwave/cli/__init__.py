@@ -29,6 +29,31 @@ class LazyGroup(click.Group):
             return getattr(importlib.import_module(module_name), attr)
         return super().get_command(ctx, name)
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """As click's, but a usage error (an invalid choice, a number that is not one, a missing
+        argument) is one line, ``Error: ... (see 'granwave CMD --help')``, exit 2, like every
+        other refusal (click prints the usage and a hint above it)."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        import sys
+
+        try:
+            rc = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.UsageError as exc:
+            if isinstance(exc, getattr(click.exceptions, "NoArgsIsHelpError", ())):
+                exc.show()  # `granwave` alone, `granwave analyze` alone: the help, as click shows it
+                sys.exit(exc.exit_code)
+            where = exc.ctx.command_path if exc.ctx is not None else "granwave"
+            click.echo(f"Error: {exc.format_message()} (see '{where} --help')", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            exc.show()
+            sys.exit(exc.exit_code)
+        except click.exceptions.Abort:
+            click.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(rc if isinstance(rc, int) else 0)
+
     def format_commands(self, ctx, formatter):
         # Short help without importing every stage: the first docstring line of each.
         rows = []
