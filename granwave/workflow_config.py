@@ -615,6 +615,14 @@ def shear_error(config: dict) -> str | None:
         h_top = max(spec.get("heights") or all_h)
         t_max = shear_record_length(h_top, float(lattice_shear_speed(p_low, poisson=s["poisson"])),
                                     record=spec["record"], wavelengths=lams)
+        speed = float(lattice_shear_speed(p_low, poisson=s["poisson"]))
+        needed = (h_top + max(lams)) / speed  # the arrival at an upper bound of c_t, then one period
+        if t_max < needed:
+            return (f"config: {base}.record = {spec['record']:g}: the shear record of the tallest column (height "
+                    f"{h_top:g}, p = {p_low:g}) ends at t = {t_max:.4g}, before the pulse of wavelength "
+                    f"{max(lams):g} can have passed (arrival not before {h_top / speed:.4g} at the lattice's "
+                    f"shear speed, then one period): it needs t_max >= {needed:.4g}, a record of at least "
+                    f"{math.ceil(1000 * (1.0 - 3.0 * max(lams) / h_top)) / 1000:g}")
         message = params_error(PropagateParams,
                                dict(method="time", ic="A", source_kind="shear", t_max=t_max,
                                     samples=spec["samples"], safety=spec["time_safety"]),

@@ -427,3 +427,22 @@ def test_the_device_check_asks_only_for_device_gpu():
     calls = []
     assert ws.device_error({"device": "cpu"}, gpu_usable=lambda: calls.append(1)) is None and not calls
     assert ws.device_error({"device": "gpu"}, gpu_usable=lambda: calls.append(1)) is None and calls
+
+
+def test_a_shear_record_too_short_for_its_pulse_is_refused(tmp_path):
+    """The shear scenes' record (crossings at c_t plus four periods) had no bound: a record that
+    ends before the longest wavelength's pulse can have passed is refused naming it."""
+    cfg = yaml.safe_load((ROOT / "config" / "shear.yaml").read_text())
+    scene = next(iter(cfg["shear"]))
+    cfg["shear"][scene]["record"] = 0.001
+    cfg["shear"][scene]["wavelengths"] = [1]
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    code, err, _ = parse(path, tmp_path)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"config: shear.{scene}.record = 0.001"), err
+    assert "needs t_max >= " in lines[0] and "height " in lines[0]
+    cfg["shear"][scene]["record"] = 1.0
+    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    code, err, _ = parse(path, tmp_path)
+    assert code == 0, err
