@@ -46,3 +46,11 @@ def backend(device: str | None) -> SimpleNamespace:
         return SimpleNamespace(device="cpu", engine=Engine, time_domain_signal=time_domain_signal,
                                pulse_samples=pulse_samples)
     return importlib.import_module(PLUGINS[device]).kernels()
+
+
+def require(device: str | None) -> None:
+    """Raise InputError (one line) unless ``device`` is usable on this machine, without loading
+    its kernels: the CPU always is; another device's plug-in is asked by its ``require_gpu``."""
+    device = check_device(device)
+    if device != "cpu":
+        importlib.import_module(PLUGINS[device]).require_gpu()

@@ -13,6 +13,12 @@ class ResourceError(InputError):
     """A request that cannot fit: its memory or disk estimate exceeds what is available."""
 
 
+class OlderFileWarning(UserWarning):
+    """An input written by an older granwave lacks what a check of belonging needs (a packing
+    digest, a lateral width): the check is skipped for it, in one warning line that says how to
+    remake the file (docs/decisions/0048-older-files-checked-as-far-as-they-record.md)."""
+
+
 class OutputError(Exception):
     """An output could not be written (disk full, I/O error); no partial file is left."""
 

@@ -8,8 +8,9 @@ Snakemake leaves it alone), one file per stage (``packing.h5``, ..., ``summary.j
 ``stamp.json`` written last, which holds the digest of the sample's recipe (the sample's dict as
 the batch receives it), the files' sizes and the sample's timing rows. When the batch runs
 again, a sample whose entry is complete and has the same recipe is put back at its output
-paths (the same bytes) instead of being computed; any other entry is replaced when its
-sample finishes. The batch removes its store once it has written all its outputs.
+paths (the same bytes) instead of being computed, once the files themselves are checked to
+record the parameters the sample asks for (:func:`provenance_mismatch`); any other entry is
+replaced when its sample finishes. The batch removes its store once it has written all its outputs.
 
 Files are hard links of the outputs (no extra disk) where the file system allows them, else
 copies (the store then holds a second copy of the batch's finished samples until it ends).
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
 from pathlib import Path
@@ -85,6 +87,72 @@ def _stamp(entry: Path) -> dict | None:
     return stamp
 
 
+def _recorded(path: Path) -> dict | None:
+    """The parameters a kept file records: an HDF5 file's attributes, a JSON object's keys;
+    None for a file that records none (another format)."""
+    if path.suffix == ".h5":
+        import h5py
+
+        try:
+            if not h5py.is_hdf5(path):
+                return None
+            with h5py.File(path, "r") as f:
+                return {k: f.attrs[k] for k in f.attrs}
+        except (OSError, RuntimeError, ValueError):
+            return {"unreadable": True}
+    if path.suffix == ".json":
+        try:
+            obj = json.loads(path.read_text())
+        except (OSError, ValueError):
+            return None
+        return obj if isinstance(obj, dict) else None
+    return None
+
+
+def _same(recorded, wanted) -> bool:
+    import numpy as np
+
+    if isinstance(wanted, bool) or isinstance(recorded, (bool, np.bool_)):
+        return bool(recorded) == bool(wanted)
+    if isinstance(wanted, (int, float)):
+        try:
+            return math.isclose(float(recorded), float(wanted), rel_tol=1e-9, abs_tol=0.0)
+        except (TypeError, ValueError):
+            return False
+    if isinstance(recorded, bytes):
+        recorded = recorded.decode(errors="replace")
+    return str(recorded) == str(wanted)
+
+
+def provenance_mismatch(entry: Path, kept: dict, sample: dict) -> str | None:
+    """What the kept files of ``sample`` record against what this run asks for, or None when
+    they agree: the packing's recorded parameters against the sample's ``make`` options (the
+    ones both name: seed, pressure, friction, grains, ...), and the packing digest of every
+    file that records one against the packing's (the kept one, or the given packing at its
+    output path: device gpu remakes it). The stamp's recipe digest says what the batch asked
+    for; this says what the files are, so an entry copied from another config's results or
+    left by a config edited mid-run is not put back under this run's names."""
+    recorded = {stage: _recorded(entry / info["name"]) for stage, info in kept.items()
+                if isinstance(info, dict) and "name" in info}
+    for stage, attrs in recorded.items():
+        if attrs and attrs.get("unreadable") is True:
+            return f"{kept[stage]['name']} is not readable"
+    packing = recorded.get("packing")
+    if packing is None and sample.get("packing_given") and "packing" in sample.get("out", {}):
+        packing = _recorded(Path(sample["out"]["packing"]))
+    if packing:
+        for key, wanted in (sample.get("make") or {}).items():
+            if key in packing and not _same(packing[key], wanted):
+                return f"packing {key} {packing[key]}, this run {wanted}"
+        digest = packing.get("packing_digest")
+        if digest is not None:
+            for stage, attrs in recorded.items():
+                theirs = (attrs or {}).get("packing_digest") if stage != "packing" else None
+                if theirs is not None and not _same(theirs, digest):
+                    return f"{kept[stage]['name']} is of another packing (digest {theirs}, the packing's {digest})"
+    return None
+
+
 def restore(store, sample: dict, keys, label: str, log=print) -> list[dict] | None:
     """Put ``sample``'s kept files back at its output paths and return its timing rows, if its
     entry in ``store`` is complete and of the same recipe; else None (the sample is computed).
@@ -104,6 +172,11 @@ def restore(store, sample: dict, keys, label: str, log=print) -> list[dict] | No
         if not all((entry / kept[stage]["name"]).stat().st_size == kept[stage]["bytes"] for stage in files):
             return None
     except (OSError, KeyError, TypeError):
+        return None
+    mismatch = provenance_mismatch(entry, kept, sample)
+    if mismatch:
+        log(f"{label}: the files kept in {entry} were made with other parameters ({mismatch}): "
+            "computed again")
         return None
     try:
         for stage, path in files.items():

@@ -615,6 +615,14 @@ def shear_error(config: dict) -> str | None:
         h_top = max(spec.get("heights") or all_h)
         t_max = shear_record_length(h_top, float(lattice_shear_speed(p_low, poisson=s["poisson"])),
                                     record=spec["record"], wavelengths=lams)
+        speed = float(lattice_shear_speed(p_low, poisson=s["poisson"]))
+        needed = (h_top + max(lams)) / speed  # the arrival at an upper bound of c_t, then one period
+        if t_max < needed:
+            return (f"config: {base}.record = {spec['record']:g}: the shear record of the tallest column (height "
+                    f"{h_top:g}, p = {p_low:g}) ends at t = {t_max:.4g}, before the pulse of wavelength "
+                    f"{max(lams):g} can have passed (arrival not before {h_top / speed:.4g} at the lattice's "
+                    f"shear speed, then one period): it needs t_max >= {needed:.4g}, a record of at least "
+                    f"{math.ceil(1000 * (1.0 - 3.0 * max(lams) / h_top)) / 1000:g}")
         message = params_error(PropagateParams,
                                dict(method="time", ic="A", source_kind="shear", t_max=t_max,
                                     samples=spec["samples"], safety=spec["time_safety"]),
@@ -639,29 +647,125 @@ def _tallest(kind: str, spec: dict) -> tuple[str, float, str]:
     return f"h{max(heights):g}", min(pressures), "height"
 
 
-def record_error(config: dict) -> str | None:
-    """One line naming the key if a scene's record ends before the front of its tallest column
-    can arrive (a dry run accepted it; the jobs then measured no front). The earliest arrival
-    is the height over a generous upper bound of the speed: the perfect-lattice speed of the
-    scene's law and pressure (the disordered front is slower), a chain's exact wall-to-wall
-    time. The record is ``t_max_factor`` such crossings, so a factor below 1 cannot hold it."""
+#: The first lobe of the exact chain's wall force ends at t0 + ZERO * M^(1/3) l/c after its
+#: travel time t0 (M springs wall to wall, spacing l, speed c): the Airy form of docs/method.md
+#: §12 has ZERO = |a'_1|/2 for (A) (the first zero of Ai') and |a_1|/2 for (B) (of Ai, the main
+#: lobe after the precursor). The exact modal sum ends it later than LOBE_FLOOR x the Airy form
+#: for every chain (A: 0.345 at 1 ball, 0.52 from 2 up, -> 1; B: 0.97 from 8 balls up; below 8
+#: the (B) pick is the precursor, which ends before t0, from 0.77 t0 at 2 balls up to 0.94 t0
+#: at 7): tests/test_fuzz_configs.py checks it.
+LOBE_ZERO = {"A": 1.0187929716474710 / 2.0, "B": 2.3381074104597670 / 2.0}
+LOBE_FLOOR = {"A": 0.3, "B": 0.9}
+#: (B) rows below which the pick may be the precursor: its end is then bounded by
+#: PRECURSOR_END x the arrival.
+LOBE_B_MIN_ROWS = 8
+PRECURSOR_END = 0.75
+#: Row spacing of the densest column (the triangular lattice's rows, sqrt(3)/2 d).
+ROW_SPACING = math.sqrt(3.0) / 2.0
+
+
+def first_lobe_time(kind: str, size: str, arrival: float, ic: str) -> float:
+    """A lower bound of the time the first lobe lasts after ``arrival`` (the earliest arrival of
+    :func:`record_error`) at a column of ``size``: the exact perfect column's (the lattice's rows,
+    a chain's springs) at that speed, LOBE_FLOOR x its Airy form. Disordered fronts are broader.
+    Negative for (B) below LOBE_B_MIN_ROWS rows: the front rule picks the precursor there."""
+    value = float(size[1:])
+    if kind == "chains":
+        springs, spacing = value + 1.0, 1.0
+    elif kind == "lattices":
+        springs, spacing = value + 1.0, ROW_SPACING
+    else:
+        springs, spacing = value / ROW_SPACING + 1.0, ROW_SPACING
+    if ic == "B" and springs - 1.0 < LOBE_B_MIN_ROWS:
+        return (PRECURSOR_END - 1.0) * arrival  # negative: the precursor ends before the arrival
+    step = arrival / (springs if kind == "chains" else (springs - 1.0))  # l / c
+    return LOBE_FLOOR[ic] * LOBE_ZERO[ic] * springs ** (1.0 / 3.0) * step
+
+
+def _record_needs(config: dict):
+    """(kind, scene, key, factor, size, p, what, arrival, needed) of every scene's tallest column:
+    ``needed`` the shortest record that can hold its front (arrival + first lobe)."""
     from .workflow_support import crossing_time
 
     for kind in SCENE_KINDS:
         for scene, spec in (config.get(kind) or {}).items():
             own = kind == "continuum" and "t_max_factor" in spec
             factor = float(spec["t_max_factor"] if own else config["t_max_factor"])
-            if factor >= 1.0:
-                continue
+            key = f"{kind}.{scene}.t_max_factor" if own else "t_max_factor"
             size, p, what = _tallest(kind, spec)
             arrival = crossing_time(kind, spec, float(p), size)
-            key = f"{kind}.{scene}.t_max_factor" if own else "t_max_factor"
-            speed = ("its exact wall-to-wall time" if kind == "chains" else
-                     f"at most the perfect-lattice speed {float(size[1:]) * (math.sqrt(3) / 2 if kind == 'lattices' else 1) / arrival:.4g} d/t")
-            return (f"config: {key} = {factor:g}: the record of {kind}.{scene}'s tallest column "
-                    f"({what} {size[1:]}, p = {float(p):g}) ends at t = {factor * arrival:.4g}, before "
-                    f"its front can arrive (not before {arrival:.4g}: {speed}); the factor must be at "
-                    "least 1 (fronts are measured with 2 or more)")
+            ic = spec.get("ic", config.get("ic", "A")) if kind == "chains" else config.get("ic", "A")
+            needed = arrival + first_lobe_time(kind, size, arrival, ic)
+            yield kind, scene, key, factor, size, p, what, arrival, needed
+
+
+def record_error(config: dict) -> str | None:
+    """One line naming the key if a scene's record ends before the front of its tallest column
+    can be whole in it (a dry run accepted it; the jobs then measured no front). The earliest
+    arrival is the height over a generous upper bound of the speed: the perfect-lattice speed of
+    the scene's law and pressure (the disordered front is slower), a chain's exact wall-to-wall
+    time; the front is measured to the end of its first lobe, which lasts at least the exact
+    perfect column's (:func:`first_lobe_time`). The record is ``t_max_factor`` crossings at that
+    speed, so a factor below 1 never holds it (but on a (B) chain of a few balls, whose precursor
+    is its front), and one just above 1 not on a short column."""
+    for kind, scene, key, factor, size, p, what, arrival, needed in _record_needs(config):
+        if factor * arrival >= needed:
+            continue
+        speed = ("its exact wall-to-wall time" if kind == "chains" else
+                 f"at most the perfect-lattice speed {float(size[1:]) * (math.sqrt(3) / 2 if kind == 'lattices' else 1) / arrival:.4g} d/t")
+        at_least = needed / arrival
+        return (f"config: {key} = {factor:g}: the record of {kind}.{scene}'s tallest column "
+                f"({what} {size[1:]}, p = {float(p):g}) ends at t = {factor * arrival:.4g}, before "
+                f"its front can be whole in it: it needs t_max >= {needed:.4g} (arrival not before "
+                f"{arrival:.4g}, {speed}, and its first lobe); the factor must be at least "
+                f"{math.ceil(at_least * 1000) / 1000:.4g} (fronts are measured with 2 or more)")
+    return None
+
+
+#: Below this factor a disordered or continuum record may end before its front: such fronts run
+#: at about half the perfect lattice's speed (docs/shocks.md). A warning, not a refusal: no bound
+#: proves it for a packing not yet made.
+RECORD_WARN_FACTOR = 2.0
+
+
+def record_warning(config: dict) -> str | None:
+    """One line (a warning) for the first disordered or continuum scene whose record, though it
+    can hold a front at the lattice's speed, is shorter than RECORD_WARN_FACTOR crossings."""
+    for kind, scene, key, factor, size, p, what, arrival, needed in _record_needs(config):
+        if kind in ("disordered", "continuum") and factor < RECORD_WARN_FACTOR:
+            return (f"config: warning: {key} = {factor:g}: {kind}.{scene}'s tallest column "
+                    f"({what} {size[1:]}, p = {float(p):g}) records to t = {factor * arrival:.4g}; "
+                    f"a disordered front at half the lattice's speed needs t_max >= "
+                    f"{RECORD_WARN_FACTOR * arrival:.4g} (a factor of {RECORD_WARN_FACTOR:g})")
+    return None
+
+
+#: Set (to anything but "" or "0") where the workflow's GPU jobs run on other machines than the
+#: one that plans them (a cluster's login node submits to GPU nodes): device: gpu is then not
+#: checked against this machine.
+GPU_ELSEWHERE_ENV = "GRANWAVE_GPU_ELSEWHERE"
+
+
+def device_error(config: dict, gpu_usable=None) -> str | None:
+    """One line if ``device: gpu`` is asked for and no CUDA GPU is usable on this machine (a dry
+    run passed it, and every GPU job then failed), unless GPU_ELSEWHERE_ENV says that the GPU
+    jobs run elsewhere. ``gpu_usable``: the check (default granwave.devices.require("gpu"), which
+    raises InputError with the reason); only called for device gpu."""
+    if config.get("device", "cpu") != "gpu" or os.environ.get(GPU_ELSEWHERE_ENV, "") not in ("", "0"):
+        return None
+    from .errors import InputError
+
+    if gpu_usable is None:
+        from .devices import require
+
+        def gpu_usable():
+            require("gpu")
+    try:
+        gpu_usable()
+    except InputError as exc:
+        reason = str(exc).split(": ", 1)[-1].split(";")[0]
+        return (f"config: device = gpu: {reason}; use device: cpu, or set {GPU_ELSEWHERE_ENV}=1 where "
+                "the GPU jobs run on other machines (a cluster's GPU nodes)")
     return None
 
 

@@ -42,11 +42,11 @@ def test_cutoff_and_c_l_from_the_moduli_files(tmp_path):
     flags = [x for m in moduli for x in ("--moduli", m)]
     res = _run(*signals, *flags, "--lateral-period", "20", "--bootstrap", "0", "--json")
     assert res.exit_code == 0, res.output
-    out = json.loads(res.output)
+    out = json.loads(res.stdout)
     assert math.isclose(out["omega_cutoff"], 2 * math.pi * 0.55 / 20, rel_tol=1e-12)
     assert math.isclose(out["c_l"], np.mean([1.0, 1.01, 1.02]), rel_tol=1e-12)
     given = json.loads(_run(*signals, *flags, "--lateral-period", "20", "--omega-cutoff", "0.3",
-                            "--c-l", "2", "--bootstrap", "0", "--json").output)
+                            "--c-l", "2", "--bootstrap", "0", "--json").stdout)
     assert given["omega_cutoff"] == 0.3 and given["c_l"] == 2.0  # the options win
 
 
@@ -55,7 +55,7 @@ def test_one_moduli_file_per_signal_gives_the_contributing_heights_reference(tmp
     flags = [x for m in moduli for x in ("--moduli", m)]
     res = _run(*signals, *flags, "--lateral-period", "20", "--bootstrap", "0", "--json")
     assert res.exit_code == 0, res.output
-    out = json.loads(res.output)
+    out = json.loads(res.stdout)
     lam = out["continuum_length"]
     assert out["c_l_reference"] == "the packings of the contributing heights" and lam["reference"] == "c_l"
     heights = [round(h) for h in out["heights"]]

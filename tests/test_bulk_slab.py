@@ -193,8 +193,8 @@ def test_continuum_uses_the_slab_c_l_by_default(tmp_path):
     args = ["analyze", "continuum", *paths, "--bootstrap", "0", "--json"]
     for m in mods:
         args += ["--moduli", m]
-    slab = json.loads(runner.invoke(main, args).output)
-    cell = json.loads(runner.invoke(main, args + ["--c-l", "cell"]).output)
+    slab = json.loads(runner.invoke(main, args).stdout)
+    cell = json.loads(runner.invoke(main, args + ["--c-l", "cell"]).stdout)
     assert slab["c_l_kind"] == "slab" and slab["c_l"]["mean"] == pytest.approx(0.8)
     assert slab["c_t"]["mean"] == pytest.approx(0.5)
     assert cell["c_l_kind"] == "cell" and cell["c_l"]["mean"] == pytest.approx(0.75)
@@ -216,5 +216,5 @@ def test_continuum_uses_the_slab_c_l_by_default(tmp_path):
     # a batch's failed moduli solve (c_l null): that packing has no speed of either kind
     failed = tmp_path / "failed.json"
     failed.write_text(json.dumps({"c_l": None, "c_t": None, "error": "floppy"}))
-    res = json.loads(runner.invoke(main, [a if a != mods[0] else str(failed) for a in args]).output)
+    res = json.loads(runner.invoke(main, [a if a != mods[0] else str(failed) for a in args]).stdout)
     assert res["c_l"]["count"] == 7

@@ -113,7 +113,7 @@ def test_cli_figure_and_report_section(tmp_path, monkeypatch):
         args += ["--moduli", m]
     front = runner.invoke(main, args + ["--json"])
     assert front.exit_code == 0, front.output
-    res = json.loads(front.output)
+    res = json.loads(front.stdout)
     # the synthetic front moves at the speed of its lowest frequencies, c = 1 = 1.25 c_l
     assert res["c_l"]["mean"] == pytest.approx(0.8)
     assert res["local"]["ratio"][-1] == pytest.approx(1.25, rel=0.02)
@@ -122,8 +122,8 @@ def test_cli_figure_and_report_section(tmp_path, monkeypatch):
     bad = runner.invoke(main, ["analyze", "continuum", *paths, "--moduli", moduli[0]])
     assert bad.exit_code == 2 and "one --moduli file per signal" in bad.output
     (tmp_path / "sc").mkdir()
-    (tmp_path / "sc" / "front.json").write_text(front.output)
-    (tmp_path / "sc" / "attenuation.json").write_text(att.output)
+    (tmp_path / "sc" / "front.json").write_text(front.stdout)
+    (tmp_path / "sc" / "attenuation.json").write_text(att.stdout)
     figs = capture(monkeypatch)
     fig = runner.invoke(main, ["plot", "continuum", str(tmp_path / "sc" / "front.json"),
                                "--attenuation", str(tmp_path / "sc" / "attenuation.json"),

@@ -265,6 +265,8 @@ NAMED = [
     # #66: a record too short for the tallest column's front, widths below the DEM's limit
     (("t_max_factor",), 0.7, "t_max_factor"),
     (("continuum", "continuum2d", "t_max_factor"), 0.9, "continuum.continuum2d.t_max_factor"),
+    (("t_max_factor",), 1.0, "t_max_factor"),  # the front arrives at the end: its lobe is cut
+    (("t_max_factor",), 1.004, "t_max_factor"),
     (("disordered", "frictional2d", "width"), 1.5, "disordered.frictional2d.width"),
     (("continuum", "continuum2d", "width"), 1, "continuum.continuum2d.width"),
     (("results",), "/etc/hostname", "results"),
@@ -341,3 +343,106 @@ def test_dry_run_refuses_a_duplicate_key_and_a_job_range_in_one_line(tmp_path):
         assert "Traceback" not in run.stdout + run.stderr
         lines = [line for line in run.stderr.splitlines() if line.startswith("config:")]
         assert len(lines) == 1 and expected in lines[0], run.stderr
+
+
+# ---------------------------------------------------------------- the record and the device (#66)
+@pytest.mark.parametrize("ic", ["A", "B"])
+def test_the_first_lobe_bound_is_below_the_exact_chains(ic):
+    """record_error's bound (arrival + first_lobe_time) never exceeds the exact chain's end of
+    its first lobe as the front rule measures it (property, 1 to 400 balls): a record it refuses
+    cannot hold the front of the fastest column of that size."""
+    import numpy as np
+
+    from granwave import theory as T
+    from granwave.analysis.front import front_features
+
+    for n in (1, 2, 3, 5, 7, 8, 9, 13, 25, 60, 150, 400):
+        if ic == "B" and n == 1:
+            continue  # its signal starts at its peak: no front to measure
+        t0 = T.chain_travel_time(n)
+        t = np.linspace(0.0, 2.5 * t0, 8000)
+        f = front_features(t, T.chain_wall_force(t, n, ic=ic))
+        bound = t0 + ws.first_lobe_time("chains", f"n{n}", t0, ic)
+        assert bound <= f.t_zero, (n, bound, f.t_zero)
+        if ic == "A" or n >= ws.LOBE_B_MIN_ROWS:
+            assert bound > t0  # the lobe counts: a factor just above 1 is refused
+        assert bound > 0.9 * f.t_zero if n >= 8 else bound > 0.5 * f.t_zero  # a bound that bites
+
+
+def test_a_record_that_cannot_hold_the_front_names_the_height_and_the_needed_t_max():
+    cfg = copy.deepcopy(BASE)
+    cfg["t_max_factor"] = 1.0
+    cfg["disordered"] = {"d": {"pressures": [1e-4], "heights": [8, 30], "seeds": 1, "friction": 0.5,
+                               "poisson": 0.0, "width": 24}}
+    cfg["lattices"], cfg["chains"], cfg["continuum"] = {}, {}, {}
+    message = ws.record_error(cfg)
+    assert message.startswith("config: t_max_factor = 1: the record of disordered.d's tallest column (height 30")
+    needed = float(re.search(r"needs t_max >= ([0-9.e+-]+)", message).group(1))
+    arrival = float(re.search(r"arrival not before ([0-9.e+-]+)", message).group(1))
+    assert needed > arrival and "\n" not in message
+    cfg["t_max_factor"] = 1.001 * needed / arrival
+    assert ws.record_error(cfg) is None
+    assert "needs t_max >= " in ws.record_warning(cfg)  # below 2 crossings: a warning line
+    cfg["t_max_factor"] = 2.0
+    assert ws.record_warning(cfg) is None
+
+
+def test_a_short_disordered_record_warns_at_the_dry_run(tmp_path):
+    config_file = tmp_path / "c.yaml"
+    config_file.write_text(yaml.safe_dump(_with(("t_max_factor",), 1.5), sort_keys=False))
+    code, err, _ = parse(config_file, tmp_path)
+    assert code == 0, err
+    lines = [line for line in err.splitlines() if line.startswith("config: warning: t_max_factor = 1.5")]
+    assert len(lines) == 1 and "needs t_max >= " in lines[0], err
+
+
+def _gpu_usable():
+    from granwave.devices import require
+    from granwave.errors import InputError
+
+    try:
+        require("gpu")
+        return True
+    except InputError:
+        return False
+
+
+def test_device_gpu_without_a_gpu_is_refused_at_the_dry_run(tmp_path, monkeypatch):
+    """device: gpu passed the dry run on a machine without a GPU, and every GPU job failed:
+    refused in one line, unless the GPU jobs run elsewhere (GRANWAVE_GPU_ELSEWHERE)."""
+    if _gpu_usable():
+        pytest.skip("a GPU is usable here")
+    monkeypatch.delenv(ws.GPU_ELSEWHERE_ENV, raising=False)
+    config_file = tmp_path / "c.yaml"
+    config_file.write_text(yaml.safe_dump(_with(("device",), "gpu"), sort_keys=False))
+    code, err, _ = parse(config_file, tmp_path)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("config: device = gpu: no usable CUDA GPU"), err
+    monkeypatch.setenv(ws.GPU_ELSEWHERE_ENV, "1")
+    code, err, g = parse(config_file, tmp_path)
+    assert code == 0 and g["gpu_packings"](), err
+
+
+def test_the_device_check_asks_only_for_device_gpu():
+    calls = []
+    assert ws.device_error({"device": "cpu"}, gpu_usable=lambda: calls.append(1)) is None and not calls
+    assert ws.device_error({"device": "gpu"}, gpu_usable=lambda: calls.append(1)) is None and calls
+
+
+def test_a_shear_record_too_short_for_its_pulse_is_refused(tmp_path):
+    """The shear scenes' record (crossings at c_t plus four periods) had no bound: a record that
+    ends before the longest wavelength's pulse can have passed is refused naming it."""
+    cfg = yaml.safe_load((ROOT / "config" / "shear.yaml").read_text())
+    scene = next(iter(cfg["shear"]))
+    cfg["shear"][scene]["record"] = 0.001
+    cfg["shear"][scene]["wavelengths"] = [1]
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    code, err, _ = parse(path, tmp_path)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"config: shear.{scene}.record = 0.001"), err
+    assert "needs t_max >= " in lines[0] and "height " in lines[0]
+    cfg["shear"][scene]["record"] = 1.0
+    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    code, err, _ = parse(path, tmp_path)
+    assert code == 0, err

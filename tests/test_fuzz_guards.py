@@ -136,3 +136,30 @@ def test_another_runs_checkpoint_names_the_differences(budget_checkpoint, tmp_pa
                                  "--checkpoint", ck, "-o", tmp_path / "p.h5"]), "belongs to another")
     assert "seed 3 (this run: 4)" in line and "pressure 0.0001 (this run: 0.001)" in line
     assert "polydispersity" not in line and len(line) < 300
+
+
+def test_a_gpu_checkpoint_kept_after_a_budget_failure_takes_a_larger_budget(budget_checkpoint, tmp_path):
+    """The GPU batch path (granwave/gpu/batch.py) runs the same protocol and Checkpoint: its
+    budget failure saves the run so far and its resume checks the same digest, without the
+    budget. The GPU run itself takes minutes in numba's CUDA simulator (a 10-grain preparation
+    of 200 steps did not end in 5 minutes on a loaded CI core): here the check of a checkpoint
+    written on the GPU, under a larger and a smaller budget, and another seed refused."""
+    import shutil
+
+    import h5py
+
+    from granwave.dem import checkpoint as CK
+    from granwave.dem.params import PrepareParams
+    from granwave.errors import InputError
+
+    ck, _ = budget_checkpoint
+    mine = shutil.copy(ck, tmp_path / "gpu_ck.h5")
+    with h5py.File(mine, "a") as f:
+        f.attrs["device"] = "gpu"
+        steps = int(f.attrs["step"])
+    for budget in (100000, steps + 1, 10 * steps):
+        CK.Checkpoint(mine, PrepareParams(grains=12, seed=3, max_steps=budget), device="gpu").check()
+    with pytest.raises(InputError, match="belongs to another preparation.*seed 3 \\(this run: 4\\)"):
+        CK.Checkpoint(mine, PrepareParams(grains=12, seed=4, max_steps=100000), device="gpu").check()
+    with pytest.raises(InputError, match="written on the GPU"):
+        CK.Checkpoint(mine, PrepareParams(grains=12, seed=3, max_steps=100000), device="cpu").check()

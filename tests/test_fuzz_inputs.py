@@ -167,3 +167,27 @@ def test_shear_front_refuses_moduli_that_are_not_a_mapping(moduli):
                  attrs=dict(ic="A", height=20.0, source_kind="shear", method="modal"))
     with pytest.raises(InputError, match=f"moduli must be a mapping .*got {type(moduli).__name__}"):
         api.shear_front(sig, moduli=moduli)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["propagate", "x.h5", "--ic", "Q"], "Invalid value for '--ic'"),
+    (["analyze", "front", "sh.h5", "--material", "unobtainium", "--units", "si"], "'unobtainium' is not one of"),
+    (["lattice", "--rows", "abc"], "'abc' is not a valid integer"),
+    (["analyze", "front"], "Missing argument 'SIGNAL'"),
+    (["bogus"], "No such command 'bogus'"),
+])
+def test_usage_errors_are_one_line(args, words):
+    """Click's usage errors printed the usage and a hint above the error (three lines): one line,
+    exit 2, naming the command's --help (issue #66: unknown --material)."""
+    from cli_refusals import one_line_refusal, run
+
+    line = one_line_refusal(run(args), words)
+    assert line.endswith("--help')"), line
+
+
+def test_help_and_version_still_exit_0():
+    from cli_refusals import run
+
+    for args in (["--help"], ["--version"], ["analyze", "front", "--help"]):
+        r = run(args)
+        assert r.exit_code == 0 and len(r.output.splitlines()) >= 1, (args, r.output)

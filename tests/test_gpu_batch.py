@@ -132,12 +132,15 @@ def test_prepare_seeds_gpu_without_a_gpu_is_one_line_exit_2_no_files(tmp_path):
 
 # ---------------------------------------------------------------- the workflow with device: gpu
 ROOT = Path(__file__).resolve().parents[1]
+#: These dry runs plan GPU jobs on a machine that may have no GPU (CI has none): as a cluster's
+#: login node plans them for its GPU nodes (granwave.workflow_config.device_error).
+PLAN_ELSEWHERE = {**os.environ, "GRANWAVE_GPU_ELSEWHERE": "1"}
 
 
 def _snakemake(tmp_path, *args):
     return subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
                            "--configfile", str(ROOT / "config" / "config.yaml"), *args],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=600)
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600, env=PLAN_ELSEWHERE)
 
 
 def test_workflow_device_gpu_sends_each_heights_seeds_to_one_gpu_job(tmp_path):
@@ -188,7 +191,7 @@ def test_workflow_device_gpu_checkpoints_tall_heights_where_the_cpu_does(tmp_pat
     (tmp_path / "tall.yaml").write_text(TALL)
     r = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(ROOT / "workflow" / "Snakefile"),
                         "--configfile", "tall.yaml", "--config", "device=gpu", "-n", "-p"],
-                       cwd=tmp_path, capture_output=True, text=True, timeout=600)
+                       cwd=tmp_path, capture_output=True, text=True, timeout=600, env=PLAN_ELSEWHERE)
     out = r.stdout + r.stderr
     assert r.returncode == 0, out[-3000:]
     commands = sorted(set(re.findall(r"(?:mkdir -p \S+ && )?granwave prepare-packing .*", out)))

@@ -199,7 +199,7 @@ def test_analyze_front_shear_si(tmp_path):
     r = run(main, ["analyze", "front", str(tmp_path / "s.h5"), "--moduli", str(tmp_path / "m.json"),
                    "--pulse", "ricker", "--units", "si", "--material", "quartz", "--diameter", "0.2", "--json"])
     assert r.exit_code == 0, r.output
-    out = json.loads(r.output)
+    out = json.loads(r.stdout)
     assert set(out["picks"]) == {"first_deflection", "edge10", "peak_to_peak", "cross_correlation", "phase",
                                  "impulse_edge10", "impulse_peak"}
     assert out["picks"]["first_deflection"]["ratio"] == pytest.approx(0.98, abs=0.05)  # docs/shear.md table

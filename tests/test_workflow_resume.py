@@ -208,6 +208,100 @@ def test_a_given_packing_is_neither_kept_nor_restored(tmp_path):
     assert sorted(p.name for p in entry.iterdir()) == ["linear.h5", "stamp.json", "summary.json"]
 
 
+# ---- what the kept files record (a store from another config, a config edited mid-run)
+
+class H5Run(FakeRun):
+    """Writes HDF5 files that record what real stages record: the packing its ``make`` options
+    and a packing digest (``digest``, default from the options), the linear file that digest."""
+
+    def __init__(self, digest=None, **kw):
+        super().__init__(**kw)
+        self.digest = digest
+
+    def __call__(self, sample, log):
+        import h5py
+
+        self.calls.append(sample["seed"])
+        if len(self.calls) == self.fail_on:
+            raise self.error("cut")
+        digest = self.digest or hashlib.md5(json.dumps(sample["make"], sort_keys=True).encode()).hexdigest()
+        for stage, path in finished_store.sample_files(sample).items():
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            if stage == "summary":
+                atomic_text(path, json.dumps({"packing_digest": digest, "call": len(self.calls)}) + "\n")
+                continue
+            with h5py.File(path, "w") as f:
+                f.attrs["packing_digest"] = digest
+                if stage == "packing":
+                    for key, value in sample["make"].items():
+                        f.attrs[key] = value
+        return [{"stage": stage, "cpu_s": 1.0, "wall_s": 0.5} for stage in STAGES]
+
+
+def test_an_entry_whose_files_record_other_parameters_is_computed_again(tmp_path):
+    """A store copied from another config's results (or a stamp that says this recipe over
+    files of another): the packing records another pressure; not put back, computed again."""
+    import h5py
+
+    samples = _samples(tmp_path / "results", n=3)
+    for s in samples:
+        s["make"]["pressure"] = 1e-4
+    with pytest.raises(KeyboardInterrupt):
+        _batch(tmp_path, samples, H5Run(fail_on=3))
+    _remove_outputs(samples)
+    store = tmp_path / "results" / "finished" / "batch_sc_0"
+    entry = finished_store.entry_of(store, samples[1], ("scene", "pressure", "size", "seed"))
+    packing = entry / "packing.h5"
+    data = packing.read_bytes()  # the other config's file (same size: h5py rewrites in place)
+    packing.unlink()
+    packing.write_bytes(data)
+    with h5py.File(packing, "a") as f:
+        f.attrs["pressure"] = 1e-3
+    assert packing.stat().st_size == len(data)
+    again = H5Run()
+    _batch(tmp_path, samples, again)
+    assert again.calls == [1, 2]  # seed 0 restored, seed 1 computed again
+    log = (tmp_path / "batch.log").read_text()
+    assert "made with other parameters (packing pressure 0.001, this run 0.0001): computed again" in log
+    with h5py.File(samples[1]["out"]["packing"]) as f:
+        assert f.attrs["pressure"] == 1e-4
+
+
+def test_a_given_packing_made_again_voids_the_files_of_the_old_one(tmp_path):
+    """device gpu: the packing is the GPU job's output; remade (another config, then this one
+    again, or other code), the kept linear file and summary belong to the old packing."""
+    import h5py
+
+    samples = _samples(tmp_path / "results", n=2)
+    for s in samples:
+        s["packing_given"] = True
+        Path(s["out"]["packing"]).parent.mkdir(parents=True, exist_ok=True)
+        with h5py.File(s["out"]["packing"], "w") as f:
+            f.attrs["packing_digest"] = "old"
+            f.attrs["seed"] = s["seed"]
+    with pytest.raises(KeyboardInterrupt):
+        _batch(tmp_path, samples, H5Run(digest="old", fail_on=2))
+    for s in samples:  # what the batch made, not the given packing
+        Path(s["out"]["linear"]).unlink(missing_ok=True)
+        Path(s["out"]["summary"]).unlink(missing_ok=True)
+    with h5py.File(samples[0]["out"]["packing"], "a") as f:
+        f.attrs["packing_digest"] = "new"
+    again = H5Run(digest="new")
+    _batch(tmp_path, samples, again)
+    assert again.calls == [0, 1]
+    assert "linear.h5 is of another packing (digest old, the packing's new)" in (tmp_path / "batch.log").read_text()
+
+
+def test_an_entry_whose_files_agree_is_restored(tmp_path):
+    samples = _samples(tmp_path / "results", n=2)
+    with pytest.raises(KeyboardInterrupt):
+        _batch(tmp_path, samples, H5Run(fail_on=2))
+    _remove_outputs(samples)
+    again = H5Run()
+    _batch(tmp_path, samples, again)
+    assert again.calls == [1] and "restored from" in (tmp_path / "batch.log").read_text()
+
+
 # ---- end to end, through snakemake
 
 CHAINS = """\

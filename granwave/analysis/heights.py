@@ -131,6 +131,31 @@ def one_study(signals: Sequence[Signal], labels: Sequence[str], *, what: str,
             raise InputError(f"{seen[digest]} and {lab} are signals of one packing (packing_digest "
                              f"{digest}): each packing counts once in {what}")
         seen[digest] = lab
+    older = {key: [lab for s, lab in zip(signals, labels) if s.attrs.get(key) in (None, "", "none")]
+             for key in OLDER_ATTRS}
+    older = {key: labs for key, labs in older.items() if labs}
+    if older:
+        import warnings
+
+        from ..errors import OlderFileWarning
+
+        named = "; ".join(f"{_some(labs)} record{'s' if len(labs) == 1 else ''} no {key} ({OLDER_ATTRS[key]})"
+                          for key, labs in older.items())
+        warnings.warn(OlderFileWarning(
+            f"{named}: written by an older granwave, not checked in {what}; remake them from their "
+            "packings (granwave linearize, then propagate) to have them checked"), stacklevel=2)
+
+
+#: Attributes an older signal may lack, and what goes unchecked without them.
+OLDER_ATTRS = {"lateral_width": "its width not compared", "packing_digest": "one packing given twice not seen"}
+
+
+def _some(labels) -> str:
+    """``a.h5``, ``a.h5 and b.h5``, ``a.h5 and 4 more``: a few names on one line."""
+    labels = list(labels)
+    if len(labels) <= 2:
+        return " and ".join(labels)
+    return f"{labels[0]} and {len(labels) - 1} more"
 
 
 def _with_default(signal, key: str, value):

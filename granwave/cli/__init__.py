@@ -29,6 +29,31 @@ class LazyGroup(click.Group):
             return getattr(importlib.import_module(module_name), attr)
         return super().get_command(ctx, name)
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """As click's, but a usage error (an invalid choice, a number that is not one, a missing
+        argument) is one line, ``Error: ... (see 'granwave CMD --help')``, exit 2, like every
+        other refusal (click prints the usage and a hint above it)."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        import sys
+
+        try:
+            rc = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.UsageError as exc:
+            if isinstance(exc, getattr(click.exceptions, "NoArgsIsHelpError", ())):
+                exc.show()  # `granwave` alone, `granwave analyze` alone: the help, as click shows it
+                sys.exit(exc.exit_code)
+            where = exc.ctx.command_path if exc.ctx is not None else "granwave"
+            click.echo(f"Error: {exc.format_message()} (see '{where} --help')", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            exc.show()
+            sys.exit(exc.exit_code)
+        except click.exceptions.Abort:
+            click.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(rc if isinstance(rc, int) else 0)
+
     def format_commands(self, ctx, formatter):
         # Short help without importing every stage: the first docstring line of each.
         rows = []
@@ -74,3 +99,38 @@ def main():
     HDF5 stages; each -o help says which): any other name, or one too long for
     the file system, is refused with one line before any work.
     """
+    _one_line_warnings()
+
+
+def _one_line_warnings() -> None:
+    """An OlderFileWarning (a check skipped for an older file) prints as one line on stderr,
+    ``warning: ...``, like the stages' own warnings, once the command has ended well (a refusal
+    stays one line); other warnings as Python prints them."""
+    import warnings
+
+    from ..errors import OlderFileWarning
+
+    _OLDER.clear()
+    warnings.simplefilter("always", OlderFileWarning)  # each command says it, not only the first
+    if getattr(warnings.showwarning, "granwave", False):
+        return
+    previous = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, OlderFileWarning):
+            _OLDER.append(str(message))
+        else:
+            previous(message, category, filename, lineno, file, line)
+
+    show.granwave = True
+    warnings.showwarning = show
+
+
+#: OlderFileWarnings of the running command, printed when it ends well (a refusal stays one line).
+_OLDER = []
+
+
+@main.result_callback()
+def _print_older_warnings(*_args, **_kwargs):
+    while _OLDER:
+        click.echo(f"warning: {_OLDER.pop(0)}", err=True)

@@ -90,7 +90,7 @@ def front(signal, as_json, moduli_path, pulse, response, frequency, wavelength, 
     moduli = None
     if moduli_path is not None:
         moduli = read_moduli(moduli_path, required="c_t")
-        why = moduli_mismatch(moduli, sig)
+        why = moduli_mismatch(moduli, sig, moduli_path, signal)
         if why is not None:
             raise InputError(f"{moduli_path}: the moduli {why}: they are not of {signal}'s packing")
     mismatch = None

@@ -42,10 +42,11 @@ def read_moduli(path, required: str = "c_l") -> dict:
     return m
 
 
-def moduli_mismatch(m: dict, signal) -> str | None:
+def moduli_mismatch(m: dict, signal, path=None, label=None, warn: bool = True) -> str | None:
     """Why the moduli ``m`` are not of the packing of ``signal``, or None: its packing_digest
     where both record one, else the dimension, pressure, friction, seed and height they record
-    (files written before the moduli recorded their packing: the dimension only)."""
+    (files written before the moduli recorded their packing: the dimension only, with an
+    OlderFileWarning naming ``path`` or ``label`` and how to remake the file)."""
     want, got = m.get("packing_digest"), signal.attrs.get("packing_digest")
     if isinstance(want, str) and isinstance(got, str) and want not in ("", "none") and got != "none":
         return None if want == got else f"are of another packing (packing_digest {want}, the signal's {got})"
@@ -56,16 +57,50 @@ def moduli_mismatch(m: dict, signal) -> str | None:
             continue
         if not math.isclose(float(a), float(b), rel_tol=1e-9, abs_tol=0.0):
             return f"have {key} = {a:g}, the signal {float(b):g}"
+    if warn:
+        _warn_older([older_note(m, signal, path, label)])
     return None
+
+
+def older_note(m: dict, signal, path=None, label=None) -> str | None:
+    """What goes unchecked between the moduli ``m`` and ``signal`` when one of them records no
+    packing_digest (an older granwave's file), and how to remake it; None when both record one."""
+    want, got = m.get("packing_digest"), signal.attrs.get("packing_digest")
+    recorded = ["dim", *(k for k in ("pressure", "friction", "seed", "height") if m.get(k) is not None)]
+    if not isinstance(want, str) or want in ("", "none"):
+        return (f"{path or 'a moduli file'} records no packing_digest (an older granwave): checked against "
+                f"{label or 'the signal'} by {', '.join(recorded)} only; remake it with `granwave analyze "
+                "moduli PACKING --json > MODULI.json` to have it checked")
+    if not isinstance(got, str) or got in ("", "none"):
+        return (f"{label or 'the signal'} records no packing_digest (an older granwave): checked against "
+                f"{path or 'its moduli'} by {', '.join(recorded)} only; remake it from its packing "
+                "(granwave linearize, then propagate) to have it checked")
+    return None
+
+
+def _warn_older(notes) -> None:
+    """One OlderFileWarning for the first note, counting the others."""
+    notes = [n for n in notes if n]
+    if notes:
+        import warnings
+
+        from ..errors import OlderFileWarning
+
+        more = f" (and {len(notes) - 1} more file pairs like it)" if len(notes) > 1 else ""
+        warnings.warn(OlderFileWarning(notes[0] + more), stacklevel=3)
 
 
 def check_moduli_of(paths: Sequence[str], signals, labels: Sequence[str]) -> None:
     """InputError (one line) unless each moduli file is of its signal's packing (same order)."""
+    notes = []
     for path, sig, lab in zip(paths, signals, labels):
-        why = moduli_mismatch(read_moduli(path), sig)
+        m = read_moduli(path)
+        why = moduli_mismatch(m, sig, path, lab, warn=False)
         if why is not None:
             raise InputError(f"{path}: the moduli {why}: they are not of {lab}'s packing (give the "
                              "moduli of each signal's packing, in the order of the signals)")
+        notes.append(older_note(m, sig, path, lab))
+    _warn_older(notes)
 
 
 def moduli_speeds(paths: Sequence[str], kind: str = "slab") -> dict[str, tuple[list, list]]:

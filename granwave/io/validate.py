@@ -608,6 +608,16 @@ def same_packing(path, obj, packing_path, packing) -> None:
     if why is not None:
         _fail(path, "", f"{why}: it does not belong to {packing_path}; give the packing it was "
                         "computed from")
+    digest = obj.attrs.get("packing_digest")
+    if not isinstance(digest, str) or digest in ("", "none"):
+        import warnings
+
+        from ..errors import OlderFileWarning
+
+        warnings.warn(OlderFileWarning(
+            f"{path} records no packing_digest (an older granwave): checked against {packing_path} by its "
+            "recorded attributes and grains only; remake it from its packing (granwave linearize, then "
+            "propagate) to have it checked"), stacklevel=2)
 
 
 def same_system(path, modes, linear_path, system) -> None:

@@ -52,6 +52,12 @@ def _check_config():
     message = ws.results_error(config["results"])
     if message:
         _stop(message)
+    message = ws.device_error(config) if workflow.is_main_process else None
+    if message:
+        _stop(message)
+    warning = ws.record_warning(config)
+    if warning and workflow.is_main_process:
+        print(warning, file=sys.stderr)
 
 
 _check_config()
