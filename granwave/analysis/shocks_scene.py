@@ -29,10 +29,15 @@ Quantities (units: d̄, √(E*/ρ)):
   over its pushes at ε/δ0 ≥ ``tail_from``; compared with (α − 2)/2 (1/4 for Hertz) and with
   the mean-field curve's own slope over the same window (at finite x f_α is not yet at its
   asymptote).
-- **contacts**: the fractions of the contacts of t = 0 that opened (lost their overlap) and
-  that slid (reached the Coulomb cone, not on it at t = 0) at some step of the record, and the
-  contacts formed per contact of t = 0, as the DEM pulse counts them (granwave.dem.pulse).
-  They count over the whole record, which includes the front's reflection off the top wall.
+- **contacts**, as the DEM pulse counts them (granwave.dem.pulse) at some step of the record:
+  ``opened``, the fraction of the contacts of t = 0 that lost their overlap; ``formed``, the
+  contacts absent at t = 0 that gained one, per contact of t = 0; ``slid``, the contacts not on the
+  Coulomb cone at t = 0 that reached it (formed ones included), per contact of t = 0, and
+  ``slid_fraction`` = slid / (1 + formed), the fraction of all the contacts that existed during
+  the record. They count over the whole record, which includes the front's reflection off the
+  top wall.
+- **softening**: per pressure the smallest mean V/c0 over the pushes and its ε/δ0 (below 1: the
+  medium softens before the contact law's hardening wins).
 - **shock width** w: (t_90 − t_10) V, the 10 %–90 % rise of each height bin's mean velocity to
   v_p, median over the fitted bins (:func:`rise_width`). On disordered columns it is broadened by
   the 1 d bins and the grains' arrival jitter (docs/shocks.md: the half-maximum width is 9–17 %
@@ -309,9 +314,10 @@ def shocks_scene(records: Sequence[Mapping], *, tail_from: float = DEFAULT_TAIL_
                         vals["ratio"].append(q["front_speed"] / c["c0"])
                         for key in ("front_speed", "opened", "slid", "formed", "width", "strain"):
                             vals[key].append(q[key])
+                        vals["slid_fraction"].append(q["slid"] / (1.0 + q["formed"]))
                 rows.append(dict(amplitude=a, **{k: stat(vals[k]) for k in
                                                  ("x", "ratio", "front_speed", "strain", "opened", "slid",
-                                                  "formed", "width")}))
+                                                  "slid_fraction", "formed", "width")}))
             tails = []
             for r, c in here:
                 crossover_points.append((p, c["crossover"]))
@@ -322,6 +328,10 @@ def shocks_scene(records: Sequence[Mapping], *, tail_from: float = DEFAULT_TAIL_
                     slopes_all.append(s)
                     tail_windows.append((float(c["x"][use].min()), float(c["x"][use].max())))
             d0 = stat(r["static_strain"] for r, _ in here)
+            means = [row["ratio"]["mean"] for row in rows]
+            k_min = int(np.nanargmin(means)) if any(math.isfinite(m) for m in means) else None
+            softening = (dict(ratio=rows[k_min]["ratio"], x=rows[k_min]["x"]) if k_min is not None
+                         else dict(ratio=stat([]), x=stat([])))
             cross = stat(c["crossover"] for _, c in here)
             per_p.append(dict(
                 pressure=p, n_packings=len(here),
@@ -332,7 +342,7 @@ def shocks_scene(records: Sequence[Mapping], *, tail_from: float = DEFAULT_TAIL_
                 crossover_over_static=stat(c["crossover"] / r["static_strain"] for r, c in here),
                 n_crossover_reached=int(sum(math.isfinite(c["crossover"]) for _, c in here)),
                 n_pushes_rejected=int(sum(c["n_rejected"] for _, c in here)),
-                tail_exponent=stat(tails), pushes=rows))
+                tail_exponent=stat(tails), softening=softening, pushes=rows))
         window = ((float(np.median([w[0] for w in tail_windows])), float(np.median([w[1] for w in tail_windows])))
                   if tail_windows else (math.nan, math.nan))
         out[scene] = dict(

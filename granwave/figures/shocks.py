@@ -22,7 +22,7 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
     standard error where there are 5 packings or more) with the mean-field column's curve;
     (b) V against ε per pressure; (c) ε× against p (the packings' mean) with the p^(2/3) line
     through its middle point and the mean-field x× δ0; (d) fractions of the contacts of t = 0 that
-    opened and that slid against ε/δ0. Nothing is computed here but the reference curves."""
+    opened and of all contacts that slid against ε/δ0. Nothing is computed here but the reference curves."""
     from ..analysis.shocks_scene import mean_field_speed
 
     scenes = analysis.get("scenes") or {}
@@ -101,13 +101,14 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
         x = _col(pushes, "x")
         ax.plot(x, _col(pushes, "opened"), "o-", ms=4, color=f"C{k}", label=f"opened, p = {r['pressure']:.0e}")
         if a["friction"] > 0:
-            ax.plot(x, _col(pushes, "slid"), "^--", ms=4, color=f"C{k}", label=f"slid, p = {r['pressure']:.0e}")
+            ax.plot(x, _col(pushes, "slid_fraction"), "^--", ms=4, color=f"C{k}",
+                    label=f"slid, p = {r['pressure']:.0e}")
     ax.set_xscale("log")
     ax.set_xlabel(r"$\varepsilon/\delta_0$  [1]")
-    ax.set_ylabel("fraction of the contacts of t = 0  [1]")
-    ax.set_title("contacts that opened" + (" and slid" if a["friction"] > 0 else "") + " during the record",
-                 fontsize=9)
+    ax.set_ylabel("fraction of contacts  [1]")
+    ax.set_title("opened: of the contacts of t = 0" + ("; slid: of all that existed" if a["friction"] > 0 else "")
+                 + " (whole record)", fontsize=9)
     ax.legend(fontsize=7, ncol=2)
     fig.suptitle(scene_title(f"from sound to shocks: piston pushes, {a['contact_law']} law, friction "
-                             f"{a['friction']:g}", scene=name, count=f"n = {a['n_packings']} packings"))
+                             f"{a['friction']:g}", scene=name, count=f"{a['n_packings']} packings"))
     return save_figure(fig, path, pdf=pdf)
