@@ -199,4 +199,31 @@ def test_shocks_config_dry_run_and_the_quick_default_without_it():
                  "shocks_batch_harmonic_frictionless_0", "shocks_analysis", "figure_shocks", "report"):
         assert rule in out, rule
     returncode, out = dry_run("config/config.yaml")
-    assert returncode == 0 and "shocks" not in out, out[-3000:]
+    jobs = [line.split()[0] for line in out.splitlines() if line.strip() and not line.startswith(" ")]
+    assert returncode == 0 and not any("shocks" in job for job in jobs), out[-3000:]
+
+
+def test_docs_scene_tables_are_the_generated_ones():
+    """docs/shocks.md's scene tables are what benchmarks/results/summarize.py writes from the newest
+    shocks_scene.jsonl record of each scene (rerun it after recording a run)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("summarize", ROOT / "benchmarks" / "results" / "summarize.py")
+    summarize = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(summarize)
+    doc = (ROOT / "docs" / "shocks.md").read_text()
+    begin, end = summarize.SHOCKS_TABLE
+    block = doc[doc.index(begin) + len(begin):doc.index(end)]
+    assert block.strip() == summarize.shocks_scene_tables().strip()
+
+
+def test_report_section_copies_the_analysis(tmp_path):
+    """The report's shocks section: the scene's exponent and its distance from 1/4 as the analysis
+    gives them, a range for a point under 5 packings."""
+    from granwave.report.shocks import shocks_section
+
+    recs = [_record(p, s, speed=lambda x: S.mean_field_speed(x, 2.5)) for p in (1e-6, 1e-5) for s in range(3)]
+    a = S.shocks_scene(recs)["scenes"]["synthetic"]
+    md = "\n".join(shocks_section({"synthetic": a}))
+    assert md.startswith("## Shocks") and "| synthetic | hertz, 0 | 6 |" in md
+    assert " … " in md  # 3 packings a point: ranges
