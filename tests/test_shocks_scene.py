@@ -227,3 +227,22 @@ def test_report_section_copies_the_analysis(tmp_path):
     md = "\n".join(shocks_section({"synthetic": a}))
     assert md.startswith("## Shocks") and "| synthetic | hertz, 0 | 6 |" in md
     assert " … " in md  # 3 packings a point: ranges
+
+
+def test_figure_follows_the_rules_and_report_symbols_are_defined(tmp_path, monkeypatch):
+    from figure_rules import capture, check
+
+    from granwave.figures import shocks_panels
+    from granwave.report.captions import caption_for
+    from granwave.report.shocks import shocks_section
+    from granwave.report.symbols import undefined_symbols
+
+    recs = [_record(p, s, speed=lambda x: S.mean_field_speed(x, 2.5), friction=0.5)
+            for p in (1e-6, 1e-5) for s in range(5)]
+    analysis = S.shocks_scene(recs)
+    figs = capture(monkeypatch)
+    files = shocks_panels(analysis, tmp_path / "shocks_synthetic.png", scene="synthetic")
+    assert files[0].stat().st_size > 10_000
+    check(figs[0], scene="synthetic", pressure=False, height=False)
+    assert caption_for(files[0]).startswith("Shocks scene:")
+    assert not undefined_symbols("\n".join(shocks_section(analysis["scenes"])))

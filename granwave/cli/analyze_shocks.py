@@ -18,9 +18,9 @@ def shocks(records, tail_from, as_json):
 
     RECORDS are the shocks scene's packing records (results/shocks/<scene>/p<p>/<size>/s<seed>.json,
     one per packing: every piston push's front speed V, v_p and contact counts). Per scene and
-    pressure: the linear speed c0 (the weakest push), V/c0 against eps/delta0 (eps = v_p/V the
+    pressure: the linear speed V_0 (the weakest push), V/V_0 against eps/delta0 (eps = v_p/V the
     strain behind the front, delta0 the mean overlap over the mean diameter), the crossover strain
-    eps_x (V = 1.1 c0) and its scaling with p, the exponent of V against eps at eps/delta0 >=
+    eps_x (V = 1.1 V_0) and its scaling with p, the exponent of V against eps at eps/delta0 >=
     --tail-from, each against the mean-field column's value; the fractions of contacts that open
     and that slide. Means over packings with standard errors (a range under 5 packings). Units: d,
     sqrt(E*/rho). See docs/shocks.md.
@@ -50,7 +50,7 @@ def shocks(records, tail_from, as_json):
                    f"window {a['tail_exponent_mean_field']:.4g})")
         click.echo(f"  eps_x ~ p^{sc['exponent']:.4g} +- {sc['error']:.2g} (expected "
                    f"{a['crossover_scaling_expected']:.4g})")
-        click.echo(f"  {'p':>8} {'n':>3} {'delta0':>10} {'c0':>9} {'eps_x/delta0':>13} {'reached':>8}")
+        click.echo(f"  {'p':>8} {'n':>3} {'delta0':>10} {'V_0':>9} {'eps_x/delta0':>13} {'reached':>8}")
         for q in a["pressures"]:
             click.echo(f"  {q['pressure']:8.2g} {q['n_packings']:3d} {q['static_strain']['mean']:10.4g} "
                        f"{q['c0']['mean']:9.4g} {q['crossover_over_static']['mean']:13.4g} "

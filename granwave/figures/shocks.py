@@ -1,4 +1,4 @@
-"""The shocks scene: the collapse V/c0 against ε/δ0 with the mean-field curve, the speed against
+"""The shocks scene: the collapse V/V_0 against ε/δ0 with the mean-field curve, the speed against
 the strain per pressure, the crossover strain against p, and the fractions of contacts that open
 and slide against ε/δ0 (granwave.analysis.shocks_scene)."""
 
@@ -18,7 +18,7 @@ def _col(rows, key, what="mean"):
 
 def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | None = None) -> list[Path]:
     """Four panels from one scene of a shocks analysis (``analysis["scenes"][scene]``, or the only
-    one): (a) V/c0 against ε/δ0 (means over the packings, one colour per pressure; error bars the
+    one): (a) V/V_0 against ε/δ0 (means over the packings, one colour per pressure; error bars the
     standard error where there are 5 packings or more) with the mean-field column's curve;
     (b) V against ε per pressure; (c) ε× against p (the packings' mean) with the p^(2/3) line
     through its middle point and the mean-field x× δ0; (d) fractions of the contacts of t = 0 that
@@ -51,11 +51,11 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
     if xx.size:
         grid = np.geomspace(xx.min(), xx.max(), 100)
         ax.plot(grid, mean_field_speed(grid, a["alpha"]), "k--", lw=1,
-                label=f"mean-field column, α = {a['alpha']:g}")
+                label=f"mean-field column, α_c = {a['alpha']:g}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(r"strain behind the front over static strain $\varepsilon/\delta_0$  [1]")
-    ax.set_ylabel(r"front speed over linear speed $V/c_0$  [1]")
+    ax.set_ylabel(r"front speed over linear speed $V/V_0$  [1]")
     t = a["tail_exponent"]
     ax.set_title(f"exponent at ε/δ0 ≥ {a['tail_from']:g}: {value_text(t['mean'], t['error'])} "
                  f"(expected {a['tail_exponent_expected']:g})", fontsize=9)
@@ -79,7 +79,7 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
     ok = np.isfinite(cross)
     if np.any(ok):
         ax.errorbar(p[ok], cross[ok], yerr=np.where(np.isfinite(err[ok]), err[ok], 0.0), fmt="o", capsize=2,
-                    label=r"$\varepsilon_\times$ (V = 1.1 $c_0$)")
+                    label=r"$\varepsilon_\times$ (V = 1.1 $V_0$)")
         mid = np.flatnonzero(ok)[len(np.flatnonzero(ok)) // 2]
         ax.plot(p, cross[mid] * (p / p[mid]) ** a["crossover_scaling_expected"], "k:", lw=1,
                 label=f"∝ p^{a['crossover_scaling_expected']:.3g}")

@@ -1,6 +1,6 @@
 """The report's shocks section (docs/shocks.md, "The shocks scene"): per scene the strongly
-nonlinear exponent against (α − 2)/2 and against the mean-field column over the same window, the
-crossover strain's scaling with p against 1/(α − 1), and per pressure δ0, c0, ε×/δ0 and the
+nonlinear exponent against (α_c − 2)/2 and against the mean-field column over the same window, the
+crossover strain's scaling with p against 1/(α_c − 1), and per pressure δ0, V_0, ε×/δ0 and the
 contact fractions at the strongest push.
 
 Input: the workflow's shocks analyses (``results/shocks/<scene>/analysis.json``, written by
@@ -50,10 +50,10 @@ def _sigma(value: Mapping, expected: float) -> str:
 
 
 def summary_table(scenes: Mapping[str, Mapping]) -> list[str]:
-    """One row per scene: exponent, its distance from (α−2)/2 in standard errors, the mean field's
-    slope over the same window, the crossover's p-exponent against 1/(α − 1)."""
-    md = ["| scene | law, μ | packings | exponent β (ε/δ0 ≥ from) | (α−2)/2 | β − (α−2)/2 | mean field, same window "
-          "| ε× ∝ p^κ: κ | 1/(α−1) |", "|---|---|---|---|---|---|---|---|---|"]
+    """One row per scene: exponent, its distance from (α_c−2)/2 in standard errors, the mean field's
+    slope over the same window, the crossover's p-exponent against 1/(α_c − 1)."""
+    md = ["| scene | law, μ | packings | exponent ψ (ε/δ0 window) | (α_c−2)/2 | ψ − (α_c−2)/2 | mean field, same window "
+          "| ε× ∝ p^κ: κ | 1/(α_c−1) |", "|---|---|---|---|---|---|---|---|---|"]
     for scene, a in sorted(scenes.items()):
         t, sc = a["tail_exponent"], a["crossover_scaling"]
         lo, hi = (a.get("tail_window") or [math.nan, math.nan])[:2]
@@ -69,9 +69,9 @@ def summary_table(scenes: Mapping[str, Mapping]) -> list[str]:
 
 
 def pressure_table(a: Mapping) -> list[str]:
-    """Per pressure: packings, δ0, c0, ε×/δ0 (and how many reached it), the exponent, and the
+    """Per pressure: packings, δ0, V_0, ε×/δ0 (and how many reached it), the exponent, and the
     fractions of contacts opened (and slid) at the strongest push run there."""
-    md = ["| p | packings | δ0 | c0 | ε×/δ0 (reached) | β | smallest V/c0 (at ε/δ0) | strongest push ε/δ0 | opened "
+    md = ["| p | packings | δ0 | V_0 | ε×/δ0 (reached) | ψ | smallest V/V_0 (at ε/δ0) | strongest push ε/δ0 | opened "
           "| slid | rise width (d) |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for q in a["pressures"]:
         top = q["pushes"][-1] if q["pushes"] else {}
@@ -104,15 +104,15 @@ def shocks_section(scenes: Mapping[str, Mapping]) -> list[str]:
     md = ["## Shocks: from the linear response to shocks", "",
           "Piston pushes at constant velocity v_p on the same packings, drives from the linear regime "
           "to ε/δ0 ~ 10² (docs/shocks.md, \"The shocks scene\"). ε = v_p/V is the strain behind the "
-          "front, δ0 the mean overlap over the mean diameter, c0 each packing's speed at its weakest "
-          "push; ε× is where V first reaches 1.1 c0; β the log-log slope of V against ε over each "
+          "front, δ0 the mean overlap over the mean diameter, V_0 each packing's speed at its weakest "
+          "push; ε× is where V first reaches 1.1 V_0; ψ the log-log slope of V against ε over each "
           "packing's pushes at ε/δ0 ≥ the scene's window start (Gómez, Turner, van Hecke, Vitelli, "
-          "PRL 108, 058001 (2012): β = (α − 2)/2, ε× ∝ δ0 ∝ p^(1/(α−1))). The mean-field column "
+          "PRL 108, 058001 (2012): ψ = (α_c − 2)/2, ε× ∝ δ0 ∝ p^(1/(α_c−1))). The mean-field column "
           "(jump conditions of a uniform column of such contacts) gives the slope a finite window "
           "can show. ± is the standard error over the packings; under 5 packings the range. The "
           "opened fraction is of the contacts of t = 0, the slid one of all the contacts that existed "
           "(formed ones included), both over the whole record, the top wall's reflection included; "
-          "a smallest V/c0 below 1 is the softening before the hardening. The rise width (10–90 %, × V) is broadened on disordered "
+          "a smallest V/V_0 below 1 is the softening before the hardening. The rise width (10–90 %, × V) is broadened on disordered "
           "columns by the 1 d bins and the arrival jitter: an upper estimate, not a validated width.",
           ""]
     return md + scene_tables(scenes) + [""]
