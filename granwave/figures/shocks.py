@@ -57,7 +57,7 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
     ax.set_xlabel(r"strain behind the front over static strain $\varepsilon/\delta_0$  [1]")
     ax.set_ylabel(r"front speed over linear speed $V/V_0$  [1]")
     t = a["tail_exponent"]
-    ax.set_title(f"exponent at ε/δ0 ≥ {a['tail_from']:g}: {value_text(t['mean'], t['error'])} "
+    ax.set_title(f"V ∝ ε^ψ at ε/δ0 ≥ {a['tail_from']:g}: ψ = {value_text(t['mean'], t['error'])} "
                  f"(expected {a['tail_exponent_expected']:g})", fontsize=9)
     ax.legend(fontsize=8)
 
