@@ -108,6 +108,12 @@ def test_harmonic_law_has_no_crossover_and_a_flat_curve():
     assert a["tail_exponent"]["mean"] == pytest.approx(0.0, abs=1e-12)
     assert all(q["n_crossover_reached"] == 0 for q in a["pressures"])
     assert math.isnan(a["crossover_scaling"]["exponent"])
+    # a pressure where fewer than half the packings cross is not in the scaling (a selection)
+    few = [_record(p, s, speed=(lambda x: S.mean_field_speed(x, 2.5)) if (p == 1e-4 or s == 0) else (lambda x: 1.0))
+           for p in (1e-6, 1e-5, 1e-4) for s in range(4)]
+    b = S.shocks_scene(few)["scenes"]["synthetic"]
+    assert [q["crossover_counted"] for q in b["pressures"]] == [False, False, True]
+    assert b["crossover_scaling"]["n_pressures"] == 1 and math.isnan(b["crossover_scaling"]["exponent"])
     # contact fractions carried per push: opened = 0.01 x in the synthetic records
     row = a["pressures"][0]["pushes"][4]
     assert row["opened"]["mean"] == pytest.approx(0.01 * row["x"]["mean"], rel=1e-12)

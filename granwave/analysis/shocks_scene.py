@@ -23,8 +23,9 @@ Quantities (units: d̄, √(E*/ρ)):
 - **crossover strain** ε×: the strain at which V first reaches :data:`CROSSOVER_RATIO` × c0,
   interpolated linearly in (ln ε, ln V/c0) between the two pushes around it (model free); NaN
   when no push reaches it. Mean field: ε× = x×(α) δ0 with f_α(x×) = CROSSOVER_RATIO.
-  Its scaling with pressure: the least-squares slope of ln ε× against ln p over the packings
-  (expected 1/(α − 1) = 2/3 for Hertz, the static strain's own).
+  Its scaling with pressure: the least-squares slope of ln ε× against ln p over the packings of
+  the pressures where at least half the packings reached ε× (expected 1/(α − 1) = 2/3 for Hertz,
+  the static strain's own).
 - **strongly nonlinear exponent** β: per packing, the least-squares slope of ln V against ln ε
   over its pushes at ε/δ0 ≥ ``tail_from``; compared with (α − 2)/2 (1/4 for Hertz) and with
   the mean-field curve's own slope over the same window (at finite x f_α is not yet at its
@@ -343,6 +344,12 @@ def shocks_scene(records: Sequence[Mapping], *, tail_from: float = DEFAULT_TAIL_
                 n_crossover_reached=int(sum(math.isfinite(c["crossover"]) for _, c in here)),
                 n_pushes_rejected=int(sum(c["n_rejected"] for _, c in here)),
                 tail_exponent=stat(tails), softening=softening, pushes=rows))
+        # the scaling over the pressures where at least half the packings reached ε× (where fewer
+        # do, the ones that cross are a selection: their mean is not the pressure's crossover)
+        counted = {q["pressure"] for q in per_p if 2 * q["n_crossover_reached"] >= q["n_packings"]}
+        for q in per_p:
+            q["crossover_counted"] = q["pressure"] in counted
+        crossover_points = [(p, e) for p, e in crossover_points if p in counted]
         window = ((float(np.median([w[0] for w in tail_windows])), float(np.median([w[1] for w in tail_windows])))
                   if tail_windows else (math.nan, math.nan))
         out[scene] = dict(

@@ -20,7 +20,7 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
     """Four panels from one scene of a shocks analysis (``analysis["scenes"][scene]``, or the only
     one): (a) V/V_0 against ε/δ0 (means over the packings, one colour per pressure; error bars the
     standard error where there are 5 packings or more) with the mean-field column's curve;
-    (b) V against ε per pressure; (c) ε× against p (the packings' mean) with the p^(2/3) line
+    (b) V against ε per pressure; (c) ε× against p (the packings' mean, where at least half of them reach it) with the p^(2/3) line
     through its middle point and the mean-field x× δ0; (d) fractions of the contacts of t = 0 that
     opened and of all contacts that slid against ε/δ0. Nothing is computed here but the reference curves."""
     from ..analysis.shocks_scene import mean_field_speed
@@ -76,7 +76,7 @@ def shocks_panels(analysis: Mapping, path, *, pdf: bool = False, scene: str | No
     p = np.array([r["pressure"] for r in rows], float)
     cross = _col(rows, "crossover")
     err = _col(rows, "crossover", "error")
-    ok = np.isfinite(cross)
+    ok = np.isfinite(cross) & np.array([bool(r.get("crossover_counted", True)) for r in rows])
     if np.any(ok):
         ax.errorbar(p[ok], cross[ok], yerr=np.where(np.isfinite(err[ok]), err[ok], 0.0), fmt="o", capsize=2,
                     label=r"$\varepsilon_\times$ (V = 1.1 $V_0$)")

@@ -105,7 +105,7 @@ def shocks_section(scenes: Mapping[str, Mapping]) -> list[str]:
           "Piston pushes at constant velocity v_p on the same packings, drives from the linear regime "
           "to ε/δ0 ~ 10² (docs/shocks.md, \"The shocks scene\"). ε = v_p/V is the strain behind the "
           "front, δ0 the mean overlap over the mean diameter, V_0 each packing's speed at its weakest "
-          "push; ε× is where V first reaches 1.1 V_0; ψ the log-log slope of V against ε over each "
+          "push; ε× is where V first reaches 1.1 V_0 (its p-exponent κ over the pressures where at least half the packings reach it); ψ the log-log slope of V against ε over each "
           "packing's pushes at ε/δ0 ≥ the scene's window start (Gómez, Turner, van Hecke, Vitelli, "
           "PRL 108, 058001 (2012): ψ = (α_c − 2)/2, ε× ∝ δ0 ∝ p^(1/(α_c−1))). The mean-field column "
           "(jump conditions of a uniform column of such contacts) gives the slope a finite window "
