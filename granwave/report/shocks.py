@@ -89,7 +89,8 @@ def scene_tables(scenes: Mapping[str, Mapping]) -> list[str]:
     for scene, a in sorted(scenes.items()):
         md += ["", f"**{scene}** ({a['contact_law']}, friction {num(a['friction']):g}; mean-field "
                f"crossover x× = {fmt(a.get('crossover_mean_field'), None, 3)}"
-               + (f"; {fmt_count(a.get('n_excluded'))} packings left out without a linear push"
+               + (f"; {fmt_count(a.get('n_excluded'))} packing{'s' if a.get('n_excluded') != 1 else ''} left out "
+                  "without a linear push"
                   if a.get("n_excluded") else "")
                + (f"; {fmt_count(a.get('n_pushes_rejected'))} of {fmt_count(a.get('n_pushes'))} pushes "
                   "left out as failed picks" if a.get("n_pushes_rejected") else "") + ")", ""]
