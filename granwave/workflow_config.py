@@ -786,3 +786,41 @@ def width_error(config: dict) -> str | None:
                         f"periodic limit, more than 2 x (largest diameter {1 + w:g} + skin {skin:g}) = "
                         f"{need:g} d")
     return None
+
+
+def shocks_error(config: dict) -> str | None:
+    """The first problem of a (schema-valid, defaulted) config's shocks scenes, as one line naming
+    the key: a name used by another section, the contact sub-models (as a disordered scene's),
+    the preparation's options (PrepareParams), drives that do not start in the linear regime
+    or repeat a path label, a damping the pulse refuses."""
+    from .analysis.shocks_scene import LINEAR_LIMIT
+    from .dem.params import PrepareParams
+
+    for scene, spec in (config.get("shocks") or {}).items():
+        base = f"shocks.{scene}"
+        for kind in (*SCENE_KINDS, "shear"):
+            if scene in (config.get(kind) or {}):
+                return f"config: scene {scene!r} is defined twice ({kind}.{scene} and {base})"
+        message = contact_error({"disordered": {scene: spec}})
+        if message:
+            return message.replace(f"disordered.{scene}.", f"{base}.")
+        drives = [float(d) for d in spec["drives"]]
+        if min(drives) > LINEAR_LIMIT:
+            return (f"config: {base}.drives: the weakest drive ({min(drives):g}) must be at most "
+                    f"{LINEAR_LIMIT:g}: it gives each packing's linear speed c0")
+        labels = [f"{d:g}" for d in drives]
+        if len(set(labels)) != len(labels):
+            return f"config: {base}.drives: two drives give one label ({', '.join(labels)})"
+        if len(set(f"{float(p):g}" for p in spec["pressures"])) != len(spec["pressures"]):
+            return f"config: {base}.pressures: a pressure is given twice"
+        height, width = float(spec["height"]), int(spec["width"])
+        for i, p in enumerate(spec["pressures"]):
+            try:
+                PrepareParams(dim=2, grains=max(1, round(width * height)), aspect=height / width,
+                              pressure=float(p), friction=float(spec["friction"]),
+                              poisson=float(spec["poisson"]), polydispersity=float(spec["polydispersity"]),
+                              tol=float(spec["tol"]), max_steps=int(spec["max_steps"]), seed=0,
+                              **(spec.get("contact") or {}))
+            except (ValueError, TypeError) as e:
+                return f"config: {base}.pressures[{i}]: {str(e).splitlines()[0]}"
+    return None

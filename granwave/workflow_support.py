@@ -501,3 +501,73 @@ def run_shear_sample(sample: dict, log=print) -> list[dict]:
         t.update(n_dof=int(system.n_dof))
     log(f"{out['picks']}: " + ", ".join(f"{t['stage']} {t['cpu_s']:.2f} s" for t in timings))
     return timings
+
+
+def run_shocks_sample(sample: dict, log=print) -> list[dict]:
+    """One packing of a shocks scene (docs/shocks.md, "The shocks scene"): the DEM packing
+    (made, or read when its file exists), then one piston push (the nonlinear DEM pulse,
+    granwave.dem.pulse) per drive EPS of ``drives`` whose strain EPS δ̄/d̄ is at most
+    ``max_strain``, and the packing's record (granwave.analysis.shocks_scene.packing_record:
+    every push's front speed, ε = v_p/V, contact fractions and 10–90 % rise width).
+
+    ``sample``: ``scene``, ``pressure``, ``size``, ``seed``, ``make`` (options of
+    :func:`make_sample`), ``drives``, ``max_strain``, ``damping`` (ζ), ``samples`` (per record),
+    ``bin`` (d), ``out`` (``packing``, ``record``). Returns the timing of each stage.
+    """
+    import numpy as np
+
+    from .analysis.shocks_scene import packing_record, pulse_row, rise_width
+    from .dem.kick import mean_overlap
+    from .dem.pulse import propagate_dem
+    from .io import files
+
+    timings = []
+    out = sample["out"]
+    for path in out.values():
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    if Path(out["packing"]).exists():
+        packing = files.read_packing(out["packing"])
+    else:
+        packing = _timed(timings, "packing", lambda: make_sample("disordered", sample["make"]))
+        files.write_packing(out["packing"], packing)
+    d0 = mean_overlap(packing) / float(np.mean(2.0 * packing.radius))
+    rows, skipped = [], []
+    for eps in sample["drives"]:
+        if eps * d0 > sample["max_strain"]:
+            skipped.append(float(eps))
+            continue
+
+        def push():
+            return propagate_dem(packing, drive="piston", amplitude=float(eps), damping=sample["damping"],
+                                 samples=sample["samples"], bin_width=sample["bin"])
+
+        sig = _timed(timings, f"push_{eps:g}", push)
+        width = rise_width(sig.time, sig.pulse["height"], sig.pulse["velocity"],
+                           plateau=float(sig.attrs["piston_velocity"]), speed=float(sig.attrs["front_speed"]),
+                           fit_range=sig.attrs["front_fit_range"])
+        rows.append(pulse_row(sig.attrs, width=width))
+    meta = {k: sample[k] for k in ("scene", "pressure", "size", "seed")}
+    meta.update(pressure=float(sample["pressure"]), friction=float(packing.friction),
+                contact_law=str(sample["make"].get("contact_law", "hertz")), dim=int(packing.dim),
+                n_grains=int(packing.n_grains), height=float(packing.height),
+                lateral_width=float(packing.box[0]), damping=float(sample["damping"]),
+                drives_skipped=skipped, max_strain=float(sample["max_strain"]),
+                packing=str(out["packing"]), label=str(out["record"]))
+    _write_json(out["record"], packing_record(meta, rows, static_strain=d0))
+    log(f"{out['record']}: " + ", ".join(f"{t['stage']} {t['cpu_s']:.2f} s" for t in timings))
+    for t in timings:
+        t.update(n_dof=int(packing.n_grains * packing.dim))
+    return timings
+
+
+def warm_shocks(sample: dict, folder, log=print) -> dict:
+    """Compile the shocks scene's kernels: :func:`run_shocks_sample` on a tiny copy of ``sample``
+    (60 grains, two drives, 50 samples per record) with its files under ``folder``."""
+    c0 = _cpu_seconds()
+    tiny = {**sample, "make": {**sample["make"], "grains": 60, "aspect": 1.0}, "samples": 50,
+            "drives": [min(sample["drives"]), 1.0], "max_strain": 1.0,
+            "out": {k: str(Path(folder) / f"tiny.{k}{Path(v).suffix}") for k, v in sample["out"].items()}}
+    run_shocks_sample(tiny, log=lambda line: None)
+    done = {"family": "shocks", "ran": [{"sample": sample["scene"], "cpu_s": round(_cpu_seconds() - c0, 2)}]}
+    log(f"shocks: {sample['scene']}: {done['ran'][0]['cpu_s']} CPU-s")
+    return done

@@ -200,6 +200,32 @@ def shear_scene_table(folder: Path = HERE) -> str:
     return "\n".join(lines).rstrip()
 
 
+#: docs/shocks.md's results of the workflow's shocks scenes sit between these two lines.
+SHOCKS_TABLE = ("<!-- shocks-scene-tables: begin (generated; do not edit) -->", "<!-- shocks-scene-tables: end -->")
+
+
+def shocks_scene_tables(folder: Path = HERE) -> str:
+    """The newest record of each shocks scene in shocks_scene.jsonl (benchmarks/shocks_scene_record.py)
+    as the report prints it (granwave.report.shocks.scene_tables), with the runs they came from."""
+    import sys
+
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    from granwave.report.shocks import scene_tables
+
+    newest = {}
+    for rec in sorted(_records(folder / "shocks_scene.jsonl"), key=lambda r: r.get("date", "")):
+        newest[rec.get("scene")] = rec  # later lines of one date win
+    if not newest:
+        return "(no shocks scene recorded yet)"
+    runs = sorted({(r["date"], r["git_revision"], r["command"], r.get("notes") or "") for r in newest.values()})
+    lines = [f"Recorded {d}, revision {g}, `{c}`" + (f"; {n}" if n else "") + "." for d, g, c, n in runs]
+    cpu = [r["summary"].get("batch CPU (s)") for r in newest.values()]
+    if all(c is not None for c in cpu):
+        lines[-1] += f" Batches: {sum(cpu):.0f} CPU-s."
+    return "\n".join(lines + [""] + scene_tables({k: r["result"] for k, r in newest.items()})).rstrip()
+
+
 #: docs/continuum.md's results of the workflow's continuum scenes sit between these two lines.
 CONTINUUM_TABLE = ("<!-- continuum-scene-tables: begin (generated; do not edit) -->",
                    "<!-- continuum-scene-tables: end -->")
@@ -398,6 +424,7 @@ def main() -> None:
     write_gpu_table(HERE.parent.parent / "docs" / "gpu.md")
     write_block(HERE.parent.parent / "docs" / "dem.md", DEM_TABLE, dem_table())
     write_block(HERE.parent.parent / "docs" / "shear.md", SHEAR_TABLE, shear_scene_table())
+    write_block(HERE.parent.parent / "docs" / "shocks.md", SHOCKS_TABLE, shocks_scene_tables())
     write_block(HERE.parent.parent / "docs" / "continuum.md", CONTINUUM_TABLE, continuum_scene_tables())
     write_block(HERE.parent.parent / "docs" / "tradeoffs.md", TIME_STEP_TABLE, time_step_table())
     write_generated_docs()

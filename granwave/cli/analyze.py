@@ -14,6 +14,7 @@ ANALYSES = {
     "damping": "granwave.cli.analyze_damping:damping",
     "continuum": "granwave.cli.analyze_continuum:continuum",
     "attenuation": "granwave.cli.analyze_attenuation:attenuation",
+    "shocks": "granwave.cli.analyze_shocks:shocks",
 }
 
 

@@ -428,3 +428,22 @@ def shear(analysis_json, output, pdf, scene):
     if not (isinstance(data, dict) and "pick_table" in data and "pressures" in data):
         raise InputError(f"{analysis_json}: not a shear-scene analysis (no pick_table / pressures)")
     _done(figs.shear_panels(data, output, pdf=pdf, scene=scene))
+
+
+@plot.command()
+@click.argument("analysis_json", type=click.Path(dir_okay=False))
+@fig_output
+@pdf_option
+@stage
+def shocks(analysis_json, output, pdf, scene):
+    """A shocks scene from its analysis (results/shocks/<scene>/analysis.json, `granwave analyze
+    shocks --json`): V/c0 against eps/delta0 with the mean-field curve, V against eps, the
+    crossover strain against p and the fractions of opening and sliding contacts (docs/shocks.md)."""
+    from ..errors import InputError
+
+    figs = _figures()
+    figs.output_paths(output, pdf)
+    data = load_json(analysis_json)
+    if not (isinstance(data, dict) and isinstance(data.get("scenes"), dict)):
+        raise InputError(f"{analysis_json}: not a shocks analysis (no scenes)")
+    _done(figs.shocks_panels(data, output, pdf=pdf, scene=scene))

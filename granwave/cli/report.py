@@ -30,13 +30,16 @@ from .common import output_path_option, quiet_option, stage
 @click.option("--shear", multiple=True, type=click.Path(),
               help="Shear-scene analyses (results/shear/<scene>/analysis.json, the workflow's "
                    "shear_analysis rule), files or folders: the shear section (docs/shear.md).")
+@click.option("--shocks", multiple=True, type=click.Path(),
+              help="Shocks-scene analyses (results/shocks/<scene>/analysis.json, `granwave analyze "
+                   "shocks --json`), files or folders: the shocks section (docs/shocks.md).")
 @click.option("--timings", multiple=True, type=click.Path(),
               help="The workflow's timing tables (results/timings/*.tsv), files or folders: the "
                    "run's CPU time on the first page.")
 @click.option("--title", default="granwave report", show_default=True)
 @quiet_option
 @stage
-def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, shear, timings,
+def report(output, config, summaries, heights, sweeps, figures, damping_json, continuum, shear, shocks, timings,
            title, quiet):
     """Write the study's report: tables, fits and figures, every number computed
     from the inputs.
@@ -57,7 +60,8 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
     the damping table; the continuum section (--continuum: speeds, c_tof/c_l and its
     approach, alpha(omega), c(omega), docs/continuum.md); the shear section (--shear: V_s,
     V_p, G_max against pressure, V_p/V_s and the effective Poisson ratio from waves and moduli, the pick
-    table, docs/shear.md); the sweep fits; every figure; the config name, the granwave
+    table, docs/shear.md); the shocks section (--shocks: V/c0 against eps/delta0, the
+    crossover strain against p, the strongly nonlinear exponent, docs/shocks.md); the sweep fits; every figure; the config name, the granwave
     version and git revision. Without any input it refuses (exit status 2).
     """
     from ..errors import InputError
@@ -77,7 +81,8 @@ def report(output, config, summaries, heights, sweeps, figures, damping_json, co
             raise InputError(f"{damping_json}: expected the list printed by `analyze damping --json`")
     inputs = dict(summaries=collect_json(summaries), heights=collect_json(heights),
                   sweeps=collect_json(sweeps), figures=find_figures(figures),
-                  continuum=collect_json(continuum), shear=_shear_analyses(shear))
+                  continuum=collect_json(continuum), shear=_shear_analyses(shear),
+                  shocks=_shear_analyses(shocks))
     if not (any(inputs.values()) or damping):
         refused = click.ClickException("nothing to report: give --summaries, --heights, --sweep, "
                                        "--figures or --damping (files, or folders that hold some)")

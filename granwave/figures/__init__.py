@@ -20,6 +20,7 @@ statistics of their own: averages, fits and exponents come from
 | :mod:`.chain` | the chain against the Airy shape |
 | :mod:`.continuum` | the continuum scene: speeds, c_tof/c_l, A, W, alpha(omega), c(omega) against L |
 | :mod:`.shear` | the shear scene: V_s, V_p, G_max against p, Poisson ratios, picks against L |
+| :mod:`.shocks` | the shocks scene: V/c0 against eps/delta0, the crossover strain against p, opening and sliding contacts |
 | :mod:`granwave.report.captions` | figure names and captions (the report's) |
 """
 
@@ -31,6 +32,7 @@ from .fields import displacement_snapshot, mode_shapes, select_modes
 from .fronts import amplitude_width, arrival_times
 from .pressure import speeds_vs_pressure
 from .shear import shear_panels
+from .shocks import shocks_panels
 from ..report.captions import FIGURES, caption_for  # the captions are the report's; the names are the plot commands'
 from .signals import coherent_heights, signal_comparison, signal_label, signals_overlay
 from .spectrum import spectrum
@@ -39,5 +41,5 @@ from .statics import contact_angles, contact_roses, contact_segments, force_netw
 __all__ = ["DPI", "FIGURES", "amplitude_width", "arrival_times", "caption_for", "chain_airy",
            "coherent_heights", "contact_angles", "continuum_panels", "contact_roses", "contact_segments",
            "damping_series", "displacement_snapshot", "force_network", "mode_shapes",
-           "output_paths", "save_figure", "select_modes", "shear_panels", "signal_comparison", "signal_label",
+           "output_paths", "save_figure", "select_modes", "shear_panels", "shocks_panels", "signal_comparison", "signal_label",
            "signals_overlay", "spectrum", "speeds_vs_pressure"]

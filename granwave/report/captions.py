@@ -33,6 +33,9 @@ FIGURES: dict[str, str] = {
     "shear": "Shear scene: V_s, V_p (waves) and c_t, c_ℓ (moduli) against pressure with fits, "
              "G_max against p^(1/3) and the measured exponent κ_G, V_p/V_s and the effective Poisson "
              "ratio ν_eff from waves and moduli, every arrival pick's V/c_t against distance",
+    "shocks": "Shocks scene: piston pushes of growing strain on the same packings; V/c0 against "
+              "ε/δ0 with the mean-field column's curve, V against ε, the crossover strain ε× against "
+              "p with the p^(2/3) line, and the fractions of contacts that opened and slid",
 }
 """Figure name (the ``granwave plot`` subcommand) -> caption used by the report."""
 

@@ -38,6 +38,7 @@ from .html import markdown_to_html
 from .inputs import Scenes, scene_of
 from .laws import laws_section
 from .shear import shear_inputs, shear_section
+from .shocks import shocks_inputs, shocks_section
 from .symbols import symbol_table
 
 
@@ -49,6 +50,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
                  title: str = "granwave report", damping: Sequence[Mapping] = (),
                  continuum: Sequence[tuple[Path, object, str | None]] = (),
                  shear: Sequence[tuple[Path, object, str | None]] = (),
+                 shocks: Sequence[tuple[Path, object, str | None]] = (),
                  timings: Sequence[Path] = ()) -> str:
     """The report as Markdown (sources: module docstring).
 
@@ -56,7 +58,8 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     :func:`granwave.report.collect_json`; ``damping``: rows of
     ``granwave analyze damping --json``; ``continuum``: (path, object, guess) of the
     continuum scenes' analyses (:mod:`granwave.report.continuum`); ``shear``: the shear scenes'
-    analyses (:mod:`granwave.report.shear`); ``timings``: the workflow's timing tables
+    analyses (:mod:`granwave.report.shear`); ``shocks``: the shocks scenes' analyses
+    (:mod:`granwave.report.shocks`); ``timings``: the workflow's timing tables
     (results/timings/*.tsv) for the run's CPU time. Refuses (InputError) a call with no
     input at all: an empty report would look like a finished study.
 
@@ -69,7 +72,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
     from .captions import caption_for
     from ..provenance import git_revision
 
-    if not (summaries or heights or sweeps or figures or damping or continuum or shear):
+    if not (summaries or heights or sweeps or figures or damping or continuum or shear or shocks):
         raise InputError("nothing to report: give --summaries, --heights, --sweep, --figures "
                          "or --damping (files or folders that hold some)")
     sums = []
@@ -123,6 +126,7 @@ def build_report(*, summaries: Sequence[tuple[Path, object, str | None]] = (),
         ("damping", T.damping_section(damping) if damping else []),
         ("continuum", continuum_section(cont, dims)),
         ("shear", shear_section(shr)),
+        ("shocks", shocks_section(shocks_inputs(shocks))),
         ("sweeps", _sweeps_section(sweeps)),
         ("provenance", T.provenance_section(groups) if groups else []),
         ("figures", _figures_section(figures, out_dir, caption_for)),

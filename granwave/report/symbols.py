@@ -146,6 +146,17 @@ SYMBOLS: tuple[Symbol, ...] = (
     Symbol("T", "travel time of a pick", TIME),
     Symbol("G_max", "small-strain shear modulus Φ3* V_s² (grain density 1)", PRES),
     Symbol("ν_eff", "effective Poisson ratio of a packing (from waves, moduli or the tensor)"),
+    # ------------------------------------------------------------- shocks (docs/shocks.md)
+    Symbol("v_p", "piston velocity of a push", SPEED, key="piston_velocity"),
+    Symbol("ε", "strain behind the front, v_p/V", key="strain"),
+    Symbol("δ0", "static strain: mean overlap of the force-carrying contacts over d̄", forms=("δ_0", "δ₀"),
+           key="static_strain"),
+    Symbol("V_0", "linear front speed of a packing: its front speed at its weakest push", SPEED, key="c0"),
+    Symbol("ε×", "crossover strain: where the front speed first reaches 1.1 V_0", key="crossover"),
+    Symbol("x×", "the mean-field column's crossover ε×/δ0", key="crossover_mean_field"),
+    Symbol("ψ", "strongly nonlinear exponent: V ∝ ε^ψ at ε/δ0 ≥ the window's start", key="tail_exponent"),
+    Symbol("α_c", "contact-law exponent: contact force ∝ overlap^(α_c − 1) (Hertz 5/2, harmonic 2)",
+           key="alpha"),
 )
 
 #: Constants and function names that are not symbols of a quantity.

@@ -45,7 +45,7 @@ def _check_config():
         _stop(message)
     validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
     for check in (ws.cross_reference_error, ws.contact_error, ws.labels_error, ws.count_error, ws.shear_error,
-                  ws.record_error, ws.width_error):
+                  ws.record_error, ws.width_error, ws.shocks_error):
         message = check(config)
         if message:
             _stop(message)
@@ -551,6 +551,7 @@ def figure_targets():
         figs.append(f"{F}/damping.png")
     figs += [f"{F}/continuum_{s}.png" for s in scenes("continuum")]
     figs += [f"{F}/shear_{s}.png" for s in shear_scenes()]
+    figs += [f"{F}/shocks_{s}.png" for s in shocks_scenes()]
     return figs
 
 
@@ -692,6 +693,7 @@ def all_timings():
     tables += [f"{R}/timings/analyses/{name}.tsv"
                for name, _ in study_figures() + main_sample_extras() + continuum_jobs()]
     tables += [f"{R}/timings/shear/{name}.tsv" for name, _, _ in shear_batches()]
+    tables += [f"{R}/timings/shocks/{name}.tsv" for name, _, _ in shocks_batches()]
     return tables
 
 
@@ -802,6 +804,54 @@ def shear_picks(scene):
 
 def shear_outputs():
     return [f"{R}/shear/{s}/analysis.json" for s in shear_scenes()]
+
+
+# ---- helpers of rules/shocks.smk (included only when the config has a shocks section)
+# A shocks scene makes its own 2D packings and pushes each at every drive (docs/shocks.md).
+
+
+def shocks_scenes():
+    return list(config.get("shocks") or {})
+
+
+def shocks_sample(scene, p, seed):
+    """What workflow/scripts/shocks_batch.py needs for one packing (options and paths)."""
+    spec = config["shocks"][scene]
+    height, width = float(spec["height"]), int(spec["width"])
+    size = height_label(height)
+    make = dict(dim=2, grains=max(1, round(width * height)), aspect=float(f"{height / width:.6g}"),
+                pressure=float(p), friction=float(spec["friction"]), poisson=float(spec["poisson"]),
+                polydispersity=float(spec["polydispersity"]), tol=float(spec["tol"]),
+                max_steps=int(spec["max_steps"]), seed=seed, **(spec.get("contact") or {}))
+    tail = f"{scene}/p{p}/{size}/s{seed}"
+    return {"scene": scene, "pressure": p, "size": size, "seed": seed, "make": make,
+            "drives": [float(d) for d in spec["drives"]], "max_strain": float(spec["max_strain"]),
+            "damping": float(spec["damping"]), "samples": int(spec["samples"]), "bin": float(spec["bin"]),
+            "out": {"packing": f"{R}/shocks_packing/{tail}.h5", "record": f"{R}/shocks/{tail}.json"}}
+
+
+def shocks_samples(scene):
+    spec = config["shocks"][scene]
+    return [(fmt_p(p), s) for p in spec["pressures"] for s in range(spec["seeds"])]
+
+
+def shocks_batches():
+    """[(name, scene, samples)] of every shocks scene, cut into its batch_size pieces."""
+    out = []
+    for scene in shocks_scenes():
+        items, n = shocks_samples(scene), config["shocks"][scene]["batch_size"]
+        for k in range(0, len(items), n):
+            out.append((f"shocks_batch_{scene}_{k // n}", scene,
+                        [shocks_sample(scene, *s) for s in items[k:k + n]]))
+    return out
+
+
+def shocks_records(scene):
+    return [shocks_sample(scene, *s)["out"]["record"] for s in shocks_samples(scene)]
+
+
+def shocks_outputs():
+    return [f"{R}/shocks/{s}/analysis.json" for s in shocks_scenes()]
 
 
 def _check_samples():

@@ -306,6 +306,7 @@ rule report:
         damping=[f"{R}/damping/table.json"] if config["damping"]["enabled"] else [],
         continuum=continuum_outputs(),
         shear=shear_outputs(),
+        shocks=shocks_outputs(),
         timings=all_timings(),
     output:
         md=f"{R}/report/index.md",
@@ -321,6 +322,7 @@ rule report:
                                         flags("--damping", input.damping),
                                         flags("--continuum", input.continuum),
                                         flags("--shear", input.shear),
+                                        flags("--shocks", input.shocks),
                                         flags("--timings", input.timings)]),
     shell:
         "granwave report --config {params.config} {params.args} -o {output.md} > {log} 2>&1"
