@@ -12,7 +12,9 @@ push: ε/δ0 = 10) over ``--fraction`` of the default record, sampled as the def
 what it costs in a full run); grain-steps/s of the pulse
 (``propagate_dem``, pulse field on, no baseline) on one thread against the preparation engine's
 (``Engine.run``, damped, piston, on the same state) on one thread, in the same run; and the pulse's
-rate on 2 threads against 1 (the thread ratio). The machine is shared and its speed drifts by up
+rate on 2 threads against 1 (the thread ratio); also the pulse against the preparation engine
+stepping the same push (``Engine.run`` on the pulse's own set-up: the same neighbour rebuilds,
+without the pulse's bookkeeping and readings), which splits the difference. The machine is shared and its speed drifts by up
 to 50 % over seconds, so each ratio is the median over ``--pairs`` adjacent pairs of runs, the
 order alternating (CPU time of this process for one thread, wall time for two); the load average
 is recorded. ``--device gpu``: the pulse and the preparation engine (granwave.gpu's GpuEngine)
@@ -109,6 +111,25 @@ def shock(args) -> dict:
         eng.run(args.prepare_steps)
         return n * args.prepare_steps / (now() - t0)
 
+    def push_rate(steps: int) -> float:
+        """The preparation engine's own stepping (Engine.run, no bookkeeping, no readings) of the
+        same push: the pulse's engine in the stored state with the piston set moving as
+        granwave.dem.pulse._run sets it, so the same neighbour rebuilds (one thread)."""
+        from granwave.dem import kernels as K
+        from granwave.dem import pulse as P
+
+        numba.set_num_threads(1)
+        eng = P.engine_from_packing(packing, dt=attrs["dt"])
+        grains, _ = P.source(packing, "normal")
+        eng.mass[grains] *= P.PISTON_MASS_FACTOR
+        eng.inertia[grains] *= P.PISTON_MASS_FACTOR
+        K.pair_constants(eng.pair_i, eng.pair_j, eng.n_pairs, eng.radius, eng.mass, eng.ws.pair_c)
+        eng.velocity[grains, packing.dim - 1] = attrs["piston_velocity"]
+        P._forces_now(eng)
+        t0 = time.process_time()
+        eng.run(steps)
+        return n * steps / (time.process_time() - t0)
+
     # adjacent pairs, the order alternating (the machine's speed drifts over seconds): the median
     # of the pairs' ratios is the number, not one run
     pulse1, prep, ratios = [], [], []
@@ -131,6 +152,23 @@ def shock(args) -> dict:
     print(f"pulse / preparation, one thread{' (GPU)' if gpu else ''}: median of {args.pairs} adjacent pairs "
           f"{out['pulse_over_prepare']:.3f} (pairs {', '.join(f'{r:.3f}' for r in ratios)})")
     if not gpu:
+        # the bookkeeping's and readings' share: the pulse against the engine stepping the same push
+        push, push_ratios = [], []
+        for k in range(args.pairs):
+            if k % 2 == 0:
+                r1, _ = pulse_rate(1)
+                re = push_rate(attrs["n_steps"])
+            else:
+                re = push_rate(attrs["n_steps"])
+                r1, _ = pulse_rate(1)
+            push.append(re)
+            push_ratios.append(r1 / re)
+            print(f"pair {k}: pulse {r1:.3g}, engine on the same push {re:.3g} grain-steps/s: ratio {r1 / re:.3f}",
+                  flush=True)
+        out.update(push_rates_1=push, push_pair_ratios=push_ratios, push_rate_1=statistics.median(push),
+                   pulse_over_push=statistics.median(push_ratios), neighbour_rebuilds=attrs["neighbour_rebuilds"])
+        print(f"pulse / engine on the same push ({attrs['neighbour_rebuilds']} rebuilds), one thread: median of "
+              f"{args.pairs} adjacent pairs {out['pulse_over_push']:.3f}")
         two, thread_ratios = [], []
         for k in range(args.pairs):
             if k % 2 == 0:
@@ -165,6 +203,11 @@ def record_shock(result: dict, argv: list[str]) -> None:
                ("pulse / preparation per core" if result["device"] == "cpu" else "pulse / preparation on the GPU"): {"values": f"{result['pulse_rate_1']:.3g} / "
                                                 f"{result['prepare_rate_1']:.3g} grain-steps/s (medians)",
                                                 "ratio": round(result["pulse_over_prepare"], 3), "goal": 1.0}}
+    if "pulse_over_push" in result:
+        summary["pulse / engine on the same push per core"] = {
+            "values": f"{result['pulse_rate_1']:.3g} / {result['push_rate_1']:.3g} grain-steps/s (medians; "
+                      f"{result['neighbour_rebuilds']} neighbour rebuilds in both, none in the preparation's)",
+            "ratio": round(result["pulse_over_push"], 3)}
     if "threads_2_over_1" in result:
         summary["2 threads / 1"] = {"values": f"{result['pulse_rate_2']:.3g} / {result['pulse_rate_1']:.3g} "
                                               f"({load})", "ratio": round(result["threads_2_over_1"], 3)}

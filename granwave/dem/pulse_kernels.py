@@ -238,31 +238,37 @@ def read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, 
 
 
 @numba.njit(cache=True)
-def _classify_serial(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, tangential, pair_state,
-                     wall_state, law):
-    """:func:`classify` of the run (not the initial state) on the calling thread; without a
-    slider (frictionless) a loop over the overlaps alone, which the compiler vectorizes (the
-    same flags: a touching contact then never sits on a limit)."""
+def _classify_serial(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
+                     pair_state, wall_state, law):
+    """:func:`classify` of the run (not the initial state) on the calling thread, the walls of
+    the engine's wall list ``walls`` only (``ws.walls`` as the step used it: only its grains'
+    wall slots change in a step, and every other slot has no overlap and no history, its flags
+    set when it last changed); without a slider (frictionless) a loop over the overlaps alone,
+    which the compiler vectorizes (the same flags: a touching contact then never sits on a
+    limit)."""
     if CM.friction_acts(tangential):
         for p in range(npairs):
             _classify_pair(np.int64(p), d, rad, pair_i, pair_j, pair_ft, pair_ov, tangential, pair_state,
                            np.bool_(False), law)
-        for w in range(wall_ov.shape[0]):
-            _classify_wall(np.int64(w), d, rad, wall_ft, wall_ov, tangential, wall_state, np.bool_(False), law)
+        for q in range(1, walls[0] + 1):
+            for w in range(2 * walls[q], 2 * walls[q] + 2):
+                _classify_wall(np.int64(w), d, rad, wall_ft, wall_ov, tangential, wall_state, np.bool_(False), law)
         return
-    _flags_without_slider(pair_ov, npairs, pair_state)
-    _flags_without_slider(wall_ov, wall_ov.shape[0], wall_state)
+    for p in range(npairs):
+        pair_state[p] = _flag_without_slider(pair_state[p], pair_ov[p])
+    for q in range(1, walls[0] + 1):
+        for w in range(2 * walls[q], 2 * walls[q] + 2):
+            wall_state[w] = _flag_without_slider(wall_state[w], wall_ov[w])
 
 
 @numba.njit(cache=True, inline="always")
-def _flags_without_slider(ov, m, state):
+def _flag_without_slider(state, ov):
     """FORMED on a touching contact that did not touch at t = 0, OPENED on a t = 0 contact that
     does not touch (branch-free: the flags of :func:`_classify_pair` without a slider)."""
-    for p in range(m):
-        s = np.int64(state[p])
-        touching = np.int64(ov[p] > 0.0)
-        initial = s & INITIAL
-        state[p] = s | (touching & (initial ^ 1)) * FORMED | ((touching ^ 1) & initial) * OPENED
+    s = np.int64(state)
+    touching = np.int64(ov > 0.0)
+    initial = s & INITIAL
+    return s | (touching & (initial ^ 1)) * FORMED | ((touching ^ 1) & initial) * OPENED
 
 
 @numba.njit(cache=True)
@@ -277,24 +283,65 @@ def _largest_displacement(pos, pos_ref, lateral):
     return math.sqrt(best)
 
 
+#: Relative margin of the candidates' bound (:func:`_displacement_candidates`): far above rounding.
+CANDIDATE_MARGIN = 1e-9
+
+
 @numba.njit(cache=True)
-def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, tangential,
+def _displacement_candidates(pos0, pos_ref, lateral, floor, cand):
+    """The grains whose displacement from ``pos_ref`` at the last rebuild (``pos0``) is at least
+    ``floor``, into ``cand[1:cand[0] + 1]``. A grain outside, displaced since the rebuild by at
+    most D (the step's largest displacement since the rebuild, which the engine keeps), is
+    displaced by less than floor + D from ``pos_ref`` (the triangle inequality of the nearest
+    image distance), so while floor + D stays below the largest displacement so far (with a
+    margin), only the candidates can raise it: :func:`_track_largest`."""
+    c = 0
+    for i in range(pos0.shape[0]):
+        if math.sqrt(periodic_distance2(pos0, i, pos_ref, i, lateral)) >= floor:
+            c += 1
+            cand[c] = i
+    cand[0] = c
+
+
+@numba.njit(cache=True)
+def _track_largest(pos, pos0, pos_ref, lateral, skin, disp2, stats, cand, floor):
+    """The largest displacement so far (``stats[0]``) after a step of the one-thread loop: its
+    value over every grain (:func:`_largest_displacement`), computed over the candidates of
+    :func:`_displacement_candidates` alone while their bound holds (``disp2``: the step's
+    largest squared displacement since the last rebuild); the list is made again (``floor`` =
+    best - D - skin) when it does not. Returns the floor in use."""
+    best = stats[0]
+    reach = math.sqrt(disp2)
+    if not (floor + reach <= best - CANDIDATE_MARGIN * (best + reach)):
+        floor = best - reach - skin
+        _displacement_candidates(pos0, pos_ref, lateral, floor, cand)
+    top = 0.0
+    for q in range(1, cand[0] + 1):
+        i = cand[q]
+        s = periodic_distance2(pos, i, pos_ref, i, lateral)
+        if s > top:
+            top = s
+    u = math.sqrt(top)
+    if u > best:
+        stats[0] = u
+    return floor
+
+
+@numba.njit(cache=True)
+def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
                 ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats, law):
     """The bookkeeping after one step of the pulse loops: the contact flags carried over
-    a rebuild (``rebuilds``: the count before the step), the contacts classified, the largest
-    displacement into ``stats[0]`` and the step counted in ``stats[1]``. Returns the pair
-    keys and count of the current list (new arrays after a rebuild)."""
+    a rebuild (``rebuilds``: the count before the step), the contacts classified and the step
+    counted in ``stats[1]``. Returns the pair keys and count of the current list (new arrays
+    after a rebuild). The largest displacement is the caller's."""
     if ipar.rebuilds != rebuilds:
         old_state = pair_state[:npairs].copy()
         carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar.npairs, pair_state)
         npairs = ipar.npairs
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
-    _classify_serial(pos.shape[1], rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, tangential,
-                     pair_state, wall_state, law)
-    u = _largest_displacement(pos, pos_ref, lateral)
-    if u > stats[0]:
-        stats[0] = u
+    _classify_serial(pos.shape[1], rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls,
+                     tangential, pair_state, wall_state, law)
     stats[1] += 1.0
     return old_i, old_j, npairs
 
@@ -336,8 +383,11 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                 stats[0] = math.nan
                 return k + 1
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, tangential, ipar, rebuilds, old_i, old_j, pair_state,
-                                               wall_state, npairs, stats, law)
+                                               wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
+                                               pair_state, wall_state, npairs, stats, law)
+            u = _largest_displacement(pos, pos_ref, lateral)
+            if u > stats[0]:
+                stats[0] = u
         stats[1] = 0.0
         force_out[k] = piston.f_con
         read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar,
@@ -367,6 +417,8 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
     mflow = ws.mflow
     gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
     disp2 = serial.chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ws)
+    cand = np.empty(n + 1, np.int64)  # the largest displacement's candidates (_track_largest)
+    floor = math.inf  # none yet: made at the first step
     for k in range(k_start, k_stop):
         for _ in range(int(stats[1]), sub):
             rebuilds = ipar.rebuilds
@@ -379,8 +431,11 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
                 stats[0] = math.nan
                 return k + 1
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, tangential, ipar, rebuilds, old_i, old_j, pair_state,
-                                               wall_state, npairs, stats, law)
+                                               wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
+                                               pair_state, wall_state, npairs, stats, law)
+            if ipar.rebuilds != rebuilds:  # pos0 moved: the candidates are made again
+                floor = math.inf
+            floor = _track_largest(pos, pos0, pos_ref, lateral, fpar.skin, disp2, stats, cand, floor)
         stats[1] = 0.0
         force_out[k] = piston.f_con
         read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar,
