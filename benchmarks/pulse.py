@@ -149,7 +149,7 @@ def shock(args) -> dict:
            "pairs": args.pairs, "pulse_rates_1": pulse1, "prepare_rates_1": prep, "pair_ratios": ratios,
            "pulse_rate_1": statistics.median(pulse1), "prepare_rate_1": statistics.median(prep),
            "pulse_over_prepare": statistics.median(ratios), "load_average_start": list(load_start)}
-    print(f"pulse / preparation, one thread{' (GPU)' if gpu else ''}: median of {args.pairs} adjacent pairs "
+    print(f"pulse / preparation, {'on the GPU' if gpu else 'one thread'}: median of {args.pairs} adjacent pairs "
           f"{out['pulse_over_prepare']:.3f} (pairs {', '.join(f'{r:.3f}' for r in ratios)})")
     if not gpu:
         # the bookkeeping's and readings' share: the pulse against the engine stepping the same push
