@@ -14,8 +14,9 @@ what it costs in a full run); grain-steps/s of the pulse
 (``Engine.run``, damped, piston, on the same state) on one thread, in the same run; and the pulse's
 rate on 2 threads against 1 (the thread ratio); also the pulse against the preparation engine
 stepping the same push (``Engine.run`` on the pulse's own set-up: the same neighbour rebuilds,
-without the pulse's bookkeeping and readings), which splits the difference. The machine is shared and its speed drifts by up
-to 50 % over seconds, so each ratio is the median over ``--pairs`` adjacent pairs of runs, the
+without the pulse's bookkeeping and readings), which splits the difference. The machine is
+shared and its speed drifts by up to 50 % over seconds, so each ratio is the median over
+``--pairs`` adjacent pairs of runs, the
 order alternating (CPU time of this process for one thread, wall time for two); the load average
 is recorded. ``--device gpu``: the pulse and the preparation engine (granwave.gpu's GpuEngine)
 on the GPU, wall time, no thread ratio (the prepared measurement for a GPU machine). Appends
@@ -108,7 +109,9 @@ def shock(args) -> dict:
         eng.run(20)
         now = clock(1)
         t0 = now()
+        rebuilds = eng.rebuilds
         eng.run(args.prepare_steps)
+        prep_rebuilds.append(eng.rebuilds - rebuilds)
         return n * args.prepare_steps / (now() - t0)
 
     def push_rate(steps: int) -> float:
@@ -130,6 +133,8 @@ def shock(args) -> dict:
         eng.run(steps)
         return n * steps / (time.process_time() - t0)
 
+    prep_rebuilds = []  # the preparation runs' neighbour rebuilds
+
     # adjacent pairs, the order alternating (the machine's speed drifts over seconds): the median
     # of the pairs' ratios is the number, not one run
     pulse1, prep, ratios = [], [], []
@@ -148,7 +153,9 @@ def shock(args) -> dict:
            "t_max": t_max, "front_speed": attrs["front_speed"], "front_speed_bound": attrs["front_speed_bound"],
            "pairs": args.pairs, "pulse_rates_1": pulse1, "prepare_rates_1": prep, "pair_ratios": ratios,
            "pulse_rate_1": statistics.median(pulse1), "prepare_rate_1": statistics.median(prep),
-           "pulse_over_prepare": statistics.median(ratios), "load_average_start": list(load_start)}
+           "pulse_over_prepare": statistics.median(ratios), "load_average_start": list(load_start),
+           "prepare_steps": args.prepare_steps, "prepare_rebuilds": prep_rebuilds,
+           "pulse_rebuilds": attrs["neighbour_rebuilds"]}
     print(f"pulse / preparation, {'on the GPU' if gpu else 'one thread'}: median of {args.pairs} adjacent pairs "
           f"{out['pulse_over_prepare']:.3f} (pairs {', '.join(f'{r:.3f}' for r in ratios)})")
     if not gpu:
@@ -198,15 +205,17 @@ def record_shock(result: dict, argv: list[str]) -> None:
 
     from granwave.provenance import git_revision
 
-    load = f"load average {result['load_average_start'][0]:.2f} at the start, {result['load_average_end'][0]:.2f} at the end"
+    load = (f"load average {result['load_average_start'][0]:.2f} at the start, "
+            f"{result['load_average_end'][0]:.2f} at the end")
     summary = {"grains": result["grains"], "device": result["device"],
-               ("pulse / preparation per core" if result["device"] == "cpu" else "pulse / preparation on the GPU"): {"values": f"{result['pulse_rate_1']:.3g} / "
-                                                f"{result['prepare_rate_1']:.3g} grain-steps/s (medians)",
-                                                "ratio": round(result["pulse_over_prepare"], 3), "goal": 1.0}}
+               ("pulse / preparation per core" if result["device"] == "cpu" else "pulse / preparation on the GPU"): {
+                   "values": f"{result['pulse_rate_1']:.3g} / {result['prepare_rate_1']:.3g} grain-steps/s (medians)",
+                   "ratio": round(result["pulse_over_prepare"], 3), "goal": 1.0}}
     if "pulse_over_push" in result:
         summary["pulse / engine on the same push per core"] = {
             "values": f"{result['pulse_rate_1']:.3g} / {result['push_rate_1']:.3g} grain-steps/s (medians; "
-                      f"{result['neighbour_rebuilds']} neighbour rebuilds in both, none in the preparation's)",
+                      f"{result['neighbour_rebuilds']} neighbour rebuilds in {result['steps']} steps in both; "
+                      f"the preparation's {max(result['prepare_rebuilds'])} at most in {result['prepare_steps']})",
             "ratio": round(result["pulse_over_push"], 3)}
     if "threads_2_over_1" in result:
         summary["2 threads / 1"] = {"values": f"{result['pulse_rate_2']:.3g} / {result['pulse_rate_1']:.3g} "

@@ -543,7 +543,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                      force_max=rd.force_max, force_initial=force_initial)
     states = np.concatenate([pair_state[:m], wall_state])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
-    return dict(top=rd.shear if shear else top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
+    return dict(top=rd.shear if shear else top, residual=residual, f_static_engine=f_static_engine,
+                energy_input=energy_input,
                 n_contacts_initial=count(PK.INITIAL), n_opened=count(PK.OPENED), n_formed=count(PK.FORMED),
                 n_sliding=count(PK.SLID),
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),

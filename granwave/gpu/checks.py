@@ -127,7 +127,7 @@ def pulse_piston() -> dict:
     """The piston drive (docs/shocks.md) on the GPU against the CPU: a strong push (strain 10
     delta0) into a 3 x 3 Hertz lattice column, damped, with the pulse field on (read at every
     sample from the state brought to the host): signal, field, largest forces, displacement and
-    counts. The column is short enough for the CUDA simulator (about 40 steps)."""
+    counts. The column is short enough for the CUDA simulator (42 steps)."""
     from ..dem.pulse import propagate_dem
     from ..systems import triangular_lattice
 
@@ -454,7 +454,8 @@ CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, 
 #: 0.3-0.6 s a step on a 2-core machine), seconds on a GPU (benchmarks/gpu.py --tiny runs them).
 HEAVY = ("protocols", "batch_prepare")
 #: Checks left out of the default set because a test file of their own runs them
-#: (tests/test_gpu_batch.py, tests/test_gpu_pulse_piston.py), so that tests/test_gpu_sim.py's subprocess does not run them twice.
+#: (tests/test_gpu_batch.py, tests/test_gpu_pulse_piston.py), so that tests/test_gpu_sim.py's subprocess does
+#: not run them twice.
 OWN_TEST = ("batch", "pulse_piston")
 
 
