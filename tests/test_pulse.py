@@ -288,3 +288,39 @@ def test_sliding_flag_is_the_tangential_laws_limit_on_the_normal_laws_force(law)
                     np.zeros(4), tangential, state, walls, True, normal)
         assert bool(state[0] & PK.LIMIT0) == (slid or (fx == limit)), (fx, fy)
         assert state[0] & PK.INITIAL and not walls.any()
+
+
+def test_one_thread_bookkeeping_equals_the_parallel_loops(monkeypatch, frictional):
+    """The one-thread loop steps in chunks, finds the largest displacement over the grains that
+    can still raise it (bounded by the engine's displacement since the last rebuild) and flags
+    the walls of the engine's wall list only; the parallel loop (forced here on a small system)
+    scans every grain and slot after every step. A piston push far beyond the skin (the bound
+    then leaves a few grains) and a strong frictional kick (contacts open, form and slide) give
+    the same signal, field, counts and largest displacement, bit for bit."""
+    import numba
+
+    from granwave.dem import kernels as K
+
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    column = triangular_lattice(rows=40, width=3, pressure=1e-4)
+    delta0 = float(np.mean(column.contacts.overlap[column.contacts.j >= 0]))
+    cases = [(column, dict(drive="piston", strain=10 * delta0, t_max=80.0, samples=41, baseline=False)),
+             (frictional, dict(ic="A", amplitude=3.0, t_max=6.0, samples=21, damping=0.1, skin=0.05))]
+    keep = numba.get_num_threads()
+    try:
+        for packing, kw in cases:
+            runs = []
+            for threads in (1, 2):
+                numba.set_num_threads(threads)
+                runs.append(P.propagate_dem(packing, **kw))
+            one, two = runs
+            assert one.force.tobytes() == two.force.tobytes()
+            for key in ("max_displacement", "n_opened", "n_formed", "n_sliding", "neighbour_rebuilds"):
+                assert one.attrs[key] == two.attrs[key], key
+            for key in ("velocity", "force_max"):
+                assert one.pulse[key].tobytes() == two.pulse[key].tobytes(), key
+    finally:
+        numba.set_num_threads(keep)
+    piston, kick = (P.propagate_dem(p, **kw) for p, kw in cases)
+    assert piston.attrs["max_displacement"] > 3 * P.DEFAULT_SKIN  # the bound was in use
+    assert kick.attrs["n_opened"] > 0 and kick.attrs["n_formed"] > 0 and kick.attrs["n_sliding"] > 0

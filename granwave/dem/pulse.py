@@ -89,7 +89,8 @@ DEFAULT_UNLOADING = "incremental"
 DEFAULT_DAMPING = 0.0
 #: Verlet skin of the pulses' pair list (d).
 DEFAULT_SKIN = 0.2
-#: Seconds of stepping per kernel call (signals are handled between calls).
+#: Seconds of stepping per kernel call (progress and the blow-up test between calls; every sample's
+#: readings are taken inside the call).
 CALL_SECONDS = 0.2
 #: Default number of output samples: propagate's.
 DEFAULT_SAMPLES = PropagateParams.samples
@@ -251,7 +252,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
     strain, velocity : the kick's size instead of ``amplitude`` (one of the three;
         :func:`kick_size`): the strain EPS δ̄ / d̄, or the largest source velocity (v_p for the
         piston). The time step's stiffness follows from the size (:func:`peak_overlap`).
-    bin_width : height bins (d) of the pulse field (CPU): per bin, the mean velocity of its
+    bin_width : height bins (d) of the pulse field (either device): per bin, the mean velocity of its
         grains along the kick at every sample, the largest contact normal force reached over the
         record and at t = 0, and the front's arrival (:mod:`granwave.analysis.shocks`). A 1D
         chain (``granwave chain``, with a contact law) is run as a 2D column
@@ -278,8 +279,6 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         packing = chain_column(packing)
     if not (bin_width > 0.0 and math.isfinite(bin_width)):
         raise InputError(f"bin width must be a positive number (got {bin_width})")
-    if drive == "piston" and device != "cpu":
-        raise InputError("the piston drive runs on the CPU only (--device cpu)")
 
     source_kind = check_source_kind(source_kind)
     shear = source_kind == "shear"
@@ -352,8 +351,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         values = (scale * v_kick, scale * w_kick)
     else:
         values = scale * kw / packing.mass[grains] if ic == "A" else scale * kw / kw.mean()
-    field = bin_width if device == "cpu" else None
-    kicked = _run(packing, ic=ic, kick=(grains, values), field=field, **run)
+    kicked = _run(packing, ic=ic, kick=(grains, values), field=bin_width, **run)
     base = None
     if baseline:
         base = _run(packing, ic=ic, kick=None, **run)
@@ -425,13 +423,15 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
     values are the initial velocities (A) or imposed displacements (B), vertical, or with
     ``shear`` a pair (velocities, angular velocities); ``shear`` records the top wall's force
-    along x instead of the vertical one (one output sample per kernel call).
+    along x instead of the vertical one.
 
     Returns the top-wall force at the output times, the contact counts, the
     largest displacement, the kick's energy and the static checks. ``drive`` "piston": the kick's
     values are the source grains' constant velocity (their masses made
     :data:`PISTON_MASS_FACTOR` times larger). ``field``: the height bin (d) of the pulse field,
-    recorded after every sample (one sample per kernel call), or None.
+    recorded at every sample, or None. Each kernel call runs many samples (about
+    :data:`CALL_SECONDS` of stepping), the readings of every sample inside it
+    (:class:`granwave.dem.pulse_kernels.Readings`).
     """
     engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin, unloading=unloading)
     d = packing.dim
@@ -481,40 +481,22 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     energy_start = _energy(engine) if kick is not None and drive != "piston" else float("nan")
     top = np.empty(samples)
     top[0] = engine.piston.f_con
+    n_bins = 0
+    grain_bin = None
     if field is not None:
         n_bins = max(1, int(math.ceil(packing.height / field)))
         grain_bin = np.clip((pos_ref[:, d - 1] / field).astype(np.int64), 0, n_bins - 1)
-        count = np.bincount(grain_bin, minlength=n_bins)
-        velocity_field = np.zeros((n_bins, samples))
-        force_max = np.zeros(n_bins)
-        law = K.law_of(engine.fpar)
-        fbuf = np.zeros(0)
-
-        def read_field(k):
-            nonlocal fbuf
-            velocity_field[:, k] = (np.bincount(grain_bin, weights=engine.velocity[:, axis], minlength=n_bins)
-                                    / np.maximum(count, 1))
-            m = engine.n_pairs
-            if fbuf.shape[0] < m:
-                fbuf = np.zeros(engine.pair_i.shape[0])
-            PK.pair_normal_forces(engine.radius, engine.pair_i, engine.pair_j, m, engine.pair_ov, law, fbuf)
-            z = 0.5 * (engine.position[engine.pair_i[:m], d - 1] + engine.position[engine.pair_j[:m], d - 1])
-            np.maximum.at(force_max, np.clip((z / field).astype(np.int64), 0, n_bins - 1), fbuf[:m])
-
-        read_field(0)
-        force_initial = force_max.copy()
-    if shear:
-        shear_force = np.empty(samples)
-
-        def read_shear(k):
-            shear_force[k] = PK.top_shear_force(engine.position, engine.velocity, engine.angular_velocity,
-                                                engine.radius, engine.mass, engine.wall_ft, engine.wall_ov,
-                                                engine.piston, engine.fpar)
-
-        read_shear(0)
+    # the per-sample readings besides the top-wall force, taken inside the kernel (PK.Readings)
+    rd = PK.readings(packing.n_grains, samples, axis=axis, bin_width=field or 1.0, grain_bin=grain_bin,
+                     n_bins=n_bins, shear=shear)
+    PK.read_sample(0, engine.position, engine.velocity, engine.angular_velocity, engine.radius, engine.mass,
+                   engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ov, engine.wall_ft, engine.wall_ov,
+                   engine.piston, engine.fpar, rd)
+    force_initial = rd.force_max.copy()
     stats = np.zeros(2)
     stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)
     k = 1
+    # many samples per call (the readings are the kernel's), sized to about CALL_SECONDS a call
     chunk = max(1, min(samples - 1, 20_000 // sub))
     from ..devices import backend
 
@@ -522,18 +504,18 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     t_wall0 = t_last = _time.perf_counter()
     n_total = sub * (samples - 1)
     while k < samples:
-        k_stop = k + 1 if shear or field is not None else min(samples, k + chunk)
+        k_stop = min(samples, k + chunk)
         t0 = _time.perf_counter()
         with at_most(packing.n_grains, K.MIN_PARALLEL_GRAINS):
             engine.ws.claims[0] = numba.get_num_threads()  # the force passes' share per thread
             # one thread: the one-loop engine (same bits; its kernels compile several times faster)
             kernel = PK.pulse_samples_serial if device == "cpu" and numba.get_num_threads() == 1 else samples_kernel
             r = kernel(engine.position, engine.velocity, engine.acceleration, engine.angular_velocity,
-                                 engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
-                                 engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
-                                 engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
-                                 engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
-                                 k_stop, sub, top, stats)
+                       engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
+                       engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
+                       engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
+                       engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
+                       k_stop, sub, top, stats, rd)
         if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
             k = -r
             engine.grow(int(engine.ipar.needed), int(engine.ipar.width))
@@ -543,10 +525,6 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
             continue
         _check_sound(engine, top, k, r, stats, step, times, device)
         k = r
-        if shear:
-            read_shear(k - 1)
-        if field is not None:
-            read_field(k - 1)
         elapsed = _time.perf_counter() - t0
         if elapsed > 0:  # about 0.2 s per call: Ctrl-C and SIGTERM wait for the call to return
             chunk = int(max(1, min(samples, chunk * min(4.0, CALL_SECONDS / max(elapsed, 1e-3)))))
@@ -561,11 +539,12 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     energy_drift = (_energy(engine) - energy_start) / energy_input if energy_input > 0 else float("nan")
     pulse = None
     if field is not None:
-        pulse = dict(height=(np.arange(n_bins) + 0.5) * field, count=count, velocity=velocity_field,
-                     force_max=force_max, force_initial=force_initial)
+        pulse = dict(height=(np.arange(n_bins) + 0.5) * field, count=rd.count, velocity=rd.velocity,
+                     force_max=rd.force_max, force_initial=force_initial)
     states = np.concatenate([pair_state[:m], wall_state])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
-    return dict(top=shear_force if shear else top, residual=residual, f_static_engine=f_static_engine, energy_input=energy_input,
+    return dict(top=rd.shear if shear else top, residual=residual, f_static_engine=f_static_engine,
+                energy_input=energy_input,
                 n_contacts_initial=count(PK.INITIAL), n_opened=count(PK.OPENED), n_formed=count(PK.FORMED),
                 n_sliding=count(PK.SLID),
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),

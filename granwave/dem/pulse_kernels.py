@@ -1,14 +1,20 @@
 """Numba loop of a nonlinear pulse run: the engine's own steps plus contact bookkeeping.
 
-One velocity-Verlet step is :func:`granwave.dem.kernels.run_chunk` with one
-step (the engine's integrator, neighbour-list rebuild and force kernel, so
-the contact law stays in :mod:`granwave.contact` and the step in
-:mod:`granwave.dem.kernels`). After every step this loop only *reads* the
-state to
+The steps are the engine's: on one thread :func:`granwave.dem.serial.one_step`, many steps and
+samples per call inside one chunk as the preparation engine runs them
+(:func:`granwave.dem.serial.run_chunk`); on more threads
+:func:`granwave.dem.kernels.run_chunk` with one step per call (the integrator, neighbour-list
+rebuild and force kernel stay in :mod:`granwave.dem`, the contact law in
+:mod:`granwave.contact`). After every step the loop only *reads* the state to
 
-- record the top-wall contact force (``piston.f_con``) at the output times,
 - flag every contact (pair slot or wall slot) that opens, forms, or slides,
-- track the largest displacement of any grain from its starting position.
+- track the largest displacement of any grain from its starting position;
+
+and at every output sample (:class:`Readings`, inside the same call)
+
+- record the top-wall contact force (``piston.f_con``),
+- the pulse field (the height bins' mean velocity, their largest contact force) and, for the
+  shear source, the top wall's force along x.
 
 Contact state flags (``int8`` bit field, one per pair slot and per wall slot):
 ``INITIAL`` in contact at t = 0; ``OPENED`` an initial contact found without
@@ -28,6 +34,7 @@ i*N + j, as the engine carries the contact history.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -40,6 +47,7 @@ from .. import contact_models as CM
 from ..geometry import periodic_distance2
 from . import kernels as K
 from . import serial
+from .mean_flow import M_GAMMA_M
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
 INITIAL, OPENED, FORMED, SLID, LIMIT0 = 1, 2, 4, 8, 16
@@ -167,24 +175,173 @@ def _block_displacement2(b, pos, pos_ref, lateral):
     return best
 
 
+class Readings(NamedTuple):
+    """What a pulse run reads at every output sample besides the top-wall force (the arrays are
+    written in place; an empty array: that reading is off). Units of docs/method.md §1.
+
+    ``axis``: the kick's axis (the field's velocity component); ``bin_width``: the pulse field's
+    height bin (d); ``grain_bin`` (N,) int64: each grain's bin from its starting height (empty:
+    no field); ``count`` (n_bins,) int64: grains per bin; ``velocity`` (n_bins, samples): the
+    bins' mean velocity along ``axis`` at every sample (np.bincount's sum in grain order over
+    max(count, 1)); ``force_max`` (n_bins,): the largest elastic pair normal force at a sample,
+    binned by the pair's mid-height; ``shear`` (samples,): the top wall's force along x
+    (:func:`top_shear_force`; empty: not read)."""
+    axis: int
+    bin_width: float
+    grain_bin: np.ndarray
+    count: np.ndarray
+    velocity: np.ndarray
+    force_max: np.ndarray
+    shear: np.ndarray
+
+
+def readings(n_grains: int, samples: int, *, axis: int = 0, bin_width: float = 1.0,
+             grain_bin: np.ndarray | None = None, n_bins: int = 0, shear: bool = False) -> Readings:
+    """A :class:`Readings` record: the field's arrays when ``grain_bin`` is given (``n_bins``
+    bins), the shear force's when ``shear``; the others empty (one compiled signature)."""
+    field = grain_bin is not None
+    gb = np.ascontiguousarray(grain_bin, np.int64) if field else np.zeros(0, np.int64)
+    return Readings(int(axis), float(bin_width), gb,
+                    np.bincount(gb, minlength=n_bins).astype(np.int64) if field else np.zeros(0, np.int64),
+                    np.zeros((n_bins, samples)) if field else np.zeros((0, 0)),
+                    np.zeros(n_bins if field else 0), np.zeros(samples if shear else 0))
+
+
 @numba.njit(cache=True)
-def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, tangential,
+def read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar, rd):
+    """The readings of sample ``k`` (:class:`Readings`) from the current state, which is only
+    read (:func:`top_shear_force` puts back what it evaluates)."""
+    if rd.grain_bin.shape[0] > 0:
+        n, d = pos.shape
+        nb = rd.count.shape[0]
+        for b in range(nb):
+            rd.velocity[b, k] = 0.0
+        for i in range(n):  # np.bincount's sum: grain order
+            rd.velocity[rd.grain_bin[i], k] += vel[i, rd.axis]
+        for b in range(nb):
+            rd.velocity[b, k] = rd.velocity[b, k] / max(rd.count[b], 1)
+        law = K.law_of(fpar)
+        e12 = C.effective_young(False)
+        w = rd.bin_width
+        for p in range(npairs):
+            ov = pair_ov[p]
+            if ov > 0.0:
+                i = pair_i[p]
+                j = pair_j[p]
+                r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
+                f = CM.law_force(law, ov, math.sqrt(r12), e12)
+                b = min(max(int(0.5 * (pos[i, d - 1] + pos[j, d - 1]) / w), 0), nb - 1)
+                if f > rd.force_max[b]:
+                    rd.force_max[b] = f
+    if rd.shear.shape[0] > 0:
+        rd.shear[k] = top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar)
+
+
+@numba.njit(cache=True)
+def _classify_serial(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
+                     pair_state, wall_state, law):
+    """:func:`classify` of the run (not the initial state) on the calling thread, the walls of
+    the engine's wall list ``walls`` only (``ws.walls`` as the step used it: only its grains'
+    wall slots change in a step, and every other slot has no overlap and no history, its flags
+    set when it last changed); without a slider (frictionless) a loop over the overlaps alone,
+    which the compiler vectorizes (the same flags: a touching contact then never sits on a
+    limit)."""
+    if CM.friction_acts(tangential):
+        for p in range(npairs):
+            _classify_pair(np.int64(p), d, rad, pair_i, pair_j, pair_ft, pair_ov, tangential, pair_state,
+                           np.bool_(False), law)
+        for q in range(1, walls[0] + 1):
+            for w in range(2 * walls[q], 2 * walls[q] + 2):
+                _classify_wall(np.int64(w), d, rad, wall_ft, wall_ov, tangential, wall_state, np.bool_(False), law)
+        return
+    for p in range(npairs):
+        pair_state[p] = _flag_without_slider(pair_state[p], pair_ov[p])
+    for q in range(1, walls[0] + 1):
+        for w in range(2 * walls[q], 2 * walls[q] + 2):
+            wall_state[w] = _flag_without_slider(wall_state[w], wall_ov[w])
+
+
+@numba.njit(cache=True, inline="always")
+def _flag_without_slider(state, ov):
+    """FORMED on a touching contact that did not touch at t = 0, OPENED on a t = 0 contact that
+    does not touch (branch-free: the flags of :func:`_classify_pair` without a slider)."""
+    s = np.int64(state)
+    touching = np.int64(ov > 0.0)
+    initial = s & INITIAL
+    return s | (touching & (initial ^ 1)) * FORMED | ((touching ^ 1) & initial) * OPENED
+
+
+@numba.njit(cache=True)
+def _largest_displacement(pos, pos_ref, lateral):
+    """max_i |r_i - r_i(0)| (nearest periodic image) on the calling thread: the value of
+    :func:`max_displacement` (a maximum of the same terms)."""
+    best = 0.0
+    for i in range(pos.shape[0]):
+        s = periodic_distance2(pos, i, pos_ref, i, lateral)
+        if s > best:
+            best = s
+    return math.sqrt(best)
+
+
+#: Relative margin of the candidates' bound (:func:`_displacement_candidates`): far above rounding.
+CANDIDATE_MARGIN = 1e-9
+
+
+@numba.njit(cache=True)
+def _displacement_candidates(pos0, pos_ref, lateral, floor, cand):
+    """The grains whose displacement from ``pos_ref`` at the last rebuild (``pos0``) is at least
+    ``floor``, into ``cand[1:cand[0] + 1]``. A grain outside, displaced since the rebuild by at
+    most D (the step's largest displacement since the rebuild, which the engine keeps), is
+    displaced by less than floor + D from ``pos_ref`` (the triangle inequality of the nearest
+    image distance), so while floor + D stays below the largest displacement so far (with a
+    margin), only the candidates can raise it: :func:`_track_largest`."""
+    c = 0
+    for i in range(pos0.shape[0]):
+        if math.sqrt(periodic_distance2(pos0, i, pos_ref, i, lateral)) >= floor:
+            c += 1
+            cand[c] = i
+    cand[0] = c
+
+
+@numba.njit(cache=True)
+def _track_largest(pos, pos0, pos_ref, lateral, skin, disp2, stats, cand, floor):
+    """The largest displacement so far (``stats[0]``) after a step of the one-thread loop: its
+    value over every grain (:func:`_largest_displacement`), computed over the candidates of
+    :func:`_displacement_candidates` alone while their bound holds (``disp2``: the step's
+    largest squared displacement since the last rebuild); the list is made again (``floor`` =
+    best - D - skin) when it does not. Returns the floor in use."""
+    best = stats[0]
+    reach = math.sqrt(disp2)
+    if not (floor + reach <= best - CANDIDATE_MARGIN * (best + reach)):
+        floor = best - reach - skin
+        _displacement_candidates(pos0, pos_ref, lateral, floor, cand)
+    top = 0.0
+    for q in range(1, cand[0] + 1):
+        i = cand[q]
+        s = periodic_distance2(pos, i, pos_ref, i, lateral)
+        if s > top:
+            top = s
+    u = math.sqrt(top)
+    if u > best:
+        stats[0] = u
+    return floor
+
+
+@numba.njit(cache=True)
+def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
                 ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats, law):
-    """The bookkeeping after one step of :func:`pulse_samples`: the contact flags carried over
-    a rebuild (``rebuilds``: the count before the step), the contacts classified, the largest
-    displacement into ``stats[0]`` and the step counted in ``stats[1]``. Returns the pair
-    keys and count of the current list (new arrays after a rebuild)."""
+    """The bookkeeping after one step of the pulse loops: the contact flags carried over
+    a rebuild (``rebuilds``: the count before the step), the contacts classified and the step
+    counted in ``stats[1]``. Returns the pair keys and count of the current list (new arrays
+    after a rebuild). The largest displacement is the caller's."""
     if ipar.rebuilds != rebuilds:
         old_state = pair_state[:npairs].copy()
         carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar.npairs, pair_state)
         npairs = ipar.npairs
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
-    classify(pos.shape[1], rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, tangential, pair_state,
-             wall_state, np.bool_(False), law)  # not a literal: one compiled classify
-    u = max_displacement(pos, pos_ref, lateral)
-    if u > stats[0]:
-        stats[0] = u
+    _classify_serial(pos.shape[1], rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls,
+                     tangential, pair_state, wall_state, law)
     stats[1] += 1.0
     return old_i, old_j, npairs
 
@@ -192,16 +349,20 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
 @numba.njit(cache=True)
 def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
-                  wall_state, k_start, k_stop, sub, force_out, stats):
-    """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample.
+                  wall_state, k_start, k_stop, sub, force_out, stats, rd):
+    """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample,
+    on the parallel engine (:func:`granwave.dem.kernels.run_chunk`, a step per call: the
+    bookkeeping runs between steps).
 
     ``force_out[k]`` receives the top-wall contact force (elastic + viscous
-    normal forces of the top-wall contacts) at sample k. ``stats[0]`` holds
+    normal forces of the top-wall contacts) at sample k, and ``rd`` (:class:`Readings`) the
+    sample's other readings. ``stats[0]`` holds
     the largest grain displacement so far. Returns the next sample to run
     (``k_stop`` when done), or minus it when the pair list needs more room
     (``ipar.needed`` pairs, ``ipar.width`` neighbours; the state is then between steps of that
     sample, which the caller resumes after growing the arrays: the steps
-    already done inside the sample are kept in ``stats[1]``).
+    already done inside the sample are kept in ``stats[1]``). A state that blew up (non-finite
+    reach) ends the call with ``stats[0]`` NaN.
     """
     n = pos.shape[0]
     tangential = K.friction_of(fpar)
@@ -214,46 +375,71 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     for k in range(k_start, k_stop):
         for _ in range(int(stats[1]), sub):
             rebuilds = ipar.rebuilds
-            if K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
-                           pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
+            status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
+                                 pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
+            if status == 2:
                 return -k
+            if status == 3:
+                stats[0] = math.nan
+                return k + 1
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, tangential, ipar, rebuilds, old_i, old_j, pair_state,
-                                               wall_state, npairs, stats, law)
+                                               wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
+                                               pair_state, wall_state, npairs, stats, law)
+            u = _largest_displacement(pos, pos_ref, lateral)
+            if u > stats[0]:
+                stats[0] = u
         stats[1] = 0.0
         force_out[k] = piston.f_con
+        read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar,
+                    rd)
     return k_stop
 
 
-# The same loop as pulse_samples but for the stepping call: written twice on purpose. One body
+# The same loop as pulse_samples but stepping on one thread: written twice on purpose. One body
 # taking the step function as an argument would not be cached by numba (a jitted function as an
 # argument makes the caller uncacheable), and one body with a run-time flag would compile the
 # parallel kernels in every one-thread process, the cost this variant exists to avoid.
 @numba.njit(cache=True)
 def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                          pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
-                         wall_state, k_start, k_stop, sub, force_out, stats):
-    """:func:`pulse_samples` on one thread, stepping with :func:`granwave.dem.serial.run_chunk`
-    (same arguments, returns and bits): the parallel engine's kernels take several times longer
-    to compile, which a one-thread process would spend for nothing on a cold cache."""
+                         wall_state, k_start, k_stop, sub, force_out, stats, rd):
+    """:func:`pulse_samples` on one thread (same arguments, returns and bits), stepping with
+    :func:`granwave.dem.serial.one_step` inside one chunk (:func:`granwave.dem.serial.chunk_start`
+    once per call, as the preparation engine's :func:`granwave.dem.serial.run_chunk`), the
+    bookkeeping between steps. The parallel engine's kernels take several times longer to
+    compile, which a one-thread process would spend for nothing on a cold cache."""
     n = pos.shape[0]
     tangential = K.friction_of(fpar)
     law = K.law_of(fpar)
-    ipar.nsteps = 1
     npairs = ipar.npairs
     old_i = pair_i[:npairs].copy()
     old_j = pair_j[:npairs].copy()
+    mflow = ws.mflow
+    gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
+    disp2 = serial.chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ws)
+    cand = np.empty(n + 1, np.int64)  # the largest displacement's candidates (_track_largest)
+    floor = math.inf  # none yet: made at the first step
     for k in range(k_start, k_stop):
         for _ in range(int(stats[1]), sub):
             rebuilds = ipar.rebuilds
-            if serial.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
-                                pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws) == 2:
+            status, disp2 = serial.one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                                            pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
+                                            mflow, ws.slabs, gamma_piston, disp2)
+            if status == 2:
                 return -k
+            if status == 3:
+                stats[0] = math.nan
+                return k + 1
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, tangential, ipar, rebuilds, old_i, old_j, pair_state,
-                                               wall_state, npairs, stats, law)
+                                               wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
+                                               pair_state, wall_state, npairs, stats, law)
+            if ipar.rebuilds != rebuilds:  # pos0 moved: the candidates are made again
+                floor = math.inf
+            floor = _track_largest(pos, pos0, pos_ref, lateral, fpar.skin, disp2, stats, cand, floor)
         stats[1] = 0.0
         force_out[k] = piston.f_con
+        read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar,
+                    rd)
     return k_stop
 
 
@@ -287,18 +473,3 @@ def top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar):
         for a in range(d):
             wall_ft[w, a] = saved[a]
     return total
-
-
-@numba.njit(cache=True)
-def pair_normal_forces(rad, pair_i, pair_j, npairs, pair_ov, law, out):
-    """The elastic normal force of the engine's law (``kernels.law_of(fpar)``) of every pair slot
-    ``0 .. npairs - 1`` at its current overlap into ``out`` (zero where the pair does not touch):
-    read-only, for the pulse field's per-layer largest force (granwave.dem.pulse)."""
-    e12 = C.effective_young(False)
-    for p in range(npairs):
-        ov = pair_ov[p]
-        if ov > 0.0:
-            r12 = C.effective_radius(1.0 / rad[pair_i[p]], 1.0 / rad[pair_j[p]])
-            out[p] = CM.law_force(law, ov, math.sqrt(r12), e12)
-        else:
-            out[p] = 0.0

@@ -152,81 +152,107 @@ def run_chunk_mean_flow(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral
     With ``ipar.adaptive`` the time step is reset at every check from
     :func:`stable_dt`.
     """
-    n, d = pos.shape
-    r = omega.shape[1]
-    # 1/m and 1/I once per chunk, not per step: the same quotients, the same bits
-    pair_c = ws.pair_c
-    walls = ws.walls
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the last rebuild's positions
+    disp2 = chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ws)
+    gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else fpar.gamma
+    for _ in range(ipar.nsteps):
+        outcome, disp2 = one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
+                                  pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, mflow, slabs,
+                                  gamma_piston, disp2)
+        if outcome != 0:
+            return outcome
+    return 0
+
+
+@numba.njit(cache=True)
+def chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ws):
+    """What a chunk of :func:`one_step` calls starts from: the wall list from the last rebuild's
+    positions, 1/m and 1/I into the workspace (once per chunk, not per step: the same
+    quotients, the same bits). Returns the largest squared displacement since the last
+    build, which :func:`one_step` then keeps."""
+    n = pos.shape[0]
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, True)  # from the last rebuild's positions
     inv_m = ws.inv_m
     inv_i = ws.inv_i
     for i in range(n):
         inv_m[i] = 1.0 / mass[i]
         inv_i[i] = 1.0 / inertia[i]
-    gamma = fpar.gamma
-    gamma_piston = mflow[M_GAMMA_M] if mflow.shape[0] > 0 else gamma
-    check = ipar.check
-    disp2 = 0.0  # largest squared displacement since the last build (kept by the drift loop)
+    disp2 = 0.0
     for i in range(n):
         disp2 = max(disp2, periodic_distance2(pos, i, pos0, i, lateral))
-    for step in range(ipar.nsteps):
-        dt = fpar.dt
-        # rebuild when a grain may come within reach of a pair not in the list
-        # before the next rebuild check (factor 2: the speed may grow in a step)
-        reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
-        if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
-            return 3
-        if needs_rebuild(fpar, ipar, reach, 0):
-            skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
-            np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
-                                        pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo, ws.row,
-                                        ws.gather, ws.need)
-            if np_new < 0:
-                ipar.needed = ws.need[0]
-                ipar.width = ws.need[1]
-                return 2
-            fpar.skin = skin
-            ipar.npairs = np_new
-            ipar.rebuilds += 1
-            ipar.built = ipar.steps
-            pair_constants(pair_i, pair_j, np_new, rad, mass, pair_c)
-            for i in range(n):
-                for a in range(d):
-                    pos0[i, a] = pos[i, a]
-            refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the new positions
-            disp2 = 0.0
-        # half kick, drift
-        vmax2 = 0.0
-        disp2 = 0.0
-        half = 0.5 * dt
+    return disp2
+
+
+@numba.njit(cache=True)
+def one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov,
+             wall_ft, wall_ov, piston, fpar, ipar, out, ws, mflow, slabs, gamma_piston, disp2):
+    """One velocity-Verlet step of :func:`run_chunk_mean_flow` (after :func:`chunk_start`;
+    ``disp2``: the largest squared displacement since the last build, ``gamma_piston``: the
+    piston's damping rate). Returns (status, disp2): status 0 after the step, 2 when the pair
+    list needs more room (before the step), 3 when the state blew up, or the check's outcome
+    (:func:`run_chunk_mean_flow`'s statuses). The DEM pulse steps with it too
+    (granwave.dem.pulse_kernels), its bookkeeping between steps."""
+    n, d = pos.shape
+    r = omega.shape[1]
+    pair_c = ws.pair_c
+    walls = ws.walls
+    inv_m = ws.inv_m
+    inv_i = ws.inv_i
+    gamma = fpar.gamma
+    check = ipar.check
+    dt = fpar.dt
+    # rebuild when a grain may come within reach of a pair not in the list
+    # before the next rebuild check (factor 2: the speed may grow in a step)
+    reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
+    if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
+        return 3, disp2
+    if needs_rebuild(fpar, ipar, reach, 0):
+        skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
+        np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
+                                    pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo, ws.row,
+                                    ws.gather, ws.need)
+        if np_new < 0:
+            ipar.needed = ws.need[0]
+            ipar.width = ws.need[1]
+            return 2, disp2
+        fpar.skin = skin
+        ipar.npairs = np_new
+        ipar.rebuilds += 1
+        ipar.built = ipar.steps
+        pair_constants(pair_i, pair_j, np_new, rad, mass, pair_c)
         for i in range(n):
-            v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
-            vmax2 = max(vmax2, v2)
-            disp2 = max(disp2, s)
-        fpar.v_max = math.sqrt(vmax2)
-        piston_kick_drift(piston, dt)
-        refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
-        _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
-                    pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
-                    ws.tile, ws.tile_p)
-        piston.a = piston_acceleration(piston, gamma_piston)
-        # accelerations (as to_accelerations) and the second half kick, in one pass
-        for i in range(n):
-            inv = inv_m[i]
             for a in range(d):
-                acc[i, a] *= inv
-                vel[i, a] += 0.5 * dt * acc[i, a]
-            inv = inv_i[i]
-            for a in range(r):
-                alpha[i, a] *= inv
-                omega[i, a] += 0.5 * dt * alpha[i, a]
-        piston_half_kick(piston, dt)
-        ipar.steps += 1
-        if check > 0 and ipar.steps % check == 0:
-            measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
-            outcome = check_outcome(out, fpar, ipar, piston)
-            if outcome != 0:
-                return outcome
-    return 0
+                pos0[i, a] = pos[i, a]
+        refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the new positions
+    # half kick, drift
+    vmax2 = 0.0
+    disp2 = 0.0
+    half = 0.5 * dt
+    for i in range(n):
+        v2, s = drift_grain(pos, vel, acc, omega, alpha, pos0, lateral, i, half, dt)
+        vmax2 = max(vmax2, v2)
+        disp2 = max(disp2, s)
+    fpar.v_max = math.sqrt(vmax2)
+    piston_kick_drift(piston, dt)
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
+    _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
+                pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
+                ws.tile, ws.tile_p)
+    piston.a = piston_acceleration(piston, gamma_piston)
+    # accelerations (as to_accelerations) and the second half kick, in one pass
+    for i in range(n):
+        inv = inv_m[i]
+        for a in range(d):
+            acc[i, a] *= inv
+            vel[i, a] += 0.5 * dt * acc[i, a]
+        inv = inv_i[i]
+        for a in range(r):
+            alpha[i, a] *= inv
+            omega[i, a] += 0.5 * dt * alpha[i, a]
+    piston_half_kick(piston, dt)
+    ipar.steps += 1
+    if check > 0 and ipar.steps % check == 0:
+        measure(vel, acc, omega, alpha, mass, inertia, rad, piston, gamma, out)
+        return check_outcome(out, fpar, ipar, piston), disp2
+    return 0, disp2
 
 

@@ -123,6 +123,31 @@ def pulse() -> dict:
             **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
 
 
+def pulse_piston() -> dict:
+    """The piston drive (docs/shocks.md) on the GPU against the CPU: a strong push (strain 10
+    delta0) into a 3 x 3 Hertz lattice column, damped, with the pulse field on (read at every
+    sample from the state brought to the host): signal, field, largest forces, displacement and
+    counts. The column is short enough for the CUDA simulator (42 steps)."""
+    from ..dem.pulse import propagate_dem
+    from ..systems import triangular_lattice
+
+    packing = triangular_lattice(rows=3, width=3, pressure=1e-3)
+    delta0 = float(np.mean(packing.contacts.overlap[packing.contacts.j >= 0]))
+    kw = dict(drive="piston", strain=10.0 * delta0, t_max=1.2, samples=4, dt=0.03, damping=0.1, skin=0.02,
+              baseline=False)
+    cpu = propagate_dem(packing, **kw)
+    gpu = propagate_dem(packing, device="gpu", **kw)
+    keys = ("n_opened", "n_formed", "n_sliding", "neighbour_rebuilds", "n_contacts_initial", "n_steps")
+    return {"signal_rel": _rel(cpu.force, gpu.force), "signal_max": float(np.max(np.abs(cpu.force))),
+            "field_rel": _rel(cpu.pulse["velocity"], gpu.pulse["velocity"]),
+            "field_max": float(np.max(np.abs(cpu.pulse["velocity"]))),
+            "force_max_rel": _rel(cpu.pulse["force_max"], gpu.pulse["force_max"]),
+            "force_grew": float(np.max(cpu.pulse["force_max"] / np.maximum(cpu.pulse["force_initial"], 1e-300))),
+            "max_displacement_rel": _rel(cpu.attrs["max_displacement"], gpu.attrs["max_displacement"]),
+            "piston_velocity": float(cpu.attrs["piston_velocity"]),
+            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
+
+
 def _gas(cls, dim: int, steps: int, **kw):
     """:func:`_gas_engine` run for ``steps`` steps."""
     e = _gas_engine(cls, dim, **kw)
@@ -420,6 +445,7 @@ def protocols(names=None) -> dict:
 
 
 CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, "pulse": pulse,
+          "pulse_piston": pulse_piston,
           "rebuild": rebuild, "mean_flow": mean_flow, "rules": rules, "protocols": protocols, "batch": batch,
           "batch_prepare": batch_prepare}
 
@@ -428,8 +454,9 @@ CHECKS = {"time_domain": time_domain, "two_body": two_body, "prepare": prepare, 
 #: 0.3-0.6 s a step on a 2-core machine), seconds on a GPU (benchmarks/gpu.py --tiny runs them).
 HEAVY = ("protocols", "batch_prepare")
 #: Checks left out of the default set because a test file of their own runs them
-#: (tests/test_gpu_batch.py), so that tests/test_gpu_sim.py's subprocess does not run them twice.
-OWN_TEST = ("batch",)
+#: (tests/test_gpu_batch.py, tests/test_gpu_pulse_piston.py), so that tests/test_gpu_sim.py's subprocess does
+#: not run them twice.
+OWN_TEST = ("batch", "pulse_piston")
 
 
 def main(argv=None) -> None:

@@ -8,6 +8,13 @@ normal law, compiled for the device from its source, :mod:`granwave.gpu.compile`
 (kept per grain on the device, reduced once per call). After a host neighbour rebuild the
 flags are carried to the new list by the CPU's ``carry_flags``. When the pair arrays need more
 room, the call returns minus the sample to resume, as the CPU loop does.
+
+The piston drive (docs/shocks.md) needs nothing of its own here: its source grains are the
+CPU set-up's (masses made :data:`granwave.dem.pulse.PISTON_MASS_FACTOR` times larger, their
+velocity set), uploaded with the rest of the state. The per-sample readings the CPU loop takes
+inside its call (the pulse field, the shear force: :class:`granwave.dem.pulse_kernels.Readings`)
+are the CPU's :func:`~granwave.dem.pulse_kernels.read_sample` on the state brought to the host
+at each sample: one copy of the state per sample, while the steps stay on the device.
 """
 
 from __future__ import annotations
@@ -94,9 +101,12 @@ _ARRAYS = ("position", "velocity", "acceleration", "angular_velocity", "angular_
 
 def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                       pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
-                      wall_state, k_start, k_stop, sub, force_out, stats):
+                      wall_state, k_start, k_stop, sub, force_out, stats, rd):
     """:func:`granwave.dem.pulse_kernels.pulse_samples` with the steps on the GPU (module
-    docstring); the host arrays are updated in place when it returns."""
+    docstring); the host arrays are updated in place when it returns. The sample's readings
+    ``rd`` (pulse field, shear force: :class:`granwave.dem.pulse_kernels.Readings`) are the CPU's
+    own :func:`~granwave.dem.pulse_kernels.read_sample`, on the state brought to the host at
+    that sample (only when a reading is on)."""
     eng = object.__new__(_Session)
     values = (pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i, pair_j,
               pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
@@ -118,6 +128,7 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
 
     eng.on_rebuild = carry
     g = eng.g
+    reads = rd.grain_bin.shape[0] > 0 or rd.shear.shape[0] > 0
     k = k_start
     try:
         while k < k_stop:
@@ -133,6 +144,10 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
                 stats[1] += 1.0
             stats[1] = 0.0
             force_out[k] = piston.f_con
+            if reads:
+                eng.download()
+                PK.read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, int(ipar.npairs), pair_ov, wall_ft,
+                               wall_ov, piston, fpar, rd)
             k += 1
         return k_stop
     except _NeedRoom as exc:
