@@ -263,6 +263,9 @@ def vs_lammps(repeat: int, steps: int, slices: int = 4) -> dict:
     import numba
 
     numba.set_num_threads(1)
+    # both engines on one vCPU (the child inherits it): two vCPUs of a shared host can differ in
+    # speed at the same moment (benchmarks/investigations/vcpu_siblings.py)
+    os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
     packing, _, _ = prepare(1e-4)
     eng = benchmark_engine(packing, 1)
     n, dt = len(eng.radius), eng.dt
