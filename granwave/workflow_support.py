@@ -548,7 +548,7 @@ def run_shocks_sample(sample: dict, log=print) -> list[dict]:
         rows.append(pulse_row(sig.attrs, width=width))
     meta = {k: sample[k] for k in ("scene", "pressure", "size", "seed")}
     meta.update(pressure=float(sample["pressure"]), friction=float(packing.friction),
-                contact_law=str(sample["make"].get("contact_law", "hertz")), dim=int(packing.dim),
+                contact_law=str(sample["make"].get("contact_law", CO.KINDS["normal"]["default"])), dim=int(packing.dim),
                 n_grains=int(packing.n_grains), height=float(packing.height),
                 lateral_width=float(packing.box[0]), damping=float(sample["damping"]),
                 drives_skipped=skipped, max_strain=float(sample["max_strain"]),

@@ -22,6 +22,7 @@ import pytest
 import yaml
 
 from granwave import workflow_config as ws
+from granwave import workflow_record as wr
 
 ROOT = Path(__file__).resolve().parents[1]
 SNAKEFILE = ROOT / "workflow" / "Snakefile"
@@ -362,9 +363,9 @@ def test_the_first_lobe_bound_is_below_the_exact_chains(ic):
         t0 = T.chain_travel_time(n)
         t = np.linspace(0.0, 2.5 * t0, 8000)
         f = front_features(t, T.chain_wall_force(t, n, ic=ic))
-        bound = t0 + ws.first_lobe_time("chains", f"n{n}", t0, ic)
+        bound = t0 + wr.first_lobe_time("chains", f"n{n}", t0, ic)
         assert bound <= f.t_zero, (n, bound, f.t_zero)
-        if ic == "A" or n >= ws.LOBE_B_MIN_ROWS:
+        if ic == "A" or n >= wr.LOBE_B_MIN_ROWS:
             assert bound > t0  # the lobe counts: a factor just above 1 is refused
         assert bound > 0.9 * f.t_zero if n >= 8 else bound > 0.5 * f.t_zero  # a bound that bites
 
@@ -375,16 +376,16 @@ def test_a_record_that_cannot_hold_the_front_names_the_height_and_the_needed_t_m
     cfg["disordered"] = {"d": {"pressures": [1e-4], "heights": [8, 30], "seeds": 1, "friction": 0.5,
                                "poisson": 0.0, "width": 24}}
     cfg["lattices"], cfg["chains"], cfg["continuum"] = {}, {}, {}
-    message = ws.record_error(cfg)
+    message = wr.record_error(cfg)
     assert message.startswith("config: t_max_factor = 1: the record of disordered.d's tallest column (height 30")
     needed = float(re.search(r"needs t_max >= ([0-9.e+-]+)", message).group(1))
     arrival = float(re.search(r"arrival not before ([0-9.e+-]+)", message).group(1))
     assert needed > arrival and "\n" not in message
     cfg["t_max_factor"] = 1.001 * needed / arrival
-    assert ws.record_error(cfg) is None
-    assert "needs t_max >= " in ws.record_warning(cfg)  # below 2 crossings: a warning line
+    assert wr.record_error(cfg) is None
+    assert "needs t_max >= " in wr.record_warning(cfg)  # below 2 crossings: a warning line
     cfg["t_max_factor"] = 2.0
-    assert ws.record_warning(cfg) is None
+    assert wr.record_warning(cfg) is None
 
 
 def test_a_short_disordered_record_warns_at_the_dry_run(tmp_path):

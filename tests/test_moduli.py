@@ -492,7 +492,7 @@ def test_cli_linear_file_needs_packing(files):
     assert bad.exit_code != 0 and "--packing" in bad.output and "{" not in bad.output
     ok = CliRunner().invoke(main, ["analyze", "moduli", str(lin), "--packing", str(path), "--json"])
     assert ok.exit_code == 0, ok.output
-    assert json.loads(ok.output)["C22"] == pytest.approx(moduli(pk, prestress=True)["C22"],
+    assert json.loads(ok.stdout)["C22"] == pytest.approx(moduli(pk, prestress=True)["C22"],
                                                          rel=1e-12)
     other, _ = lattice(9, 4, pressure=1e-4, friction=0.5)
     write_packing(tmp / "other.h5", other)

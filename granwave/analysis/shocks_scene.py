@@ -56,6 +56,7 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from ..contact_models import options as CO
 from ..errors import InputError
 
 #: The weakest push must lie below this ε/δ0 for its speed to be the packing's c0.
@@ -70,7 +71,9 @@ DEFAULT_TAIL_FROM = 10.0
 #: Fewer packings than this: a range, not a ± (the report's rule).
 MIN_FOR_ERROR = 5
 #: Hertz's and the harmonic law's α (contact force ∝ δ^(α−1)).
-LAW_ALPHA = {"hertz": 2.5, "harmonic": 2.0}
+#: (keyed by the registry's names of its normal laws 0 and 1: their codes are stored in files and fixed)
+LAW_ALPHA = dict(zip(CO.names("normal")[:2], (2.5, 2.0)))
+_DEFAULT_LAW = CO.KINDS["normal"]["default"]
 
 
 # ------------------------------------------------------------------ the mean-field reference
@@ -257,7 +260,8 @@ def stat(values: Iterable[float]) -> dict:
 
 def _law_key(law: str) -> str:
     text = str(law).lower()
-    return "harmonic" if "harmonic" in text else "hertz"
+    # the law a record names (a label such as "harmonic-like" counts as the name it contains)
+    return next((name for name in sorted(LAW_ALPHA, key=len, reverse=True) if name in text), _DEFAULT_LAW)
 
 
 def _scaling(points: Sequence[tuple[float, float]]) -> dict:
@@ -283,7 +287,7 @@ def shocks_scene(records: Sequence[Mapping], *, tail_from: float = DEFAULT_TAIL_
         by_scene[str(r["scene"])].append(r)
     out = {}
     for scene, recs in sorted(by_scene.items()):
-        laws = {_law_key(r.get("contact_law", "hertz")) for r in recs}
+        laws = {_law_key(r.get("contact_law", _DEFAULT_LAW)) for r in recs}
         frictions = {float(r["friction"]) for r in recs}
         if len(laws) > 1 or len(frictions) > 1:
             raise InputError(f"scene {scene}: its packings mix contact laws or frictions")

@@ -31,6 +31,7 @@ def _check_config():
     Every failure is one line naming the key (granwave.workflow_config)."""
     import yaml
     from granwave import workflow_config as ws
+    from granwave import workflow_record as wr
 
     for path in workflow.configfiles:
         message = ws.config_file_error(path)
@@ -45,7 +46,7 @@ def _check_config():
         _stop(message)
     validate(config, "../schemas/config.schema.yaml")  # fills in the defaults
     for check in (ws.cross_reference_error, ws.contact_error, ws.labels_error, ws.count_error, ws.shear_error,
-                  ws.record_error, ws.width_error, ws.shocks_error):
+                  wr.record_error, ws.width_error, ws.shocks_error):
         message = check(config)
         if message:
             _stop(message)
@@ -55,7 +56,7 @@ def _check_config():
     message = ws.device_error(config) if workflow.is_main_process else None
     if message:
         _stop(message)
-    warning = ws.record_warning(config)
+    warning = wr.record_warning(config)
     if warning and workflow.is_main_process:
         print(warning, file=sys.stderr)
 
