@@ -16,27 +16,17 @@ and of the scene's lone-sample jobs (``<stage>/<scene>/...``) go into the record
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from scene_record import append_record  # noqa: E402
+from scene_record import append_record, benchmark_cpu_seconds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results" / "continuum_scene.jsonl"
 #: left out of the record: per-packing rows and per-height spectra (large; the tables use neither)
 DROP = {"front": ("samples",), "attenuation": ("noise_floor", "spectrum_amplitude", "coherent_amplitude")}
-
-
-def _tsv_cpu(paths) -> float | None:
-    total, found = 0.0, False
-    for path in paths:
-        row = next(csv.DictReader(path.open(), delimiter="\t"))
-        total += float(row["cpu_time"])
-        found = True
-    return round(total, 1) if found else None
 
 
 def scene_cpu(folder: Path, scene: str) -> float | None:
@@ -44,7 +34,7 @@ def scene_cpu(folder: Path, scene: str) -> float | None:
     rules), from Snakemake's benchmark files."""
     paths = list((folder / "batch").glob(f"batch_{scene}_*.tsv"))
     paths += [p for p in folder.rglob("*.tsv") if f"/{scene}/" in str(p)]
-    return _tsv_cpu(sorted(set(paths)))
+    return benchmark_cpu_seconds(sorted(set(paths)), digits=1)
 
 
 def _finite(x):

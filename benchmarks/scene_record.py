@@ -4,6 +4,7 @@ summary, result, optional notes). Used by shear_scene_record.py and continuum_sc
 
 from __future__ import annotations
 
+import csv
 import json
 import platform
 import time
@@ -26,3 +27,14 @@ def append_record(path: Path, benchmark: str, command: str, summary: dict, resul
         fh.write(json.dumps(rec) + "\n")
     print(f"appended to {path}")
     return rec
+
+
+def benchmark_cpu_seconds(paths, digits: int = 2) -> float | None:
+    """The summed ``cpu_time`` (s) of Snakemake benchmark files (TSV, first row each), rounded to
+    ``digits``; None when there are none."""
+    total, found = 0.0, False
+    for path in paths:
+        row = next(csv.DictReader(Path(path).open(), delimiter="\t"))
+        total += float(row["cpu_time"])
+        found = True
+    return round(total, digits) if found else None

@@ -12,24 +12,18 @@ CPU seconds of the scene's batches (its shocks subfolder) go into the record.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from scene_record import append_record  # noqa: E402
+from scene_record import append_record, benchmark_cpu_seconds  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "results" / "shocks_scene.jsonl"
 
 
 def _cpu(folder: Path, scene: str) -> float | None:
-    total, found = 0.0, False
-    for path in sorted((folder / "shocks").glob(f"shocks_batch_{scene}_*.tsv")):
-        row = next(csv.DictReader(path.open(), delimiter="\t"))
-        total += float(row["cpu_time"])
-        found = True
-    return round(total, 2) if found else None
+    return benchmark_cpu_seconds(sorted((folder / "shocks").glob(f"shocks_batch_{scene}_*.tsv")))
 
 
 def main() -> None:
