@@ -10,31 +10,15 @@ import shutil
 
 import pytest
 
+from cli_refusals import SIGNAL_ARGS, lattice_files, one_line_refusal as refused, run  # noqa: E402
 
-T = ["--method", "modal", "--t-max", 60, "--samples", 600, "-q"]
-
-
-from cli_refusals import one_line_refusal as refused, run  # noqa: E402
+T = SIGNAL_ARGS
 
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
-    """Per lattice (rows 4 and 6; frictional): its normal and shear signals and its moduli."""
-    out = {}
-    for rows in (4, 6):
-        d = tmp_path_factory.mktemp(f"r{rows}")
-        p, lin, n, sh, mod = (d / x for x in ("p.h5", "lin.h5", "n.h5", "sh.h5", "mod.json"))
-        for args in (["lattice", "--rows", rows, "--width", 4, "--pressure", 1e-3, "--friction", 0.5, "-o", p, "-q"],
-                     ["linearize", p, "-o", lin, "-q"],
-                     ["propagate", lin, "-o", n, *T],
-                     ["propagate", lin, "-o", sh, "--source", "shear", *T]):
-            r = run(args)
-            assert r.exit_code == 0, r.output
-        r = run(["analyze", "moduli", p, "--json"])
-        assert r.exit_code == 0, r.output
-        mod.write_text(r.output)
-        out[rows] = {"packing": p, "normal": n, "shear": sh, "moduli": mod}
-    return out
+    """Per lattice (rows 4 and 6; frictional): its packing, linear file, signals and moduli."""
+    return lattice_files(tmp_path_factory)
 
 
 def edited(files, tmp_path, **changes):
