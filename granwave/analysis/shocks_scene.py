@@ -46,12 +46,16 @@ Quantities (units: d̄, √(E*/ρ)):
 
 Errors: per-packing quantities are averaged over the packings of a point; the ± is the standard
 error of that mean, and under :data:`MIN_FOR_ERROR` packings the range (min, max) is given instead.
+Each such mean also carries its 95 % interval ``ci95``, Student's t with n − 1 degrees of freedom
+(mean ± 2.26 errors over ten packings, ± 2.78 over five: value ± 2 errors holds the truth in only
+88–92 % of such means, docs/truth.md); the crossover's p-exponent likewise with n − 2.
 """
 
 from __future__ import annotations
 
 import math
 from collections import defaultdict
+from functools import lru_cache
 from typing import Iterable, Mapping, Sequence
 
 import numpy as np
@@ -249,13 +253,31 @@ def loglog_slope(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 
 # ------------------------------------------------------------------ statistics over packings
+def ci95(mean: float, error: float, dof: int) -> list[float]:
+    """[mean − t error, mean + t error], t = t(0.975, dof) (Student); NaN ends without an error."""
+    if not (math.isfinite(mean) and math.isfinite(error) and dof >= 1):
+        return [math.nan, math.nan]
+    t = _t975(int(dof))
+    return [mean - t * error, mean + t * error]
+
+
+@lru_cache(maxsize=None)
+def _t975(dof: int) -> float:
+    from scipy import stats
+
+    return float(stats.t.ppf(0.975, dof))
+
+
 def stat(values: Iterable[float]) -> dict:
-    """Mean, standard error (≥ MIN_FOR_ERROR values, else NaN), min, max and n of the finite values."""
+    """Mean, standard error (≥ MIN_FOR_ERROR values, else NaN), its 95 % interval ``ci95``
+    (Student, n − 1 degrees of freedom), min, max and n of the finite values."""
     v = np.array([float(x) for x in values if x is not None and math.isfinite(float(x))])
     if not v.size:
-        return dict(mean=math.nan, error=math.nan, min=math.nan, max=math.nan, n=0)
+        return dict(mean=math.nan, error=math.nan, ci95=[math.nan, math.nan], min=math.nan, max=math.nan, n=0)
     err = float(np.std(v, ddof=1) / math.sqrt(v.size)) if v.size >= MIN_FOR_ERROR else math.nan
-    return dict(mean=float(v.mean()), error=err, min=float(v.min()), max=float(v.max()), n=int(v.size))
+    mean = float(v.mean())
+    return dict(mean=mean, error=err, ci95=ci95(mean, err, v.size - 1), min=float(v.min()), max=float(v.max()),
+                n=int(v.size))
 
 
 def _law_key(law: str) -> str:
@@ -265,12 +287,15 @@ def _law_key(law: str) -> str:
 
 
 def _scaling(points: Sequence[tuple[float, float]]) -> dict:
-    """Slope of ln ε× against ln p over the packings (each packing one point) with its standard error."""
+    """Slope of ln ε× against ln p over the packings (each packing one point) with its standard error
+    and its 95 % interval ``ci95`` (Student, n − 2 degrees of freedom)."""
     pts = [(p, e) for p, e in points if math.isfinite(e) and e > 0]
     if len({p for p, _ in pts}) < 2:
-        return dict(exponent=math.nan, error=math.nan, n=len(pts), n_pressures=len({p for p, _ in pts}))
+        return dict(exponent=math.nan, error=math.nan, ci95=[math.nan, math.nan], n=len(pts),
+                    n_pressures=len({p for p, _ in pts}))
     slope, err = loglog_slope([p for p, _ in pts], [e for _, e in pts])
-    return dict(exponent=slope, error=err, n=len(pts), n_pressures=len({p for p, _ in pts}))
+    return dict(exponent=slope, error=err, ci95=ci95(slope, err, len(pts) - 2), n=len(pts),
+                n_pressures=len({p for p, _ in pts}))
 
 
 def shocks_scene(records: Sequence[Mapping], *, tail_from: float = DEFAULT_TAIL_FROM) -> dict:
