@@ -79,12 +79,14 @@ PULSES = {"cos⁴": (_cos4, math.acos(2 ** -0.25)), "sech⁴": (_sech4, math.aco
 FRONTS = {"tanh": _tanh, "tanh with a 40 % overshoot": _overshoot}
 
 
-def field(seed: int, shape: str, height: int, column: str):
-    """(time, bin centres, velocity (B, T)) of one seed (module docstring)."""
+def field(seed: int, shape: str, height: int, column: str, *, samples: int = SAMPLES, crossings: float = CROSSINGS,
+          front_width: float = SHOCK_W):
+    """(time, bin centres, velocity (B, T)) of one seed (module docstring); ``samples`` over
+    ``crossings`` crossings and the front's ``front_width`` W as other callers sample them."""
     rng = np.random.default_rng(seed)
     t_cross = height / SPEED
-    t_max = CROSSINGS * t_cross * (1.0 + 0.02 * (2.0 * rng.random() - 1.0))
-    time = np.linspace(0.0, t_max, SAMPLES)
+    t_max = crossings * t_cross * (1.0 + 0.02 * (2.0 * rng.random() - 1.0))
+    time = np.linspace(0.0, t_max, samples)
     time_shift = rng.random() * (time[1] - time[0])
     z_bin = np.arange(height) + 0.5
     if shape in PULSES:
@@ -97,7 +99,7 @@ def field(seed: int, shape: str, height: int, column: str):
         prof = FRONTS[shape]
 
         def velocity(z, t):
-            return prof((SPEED * t - z) / SHOCK_W)
+            return prof((SPEED * t - z) / front_width)
 
     t = time[None, :] + time_shift
     if column == "chain":
@@ -109,7 +111,7 @@ def field(seed: int, shape: str, height: int, column: str):
     starts = np.concatenate([[0], np.cumsum(count)[:-1]])
     out = np.add.reduceat(velocity(z[:, None], t - delay[:, None]), starts, axis=0) / count[:, None]
     # the mean of the grains' independent remainders: one per bin, of standard deviation NOISE / sqrt(count)
-    return time, z_bin, out + NOISE / np.sqrt(count)[:, None] * _noise(rng, height, SAMPLES, NOISE_TIME / SPEED
+    return time, z_bin, out + NOISE / np.sqrt(count)[:, None] * _noise(rng, height, samples, NOISE_TIME / SPEED
                                                                         / (time[1] - time[0]))
 
 

@@ -43,7 +43,11 @@ import numpy as np
 
 from granwave.analysis import shocks_scene as S
 
+from granwave.analysis.shocks import front_picks
+from granwave.dem.kick import RECORD_CROSSINGS
+
 from . import Case, interval
+from . import shocks as W
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -63,19 +67,20 @@ FRACTIONS = {"opened": (0.25, 0.03), "slid": (0.8, 0.03), "formed": (0.1, 0.03)}
 
 
 def _config():
-    """(pressures, packings per pressure, drives, max_strain, tail_from) of config/shocks.yaml's
-    Hertz scene with the schema's defaults."""
+    """(pressures, packings per pressure, drives, max_strain, tail_from, column height, samples
+    per push) of config/shocks.yaml's Hertz scene with the schema's defaults."""
     import yaml
 
     cfg = yaml.safe_load((ROOT / "config" / "shocks.yaml").read_text())["shocks"]["hertz_frictionless"]
     schema = yaml.safe_load((ROOT / "workflow" / "schemas" / "config.schema.yaml").read_text())
     props = schema["properties"]["shocks"]["additionalProperties"]["properties"]
-    d = {k: props[k]["default"] for k in ("drives", "max_strain", "tail_from", "seeds")}
+    d = {k: props[k]["default"] for k in ("drives", "max_strain", "tail_from", "seeds", "height", "samples")}
     return (tuple(float(p) for p in cfg["pressures"]), int(cfg.get("seeds", d["seeds"])),
-            tuple(float(e) for e in d["drives"]), float(d["max_strain"]), float(d["tail_from"]))
+            tuple(float(e) for e in d["drives"]), float(d["max_strain"]), float(d["tail_from"]),
+            float(cfg.get("height", d["height"])), int(cfg.get("samples", d["samples"])))
 
 
-PRESSURES, PACKINGS, DRIVES, MAX_STRAIN, TAIL_FROM = _config()
+PRESSURES, PACKINGS, DRIVES, MAX_STRAIN, TAIL_FROM, HEIGHT, SAMPLES = _config()
 X_CROSS = S.mean_field_crossover(ALPHA)
 
 
@@ -197,6 +202,39 @@ def _ratio(mean, sd):
     return mean * inv
 
 
+# ------------------------------------------------------------------ the rise width
+FRONT_W = 2.0              # d: W of the front's tanh, a 10–90 % rise of 4.4 d (the record's: 7–14 d)
+WIDTH_TOL = 0.01
+VELOCITY_BOUND = 1.15      # the front speed bound over the front's speed (docs/shocks.md: 13–16 % below it)
+WIDTH_SETTING = (f"rise_width on piston fronts v_p S((Vt − z)/{FRONT_W:g} d) of a {int(HEIGHT)} d column, "
+                 f"{SAMPLES} samples over {RECORD_CROSSINGS:g} crossings at {VELOCITY_BOUND:g} V, speed and fit "
+                 "range from front_picks (crossing); mean over 10 columns")
+W_PACKING = "a disordered column as shocks.* (~8 grains per bin, jitter, formation, 2 % remainder)"
+
+
+def rise_truth(shape: str) -> float:
+    """The profile's own 10–90 % rise along the column (d): its first crossings of 0.1 and 0.9."""
+    from scipy.optimize import brentq
+
+    prof = W.FRONTS[shape]
+    u = np.linspace(-10, 10, 200001)
+    first = [u[np.flatnonzero(prof(u) >= lv)[0]] for lv in (0.1, 0.9)]
+    t = [brentq(lambda x, lv=lv: prof(x) - lv, a - 1e-3, a + 1e-4) for lv, a in zip((0.1, 0.9), first)]
+    return float((t[1] - t[0]) * FRONT_W)
+
+
+@lru_cache(maxsize=8)
+def widths(seed: int, column: str, shape: str) -> dict:
+    """The scene's width statistic (S.stat) over PACKINGS columns of one seed."""
+    out = []
+    for k in range(PACKINGS):
+        time, z, v = W.field(seed * PACKINGS + k, shape, int(HEIGHT), column, samples=SAMPLES,
+                             crossings=RECORD_CROSSINGS / VELOCITY_BOUND, front_width=FRONT_W)
+        r = front_picks(time, z, v, pick="crossing", column=HEIGHT)
+        out.append(S.rise_width(time, z, v, plateau=1.0, speed=r["speed"], fit_range=r["fit_range"]))
+    return S.stat(out)
+
+
 READINGS = {"ci95": "its 95 % interval (Student)", "2se": "value ± 2 errors"}
 SETTING = ("synthetic Hertz scene laid out as config/shocks.yaml (4 pressures × 10 packings, drives 0.01 … 100 "
            "to EPS δ0 ≤ 0.05): V/c0 = f_5/2(x/s_i) to x = 1.2 s_i, then slope 0.21; dip; noise 0.4–3.2 %")
@@ -235,6 +273,16 @@ def cases() -> list[Case]:
             return _quoted(_pressure(seed, p)["softening"]["ratio"])
         out.append(Case("shocks_scene.softening", f"{SETTING}; dip {DIP[p]:.0%}; p = {p:g}",
                         _softest_dip(p) if DIP[p] else 1.0, soft, fast=p == lo_p))
+    for column in ("chain", "packing"):
+        for shape in W.FRONTS:
+            # the chain: a control of the pick itself (its ± is the columns' sampling, ~1e-5: no
+            # interval checked, tolerance WIDTH_TOL); the disordered column: the scene's interval
+            def width(seed, column=column, shape=shape):
+                st = widths(seed, column, shape)
+                return (st["mean"], None, None) if column == "chain" else _quoted(st)
+            out.append(Case("shocks_scene.width", f"{WIDTH_SETTING}; {shape} front; "
+                            f"{'a chain, one grain per bin (no interval)' if column == 'chain' else W_PACKING}",
+                            rise_truth(shape), width, tolerance=WIDTH_TOL if column == "chain" else None))
     for name, truth in (("opened", FRACTIONS["opened"][0]), ("slid_fraction", _ratio(*FRACTIONS["slid"]))):
         def frac(seed, name=name):
             return _quoted(_pressure(seed, PRESSURES[1])["pushes"][-1][name])
