@@ -58,13 +58,15 @@ def test_mean_field_curve_limits():
 
 def test_crossover_and_its_pressure_scaling_recovered_from_the_mean_field_curve():
     """Records on the exact mean-field curve with δ0 ∝ p^(2/3): ε×/δ0 is the curve's own x× up to
-    the log-linear interpolation between half-decade pushes (0.2 % measured, tested at 1 %), and ε× ∝ p^(2/3) exactly."""
+    the monotone cubic between half-decade pushes (1.3 % here, the crossing 5 % below a push;
+    −0.4 % on average over the pushes' positions, 1.3 % at worst: decision 0053; tested at 2 %),
+    and ε× ∝ p^(2/3) exactly."""
     recs = [_record(p, s, speed=lambda x: S.mean_field_speed(x, 2.5))
             for p in (1e-7, 1e-6, 1e-5, 1e-4) for s in range(3)]
     a = S.shocks_scene(recs)["scenes"]["synthetic"]
     x_c = S.mean_field_crossover(2.5)
     for q in a["pressures"]:
-        assert q["crossover_over_static"]["mean"] == pytest.approx(x_c, rel=0.01)
+        assert q["crossover_over_static"]["mean"] == pytest.approx(x_c, rel=0.02)
         assert math.isnan(q["crossover_over_static"]["error"])  # 3 packings: a range, not a ±
         assert q["c0"]["mean"] == pytest.approx(0.2 * float(S.mean_field_speed(0.01, 2.5)), rel=1e-12)
     assert a["crossover_scaling"]["exponent"] == pytest.approx(2 / 3, abs=1e-9)
@@ -78,7 +80,7 @@ def test_known_exponent_and_crossover_within_the_quoted_error():
     """Noisy synthetic packings (1 % speed noise, 10 packings at each of two pressures):
     (a) V = c0 (x ≥ 1: x^β), β = 0.3: β from the pushes at x ≥ 10 (exact without noise) within 3
     quoted errors in at least 9 of 10 seeds; (b) V on the mean-field Hertz curve: ε×/δ0 within
-    3 quoted errors (+ 1 % for the interpolation between half-decade pushes, 0.2 % measured) of
+    3 quoted errors (+ 2 % for the interpolation between half-decade pushes, 1.3 % here) of
     the curve's exact x× in at least 9 of 10 seeds."""
     beta = 0.3
     power = lambda x: 1.0 if x < 1.0 else x**beta  # noqa: E731
@@ -96,8 +98,31 @@ def test_known_exponent_and_crossover_within_the_quoted_error():
                 for p in (1e-6, 1e-5) for s in range(10)]
         q = S.shocks_scene(recs)["scenes"]["synthetic"]["pressures"][0]["crossover_over_static"]
         assert q["n"] == 10 and q["error"] > 0
-        hits_cross += abs(q["mean"] - x_cross) < 3 * q["error"] + 0.01 * x_cross
+        hits_cross += abs(q["mean"] - x_cross) < 3 * q["error"] + 0.02 * x_cross
     assert hits_beta >= 9 and hits_cross >= 9
+
+
+def test_crossover_between_softened_pushes_and_its_propagated_error():
+    """(a) Pushes below the crossing softened (V/c0 < 1, as at the lowest recorded pressures): the
+    crossing lies between the two pushes around 1.1, where the cubic is monotone. (b) The error
+    propagated from the pushes' speed errors (each moving ln V/c0 and ln ε = ln v_p/V) matches
+    the spread of ε× over 2000 draws of 0.2 % noise on the mean-field curve, within 10 %."""
+    strain = np.array([0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0])
+    ratio = np.array([1.0, 0.97, 0.95, 0.96, 0.995, 1.15, 1.3])
+    e = S.crossover_strain(strain, ratio)
+    assert 1.0 < e < 3.0 and math.isfinite(e)
+    assert math.isnan(S.crossover_strain(strain, np.minimum(ratio, 1.05)))
+    rng = np.random.default_rng(3)
+    v_p = strain * S.mean_field_speed(strain, 2.5)  # v_p = ε V at c0 = 1
+    speed = S.mean_field_speed(strain, 2.5)
+    sigma = 0.002
+    quoted = S.crossover_error(strain, speed, sigma * speed)
+    draws = []
+    for _ in range(2000):
+        v = speed * (1.0 + sigma * rng.standard_normal(speed.size))
+        draws.append(S.crossover_strain(v_p / v, v / v[0]))
+    assert np.std(draws) == pytest.approx(quoted, rel=0.1)
+    assert math.isnan(S.crossover_error(strain, speed * 0 + 1.0, sigma * speed))  # never reached
 
 
 def test_harmonic_law_has_no_crossover_and_a_flat_curve():

@@ -92,12 +92,16 @@ def linear_speed(p: float) -> float:
     return C0_REF * (p / P_REF) ** ((ALPHA - 2.0) / (2.0 * (ALPHA - 1.0)))
 
 
-def curve(x, soft: float, dip: float):
-    """R(x) = V / c of a packing of softness ``soft`` and softening depth ``dip``."""
+def curve(x, soft: float, dip: float, tail: bool = True):
+    """R(x) = V / c of a packing of softness ``soft`` and softening depth ``dip``; without
+    ``tail`` the mean-field curve f_α(x / s) throughout (the crossover's scene)."""
     x = np.asarray(x, float)
     y = x / soft
-    f = np.where(y <= Y_TAIL, S.mean_field_speed(np.minimum(y, Y_TAIL), ALPHA),
-                 S.mean_field_speed(Y_TAIL, ALPHA) * (np.maximum(y, Y_TAIL) / Y_TAIL) ** BETA)
+    if not tail:
+        f = S.mean_field_speed(y, ALPHA)
+    else:
+        f = np.where(y <= Y_TAIL, S.mean_field_speed(np.minimum(y, Y_TAIL), ALPHA),
+                     S.mean_field_speed(Y_TAIL, ALPHA) * (np.maximum(y, Y_TAIL) / Y_TAIL) ** BETA)
     u = np.log(x / X_DIP)
     bump = np.where(np.abs(u) < DIP_SPAN, np.cos(0.5 * math.pi * u / DIP_SPAN) ** 2, 0.0)
     return f * (1.0 - dip * bump)
@@ -127,16 +131,17 @@ def _beta(rng, mean, sd):
     return rng.beta(mean * k, (1 - mean) * k)
 
 
-def _strain(eps_gain: float, soft: float, dip: float) -> float:
+def _strain(eps_gain: float, soft: float, dip: float, tail: bool = True) -> float:
     """x with x R(x) = eps_gain (x R increasing)."""
     from scipy.optimize import brentq
 
-    return math.exp(brentq(lambda lx: lx + math.log(float(curve(math.exp(lx), soft, dip))) - math.log(eps_gain),
+    return math.exp(brentq(lambda lx: lx + math.log(float(curve(math.exp(lx), soft, dip, tail))) - math.log(eps_gain),
                            math.log(eps_gain) - 3.0, math.log(eps_gain) + 1.0, xtol=1e-13))
 
 
-def records(seed: int) -> list[dict]:
-    """One synthetic scene's packing records (module docstring), through pulse_row and packing_record."""
+def records(seed: int, tail: bool = True) -> list[dict]:
+    """One synthetic scene's packing records (module docstring), through pulse_row and packing_record;
+    ``tail``: the curve's power law from Y_TAIL s_i (ψ's scene), else the mean-field curve throughout."""
     rng = np.random.default_rng(seed)
     out = []
     for p in PRESSURES:
@@ -154,8 +159,8 @@ def records(seed: int) -> list[dict]:
             rows = []
             drives = [e for e in DRIVES if e * d0 <= MAX_STRAIN]
             for j, eps in enumerate(drives):
-                x = _strain(eps * gain, soft, DIP[p])
-                v_true = c * float(curve(x, soft, DIP[p]))
+                x = _strain(eps * gain, soft, DIP[p], tail)
+                v_true = c * float(curve(x, soft, DIP[p], tail))
                 sigma = FAILED_ERROR if (failed and j == 0) else NOISE[p]
                 v = abs(v_true * (1 + sigma * rng.standard_normal()))
                 counts = {name: int(rng.binomial(N_CONTACTS, r)) for name, r in rates.items()}
@@ -171,12 +176,12 @@ def records(seed: int) -> list[dict]:
 
 
 @lru_cache(maxsize=None)  # every case reads every seed's one analysis
-def analysed(seed: int) -> dict:
-    return S.shocks_scene(records(seed), tail_from=TAIL_FROM)["scenes"]["synthetic"]
+def analysed(seed: int, tail: bool = True) -> dict:
+    return S.shocks_scene(records(seed, tail), tail_from=TAIL_FROM)["scenes"]["synthetic"]
 
 
-def _pressure(seed: int, p: float) -> dict:
-    return next(q for q in analysed(seed)["pressures"] if q["pressure"] == p)
+def _pressure(seed: int, p: float, tail: bool = True) -> dict:
+    return next(q for q in analysed(seed, tail)["pressures"] if q["pressure"] == p)
 
 
 def _quoted(stat: dict, reading: str = "ci95", value: str = "mean"):
@@ -238,6 +243,7 @@ def widths(seed: int, column: str, shape: str) -> dict:
 READINGS = {"ci95": "its 95 % interval (Student)", "2se": "value ± 2 errors"}
 SETTING = ("synthetic Hertz scene laid out as config/shocks.yaml (4 pressures × 10 packings, drives 0.01 … 100 "
            "to EPS δ0 ≤ 0.05): V/c0 = f_5/2(x/s_i) to x = 1.2 s_i, then slope 0.21; dip; noise 0.4–3.2 %")
+SETTING_CROSS = SETTING.replace("to x = 1.2 s_i, then slope 0.21", "throughout")
 
 
 def cases() -> list[Case]:
@@ -251,8 +257,8 @@ def cases() -> list[Case]:
                         fast=reading == "ci95"))
 
         def kappa(seed, reading=reading):
-            return _quoted(analysed(seed)["crossover_scaling"], reading, "exponent")
-        out.append(Case("shocks_scene.crossover_scaling", f"{SETTING}; {words}", 1.0 / (ALPHA - 1.0), kappa,
+            return _quoted(analysed(seed, tail=False)["crossover_scaling"], reading, "exponent")
+        out.append(Case("shocks_scene.crossover_scaling", f"{SETTING_CROSS}; {words}", 1.0 / (ALPHA - 1.0), kappa,
                         fast=reading == "ci95"))
     for p in PRESSURES[:3]:
         def tail_p(seed, p=p):
@@ -261,8 +267,8 @@ def cases() -> list[Case]:
     cross = X_CROSS * _softness_mean()
     for p in PRESSURES:
         def cross_p(seed, p=p):
-            return _quoted(_pressure(seed, p)["crossover_over_static"])
-        out.append(Case("shocks_scene.crossover_over_static", f"{SETTING}; p = {p:g}", cross, cross_p,
+            return _quoted(_pressure(seed, p, tail=False)["crossover_over_static"])
+        out.append(Case("shocks_scene.crossover_over_static", f"{SETTING_CROSS}; p = {p:g}", cross, cross_p,
                         fast=p == lo_p))
 
         def c0(seed, p=p):
