@@ -125,6 +125,26 @@ def test_crossover_between_softened_pushes_and_its_propagated_error():
     assert math.isnan(S.crossover_error(strain, speed * 0 + 1.0, sigma * speed))  # never reached
 
 
+def test_crossover_scaling_error_is_hc3():
+    """κ's error: the HC3 sandwich (X'X)⁻¹ X' diag(r²/(1 − h)²) X (X'X)⁻¹ of the regression of ln ε×
+    on ln p, computed here with the full matrices, on points whose scatter grows towards low p."""
+    rng = np.random.default_rng(5)
+    p = np.repeat([1e-7, 1e-6, 1e-5, 1e-4], 10)
+    e = p ** (2 / 3) * np.exp(rng.standard_normal(p.size) * np.where(p < 1e-6, 0.5, 0.1))
+    sc = S._scaling(list(zip(p, e)))
+    X = np.column_stack([np.ones(p.size), np.log(p)])
+    y = np.log(e)
+    inv = np.linalg.inv(X.T @ X)
+    coef = inv @ X.T @ y
+    r = y - X @ coef
+    h = np.einsum("ij,jk,ik->i", X, inv, X)
+    cov = inv @ X.T @ np.diag(r**2 / (1 - h) ** 2) @ X @ inv
+    assert sc["exponent"] == pytest.approx(coef[1], rel=1e-12)
+    assert sc["error"] == pytest.approx(math.sqrt(cov[1, 1]), rel=1e-10)
+    t = float(__import__("scipy.stats", fromlist=["t"]).t.ppf(0.975, p.size - 2))
+    assert sc["ci95"] == pytest.approx([coef[1] - t * sc["error"], coef[1] + t * sc["error"]], rel=1e-12)
+
+
 def test_harmonic_law_has_no_crossover_and_a_flat_curve():
     recs = [_record(p, s, speed=lambda x: 1.0, law="harmonic contact", scene="harm") for p in (1e-6, 1e-5)
             for s in range(5)]

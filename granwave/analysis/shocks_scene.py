@@ -28,7 +28,7 @@ Quantities (units: d̄, √(E*/ρ)):
   is measurement). Mean field: ε× = x×(α) δ0 with f_α(x×) = CROSSOVER_RATIO.
   Its scaling with pressure: the least-squares slope of ln ε× against ln p over the packings of
   the pressures where at least half the packings reached ε× (expected 1/(α − 1) = 2/3 for Hertz,
-  the static strain's own).
+  the static strain's own), with a heteroscedasticity-robust (HC3) error.
 - **strongly nonlinear exponent** β: per packing, the least-squares slope of ln V against ln ε
   over its pushes at ε/δ0 ≥ ``tail_from``; compared with (α − 2)/2 (1/4 for Hertz) and with
   the mean-field curve's own slope over the same window (at finite x f_α is not yet at its
@@ -332,13 +332,25 @@ def _law_key(law: str) -> str:
 
 
 def _scaling(points: Sequence[tuple[float, float]]) -> dict:
-    """Slope of ln ε× against ln p over the packings (each packing one point) with its standard error
-    and its 95 % interval ``ci95`` (Student, n − 2 degrees of freedom)."""
+    """Slope of ln ε× against ln p over the packings (each packing one point) with its standard
+    error and its 95 % interval ``ci95`` (Student, n − 2 degrees of freedom). The error is the
+    heteroscedasticity-robust HC3 one (MacKinnon & White 1985): the packings' scatter of ln ε×
+    differs from pressure to pressure (the weakest pushes are the noisiest at the lowest p, at
+    one end of the lever arm), where the ordinary least-squares error assumes one scatter for
+    all (decision 0053: its interval held κ's truth in 89 % of synthetic scenes, HC3's in 93 %)."""
     pts = [(p, e) for p, e in points if math.isfinite(e) and e > 0]
     if len({p for p, _ in pts}) < 2:
         return dict(exponent=math.nan, error=math.nan, ci95=[math.nan, math.nan], n=len(pts),
                     n_pressures=len({p for p, _ in pts}))
-    slope, err = loglog_slope([p for p, _ in pts], [e for _, e in pts])
+    lx = np.log([p for p, _ in pts])
+    ly = np.log([e for _, e in pts])
+    slope, _ = loglog_slope(np.exp(lx), np.exp(ly))
+    xc = lx - lx.mean()
+    sxx = float(np.sum(xc * xc))
+    resid = ly - ly.mean() - slope * xc
+    lever = 1.0 / lx.size + xc * xc / sxx
+    err = (math.sqrt(float(np.sum(xc * xc * resid * resid / (1.0 - lever) ** 2))) / sxx
+           if lx.size >= 3 and np.all(lever < 1.0) else math.nan)
     return dict(exponent=slope, error=err, ci95=ci95(slope, err, len(pts) - 2), n=len(pts),
                 n_pressures=len({p for p, _ in pts}))
 
