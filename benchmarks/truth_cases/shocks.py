@@ -80,9 +80,10 @@ FRONTS = {"tanh": _tanh, "tanh with a 40 % overshoot": _overshoot}
 
 
 def field(seed: int, shape: str, height: int, column: str, *, samples: int = SAMPLES, crossings: float = CROSSINGS,
-          front_width: float = SHOCK_W):
+          front_width: float = SHOCK_W, formation: tuple[float, float] = FORMATION):
     """(time, bin centres, velocity (B, T)) of one seed (module docstring); ``samples`` over
-    ``crossings`` crossings and the front's ``front_width`` W as other callers sample them."""
+    ``crossings`` crossings, the front's ``front_width`` W and the ``formation`` delay (d / V,
+    length d) as other callers sample them."""
     rng = np.random.default_rng(seed)
     t_cross = height / SPEED
     t_max = crossings * t_cross * (1.0 + 0.02 * (2.0 * rng.random() - 1.0))
@@ -107,7 +108,7 @@ def field(seed: int, shape: str, height: int, column: str, *, samples: int = SAM
     count = 1 + rng.poisson(GRAINS_PER_BIN, height)
     owner = np.repeat(np.arange(height), count)
     z = owner + rng.random(owner.size)
-    delay = JITTER / SPEED * rng.standard_normal(owner.size) + FORMATION[0] / SPEED * np.exp(-z / FORMATION[1])
+    delay = JITTER / SPEED * rng.standard_normal(owner.size) + formation[0] / SPEED * np.exp(-z / formation[1])
     starts = np.concatenate([[0], np.cumsum(count)[:-1]])
     out = np.add.reduceat(velocity(z[:, None], t - delay[:, None]), starts, axis=0) / count[:, None]
     # the mean of the grains' independent remainders: one per bin, of standard deviation NOISE / sqrt(count)

@@ -215,6 +215,7 @@ WIDTH_SETTING = (f"rise_width on piston fronts v_p S((Vt − z)/{FRONT_W:g} d) o
                  f"{SAMPLES} samples over {RECORD_CROSSINGS:g} crossings at {VELOCITY_BOUND:g} V, speed and fit "
                  "range from front_picks (crossing); mean over 10 columns")
 W_PACKING = "a disordered column as shocks.* (~8 grains per bin, jitter, formation, 2 % remainder)"
+W_PACKING_STEADY = "the same disordered column without the formation delay (a front steady from the source)"
 
 
 def rise_truth(shape: str) -> float:
@@ -229,12 +230,14 @@ def rise_truth(shape: str) -> float:
 
 
 @lru_cache(maxsize=8)
-def widths(seed: int, column: str, shape: str) -> dict:
-    """The scene's width statistic (S.stat) over PACKINGS columns of one seed."""
+def widths(seed: int, column: str, shape: str, formation: bool = True) -> dict:
+    """The scene's width statistic (S.stat) over PACKINGS columns of one seed; without
+    ``formation``, a front steady from the source (no formation delay)."""
     out = []
     for k in range(PACKINGS):
         time, z, v = W.field(seed * PACKINGS + k, shape, int(HEIGHT), column, samples=SAMPLES,
-                             crossings=RECORD_CROSSINGS / VELOCITY_BOUND, front_width=FRONT_W)
+                             crossings=RECORD_CROSSINGS / VELOCITY_BOUND, front_width=FRONT_W,
+                             formation=W.FORMATION if formation else (0.0, W.FORMATION[1]))
         r = front_picks(time, z, v, pick="crossing", column=HEIGHT)
         out.append(S.rise_width(time, z, v, plateau=1.0, speed=r["speed"], fit_range=r["fit_range"]))
     return S.stat(out)
@@ -289,6 +292,12 @@ def cases() -> list[Case]:
             out.append(Case("shocks_scene.width", f"{WIDTH_SETTING}; {shape} front; "
                             f"{'a chain, one grain per bin (no interval)' if column == 'chain' else W_PACKING}",
                             rise_truth(shape), width, tolerance=WIDTH_TOL if column == "chain" else None))
+    # the same disordered column with a front steady from the source: what the bins' and the
+    # grains' arrival spread alone add (the formation's share is in the fitted speed)
+    def width_steady(seed):
+        return _quoted(widths(seed, "packing", "tanh", False))
+    out.append(Case("shocks_scene.width", f"{WIDTH_SETTING}; tanh front; {W_PACKING_STEADY}", rise_truth("tanh"),
+                    width_steady))
     for name, truth in (("opened", FRACTIONS["opened"][0]), ("slid_fraction", _ratio(*FRACTIONS["slid"]))):
         def frac(seed, name=name):
             return _quoted(_pressure(seed, PRESSURES[1])["pushes"][-1][name])
