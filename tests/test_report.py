@@ -434,3 +434,21 @@ def test_no_markup_from_file_names_or_text_reaches_the_html(tmp_path):
     assert not [a for _, a in seen if any("javascript" in (v or "") for v in a.values())]
     assert ("a", {"id": "figures"}) in seen and ("td", {"align": "right"}) in seen
     assert [a for t, a in seen if t == "img" and a.get("src", "").endswith("onerror=alert(1)>.png")]
+
+
+def test_shocks_cells_print_the_student_interval_and_ranges_under_five():
+    # the shocks tables: mean [95 % interval] (Student, n − 1) over ≥ 5 packings, recomputed for a
+    # record written before stat() gave ci95; the range (min … max) under 5 packings
+    from scipy import stats as st
+
+    from granwave.analysis.shocks_scene import stat
+    from granwave.report.shocks import cell
+
+    s = stat([1.0, 1.2, 1.4, 1.1, 1.3, 1.25, 1.15, 1.05, 1.35, 1.2])
+    half = st.t.ppf(0.975, 9) * s["error"]
+    text = f"{s['mean']:.2f} [{s['mean'] - half:.2f}, {s['mean'] + half:.2f}]"
+    assert cell(s) == text
+    old = {k: v for k, v in s.items() if k != "ci95"}
+    assert cell(old) == text
+    assert cell(stat([1.0, 1.3, 1.1, 1.2])) == "1 … 1.3"
+    assert cell(stat([2.5])) == "2.5"

@@ -6,6 +6,9 @@
   |value| and error is ≥ 1e5 or < 1e-3 both share one power of ten:
   ``(-4 ± 6)e-04``. A value without an error (a theory value, one
   deterministic system) keeps ``digits`` significant digits.
+* **value [95 % interval]** (:func:`fmt_ci`): the value and both ends rounded as
+  ``value ± error`` rounds them (the error's decimal place, one shared power of ten
+  outside [1e-3, 1e5)): ``3.8 [2.9, 4.7]``, ``(5.12 [5.04, 5.20])e-05``.
 * **counts** (:func:`fmt_count`): integers, never 1.17e+03.
 * **ranges** (:func:`fmt_range`): min … max with as many digits as it takes
   to tell them apart; integers as integers.
@@ -74,6 +77,25 @@ def fmt(x, err=None, digits: int = 4) -> str:
         d = E - q
         return f"({_fixed(xr / 10 ** E, d)} ± {_fixed(er / 10 ** E, d)})e{E:+03d}"
     return f"{_fixed(xr, -q)} ± {_fixed(er, -q)}"
+
+
+def fmt_ci(x, err, lo, hi, digits: int = 4) -> str:
+    """``value [lo, hi]``: a value and its 95 % interval, rounded at the decimal place of
+    ``err`` (its standard error) as :func:`fmt` rounds; :func:`fmt` when an end or the error is
+    missing."""
+    x, e, lo, hi = num(x), num(err), num(lo), num(hi)
+    if not (math.isfinite(x) and math.isfinite(e) and e > 0 and math.isfinite(lo) and math.isfinite(hi)):
+        return fmt(x, err, digits)
+    _, q = _error_digits(e)
+    if x and _exp10(x) - q + 1 > MAX_DIGITS:
+        q = _exp10(x) - MAX_DIGITS + 1
+    xr, lr, hr = (round(v, -q) + 0.0 for v in (x, lo, hi))
+    big = max(abs(xr), abs(lr), abs(hr))
+    if big >= SCI_HIGH or big < SCI_LOW:
+        E = _exp10(big)
+        d = E - q
+        return f"({_fixed(xr / 10 ** E, d)} [{_fixed(lr / 10 ** E, d)}, {_fixed(hr / 10 ** E, d)}])e{E:+03d}"
+    return f"{_fixed(xr, -q)} [{_fixed(lr, -q)}, {_fixed(hr, -q)}]"
 
 
 def fmt_count(x) -> str:

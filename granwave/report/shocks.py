@@ -15,7 +15,19 @@ import math
 from pathlib import Path
 from typing import Mapping, Sequence
 
-from .numbers import MISSING, fmt, fmt_count, fmt_range, num
+from .numbers import MISSING, fmt, fmt_ci, fmt_count, fmt_range, num
+
+
+def _ci(stat: Mapping, dof: float) -> list:
+    """A stat's 95 % interval: its ``ci95``, or (a record written before stat() gave one) Student's
+    t(0.975, ``dof``) times its error about its mean."""
+    ci = stat.get("ci95")
+    if ci is not None and len(ci) == 2:
+        return list(ci)
+    from ..analysis.shocks_scene import ci95
+
+    d = num(dof)
+    return ci95(num(stat.get("mean", stat.get("exponent"))), num(stat.get("error")), int(d) if d >= 1 else 0)
 
 
 def shocks_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str, Mapping]:
@@ -30,7 +42,8 @@ def shocks_inputs(items: Sequence[tuple[Path, object, str | None]]) -> dict[str,
 
 
 def cell(stat: Mapping | None, digits: int = 3) -> str:
-    """mean ± standard error over 5 packings or more; the range (min … max) over fewer."""
+    """mean [its 95 % interval] (Student, n − 1 degrees of freedom) over 5 packings or more; the
+    range (min … max) over fewer."""
     stat = stat or {}
     n = num(stat.get("n"))
     if not (n >= 1):
@@ -39,7 +52,8 @@ def cell(stat: Mapping | None, digits: int = 3) -> str:
         if n == 1:
             return fmt(stat.get("mean"), None, digits)
         return fmt_range(stat.get("min"), stat.get("max"))
-    return fmt(stat.get("mean"), stat.get("error"), digits)
+    lo, hi = _ci(stat, n - 1)
+    return fmt_ci(stat.get("mean"), stat.get("error"), lo, hi, digits)
 
 
 def _sigma(value: Mapping, expected: float) -> str:
@@ -58,7 +72,7 @@ def summary_table(scenes: Mapping[str, Mapping]) -> list[str]:
         t, sc = a["tail_exponent"], a["crossover_scaling"]
         lo, hi = (a.get("tail_window") or [math.nan, math.nan])[:2]
         window = f" ({fmt(lo, None, 2)} … {fmt(hi, None, 2)})" if math.isfinite(num(lo)) else ""
-        kappa = (fmt(sc.get("exponent"), sc.get("error"), 3)
+        kappa = (fmt_ci(sc.get("exponent"), sc.get("error"), *_ci(sc, num(sc.get("n")) - 2), 3)
                  + f" ({fmt_count(sc.get('n_pressures'))} pressures)" if math.isfinite(num(sc.get("exponent")))
                  else MISSING)
         md.append(f"| {scene} | {a['contact_law']}, {num(a['friction']):g} | {fmt_count(a['n_packings'])} | "
@@ -110,7 +124,9 @@ def shocks_section(scenes: Mapping[str, Mapping]) -> list[str]:
           "packing's pushes at ε/δ0 ≥ the scene's window start (Gómez, Turner, van Hecke, Vitelli, "
           "PRL 108, 058001 (2012): ψ = (α_c − 2)/2, ε× ∝ δ0 ∝ p^(1/(α_c−1))). The mean-field column "
           "(jump conditions of a uniform column of such contacts) gives the slope a finite window "
-          "can show. ± is the standard error over the packings; under 5 packings the range. The "
+          "can show. Each mean is followed by its 95 % interval in brackets (Student's t over the "
+          "packings, n − 1 degrees of freedom: 2.26 standard errors over ten; κ's with n − 2); under 5 "
+          "packings the range (min … max) instead. The "
           "opened fraction is of the contacts of t = 0, the slid one of all the contacts that existed "
           "(formed ones included), both over the whole record, the top wall's reflection included; "
           "a smallest V/V_0 below 1 is the softening before the hardening. The rise width (10–90 %, × V) is broadened on disordered "
