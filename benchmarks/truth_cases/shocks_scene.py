@@ -16,7 +16,10 @@ benchmarks/results/shocks_scene.jsonl; docs/decisions/0051-shocks-scene-truth.md
   record's smallest mean V/c0, 0.95, 0.973, 1, 0.999); the softness s_i = S e^{σ z}, z a normal
   truncated at ± 2.5 (σ = 0.3: the record's ε×/δ0 spreads 26–33 % at 1e-6 and 1e-5), so that
   ε×_i = x×(α) s_i δ0_i exactly (x× = mean_field_crossover, above the dip and below the tail)
-  and every push at x ≥ 10 lies on the power law;
+  and every push at x ≥ 10 lies on the power law. The crossover's cases (ε×/δ0, κ) run on the
+  same scene with f_α(x / s_i) throughout: the power law's slope (0.21 against f_α's 0.09 at
+  Y_TAIL) jumps 26 % above ε×, between the pushes, a shape no recorded curve has and no reading
+  between half-decade pushes can see (docs/decisions/0053-shocks-crossover-and-width.md);
 * the piston: v_p = EPS g_i δ0_i c_i with g_i = 1.3 (1 + 17 % N) (the record's x / EPS at the
   weakest push, 1.24–1.41, spread 15–21 %), so the steady front's strain ε = v_p / V solves
   x R_i(x) = EPS g_i;

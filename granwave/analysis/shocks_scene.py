@@ -43,9 +43,11 @@ Quantities (units: d̄, √(E*/ρ)):
 - **softening**: per pressure the smallest mean V/c0 over the pushes and its ε/δ0 (below 1: the
   medium softens before the contact law's hardening wins).
 - **shock width** w: (t_90 − t_10) V, the 10 %–90 % rise of each height bin's mean velocity to
-  v_p, median over the fitted bins (:func:`rise_width`). On disordered columns it is broadened by
-  the 1 d bins and the grains' arrival jitter (docs/shocks.md: the half-maximum width is 9–17 %
-  too wide there): an upper estimate, quoted only with that caveat.
+  v_p, median over the fitted bins (:func:`rise_width`): the front as the bins see it where V is
+  fitted. On disordered columns the bin mean includes the grains' arrival spread (1 d bins,
+  jitter: +2 % on the truth suite's column), and on a short column V is a still-forming front's
+  (+4.5 % there): an upper estimate of the steady front's width, quoted with that caveat
+  (docs/shocks.md).
 
 Errors: per-packing quantities are averaged over the packings of a point; the ± is the standard
 error of that mean, and under :data:`MIN_FOR_ERROR` packings the range (min, max) is given instead.

@@ -129,7 +129,9 @@ def shocks_section(scenes: Mapping[str, Mapping]) -> list[str]:
           "packings the range (min … max) instead. The "
           "opened fraction is of the contacts of t = 0, the slid one of all the contacts that existed "
           "(formed ones included), both over the whole record, the top wall's reflection included; "
-          "a smallest V/V_0 below 1 is the softening before the hardening. The rise width (10–90 %, × V) is broadened on disordered "
-          "columns by the 1 d bins and the arrival jitter: an upper estimate, not a validated width.",
+          "a smallest V/V_0 below 1 is the softening before the hardening. The rise width (10–90 % rise time × V) is the front as "
+          "the bins see it where the speed is fitted: on disordered columns broadened by the bins' "
+          "arrival spread, on these short columns multiplied by a still-forming front's speed: an upper "
+          "estimate of the steady front's width, not a validated one.",
           ""]
     return md + scene_tables(scenes) + [""]
