@@ -12,8 +12,8 @@ Quantities (units: d̄, √(E*/ρ)):
   material ahead at rest); the collapse's abscissa is ε/δ0.
 - **pushes used**: those whose front-speed fit has a relative standard error of at most
   :data:`MAX_RELATIVE_ERROR` (the others are counted as rejected).
-- **linear speed** c0 of a packing: the mean front speed of its pushes at ε/δ0 ≤ :data:`LINEAR_LIMIT`
-  (at least one is needed); V/c0 against ε/δ0 is the collapse (Gómez, Turner, van Hecke,
+- **linear speed** c0 of a packing: the front speed of its weakest usable push, which must lie at
+  ε/δ0 ≤ :data:`LINEAR_LIMIT` (:func:`packing_curve`); V/c0 against ε/δ0 is the collapse (Gómez, Turner, van Hecke,
   Vitelli, PRL 108, 058001 (2012)).
 - **mean-field curve** for a contact force ∝ δ^(α−1) (Hertz α = 5/2, harmonic α = 2): a
   uniform column of such contacts precompressed by δ0 and pushed to δ0 + ε obeys the jump
