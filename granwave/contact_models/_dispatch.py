@@ -30,13 +30,13 @@ from . import rolling as _rolling_sds
 NormalModel = namedtuple('NormalModel', ('code', 'c0', 'c1', 'c2'), defaults=(0.0, 0.0, 0.0, ))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_of(fpar):
     """The NormalModel of the engine's parameters."""
     return NormalModel(int(fpar.normal_code), fpar.normal_c0, fpar.normal_c1, fpar.normal_c2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_force(model, overlap, root_r12, e12):
     """Normal contact law: ``force`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -48,7 +48,7 @@ def law_force(model, overlap, root_r12, e12):
     return _normal_hertz.force(overlap, root_r12, e12)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_stiffness(model, overlap, root_r12, e12):
     """Normal contact law: ``stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -60,7 +60,7 @@ def law_stiffness(model, overlap, root_r12, e12):
     return _normal_hertz.stiffness(overlap, root_r12, e12)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_energy(model, overlap, r12, e12):
     """Normal contact law: ``energy`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -72,7 +72,7 @@ def law_energy(model, overlap, r12, e12):
     return _normal_hertz.energy(overlap, r12, e12)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_tangential_stiffness(model, overlap, r12, g12):
     """Normal contact law: ``tangential_stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -84,7 +84,7 @@ def law_tangential_stiffness(model, overlap, r12, g12):
     return _normal_hertz.tangential_stiffness(overlap, r12, g12)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_unloading_scale(model, overlap_old, overlap_new):
     """Normal contact law: ``unloading_scale`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -96,7 +96,7 @@ def law_unloading_scale(model, overlap_old, overlap_new):
     return _normal_hertz.unloading_scale(overlap_old, overlap_new)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def law_step_stiffness(model, overlap, root_r12, e12):
     """Normal contact law: ``step_stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -113,13 +113,13 @@ def law_step_stiffness(model, overlap, root_r12, e12):
 DampingModel = namedtuple('DampingModel', ('code', 'c0'), defaults=(0.0, ))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def dashpot_of(fpar):
     """The DampingModel of the engine's parameters."""
     return DampingModel(int(fpar.damping_code), fpar.damping)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def dashpot_acts(model):
     """Contact damping law: ``acts`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -127,7 +127,7 @@ def dashpot_acts(model):
     return _damping_critical_fraction.acts(model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def dashpot_coefficient(model, meff, k, overlap):
     """Contact damping law: ``coefficient`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -135,7 +135,7 @@ def dashpot_coefficient(model, meff, k, overlap):
     return _damping_critical_fraction.coefficient(meff, k, overlap, model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def dashpot_step_ratio(model, k, m):
     """Contact damping law: ``step_ratio`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -148,13 +148,13 @@ def dashpot_step_ratio(model, k, m):
 TangentialModel = namedtuple('TangentialModel', ('code', 'c0', 'c1'), defaults=(0.0, 0.0, ))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def friction_of(fpar):
     """The TangentialModel of the engine's parameters."""
     return TangentialModel(int(fpar.tangential_code), fpar.friction, fpar.tangential_c1)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def friction_acts(model):
     """Tangential contact law: ``acts`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -162,7 +162,7 @@ def friction_acts(model):
     return _tangential_mindlin.acts(model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def tangential_spring(model, kt_law, overlap, e12):
     """Tangential contact law: ``stiffness`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -170,7 +170,7 @@ def tangential_spring(model, kt_law, overlap, e12):
     return _tangential_mindlin.stiffness(kt_law, overlap, e12, model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def tangential_unloads(model, overlap_old, overlap_new, rescale):
     """Tangential contact law: ``unloads`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -178,7 +178,7 @@ def tangential_unloads(model, overlap_old, overlap_new, rescale):
     return _tangential_mindlin.unloads(overlap_old, overlap_new, rescale, model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def tangential_increment(model, fx, fy, fz, sx, sy, sz, kt, fel):
     """Tangential contact law: ``increment`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -186,7 +186,7 @@ def tangential_increment(model, fx, fy, fz, sx, sy, sz, kt, fel):
     return _tangential_mindlin.increment(fx, fy, fz, sx, sy, sz, kt, fel, model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def tangential_step_ratio(model, kn, m, poisson):
     """Tangential contact law: ``step_ratio`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -194,7 +194,7 @@ def tangential_step_ratio(model, kn, m, poisson):
     return _tangential_mindlin.step_ratio(kn, m, poisson, model.c0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def tangential_at_limit(model, fx, fy, fz, fel, tol):
     """Tangential contact law: ``at_limit`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -207,13 +207,13 @@ def tangential_at_limit(model, fx, fy, fz, fel, tol):
 RollingModel = namedtuple('RollingModel', ('code', 'c0', 'c1', 'c2'), defaults=(0.0, 0.0, 0.0, ))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def couple_of(fpar):
     """The RollingModel of the engine's parameters."""
     return RollingModel(int(fpar.rolling_code), fpar.rolling_c0, fpar.rolling_c1, fpar.rolling_c2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def contact_couple(model, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt):
     """Rolling resistance: ``couple`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -221,7 +221,7 @@ def contact_couple(model, nx, ny, nz, rx, ry, rz, r12, fel, hx, hy, hz, dt):
     return 0.0, 0.0, 0.0, hx, hy, hz
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def spring_couple(model, nx, ny, nz, rx, ry, rz, r12, hx, hy, hz):
     """Rolling resistance: ``spring_couple`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -229,7 +229,7 @@ def spring_couple(model, nx, ny, nz, rx, ry, rz, r12, hx, hy, hz):
     return 0.0, 0.0, 0.0
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def couple_in_plane(model, hx, hy, hz, nx, ny, nz):
     """Rolling resistance: ``in_plane`` of the sub-model of ``model``'s code."""
     if model.code == 1:
@@ -237,7 +237,7 @@ def couple_in_plane(model, hx, hy, hz, nx, ny, nz):
     return hx, hy, hz
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def couple_step_mode(model, m_min):
     """Rolling resistance: ``step_mode`` of the sub-model of ``model``'s code."""
     if model.code == 1:

@@ -243,7 +243,10 @@ def table_source() -> str:
 
 def _dispatcher(kind, rows, fn, name, args, call, off) -> list[str]:
     params = ", ".join(["model"] + ([args] if args else []))
-    lines = ["", "", '@numba.njit(cache=True, inline="always")', f"def {name}({params}):",
+    # not inlined at numba's level: a kernel calling a dispatcher would otherwise type every
+    # registered sub-model's branch at each call site (the cold compile grew with each law);
+    # LLVM still inlines the compiled function (docs/decisions/0052-dispatchers-not-inlined.md)
+    lines = ["", "", '@numba.njit(cache=True)', f"def {name}({params}):",
              f'    """{kind.help}: ``{fn}`` of the sub-model of ``model``\'s code."""']
     fall = None
     for code, m in rows:
@@ -279,7 +282,7 @@ def dispatch_source() -> str:
                   "#: sub-model with fewer constants than the kind's largest count leaves the others 0; Python may",
                   "#: leave them out)",
                   f"{tup} = namedtuple({tup!r}, ({fields}), defaults=({'0.0, ' * n}))", "", "",
-                  '@numba.njit(cache=True, inline="always")', f"def {kind.reader}(fpar):",
+                  '@numba.njit(cache=True)', f"def {kind.reader}(fpar):",
                   f'    """The {tup} of the engine\'s parameters."""',
                   f"    return {tup}(int(fpar.{kind.name}_code){consts})"]
         for _, m in by_kind[kind.name]:
