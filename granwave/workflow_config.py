@@ -624,10 +624,10 @@ def shear_error(config: dict) -> str | None:
                     f"shear speed, then one period): it needs t_max >= {needed:.4g}, a record of at least "
                     f"{math.ceil(1000 * (1.0 - 3.0 * max(lams) / h_top)) / 1000:g}")
         message = params_error(PropagateParams,
-                               dict(method="time", ic="A", source_kind="shear", t_max=t_max,
+                               dict(method=spec["method"], ic="A", source_kind="shear", t_max=t_max,
                                     samples=spec["samples"], safety=spec["time_safety"]),
                                {"t_max": f"{base}.record", "samples": f"{base}.samples",
-                                "safety": f"{base}.time_safety"}, f" (shear scene {scene})")
+                                "safety": f"{base}.time_safety", "method": f"{base}.method"}, f" (shear scene {scene})")
         if message:
             return message
     return None

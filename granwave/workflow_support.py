@@ -437,7 +437,8 @@ def run_shear_sample(sample: dict, log=print) -> list[dict]:
     source wavelength, and one record (:func:`granwave.analysis.shear_scene.sample_record`).
 
     ``sample``: ``scene``, ``source_scene``, ``pressure``, ``size``, ``seed``, ``wavelengths``
-    (d; f = c/λ with c the packing's own c_t, c_l), ``pulse``, ``safety``, ``samples``,
+    (d; f = c/λ with c the packing's own c_t, c_l), ``pulse``, ``method`` (propagate's: time, modal
+    or auto; default time), ``safety``, ``samples``,
     ``record`` (crossings, :func:`shear_record_length`), ``in`` (``linear``, ``moduli``: the
     source scene's files) and ``out`` (``shear_signal``, ``normal_signal``, ``picks``). A packing
     whose moduli give no finite c_t or c_l is recorded with its reason and no picks.
@@ -474,7 +475,7 @@ def run_shear_sample(sample: dict, log=print) -> list[dict]:
         c = float(c)
         height = float(system.attrs["height"])
         t_max = float(f"{shear_record_length(height, c, record=sample['record'], wavelengths=lams):.6g}")
-        params = PropagateParams(method="time", ic="A", source_kind=kind, t_max=t_max,
+        params = PropagateParams(method=sample.get("method", "time"), ic="A", source_kind=kind, t_max=t_max,
                                  samples=_nyquist_samples(system, t_max, sample["samples"]),
                                  safety=sample["safety"])
 

@@ -781,7 +781,8 @@ def shear_sample(scene, p, size, seed):
     src, tail = spec["scene"], f"p{p}/{size}/s{seed}"
     return {"scene": scene, "source_scene": src, "pressure": p, "size": size, "seed": seed,
             "wavelengths": [float(w) for w in spec["wavelengths"]], "pulse": spec["pulse"],
-            "safety": spec["time_safety"], "samples": spec["samples"], "record": spec["record"],
+            "method": spec["method"], "safety": spec["time_safety"], "samples": spec["samples"],
+            "record": spec["record"],
             "in": {"linear": f"{R}/linear/{src}/{tail}.h5", "moduli": f"{R}/moduli/{src}/{tail}.json"},
             "out": {"shear_signal": f"{R}/shear_signal/{scene}/{tail}.h5",
                     "normal_signal": f"{R}/shear_pwave/{scene}/{tail}.h5",
