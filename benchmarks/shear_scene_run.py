@@ -94,7 +94,7 @@ def main() -> None:
                 stail = f"{args.scene}/p{_fmt_p(p)}/{_height_label(h)}/s{seed}"
                 sample = {"scene": args.scene, "source_scene": src, "pressure": _fmt_p(p),
                           "size": _height_label(h), "seed": seed, "wavelengths": lams,
-                          "pulse": sh.get("pulse", "ricker"), "safety": sh.get("time_safety", 0.1),
+                          "pulse": sh.get("pulse", "ricker"), "method": sh.get("method", "auto"), "safety": sh.get("time_safety", 0.1),
                           "samples": sh.get("samples", 2000), "record": sh.get("record", 3.0),
                           "in": {"linear": str(paths["linear"]), "moduli": str(paths["moduli"])},
                           "out": {"shear_signal": str(Path(R) / "shear_signal" / f"{stail}.h5"),

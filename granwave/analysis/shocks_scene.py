@@ -344,9 +344,9 @@ def _scaling(points: Sequence[tuple[float, float]]) -> dict:
     if len({p for p, _ in pts}) < 2:
         return dict(exponent=math.nan, error=math.nan, ci95=[math.nan, math.nan], n=len(pts),
                     n_pressures=len({p for p, _ in pts}))
+    slope, _ = loglog_slope([p for p, _ in pts], [e for _, e in pts])
     lx = np.log([p for p, _ in pts])
     ly = np.log([e for _, e in pts])
-    slope, _ = loglog_slope(np.exp(lx), np.exp(ly))
     xc = lx - lx.mean()
     sxx = float(np.sum(xc * xc))
     resid = ly - ly.mean() - slope * xc
