@@ -444,3 +444,50 @@ def test_claims_give_each_block_once_and_leave_an_owner_its_next_block():
     assert [b for b in taken[2] if b >= 0] == [8, 9, 10]
     assert [b for b in taken[3] if b >= 0] == [12]
     assert np.all(claims[1:nblk + 1] == phase)
+
+
+#: The step's kernels, each reached from several call sites (one-thread loop, parallel passes,
+#: team of threads, frozen forces): one machine-code version each. A literal argument (a
+#: constant True, a 0 numba has not yet unified with the int64 it becomes, a prange index typed
+#: uint64) compiles a kernel once more for that type; on a cold cache the parallel passes took
+#: 206 CPU-s to compile instead of about 130.
+ONE_SIGNATURE = [
+    ("granwave.dem.passes", ("_incoming_pass", "_incoming_block", "_row_pass", "_row_block", "_forces",
+                             "_finish", "_slab_job", "compute_forces")),
+    ("granwave.dem.team_steps", ("_team_steps", "_team_region", "_team_thread")),
+    ("granwave.dem.chunk", ("run_chunk",)),
+    ("granwave.dem.serial", ("run_chunk", "_force_loop", "compute_forces")),
+    ("granwave.dem.workspace", ("refresh_wall_list", "_lists", "incoming_lists")),
+    ("granwave.dem.time_step", ("needs_rebuild",)),
+    ("granwave.dem.blocks", ("visit_order",)),
+]
+
+
+def _signatures(kernel) -> set:
+    """The argument types ``kernel`` has machine code for on this CPU: compiled or loaded in this
+    process, or in numba's cache index (a kernel called only from cached kernels is never
+    loaded itself; the index holds what any process compiled from this source)."""
+    found = {tuple(sig) for sig in kernel.signatures}
+    magic = kernel.targetctx.codegen().magic_tuple()
+    index = kernel._cache._cache_file._load_index()  # numba's: {(signature, magic, stamps): file}
+    return found | {tuple(sig) for sig, m, *_ in index if m == magic}
+
+
+@two_threads
+def test_each_step_kernel_compiles_for_one_signature(monkeypatch):
+    """A preparation on one thread and on two (parallel passes and a team of threads) and the
+    frozen forces of its packing: every kernel of the step has machine code for exactly one
+    tuple of argument types."""
+    import importlib
+
+    from granwave.dem.forces import frozen_history_forces
+
+    monkeypatch.setattr(K, "MIN_PARALLEL_GRAINS", 0)
+    params = PrepareParams(grains=40, seed=3, tol=1e-6, friction=0.5, compaction="mean-flow",
+                           reference_height=2.0)
+    _at(1, lambda: prepare_packing(params))
+    packing = _at(2, lambda: prepare_packing(params))
+    frozen_history_forces(packing)
+    counts = {f"{module}.{name}": len(_signatures(getattr(importlib.import_module(module), name)))
+              for module, names in ONE_SIGNATURE for name in names}
+    assert {k: n for k, n in counts.items() if n != 1} == {}

@@ -58,7 +58,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         ipar.needed = ipar.npairs
         ipar.width = 0
         return 2
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, True)  # from the last rebuild's positions
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # from the last rebuild's positions
     check = ipar.check
     n_steps = ipar.nsteps
     # largest squared displacement since the last build (then kept by the drift)
@@ -68,7 +68,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     # plain steps in a team of threads (_team_steps) when asked for and on more than one thread
     use_team = ipar.team > 0 and ws.claims[0] > 1
     sync = np.zeros(team.SYNC_LENGTH, np.int64)
-    step = 0
+    step = np.int64(0)  # typed int64 at once: a literal 0 compiles _team_steps a second time
     while step < n_steps:
         if drifted and use_team:
             done, disp2 = _team_steps(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
@@ -83,7 +83,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
             if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
                 return 3
-            if needs_rebuild(fpar, ipar, reach, 0):
+            if needs_rebuild(fpar, ipar, reach, np.int64(0)):
                 skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
                 np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
                                             pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo,
@@ -100,7 +100,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                 for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
                     for a in range(d):
                         pos0[i, a] = pos[i, a]
-                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, True)  # new positions
+                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # new positions
                 disp2 = 0.0
                 if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
                     ipar.needed = np_new
@@ -114,9 +114,9 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
         # the next step's rebuild test is known now unless dt may change (a check)
         reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
         drifted = (not is_check and step + 1 < n_steps and math.isfinite(reach)
-                   and not needs_rebuild(fpar, ipar, reach, 1))
+                   and not needs_rebuild(fpar, ipar, reach, np.int64(1)))
         _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
-                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, True, is_check, drifted)
+                pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, np.bool_(True), is_check, drifted)
         piston_half_kick(piston, dt)
         ipar.steps += 1
         if drifted:

@@ -83,7 +83,7 @@ def _frozen_kernel(pos, rad, lateral, h, ci, cj, ft_stored, disp, rot, poisson, 
             ft[a] = ft_stored[c, a]
         # overlap_old = delta: no unloading rescale; the packing's tangential law without its slider
         # (models.uncapped); ``damping``: the default damping law at 0, no dashpot
-        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, damping, tangential, fvec, False, law)
+        K.contact_force(nv, delta, r12, e12, g12, 1.0, du, ft, delta, 1.0, damping, tangential, fvec, np.bool_(False), law)
         for a in range(d):
             force[i, a] += fvec[a]
         if r > 0:

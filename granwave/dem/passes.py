@@ -52,7 +52,7 @@ def _incoming_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, lateral, pair
     (:func:`_frozen`)."""
     threads = open_claims(claims, nblk, tile.shape[0])
     for t in numba.prange(threads):  # one iteration per thread; blocks taken as in _row_pass
-        visit_order(t, threads, nblk, visit[t])
+        visit_order(np.int64(t), threads, nblk, visit[t])
         for j in range(nblk):
             b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
@@ -198,15 +198,15 @@ def _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, in
     claims[nblk + 1] = SLABS_TODO if slab_job else SLABS_READY
     for t in numba.prange(threads):
         if t == 0 and slab_job:
-            _slab_job(pos, vel, mass, fpar1[0], mflow, slabs, claims, nblk, 0)
-        visit_order(t, threads, nblk, visit[t])
+            _slab_job(pos, vel, mass, fpar1[0], mflow, slabs, claims, nblk, np.int64(0))
+        visit_order(np.int64(t), threads, nblk, visit[t])
         for j in range(nblk):
             b = claim_block(claims, visit[t], nblk, j, 1)
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston1[0], fpar1[0], row,
                            nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, kick, stats, drift, mflow, slabs,
-                           tile[t], tile_p[t], claims, 0)
+                           tile[t], tile_p[t], claims, np.int64(0))
 
 
 #: states of the slab means in ``claims[nblk + 1]`` during phase 2 of round 0 (:func:`_slab_job`);
@@ -400,7 +400,7 @@ def _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair
                    fpar1, nblk, ws.slot_start, ws.slot_pair, ws.bnd_f, blk_g, ws.tile, ws.tile_p, ws.claims,
                    ws.visit)
     # the wall list must cover this piston height (made again if the piston moved)
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, False)
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(False))
     # (with the rule 'mean-flow' also the slabs' mean flow, from this step's velocities)
     _row_pass(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, ws.inv_m, ws.inv_i, lateral, pos0,
               pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, ws.walls, piston1, fpar1, ws.row, nblk,
@@ -442,11 +442,12 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     """
     nblk = ws.blk.shape[0]
     if prepare_blocks(rad, mass, inertia, ws, nblk) > ws.slot_pair.shape[0]:
-        nblk = 1
+        nblk = np.int64(1)
         _lists(ws, nblk)
-    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws.walls, True)  # for these positions
+    refresh_wall_list(pos, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # for these positions
     _forces(pos, vel, force, omega, torque, rad, mass, inertia, lateral, pos, pair_i, pair_j, pair_ft,
-            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, False, False, False)
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, np.bool_(False), np.bool_(False),
+            np.bool_(False))
 
 
 @numba.njit(cache=True)

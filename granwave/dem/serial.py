@@ -114,7 +114,7 @@ def compute_forces(pos, vel, omega, rad, mass, inertia, lateral, pair_i, pair_j,
     one-thread process (a workflow job) would otherwise spend on a cold cache."""
     walls = ws.walls
     mflow = ws.mflow
-    refresh_wall_list(pos, rad, piston, fpar, wall_ov, walls, True)  # for these positions
+    refresh_wall_list(pos, rad, piston, fpar, wall_ov, walls, np.bool_(True))  # for these positions
     _force_loop(pos, vel, omega, rad, ws.pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
                 pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, force, torque, out, mflow,
                 ws.slabs, ws.tile, ws.tile_p)
@@ -170,7 +170,7 @@ def chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, w
     quotients, the same bits). Returns the largest squared displacement since the last
     build, which :func:`one_step` then keeps."""
     n = pos.shape[0]
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, True)  # from the last rebuild's positions
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # from the last rebuild's positions
     inv_m = ws.inv_m
     inv_i = ws.inv_i
     for i in range(n):
@@ -205,7 +205,7 @@ def one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pai
     reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
     if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
         return 3, disp2
-    if needs_rebuild(fpar, ipar, reach, 0):
+    if needs_rebuild(fpar, ipar, reach, np.int64(0)):
         skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
         np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
                                     pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo, ws.row,
@@ -222,7 +222,7 @@ def one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pai
         for i in range(n):
             for a in range(d):
                 pos0[i, a] = pos[i, a]
-        refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, True)  # from the new positions
+        refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, np.bool_(True))  # from the new positions
     # half kick, drift
     vmax2 = 0.0
     disp2 = 0.0
@@ -233,7 +233,7 @@ def one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pai
         disp2 = max(disp2, s)
     fpar.v_max = math.sqrt(vmax2)
     piston_kick_drift(piston, dt)
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, False)
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, walls, np.bool_(False))
     _force_loop(pos, vel, omega, rad, pair_c, mass, inertia, lateral, pair_i, pair_j, ipar.npairs,
                 pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, acc, alpha, out, mflow, slabs,
                 ws.tile, ws.tile_p)

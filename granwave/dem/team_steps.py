@@ -45,7 +45,7 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
     half_skin = 0.5 * fpar.skin
     slab_job = mflow.shape[0] > 0 and fpar.gamma > 0.0
     gen = 0
-    done = 0
+    done = np.int64(0)  # typed int64 at once: a literal 0 compiles _row_block a second time
     visit_order(t, threads, nblk, order)
     c0 = team.cycle_counter()
     while True:
@@ -72,7 +72,8 @@ def _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pai
             if b >= 0:
                 _row_block(b, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m, inv_i, lateral,
                            pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, piston, fpar, row,
-                           nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, True, False, True, mflow,
+                           nblk, out_start, out_slot, slot_pair, bnd_f, blk_g, top_f, np.bool_(True), np.bool_(False),
+                           np.bool_(True), mflow,
                            slabs, scr, scr_p, claims, done)
         c3 = team.cycle_counter()
         gen = team.barrier(sync, threads, gen)
@@ -107,7 +108,7 @@ def _team_region(pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia, inv_m,
     threads = team.team_size(sync)
     for t in numba.prange(threads):  # one iteration per thread (granwave.team)
         if team.enter(sync, threads):
-            _team_thread(t, threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia,
+            _team_thread(np.int64(t), threads, sync, claims, pos, vel, acc, omega, alpha, rad, pair_c, mass, inertia,
                          inv_m, inv_i, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls,
                          pistons[t], fpar1[0], row, nblk, out_start, out_slot, slot_start, slot_pair, bnd_f, blk_g,
                          top_f, mflow, slabs, tile[t], tile_p[t], gamma_p, check, built, steps, step,
