@@ -518,6 +518,7 @@ def run_shocks_sample(sample: dict, log=print) -> list[dict]:
     import numpy as np
 
     from .analysis.shocks_scene import packing_record, pulse_row, rise_width
+    from .contact_models import options as CO
     from .dem.kick import mean_overlap
     from .dem.pulse import propagate_dem
     from .io import files
@@ -549,7 +550,8 @@ def run_shocks_sample(sample: dict, log=print) -> list[dict]:
         rows.append(pulse_row(sig.attrs, width=width))
     meta = {k: sample[k] for k in ("scene", "pressure", "size", "seed")}
     meta.update(pressure=float(sample["pressure"]), friction=float(packing.friction),
-                contact_law=str(sample["make"].get("contact_law", CO.KINDS["normal"]["default"])), dim=int(packing.dim),
+                contact_law=str(sample["make"].get("contact_law", CO.KINDS["normal"]["default"])),
+                dim=int(packing.dim),
                 n_grains=int(packing.n_grains), height=float(packing.height),
                 lateral_width=float(packing.box[0]), damping=float(sample["damping"]),
                 drives_skipped=skipped, max_strain=float(sample["max_strain"]),

@@ -297,3 +297,26 @@ def test_figure_follows_the_rules_and_report_symbols_are_defined(tmp_path, monke
     check(figs[0], scene="synthetic", pressure=False, height=False)
     assert caption_for(files[0]).startswith("Shocks scene:")
     assert not undefined_symbols("\n".join(shocks_section(analysis["scenes"])))
+
+
+def test_the_batch_code_runs_a_tiny_packing(tmp_path):
+    """The kernels' warm-up is the batch's own code (workflow_support.run_shocks_sample) on a
+    60-grain copy of a scene's sample: it ran nowhere in the tests, and a missing import there
+    stopped `snakemake --configfile config/shocks.yaml` at its first job. The sample is the
+    workflow's (common.smk's shocks_sample) for config/shocks.yaml's Hertz scene, whose law is
+    the default (no `contact` key); the record names it and holds one row per drive."""
+    from granwave.workflow_support import warm_shocks
+
+    spec = yaml.safe_load((ROOT / "config" / "shocks.yaml").read_text())["shocks"]["hertz_frictionless"]
+    assert "contact" not in spec
+    sample = {"scene": "hertz_frictionless", "pressure": 1e-4, "size": "h24", "seed": 0,
+              "make": dict(dim=2, grains=288, aspect=2.0, pressure=1e-4, friction=0.0, poisson=0.2,
+                           polydispersity=0.2, tol=1e-4, max_steps=200000, seed=0),
+              "drives": [0.01, 0.1, 1.0], "max_strain": 0.05, "damping": 0.1, "samples": 400, "bin": 1.0,
+              "out": {"packing": str(tmp_path / "p.h5"), "record": str(tmp_path / "r.json")}}
+    done = warm_shocks(sample, tmp_path / "kernels")
+    assert done["family"] == "shocks" and done["ran"][0]["sample"] == "hertz_frictionless"
+    rec = json.loads((tmp_path / "kernels" / "tiny.record.json").read_text())
+    assert rec["contact_law"] == "hertz" and rec["scene"] == "hertz_frictionless", rec
+    assert [p["amplitude"] for p in rec["pulses"]] == [0.01, 1.0], rec  # the warm-up's two drives
+    assert rec["n_grains"] == 60 and rec["static_strain"] > 0, rec
