@@ -93,6 +93,8 @@ def mean_field_speed(x, alpha: float):
     a1 = float(alpha) - 1.0
     if a1 <= 0.0:
         raise InputError(f"alpha must be > 1 (got {alpha})")
+    if a1 == 1.0:  # harmonic: exactly 1 (the closed form's rounding gave slopes of ~1e-17)
+        return np.ones_like(x)
     small = np.abs(x) < 1e-6
     xs = np.where(small, 1.0, x)
     f2 = np.where(small, 1.0 + 0.5 * (a1 - 1.0) * x, np.expm1(a1 * np.log1p(xs)) / (a1 * xs))
