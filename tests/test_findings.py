@@ -35,6 +35,38 @@ def test_verdicts_say_how_far_and_why():
     assert cell == "1.20 ± 0.07" and sem == pytest.approx(np.std([1, 1.1, 1.2, 1.3, 1.4], ddof=1) / 5 ** 0.5)
 
 
+
+def test_exponent_verdicts_read_the_printed_interval_and_bounds_say_which_side():
+    """A fit of four pressures (2 dof): 1/6 at 2.2σ lies inside the Student interval (t = 4.3),
+    where "within 2σ" would call it a difference; without an interval the σ rule stays."""
+    from scipy import stats
+
+    t = stats.t.ppf(0.975, 2)
+    v, e = 1 / 6 + 0.022, 0.01
+    assert FI.ci_verdict(v, e, (v - t * e, v + t * e), 1 / 6) == "agrees: inside the 95 % interval (2.2σ)"
+    assert FI.ci_verdict(0.247, 0.013, (0.19, 0.30), 1 / 6, why="more contacts") == \
+        "differs by 6.2σ, outside the 95 % interval: more contacts"
+    assert FI.ci_verdict(0.21, 0.01, None, 1 / 6, why="x") == FI.verdict(0.21, 0.01, 1 / 6, why="x")
+    assert FI.bound_verdict(0.987, 1.0) == "consistent: the bound lies 0.013 below it"
+    assert FI.bound_verdict(1.01, 1.0) == "above it: the bound exceeds it by 1.0%"
+    assert FI.bound_verdict(math.nan, 1.0) == "not measured"
+
+
+def test_the_ratio_bound_is_c_at_the_band_bottom_over_c_l_less_t_errors():
+    """c0/c_ℓ ≥ c(ω_lo)/c_ℓ − t·σ with σ from the two relative errors in quadrature."""
+    from granwave.analysis.continuum_length import c0_ratio_lower_bound, low_frequency_of_result
+
+    r = 0.19 / 0.2
+    want = r - 2.5 * r * math.hypot(0.001 / 0.19, 0.002 / 0.2)
+    assert c0_ratio_lower_bound(0.19, 0.001, 0.2, 0.002, 2.5) == pytest.approx(want, rel=1e-12)
+    assert math.isnan(c0_ratio_lower_bound(0.19, 0.001, math.nan, 0.0, 2.0))
+    att = {"omega": [0.01, 0.02, 0.03, 0.04], "reliable": [False, True, True, True],
+           "c": [0.2, 0.19, 0.185, 0.18], "c_err": [0.01, 0.001, 0.001, 0.001], "c0": 0.195,
+           "c0_err": 0.002, "ci95_factor": 2.5}
+    out = low_frequency_of_result(att, c_ref=0.2, c_ref_err=0.002)
+    assert out["c0_over_c_l_lower_bound"] == pytest.approx(want, rel=1e-12)
+
+
 # ------------------------------------------------------------------ the truth suite's table
 def _table(tmp_path, rows_by_key):
     path = tmp_path / "truth.json"

@@ -178,7 +178,7 @@ def test_report_contents(page):
     c = lattice_speed(1e-5, friction=True)
     assert R.fmt(c) in md and R.fmt(0.4321 / c) in md
     # the sweep's numbers as given
-    assert "### frictional2d\n\n| exponent | value | pressures |\n|---|---|---|\n" \
+    assert "### frictional2d\n\n| exponent | value [95 %] | pressures |\n|---|---|---|\n" \
            "| κ of c_tof (`kappa_tof`) | 0.247 ± 0.013 | 2 |" in md
     # figures: relative links, captions, PDF twin
     assert "![Chain signals against the Airy shape" in md

@@ -221,16 +221,27 @@ def test_attenuation_on_the_dispersive_scene_with_the_production_window():
     # low-frequency limit); the band's own bound holds
     r = [A.analysed("dispersion", s) for s in range(3)]
     assert all(x["c0_lower_bound"] <= m.c0 for x in r)
+    # and c0/c_ℓ (truth 1: the packings' c_ℓ scatter about c0) likewise, as the findings quote it
+    assert all(x["c0_over_c_l_lower_bound"] <= 1.0 for x in r)
+    assert all(x["c0_over_c_l_lower_bound"] > 0.95 for x in r)  # a bound, not a vacuous one
     assert np.mean([x["c0"] for x in r]) < m.c0 - 0.002
 
 
 def test_fits_of_few_points_need_the_student_interval():
-    # four pressures: ± 2 errors holds the exponent in ~80 % of the cases, the fit's t interval in 95 %
-    c2 = _cases("sweep.exponent", "30 packings each; κ of c_l = 0.22; value ± 2 errors")[0]
+    """Four pressures: ± 2 errors holds the exponent in ~80 % of the cases, the fit's t interval
+    (what the sweep writes and the report prints) in 95 %."""
+    from benchmarks.truth_cases import sweep as S
+
+    seeds = range(40)
+    fits = [S.analysed(30, s) for s in seeds]
+    two = np.mean([abs(f["kappa_l"] - 0.22) <= 2 * f["kappa_l_err"] for f in fits])
     ct = _cases("sweep.exponent", "30 packings each; κ of c_l = 0.22; its 95 % interval")[0]
-    row2, rowt = truth.evaluate(c2, range(40)), truth.evaluate(ct, range(40))
-    assert row2["verdict"] == "undercovered" and rowt["coverage95"] >= 0.9
+    rowt = truth.evaluate(ct, seeds)
+    assert two < 0.9 and rowt["coverage95"] >= 0.9, (two, rowt)
     assert abs(rowt["bias"]) < rowt["quoted_error"]
+    # the report's own exponent (power_exponent through the per-pressure means), as printed
+    cm = _cases("moduli.c_l_exponent", "the report's 95 % interval")[0]
+    assert truth.evaluate(cm, seeds)["coverage95"] >= 0.9
 
 
 def test_band_is_the_run_nearest_the_reference_frequency():

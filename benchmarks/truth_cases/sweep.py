@@ -4,8 +4,9 @@ four pressures 1e-7 … 1e-4: each packing's c_ℓ = c1 (p/p1)^κ_ℓ (1 + 3 % �
 κ_t, and per pressure a height series made by `analyze heights` (granwave.analysis.heights.
 height_series) from δ′-response signals at 8 and 25 d̄ (benchmarks/truth_cases/_ensembles.py, Fronts)
 whose speed is c1 (p/p1)^κ_tof and whose time scales all go as 1/c, so c_tof ∝ p^κ_tof exactly.
-Two readings of the fit's error are checked: the sweep's 95 % interval (``kappa_*_ci95``,
-Student t with n − 2 degrees of freedom) and "value ± 2 errors" (how the report reads a ±).
+The interval checked is the one the sweep writes and the report prints beside the ±
+(``kappa_*_ci95``, Student t with n − 2 degrees of freedom); "value ± 2 errors" held κ in only
+71–86 % of the seeds with four pressures, so it is no longer how an exponent is read.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 from granwave.analysis.heights import height_series
 from granwave.analysis.sweep import pressure_sweep
 
-from . import Case, interval
+from . import Case
 from ._ensembles import Fronts, fronts
 
 PRESSURES = (1e-7, 1e-6, 1e-5, 1e-4)
@@ -53,20 +54,14 @@ def analysed(n: int, seed: int) -> dict:
     return pressure_sweep(s, height_series=h)
 
 
-def run_of(n: int, key: str, reading: str):
+def run_of(n: int, key: str):
     def run(seed):
         r = analysed(n, seed)
-        if reading == "ci95":
-            lo, hi = r[key + "_ci95"]
-            return r[key], lo, hi
-        return interval(r[key], r[key + "_err"])
+        lo, hi = r[key + "_ci95"]
+        return r[key], lo, hi
     return run
 
 
-CASES = []
-for name, (n, words) in SETTINGS.items():
-    for speed, (key, nu) in EXPONENTS.items():
-        for reading, how in (("ci95", "its 95 % interval (Student t, 2 dof)"),
-                             ("2err", "value ± 2 errors")):
-            CASES.append(Case("sweep.exponent", f"{words}; κ of {speed} = {nu:g}; {how}", nu,
-                              run_of(n, key, reading), fast=name == "paper" and speed == "c_l"))
+CASES = [Case("sweep.exponent", f"{words}; κ of {speed} = {nu:g}; its 95 % interval (Student t, 2 dof)",
+              nu, run_of(n, key), fast=name == "paper" and speed == "c_l")
+         for name, (n, words) in SETTINGS.items() for speed, (key, nu) in EXPONENTS.items()]

@@ -85,7 +85,8 @@ import numpy as np
 from scipy import stats
 
 from ..errors import InputError
-from .continuum_length import c0_model_spread, continuum_wavelength, contributing_reference
+from .continuum_length import (c0_model_spread, c0_ratio_lower_bound, continuum_wavelength,
+                               contributing_reference)
 from .ensemble import ensemble_average
 from .front import front_features
 from .heights import common_attr, group_heights, one_study
@@ -417,9 +418,10 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
     initial condition). Returns a JSON-ready dict: ``omega``, ``alpha``, ``c``, ``c_group``,
     ``Q`` and their ``*_err``, ``*_fit_err``, ``*_boot_err``; ``reliable`` (mask), ``band``
     [ω_lo, ω_hi], ``omega_ref``, per-height ``heights``, ``counts``, ``t_ref``, ``t_end``,
-    ``error_model``; the low-frequency limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` when
-    ``c_l`` is given: one speed, or one sequence of per-packing speeds per group, the reference
-    then the contributing heights' packings, rule 10); ``continuum_length`` (λ*, rule 10);
+    ``error_model``; the low-frequency limit ``c0``, ``c0_err`` (and ``c0_over_c_l`` with
+    ``c0_over_c_l_lower_bound``, the band's one-sided 95 % bound on it, when ``c_l`` is given:
+    one speed, or one sequence of per-packing speeds per group, the reference then the
+    contributing heights' packings, rule 10); ``continuum_length`` (λ*, rule 10);
     ``omega_cutoff`` and ``above_cutoff`` when the lateral cutoff is given;
     ``packings`` (:func:`granwave.analysis.packings.packing_check`, the rule for fits).
     """
@@ -645,6 +647,10 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         out["c0_over_c_l"] = r0
         out["c0_over_c_l_err"] = abs(r0) * math.hypot(low["c0_err"] / low["c0"],
                                                       ref_err / ref_value if ref_err else 0.0)
+        if band.any():  # what the band supports of c0/c_ℓ (the extrapolation's r0 is not validated)
+            i_lo = int(np.flatnonzero(band)[0])
+            out["c0_over_c_l_lower_bound"] = c0_ratio_lower_bound(c[i_lo], c_err[i_lo], ref_value,
+                                                                  ref_err or 0.0, ci95)
     out["omega_cutoff"] = None if omega_cutoff is None else float(omega_cutoff)
     if omega_cutoff is not None:
         out["band_above_cutoff"] = bool(band.any() and omega[band][-1] > omega_cutoff)

@@ -234,9 +234,22 @@ def _stored_number(att: dict, *keys: str) -> float:
     return math.nan
 
 
+def c0_ratio_lower_bound(c_lo: float, c_lo_err: float, c_ref: float, c_ref_err: float,
+                         t: float) -> float:
+    """What the band supports of c0/c_ref: c(ω_lo)/c_ref − t·σ, σ the ratio's error from the two
+    relative errors in quadrature (a one-sided 95 % bound for ``t`` = t(0.975, dof)), since c does
+    not fall below c(ω_lo) towards ω → 0 where the dispersion is normal. NaN without a reference."""
+    if not (c_ref and math.isfinite(c_ref) and math.isfinite(c_lo)):
+        return math.nan
+    r = c_lo / c_ref
+    rel = math.hypot(c_lo_err / c_lo if c_lo else 0.0, (c_ref_err or 0.0) / c_ref)
+    return float(r - t * abs(r) * rel)
+
+
 def low_frequency_of_result(att: dict, c_ref: float | None = None, c_ref_err: float = 0.0) -> dict:
     """c0 of a stored result with its model spread (:func:`c0_model_spread`) added to its error,
-    the band's own lower bound c(ω_lo) − t·error, and c0/c_ref."""
+    the band's own lower bound c(ω_lo) − t·error, and c0/c_ref with the band's lower bound on it
+    (:func:`c0_ratio_lower_bound`)."""
     omega = np.asarray(att["omega"], float)
     band = np.asarray(att["reliable"], bool)
     c = np.asarray(att["c"], float)
@@ -247,13 +260,17 @@ def low_frequency_of_result(att: dict, c_ref: float | None = None, c_ref_err: fl
     spread = out["c0_model_spread"]
     out.update(c0=c0, c0_stat_err=stat,
                c0_err=math.hypot(stat, spread) if math.isfinite(spread) else stat)
-    if band.any():
-        i = int(np.flatnonzero(band)[0])
-        out["c0_lower_bound"] = float(c[i] - float(att.get("ci95_factor", 2.0)) * c_err[i])
+    t = float(att.get("ci95_factor", 2.0))
+    i = int(np.flatnonzero(band)[0]) if band.any() else None
+    if i is not None:
+        out["c0_lower_bound"] = float(c[i] - t * c_err[i])
     if c_ref:
         r = c0 / c_ref
         out.update(c0_over_c_l=r, c0_over_c_l_err=abs(r) * math.hypot(out["c0_err"] / c0,
                                                                       (c_ref_err or 0.0) / c_ref))
+        if i is not None:
+            out["c0_over_c_l_lower_bound"] = c0_ratio_lower_bound(c[i], c_err[i], c_ref,
+                                                                  c_ref_err or 0.0, t)
     return out
 
 

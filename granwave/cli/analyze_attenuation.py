@@ -45,10 +45,12 @@ def attenuation(signals, moduli_paths, as_json, **options):
     height's |S| is at least --threshold of its maximum and c is known to --max-error
     (relative). c0: c = c0 + c2 omega^2 over the band's lowest octave (its error includes the
     spread over fit spans and forms; c0_lower_bound: c at the band's bottom, what the band
-    itself says). lambda*: the wavelength above which |c/c_ref - 1| <= --continuum-c-tolerance
-    and 1/Q <= --continuum-q-inverse, c_ref the c_l of the contributing heights' packings
-    (--moduli, one per signal), else --c-l, else c0; which threshold sets it and whether it
-    lies above the lateral cutoff are printed. See docs/continuum.md.
+    itself says; with --moduli or --c-l also c0_over_c_l and its bound
+    c0_over_c_l_lower_bound). lambda*: the wavelength above which |c/c_ref - 1| <=
+    --continuum-c-tolerance and 1/Q <= --continuum-q-inverse, c_ref the c_l of the
+    contributing heights' packings (--moduli, one per signal), else --c-l, else c0; which
+    threshold sets it and whether it lies above the lateral cutoff are printed. See
+    docs/continuum.md.
     """
     from ..analysis.attenuation import attenuation as run
     from ..errors import InputError

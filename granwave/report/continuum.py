@@ -238,8 +238,9 @@ def low_frequency_phrase(att: Mapping, lam: Mapping) -> str:
            f"what the band itself says: c0 ≥ {fmt(low.get('c0_lower_bound'), digits=4)} (c at its "
            "bottom, 95 %)")
     if "c0_over_c_l" in low:
-        txt += (f"; the extrapolation over the contributing heights' c_ℓ: c0/c_ℓ = "
-                f"{fmt(low['c0_over_c_l'], low['c0_over_c_l_err'])} (not a validated measurement: "
+        txt += (f"; against the contributing heights' c_ℓ the band says c0/c_ℓ ≥ "
+                f"{fmt(low.get('c0_over_c_l_lower_bound'), digits=4)} (95 %), the extrapolation "
+                f"c0/c_ℓ = {fmt(low['c0_over_c_l'], digits=4)} (not a validated measurement: "
                 "docs/truth.md)")
     return txt
 

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .numbers import MISSING, fmt, fmt_count, fmt_range, num
+from .numbers import MISSING, fmt, fmt_ci, fmt_count, fmt_range, num
 from .validated import check_cell
 
 #: Fewer packings than this: a range, not a ± (issue 61).
@@ -66,6 +66,31 @@ def verdict(value, err, ref, *, why: str = "", ref_err: float = 0.0,
     if z <= 2:
         return "agrees within 2σ"
     return f"differs by {z:.0f}σ" + (f": {why}" if why else "")
+
+
+def ci_verdict(value, err, ci, ref, *, why: str = "") -> str:
+    """A fitted value against a reference by its own 95 % interval ``ci`` (Student t, where a fit
+    of few points makes "within 2σ" too generous): "agrees: inside the 95 % interval (0.8σ)" or
+    "differs by 6σ, outside the 95 % interval: why"; :func:`verdict` where ``ci`` is missing."""
+    lo, hi = (num(x) for x in (ci or (math.nan, math.nan)))
+    v, e, r = num(value), num(err), num(ref)
+    if not (math.isfinite(lo) and math.isfinite(hi) and math.isfinite(v) and math.isfinite(r)):
+        return verdict(value, err, ref, why=why)
+    z = f"{abs(v - r) / e:.1f}σ" if math.isfinite(e) and e > 0 else ""
+    if lo <= r <= hi:
+        return "agrees: inside the 95 % interval" + (f" ({z})" if z else "")
+    return (f"differs by {z}, outside" if z else "differs: outside") + " the 95 % interval" + \
+        (f": {why}" if why else "")
+
+
+def bound_verdict(lower, ref) -> str:
+    """A one-sided 95 % lower bound against a reference: "consistent (bound below)" or "above"."""
+    lo, r = num(lower), num(ref)
+    if not (math.isfinite(lo) and math.isfinite(r)):
+        return "not measured"
+    if lo <= r:
+        return f"consistent: the bound lies {r - lo:.2g} below it"
+    return f"above it: the bound exceeds it by {lo / r - 1:.1%}"
 
 
 def relative_verdict(value, ref, *, why: str = "", tolerance: float = 0.01,
@@ -185,13 +210,13 @@ def pressure_rows(sweeps, groups_by_scene, anchors: tuple[str, str] = ("sweeps",
         z = _z_span(groups) if groups is not None else ""
         why = ("a fixed network gives 1/6; contacts are added as p rises"
                + (f" ({z})" if z else "") + ", so the network stiffens faster")
-        k, e, n = (obj.get(f"kappa_tof{s}") for s in ("", "_err", "_n"))
+        k, e, n, ci = (obj.get(f"kappa_tof{s}") for s in ("", "_err", "_n", "_ci95"))
         if math.isfinite(num(k)):
             rows.append(Finding(
-                f"pressure exponent κ_tof of c_tof (c ∝ p^κ), {scene}", fmt(k, e, 3),
+                f"pressure exponent κ_tof of c_tof (c ∝ p^κ), {scene}", fmt_ci(k, e, *(ci or (None,) * 2), 3),
                 f"{fmt_count(n)} pressures (fit through the height series')",
                 "1/6 = 0.1667 (fixed Hertzian network, docs/method.md §10)",
-                verdict(k, e, 1 / 6, why=why if num(k) > 1 / 6 else ""), anchors[0],
+                ci_verdict(k, e, ci, 1 / 6, why=why if num(k) > 1 / 6 else ""), anchors[0],
                 truth=("sweep.exponent",)))
         if groups is None:
             continue
@@ -207,15 +232,16 @@ def pressure_rows(sweeps, groups_by_scene, anchors: tuple[str, str] = ("sweeps",
         packs = min(len(i) for i in items)
         for key, name, sub in (("c_l", "c_ℓ", "ℓ"), ("c_t", "c_t", "t")):
             means = [np.nanmean([num(s["moduli"].get(key)) for s in i]) for i in items]
-            kv, ke = power_exponent(ps, means)
+            kv, ke, lo, hi = power_exponent(ps, means)
             if not math.isfinite(kv):
                 continue
             rows.append(Finding(
-                f"pressure exponent κ_{sub} of {name} (c ∝ p^κ), {scene}, L ≈ {L:.3g}", fmt(kv, ke, 3),
+                f"pressure exponent κ_{sub} of {name} (c ∝ p^κ), {scene}, L ≈ {L:.3g}",
+                fmt_ci(kv, ke, lo, hi, 3),
                 f"{len(ps)} pressures × ≥ {packs} packings (fit through their means)",
                 "1/6 = 0.1667 (fixed Hertzian network, docs/method.md §10)",
-                verdict(kv, ke, 1 / 6, why=why if kv > 1 / 6 else ""), anchors[1],
-                truth=("sweep.exponent",)))
+                ci_verdict(kv, ke, (lo, hi), 1 / 6, why=why if kv > 1 / 6 else ""), anchors[1],
+                truth=(f"moduli.{key}_exponent", "sweep.exponent")))
     return rows
 
 
@@ -360,12 +386,15 @@ def continuum_rows(continuum: Mapping, anchor: str) -> list[Finding]:
                 verdict(r, e, 1.0, why=why), anchor, truth=("heights.c_tof", "continuum.L_star")))
         if att.get("c0") is not None and lam.get("reference") == "c_l" and "omega" in att:
             low = low_frequency_of_result(att, lam.get("c_ref"), lam.get("c_ref_err") or 0.0)
-            ratio, re = num(low.get("c0_over_c_l")), num(low.get("c0_over_c_l_err"))
-            rows.append(Finding(f"extrapolated c_0/c_ℓ (not the low-frequency limit), {scene}",
-                                fmt(ratio, re),
+            ratio, bound = num(low.get("c0_over_c_l")), num(low.get("c0_over_c_l_lower_bound"))
+            # the band's bound is the measurement; the extrapolation beside it, without a ±
+            # (its interval undercovers where the band starts after c has fallen)
+            rows.append(Finding(f"c_0/c_ℓ (low-frequency limit against c_ℓ), {scene}",
+                                f"≥ {fmt(bound, digits=4)} (95 %; extrapolation {fmt(ratio, digits=4)}, "
+                                "not a measurement)",
                                 f"{fmt_count(att.get('n_signals'))} signals at {len(att.get('heights', []))} heights",
-                                "1 (the contributing heights' c_ℓ)", verdict(ratio, re, 1.0), anchor,
-                                truth=("attenuation.c0_over_c_l", "attenuation.c0")))
+                                "1 (the contributing heights' c_ℓ)", bound_verdict(bound, 1.0), anchor,
+                                truth=("attenuation.c0_over_c_l_lower_bound",)))
         if lam.get("status"):
             text = lambda_sentence(lam, recomputed).removeprefix("Continuum length in frequency ")
             rows.append(Finding(f"continuum wavelength λ*, {scene}", _lambda_cell(lam),
@@ -401,12 +430,13 @@ def shear_rows(shear: Mapping, anchor: str) -> list[Finding]:
     for scene, a in sorted(shear.items()):
         g = (a.get("fits") or {}).get("G_max") or {}
         if math.isfinite(num(g.get("exponent"))):
+            ci = g.get("exponent_ci95") or (None, None)
             rows.append(Finding(f"G_max pressure exponent κ_G (G_max ∝ p^κ_G), {scene}",
-                                fmt(g["exponent"], g.get("exponent_err"), 3),
+                                fmt_ci(g["exponent"], g.get("exponent_err"), *ci, 3),
                                 f"{len(a.get('pressures', []))} pressures",
                                 "1/3 (Hertz–Mindlin effective medium)",
-                                verdict(g["exponent"], g.get("exponent_err"), 1 / 3,
-                                        why="contacts added with p, as for κ_tof"), anchor,
+                                ci_verdict(g["exponent"], g.get("exponent_err"), ci, 1 / 3,
+                                           why="contacts added with p, as for κ_tof"), anchor,
                                 truth=("sweep.exponent",)))
         top = max(a.get("pressures", []), key=lambda r: num(r.get("pressure")), default=None)
         if top and (top.get("V_s_over_c_t") or {}).get("mean") is not None:

@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .numbers import MISSING, fmt, fmt_count, fmt_positive, fmt_range, num
+from .numbers import MISSING, fmt, fmt_ci, fmt_count, fmt_positive, fmt_range, num
 
 
 def _is_analysis(obj) -> bool:
@@ -55,7 +55,8 @@ def stat_cell(stat: Mapping | None, digits: int = 4) -> str:
 def _fit(fit: Mapping | None) -> str:
     if not fit:
         return MISSING
-    return fmt(fit.get("exponent"), fit.get("exponent_err"), 3)
+    ci = fit.get("exponent_ci95") or (None, None)
+    return fmt_ci(fit.get("exponent"), fit.get("exponent_err"), *ci, 3)
 
 
 def compressional_ratio(analysis: Mapping) -> dict[float, Mapping]:
@@ -146,7 +147,8 @@ def shear_section(scenes: Mapping[str, Mapping]) -> list[str]:
                    "earlier cycle of the pulse (V = c/(1 − λ/L) for one period; docs/shear.md); V_p, "
                    "V_p/V_s and ν_eff (waves) of those rows are not measurements."]
         f = a.get("fits", {})
-        md += ["", "Pressure exponents (c ∝ p^κ, G ∝ p^κ_G; ± one standard error of the fitted slope):", "",
+        md += ["", "Pressure exponents (c ∝ p^κ, G ∝ p^κ_G; the fitted slope [its 95 % interval], "
+               "Student t with n − 2 degrees of freedom):", "",
                "| quantity | from waves | from the moduli |", "|---|---|---|",
                f"| shear speed | κ_s = {_fit(f.get('V_s'))} | {_fit(f.get('c_t'))} |",
                f"| compressional speed | κ_p = {_fit(f.get('V_p'))} | {_fit(f.get('c_l'))} |",

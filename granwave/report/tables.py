@@ -40,7 +40,7 @@ import numpy as np
 from ..analysis.ensemble import describe
 from ..analysis.heights import group_heights
 from .inputs import Scenes, num
-from .numbers import fmt, fmt_bound, fmt_count, fmt_positive, fmt_range  # noqa: F401  (one rule)
+from .numbers import fmt, fmt_bound, fmt_ci, fmt_count, fmt_positive, fmt_range  # noqa: F401  (one rule)
 from .references import chain_exact_exponents
 
 STATICS_KEYS = ("phi2", "phi3", "phi3_star", "z_star", "rattler_fraction", "mean_force_over_p",
@@ -326,16 +326,18 @@ def provenance_section(groups_by_scene: Mapping[str, Groups]) -> list[str]:
 
 
 # ====================================================================== speeds
-def power_exponent(p, c) -> tuple[float, float]:
-    """Fitted ν of c ∝ p^ν through the finite positive points (NaN if fewer than two)."""
+def power_exponent(p, c) -> tuple[float, float, float, float]:
+    """Fitted ν of c ∝ p^ν through the finite positive points: (ν, its standard error, the two
+    ends of its 95 % interval, Student t with n − 2 degrees of freedom); NaN if fewer than two
+    pressures (no interval with two)."""
     from ..analysis.fits import power_law_fit
 
     p, c = np.asarray(p, float), np.asarray(c, float)
     ok = np.isfinite(p) & np.isfinite(c) & (p > 0) & (c > 0)
     if np.unique(p[ok]).size < 2:
-        return math.nan, math.nan
+        return math.nan, math.nan, math.nan, math.nan
     fit = power_law_fit(p[ok], c[ok])
-    return fit.exponent, fit.exponent_err
+    return (fit.exponent, fit.exponent_err, *fit.exponent_ci95)
 
 
 def _sem(values) -> tuple[float, float, int]:
@@ -357,7 +359,9 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
           "where fewer than 5). c_ℓ and c_t: the whole cell's moduli over the bulk Φ3* "
           "(`moduli.c_l`, `moduli.c_t`, as in the moduli table; the continuum section uses the "
           "bulk slab's). Exponents: least-squares fit c ∝ p^κ through the per-pressure means of "
-          "one height (± the standard error of the slope): they differ from the sweep section's, "
+          "one height, printed as the value [its 95 % interval] (Student t with n − 2 degrees "
+          "of freedom: with four pressures ± 2 standard errors would hold κ in only ~80 % of "
+          "cases, docs/truth.md): they differ from the sweep section's, "
           "which pools every height of a pressure, and from the shear section's, of its own fit "
           f"height. Fixed Hertzian network (triangular-lattice formula, docs/method.md §12): "
           f"κ = {hertz:.4f}.", ""]
@@ -389,8 +393,8 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
                 if len(set(ps)) >= 2:
                     Ls = [groups.height(k) for k in groups.keys() if k[1] == gi]
                     label = f"L ≈ {np.mean(Ls):.3g}"
-                    fits += [[f"κ_ℓ of c_ℓ ({label})", fmt(*power_exponent(ps, cls)), str(len(ps))],
-                             [f"κ_t of c_t ({label})", fmt(*power_exponent(ps, cts)), str(len(ps))]]
+                    fits += [[f"κ_ℓ of c_ℓ ({label})", fmt_ci(*power_exponent(ps, cls)), str(len(ps))],
+                             [f"κ_t of c_t ({label})", fmt_ci(*power_exponent(ps, cts)), str(len(ps))]]
         if cont:
             md += ["Continuum speeds from the global moduli, per pressure and height "
                    "(n packings; ± standard error of the mean, a range where n < 5):", ""]
@@ -435,7 +439,7 @@ def speeds_section(groups_by_scene: Mapping[str, Groups], h_by_scene: Mapping[st
             md += table(header, tof)
             md += aliased_note(list(series.values()))
             if len(cols["p"]) >= 2:
-                fits = [[f"κ_{k[2:]} of {k}", fmt(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
+                fits = [[f"κ_{k[2:]} of {k}", fmt_ci(*power_exponent(cols["p"], cols[k])), str(len(cols["p"]))]
                         for k in SPEED_KEYS] + fits
         else:
             hs = sorted({round(groups.height(k), 1) for k in groups.keys()}) if groups else []
@@ -631,7 +635,7 @@ def sweep_table(obj) -> list[str]:
     if not isinstance(obj, Mapping):
         return ["(not a sweep object)", ""]
     obj = current_keys(obj, SWEEP)
-    alphas = [k for k in obj if k.startswith("kappa_") and not k.endswith(("_err", "_n"))]
+    alphas = [k for k in obj if k.startswith("kappa_") and not k.endswith(("_err", "_n", "_ci95"))]
     fitted = [k for k in alphas if math.isfinite(num(obj[k]))]
     if alphas and not fitted:  # no empty table: say why
         notes = obj.get("fit_notes") or []
@@ -639,11 +643,12 @@ def sweep_table(obj) -> list[str]:
         return [f"No exponent fitted{': ' + why if why else ' (fewer than two pressures)'}.", ""]
     alphas = fitted
     if alphas:
-        rows = [[sweep_label(k), fmt(obj[k], obj.get(k + "_err")),
+        # the 95 % interval beside the ±: Student t with n − 2 (few pressures, docs/truth.md)
+        rows = [[sweep_label(k), fmt_ci(obj[k], obj.get(k + "_err"), *(obj.get(k + "_ci95") or (None,) * 2)),
                  str(obj.get(k + "_n", "")) if obj.get(k + "_n") is not None else ""] for k in alphas]
         if obj.get("expected_exponent") is not None:
             rows.append(["expected (fixed Hertzian network)", fmt(obj["expected_exponent"]), ""])
-        return table(["exponent", "value", "pressures"], rows)
+        return table(["exponent", "value [95 %]", "pressures"], rows)
     scal = _scalars(obj)
     if not scal:
         return ["(no scalar results)", ""]
