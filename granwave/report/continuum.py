@@ -232,9 +232,11 @@ def low_frequency_phrase(att: Mapping, lam: Mapping) -> str:
     ref = lam.get("c_ref") if lam.get("reference") == "c_l" else None
     low = low_frequency_of_result(att, ref, lam.get("c_ref_err") or 0.0)
     fit = att.get("omega_fit") or [math.nan, math.nan]
-    txt = (f"low-frequency extrapolation c0 = {fmt(low['c0'], low['c0_err'])} √(E*/ρ) (c = c0 + c2 ω² "
-           f"over ω = {fmt(fit[0], digits=3)} … {fmt(fit[-1], digits=3)}; the error includes the "
-           f"spread over fit spans and forms, ± {fmt(low['c0_model_spread'], digits=2)}); "
+    # no ± on the extrapolation: its interval undercovers where the band starts after c has
+    # fallen (docs/truth.md, attenuation.c0); the band's bound is the measurement
+    txt = (f"low-frequency extrapolation c0 = {fmt(low['c0'], digits=4)} √(E*/ρ) (c = c0 + c2 ω² "
+           f"over ω = {fmt(fit[0], digits=3)} … {fmt(fit[-1], digits=3)}; not a measurement: it moves "
+           f"by {fmt(low['c0_model_spread'], digits=2)} over fit spans and forms); "
            f"what the band itself says: c0 ≥ {fmt(low.get('c0_lower_bound'), digits=4)} (c at its "
            "bottom, 95 %)")
     if "c0_over_c_l" in low:
@@ -410,19 +412,14 @@ def continuum_section(scenes: Mapping[str, Mapping], dims: Mapping[str, int] | N
             lam_now, recomputed = current_lambda(att, front)
             md[-1] += "; " + low_frequency_phrase(att, lam_now)
             if front and front.get("c_l", {}).get("mean") and lam_now.get("reference") != "c_l":
+                # the extrapolation's ratios, without a ± (not a measurement, as c0 itself)
                 cl = front["c_l"]
-                r = float(att["c0"]) / float(cl["mean"]) if att.get("c0") is not None else math.nan
-                re = abs(r) * math.hypot(float(att.get("c0_err") or math.nan) / float(att["c0"]),
-                                         float(cl.get("sem") or 0.0) / float(cl["mean"])) \
-                    if att.get("c0") else math.nan
-                md[-1] += f", c0/c_ℓ = {fmt(r, re)} (mean c_ℓ of all packings)"
+                r = float(att["c0"]) / float(cl["mean"]) if att.get("c0") else math.nan
+                md[-1] += f", its c0/c_ℓ = {fmt(r, digits=4)} (mean c_ℓ of all packings)"
                 bulk = front.get("c_l_bulk") or {}
-                cb, cbe = bulk.get("c_l_inf"), bulk.get("c_l_inf_err")
+                cb = bulk.get("c_l_inf")
                 if cb is not None and math.isfinite(float(cb)) and att.get("c0"):
-                    rb = float(att["c0"]) / float(cb)
-                    rbe = abs(rb) * math.hypot(float(att.get("c0_err") or math.nan) / float(att["c0"]),
-                                               float(cbe or 0.0) / float(cb))
-                    md[-1] += f", c0/c_ℓ∞ = {fmt(rb, rbe)} (bulk c_ℓ∞)"
+                    md[-1] += f", c0/c_ℓ∞ = {fmt(float(att['c0']) / float(cb), digits=4)} (bulk c_ℓ∞)"
             md[-1] += (f"; at the tallest column's spectral peak ω = {fmt(att.get('omega_ref'), digits=3)}: "
                        f"c = {fmt(att.get('c_ref'), att.get('c_ref_err'))}, "
                        + (f"{fmt_named('α', fmt_positive(att.get('alpha_ref'), att.get('alpha_ref_err')))} /d̄"
