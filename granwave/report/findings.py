@@ -463,7 +463,8 @@ def findings_section(rows: Sequence[Finding], run_lines: Sequence[str]) -> list[
         return md + ["No headline result among the inputs (no height series, sweep, continuum or "
                      "shear analysis).", ""]
     md += ["One row per headline result: the measured value (± one standard error; a range "
-           "where fewer than 5 packings enter), what it rests on, the reference it is compared "
+           "where fewer than 5 packings enter; a pressure exponent as value [its Student 95 % "
+           "interval], a bound as ≥ or ≤ at 95 %), what it rests on, the reference it is compared "
            "with, what its estimator is worth (bias and 95 % coverage measured by the truth suite "
            "on inputs with a known answer through the same code and defaults; "
            "\"not validated\" where the suite has no such check yet; — where no estimator is "
