@@ -214,7 +214,7 @@ def pressure_rows(sweeps, groups_by_scene, anchors: tuple[str, str] = ("sweeps",
         if math.isfinite(num(k)):
             rows.append(Finding(
                 f"pressure exponent κ_tof of c_tof (c ∝ p^κ), {scene}", fmt_ci(k, e, *(ci or (None,) * 2), 3),
-                f"{fmt_count(n)} pressures (fit through the height series')",
+                f"{fmt_count(n)} pressures (fit through the height series)",
                 "1/6 = 0.1667 (fixed Hertzian network, docs/method.md §10)",
                 ci_verdict(k, e, ci, 1 / 6, why=why if num(k) > 1 / 6 else ""), anchors[0],
                 truth=("sweep.exponent",)))
