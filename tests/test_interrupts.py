@@ -27,3 +27,27 @@ def test_other_unraisable_exceptions_go_to_the_default_hook():
     hook_args = types.SimpleNamespace(exc_value=ValueError("x"))
     common._unraisable(hook_args, _default=seen.append)
     assert seen == [hook_args]
+
+
+def test_a_signal_during_the_exit_does_not_cut_it():
+    """Once a stage prints "interrupted" it exits 130: a SIGTERM that comes after (the re-send
+    above, late under load) raises nothing (it escaped uncaught and ended the process with
+    status -2 in a CI run)."""
+    import pytest
+
+    @common.stage
+    def stopped():
+        raise KeyboardInterrupt
+
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        with pytest.raises(SystemExit) as e:
+            stopped()
+        assert e.value.code == 130
+        common._interrupt(signal.SIGTERM, None)  # while exiting: no KeyboardInterrupt
+        assert common._STOPPING[0]
+    finally:
+        common._STOPPING[0] = False
+        signal.signal(signal.SIGTERM, previous)
+    with pytest.raises(KeyboardInterrupt):  # a running stage is still stopped by it
+        common._interrupt(signal.SIGTERM, None)

@@ -245,8 +245,14 @@ class BadInput(click.ClickException):
     exit_code = 2
 
 
+#: set once a stage is stopping: an interrupt raised during its exit would escape uncaught and
+#: end the process by SIGINT (status -2, seen under load when a re-sent SIGTERM came late)
+_STOPPING = [False]
+
+
 def _interrupt(signum, frame):
-    raise KeyboardInterrupt
+    if not _STOPPING[0]:
+        raise KeyboardInterrupt
 
 
 def _unraisable(hook_args, _default=sys.unraisablehook):
@@ -344,6 +350,7 @@ def stage(func):
     def wrapper(*args, **kwargs):
         from ..resources import allow_long_run
 
+        _STOPPING[0] = False
         for sig in (signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, _interrupt)
         sys.unraisablehook = _unraisable
@@ -366,6 +373,7 @@ def stage(func):
             raise BadInput(f"out of memory: the request does not fit ({format_bytes(available_memory())} "
                           "available); reduce it") from None
         except KeyboardInterrupt:
+            _STOPPING[0] = True  # a later SIGTERM (_unraisable's re-send) must not cut the exit
             click.echo("\ninterrupted; no output written", err=True)
             sys.exit(130)
         except OSError as exc:
