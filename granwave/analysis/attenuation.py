@@ -648,7 +648,6 @@ def attenuation_from_groups(groups: Sequence[Sequence["Signal"]], *,
         out["c0_over_c_l_err"] = abs(r0) * math.hypot(low["c0_err"] / low["c0"],
                                                       ref_err / ref_value if ref_err else 0.0)
         if band.any():  # what the band supports of c0/c_ℓ (the extrapolation's r0 is not validated)
-            i_lo = int(np.flatnonzero(band)[0])
             out["c0_over_c_l_lower_bound"] = c0_ratio_lower_bound(c[i_lo], c_err[i_lo], ref_value,
                                                                   ref_err or 0.0, ci95)
     out["omega_cutoff"] = None if omega_cutoff is None else float(omega_cutoff)

@@ -643,7 +643,7 @@ def sweep_table(obj) -> list[str]:
         return [f"No exponent fitted{': ' + why if why else ' (fewer than two pressures)'}.", ""]
     alphas = fitted
     if alphas:
-        # the 95 % interval beside the ±: Student t with n − 2 (few pressures, docs/truth.md)
+        # the value and its 95 % interval (Student t with n − 2: few pressures, docs/truth.md)
         rows = [[sweep_label(k), fmt_ci(obj[k], obj.get(k + "_err"), *(obj.get(k + "_ci95") or (None,) * 2)),
                  str(obj.get(k + "_n", "")) if obj.get(k + "_n") is not None else ""] for k in alphas]
         if obj.get("expected_exponent") is not None:
