@@ -69,7 +69,8 @@ class Engine:
     otherwise it follows :func:`kernels.stable_dt` with ``safety`` and
     ``overlap_floor``. ``skin``: Verlet-list skin in d; with ``skin_min`` (< skin) the
     skin adapts at each rebuild within [skin_min, skin] to the grains' speed
-    (:func:`kernels.next_skin`; the bits of a run are the same for any skin). ``tol_acceleration``,
+    (:func:`kernels.next_skin`; the bits of a run are the same for any skin), from ``first_skin``
+    (default ``skin``: a gas starts fast; a pulse from rest starts at ``skin_min``). ``tol_acceleration``,
     ``tol_velocity`` and ``check_every`` drive the convergence candidate test
     of :meth:`run`. ``unloading``: the tangential unloading rule of
     contact.update_tangential, ``"rescale"`` (default, preparation: F_t scaled by
@@ -98,7 +99,7 @@ class Engine:
     def __init__(self, position, radius, lateral, height, *, friction=PrepareParams.friction,
                  poisson=PrepareParams.poisson, damping=PrepareParams.damping, background_damping=0.0,
                  piston_mass=math.inf, piston_force=0.0, dt=None, safety=PrepareParams.safety,
-                 overlap_floor=1e-3, skin=PrepareParams.skin, skin_min=None, velocity=None,
+                 overlap_floor=1e-3, skin=PrepareParams.skin, skin_min=None, first_skin=None, velocity=None,
                  angular_velocity=None, tol_acceleration=0.0, tol_velocity=0.0,
                  check_every=PrepareParams.check_every, unloading="rescale", mean_flow=None, **contact):
         self.position = np.array(position, dtype=np.float64, order="C")
@@ -167,9 +168,12 @@ class Engine:
         self.fpar.gamma = background_damping
         if skin_min is not None and not 0.0 < skin_min <= skin:
             raise InputError(f"skin_min must be in (0, skin = {skin:g}], got {skin_min:g}")
-        self.fpar.skin = skin
         self.fpar.skin_max = skin
         self.fpar.skin_min = skin if skin_min is None else skin_min
+        if first_skin is not None and not self.fpar.skin_min <= first_skin <= skin:
+            raise InputError(f"first_skin must be in [skin_min, skin] = [{self.fpar.skin_min:g}, {skin:g}], "
+                             f"got {first_skin:g}")
+        self.fpar.skin = skin if first_skin is None else first_skin
         self.fpar.safety = safety
         self.fpar.overlap_floor = overlap_floor
         self.fpar.tol_a = tol_acceleration

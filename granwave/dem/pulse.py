@@ -87,8 +87,12 @@ DEFAULT_DT_SAFETY = 0.01
 DEFAULT_UNLOADING = "incremental"
 #: Default contact damping zeta of the pulses (fraction of critical): none, the linear model's.
 DEFAULT_DAMPING = 0.0
-#: Verlet skin of the pulses' pair list (d).
+#: Verlet skin of the pulses' pair list (d): the smallest and first one of the adapting list, and
+#: the GPU list's fixed skin.
 DEFAULT_SKIN = 0.2
+#: Largest skin of the pulses' adapting list (d): a strong push moves the grains behind its front
+#: together, and a longer-lived list saves rebuilds, each 5-20 steps' work (docs/decisions/0058).
+SKIN_MAX = 0.6
 #: Seconds of stepping per kernel call (progress and the blow-up test between calls; every sample's
 #: readings are taken inside the call).
 CALL_SECONDS = 0.2
@@ -150,7 +154,7 @@ def _forces_now(engine: Engine, dt: float = 0.0) -> None:
 
 
 def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, dt: float,
-                        skin: float = DEFAULT_SKIN, unloading: str = DEFAULT_UNLOADING) -> Engine:
+                        skin: float | None = None, unloading: str = DEFAULT_UNLOADING) -> Engine:
     """A DEM engine in the stored state: fixed walls, the stored tangential forces as history.
 
     The engine builds its pair list from the positions; every stored contact
@@ -159,16 +163,25 @@ def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, d
     slot with the opposite sign. Forces and accelerations are then evaluated
     (slip 0) so that the state is ready for velocity Verlet. ``unloading``: the
     tangential unloading rule (:data:`DEFAULT_UNLOADING`; contact.py docstring). The engine
-    runs the packing's normal law (:func:`packing_law`).
+    runs the packing's normal law (:func:`packing_law`). ``skin``: the pair list's fixed skin (d);
+    None: a skin adapting to the grains' speed from :data:`DEFAULT_SKIN` up to :data:`SKIN_MAX`, or
+    less where the box is narrow (the same bits: a skin changes none).
     """
     if packing.dim not in (2, 3):
         raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
     _, contact = packing_law(packing)
     radius = np.asarray(packing.radius, float)
+    if skin is None:
+        # the largest skin that keeps nearest images unique (Engine: L > 2 (2 R_max + skin))
+        widest = 0.999 * (0.5 * float(np.min(packing.box[:-1])) - 2.0 * float(radius.max()))
+        skin_max = min(SKIN_MAX, widest)
+        adapting = dict(skin=skin_max, skin_min=DEFAULT_SKIN, first_skin=DEFAULT_SKIN)
     engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
                     friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),
                     damping=float(damping), background_damping=0.0, piston_mass=math.inf,
-                    piston_force=0.0, dt=dt, skin=skin, check_every=0,  # fixed dt, no convergence test
+                    piston_force=0.0, dt=dt, check_every=0,  # fixed dt, no convergence test
+                    **(adapting if skin is None and skin_max > DEFAULT_SKIN
+                       else dict(skin=DEFAULT_SKIN if skin is None else skin)),
                     unloading=unloading, **contact)
     if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
         raise InputError("the packing's grain masses are not rho pi d^3 / 6 (docs/method.md §1): "
@@ -206,7 +219,7 @@ def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, d
 # ---------------------------------------------------------------- the run
 def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = None,
                   damping: float = DEFAULT_DAMPING, t_max: float | None = None, samples: int = DEFAULT_SAMPLES,
-                  dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float = DEFAULT_SKIN,
+                  dt_safety: float = DEFAULT_DT_SAFETY, dt: float | None = None, skin: float | None = None,
                   baseline: bool = True, progress: Callable[[str], None] | None = None,
                   progress_interval: float = 10.0, unloading: str = DEFAULT_UNLOADING,
                   device: str = "cpu", source_kind: str = "normal", drive: str = "impulse",
@@ -227,7 +240,9 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         (:func:`front_speed_bound`: a strong kick's faster front gets a shorter record).
     dt_safety : dt = dt_safety × 2π sqrt(m_min/k_max) (default 0.01); ``dt``
         overrides it. Either is shortened to divide the sample interval.
-    skin : Verlet skin of the engine's pair list (d).
+    skin : a fixed Verlet skin of the engine's pair list (d); default: on the CPU one that adapts to
+        the grains' speed between :data:`DEFAULT_SKIN` and :data:`SKIN_MAX`, on the GPU
+        :data:`DEFAULT_SKIN`. The skin changes no bit of the run, only its speed.
     baseline : subtract the top-wall force of the same run without the kick
         (default) instead of the constant stored static force. A packing
         converged to a residual acceleration a_r drifts by ~ a_r t^2 / 2,
@@ -418,7 +433,7 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
 
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
-         skin: float, times: np.ndarray, progress, progress_interval: float, unloading: str,
+         skin: float | None, times: np.ndarray, progress, progress_interval: float, unloading: str,
          device: str = "cpu", shear: bool = False, drive: str = "impulse", field: float | None = None) -> dict:
     """One DEM run from the stored state: ``kick`` = (grains, values) or None (baseline):
     values are the initial velocities (A) or imposed displacements (B), vertical, or with
@@ -433,6 +448,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     :data:`CALL_SECONDS` of stepping), the readings of every sample inside it
     (:class:`granwave.dem.pulse_kernels.Readings`).
     """
+    if skin is None and device != "cpu":  # the GPU's rebuild test keeps the first skin (granwave.gpu.dem)
+        skin = DEFAULT_SKIN
     engine = engine_from_packing(packing, damping=damping, dt=step, skin=skin, unloading=unloading)
     d = packing.dim
     residual = float(np.max(np.linalg.norm(engine.acceleration, axis=1), initial=0.0))
@@ -440,6 +457,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     pos_ref = engine.position.copy()
     pair_state = np.zeros(engine.pair_i.shape[0], np.int8)
     wall_state = np.zeros(engine.wall_ov.shape[0], np.int8)
+    archive = PK.flag_archive()  # the flags of contacts the list dropped (PK.carry_flags)
     PK.classify(d, engine.radius, engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ft,
                 engine.pair_ov, engine.wall_ft, engine.wall_ov, K.friction_of(engine.fpar), pair_state, wall_state,
                 True, K.law_of(engine.fpar))
@@ -514,7 +532,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                        engine.angular_acceleration, engine.radius, engine.mass, engine.inertia,
                        engine.lateral, engine.pos0, pos_ref, engine.pair_i, engine.pair_j,
                        engine.pair_ft, engine.pair_ov, engine.wall_ft, engine.wall_ov, engine.piston,
-                       engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, k,
+                       engine.fpar, engine.ipar, engine.out, engine.ws, pair_state, wall_state, archive, k,
                        k_stop, sub, top, stats, rd)
         if r < 0:  # the pair list needs room: grow the arrays (and the flags) and resume
             k = -r
@@ -541,7 +559,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     if field is not None:
         pulse = dict(height=(np.arange(n_bins) + 0.5) * field, count=rd.count, velocity=rd.velocity,
                      force_max=rd.force_max, force_initial=force_initial)
-    states = np.concatenate([pair_state[:m], wall_state])
+    states = np.concatenate([pair_state[:m], wall_state, PK.archived_flags(archive)])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
     return dict(top=rd.shear if shear else top, residual=residual, f_static_engine=f_static_engine,
                 energy_input=energy_input,

@@ -133,17 +133,42 @@ def _classify_wall(w, d, rad, wall_ft, wall_ov, tangential, wall_state, initial,
 
 
 @numba.njit(cache=True)
-def carry_flags(n_grains, old_i, old_j, old_state, n_old, pair_i, pair_j, npairs, pair_state):
-    """Flags of a rebuilt (sorted) pair list from the old one, merged by the key i*N + j."""
+def carry_flags(n_grains, old_i, old_j, old_state, n_old, pair_i, pair_j, npairs, pair_state, archive):
+    """Flags of a rebuilt (sorted) pair list from the old one, merged by the key i*N + j. A pair
+    that leaves the list with flags keeps them in ``archive`` (a numba typed dict key -> flags,
+    :func:`flag_archive`) and one that comes back takes them from there: each contact's flags
+    then hold over the whole run whatever the skin (a small skin drops an opened contact from
+    the list sooner, and its flags with it)."""
     q = 0
     for p in range(npairs):
         key = pair_i[p] * n_grains + pair_j[p]
-        while q < n_old and old_i[q] * n_grains + old_j[q] < key:
+        while q < n_old and old_i[q] * n_grains + old_j[q] < key:  # an old pair not in the new list
+            _archive(archive, old_i[q] * n_grains + old_j[q], old_state[q])
             q += 1
         if q < n_old and old_i[q] * n_grains + old_j[q] == key:
             pair_state[p] = old_state[q]
+            q += 1
         else:
-            pair_state[p] = 0
+            pair_state[p] = archive.pop(key, np.int8(0))
+    while q < n_old:
+        _archive(archive, old_i[q] * n_grains + old_j[q], old_state[q])
+        q += 1
+
+
+@numba.njit(cache=True, inline="always")
+def _archive(archive, key, state):
+    if state != 0:
+        archive[key] = state
+
+
+def flag_archive():
+    """An empty archive of :func:`carry_flags` (pair key int64 -> flags int8)."""
+    return numba.typed.Dict.empty(numba.types.int64, numba.types.int8)
+
+
+def archived_flags(archive) -> np.ndarray:
+    """The archive's flags as an int8 array (to count them with the listed pairs')."""
+    return np.fromiter(archive.values(), np.int8, count=len(archive))
 
 
 #: Grains per block of the largest-displacement maximum (a size independent of the threads).
@@ -329,14 +354,14 @@ def _track_largest(pos, pos0, pos_ref, lateral, skin, disp2, stats, cand, floor)
 
 @numba.njit(cache=True)
 def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
-                ipar, rebuilds, old_i, old_j, pair_state, wall_state, npairs, stats, law):
+                ipar, rebuilds, old_i, old_j, pair_state, wall_state, archive, npairs, stats, law):
     """The bookkeeping after one step of the pulse loops: the contact flags carried over
     a rebuild (``rebuilds``: the count before the step), the contacts classified and the step
     counted in ``stats[1]``. Returns the pair keys and count of the current list (new arrays
     after a rebuild). The largest displacement is the caller's."""
     if ipar.rebuilds != rebuilds:
         old_state = pair_state[:npairs].copy()
-        carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar.npairs, pair_state)
+        carry_flags(n, old_i, old_j, old_state, npairs, pair_i, pair_j, ipar.npairs, pair_state, archive)
         npairs = ipar.npairs
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
@@ -349,7 +374,7 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
 @numba.njit(cache=True)
 def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
-                  wall_state, k_start, k_stop, sub, force_out, stats, rd):
+                  wall_state, archive, k_start, k_stop, sub, force_out, stats, rd):
     """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample,
     on the parallel engine (:func:`granwave.dem.kernels.run_chunk`, a step per call: the
     bookkeeping runs between steps).
@@ -384,7 +409,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                 return k + 1
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
                                                wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
-                                               pair_state, wall_state, npairs, stats, law)
+                                               pair_state, wall_state, archive, npairs, stats, law)
             u = _largest_displacement(pos, pos_ref, lateral)
             if u > stats[0]:
                 stats[0] = u
@@ -402,7 +427,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
 @numba.njit(cache=True)
 def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                          pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
-                         wall_state, k_start, k_stop, sub, force_out, stats, rd):
+                         wall_state, archive, k_start, k_stop, sub, force_out, stats, rd):
     """:func:`pulse_samples` on one thread (same arguments, returns and bits), stepping with
     :func:`granwave.dem.serial.one_step` inside one chunk (:func:`granwave.dem.serial.chunk_start`
     once per call, as the preparation engine's :func:`granwave.dem.serial.run_chunk`), the
@@ -432,7 +457,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
                 return k + 1
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
                                                wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
-                                               pair_state, wall_state, npairs, stats, law)
+                                               pair_state, wall_state, archive, npairs, stats, law)
             if ipar.rebuilds != rebuilds:  # pos0 moved: the candidates are made again
                 floor = math.inf
             floor = _track_largest(pos, pos0, pos_ref, lateral, fpar.skin, disp2, stats, cand, floor)

@@ -101,7 +101,7 @@ _ARRAYS = ("position", "velocity", "acceleration", "angular_velocity", "angular_
 
 def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pos_ref, pair_i,
                       pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
-                      wall_state, k_start, k_stop, sub, force_out, stats, rd):
+                      wall_state, archive, k_start, k_stop, sub, force_out, stats, rd):
     """:func:`granwave.dem.pulse_kernels.pulse_samples` with the steps on the GPU (module
     docstring); the host arrays are updated in place when it returns. The sample's readings
     ``rd`` (pulse field, shear force: :class:`granwave.dem.pulse_kernels.Readings`) are the CPU's
@@ -123,7 +123,7 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
     def carry(old_i, old_j, n_old):
         old_state = dev["state"].copy_to_host()[:n_old].copy()
         PK.carry_flags(n, old_i, old_j, old_state, n_old, eng.pair_i, eng.pair_j, int(ipar.npairs),
-                       pair_state)
+                       pair_state, archive)
         dev["state"] = cuda.to_device(pair_state)
 
     eng.on_rebuild = carry
