@@ -84,28 +84,10 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
                 return 3
             if needs_rebuild(fpar, ipar, reach, np.int64(0)):
-                skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
-                np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
-                                            pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo,
-                                            ws.row, ws.gather, ws.need)
-                if np_new < 0:
-                    ipar.needed = ws.need[0]
-                    ipar.width = ws.need[1]
+                if _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston,
+                                 fpar, ipar, ws, nblk, room, reach) != 0:
                     return 2
-                fpar.skin = skin
-                ipar.npairs = np_new
-                ipar.rebuilds += 1
-                ipar.built = ipar.steps
-                pair_constants(pair_i, pair_j, np_new, rad, mass, ws.pair_c)
-                for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
-                    for a in range(d):
-                        pos0[i, a] = pos[i, a]
-                refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # new positions
                 disp2 = 0.0
-                if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
-                    ipar.needed = np_new
-                    ipar.width = 0
-                    return 2
             _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
             fpar.v_max = math.sqrt(_block_max(blk_g, G_DVMAX))
             disp2 = _block_max(blk_g, G_DISP)
@@ -129,3 +111,85 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
                 return outcome
         step += 1
     return 0
+
+
+@numba.njit(cache=True)
+def _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston, fpar, ipar,
+                  ws, nblk, room, reach):
+    """The pair list, its constants, wall list and block lists made again from the current
+    positions (a rebuild of :func:`run_chunk` and :func:`one_step`). Returns 0, or 2 when the
+    pair list or the block lists need more room (``ipar.needed``, ``ipar.width``; the state is
+    one that a new call goes on from with the same bits)."""
+    n, d = pos.shape
+    skin = next_skin(fpar, ipar, reach)  # kept only once the list is made with it
+    np_new = neighbours.rebuild(pos, rad, lateral, piston.h, skin, pair_i, pair_j,
+                                pair_ft, pair_ov, ipar.npairs, ws.nbr, ws.ncount, ws.nlo,
+                                ws.row, ws.gather, ws.need)
+    if np_new < 0:
+        ipar.needed = ws.need[0]
+        ipar.width = ws.need[1]
+        return 2
+    fpar.skin = skin
+    ipar.npairs = np_new
+    ipar.rebuilds += 1
+    ipar.built = ipar.steps
+    pair_constants(pair_i, pair_j, np_new, rad, mass, ws.pair_c)
+    for i in range(n):  # explicit loops: slice assignment compiles shape-check machinery
+        for a in range(d):
+            pos0[i, a] = pos[i, a]
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # new positions
+    if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
+        ipar.needed = np_new
+        ipar.width = 0
+        return 2
+    return 0
+
+
+@numba.njit(cache=True)
+def chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ipar, ws):
+    """What a run of :func:`one_step` calls starts from, as :func:`run_chunk` starts: 1/m, 1/I
+    and the block lists, the wall list from the last rebuild's positions. Returns the largest
+    squared displacement since the last build, which :func:`one_step` then keeps, or -1 when
+    the block lists need more room (``ipar.needed``: the caller grows the engine)."""
+    blk_g = ws.blk
+    nblk = blk_g.shape[0]
+    if prepare_blocks(rad, mass, inertia, ws, nblk) > ws.slot_pair.shape[0]:
+        ipar.needed = ipar.npairs
+        ipar.width = 0
+        return -1.0
+    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # from the last rebuild's positions
+    _displacement_pass(pos, lateral, pos0, blk_g)
+    return _block_max(blk_g, G_DISP)
+
+
+@numba.njit(cache=True)
+def one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+             pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, disp2):
+    """One step of :func:`run_chunk` on the parallel passes, after :func:`chunk_start`, its drift
+    a pass of its own (the state between calls is a whole step's: the DEM pulse reads it; the
+    same bits as run_chunk). ``disp2``: the largest squared displacement since the last build.
+    Returns (status, disp2) with run_chunk's statuses (0 after the step; 2 before it when a
+    list needs room; 3; a check's outcome)."""
+    blk_g = ws.blk
+    nblk = blk_g.shape[0]
+    dt = fpar.dt
+    reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
+    if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
+        return 3, disp2
+    if needs_rebuild(fpar, ipar, reach, np.int64(0)):
+        if _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston,
+                         fpar, ipar, ws, nblk, ws.slot_pair.shape[0], reach) != 0:
+            return 2, disp2
+    _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
+    fpar.v_max = math.sqrt(_block_max(blk_g, G_DVMAX))
+    disp2 = _block_max(blk_g, G_DISP)
+    piston_kick_drift(piston, dt)
+    check = ipar.check
+    is_check = check > 0 and (ipar.steps + 1) % check == 0
+    _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
+            pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, nblk, np.bool_(True), is_check, np.bool_(False))
+    piston_half_kick(piston, dt)
+    ipar.steps += 1
+    if is_check:
+        return check_outcome(out, fpar, ipar, piston), disp2
+    return 0, disp2

@@ -45,6 +45,7 @@ import numpy as np
 from .. import contact as C
 from .. import contact_models as CM
 from ..geometry import periodic_distance2
+from . import chunk
 from . import kernels as K
 from . import serial
 from .mean_flow import M_GAMMA_M
@@ -296,18 +297,6 @@ def _flag_without_slider(state, ov):
     return s | (touching & (initial ^ 1)) * FORMED | ((touching ^ 1) & initial) * OPENED
 
 
-@numba.njit(cache=True)
-def _largest_displacement(pos, pos_ref, lateral):
-    """max_i |r_i - r_i(0)| (nearest periodic image) on the calling thread: the value of
-    :func:`max_displacement` (a maximum of the same terms)."""
-    best = 0.0
-    for i in range(pos.shape[0]):
-        s = periodic_distance2(pos, i, pos_ref, i, lateral)
-        if s > best:
-            best = s
-    return math.sqrt(best)
-
-
 #: Relative margin of the candidates' bound (:func:`_displacement_candidates`): far above rounding.
 CANDIDATE_MARGIN = 1e-9
 
@@ -331,7 +320,7 @@ def _displacement_candidates(pos0, pos_ref, lateral, floor, cand):
 @numba.njit(cache=True)
 def _track_largest(pos, pos0, pos_ref, lateral, skin, disp2, stats, cand, floor):
     """The largest displacement so far (``stats[0]``) after a step of the one-thread loop: its
-    value over every grain (:func:`_largest_displacement`), computed over the candidates of
+    value over every grain (:func:`max_displacement`), computed over the candidates of
     :func:`_displacement_candidates` alone while their bound holds (``disp2``: the step's
     largest squared displacement since the last rebuild); the list is made again (``floor`` =
     best - D - skin) when it does not. Returns the floor in use."""
@@ -376,8 +365,8 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                   pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws, pair_state,
                   wall_state, archive, k_start, k_stop, sub, force_out, stats, rd):
     """Advance from output sample ``k_start - 1`` to ``k_stop - 1``, ``sub`` steps per sample,
-    on the parallel engine (:func:`granwave.dem.kernels.run_chunk`, a step per call: the
-    bookkeeping runs between steps).
+    on the parallel engine's passes (:func:`granwave.dem.chunk.one_step` after one
+    :func:`~granwave.dem.chunk.chunk_start` per call: the bookkeeping runs between steps).
 
     ``force_out[k]`` receives the top-wall contact force (elastic + viscous
     normal forces of the top-wall contacts) at sample k, and ``rd`` (:class:`Readings`) the
@@ -392,16 +381,20 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
     n = pos.shape[0]
     tangential = K.friction_of(fpar)
     law = K.law_of(fpar)
-    ipar.nsteps = 1
     # the pair keys of the current list, refreshed only after a rebuild
     npairs = ipar.npairs
     old_i = pair_i[:npairs].copy()
     old_j = pair_j[:npairs].copy()
+    # once per call, not per step: a chunk's start costs about a third of a step (1/m, the block lists)
+    disp2 = chunk.chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ipar, ws)
+    if disp2 < 0.0:
+        return -k_start
     for k in range(k_start, k_stop):
         for _ in range(int(stats[1]), sub):
             rebuilds = ipar.rebuilds
-            status = K.run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j,
-                                 pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws)
+            status, disp2 = chunk.one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i,
+                                           pair_j, pair_ft, pair_ov, wall_ft, wall_ov, piston, fpar, ipar, out, ws,
+                                           disp2)
             if status == 2:
                 return -k
             if status == 3:
@@ -410,7 +403,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
             old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
                                                wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
                                                pair_state, wall_state, archive, npairs, stats, law)
-            u = _largest_displacement(pos, pos_ref, lateral)
+            u = max_displacement(pos, pos_ref, lateral)  # every grain (the one-thread loop: candidates)
             if u > stats[0]:
                 stats[0] = u
         stats[1] = 0.0
