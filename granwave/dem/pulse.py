@@ -508,8 +508,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     rd = PK.readings(packing.n_grains, samples, axis=axis, bin_width=field or 1.0, grain_bin=grain_bin,
                      n_bins=n_bins, shear=shear)
     PK.read_sample(0, engine.position, engine.velocity, engine.angular_velocity, engine.radius, engine.mass,
-                   engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ov, engine.wall_ft, engine.wall_ov,
-                   engine.piston, engine.fpar, rd)
+                   engine.pair_i, engine.pair_j, engine.n_pairs, engine.pair_ov, engine.ws.pair_c, engine.wall_ft,
+                   engine.wall_ov, engine.piston, engine.fpar, rd)
     force_initial = rd.force_max.copy()
     stats = np.zeros(2)
     stats[0] = PK.max_displacement(engine.position, pos_ref, engine.lateral)

@@ -48,6 +48,7 @@ from ..geometry import periodic_distance2
 from . import chunk
 from . import kernels as K
 from . import serial
+from .contact_law import PC_ROOT
 from .mean_flow import M_GAMMA_M
 from .. import kernel_cache  # noqa: F401  (cached kernels stamped with the whole package's source)
 
@@ -234,9 +235,12 @@ def readings(n_grains: int, samples: int, *, axis: int = 0, bin_width: float = 1
 
 
 @numba.njit(cache=True)
-def read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar, rd):
+def read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, pair_c, wall_ft, wall_ov, piston, fpar,
+                rd):
     """The readings of sample ``k`` (:class:`Readings`) from the current state, which is only
-    read (:func:`top_shear_force` puts back what it evaluates)."""
+    read (:func:`top_shear_force` puts back what it evaluates). ``pair_c``: the listed pairs'
+    constants (``ws.pair_c``, :func:`granwave.dem.contact_law.pair_constants`: the force takes
+    their sqrt(R12), the value the contact law computes)."""
     if rd.grain_bin.shape[0] > 0:
         n, d = pos.shape
         nb = rd.count.shape[0]
@@ -254,8 +258,7 @@ def read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, 
             if ov > 0.0:
                 i = pair_i[p]
                 j = pair_j[p]
-                r12 = C.effective_radius(1.0 / rad[i], 1.0 / rad[j])
-                f = CM.law_force(law, ov, math.sqrt(r12), e12)
+                f = CM.law_force(law, ov, pair_c[p, PC_ROOT], e12)
                 b = min(max(int(0.5 * (pos[i, d - 1] + pos[j, d - 1]) / w), 0), nb - 1)
                 if f > rd.force_max[b]:
                     rd.force_max[b] = f
@@ -408,8 +411,8 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
                 stats[0] = u
         stats[1] = 0.0
         force_out[k] = piston.f_con
-        read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar,
-                    rd)
+        read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, ws.pair_c, wall_ft, wall_ov, piston,
+                    fpar, rd)
     return k_stop
 
 
@@ -456,8 +459,8 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
             floor = _track_largest(pos, pos0, pos_ref, lateral, fpar.skin, disp2, stats, cand, floor)
         stats[1] = 0.0
         force_out[k] = piston.f_con
-        read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, wall_ft, wall_ov, piston, fpar,
-                    rd)
+        read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, ws.pair_c, wall_ft, wall_ov, piston,
+                    fpar, rd)
     return k_stop
 
 

@@ -146,8 +146,8 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
             force_out[k] = piston.f_con
             if reads:
                 eng.download()
-                PK.read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, int(ipar.npairs), pair_ov, wall_ft,
-                               wall_ov, piston, fpar, rd)
+                PK.read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, int(ipar.npairs), pair_ov, ws.pair_c,
+                               wall_ft, wall_ov, piston, fpar, rd)
             k += 1
         return k_stop
     except _NeedRoom as exc:
