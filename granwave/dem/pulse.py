@@ -171,17 +171,19 @@ def engine_from_packing(packing: Packing, *, damping: float = DEFAULT_DAMPING, d
         raise InputError(f"the DEM pulse needs a 2D or 3D packing (got dim = {packing.dim})")
     _, contact = packing_law(packing)
     radius = np.asarray(packing.radius, float)
-    if skin is None:
-        # the largest skin that keeps nearest images unique (Engine: L > 2 (2 R_max + skin))
+    if skin is not None:
+        skins = dict(skin=skin)
+    else:
+        # up to the largest skin that keeps nearest images unique (Engine: L > 2 (2 R_max + skin))
         widest = 0.999 * (0.5 * float(np.min(packing.box[:-1])) - 2.0 * float(radius.max()))
         skin_max = min(SKIN_MAX, widest)
-        adapting = dict(skin=skin_max, skin_min=DEFAULT_SKIN, first_skin=DEFAULT_SKIN)
+        skins = (dict(skin=skin_max, skin_min=DEFAULT_SKIN, first_skin=DEFAULT_SKIN) if skin_max > DEFAULT_SKIN
+                 else dict(skin=DEFAULT_SKIN))
     engine = Engine(packing.position, radius, packing.box[:-1], float(packing.box[-1]),
                     friction=packing.friction, poisson=float(packing.attrs.get("poisson", 0.0)),
                     damping=float(damping), background_damping=0.0, piston_mass=math.inf,
                     piston_force=0.0, dt=dt, check_every=0,  # fixed dt, no convergence test
-                    **(adapting if skin is None and skin_max > DEFAULT_SKIN
-                       else dict(skin=DEFAULT_SKIN if skin is None else skin)),
+                    **skins,
                     unloading=unloading, **contact)
     if not np.allclose(engine.mass, packing.mass, rtol=1e-12, atol=0.0):
         raise InputError("the packing's grain masses are not rho pi d^3 / 6 (docs/method.md §1): "
