@@ -2,10 +2,10 @@
 
 The steps are the engine's: on one thread :func:`granwave.dem.serial.one_step`, many steps and
 samples per call inside one chunk as the preparation engine runs them
-(:func:`granwave.dem.serial.run_chunk`); on more threads
-:func:`granwave.dem.kernels.run_chunk` with one step per call (the integrator, neighbour-list
-rebuild and force kernel stay in :mod:`granwave.dem`, the contact law in
-:mod:`granwave.contact`). After every step the loop only *reads* the state to
+(:func:`granwave.dem.serial.run_chunk`); on more threads the parallel passes a step at a time,
+:func:`granwave.dem.chunk.one_step` after one :func:`~granwave.dem.chunk.chunk_start` per call (the
+integrator, neighbour-list rebuild and force kernel stay in :mod:`granwave.dem`, the contact law
+in :mod:`granwave.contact`). After every step the loop only *reads* the state to
 
 - flag every contact (pair slot or wall slot) that opens, forms, or slides,
 - track the largest displacement of any grain from its starting position;
@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-# pulse_samples inlines kernels.run_chunk / compute_forces: numba alone would key its cache on
+# pulse_samples inlines the engine's step kernels (chunk, serial): numba alone would key its cache on
 # this file only, granwave.kernel_cache stamps it with the whole package's source (an edit of
 # kernels.py or contact.py recompiles it).
 from .. import contact as C
