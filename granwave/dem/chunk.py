@@ -50,20 +50,14 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
     With ``ipar.team`` > 0 the runs of plain steps between go in a team of threads instead
     (:func:`_team_steps`: one parallel region for the run, the same bits).
     """
-    n, d = pos.shape
     blk_g = ws.blk
     nblk = blk_g.shape[0]
-    room = ws.slot_pair.shape[0]
-    if prepare_blocks(rad, mass, inertia, ws, nblk) > room:  # lists built elsewhere, more than room
-        ipar.needed = ipar.npairs
-        ipar.width = 0
+    # largest squared displacement since the last build (then kept by the drift)
+    disp2 = chunk_start(pos, rad, mass, inertia, lateral, pos0, wall_ov, piston, fpar, ipar, ws)
+    if disp2 < 0.0:  # lists built elsewhere, more than room
         return 2
-    refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # from the last rebuild's positions
     check = ipar.check
     n_steps = ipar.nsteps
-    # largest squared displacement since the last build (then kept by the drift)
-    _displacement_pass(pos, lateral, pos0, blk_g)
-    disp2 = _block_max(blk_g, G_DISP)
     drifted = False
     # plain steps in a team of threads (_team_steps) when asked for and on more than one thread
     use_team = ipar.team > 0 and ws.claims[0] > 1
@@ -78,20 +72,10 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
             use_team = ipar.team > 0
         dt = fpar.dt
         if not drifted:
-            # rebuild when a grain may come within reach of a pair not in the list
-            # before the next rebuild check (factor 2: the speed may grow in a step)
-            reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
-            if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
-                return 3
-            if needs_rebuild(fpar, ipar, reach, np.int64(0)):
-                if _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston,
-                                 fpar, ipar, ws, nblk, room, reach) != 0:
-                    return 2
-                disp2 = 0.0
-            _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
-            fpar.v_max = math.sqrt(_block_max(blk_g, G_DVMAX))
-            disp2 = _block_max(blk_g, G_DISP)
-            piston_kick_drift(piston, dt)
+            status, disp2 = _rebuild_and_drift(pos, vel, acc, omega, alpha, rad, mass, lateral, pos0, pair_i, pair_j,
+                                               pair_ft, pair_ov, wall_ov, piston, fpar, ipar, ws, disp2)
+            if status != 0:
+                return status
         is_check = check > 0 and (ipar.steps + 1) % check == 0
         # the next step's rebuild test is known now unless dt may change (a check)
         reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
@@ -115,7 +99,7 @@ def run_chunk(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pa
 
 @numba.njit(cache=True)
 def _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston, fpar, ipar,
-                  ws, nblk, room, reach):
+                  ws, reach):
     """The pair list, its constants, wall list and block lists made again from the current
     positions (a rebuild of :func:`run_chunk` and :func:`one_step`). Returns 0, or 2 when the
     pair list or the block lists need more room (``ipar.needed``, ``ipar.width``; the state is
@@ -138,11 +122,36 @@ def _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_o
         for a in range(d):
             pos0[i, a] = pos[i, a]
     refresh_wall_list(pos0, rad, piston, fpar, wall_ov, ws.walls, np.bool_(True))  # new positions
-    if _lists(ws, nblk) > room:  # grow (Engine.grow), then go on from here: the same bits
+    if _lists(ws, ws.blk.shape[0]) > ws.slot_pair.shape[0]:  # grow (Engine.grow), then go on: the same bits
         ipar.needed = np_new
         ipar.width = 0
         return 2
     return 0
+
+
+@numba.njit(cache=True)
+def _rebuild_and_drift(pos, vel, acc, omega, alpha, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov,
+                       wall_ov, piston, fpar, ipar, ws, disp2):
+    """A step's start when the last step's force pass did not drift it (:func:`run_chunk`,
+    :func:`one_step`): the pair list rebuilt when a grain may come within reach of a pair not
+    in it before the next rebuild check (factor 2: the speed may grow in a step), then the half
+    kick and drift. ``disp2``: the largest squared displacement since the last build. Returns
+    (status, disp2): 0, 2 when a list needs room (:func:`_rebuild_list`), 3 when the state blew
+    up (non-finite reach: stopped before the rebuild)."""
+    blk_g = ws.blk
+    dt = fpar.dt
+    reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
+    if not math.isfinite(reach):
+        return 3, disp2
+    if needs_rebuild(fpar, ipar, reach, np.int64(0)):
+        if _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston,
+                         fpar, ipar, ws, reach) != 0:
+            return 2, disp2
+    _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
+    fpar.v_max = math.sqrt(_block_max(blk_g, G_DVMAX))
+    disp2 = _block_max(blk_g, G_DISP)
+    piston_kick_drift(piston, dt)
+    return 0, disp2
 
 
 @numba.njit(cache=True)
@@ -170,20 +179,12 @@ def one_step(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pai
     same bits as run_chunk). ``disp2``: the largest squared displacement since the last build.
     Returns (status, disp2) with run_chunk's statuses (0 after the step; 2 before it when a
     list needs room; 3; a check's outcome)."""
-    blk_g = ws.blk
-    nblk = blk_g.shape[0]
+    status, disp2 = _rebuild_and_drift(pos, vel, acc, omega, alpha, rad, mass, lateral, pos0, pair_i, pair_j,
+                                       pair_ft, pair_ov, wall_ov, piston, fpar, ipar, ws, disp2)
+    if status != 0:
+        return status, disp2
     dt = fpar.dt
-    reach = math.sqrt(disp2) + 2.0 * fpar.v_max * dt
-    if not math.isfinite(reach):  # the state blew up (unstable step): stop before the rebuild
-        return 3, disp2
-    if needs_rebuild(fpar, ipar, reach, np.int64(0)):
-        if _rebuild_list(pos, rad, mass, lateral, pos0, pair_i, pair_j, pair_ft, pair_ov, wall_ov, piston,
-                         fpar, ipar, ws, nblk, ws.slot_pair.shape[0], reach) != 0:
-            return 2, disp2
-    _drift_pass(pos, vel, acc, omega, alpha, lateral, pos0, dt, blk_g)
-    fpar.v_max = math.sqrt(_block_max(blk_g, G_DVMAX))
-    disp2 = _block_max(blk_g, G_DISP)
-    piston_kick_drift(piston, dt)
+    nblk = ws.blk.shape[0]
     check = ipar.check
     is_check = check > 0 and (ipar.steps + 1) % check == 0
     _forces(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0, pair_i, pair_j, pair_ft,
