@@ -104,7 +104,7 @@ def tiled(state, jmax, dt, zeta, mu, rescale):
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("zeta, mu, rescale", [(0.5, 0.5, True), (0.5, 0.5, False), (0.0, 0.3, True),
-                                                (0.7, 0.0, True)])
+                                                (0.7, 0.0, True), (0.0, 0.0, True)])
 def test_tiled_law_gives_the_bits_of_the_pair_at_a_time_law(dim, zeta, mu, rescale):
     """Forces, torques (summed in list order), new histories, cleared histories of pairs apart,
     the largest overlap and the contact count: the same bytes, over more than one tile, and
@@ -159,7 +159,8 @@ def incoming_at_a_time(state, slots, dt, zeta, mu, rescale):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("zeta, mu, rescale", [(0.5, 0.5, True), (0.0, 0.3, False), (0.7, 0.0, True)])
+@pytest.mark.parametrize("zeta, mu, rescale", [(0.5, 0.5, True), (0.0, 0.3, False), (0.7, 0.0, True),
+                                                (0.0, 0.0, True)])
 def test_tiled_incoming_pairs_give_the_bits_of_the_pair_at_a_time_law(dim, zeta, mu, rescale):
     """The incoming pairs of a block (pair_tile.law_tile_incoming, tile by tile): forces and
     torques on g, the slots' forces and torques for k (zeros for pairs apart), histories, the

@@ -217,6 +217,9 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
     contact.py's formulas) stay branch-free (Hertz's is the loop before the seam); any other
     selection takes the dispatchers."""
     friction = CD.friction_acts(tangential)
+    # an undamped frictionless contact's force is its elastic normal force alone: its velocity
+    # (two grains' gathers) and dashpot coefficient (a root) are not computed (the pulses' default)
+    damped = CD.dashpot_acts(damping)
     # vector: distance, unit normal i -> j, overlap
     if d == 3:
         for c in range(nc):
@@ -244,12 +247,14 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
         nz = t[T_NZ * ROW + c] if d == 3 else 0.0
         ai = rad[i] - 0.5 * delta
         aj = rad[j] - 0.5 * delta
-        vx, vy, vz = _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
         t[T_AI * ROW + c] = ai
         t[T_AJ * ROW + c] = aj
+        t[T_ROOT * ROW + c] = pair_c[q, PC_ROOT]
+        if not (friction or damped):
+            continue
+        vx, vy, vz = _contact_velocity(vel, omega, i, j, ai, aj, nx, ny, nz)
         vn = vx * nx + vy * ny + vz * nz
         t[T_VN * ROW + c] = vn
-        t[T_ROOT * ROW + c] = pair_c[q, PC_ROOT]
         t[T_MEFF * ROW + c] = pair_c[q, PC_MEFF]
         if friction:
             t[T_TX * ROW + c] = vx - vn * nx
@@ -274,12 +279,16 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
         # the defaults (code 0): contact.py's formulas (contact_models.hertz, damping_critical and
         # mindlin bind them)
         zeta = damping.c0
-        for c in range(nc):
-            delta = t[T_DELTA * ROW + c]
-            root = t[T_ROOT * ROW + c]
-            t[T_FEL * ROW + c] = C.normal_force_root(delta, root, e12)
-            t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
-                                                      C.normal_stiffness_root(delta, root, e12))
+        if damped:
+            for c in range(nc):
+                delta = t[T_DELTA * ROW + c]
+                root = t[T_ROOT * ROW + c]
+                t[T_FEL * ROW + c] = C.normal_force_root(delta, root, e12)
+                t[T_CN * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c],
+                                                          C.normal_stiffness_root(delta, root, e12))
+        else:
+            for c in range(nc):
+                t[T_FEL * ROW + c] = C.normal_force_root(t[T_DELTA * ROW + c], t[T_ROOT * ROW + c], e12)
         if friction:
             for c in range(nc):
                 delta = t[T_DELTA * ROW + c]
@@ -289,12 +298,16 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
                 t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
     else:  # any other selection through the dispatchers (granwave.contact_models)
-        for c in range(nc):
-            delta = t[T_DELTA * ROW + c]
-            root = t[T_ROOT * ROW + c]
-            t[T_FEL * ROW + c] = CD.law_force(law, delta, root, e12)
-            t[T_CN * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c],
-                                                       CD.law_stiffness(law, delta, root, e12), delta)
+        if damped:
+            for c in range(nc):
+                delta = t[T_DELTA * ROW + c]
+                root = t[T_ROOT * ROW + c]
+                t[T_FEL * ROW + c] = CD.law_force(law, delta, root, e12)
+                t[T_CN * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c],
+                                                           CD.law_stiffness(law, delta, root, e12), delta)
+        else:
+            for c in range(nc):
+                t[T_FEL * ROW + c] = CD.law_force(law, t[T_DELTA * ROW + c], t[T_ROOT * ROW + c], e12)
         if friction:
             for c in range(nc):
                 delta = t[T_DELTA * ROW + c]
