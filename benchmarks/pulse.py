@@ -2,12 +2,13 @@
 ``--shock``, a strong push across a 10⁴-grain column against the preparation engine (recorded).
 
     python benchmarks/pulse.py [--grains 600] [--damping 0.1] [--crossings 3] [--packing FILE]
-    nice -n 10 python benchmarks/pulse.py --shock [--rows 1250 --width 8] [--pairs 5] [--no-record]
+    nice -n 10 python benchmarks/pulse.py --shock [--rows 1250 --width 8] [--pairs 5] [--shock-damping 0]
+        [--no-record]
     python benchmarks/pulse.py --shock --device gpu      # on a GPU machine (pip install -e '.[gpu]')
 
 ``--shock`` (issue #63, docs/shocks.md): a triangular lattice of rows x width grains (default
 1250 x 8 = 10⁴, Hertz, p = 1e-4, frictionless) pushed by the piston at the strain 10 δ0/d (a strong
-push: ε/δ0 = 10) over ``--fraction`` of the default record, sampled as the default record is (its
+push: ε/δ0 = 10; undamped unless ``--shock-damping``) over ``--fraction`` of the default record, sampled as the default record is (its
 2001 samples' interval: the same steps per sample, so the pulse field's per-sample reading costs
 what it costs in a full run); grain-steps/s of the pulse
 (``propagate_dem``, pulse field on, no baseline) on one thread against the preparation engine's
@@ -80,10 +81,12 @@ def shock(args) -> dict:
     t_max = args.fraction * RECORD_CROSSINGS * packing.height / front_speed_bound(packing, peak=peak)["speed"]
     # the default record's sampling (2001 samples over the whole record): as many steps per sample
     samples = max(11, int(round(args.fraction * (args.samples - 1))) + 1)
-    kw = dict(drive="piston", strain=strain, baseline=False, samples=samples, device=args.device)
+    kw = dict(drive="piston", strain=strain, baseline=False, samples=samples, device=args.device,
+              damping=args.shock_damping)
     print(f"lattice {args.rows} x {args.width} = {n} grains, height {packing.height:.1f}; piston strain "
           f"{strain:.3g} (10 delta0), v_p {size['velocity']:.3g}; t_max {t_max:.4g} "
-          f"({args.fraction:g} of the default record); device {args.device}; load average "
+          f"({args.fraction:g} of the default record); pulse damping {args.shock_damping:g}; device {args.device}; "
+          f"load average "
           f"{load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f}", flush=True)
     for threads in ((1,) if gpu else (1, 2)):  # compile (the one-thread and the parallel kernels)
         numba.set_num_threads(threads)
@@ -122,7 +125,7 @@ def shock(args) -> dict:
         from granwave.dem import pulse as P
 
         numba.set_num_threads(1)
-        eng = P.engine_from_packing(packing, dt=attrs["dt"])
+        eng = P.engine_from_packing(packing, dt=attrs["dt"], damping=args.shock_damping)
         grains, _ = P.source(packing, "normal")
         eng.mass[grains] *= P.PISTON_MASS_FACTOR
         eng.inertia[grains] *= P.PISTON_MASS_FACTOR
@@ -149,7 +152,7 @@ def shock(args) -> dict:
         prep.append(rp)
         ratios.append(r1 / rp)
         print(f"pair {k}: pulse {r1:.3g}, preparation {rp:.3g} grain-steps/s: ratio {r1 / rp:.3f}", flush=True)
-    out = {"grains": n, "device": args.device, "steps": attrs["n_steps"], "samples": samples, "dt": attrs["dt"],
+    out = {"grains": n, "device": args.device, "damping": args.shock_damping, "steps": attrs["n_steps"], "samples": samples, "dt": attrs["dt"],
            "t_max": t_max, "front_speed": attrs["front_speed"], "front_speed_bound": attrs["front_speed_bound"],
            "pairs": args.pairs, "pulse_rates_1": pulse1, "prepare_rates_1": prep, "pair_ratios": ratios,
            "pulse_rate_1": statistics.median(pulse1), "prepare_rate_1": statistics.median(prep),
@@ -207,7 +210,7 @@ def record_shock(result: dict, argv: list[str]) -> None:
 
     load = (f"load average {result['load_average_start'][0]:.2f} at the start, "
             f"{result['load_average_end'][0]:.2f} at the end")
-    summary = {"grains": result["grains"], "device": result["device"],
+    summary = {"grains": result["grains"], "device": result["device"], "pulse damping": result["damping"],
                ("pulse / preparation per core" if result["device"] == "cpu" else "pulse / preparation on the GPU"): {
                    "values": f"{result['pulse_rate_1']:.3g} / {result['prepare_rate_1']:.3g} grain-steps/s (medians)",
                    "ratio": round(result["pulse_over_prepare"], 3), "goal": 1.0}}
@@ -246,6 +249,8 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, default=5, help="--shock: adjacent pairs of runs (the median ratio)")
     ap.add_argument("--device", choices=("cpu", "gpu"), default="cpu",
                     help="--shock: the pulse and the preparation engine on this device (gpu: wall time)")
+    ap.add_argument("--shock-damping", type=float, default=0.0,
+                    help="--shock: the pulse's contact damping zeta (default 0, the pulses' default)")
     ap.add_argument("--prepare-steps", type=int, default=2000)
     ap.add_argument("--no-record", action="store_true")
     ap.add_argument("--grains", type=int, default=600)

@@ -11,12 +11,14 @@ prose of an earlier document carries ``"transcribed": true`` and says where from
 
 The per-packing records of ``ensembles/`` (one packing a line, written and read by the ensemble
 benchmarks: relaxation.py, settling.py, end_game.py, protocol_sensitivity.py) are listed, not
-shown: their tables are in TABLES.md. Five tables go into the docs between marker comments:
+shown: their tables are in TABLES.md. Seven tables go into the docs between marker comments:
 docs/gpu.md's (the newest GPU record), docs/dem.md's (the newest value of every DEM
 measure, see :func:`dem_table`), docs/shear.md's (the pick table of the newest shear-scene
-run, see :func:`shear_scene_table`), docs/continuum.md's (the newest run of each continuum
-scene, see :func:`continuum_scene_tables`) and docs/tradeoffs.md's time-step tables (the
-newest record of time_step.jsonl, see :func:`time_step_table`).
+run, see :func:`shear_scene_table`), docs/shocks.md's two (the newest run of each shocks scene,
+see :func:`shocks_scene_tables`, and the newest CPU records of benchmarks/pulse.py --shock, see
+:func:`pulse_speed_table`), docs/continuum.md's (the newest run of each continuum scene, see
+:func:`continuum_scene_tables`) and docs/tradeoffs.md's time-step tables (the newest record of
+time_step.jsonl, see :func:`time_step_table`).
 
 It also regenerates the workflow's job counts and measured run times quoted in README.md
 and config/README.md (the spans between ``<!-- gen:NAME -->`` and ``<!-- /gen -->``: job counts
@@ -226,6 +228,35 @@ def shocks_scene_tables(folder: Path = HERE) -> str:
     return "\n".join(lines + [""] + scene_tables({k: r["result"] for k, r in newest.items()})).rstrip()
 
 
+#: docs/shocks.md's speed table (benchmarks/pulse.py --shock on the CPU) sits between these two lines.
+PULSE_TABLE = ("<!-- pulse-speed-table: begin (generated; do not edit) -->", "<!-- pulse-speed-table: end -->")
+
+
+def pulse_speed_table(folder: Path = HERE, newest: int = 2) -> str:
+    """The ``newest`` CPU records of benchmarks/pulse.py --shock (pulse.jsonl) of the undamped
+    pulse and the newest of each other pulse damping: per record the medians of its three pair
+    ratios, the pairs' own in brackets."""
+    by_damping: dict[float, list] = {}
+    for rec in sorted(_records(folder / "pulse.jsonl"), key=lambda r: str(r.get("date", ""))):
+        if rec.get("benchmark") == "pulse_shock" and rec["result"].get("device") == "cpu":
+            by_damping.setdefault(float(rec["result"].get("damping", 0.0)), []).append(rec)  # later lines last
+    recs = [rec for zeta in sorted(by_damping) for rec in by_damping[zeta][-(newest if zeta == 0.0 else 1):]]
+
+    def ratios(median: float, pairs: list) -> str:
+        return f"{median:.3f} ({', '.join(f'{x:.3f}' for x in pairs)})"
+
+    lines = ["| date, revision | pulse ζ | load average | pulse / preparation (goal ≥ 1) | "
+             "pulse / engine on the same push | pulse, 2 threads / 1 |", "|---|---|---|---|---|---|"]
+    for rec in recs:
+        r = rec["result"]
+        lines.append(f"| {rec['date']}, {rec['git_revision']} | {r.get('damping', 0.0):g} | "
+                     f"{r['load_average_start'][0]:.2f} → {r['load_average_end'][0]:.2f} | "
+                     f"{ratios(r['pulse_over_prepare'], r['pair_ratios'])} | "
+                     f"{ratios(r['pulse_over_push'], r['push_pair_ratios'])} | "
+                     f"{ratios(r['threads_2_over_1'], r['thread_pair_ratios'])} |")
+    return "\n".join(lines)
+
+
 #: docs/continuum.md's results of the workflow's continuum scenes sit between these two lines.
 CONTINUUM_TABLE = ("<!-- continuum-scene-tables: begin (generated; do not edit) -->",
                    "<!-- continuum-scene-tables: end -->")
@@ -425,6 +456,7 @@ def main() -> None:
     write_block(HERE.parent.parent / "docs" / "dem.md", DEM_TABLE, dem_table())
     write_block(HERE.parent.parent / "docs" / "shear.md", SHEAR_TABLE, shear_scene_table())
     write_block(HERE.parent.parent / "docs" / "shocks.md", SHOCKS_TABLE, shocks_scene_tables())
+    write_block(HERE.parent.parent / "docs" / "shocks.md", PULSE_TABLE, pulse_speed_table())
     write_block(HERE.parent.parent / "docs" / "continuum.md", CONTINUUM_TABLE, continuum_scene_tables())
     write_block(HERE.parent.parent / "docs" / "tradeoffs.md", TIME_STEP_TABLE, time_step_table())
     write_generated_docs()
