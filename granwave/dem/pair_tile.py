@@ -217,8 +217,9 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
     contact.py's formulas) stay branch-free (Hertz's is the loop before the seam); any other
     selection takes the dispatchers."""
     friction = CD.friction_acts(tangential)
-    # an undamped frictionless contact's force is its elastic normal force alone: its velocity
-    # (two grains' gathers) and dashpot coefficient (a root) are not computed (the pulses' default)
+    # an undamped contact has no dashpot coefficients to compute (their roots), and an undamped
+    # frictionless one's force is its elastic normal force alone: its velocity (two grains'
+    # gathers) is not computed either (the pulses' default)
     damped = CD.dashpot_acts(damping)
     # vector: distance, unit normal i -> j, overlap
     if d == 3:
@@ -294,7 +295,8 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
                 delta = t[T_DELTA * ROW + c]
                 kt = C.tangential_stiffness(delta, t[T_R12 * ROW + c], g12)
                 t[T_KT * ROW + c] = kt
-                t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
+                if damped:  # loop-invariant: the compiler makes two loops of it
+                    t[T_CT * ROW + c] = C.damping_coefficient(zeta, t[T_MEFF * ROW + c], kt)
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
                 t[T_SRES * ROW + c] = C.unloading_scale(t[T_OVOLD * ROW + c], delta)
     else:  # any other selection through the dispatchers (granwave.contact_models)
@@ -314,7 +316,8 @@ def _staged_law(vel, omega, rad, pair_i, pair_j, pair_c, pair_ft, pair_ov, dampi
                 kt = CD.tangential_spring(tangential, CD.law_tangential_stiffness(law, delta, t[T_R12 * ROW + c], g12),
                                           delta, e12)
                 t[T_KT * ROW + c] = kt
-                t[T_CT * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c], kt, delta)
+                if damped:
+                    t[T_CT * ROW + c] = CD.dashpot_coefficient(damping, t[T_MEFF * ROW + c], kt, delta)
                 t[T_SPROJ * ROW + c] = math.sqrt(t[T_OLD2 * ROW + c] / t[T_NEW2 * ROW + c])
                 t[T_SRES * ROW + c] = CD.law_unloading_scale(law, t[T_OVOLD * ROW + c], delta)
 
