@@ -255,18 +255,21 @@ def test_shocks_config_dry_run_and_the_quick_default_without_it():
     assert returncode == 0 and not any("shocks" in job for job in jobs), out[-3000:]
 
 
-def test_docs_scene_tables_are_the_generated_ones():
-    """docs/shocks.md's scene tables are what benchmarks/results/summarize.py writes from the newest
-    shocks_scene.jsonl record of each scene (rerun it after recording a run)."""
+@pytest.mark.parametrize("markers, table", [("SHOCKS_TABLE", "shocks_scene_tables"),
+                                            ("PULSE_TABLE", "pulse_speed_table")])
+def test_docs_tables_are_the_generated_ones(markers, table):
+    """docs/shocks.md's scene tables and speed table are what benchmarks/results/summarize.py writes
+    from the newest shocks_scene.jsonl record of each scene and the newest pulse.jsonl shock records
+    (rerun it after recording a run)."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("summarize", ROOT / "benchmarks" / "results" / "summarize.py")
     summarize = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(summarize)
     doc = (ROOT / "docs" / "shocks.md").read_text()
-    begin, end = summarize.SHOCKS_TABLE
+    begin, end = getattr(summarize, markers)
     block = doc[doc.index(begin) + len(begin):doc.index(end)]
-    assert block.strip() == summarize.shocks_scene_tables().strip()
+    assert block.strip() == getattr(summarize, table)().strip()
 
 
 def test_report_section_copies_the_analysis(tmp_path):
