@@ -286,6 +286,42 @@ def test_front_picks_on_a_field_of_known_speed():
     assert front_picks(t, z, step, pick="crossing", column=40.0)["speed"] == pytest.approx(speed, rel=1e-6)
 
 
+# ------------------------------------------------------------------- contacts of the incoming front
+def test_incoming_counts_are_read_before_the_front_reaches_the_far_wall():
+    """The counts of the last sample before t0 + column / speed; the whole record's when the front
+    does not reach the wall within it; NaN without a fitted front."""
+    times = np.arange(11) * 10.0
+    contacts = np.cumsum(np.ones((11, 3), np.int64), axis=0) * np.array([1, 10, 100])
+    got = P.incoming_counts(times, contacts, t0=5.0, speed=0.5, column=20.0)  # reaches it at t = 45
+    assert got["front_far_wall_time"] == 45.0
+    assert (got["n_opened_incoming"], got["n_formed_incoming"], got["n_sliding_new_incoming"]) == (5, 50, 500)
+    assert P.incoming_counts(times, contacts, t0=0.0, speed=0.5, column=40.0)["n_opened_incoming"] == 9  # t = 80
+    assert P.incoming_counts(times, contacts, t0=0.0, speed=0.1, column=40.0)["n_opened_incoming"] == 11
+    none = P.incoming_counts(times, contacts, t0=math.nan, speed=math.nan, column=40.0)
+    assert all(math.isnan(v) for v in none.values())
+
+
+def test_incoming_counts_are_those_of_the_push_stopped_there():
+    """A strong push (ε = 30 δ0) into a frictional lattice: the counts of the incoming front are
+    the counts of the same push stopped at that sample (the same steps, so the same state), and
+    the reflection adds to them (measured: opened 6 of 1080 contacts before it, 93 over the
+    record; newly sliding 708 and 915)."""
+    from granwave.systems import triangular_lattice
+
+    p = triangular_lattice(rows=60, width=6, pressure=1e-4, friction=0.5)
+    delta0 = float(np.mean(p.contacts.overlap[p.contacts.j >= 0]))
+    kw = dict(drive="piston", strain=30.0 * delta0, baseline=False, dt=0.1)
+    full = P.propagate_dem(p, t_max=600.0, samples=301, **kw)
+    a = full.attrs
+    k = int(np.searchsorted(full.time, a["front_far_wall_time"], side="right")) - 1
+    assert 0 < k < len(full.time) - 1
+    stopped = P.propagate_dem(p, t_max=float(full.time[k]), samples=k + 1, **kw).attrs
+    assert stopped["n_steps"] == a["n_steps"] * k // (len(full.time) - 1)
+    for name in ("opened", "formed", "sliding_new"):
+        assert a[f"n_{name}_incoming"] == stopped[f"n_{name}"], name
+    assert 0 < a["n_opened_incoming"] < a["n_opened"] and 0 < a["n_sliding_new_incoming"] < a["n_sliding_new"]
+
+
 def test_cli_piston_and_bad_input(tmp_path):
     runner = CliRunner()
     c = tmp_path / "c.h5"

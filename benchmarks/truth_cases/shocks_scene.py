@@ -169,8 +169,10 @@ def records(seed: int, tail: bool = True) -> list[dict]:
                 counts = {name: int(rng.binomial(N_CONTACTS, r)) for name, r in rates.items()}
                 attrs = dict(amplitude=eps, strain=eps * d0, piston_velocity=eps * gain * d0 * c,
                              front_speed=v, front_speed_error=sigma * v, n_contacts_initial=N_CONTACTS,
-                             n_opened=counts["opened"], n_sliding_new=counts["slid"],
-                             n_formed=counts["formed"], energy_drift=0.0, front_speed_bound_linear=1.1 * c)
+                             n_opened_incoming=counts["opened"], n_sliding_new_incoming=counts["slid"],
+                             n_formed_incoming=counts["formed"], n_opened=counts["opened"],
+                             n_sliding_new=counts["slid"], n_formed=counts["formed"], energy_drift=0.0,
+                             front_speed_bound_linear=1.1 * c)
                 rows.append(S.pulse_row(attrs, width=math.nan))
             meta = dict(scene="synthetic", contact_law="hertz", friction=0.5, pressure=p, seed=k,
                         label=f"synthetic p={p:g} s{k}")

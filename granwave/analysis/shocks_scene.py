@@ -33,13 +33,14 @@ Quantities (units: d̄, √(E*/ρ)):
   over its pushes at ε/δ0 ≥ ``tail_from``; compared with (α − 2)/2 (1/4 for Hertz) and with
   the mean-field curve's own slope over the same window (at finite x f_α is not yet at its
   asymptote).
-- **contacts**, as the DEM pulse counts them (granwave.dem.pulse) at some step of the record:
+- **contacts**, as the DEM pulse counts them (granwave.dem.pulse) at some step before the
+  fitted front reaches the top wall (the incoming front alone, not its reflection):
   ``opened``, the fraction of the contacts of t = 0 that lost their overlap; ``formed``, the
   contacts absent at t = 0 that gained one, per contact of t = 0; ``slid``, the contacts not on the
   Coulomb cone at t = 0 that reached it (formed ones included), per contact of t = 0, and
-  ``slid_fraction`` = slid / (1 + formed), the fraction of all the contacts that existed during
-  the record. They count over the whole record, which includes the front's reflection off the
-  top wall.
+  ``slid_fraction`` = slid / (1 + formed), the fraction of all the contacts that existed until
+  then. A push's row also keeps the whole record's (``opened_record``, ``slid_record``,
+  ``formed_record``: the reflection included).
 - **softening**: per pressure the smallest mean V/c0 over the pushes and its ε/δ0 (below 1: the
   medium softens before the contact law's hardening wins).
 - **shock width** w: (t_90 − t_10) V, the 10 %–90 % rise of each height bin's mean velocity to
@@ -151,7 +152,9 @@ def rise_width(time: np.ndarray, height: np.ndarray, velocity: np.ndarray, *, pl
 
 def pulse_row(attrs: Mapping, *, width: float = math.nan) -> dict:
     """One piston push's row from the DEM pulse's attributes (granwave.dem.pulse): its sizes,
-    front speed, ε = v_p / V, the contact counts as fractions of the contacts of t = 0."""
+    front speed, ε = v_p / V, the contact counts of the incoming front (until it reaches the far
+    wall: ``n_*_incoming``) as fractions of the contacts of t = 0, and the whole record's
+    (``*_record``)."""
     n0 = max(int(attrs["n_contacts_initial"]), 1)
     v_p = float(attrs["piston_velocity"])
     v = float(attrs["front_speed"])
@@ -159,8 +162,10 @@ def pulse_row(attrs: Mapping, *, width: float = math.nan) -> dict:
     return dict(amplitude=float(attrs["amplitude"]), nominal_strain=float(attrs["strain"]),
                 piston_velocity=v_p, front_speed=v, front_speed_error=float(attrs["front_speed_error"]),
                 strain=strain, width=float(width),
-                opened=int(attrs["n_opened"]) / n0, slid=int(attrs["n_sliding_new"]) / n0,
-                formed=int(attrs["n_formed"]) / n0, n_contacts=int(attrs["n_contacts_initial"]),
+                opened=float(attrs["n_opened_incoming"]) / n0, slid=float(attrs["n_sliding_new_incoming"]) / n0,
+                formed=float(attrs["n_formed_incoming"]) / n0,
+                opened_record=int(attrs["n_opened"]) / n0, slid_record=int(attrs["n_sliding_new"]) / n0,
+                formed_record=int(attrs["n_formed"]) / n0, n_contacts=int(attrs["n_contacts_initial"]),
                 energy_drift=float(attrs.get("energy_drift", math.nan)),
                 front_speed_bound_linear=float(attrs["front_speed_bound_linear"]))
 

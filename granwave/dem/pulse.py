@@ -52,7 +52,10 @@ Counted during the run (after every step; :mod:`granwave.dem.pulse_kernels`):
 ``n_sliding`` contacts whose tangential force is on the Coulomb cone after
 some step (``n_sliding_new`` of them were not on the cone at t = 0;
 ``n_at_cone_initial`` were fully mobilized in the stored state). Walls
-count like grains.
+count like grains. With the pulse field, the same counts at every sample, and from them
+``n_opened_incoming``, ``n_formed_incoming``, ``n_sliding_new_incoming``: the counts when the
+fitted front reaches the far wall (``front_far_wall_time``), before its reflection
+(:func:`incoming_counts`).
 """
 
 from __future__ import annotations
@@ -280,8 +283,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
     Signal with ``force`` = [F_top(t) − F_top,unkicked(t)] / s in E* d² (the
     linear normalization) and attrs: ic, method="dem", height, amplitude,
     damping, scale s, mean_overlap, amplitude_definition, dt, n_steps, the
-    counts n_opened, n_formed, n_sliding (n_sliding_new, n_at_cone_initial),
-    max_displacement_over_overlap, contact_law (a description of the packing's law that
+    counts n_opened, n_formed, n_sliding (n_sliding_new, n_at_cone_initial), with the field
+    also those of the incoming front (module docstring), max_displacement_over_overlap, contact_law (a description of the packing's law that
     the run used; with the law's parameters when it is not the default) and the packing's attributes.
     The engine runs the packing's normal law (``contact_law`` attribute, Hertz when absent);
     ``device="gpu"`` takes Hertz packings only.
@@ -431,7 +434,23 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         attrs.update(field_bin_width=float(bin_width), front_pick=picks["pick"],
                      front_speed=picks["speed"], front_speed_error=picks["speed_error"],
                      front_fit_range=picks["fit_range"], front_width=picks["width"])
+        attrs.update(incoming_counts(times, kicked["contacts"], t0=picks["t0"], speed=picks["speed"],
+                                     column=packing.height))
     return sig
+
+
+def incoming_counts(times: np.ndarray, contacts: np.ndarray, *, t0: float, speed: float, column: float) -> dict:
+    """The contact counts of the incoming front alone: the run's counts so far (``contacts``,
+    (samples, 3), pulse_kernels.CONTACT_COUNTS) at the last sample before the fitted front
+    (arrival t0 + z / speed at height z) reaches the far wall at z = ``column``, before any
+    reflection; the whole record's where the front does not reach it within the record. The
+    arrival time ``front_far_wall_time`` with them; NaN (and NaN counts) without a fitted front."""
+    t_far = t0 + column / speed if speed > 0.0 and math.isfinite(speed) and math.isfinite(t0) else math.nan
+    out = {"front_far_wall_time": float(t_far)}
+    k = int(np.searchsorted(times, t_far, side="right")) - 1 if math.isfinite(t_far) else -1
+    for c, name in enumerate(PK.CONTACT_COUNTS):
+        out[f"n_{name}_incoming"] = float(contacts[k, c]) if k >= 0 else math.nan
+    return out
 
 
 def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: int, samples: int,
@@ -569,7 +588,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 n_sliding=count(PK.SLID),
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),
                 **{"n_at_cone_initial": count(PK.LIMIT0)}, max_displacement=float(stats[0]),
-                rebuilds=int(engine.rebuilds), energy_drift=float(energy_drift), field=pulse)
+                rebuilds=int(engine.rebuilds), energy_drift=float(energy_drift), field=pulse,
+                contacts=rd.contacts if field is not None else None)
 
 
 def _energy(engine: Engine) -> float:

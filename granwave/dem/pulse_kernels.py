@@ -13,8 +13,8 @@ in :mod:`granwave.contact`). After every step the loop only *reads* the state to
 and at every output sample (:class:`Readings`, inside the same call)
 
 - record the top-wall contact force (``piston.f_con``),
-- the pulse field (the height bins' mean velocity, their largest contact force) and, for the
-  shear source, the top wall's force along x.
+- the pulse field (the height bins' mean velocity, their largest contact force) and with it the
+  contact counts so far, and for the shear source, the top wall's force along x.
 
 Contact state flags (``int8`` bit field, one per pair slot and per wall slot):
 ``INITIAL`` in contact at t = 0; ``OPENED`` an initial contact found without
@@ -212,7 +212,9 @@ class Readings(NamedTuple):
     bins' mean velocity along ``axis`` at every sample (np.bincount's sum in grain order over
     max(count, 1)); ``force_max`` (n_bins,): the largest elastic pair normal force at a sample,
     binned by the pair's mid-height; ``shear`` (samples,): the top wall's force along x
-    (:func:`top_shear_force`; empty: not read)."""
+    (:func:`top_shear_force`; empty: not read); ``contacts`` (samples, 3) int64, with the field:
+    the run's contact counts so far at every sample (:func:`count_contacts`, columns
+    :data:`CONTACT_COUNTS`)."""
     axis: int
     bin_width: float
     grain_bin: np.ndarray
@@ -220,6 +222,12 @@ class Readings(NamedTuple):
     velocity: np.ndarray
     force_max: np.ndarray
     shear: np.ndarray
+    contacts: np.ndarray
+
+
+#: Columns of :attr:`Readings.contacts`: contacts of t = 0 opened so far (OPENED), contacts formed
+#: (FORMED), contacts on their slider's limit that were not at t = 0 (SLID without LIMIT0).
+CONTACT_COUNTS = ("opened", "formed", "sliding_new")
 
 
 def readings(n_grains: int, samples: int, *, axis: int = 0, bin_width: float = 1.0,
@@ -231,7 +239,34 @@ def readings(n_grains: int, samples: int, *, axis: int = 0, bin_width: float = 1
     return Readings(int(axis), float(bin_width), gb,
                     np.bincount(gb, minlength=n_bins).astype(np.int64) if field else np.zeros(0, np.int64),
                     np.zeros((n_bins, samples)) if field else np.zeros((0, 0)),
-                    np.zeros(n_bins if field else 0), np.zeros(samples if shear else 0))
+                    np.zeros(n_bins if field else 0), np.zeros(samples if shear else 0),
+                    np.zeros((samples if field else 0, len(CONTACT_COUNTS)), np.int64))
+
+
+@numba.njit(cache=True, inline="always")
+def _tally(state, counts):
+    s = np.int64(state)
+    counts[0] += np.int64((s & OPENED) != 0)
+    counts[1] += np.int64((s & FORMED) != 0)
+    counts[2] += np.int64((s & SLID) != 0 and (s & LIMIT0) == 0)
+
+
+@numba.njit(cache=True)
+def count_contacts(k, pair_state, npairs, wall_state, archive, rd):
+    """Sample ``k``'s row of ``rd.contacts`` (nothing without the field): the flags so far of the
+    listed pairs, the wall slots and the pairs that left the list (``archive``, :func:`carry_flags`),
+    counted as the run's totals are (granwave.dem.pulse), so the last sample's row is the run's."""
+    if rd.contacts.shape[0] == 0:
+        return
+    counts = np.zeros(len(CONTACT_COUNTS), np.int64)
+    for p in range(npairs):
+        _tally(pair_state[p], counts)
+    for w in range(wall_state.shape[0]):
+        _tally(wall_state[w], counts)
+    for state in archive.values():
+        _tally(state, counts)
+    for c in range(len(CONTACT_COUNTS)):
+        rd.contacts[k, c] = counts[c]
 
 
 @numba.njit(cache=True)
@@ -413,6 +448,7 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
         force_out[k] = piston.f_con
         read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, ws.pair_c, wall_ft, wall_ov, piston,
                     fpar, rd)
+        count_contacts(k, pair_state, npairs, wall_state, archive, rd)
     return k_stop
 
 
@@ -461,6 +497,7 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
         force_out[k] = piston.f_con
         read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, ws.pair_c, wall_ft, wall_ov, piston,
                     fpar, rd)
+        count_contacts(k, pair_state, npairs, wall_state, archive, rd)
     return k_stop
 
 

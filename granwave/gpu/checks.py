@@ -120,7 +120,12 @@ def pulse() -> dict:
     keys = ("n_opened", "n_formed", "n_sliding", "neighbour_rebuilds", "n_contacts_initial")
     return {"signal_rel": _rel(cpu.force, gpu.force),
             "max_displacement_rel": _rel(cpu.attrs["max_displacement"], gpu.attrs["max_displacement"]),
-            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
+            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys},
+            **{f"{k}_{dev}": float(sig.attrs[k]) for k in INCOMING for dev, sig in (("cpu", cpu), ("gpu", gpu))}}
+
+
+#: The incoming front's counts of a pulse with the field (granwave.dem.pulse.incoming_counts).
+INCOMING = ("front_far_wall_time", "n_opened_incoming", "n_formed_incoming", "n_sliding_new_incoming")
 
 
 def pulse_piston() -> dict:
@@ -145,7 +150,12 @@ def pulse_piston() -> dict:
             "force_grew": float(np.max(cpu.pulse["force_max"] / np.maximum(cpu.pulse["force_initial"], 1e-300))),
             "max_displacement_rel": _rel(cpu.attrs["max_displacement"], gpu.attrs["max_displacement"]),
             "piston_velocity": float(cpu.attrs["piston_velocity"]),
-            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
+            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys},
+            **{f"{k}_{dev}": float(sig.attrs[k]) for k in INCOMING for dev, sig in (("cpu", cpu), ("gpu", gpu))}}
+
+
+#: The incoming front's counts of a pulse with the field (granwave.dem.pulse.incoming_counts).
+INCOMING = ("front_far_wall_time", "n_opened_incoming", "n_formed_incoming", "n_sliding_new_incoming")
 
 
 def _gas(cls, dim: int, steps: int, **kw):

@@ -14,7 +14,9 @@ CPU set-up's (masses made :data:`granwave.dem.pulse.PISTON_MASS_FACTOR` times la
 velocity set), uploaded with the rest of the state. The per-sample readings the CPU loop takes
 inside its call (the pulse field, the shear force: :class:`granwave.dem.pulse_kernels.Readings`)
 are the CPU's :func:`~granwave.dem.pulse_kernels.read_sample` on the state brought to the host
-at each sample: one copy of the state per sample, while the steps stay on the device.
+at each sample: one copy of the state per sample, while the steps stay on the device; with the
+field, also the contact flags, which the CPU's :func:`~granwave.dem.pulse_kernels.count_contacts`
+counts.
 """
 
 from __future__ import annotations
@@ -148,6 +150,10 @@ def pulse_samples_gpu(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, 
                 eng.download()
                 PK.read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, int(ipar.npairs), pair_ov, ws.pair_c,
                                wall_ft, wall_ov, piston, fpar, rd)
+            if rd.contacts.shape[0] > 0:  # the flags so far, brought to the host (int8: 1 byte a slot)
+                pair_state[...] = dev["state"].copy_to_host()
+                wall_state[...] = dev["wall"].copy_to_host()
+                PK.count_contacts(k, pair_state, int(ipar.npairs), wall_state, archive, rd)
             k += 1
         return k_stop
     except _NeedRoom as exc:
