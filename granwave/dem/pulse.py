@@ -284,8 +284,9 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
     linear normalization) and attrs: ic, method="dem", height, amplitude,
     damping, scale s, mean_overlap, amplitude_definition, dt, n_steps, the
     counts n_opened, n_formed, n_sliding (n_sliding_new, n_at_cone_initial), with the field
-    also those of the incoming front (module docstring), max_displacement_over_overlap, contact_law (a description of the packing's law that
-    the run used; with the law's parameters when it is not the default) and the packing's attributes.
+    also those of the incoming front (module docstring), max_displacement_over_overlap,
+    contact_law (a description of the packing's law that the run used; with the law's
+    parameters when it is not the default) and the packing's attributes.
     The engine runs the packing's normal law (``contact_law`` attribute, Hertz when absent);
     ``device="gpu"`` takes Hertz packings only.
     """
