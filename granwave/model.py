@@ -219,7 +219,8 @@ class Signal:
     dof_axis: np.ndarray | None = None
     position: np.ndarray | None = None  # (N, dim) equilibrium positions
     # DEM pulses (granwave.dem.pulse): the pulse field by height bin, a dict of height (B,),
-    # count (B,), velocity (B, T), force_max (B,), force_initial (B,), arrival (B,)
+    # count (B,), velocity (B, T), force_max (B,), force_initial (B,), arrival (B,) and the contact
+    # counts so far opened, formed, sliding_new (T,) (absent from files before signal schema 1.4)
     pulse: dict | None = None
 
     @property

@@ -36,8 +36,11 @@ def test_gpu_piston_pulse_equals_cpu(piston):
     for k in ("n_opened", "n_formed", "n_sliding", "neighbour_rebuilds", "n_contacts_initial"):
         assert r[f"{k}_gpu"] == r[f"{k}_cpu"], k
     assert r["neighbour_rebuilds_cpu"] > 0  # the host rebuild and its carried flags are exercised
-    # the incoming front's counts, from the flags brought to the host at every sample (NaN on both
-    # when the 3-row column's four samples fit no front)
+    # the counts at every sample, from the flags brought to the host, and the incoming front's (NaN
+    # on both: the 3-row column's four samples fit no front)
+    for k in ("opened", "formed", "sliding_new"):
+        assert r[f"{k}_gpu"] == r[f"{k}_cpu"], k
+    assert r["opened_cpu"][-1] == r["n_opened_cpu"] > r["opened_cpu"][0]  # they change within the record
     for k in ("front_far_wall_time", "n_opened_incoming", "n_formed_incoming", "n_sliding_new_incoming"):
         assert r[f"{k}_gpu"] == r[f"{k}_cpu"] or (math.isnan(r[f"{k}_gpu"]) and math.isnan(r[f"{k}_cpu"])), k
     # the same arithmetic in another order only in the device's reductions (docs/gpu.md)

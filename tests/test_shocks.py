@@ -333,7 +333,22 @@ def test_cli_piston_and_bad_input(tmp_path):
     assert r.exit_code == 0, r.output
     with h5py.File(out) as f:
         assert f.attrs["drive"] == "piston" and f.attrs["piston_velocity"] == 1e-3
-        assert f["pulse/velocity"].shape == (30, 301) and f.attrs["schema_version"] == "1.3"
+        assert f["pulse/velocity"].shape == (30, 301) and f.attrs["schema_version"] == "1.4"
+        # the contact counts so far at every sample: never falling, the last sample's the run's
+        for name, total in (("opened", "n_opened"), ("formed", "n_formed"), ("sliding_new", "n_sliding_new")):
+            counts = f[f"pulse/{name}"][()]
+            assert counts.shape == (301,) and np.all(np.diff(counts) >= 0) and counts[-1] == f.attrs[total]
+    from granwave.io import files
+
+    back = files.read_signal(out)
+    assert set(back.pulse) >= {"opened", "formed", "sliding_new"} and back.pulse["opened"].dtype.kind == "i"
+    # a pulse file of signal schema 1.3 (before the counts) still reads, without them
+    with h5py.File(out, "r+") as f:
+        for name in ("opened", "formed", "sliding_new"):
+            del f[f"pulse/{name}"]
+        f.attrs["schema_version"] = "1.3"
+    older = files.read_signal(out)
+    assert "opened" not in older.pulse and np.array_equal(older.pulse["velocity"], back.pulse["velocity"])
     for bad in (["--amplitude", "1e-3", "--velocity", "1e-3"], ["--drive", "piston", "--ic", "B"],
                 ["--ic", "B", "--velocity", "1e-3"]):
         target = tmp_path / "bad.h5"

@@ -435,8 +435,8 @@ def propagate_dem(packing: Packing, *, ic: str = "A", amplitude: float | None = 
         attrs.update(field_bin_width=float(bin_width), front_pick=picks["pick"],
                      front_speed=picks["speed"], front_speed_error=picks["speed_error"],
                      front_fit_range=picks["fit_range"], front_width=picks["width"])
-        attrs.update(incoming_counts(times, kicked["contacts"], t0=picks["t0"], speed=picks["speed"],
-                                     column=packing.height))
+        attrs.update(incoming_counts(times, np.stack([sig.pulse[name] for name in PK.CONTACT_COUNTS], axis=1),
+                                     t0=picks["t0"], speed=picks["speed"], column=packing.height))
     return sig
 
 
@@ -580,7 +580,8 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
     pulse = None
     if field is not None:
         pulse = dict(height=(np.arange(n_bins) + 0.5) * field, count=rd.count, velocity=rd.velocity,
-                     force_max=rd.force_max, force_initial=force_initial)
+                     force_max=rd.force_max, force_initial=force_initial,
+                     **{name: np.ascontiguousarray(rd.contacts[:, c]) for c, name in enumerate(PK.CONTACT_COUNTS)})
     states = np.concatenate([pair_state[:m], wall_state, PK.archived_flags(archive)])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
     return dict(top=rd.shear if shear else top, residual=residual, f_static_engine=f_static_engine,
@@ -589,8 +590,7 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                 n_sliding=count(PK.SLID),
                 n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),
                 **{"n_at_cone_initial": count(PK.LIMIT0)}, max_displacement=float(stats[0]),
-                rebuilds=int(engine.rebuilds), energy_drift=float(energy_drift), field=pulse,
-                contacts=rd.contacts if field is not None else None)
+                rebuilds=int(engine.rebuilds), energy_drift=float(energy_drift), field=pulse)
 
 
 def _energy(engine: Engine) -> float:

@@ -120,19 +120,16 @@ def pulse() -> dict:
     keys = ("n_opened", "n_formed", "n_sliding", "neighbour_rebuilds", "n_contacts_initial")
     return {"signal_rel": _rel(cpu.force, gpu.force),
             "max_displacement_rel": _rel(cpu.attrs["max_displacement"], gpu.attrs["max_displacement"]),
-            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys},
-            **{f"{k}_{dev}": float(sig.attrs[k]) for k in INCOMING for dev, sig in (("cpu", cpu), ("gpu", gpu))}}
-
-
-#: The incoming front's counts of a pulse with the field (granwave.dem.pulse.incoming_counts).
-INCOMING = ("front_far_wall_time", "n_opened_incoming", "n_formed_incoming", "n_sliding_new_incoming")
+            **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys}}
 
 
 def pulse_piston() -> dict:
     """The piston drive (docs/shocks.md) on the GPU against the CPU: a strong push (strain 10
     delta0) into a 3 x 3 Hertz lattice column, damped, with the pulse field on (read at every
     sample from the state brought to the host): signal, field, largest forces, displacement and
-    counts. The column is short enough for the CUDA simulator (42 steps)."""
+    counts, at the end and at every sample. The column is short enough for the CUDA simulator (42
+    steps)."""
+    from ..dem import pulse_kernels as PK
     from ..dem.pulse import propagate_dem
     from ..systems import triangular_lattice
 
@@ -142,6 +139,7 @@ def pulse_piston() -> dict:
               baseline=False)
     cpu = propagate_dem(packing, **kw)
     gpu = propagate_dem(packing, device="gpu", **kw)
+    both = (("cpu", cpu), ("gpu", gpu))
     keys = ("n_opened", "n_formed", "n_sliding", "neighbour_rebuilds", "n_contacts_initial", "n_steps")
     return {"signal_rel": _rel(cpu.force, gpu.force), "signal_max": float(np.max(np.abs(cpu.force))),
             "field_rel": _rel(cpu.pulse["velocity"], gpu.pulse["velocity"]),
@@ -151,7 +149,8 @@ def pulse_piston() -> dict:
             "max_displacement_rel": _rel(cpu.attrs["max_displacement"], gpu.attrs["max_displacement"]),
             "piston_velocity": float(cpu.attrs["piston_velocity"]),
             **{f"{k}_cpu": int(cpu.attrs[k]) for k in keys}, **{f"{k}_gpu": int(gpu.attrs[k]) for k in keys},
-            **{f"{k}_{dev}": float(sig.attrs[k]) for k in INCOMING for dev, sig in (("cpu", cpu), ("gpu", gpu))}}
+            **{f"{k}_{dev}": float(sig.attrs[k]) for k in INCOMING for dev, sig in both},
+            **{f"{k}_{dev}": sig.pulse[k].tolist() for k in PK.CONTACT_COUNTS for dev, sig in both}}
 
 
 #: The incoming front's counts of a pulse with the field (granwave.dem.pulse.incoming_counts).

@@ -522,6 +522,9 @@ def write_signal(path, signal: Signal) -> None:
             put(f, S.SIGNAL, "pulse/time", signal.time)
             for name in S.PULSE_DATASETS[1:]:
                 put(f, S.SIGNAL, name, signal.pulse[name.split("/")[1]])
+            if "opened" in signal.pulse:  # the contact counts (pulses since schema 1.4)
+                for name in S.PULSE_CONTACTS:
+                    put(f, S.SIGNAL, name, signal.pulse[name.split("/")[1]])
 
 
 def read_signal(path) -> Signal:
@@ -539,5 +542,6 @@ def read_signal(path) -> Signal:
         sig.dof_axis = a["snapshots/dof_axis"]
         sig.position = a.get("snapshots/position")
     if "pulse/height" in a:
-        sig.pulse = {name.split("/")[1]: a[name] for name in S.PULSE_DATASETS[1:]}
+        sig.pulse = {name.split("/")[1]: a[name] for name in S.PULSE_DATASETS[1:]
+                     + (S.PULSE_CONTACTS if "pulse/opened" in a else ())}
     return sig

@@ -51,7 +51,9 @@ Trees (dataset: shape, units)::
     ├── snapshots/position       (N, dim)   optional, reference positions
     └── pulse/...                (B,), (B, T) optional (DEM pulses, since 1.3): the pulse field by
                                             height bin: time, height, count, velocity,
-                                            force_max, force_initial, arrival (docs/shocks.md)
+                                            force_max, force_initial, arrival (docs/shocks.md);
+                                            (T,) since 1.4: the contact counts so far, opened,
+                                            formed, sliding_new
 
     granwave.ensemble                      (analyze ensemble)
     ├── ensemble/time, ensemble/mean, ensemble/rms   (T,)
@@ -85,7 +87,7 @@ VERSIONS = {
     PACKING: "1.1",
     LINEAR: "1.2",
     MODES: "1.2",
-    SIGNAL: "1.3",
+    SIGNAL: "1.4",
     ENSEMBLE: "1.1",
     SWEEP: "1.1",
 }
@@ -161,6 +163,12 @@ DATASETS: dict[str, dict[str, tuple[str, str]]] = {
         "pulse/force_initial": (U.FORCE, "the same at t = 0 (B,)"),
         "pulse/arrival": (U.TIME, "the front's arrival in each bin (the front pick of the root attribute "
                           "front_pick); NaN where the bin has no front (B,)"),
+        "pulse/opened": (U.DIMENSIONLESS, "contacts of t = 0 that lost their overlap at some step up to each "
+                         "sample (T,)"),
+        "pulse/formed": (U.DIMENSIONLESS, "contacts absent at t = 0 that gained an overlap at some step up to "
+                         "each sample (T,)"),
+        "pulse/sliding_new": (U.DIMENSIONLESS, "contacts not on their slider's limit at t = 0 that reached it "
+                              "at some step up to each sample (T,)"),
     },
     ENSEMBLE: {
         "ensemble/time": (U.TIME, "common time grid (T,)"),
@@ -228,6 +236,7 @@ DIMS: dict[str, dict[str, tuple[str, ...]]] = {
         "pulse/time": ("time",), "pulse/height": ("height",), "pulse/count": ("height",),
         "pulse/velocity": ("height", "time"), "pulse/force_max": ("height",),
         "pulse/force_initial": ("height",), "pulse/arrival": ("height",),
+        "pulse/opened": ("time",), "pulse/formed": ("time",), "pulse/sliding_new": ("time",),
     },
     ENSEMBLE: {"ensemble/time": ("time",), "ensemble/mean": ("time",), "ensemble/rms": ("time",)},
     SWEEP: {name: (("pressure", "quantity") if name in ("sweep/mean", "sweep/std", "sweep/count")
@@ -342,6 +351,9 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
         "pulse/force_max": ("f", ("B",)),
         "pulse/force_initial": ("f", ("B",)),
         "pulse/arrival": ("f", ("B",)),
+        "pulse/opened": ("i", ("T",)),
+        "pulse/formed": ("i", ("T",)),
+        "pulse/sliding_new": ("i", ("T",)),
     },
     ENSEMBLE: {
         "ensemble/time": ("f", ("T",)),
@@ -365,12 +377,14 @@ LAYOUT: dict[str, dict[str, tuple[str, tuple]]] = {
 #: The pulse field of a DEM pulse (granwave.dem.pulse), all or none.
 PULSE_DATASETS = ("pulse/time", "pulse/height", "pulse/count", "pulse/velocity", "pulse/force_max",
                   "pulse/force_initial", "pulse/arrival")
+#: The pulse's contact counts at every sample (since 1.4), all or none.
+PULSE_CONTACTS = ("pulse/opened", "pulse/formed", "pulse/sliding_new")
 OPTIONAL: dict[str, frozenset[str]] = {
     PACKING: frozenset(f"contacts/{h}" for h in CO.history_datasets()), ENSEMBLE: frozenset(), SWEEP: frozenset(),
     LINEAR: frozenset({"shear/source_velocity", "shear/detector"}),
     MODES: frozenset({"vectors", "shear/amplitude_A", "shear/coupling"}),
     SIGNAL: frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
-                       "snapshots/dof_axis", "snapshots/position", *PULSE_DATASETS}),
+                       "snapshots/dof_axis", "snapshots/position", *PULSE_DATASETS, *PULSE_CONTACTS}),
 }
 
 #: Optional datasets that come together (all or none).
@@ -378,7 +392,7 @@ GROUPS: dict[str, tuple[frozenset[str], ...]] = {
     LINEAR: (frozenset({"shear/source_velocity", "shear/detector"}),),
     MODES: (frozenset({"shear/amplitude_A", "shear/coupling"}),),
     SIGNAL: (frozenset({"snapshots/time", "snapshots/displacement", "snapshots/dof_grain",
-                        "snapshots/dof_axis"}), frozenset(PULSE_DATASETS)),
+                        "snapshots/dof_axis"}), frozenset(PULSE_DATASETS), frozenset(PULSE_CONTACTS)),
 }
 
 # Root attributes every file of a schema must carry (beyond schema, schema_version,
