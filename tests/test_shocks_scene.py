@@ -248,7 +248,8 @@ def test_shocks_config_dry_run_and_the_quick_default_without_it():
     returncode, out = dry_run("config/shocks.yaml")
     assert returncode == 0, out[-3000:]
     for rule in ("shocks_kernels", "shocks_batch_hertz_frictionless_0", "shocks_batch_hertz_frictional_0",
-                 "shocks_batch_harmonic_frictionless_0", "shocks_analysis", "figure_shocks", "report"):
+                 "shocks_batch_harmonic_frictionless_0", "shocks_batch_hertz_frictional_3d_0", "shocks_analysis",
+                 "figure_shocks", "report"):
         assert rule in out, rule
     returncode, out = dry_run("config/config.yaml")
     jobs = [line.split()[0] for line in out.splitlines() if line.strip() and not line.startswith(" ")]

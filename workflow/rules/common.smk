@@ -809,7 +809,7 @@ def shear_outputs():
 
 
 # ---- helpers of rules/shocks.smk (included only when the config has a shocks section)
-# A shocks scene makes its own 2D packings and pushes each at every drive (docs/shocks.md).
+# A shocks scene makes its own packings (2D, or 3D) and pushes each at every drive (docs/shocks.md).
 
 
 def shocks_scenes():
@@ -821,7 +821,7 @@ def shocks_sample(scene, p, seed):
     spec = config["shocks"][scene]
     height, width = float(spec["height"]), int(spec["width"])
     size = height_label(height)
-    make = dict(dim=2, grains=max(1, round(width * height)), aspect=float(f"{height / width:.6g}"),
+    make = dict(dim=int(spec["dim"]), grains=grain_count(spec, height), aspect=float(f"{height / width:.6g}"),
                 pressure=float(p), friction=float(spec["friction"]), poisson=float(spec["poisson"]),
                 polydispersity=float(spec["polydispersity"]), tol=float(spec["tol"]),
                 max_steps=int(spec["max_steps"]), seed=seed, **(spec.get("contact") or {}))
