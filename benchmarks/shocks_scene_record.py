@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -23,7 +24,11 @@ OUT = Path(__file__).resolve().parent / "results" / "shocks_scene.jsonl"
 
 
 def _cpu(folder: Path, scene: str) -> float | None:
-    return benchmark_cpu_seconds(sorted((folder / "shocks").glob(f"shocks_batch_{scene}_*.tsv")))
+    """The CPU seconds of the scene's batches, shocks_batch_<scene>_<k>.tsv (exactly: a scene named
+    like another's prefix, hertz_frictional and hertz_frictional_3d, does not take its files)."""
+    batch = re.compile(rf"shocks_batch_{re.escape(scene)}_\d+\.tsv")
+    return benchmark_cpu_seconds(sorted(f for f in (folder / "shocks").glob("shocks_batch_*.tsv")
+                                        if batch.fullmatch(f.name)))
 
 
 def main() -> None:
