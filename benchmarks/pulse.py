@@ -8,9 +8,9 @@
 
 ``--shock`` (issue #63, docs/shocks.md): a triangular lattice of rows x width grains (default
 1250 x 8 = 10⁴, Hertz, p = 1e-4, frictionless) pushed by the piston at the strain 10 δ0/d (a strong
-push: ε/δ0 = 10; undamped unless ``--shock-damping``) over ``--fraction`` of the default record, sampled as the default record is (its
-2001 samples' interval: the same steps per sample, so the pulse field's per-sample reading costs
-what it costs in a full run); grain-steps/s of the pulse
+push: ε/δ0 = 10; undamped unless ``--shock-damping``) over ``--fraction`` of the default record,
+sampled as the default record is (its 2001 samples' interval: the same steps per sample, so the
+pulse field's per-sample reading costs what it costs in a full run); grain-steps/s of the pulse
 (``propagate_dem``, pulse field on, no baseline) on one thread against the preparation engine's
 (``Engine.run``, damped, piston, on the same state) on one thread, in the same run; and the pulse's
 rate on 2 threads against 1 (the thread ratio); also the pulse against the preparation engine
@@ -86,8 +86,7 @@ def shock(args) -> dict:
     print(f"lattice {args.rows} x {args.width} = {n} grains, height {packing.height:.1f}; piston strain "
           f"{strain:.3g} (10 delta0), v_p {size['velocity']:.3g}; t_max {t_max:.4g} "
           f"({args.fraction:g} of the default record); pulse damping {args.shock_damping:g}; device {args.device}; "
-          f"load average "
-          f"{load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f}", flush=True)
+          f"load average {load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f}", flush=True)
     for threads in ((1,) if gpu else (1, 2)):  # compile (the one-thread and the parallel kernels)
         numba.set_num_threads(threads)
         propagate_dem(packing, t_max=t_max / 100, **{**kw, "samples": 11})
@@ -152,8 +151,8 @@ def shock(args) -> dict:
         prep.append(rp)
         ratios.append(r1 / rp)
         print(f"pair {k}: pulse {r1:.3g}, preparation {rp:.3g} grain-steps/s: ratio {r1 / rp:.3f}", flush=True)
-    out = {"grains": n, "device": args.device, "damping": args.shock_damping, "steps": attrs["n_steps"], "samples": samples, "dt": attrs["dt"],
-           "t_max": t_max, "front_speed": attrs["front_speed"], "front_speed_bound": attrs["front_speed_bound"],
+    out = {"grains": n, "device": args.device, "damping": args.shock_damping, "steps": attrs["n_steps"],
+           "samples": samples, "dt": attrs["dt"], "t_max": t_max, "front_speed": attrs["front_speed"], "front_speed_bound": attrs["front_speed_bound"],
            "pairs": args.pairs, "pulse_rates_1": pulse1, "prepare_rates_1": prep, "pair_ratios": ratios,
            "pulse_rate_1": statistics.median(pulse1), "prepare_rate_1": statistics.median(prep),
            "pulse_over_prepare": statistics.median(ratios), "load_average_start": list(load_start),

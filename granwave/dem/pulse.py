@@ -584,11 +584,11 @@ def _run(packing: Packing, *, ic: str, kick, damping: float, step: float, sub: i
                      **{name: np.ascontiguousarray(rd.contacts[:, c]) for c, name in enumerate(PK.CONTACT_COUNTS)})
     states = np.concatenate([pair_state[:m], wall_state, PK.archived_flags(archive)])
     count = lambda flag: int(np.count_nonzero(states & flag))  # noqa: E731
+    tally = dict(zip(PK.CONTACT_COUNTS, (int(c) for c in PK.tally_states(states))))  # as every sample's
     return dict(top=rd.shear if shear else top, residual=residual, f_static_engine=f_static_engine,
                 energy_input=energy_input,
-                n_contacts_initial=count(PK.INITIAL), n_opened=count(PK.OPENED), n_formed=count(PK.FORMED),
-                n_sliding=count(PK.SLID),
-                n_sliding_new=int(np.count_nonzero((states & PK.SLID) & ~(states & PK.LIMIT0))),
+                n_contacts_initial=count(PK.INITIAL), n_opened=tally["opened"], n_formed=tally["formed"],
+                n_sliding=count(PK.SLID), n_sliding_new=tally["sliding_new"],
                 **{"n_at_cone_initial": count(PK.LIMIT0)}, max_displacement=float(stats[0]),
                 rebuilds=int(engine.rebuilds), energy_drift=float(energy_drift), field=pulse)
 

@@ -252,6 +252,15 @@ def _tally(state, counts):
 
 
 @numba.njit(cache=True)
+def tally_states(states):
+    """The :data:`CONTACT_COUNTS` of an array of flags (int64, 3)."""
+    counts = np.zeros(len(CONTACT_COUNTS), np.int64)
+    for q in range(states.shape[0]):
+        _tally(states[q], counts)
+    return counts
+
+
+@numba.njit(cache=True)
 def count_contacts(k, pair_state, npairs, wall_state, archive, rd):
     """Sample ``k``'s row of ``rd.contacts`` (nothing without the field): the flags so far of the
     listed pairs, the wall slots and the pairs that left the list (``archive``, :func:`carry_flags`),
