@@ -3,22 +3,22 @@
 
     python benchmarks/pulse.py [--grains 600] [--damping 0.1] [--crossings 3] [--packing FILE]
     nice -n 10 python benchmarks/pulse.py --shock [--rows 1250 --width 8] [--pairs 5] [--shock-damping 0]
-        [--no-record]
+        [--shock-friction 0] [--no-record]
     python benchmarks/pulse.py --shock --device gpu      # on a GPU machine (pip install -e '.[gpu]')
 
-``--shock`` (issue #63, docs/shocks.md): a triangular lattice of rows x width grains (default
-1250 x 8 = 10⁴, Hertz, p = 1e-4, frictionless) pushed by the piston at the strain 10 δ0/d (a strong
-push: ε/δ0 = 10; undamped unless ``--shock-damping``) over ``--fraction`` of the default record,
-sampled as the default record is (its 2001 samples' interval: the same steps per sample, so the
-pulse field's per-sample reading costs what it costs in a full run); grain-steps/s of the pulse
-(``propagate_dem``, pulse field on, no baseline) on one thread against the preparation engine's
-(``Engine.run``, damped, piston, on the same state) on one thread, in the same run; and the pulse's
-rate on 2 threads against 1 (the thread ratio); also the pulse against the preparation engine
-stepping the same push (``Engine.run`` on the pulse's own set-up: the same neighbour rebuilds,
-without the pulse's bookkeeping and readings), which splits the difference. The machine is
-shared and its speed drifts by up to 50 % over seconds, so each ratio is the median over
-``--pairs`` adjacent pairs of runs, the
-order alternating (CPU time of this process for one thread, wall time for two); the load average
+``--shock`` (issue #63, docs/shocks.md): a triangular lattice of rows x width grains (default 1250 x
+8 = 10⁴, Hertz, p = 1e-4, frictionless unless ``--shock-friction``) pushed by the piston at the
+strain 10 δ0/d (a strong push: ε/δ0 = 10; undamped unless ``--shock-damping``) over ``--fraction``
+of the default record, sampled as the default record is (its 2001 samples' interval: the same steps
+per sample, so the pulse field's per-sample reading costs what it costs in a full run);
+grain-steps/s of the pulse (``propagate_dem``, pulse field on, no baseline) on one thread against
+the preparation engine's (``Engine.run``, damped, piston, the lattice's friction, on the same state)
+on one thread, in the same run; and the pulse's rate on 2 threads against 1 (the thread ratio); also
+the pulse against the preparation engine stepping the same push (``Engine.run`` on the pulse's own
+set-up: the same neighbour rebuilds, without the pulse's bookkeeping and readings), which splits the
+difference. The machine is shared and its speed drifts by up to 50 % over seconds, so each ratio is
+the median over ``--pairs`` adjacent pairs of runs, the order alternating (CPU time of this process
+for one thread, wall time for two); the load average
 is recorded. ``--device gpu``: the pulse and the preparation engine (granwave.gpu's GpuEngine)
 on the GPU, wall time, no thread ratio (the prepared measurement for a GPU machine). Appends
 benchmarks/results/pulse.jsonl unless ``--no-record``.
@@ -72,7 +72,7 @@ def shock(args) -> dict:
     else:
         from granwave.dem.integrator import Engine as engine_class
     load_start = os.getloadavg()
-    packing = triangular_lattice(rows=args.rows, width=args.width, pressure=1e-4)
+    packing = triangular_lattice(rows=args.rows, width=args.width, pressure=1e-4, friction=args.shock_friction)
     n = packing.n_grains
     delta0 = float(np.mean(packing.contacts.overlap[packing.contacts.j >= 0]))
     strain = 10.0 * delta0 / 1.0  # ε = 10 δ0 / d
@@ -85,7 +85,8 @@ def shock(args) -> dict:
               damping=args.shock_damping)
     print(f"lattice {args.rows} x {args.width} = {n} grains, height {packing.height:.1f}; piston strain "
           f"{strain:.3g} (10 delta0), v_p {size['velocity']:.3g}; t_max {t_max:.4g} "
-          f"({args.fraction:g} of the default record); pulse damping {args.shock_damping:g}; device {args.device}; "
+          f"({args.fraction:g} of the default record); pulse damping {args.shock_damping:g}, friction "
+          f"{args.shock_friction:g}; device {args.device}; "
           f"load average {load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f}", flush=True)
     for threads in ((1,) if gpu else (1, 2)):  # compile (the one-thread and the parallel kernels)
         numba.set_num_threads(threads)
@@ -105,7 +106,8 @@ def shock(args) -> dict:
 
     def prepare_rate() -> float:
         numba.set_num_threads(1)
-        eng = engine_class(packing.position, packing.radius, packing.box[:-1], float(packing.box[-1]), friction=0.0,
+        eng = engine_class(packing.position, packing.radius, packing.box[:-1], float(packing.box[-1]),
+                           friction=args.shock_friction,
                            damping=0.5, skin=0.2, piston_mass=float(n), piston_force=1e-4 * float(packing.box[0]),
                            velocity=np.random.default_rng(0).normal(0.0, 1e-4, packing.position.shape))
         eng.run(20)
@@ -151,7 +153,8 @@ def shock(args) -> dict:
         prep.append(rp)
         ratios.append(r1 / rp)
         print(f"pair {k}: pulse {r1:.3g}, preparation {rp:.3g} grain-steps/s: ratio {r1 / rp:.3f}", flush=True)
-    out = {"grains": n, "device": args.device, "damping": args.shock_damping, "steps": attrs["n_steps"],
+    out = {"grains": n, "device": args.device, "damping": args.shock_damping, "friction": args.shock_friction,
+           "steps": attrs["n_steps"],
            "samples": samples, "dt": attrs["dt"], "t_max": t_max, "front_speed": attrs["front_speed"], "front_speed_bound": attrs["front_speed_bound"],
            "pairs": args.pairs, "pulse_rates_1": pulse1, "prepare_rates_1": prep, "pair_ratios": ratios,
            "pulse_rate_1": statistics.median(pulse1), "prepare_rate_1": statistics.median(prep),
@@ -210,6 +213,7 @@ def record_shock(result: dict, argv: list[str]) -> None:
     load = (f"load average {result['load_average_start'][0]:.2f} at the start, "
             f"{result['load_average_end'][0]:.2f} at the end")
     summary = {"grains": result["grains"], "device": result["device"], "pulse damping": result["damping"],
+               "friction": result.get("friction", 0.0),
                ("pulse / preparation per core" if result["device"] == "cpu" else "pulse / preparation on the GPU"): {
                    "values": f"{result['pulse_rate_1']:.3g} / {result['prepare_rate_1']:.3g} grain-steps/s (medians)",
                    "ratio": round(result["pulse_over_prepare"], 3), "goal": 1.0}}
@@ -250,6 +254,8 @@ def main() -> None:
                     help="--shock: the pulse and the preparation engine on this device (gpu: wall time)")
     ap.add_argument("--shock-damping", type=float, default=0.0,
                     help="--shock: the pulse's contact damping zeta (default 0, the pulses' default)")
+    ap.add_argument("--shock-friction", type=float, default=0.0,
+                    help="--shock: the lattice's friction mu, the preparation engine's too (default 0, frictionless)")
     ap.add_argument("--prepare-steps", type=int, default=2000)
     ap.add_argument("--no-record", action="store_true")
     ap.add_argument("--grains", type=int, default=600)

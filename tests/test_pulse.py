@@ -323,6 +323,40 @@ def test_sliding_flag_is_the_tangential_laws_limit_on_the_normal_laws_force(law)
         assert state[0] & PK.INITIAL and not walls.any()
 
 
+@pytest.mark.parametrize("kw", [dict(friction=0.5), dict(friction=0.5, contact_law="harmonic", harmonic_stiffness=0.02),
+                                dict(dim=3, grains=40, friction=0.5)], ids=["hertz", "harmonic", "hertz-3d"])
+def test_the_runs_flags_pass_flags_every_pair_as_the_pair_at_a_time_definition(kw):
+    """The flags pass after every pulse step (pulse_kernels._classify_serial: one branch-free loop
+    over the pairs, sqrt(R12) taken from the engine's pair constants) sets the flags that the
+    pair-at-a-time definition (pulse_kernels.classify, whose _classify_pair computes R12 itself;
+    the initial state's and the GPU's) sets, on a kicked packing where contacts open, form and sit
+    on the Coulomb cone: Hertz and Mindlin in 2D and 3D, and the harmonic law. The prior flags are
+    random, so that each pair's outcome is tested, not left as it was."""
+    from granwave.dem import kernels as K
+
+    packing = prepare_packing(PrepareParams(**{"grains": 60, "seed": 3, "pressure": 1e-4, **kw}))
+    eng = P.engine_from_packing(packing, dt=1e-2, damping=0.1)
+    rng = np.random.default_rng(5)
+    eng.velocity[:] = rng.normal(0.0, 0.02, eng.velocity.shape)
+    eng.run(300)
+    n, d = eng.n_pairs, eng.position.shape[1]
+    tangential, law = K.friction_of(eng.fpar), K.law_of(eng.fpar)
+    prior = (rng.integers(0, 2, eng.pair_ov.shape[0]) * PK.INITIAL).astype(np.int8)
+    prior_walls = (rng.integers(0, 2, eng.wall_ov.shape[0]) * PK.INITIAL).astype(np.int8)
+    ref, ref_walls = prior.copy(), prior_walls.copy()
+    PK.classify(d, eng.radius, eng.pair_i, eng.pair_j, n, eng.pair_ft, eng.pair_ov, eng.wall_ft, eng.wall_ov,
+                tangential, ref, ref_walls, False, law)
+    run, run_walls = prior.copy(), prior_walls.copy()
+    PK._classify_serial(d, eng.radius, eng.ws.pair_c, n, eng.pair_ft, eng.pair_ov, eng.wall_ft, eng.wall_ov,
+                        eng.ws.walls, tangential, run, run_walls, law)
+    np.testing.assert_array_equal(run[:n], ref[:n])
+    listed = np.concatenate([[2 * g, 2 * g + 1] for g in eng.ws.walls[1:eng.ws.walls[0] + 1]]).astype(int)
+    np.testing.assert_array_equal(run_walls[listed], ref_walls[listed])
+    for flag in (PK.OPENED, PK.FORMED, PK.SLID):  # every outcome occurs among the pairs
+        assert np.count_nonzero(run[:n] & flag) > 0, flag
+    assert 0 < np.count_nonzero(run[:n] & PK.SLID) < np.count_nonzero(eng.pair_ov[:n] > 0)
+
+
 def test_one_thread_bookkeeping_equals_the_parallel_loops(monkeypatch, frictional):
     """The one-thread loop steps in chunks, finds the largest displacement over the grains that
     can still raise it (bounded by the engine's displacement since the last rebuild) and flags

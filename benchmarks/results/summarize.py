@@ -234,22 +234,24 @@ PULSE_TABLE = ("<!-- pulse-speed-table: begin (generated; do not edit) -->", "<!
 
 def pulse_speed_table(folder: Path = HERE, newest: int = 2) -> str:
     """The ``newest`` CPU records of benchmarks/pulse.py --shock (pulse.jsonl) of the undamped
-    pulse and the newest of each other pulse damping: per record the medians of its three pair
-    ratios, the pairs' own in brackets."""
-    by_damping: dict[float, list] = {}
+    frictionless pulse and the newest of each other pulse damping and friction: per record the
+    medians of its three pair ratios, the pairs' own in brackets."""
+    by_damping: dict[tuple, list] = {}
     for rec in sorted(_records(folder / "pulse.jsonl"), key=lambda r: str(r.get("date", ""))):
         if rec.get("benchmark") == "pulse_shock" and rec["result"].get("device") == "cpu":
-            by_damping.setdefault(float(rec["result"].get("damping", 0.0)), []).append(rec)  # later lines last
-    recs = [rec for zeta in sorted(by_damping) for rec in by_damping[zeta][-(newest if zeta == 0.0 else 1):]]
+            key = (float(rec["result"].get("friction", 0.0)), float(rec["result"].get("damping", 0.0)))
+            by_damping.setdefault(key, []).append(rec)  # later lines last
+    recs = [rec for key in sorted(by_damping) for rec in by_damping[key][-(newest if key == (0.0, 0.0) else 1):]]
 
     def ratios(median: float, pairs: list) -> str:
         return f"{median:.3f} ({', '.join(f'{x:.3f}' for x in pairs)})"
 
-    lines = ["| date, revision | pulse ζ | load average | pulse / preparation (goal ≥ 1) | "
-             "pulse / engine on the same push | pulse, 2 threads / 1 |", "|---|---|---|---|---|---|"]
+    lines = ["| date, revision | μ | pulse ζ | load average | pulse / preparation (goal ≥ 1) | "
+             "pulse / engine on the same push | pulse, 2 threads / 1 |", "|---|---|---|---|---|---|---|"]
     for rec in recs:
         r = rec["result"]
-        lines.append(f"| {rec['date']}, {rec['git_revision']} | {r.get('damping', 0.0):g} | "
+        lines.append(f"| {rec['date']}, {rec['git_revision']} | {r.get('friction', 0.0):g} | "
+                     f"{r.get('damping', 0.0):g} | "
                      f"{r['load_average_start'][0]:.2f} → {r['load_average_end'][0]:.2f} | "
                      f"{ratios(r['pulse_over_prepare'], r['pair_ratios'])} | "
                      f"{ratios(r['pulse_over_push'], r['push_pair_ratios'])} | "

@@ -310,19 +310,27 @@ def read_sample(k, pos, vel, omega, rad, mass, pair_i, pair_j, npairs, pair_ov, 
         rd.shear[k] = top_shear_force(pos, vel, omega, rad, mass, wall_ft, wall_ov, piston, fpar)
 
 
-@numba.njit(cache=True)
-def _classify_serial(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
+@numba.njit(cache=True, error_model="numpy")
+def _classify_serial(d, rad, pair_c, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
                      pair_state, wall_state, law):
     """:func:`classify` of the run (not the initial state) on the calling thread, the walls of
     the engine's wall list ``walls`` only (``ws.walls`` as the step used it: only its grains'
     wall slots change in a step, and every other slot has no overlap and no history, its flags
-    set when it last changed); without a slider (frictionless) a loop over the overlaps alone,
-    which the compiler vectorizes (the same flags: a touching contact then never sits on a
-    limit)."""
+    set when it last changed). The pairs in one branch-free loop that the compiler vectorizes:
+    without a slider (frictionless) over the overlaps alone (a touching contact then never sits
+    on a limit), with one over the overlaps and histories, each pair's sqrt(R12) taken from
+    ``pair_c`` (the listed pairs' constants, ``ws.pair_c``: the value :func:`_classify_pair`
+    computes, so the same flags)."""
     if CM.friction_acts(tangential):
+        # one pair at a time, _classify_pair's three quotients and two roots took longer than
+        # the engine's whole step (benchmarks/pulse.py --shock --shock-friction)
+        e12 = C.effective_young(False)
         for p in range(npairs):
-            _classify_pair(np.int64(p), d, rad, pair_i, pair_j, pair_ft, pair_ov, tangential, pair_state,
-                           np.bool_(False), law)
+            ov = pair_ov[p]
+            fel = CM.law_force(law, ov, pair_c[p, PC_ROOT], e12)
+            fz = pair_ft[p, 2] if d == 3 else 0.0
+            pair_state[p] = _flag_with_slider(pair_state[p], ov, fel, CM.tangential_at_limit(
+                tangential, pair_ft[p, 0], pair_ft[p, 1], fz, fel, LIMIT_TOL))
         for q in range(1, walls[0] + 1):
             for w in range(2 * walls[q], 2 * walls[q] + 2):
                 _classify_wall(np.int64(w), d, rad, wall_ft, wall_ov, tangential, wall_state, np.bool_(False), law)
@@ -332,6 +340,15 @@ def _classify_serial(d, rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, 
     for q in range(1, walls[0] + 1):
         for w in range(2 * walls[q], 2 * walls[q] + 2):
             wall_state[w] = _flag_without_slider(wall_state[w], wall_ov[w])
+
+
+@numba.njit(cache=True, inline="always")
+def _flag_with_slider(state, ov, fel, at_limit):
+    """:func:`_flag_without_slider` and SLID on a touching contact on its slider's limit
+    (``at_limit``, evaluated with the elastic normal force ``fel`` at the overlap ``ov``; branch-free:
+    the flags of :func:`_classify_pair`)."""
+    touching = np.int64(ov > 0.0)
+    return _flag_without_slider(state, ov) | (touching & np.int64(at_limit)) * SLID
 
 
 @numba.njit(cache=True, inline="always")
@@ -389,8 +406,8 @@ def _track_largest(pos, pos0, pos_ref, lateral, skin, disp2, stats, cand, floor)
 
 
 @numba.njit(cache=True)
-def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov, wall_ft, wall_ov, walls, tangential,
-                ipar, rebuilds, old_i, old_j, pair_state, wall_state, archive, npairs, stats, law):
+def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_c, pair_ft, pair_ov, wall_ft, wall_ov, walls,
+                tangential, ipar, rebuilds, old_i, old_j, pair_state, wall_state, archive, npairs, stats, law):
     """The bookkeeping after one step of the pulse loops: the contact flags carried over
     a rebuild (``rebuilds``: the count before the step), the contacts classified and the step
     counted in ``stats[1]``. Returns the pair keys and count of the current list (new arrays
@@ -401,7 +418,7 @@ def _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
         npairs = ipar.npairs
         old_i = pair_i[:npairs].copy()
         old_j = pair_j[:npairs].copy()
-    _classify_serial(pos.shape[1], rad, pair_i, pair_j, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls,
+    _classify_serial(pos.shape[1], rad, pair_c, npairs, pair_ft, pair_ov, wall_ft, wall_ov, walls,
                      tangential, pair_state, wall_state, law)
     stats[1] += 1.0
     return old_i, old_j, npairs
@@ -447,9 +464,9 @@ def pulse_samples(pos, vel, acc, omega, alpha, rad, mass, inertia, lateral, pos0
             if status == 3:
                 stats[0] = math.nan
                 return k + 1
-            old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
-                                               pair_state, wall_state, archive, npairs, stats, law)
+            old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, ws.pair_c, pair_ft,
+                                               pair_ov, wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i,
+                                               old_j, pair_state, wall_state, archive, npairs, stats, law)
             u = max_displacement(pos, pos_ref, lateral)  # every grain (the one-thread loop: candidates)
             if u > stats[0]:
                 stats[0] = u
@@ -496,9 +513,9 @@ def pulse_samples_serial(pos, vel, acc, omega, alpha, rad, mass, inertia, latera
             if status == 3:
                 stats[0] = math.nan
                 return k + 1
-            old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, pair_ft, pair_ov,
-                                               wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i, old_j,
-                                               pair_state, wall_state, archive, npairs, stats, law)
+            old_i, old_j, npairs = _after_step(n, rad, pos, pos_ref, lateral, pair_i, pair_j, ws.pair_c, pair_ft,
+                                               pair_ov, wall_ft, wall_ov, ws.walls, tangential, ipar, rebuilds, old_i,
+                                               old_j, pair_state, wall_state, archive, npairs, stats, law)
             if ipar.rebuilds != rebuilds:  # pos0 moved: the candidates are made again
                 floor = math.inf
             floor = _track_largest(pos, pos0, pos_ref, lateral, fpar.skin, disp2, stats, cand, floor)
