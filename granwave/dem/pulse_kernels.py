@@ -163,14 +163,23 @@ def _archive(archive, key, state):
         archive[key] = state
 
 
+# this and archived_flags compiled and cached: made or iterated from Python, a typed dict compiles
+# its constructor and iterator in every process (about a second, more than a small scene's push)
+@numba.njit(cache=True)
 def flag_archive():
     """An empty archive of :func:`carry_flags` (pair key int64 -> flags int8)."""
     return numba.typed.Dict.empty(numba.types.int64, numba.types.int8)
 
 
-def archived_flags(archive) -> np.ndarray:
+@numba.njit(cache=True)
+def archived_flags(archive):
     """The archive's flags as an int8 array (to count them with the listed pairs')."""
-    return np.fromiter(archive.values(), np.int8, count=len(archive))
+    flags = np.empty(len(archive), np.int8)
+    k = 0
+    for state in archive.values():
+        flags[k] = state
+        k += 1
+    return flags
 
 
 #: Grains per block of the largest-displacement maximum (a size independent of the threads).
