@@ -18,10 +18,10 @@ the pulse against the preparation engine stepping the same push (``Engine.run`` 
 set-up: the same neighbour rebuilds, without the pulse's bookkeeping and readings), which splits the
 difference. The machine is shared and its speed drifts by up to 50 % over seconds, so each ratio is
 the median over ``--pairs`` adjacent pairs of runs, the order alternating (CPU time of this process
-for one thread, wall time for two); the load average
-is recorded. ``--device gpu``: the pulse and the preparation engine (granwave.gpu's GpuEngine)
-on the GPU, wall time, no thread ratio (the prepared measurement for a GPU machine). Appends
-benchmarks/results/pulse.jsonl unless ``--no-record``.
+for one thread, wall time for two); the load average is recorded. ``--device gpu``: the pulse and
+the preparation engine (granwave.gpu's GpuEngine) on the GPU, wall time, no thread ratio (the
+prepared measurement for a GPU machine). Appends benchmarks/results/pulse.jsonl unless
+``--no-record``.
 
 One 2D frictional packing (p = 1e-4, mu = 0.5; prepared here unless
 ``--packing`` is given, preparation time not counted). Over the same t_max

@@ -236,12 +236,12 @@ def pulse_speed_table(folder: Path = HERE, newest: int = 2) -> str:
     """The ``newest`` CPU records of benchmarks/pulse.py --shock (pulse.jsonl) of the undamped
     frictionless pulse and the newest of each other pulse damping and friction: per record the
     medians of its three pair ratios, the pairs' own in brackets."""
-    by_damping: dict[tuple, list] = {}
+    by_setting: dict[tuple, list] = {}
     for rec in sorted(_records(folder / "pulse.jsonl"), key=lambda r: str(r.get("date", ""))):
         if rec.get("benchmark") == "pulse_shock" and rec["result"].get("device") == "cpu":
             key = (float(rec["result"].get("friction", 0.0)), float(rec["result"].get("damping", 0.0)))
-            by_damping.setdefault(key, []).append(rec)  # later lines last
-    recs = [rec for key in sorted(by_damping) for rec in by_damping[key][-(newest if key == (0.0, 0.0) else 1):]]
+            by_setting.setdefault(key, []).append(rec)  # later lines last
+    recs = [rec for key in sorted(by_setting) for rec in by_setting[key][-(newest if key == (0.0, 0.0) else 1):]]
 
     def ratios(median: float, pairs: list) -> str:
         return f"{median:.3f} ({', '.join(f'{x:.3f}' for x in pairs)})"

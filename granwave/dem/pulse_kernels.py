@@ -325,9 +325,9 @@ def _classify_serial(d, rad, pair_c, npairs, pair_ft, pair_ov, wall_ft, wall_ov,
     """:func:`classify` of the run (not the initial state) on the calling thread, the walls of
     the engine's wall list ``walls`` only (``ws.walls`` as the step used it: only its grains'
     wall slots change in a step, and every other slot has no overlap and no history, its flags
-    set when it last changed). The pairs in one branch-free loop that the compiler vectorizes:
-    without a slider (frictionless) over the overlaps alone (a touching contact then never sits
-    on a limit), with one over the overlaps and histories, each pair's sqrt(R12) taken from
+    set when it last changed). The pairs in one branch-free loop: without a slider (frictionless)
+    over the overlaps alone, which the compiler vectorizes (a touching contact then never sits on
+    a limit); with one over the overlaps and histories, each pair's sqrt(R12) taken from
     ``pair_c`` (the listed pairs' constants, ``ws.pair_c``: the value :func:`_classify_pair`
     computes, so the same flags)."""
     if CM.friction_acts(tangential):
@@ -337,9 +337,7 @@ def _classify_serial(d, rad, pair_c, npairs, pair_ft, pair_ov, wall_ft, wall_ov,
         for p in range(npairs):
             ov = pair_ov[p]
             fel = CM.law_force(law, ov, pair_c[p, PC_ROOT], e12)
-            fz = pair_ft[p, 2] if d == 3 else 0.0
-            pair_state[p] = _flag_with_slider(pair_state[p], ov, fel, CM.tangential_at_limit(
-                tangential, pair_ft[p, 0], pair_ft[p, 1], fz, fel, LIMIT_TOL))
+            pair_state[p] = _flag_with_slider(pair_state[p], ov, fel, _on_limit(tangential, pair_ft, p, d, fel))
         for q in range(1, walls[0] + 1):
             for w in range(2 * walls[q], 2 * walls[q] + 2):
                 _classify_wall(np.int64(w), d, rad, wall_ft, wall_ov, tangential, wall_state, np.bool_(False), law)
